@@ -1,0 +1,212 @@
+//! Per-bond weights, the matrix-free apply and the nonlinear PMB force it linearizes.
+
+use linpd_core::kernel::partial_volume;
+use linpd_core::{BondFamily, CoreError, Grid, Material, Micromodulus, Point, GEOMETRY_RTOL};
+use rayon::prelude::*;
+
+/// The bond-based operator: geometry, family and the symmetric bond weights `w_ij`.
+#[derive(Debug, Clone)]
+pub struct BondOperator {
+    dim: usize,
+    positions: Vec<Point>,
+    family: BondFamily,
+    /// `w_ij = lambda_ij nu_ij V_i V_j`, indexed like the family's neighbour lists.
+    weights: Vec<f64>,
+}
+
+impl BondOperator {
+    /// Builds the operator on a lattice: family within `horizon`, micromodulus normalized per
+    /// [`Micromodulus::amplitude`], bond moduli and defects from `material`.
+    ///
+    /// Errors when the horizon gives no bonds, when a 2D/3D horizon is below `sqrt(2) h`
+    /// (axis-only bonds leave zero-energy shear modes), or when the micromodulus is invalid.
+    pub fn on_grid(
+        grid: &Grid,
+        horizon: f64,
+        micromodulus: &Micromodulus,
+        material: &Material,
+    ) -> Result<Self, CoreError> {
+        let dim = grid.dim();
+        let h = grid.spacing();
+        if !(horizon.is_finite() && horizon > 0.0) {
+            return Err(CoreError::param("horizon", format!("must be > 0, got {horizon}")));
+        }
+        let ratio = horizon / h;
+        if ratio < 1.0 - GEOMETRY_RTOL {
+            return Err(CoreError::param(
+                "horizon",
+                format!("horizon/spacing = {ratio} gives no bonds (need >= 1)"),
+            ));
+        }
+        if dim > 1 && ratio < std::f64::consts::SQRT_2 * (1.0 - GEOMETRY_RTOL) {
+            return Err(CoreError::param(
+                "horizon",
+                format!(
+                    "horizon/spacing = {ratio} bonds only along the axes: the bond-based operator \
+                     then has zero-energy shear modes (need >= sqrt(2))"
+                ),
+            ));
+        }
+        micromodulus.validate(dim)?;
+        material.validate(dim)?;
+        let c = micromodulus.amplitude(dim, horizon, h)?;
+        let family = BondFamily::from_grid(grid, horizon);
+        let positions = grid.positions();
+        let k_ref = micromodulus.reference_modulus();
+        let moduli = (!material.phases.is_empty()).then(|| material.node_moduli(grid, k_ref));
+        let vol = grid.volume();
+        let tol = GEOMETRY_RTOL * h;
+        let weights: Vec<f64> = (0..family.len())
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let xi = positions[i];
+                let family = &family;
+                let positions = &positions;
+                let moduli = &moduli;
+                family.neighbors(i).iter().map(move |&j| {
+                    let xj = positions[j as usize];
+                    let r = dist(&xi, &xj, dim);
+                    let nu = if micromodulus.partial_volume { partial_volume(r, horizon, h) } else { 1.0 };
+                    let (ki, kj) = match moduli {
+                        Some(m) => (m[i], m[j as usize]),
+                        None => (k_ref, k_ref),
+                    };
+                    let f = if material.is_homogeneous() {
+                        1.0
+                    } else {
+                        material.bond_factor(&xi, &xj, ki, kj, k_ref, tol)
+                    };
+                    c * micromodulus.kernel.shape(r, horizon) * nu * f * vol * vol
+                })
+            })
+            .collect();
+        Ok(BondOperator { dim, positions, family, weights })
+    }
+
+    /// Builds an operator from explicit parts (weights indexed like `family`'s bonds and
+    /// symmetric: `w_ij = w_ji`).
+    pub fn from_parts(dim: usize, positions: Vec<Point>, family: BondFamily, weights: Vec<f64>) -> Self {
+        assert_eq!(family.n_bonds(), weights.len(), "one weight per bond");
+        assert_eq!(family.len(), positions.len(), "one position per node");
+        BondOperator { dim, positions, family, weights }
+    }
+
+    /// Spatial dimension = DOFs per node.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.positions.len()
+    }
+    /// Number of DOFs (`dim * n_nodes`).
+    pub fn n_dofs(&self) -> usize {
+        self.dim * self.positions.len()
+    }
+    /// Node positions.
+    pub fn positions(&self) -> &[Point] {
+        &self.positions
+    }
+    /// The bond family.
+    pub fn family(&self) -> &BondFamily {
+        &self.family
+    }
+    /// Bond weights `w_ij` of node `i`, aligned with `family().neighbors(i)`.
+    pub fn weights(&self, i: usize) -> &[f64] {
+        let o = self.family.bond_offset(i);
+        &self.weights[o..o + self.family.neighbors(i).len()]
+    }
+
+    /// Unit bond vector `e_ij` (first `dim` entries meaningful).
+    #[inline]
+    pub fn unit(&self, i: usize, j: usize) -> [f64; 3] {
+        let (a, b) = (&self.positions[i], &self.positions[j]);
+        let mut e = [0.0; 3];
+        for k in 0..self.dim {
+            e[k] = b[k] - a[k];
+        }
+        let r = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        e.iter_mut().for_each(|v| *v /= r);
+        e
+    }
+
+    /// `y = A u` over all DOFs, without storing `A` (parallel over nodes).
+    pub fn apply(&self, u: &[f64], y: &mut [f64]) {
+        let d = self.dim;
+        assert_eq!(u.len(), self.n_dofs());
+        assert_eq!(y.len(), self.n_dofs());
+        y.par_chunks_mut(d).enumerate().for_each(|(i, yi)| {
+            yi.iter_mut().for_each(|v| *v = 0.0);
+            for (&j, &w) in self.family.neighbors(i).iter().zip(self.weights(i)) {
+                let j = j as usize;
+                let e = self.unit(i, j);
+                // (e . (u_i - u_j)) e w
+                let mut s = 0.0;
+                for k in 0..d {
+                    s += e[k] * (u[d * i + k] - u[d * j + k]);
+                }
+                for k in 0..d {
+                    yi[k] += w * s * e[k];
+                }
+            }
+        });
+    }
+
+    /// Strain energy `(1/2) u . A u` per node: `W_i = (1/4) sum_j w_ij (e . (u_j - u_i))^2 / V_i`
+    /// is returned as energy (not density); divide by the node volume for a density.
+    pub fn node_energy(&self, u: &[f64]) -> Vec<f64> {
+        let d = self.dim;
+        (0..self.n_nodes())
+            .into_par_iter()
+            .map(|i| {
+                let mut w_i = 0.0;
+                for (&j, &w) in self.family.neighbors(i).iter().zip(self.weights(i)) {
+                    let j = j as usize;
+                    let e = self.unit(i, j);
+                    let s: f64 = (0..d).map(|k| e[k] * (u[d * j + k] - u[d * i + k])).sum();
+                    w_i += 0.25 * w * s * s;
+                }
+                w_i
+            })
+            .collect()
+    }
+}
+
+#[inline]
+fn dist(a: &Point, b: &Point, dim: usize) -> f64 {
+    (0..dim).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// The nonlinear PMB force of the LAMMPS howto (Algorithm 5 without bond breaking and without
+/// short-range contact forces), generalized to the operator's micromodulus:
+///
+/// ```text
+/// F_i = sum_j w_ij |xi| s_ij (y_j - y_i)/|y_j - y_i|,   s_ij = (|y_j - y_i| - |xi|)/|xi|,
+/// ```
+///
+/// with `y = x + u`. For `lambda = c/|xi|` this is `sum_j c s nu V_i V_j n` (Algorithm 5's
+/// `k = c/|xi| nu V dr` times `V_i`). Its Jacobian at `u = 0` is `-A`.
+pub fn pmb_force(op: &BondOperator, u: &[f64]) -> Vec<f64> {
+    let d = op.dim;
+    let mut f = vec![0.0; op.n_dofs()];
+    f.par_chunks_mut(d).enumerate().for_each(|(i, fi)| {
+        for (&j, &w) in op.family.neighbors(i).iter().zip(op.weights(i)) {
+            let j = j as usize;
+            let (xi, xj) = (&op.positions[i], &op.positions[j]);
+            let mut y = [0.0; 3];
+            let mut r0 = 0.0;
+            for k in 0..d {
+                let x = xj[k] - xi[k];
+                r0 += x * x;
+                y[k] = x + u[d * j + k] - u[d * i + k];
+            }
+            let r0 = r0.sqrt();
+            let r = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt();
+            let dr = r - r0;
+            for k in 0..d {
+                fi[k] += w * dr * y[k] / r;
+            }
+        }
+    });
+    f
+}

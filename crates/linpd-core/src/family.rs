@@ -1,0 +1,184 @@
+//! Bond families: for every node `i`, the nodes `j != i` with `|x_j - x_i| <= delta`
+//! (eq. (11) of the LAMMPS howto).
+//!
+//! Two constructions, never O(n^2):
+//!
+//! * [`BondFamily::from_grid`] works in lattice units: the stencil is the set of integer
+//!   offsets `k` with `|k|^2 <= (delta/h)^2 (1 + GEOMETRY_RTOL)`. Squared lattice distances are
+//!   integers, so the tolerance decides only the exact-horizon case (`delta = 3h` bonds the
+//!   node at `3h`), never a genuine gap (gaps are >= `1 / (delta/h)^2 >> 1e-9`).
+//! * [`BondFamily::from_points`] is a cell-list search for arbitrary point sets with the same
+//!   relative tolerance on the squared distance.
+//!
+//! Neighbour lists are sorted ascending; offsets are `usize`, so more than 2^31 bonds are fine.
+
+use crate::{Grid, Point, GEOMETRY_RTOL};
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Compressed neighbour lists (self excluded).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BondFamily {
+    offsets: Vec<usize>,
+    neighbors: Vec<u32>,
+}
+
+/// Integer lattice offsets `k != 0` with `|k| h <= delta`, sorted so that neighbour numbers
+/// (first axis fastest) come out ascending.
+pub fn lattice_stencil(dim: usize, ratio: f64) -> Vec<[i64; 3]> {
+    let r = (ratio * (1.0 + GEOMETRY_RTOL)).floor() as i64;
+    let r2 = ratio * ratio * (1.0 + GEOMETRY_RTOL);
+    let span = |a: usize| if a < dim { -r..=r } else { 0..=0 };
+    let mut out = Vec::new();
+    for k2 in span(2) {
+        for k1 in span(1) {
+            for k0 in span(0) {
+                let n2 = (k0 * k0 + k1 * k1 + k2 * k2) as f64;
+                if n2 > 0.0 && n2 <= r2 {
+                    out.push([k0, k1, k2]);
+                }
+            }
+        }
+    }
+    out
+}
+
+impl BondFamily {
+    /// Families on a lattice, by the stencil of [`lattice_stencil`].
+    pub fn from_grid(grid: &Grid, horizon: f64) -> Self {
+        let stencil = lattice_stencil(grid.dim(), horizon / grid.spacing());
+        let n = grid.len();
+        let lists: Vec<Vec<u32>> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let idx = grid.lattice_index(i);
+                stencil
+                    .iter()
+                    .filter_map(|k| {
+                        grid.node_at([idx[0] + k[0], idx[1] + k[1], idx[2] + k[2]])
+                            .map(|j| j as u32)
+                    })
+                    .collect()
+            })
+            .collect();
+        Self::from_lists(lists)
+    }
+
+    /// Families of an arbitrary point set by a cell list of cell size `horizon`.
+    pub fn from_points(points: &[Point], dim: usize, horizon: f64) -> Self {
+        assert!(horizon > 0.0, "horizon must be positive");
+        // Cells slightly larger than the horizon: two points within `horizon (1 + tol)` then
+        // always sit in the same or adjacent cells, whatever the rounding of `x / size`.
+        let size = horizon * (1.0 + 1e-6);
+        let cell = |x: &Point| -> [i64; 3] {
+            let mut c = [0i64; 3];
+            for a in 0..dim {
+                c[a] = (x[a] / size).floor() as i64;
+            }
+            c
+        };
+        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        for (i, x) in points.iter().enumerate() {
+            cells.entry(cell(x)).or_default().push(i as u32);
+        }
+        let r2 = horizon * horizon * (1.0 + GEOMETRY_RTOL);
+        let span = |a: usize| if a < dim { -1..=1 } else { 0..=0 };
+        let lists: Vec<Vec<u32>> = points
+            .par_iter()
+            .enumerate()
+            .map(|(i, x)| {
+                let c = cell(x);
+                let mut list = Vec::new();
+                for d2 in span(2) {
+                    for d1 in span(1) {
+                        for d0 in span(0) {
+                            if let Some(members) = cells.get(&[c[0] + d0, c[1] + d1, c[2] + d2]) {
+                                for &j in members {
+                                    let y = &points[j as usize];
+                                    let d: f64 = (0..dim).map(|a| (y[a] - x[a]).powi(2)).sum();
+                                    if j as usize != i && d <= r2 {
+                                        list.push(j);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+                list.sort_unstable();
+                list
+            })
+            .collect();
+        Self::from_lists(lists)
+    }
+
+    /// Builds a family from per-node lists (each sorted ascending, self excluded).
+    pub fn from_lists(lists: Vec<Vec<u32>>) -> Self {
+        let mut offsets = Vec::with_capacity(lists.len() + 1);
+        offsets.push(0usize);
+        for l in &lists {
+            offsets.push(offsets.last().unwrap() + l.len());
+        }
+        let neighbors = lists.into_iter().flatten().collect();
+        BondFamily { offsets, neighbors }
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.offsets.len() - 1
+    }
+    /// True for a family of no nodes.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Neighbours of node `i`, ascending.
+    pub fn neighbors(&self, i: usize) -> &[u32] {
+        &self.neighbors[self.offsets[i]..self.offsets[i + 1]]
+    }
+    /// Position of node `i`'s first bond in bond-indexed arrays.
+    pub fn bond_offset(&self, i: usize) -> usize {
+        self.offsets[i]
+    }
+    /// Total number of (directed) bonds: each pair is counted from both ends.
+    pub fn n_bonds(&self) -> usize {
+        self.neighbors.len()
+    }
+    /// Nodes without any bond.
+    pub fn isolated(&self) -> Vec<usize> {
+        (0..self.len()).filter(|&i| self.neighbors(i).is_empty()).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Placement;
+
+    #[test]
+    fn stencil_counts_match_known_values() {
+        // delta = 3h: 6 in 1D, 28 in 2D, 122 in 3D (lattice points in the closed ball minus one).
+        assert_eq!(lattice_stencil(1, 3.0).len(), 6);
+        assert_eq!(lattice_stencil(2, 3.0).len(), 28);
+        assert_eq!(lattice_stencil(3, 3.0).len(), 122);
+        // Computed ratios that land a hair under 3 still bond the node at 3h.
+        assert_eq!(lattice_stencil(3, 0.0015 / 0.0005).len(), 122);
+        assert_eq!(lattice_stencil(1, 0.05 / (1.0 / 300.0)).len(), 30);
+    }
+
+    #[test]
+    fn cell_list_agrees_with_lattice_stencil() {
+        for (dim, max) in [(1, vec![1.0]), (2, vec![1.0, 0.7]), (3, vec![0.5, 0.4, 0.3])] {
+            let min = vec![0.0; dim];
+            let h = 0.1;
+            let g = Grid::new(&min, &max, h, 0.2, Placement::Vertex).unwrap();
+            let a = BondFamily::from_grid(&g, 3.0 * h);
+            let b = BondFamily::from_points(&g.positions(), dim, 3.0 * h);
+            assert_eq!(a, b, "dim {dim}");
+            // Symmetry: j in F_i iff i in F_j.
+            for i in 0..a.len() {
+                for &j in a.neighbors(i) {
+                    assert!(a.neighbors(j as usize).binary_search(&(i as u32)).is_ok());
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,264 @@
+//! Uniform lattices in 1D, 2D and 3D.
+//!
+//! A [`Grid`] covers the body box `[min, max]` with spacing `h` and, optionally, a layer of
+//! the same spacing outside the box on every side. With [`Placement::Vertex`] the nodes sit
+//! at `min + i h`, `i = 0..=n`, `n = (max - min) / h` (both ends are nodes); with
+//! [`Placement::Cell`] they sit at cell centres `min + (i + 1/2) h`, `i = 0..n`.
+//! Every node carries the volume `V = h^d` (unit cross-section in 1D, unit thickness in 2D),
+//! so layer nodes weigh the same as body nodes.
+//!
+//! Nodes are numbered lexicographically with the first axis fastest; the lattice index of a
+//! node is kept so that neighbour search and region tests can work in lattice units.
+
+use crate::{CoreError, Point, GEOMETRY_RTOL};
+
+/// Where nodes sit inside the lattice cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Placement {
+    /// Nodes at `min + i h`, both box ends included.
+    #[default]
+    Vertex,
+    /// Nodes at cell centres `min + (i + 1/2) h`.
+    Cell,
+}
+
+/// A uniform lattice of nodes covering a box plus an optional outer layer.
+#[derive(Debug, Clone)]
+pub struct Grid {
+    dim: usize,
+    h: f64,
+    min: Point,
+    max: Point,
+    placement: Placement,
+    /// Lattice index of the first node along each axis (negative inside the lower layer).
+    lo: [i64; 3],
+    /// Number of nodes along each axis (1 for unused axes).
+    counts: [usize; 3],
+    /// Lattice index range `[body_lo, body_hi]` of body (non-layer) nodes per axis.
+    body_lo: [i64; 3],
+    body_hi: [i64; 3],
+}
+
+impl Grid {
+    /// Builds the lattice on `[min, max]` with spacing `h` and `layer` thickness outside.
+    ///
+    /// `(max - min) / h` must be an integer up to a relative tolerance of `1e-6`; the layer
+    /// holds `floor(layer / h)` nodes per side (a layer thinner than `h` holds none).
+    pub fn new(
+        min: &[f64],
+        max: &[f64],
+        h: f64,
+        layer: f64,
+        placement: Placement,
+    ) -> Result<Self, CoreError> {
+        let dim = min.len();
+        if !(1..=3).contains(&dim) {
+            return Err(CoreError::Dimension(dim));
+        }
+        if max.len() != dim {
+            return Err(CoreError::Components { expected: dim, got: max.len() });
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return Err(CoreError::param("spacing", format!("must be a positive number, got {h}")));
+        }
+        if !(layer.is_finite() && layer >= 0.0) {
+            return Err(CoreError::param("layer", format!("must be >= 0, got {layer}")));
+        }
+        let nl = (layer / h * (1.0 + GEOMETRY_RTOL)).floor() as i64;
+        let mut g = Grid {
+            dim,
+            h,
+            min: [0.0; 3],
+            max: [0.0; 3],
+            placement,
+            lo: [0; 3],
+            counts: [1; 3],
+            body_lo: [0; 3],
+            body_hi: [0; 3],
+        };
+        for a in 0..dim {
+            if !(min[a].is_finite() && max[a].is_finite()) || max[a] <= min[a] {
+                return Err(CoreError::param(
+                    "max",
+                    format!("axis {a}: max ({}) must be greater than min ({})", max[a], min[a]),
+                ));
+            }
+            let cells = (max[a] - min[a]) / h;
+            let n = cells.round();
+            if (cells - n).abs() > 1e-6 * cells.max(1.0) || n < 1.0 {
+                return Err(CoreError::param(
+                    "spacing",
+                    format!(
+                        "axis {a}: (max - min) / spacing = {cells} is not a positive integer"
+                    ),
+                ));
+            }
+            let n = n as i64;
+            let last = match placement {
+                Placement::Vertex => n,
+                Placement::Cell => n - 1,
+            };
+            g.min[a] = min[a];
+            g.max[a] = max[a];
+            g.body_lo[a] = 0;
+            g.body_hi[a] = last;
+            g.lo[a] = -nl;
+            g.counts[a] = (last + 2 * nl + 1) as usize;
+        }
+        let total: u128 = g.counts.iter().map(|&c| c as u128).product();
+        if total > u32::MAX as u128 {
+            return Err(CoreError::param(
+                "spacing",
+                format!("the grid would have {total} nodes; at most 2^32 - 1 are supported"),
+            ));
+        }
+        Ok(g)
+    }
+
+    /// Spatial dimension (1, 2 or 3).
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+    /// Lattice spacing `h`.
+    pub fn spacing(&self) -> f64 {
+        self.h
+    }
+    /// Node volume `h^d`.
+    pub fn volume(&self) -> f64 {
+        self.h.powi(self.dim as i32)
+    }
+    /// Number of nodes, layers included.
+    pub fn len(&self) -> usize {
+        self.counts.iter().product()
+    }
+    /// True when the grid has no nodes (never, for a grid built by [`Grid::new`]).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Nodes per axis, layers included (1 on unused axes).
+    pub fn counts(&self) -> [usize; 3] {
+        self.counts
+    }
+    /// Lower corner of the body box.
+    pub fn min(&self) -> &[f64] {
+        &self.min[..self.dim]
+    }
+    /// Upper corner of the body box.
+    pub fn max(&self) -> &[f64] {
+        &self.max[..self.dim]
+    }
+    /// Node placement.
+    pub fn placement(&self) -> Placement {
+        self.placement
+    }
+
+    /// Lattice index of node `n` (layer nodes have indices below 0 or above the body's).
+    pub fn lattice_index(&self, n: usize) -> [i64; 3] {
+        let mut idx = [0i64; 3];
+        let mut r = n;
+        for a in 0..3 {
+            idx[a] = (r % self.counts[a]) as i64 + self.lo[a];
+            r /= self.counts[a];
+        }
+        idx
+    }
+
+    /// Node number of a lattice index, or `None` outside the grid.
+    pub fn node_at(&self, idx: [i64; 3]) -> Option<usize> {
+        let mut n = 0usize;
+        for a in (0..3).rev() {
+            let k = idx[a] - self.lo[a];
+            if k < 0 || k >= self.counts[a] as i64 {
+                return None;
+            }
+            n = n * self.counts[a] + k as usize;
+        }
+        Some(n)
+    }
+
+    /// Position of node `n`.
+    pub fn position(&self, n: usize) -> Point {
+        let idx = self.lattice_index(n);
+        let shift = match self.placement {
+            Placement::Vertex => 0.0,
+            Placement::Cell => 0.5,
+        };
+        let mut x = [0.0; 3];
+        for a in 0..self.dim {
+            x[a] = self.min[a] + (idx[a] as f64 + shift) * self.h;
+        }
+        x
+    }
+
+    /// All node positions, in node order.
+    pub fn positions(&self) -> Vec<Point> {
+        (0..self.len()).map(|n| self.position(n)).collect()
+    }
+
+    /// True for nodes of the outer layer (outside the body box).
+    pub fn is_layer(&self, n: usize) -> bool {
+        let idx = self.lattice_index(n);
+        (0..self.dim).any(|a| idx[a] < self.body_lo[a] || idx[a] > self.body_hi[a])
+    }
+
+    /// The node nearest to `x` and its distance.
+    pub fn nearest_node(&self, x: &[f64]) -> (usize, f64) {
+        let shift = match self.placement {
+            Placement::Vertex => 0.0,
+            Placement::Cell => 0.5,
+        };
+        let mut idx = [0i64; 3];
+        for a in 0..self.dim {
+            let k = ((x[a] - self.min[a]) / self.h - shift).round() as i64;
+            idx[a] = k.clamp(self.lo[a], self.lo[a] + self.counts[a] as i64 - 1);
+        }
+        let n = self.node_at(idx).expect("clamped index lies in the grid");
+        let p = self.position(n);
+        let d = (0..self.dim).map(|a| (p[a] - x[a]).powi(2)).sum::<f64>().sqrt();
+        (n, d)
+    }
+
+    /// True when every node of the grid is a lattice point of a full box (always, for now);
+    /// matrix-free stencil operators rely on it.
+    pub fn is_full_box(&self) -> bool {
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vertex_grid_has_both_ends_and_layers() {
+        // spacing 1/300 written in decimal: (max-min)/h = 299.99999999999997 must round to 300.
+        let g = Grid::new(&[0.0], &[1.0], 0.0033333333333333335, 0.05, Placement::Vertex).unwrap();
+        // 301 body nodes + 15 layer nodes on each side.
+        assert_eq!(g.len(), 301 + 30);
+        assert_eq!(g.lattice_index(0)[0], -15);
+        assert!((g.position(15)[0] - 0.0).abs() < 1e-15);
+        assert!((g.position(315)[0] - 1.0).abs() < 1e-12);
+        assert!(g.is_layer(14) && !g.is_layer(15) && !g.is_layer(315) && g.is_layer(316));
+    }
+
+    #[test]
+    fn cell_grid_and_node_lookup_roundtrip() {
+        let g = Grid::new(&[0.0, 0.0, 0.0], &[1.0, 2.0, 0.5], 0.25, 0.0, Placement::Cell).unwrap();
+        assert_eq!(g.counts(), [4, 8, 2]);
+        for n in 0..g.len() {
+            assert_eq!(g.node_at(g.lattice_index(n)), Some(n));
+        }
+        assert!((g.position(0)[1] - 0.125).abs() < 1e-15);
+        let (n, d) = g.nearest_node(&[0.6, 1.1, 0.4]);
+        assert_eq!(g.lattice_index(n), [2, 4, 1]);
+        assert!(d < 0.25);
+    }
+
+    #[test]
+    fn rejects_non_integer_cells_and_bad_spacing() {
+        assert!(Grid::new(&[0.0], &[1.0], 0.3, 0.0, Placement::Vertex).is_err());
+        assert!(Grid::new(&[0.0], &[1.0], -0.1, 0.0, Placement::Vertex).is_err());
+        assert!(Grid::new(&[1.0], &[0.0], 0.1, 0.0, Placement::Vertex).is_err());
+        assert!(Grid::new(&[0.0, 0.0], &[1.0], 0.1, 0.0, Placement::Vertex).is_err());
+    }
+}

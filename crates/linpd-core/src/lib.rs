@@ -1,0 +1,40 @@
+//! Core geometry and material description for linear peridynamics (PD).
+//!
+//! This crate owns everything a PD operator needs before any matrix exists:
+//!
+//! * [`grid`]: uniform lattices in 1D/2D/3D with optional boundary layers;
+//! * [`region`]: boxes, unions and differences that name node sets;
+//! * [`family`]: bond families within the horizon (lattice stencil and cell list);
+//! * [`kernel`]: micromodulus shapes and their normalization to an elastic modulus;
+//! * [`material`]: heterogeneous moduli, bond rules and defects that degrade bonds;
+//! * [`dof`]: DOF numbering and the free/constrained split;
+//! * [`error`]: the error type shared by these modules.
+//!
+//! Indices into node arrays are `usize`; bond offsets are `usize` as well so that a family
+//! with more than 2^31 bonds (and operators with more than 2^31 nonzeros) does not overflow.
+#![deny(missing_docs)]
+
+pub mod dof;
+pub mod error;
+pub mod family;
+pub mod grid;
+pub mod kernel;
+pub mod material;
+pub mod region;
+
+pub use dof::DofMap;
+pub use error::CoreError;
+pub use family::BondFamily;
+pub use grid::{Grid, Placement};
+pub use kernel::{Kernel, Micromodulus, Normalization, PlaneModel};
+pub use material::{BondRule, Defect, Material};
+pub use region::Region;
+
+/// Points are stored with three coordinates; in 1D and 2D the unused ones are zero.
+pub type Point = [f64; 3];
+
+/// Relative tolerance used when deciding whether a lattice point lies on a region boundary
+/// or whether a bond length equals the horizon. Lattice coordinates are multiples of the
+/// spacing computed in floating point, so exact comparisons would flip on round-off
+/// (the LAMMPS howto warns about nodes at exactly 3h when delta = 3h).
+pub const GEOMETRY_RTOL: f64 = 1e-9;

@@ -1,0 +1,248 @@
+//! Heterogeneous materials: per-region moduli, the rule that gives a bond its modulus from
+//! its two end nodes, and defects that degrade the bonds crossing them.
+//!
+//! A bond `(i, j)` gets the micromodulus
+//! `lambda_ij = (rule(K_i, K_j) / K_ref) * prod_defects mu_d(i, j) * c g(|xi|)`,
+//! where `K_i` is the modulus of the last phase region containing node `i` (the reference
+//! modulus `K_ref` where none does). Silling (2010) Example 5.2 ("bonds that have both ends
+//! in a hard stripe have hard properties") is [`BondRule::Min`]; Example 5.3's defect is
+//! `mu = 0.1` when `x <= x_d <= q` or `q <= x_d <= x` (closed: a bond ending on the defect
+//! point counts as crossing it), here [`Defect::Point`] in 1D, [`Defect::Segment`] in 2D and
+//! [`Defect::Plane`] in 3D.
+
+use crate::{CoreError, Grid, Point, Region};
+
+/// How a bond's modulus follows from the moduli at its ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BondRule {
+    /// The softer end wins (stiff only if both ends are stiff).
+    Min,
+    /// The stiffer end wins.
+    Max,
+    /// `(K_i + K_j) / 2`.
+    Arithmetic,
+    /// `2 K_i K_j / (K_i + K_j)`: two half-bonds in series.
+    #[default]
+    Harmonic,
+    /// `sqrt(K_i K_j)`.
+    Geometric,
+}
+
+impl BondRule {
+    /// The bond modulus from the end moduli.
+    pub fn combine(self, a: f64, b: f64) -> f64 {
+        match self {
+            BondRule::Min => a.min(b),
+            BondRule::Max => a.max(b),
+            BondRule::Arithmetic => 0.5 * (a + b),
+            BondRule::Harmonic => 2.0 * a * b / (a + b),
+            BondRule::Geometric => (a * b).sqrt(),
+        }
+    }
+}
+
+/// A surface of weakness: bonds crossing it are multiplied by `factor` (0 cuts them).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Defect {
+    /// 1D: the point `x`.
+    Point {
+        /// Location `x_d`.
+        x: f64,
+        /// Stiffness multiplier `mu`.
+        factor: f64,
+    },
+    /// 2D: the closed segment from `a` to `b`.
+    Segment {
+        /// First end.
+        a: [f64; 2],
+        /// Second end.
+        b: [f64; 2],
+        /// Stiffness multiplier.
+        factor: f64,
+    },
+    /// 3D: the plane through `point` with normal `normal`, restricted to `extent` if given.
+    Plane {
+        /// A point of the plane.
+        point: [f64; 3],
+        /// Its normal (need not be unit).
+        normal: [f64; 3],
+        /// Where on the plane the defect is (crossing points outside are not degraded).
+        extent: Option<Region>,
+        /// Stiffness multiplier.
+        factor: f64,
+    },
+}
+
+impl Defect {
+    fn factor(&self) -> f64 {
+        match self {
+            Defect::Point { factor, .. } | Defect::Segment { factor, .. } | Defect::Plane { factor, .. } => *factor,
+        }
+    }
+
+    /// Checks that the defect fits the dimension and has a factor in `[0, 1]`... or above
+    /// (a stiffening "defect" is allowed, a negative one is not).
+    pub fn validate(&self, dim: usize) -> Result<(), CoreError> {
+        let f = self.factor();
+        if !(f.is_finite() && f >= 0.0) {
+            return Err(CoreError::param("factor", format!("must be >= 0, got {f}")));
+        }
+        let needed = match self {
+            Defect::Point { .. } => 1,
+            Defect::Segment { .. } => 2,
+            Defect::Plane { normal, .. } => {
+                if normal.iter().map(|v| v * v).sum::<f64>() == 0.0 {
+                    return Err(CoreError::param("normal", "must be nonzero"));
+                }
+                3
+            }
+        };
+        if needed != dim {
+            return Err(CoreError::param(
+                "defects",
+                format!("a {} defect needs dimension {needed}, the scene has {dim}", match needed { 1 => "point", 2 => "segment", _ => "plane" }),
+            ));
+        }
+        Ok(())
+    }
+
+    /// True when the bond from `x` to `y` crosses (or touches) the defect. `tol` is a length.
+    pub fn crosses(&self, x: &Point, y: &Point, tol: f64) -> bool {
+        match self {
+            Defect::Point { x: d, .. } => {
+                let (lo, hi) = if x[0] <= y[0] { (x[0], y[0]) } else { (y[0], x[0]) };
+                lo - tol <= *d && *d <= hi + tol
+            }
+            Defect::Segment { a, b, .. } => segments_intersect([x[0], x[1]], [y[0], y[1]], *a, *b, tol),
+            Defect::Plane { point, normal, extent, .. } => {
+                let nn = normal.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let s = |p: &Point| (0..3).map(|k| (p[k] - point[k]) * normal[k]).sum::<f64>() / nn;
+                let (sx, sy) = (s(x), s(y));
+                if (sx > tol && sy > tol) || (sx < -tol && sy < -tol) {
+                    return false;
+                }
+                match extent {
+                    None => true,
+                    Some(region) => {
+                        let t = if (sx - sy).abs() > 0.0 { sx / (sx - sy) } else { 0.0 };
+                        let t = t.clamp(0.0, 1.0);
+                        let p = [x[0] + t * (y[0] - x[0]), x[1] + t * (y[1] - x[1]), x[2] + t * (y[2] - x[2])];
+                        region.contains(&p, 3, tol)
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Closed-segment intersection in 2D with a length tolerance.
+fn segments_intersect(p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2], tol: f64) -> bool {
+    let cross = |o: [f64; 2], u: [f64; 2], v: [f64; 2]| (u[0] - o[0]) * (v[1] - o[1]) - (u[1] - o[1]) * (v[0] - o[0]);
+    let len = |u: [f64; 2], v: [f64; 2]| ((u[0] - v[0]).powi(2) + (u[1] - v[1]).powi(2)).sqrt().max(f64::MIN_POSITIVE);
+    // Signed distances of each segment's ends from the other's line.
+    let d1 = cross(a, b, p) / len(a, b);
+    let d2 = cross(a, b, q) / len(a, b);
+    let d3 = cross(p, q, a) / len(p, q);
+    let d4 = cross(p, q, b) / len(p, q);
+    let straddles = |s: f64, t: f64| !((s > tol && t > tol) || (s < -tol && t < -tol));
+    if !(straddles(d1, d2) && straddles(d3, d4)) {
+        return false;
+    }
+    // Collinear case: require overlapping projections.
+    if d1.abs() <= tol && d2.abs() <= tol {
+        let axis = if (b[0] - a[0]).abs() >= (b[1] - a[1]).abs() { 0 } else { 1 };
+        let (lo1, hi1) = (p[axis].min(q[axis]), p[axis].max(q[axis]));
+        let (lo2, hi2) = (a[axis].min(b[axis]), a[axis].max(b[axis]));
+        return lo1 <= hi2 + tol && lo2 <= hi1 + tol;
+    }
+    true
+}
+
+/// Phases, bond rule and defects of a body.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Material {
+    /// `(region, modulus)`; later entries override earlier ones where they overlap.
+    pub phases: Vec<(Region, f64)>,
+    /// How a bond's modulus follows from its ends.
+    pub rule: BondRule,
+    /// Surfaces that degrade crossing bonds.
+    pub defects: Vec<Defect>,
+}
+
+impl Material {
+    /// True without phases or defects: every bond has the reference modulus.
+    pub fn is_homogeneous(&self) -> bool {
+        self.phases.is_empty() && self.defects.is_empty()
+    }
+
+    /// Checks moduli, regions and defects against the dimension.
+    pub fn validate(&self, dim: usize) -> Result<(), CoreError> {
+        for (region, k) in &self.phases {
+            region.validate(dim)?;
+            if !(k.is_finite() && *k > 0.0) {
+                return Err(CoreError::param("modulus", format!("must be > 0, got {k}")));
+            }
+        }
+        self.defects.iter().try_for_each(|d| d.validate(dim))
+    }
+
+    /// Modulus of every node (`reference` outside all phases).
+    pub fn node_moduli(&self, grid: &Grid, reference: f64) -> Vec<f64> {
+        let tol = crate::GEOMETRY_RTOL * grid.spacing();
+        (0..grid.len())
+            .map(|n| {
+                let x = grid.position(n);
+                self.phases
+                    .iter()
+                    .rev()
+                    .find(|(r, _)| r.contains(&x, grid.dim(), tol))
+                    .map_or(reference, |(_, k)| *k)
+            })
+            .collect()
+    }
+
+    /// The multiplier of bond `(i, j)` relative to the reference micromodulus.
+    pub fn bond_factor(&self, x: &Point, y: &Point, ki: f64, kj: f64, reference: f64, tol: f64) -> f64 {
+        let mut f = if ki == reference && kj == reference { 1.0 } else { self.rule.combine(ki, kj) / reference };
+        for d in &self.defects {
+            if d.crosses(x, y, tol) {
+                f *= d.factor();
+            }
+        }
+        f
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rules_combine_as_documented() {
+        assert_eq!(BondRule::Min.combine(10.0, 1.0), 1.0);
+        assert_eq!(BondRule::Max.combine(10.0, 1.0), 10.0);
+        assert_eq!(BondRule::Harmonic.combine(2.0, 2.0), 2.0);
+        assert!((BondRule::Harmonic.combine(10.0, 1.0) - 20.0 / 11.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn defects_detect_crossing_bonds() {
+        let p = Defect::Point { x: 0.5, factor: 0.1 };
+        assert!(p.crosses(&[0.4, 0.0, 0.0], &[0.6, 0.0, 0.0], 1e-12));
+        assert!(p.crosses(&[0.5, 0.0, 0.0], &[0.6, 0.0, 0.0], 1e-12)); // closed, as in Example 5.3
+        assert!(!p.crosses(&[0.51, 0.0, 0.0], &[0.6, 0.0, 0.0], 1e-12));
+        let s = Defect::Segment { a: [0.5, 0.0], b: [0.5, 1.0], factor: 0.0 };
+        assert!(s.crosses(&[0.4, 0.5, 0.0], &[0.6, 0.6, 0.0], 1e-12));
+        assert!(!s.crosses(&[0.4, 1.5, 0.0], &[0.6, 1.6, 0.0], 1e-12));
+        assert!(!s.crosses(&[0.6, 0.5, 0.0], &[0.7, 0.6, 0.0], 1e-12));
+        let pl = Defect::Plane {
+            point: [0.5, 0.0, 0.0],
+            normal: [1.0, 0.0, 0.0],
+            extent: Some(Region::Box { min: vec![0.4, 0.0, 0.0], max: vec![0.6, 0.5, 1.0] }),
+            factor: 0.0,
+        };
+        assert!(pl.crosses(&[0.4, 0.2, 0.5], &[0.6, 0.2, 0.5], 1e-12));
+        assert!(!pl.crosses(&[0.4, 0.7, 0.5], &[0.6, 0.7, 0.5], 1e-12)); // outside the extent
+        assert!(pl.validate(2).is_err());
+    }
+}

@@ -1,0 +1,1022 @@
+//! Plotting helpers for linpd: line/scatter charts and scalar colour maps.
+//!
+//! Every plot is written twice, as `<stem>.png` (bitmap) and `<stem>.svg` (vector), using
+//! [`plotters`] without any system font dependency: the DejaVu Sans font embedded by the
+//! [`dejavu`] crate is registered with plotters' `ab_glyph` text renderer on first use, so no
+//! fontconfig or freetype is needed.
+//!
+//! All input problems (empty or mismatched data, non-finite values, nonpositive values on a
+//! logarithmic axis, a wrong number of grid values) are reported as
+//! [`PlotError::InvalidData`] before any file is created; the functions do not panic on user
+//! data.
+//!
+//! ```no_run
+//! use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
+//! use std::path::Path;
+//!
+//! let plot = LinePlot {
+//!     title: "Displacement".into(),
+//!     x_label: "x [m]".into(),
+//!     y_label: "u [m]".into(),
+//!     series: vec![Series {
+//!         label: "PD".into(),
+//!         x: vec![0.0, 0.5, 1.0],
+//!         y: vec![0.0, 0.25, 1.0],
+//!         style: SeriesStyle::LineMarkers,
+//!     }],
+//!     log_x: false,
+//!     log_y: false,
+//! };
+//! let files = line_plot(&plot, Path::new("out/displacement")).unwrap();
+//! assert_eq!(files.len(), 2);
+//! ```
+#![deny(missing_docs)]
+
+use std::ffi::OsString;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters::style::FontTransform;
+
+/// Default image size in pixels (width, height) used by [`line_plot`] and [`scalar_map`].
+pub const DEFAULT_SIZE: (u32, u32) = (1000, 700);
+
+/// Smallest accepted image size in pixels (width, height).
+pub const MIN_SIZE: (u32, u32) = (320, 240);
+
+/// Font family name under which the embedded DejaVu Sans font is registered.
+const FONT: &str = "sans-serif";
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SeriesStyle {
+    /// A polyline through the points, in the given order.
+    #[default]
+    Line,
+    /// A filled circle at each point, no connecting line.
+    Markers,
+    /// A polyline with a filled circle at each point.
+    LineMarkers,
+}
+
+/// One curve.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Series {
+    /// Legend label; an empty label leaves the series out of the legend.
+    pub label: String,
+    /// Abscissae; same length as `y`.
+    pub x: Vec<f64>,
+    /// Ordinates; same length as `x`.
+    pub y: Vec<f64>,
+    /// How the series is drawn.
+    pub style: SeriesStyle,
+}
+
+impl Series {
+    /// A series drawn as a line ([`SeriesStyle::Line`]).
+    pub fn new(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
+        Self {
+            label: label.into(),
+            x,
+            y,
+            style: SeriesStyle::Line,
+        }
+    }
+
+    /// The same series with another drawing style.
+    pub fn with_style(mut self, style: SeriesStyle) -> Self {
+        self.style = style;
+        self
+    }
+}
+
+/// A 2D line/scatter chart.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LinePlot {
+    /// Chart title (caption).
+    pub title: String,
+    /// Description of the horizontal axis.
+    pub x_label: String,
+    /// Description of the vertical axis.
+    pub y_label: String,
+    /// The curves, drawn in order with distinct colours.
+    pub series: Vec<Series>,
+    /// Logarithmic (base 10) horizontal axis; all x values must then be positive.
+    pub log_x: bool,
+    /// Logarithmic (base 10) vertical axis; all y values must then be positive.
+    pub log_y: bool,
+}
+
+impl LinePlot {
+    /// An empty linear-axes chart with the given title and axis labels.
+    pub fn new(
+        title: impl Into<String>,
+        x_label: impl Into<String>,
+        y_label: impl Into<String>,
+    ) -> Self {
+        Self {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            ..Self::default()
+        }
+    }
+
+    /// The same chart with one more series.
+    pub fn with_series(mut self, series: Series) -> Self {
+        self.series.push(series);
+        self
+    }
+}
+
+/// A scalar field on a regular grid, drawn as a colour map with a colour bar.
+///
+/// Cell `(ix, iy)` covers `[x0 + ix*dx, x0 + (ix+1)*dx] x [y0 + iy*dy, y0 + (iy+1)*dy]` with
+/// `dx = (x1 - x0)/nx`, `dy = (y1 - y0)/ny`, where `x_range = (x0, x1)`, `y_range = (y0, y1)`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ScalarMap {
+    /// Chart title.
+    pub title: String,
+    /// Description of the horizontal axis.
+    pub x_label: String,
+    /// Description of the vertical axis.
+    pub y_label: String,
+    /// Number of cells along x (> 0).
+    pub nx: usize,
+    /// Number of cells along y (> 0).
+    pub ny: usize,
+    /// Extent along x, `(min, max)` with `min < max`, both finite.
+    pub x_range: (f64, f64),
+    /// Extent along y, `(min, max)` with `min < max`, both finite.
+    pub y_range: (f64, f64),
+    /// values[ix + nx*iy]; length `nx*ny`, all finite.
+    pub values: Vec<f64>,
+    /// Description of the value, shown next to the colour bar.
+    pub value_label: String,
+}
+
+/// Errors from the plotting functions.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The input cannot be plotted: e.g. empty series, x/y length mismatch, non-finite data,
+    /// nonpositive data on a log axis, `values.len() != nx*ny`.
+    #[error("invalid plot data: {0}")]
+    InvalidData(String),
+    /// Drawing backend failure (font, rendering or encoding); `path` is the file being written.
+    #[error("drawing {} failed: {message}", path.display())]
+    Backend {
+        /// The output file being drawn.
+        path: PathBuf,
+        /// The backend's error message.
+        message: String,
+    },
+    /// File-system failure (e.g. creating the output directory).
+    #[error("I/O error: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// Writes `<stem>.png` (1000x700, [`DEFAULT_SIZE`]) and `<stem>.svg`; returns both paths
+/// (PNG first). Creates the parent directory if missing.
+///
+/// The extensions are appended to `stem` (so `out/fig.v2` gives `out/fig.v2.png`).
+pub fn line_plot(plot: &LinePlot, stem: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    line_plot_with_size(plot, stem, DEFAULT_SIZE)
+}
+
+/// Like [`line_plot`] with an explicit image size `(width, height)` in pixels (at least
+/// [`MIN_SIZE`]); the SVG uses the same nominal size.
+pub fn line_plot_with_size(
+    plot: &LinePlot,
+    stem: &Path,
+    size: (u32, u32),
+) -> Result<Vec<PathBuf>, PlotError> {
+    check_size(size)?;
+    let (xr, yr) = line_plot_ranges(plot)?;
+    render(stem, size, &Job::Line { plot, xr, yr })
+}
+
+/// Writes a colour map of `map` with a colour bar as `<stem>.png` (1000x700,
+/// [`DEFAULT_SIZE`]) and `<stem>.svg`; returns both paths (PNG first). Creates the parent
+/// directory if missing. A constant field is drawn in the middle colour of the map.
+pub fn scalar_map(map: &ScalarMap, stem: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    scalar_map_with_size(map, stem, DEFAULT_SIZE)
+}
+
+/// Like [`scalar_map`] with an explicit image size `(width, height)` in pixels (at least
+/// [`MIN_SIZE`]); the SVG uses the same nominal size.
+pub fn scalar_map_with_size(
+    map: &ScalarMap,
+    stem: &Path,
+    size: (u32, u32),
+) -> Result<Vec<PathBuf>, PlotError> {
+    check_size(size)?;
+    let (lo, hi) = scalar_map_value_range(map)?;
+    render(stem, size, &Job::Map { map, lo, hi })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation and ranges
+// ---------------------------------------------------------------------------------------------
+
+fn invalid(msg: impl Into<String>) -> PlotError {
+    PlotError::InvalidData(msg.into())
+}
+
+fn check_size((w, h): (u32, u32)) -> Result<(), PlotError> {
+    if w < MIN_SIZE.0 || h < MIN_SIZE.1 {
+        return Err(invalid(format!(
+            "image size {w}x{h} is below the minimum {}x{}",
+            MIN_SIZE.0, MIN_SIZE.1
+        )));
+    }
+    Ok(())
+}
+
+/// Validates the series and returns the padded axis ranges.
+fn line_plot_ranges(plot: &LinePlot) -> Result<(Range<f64>, Range<f64>), PlotError> {
+    if plot.series.is_empty() {
+        return Err(invalid("line plot has no series"));
+    }
+    let (mut xmin, mut xmax) = (f64::INFINITY, f64::NEG_INFINITY);
+    let (mut ymin, mut ymax) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (i, s) in plot.series.iter().enumerate() {
+        let name = format!("series {i} ({:?})", s.label);
+        if s.x.is_empty() {
+            return Err(invalid(format!("{name} is empty")));
+        }
+        if s.x.len() != s.y.len() {
+            return Err(invalid(format!(
+                "{name}: x has {} values but y has {}",
+                s.x.len(),
+                s.y.len()
+            )));
+        }
+        for (axis, data, log) in [("x", &s.x, plot.log_x), ("y", &s.y, plot.log_y)] {
+            if let Some(k) = data.iter().position(|v| !v.is_finite()) {
+                return Err(invalid(format!(
+                    "{name}: {axis}[{k}] = {} is not finite",
+                    data[k]
+                )));
+            }
+            if log {
+                if let Some(k) = data.iter().position(|&v| v <= 0.0) {
+                    return Err(invalid(format!(
+                        "{name}: {axis}[{k}] = {} is not positive, but the {axis} axis is logarithmic",
+                        data[k]
+                    )));
+                }
+            }
+        }
+        for (&x, &y) in s.x.iter().zip(&s.y) {
+            xmin = xmin.min(x);
+            xmax = xmax.max(x);
+            ymin = ymin.min(y);
+            ymax = ymax.max(y);
+        }
+    }
+    let xr = if plot.log_x {
+        log_range(xmin, xmax)
+    } else {
+        linear_range(xmin, xmax)
+    };
+    let yr = if plot.log_y {
+        log_range(ymin, ymax)
+    } else {
+        linear_range(ymin, ymax)
+    };
+    Ok((xr, yr))
+}
+
+/// True when `[lo, hi]` is empty or too narrow to be resolved in f64 ticks.
+fn is_degenerate(lo: f64, hi: f64) -> bool {
+    let half_span = hi / 2.0 - lo / 2.0;
+    half_span <= 1e-12 * lo.abs().max(hi.abs()) || half_span <= f64::MIN_POSITIVE
+}
+
+/// Range of finite `[lo, hi]` (lo <= hi) with a 5% margin; a (nearly) constant range is
+/// widened around its centre. Never overflows to infinity.
+fn linear_range(lo: f64, hi: f64) -> Range<f64> {
+    let (lo, hi) = if is_degenerate(lo, hi) {
+        let c = lo / 2.0 + hi / 2.0;
+        let d = if c == 0.0 { 1.0 } else { 0.1 * c.abs() };
+        (c - d, c + d)
+    } else {
+        let pad = 0.1 * (hi / 2.0 - lo / 2.0);
+        (lo - pad, hi + pad)
+    };
+    let lo = if lo.is_finite() { lo } else { f64::MIN };
+    let hi = if hi.is_finite() { hi } else { f64::MAX };
+    lo..hi
+}
+
+/// Range of positive finite `[lo, hi]` (lo <= hi) widened to whole decades, so that the
+/// logarithmic axis always has labelled ticks.
+fn log_range(lo: f64, hi: f64) -> Range<f64> {
+    let mut a = 10f64.powf(lo.log10().floor());
+    let mut b = 10f64.powf(hi.log10().ceil());
+    if !(a > 0.0 && a <= lo) {
+        a = lo;
+    }
+    if !(b.is_finite() && b >= hi) {
+        b = hi;
+    }
+    if b <= a * (1.0 + 1e-9) {
+        // Constant data at an exact power of ten (or at the extremes of f64).
+        if (a / 10.0) > 0.0 {
+            a /= 10.0;
+        }
+        if (b * 10.0).is_finite() {
+            b *= 10.0;
+        }
+    }
+    a..b
+}
+
+/// Validates the grid and returns the colour-scale range `(lo, hi)`, `lo < hi`.
+fn scalar_map_value_range(map: &ScalarMap) -> Result<(f64, f64), PlotError> {
+    if map.nx == 0 || map.ny == 0 {
+        return Err(invalid(format!(
+            "grid must have at least one cell, got nx = {}, ny = {}",
+            map.nx, map.ny
+        )));
+    }
+    let n = map
+        .nx
+        .checked_mul(map.ny)
+        .ok_or_else(|| invalid(format!("nx*ny overflows ({} x {})", map.nx, map.ny)))?;
+    if map.values.len() != n {
+        return Err(invalid(format!(
+            "values has {} entries, expected nx*ny = {}*{} = {n}",
+            map.values.len(),
+            map.nx,
+            map.ny
+        )));
+    }
+    for (axis, (a, b)) in [("x_range", map.x_range), ("y_range", map.y_range)] {
+        if !(a.is_finite() && b.is_finite() && a < b) || is_degenerate(a, b) {
+            return Err(invalid(format!(
+                "{axis} = ({a}, {b}) must be finite with min < max"
+            )));
+        }
+    }
+    if let Some(k) = map.values.iter().position(|v| !v.is_finite()) {
+        let (ix, iy) = (k % map.nx, k / map.nx);
+        return Err(invalid(format!(
+            "values[{k}] (ix = {ix}, iy = {iy}) = {} is not finite",
+            map.values[k]
+        )));
+    }
+    let lo = map.values.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = map.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if is_degenerate(lo, hi) {
+        let r = linear_range(lo, hi);
+        Ok((r.start, r.end))
+    } else {
+        Ok((lo, hi))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rendering
+// ---------------------------------------------------------------------------------------------
+
+/// Registers the embedded DejaVu Sans font once; returns the registration error, if any.
+fn ensure_font() -> Result<(), String> {
+    static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
+    REGISTERED
+        .get_or_init(|| {
+            plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular())
+                .map_err(|_| "the embedded DejaVu Sans font could not be parsed".to_string())
+        })
+        .clone()
+}
+
+/// `stem` with `ext` appended as an extension.
+fn with_ext(stem: &Path, ext: &str) -> PathBuf {
+    let mut s: OsString = stem.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
+/// A validated drawing job, drawable on any backend.
+enum Job<'a> {
+    Line {
+        plot: &'a LinePlot,
+        xr: Range<f64>,
+        yr: Range<f64>,
+    },
+    Map {
+        map: &'a ScalarMap,
+        lo: f64,
+        hi: f64,
+    },
+}
+
+impl Job<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        match self {
+            Job::Line { plot, xr, yr } => {
+                let (xr, yr) = (xr.clone(), yr.clone());
+                match (plot.log_x, plot.log_y) {
+                    (false, false) => draw_line_plot(root, plot, xr, yr),
+                    (true, false) => draw_line_plot(root, plot, xr.log_scale(), yr),
+                    (false, true) => draw_line_plot(root, plot, xr, yr.log_scale()),
+                    (true, true) => draw_line_plot(root, plot, xr.log_scale(), yr.log_scale()),
+                }
+            }
+            Job::Map { map, lo, hi } => draw_scalar_map(root, map, *lo, *hi),
+        }
+    }
+}
+
+/// Draws `job` onto a PNG and an SVG backend and writes both files.
+fn render(stem: &Path, size: (u32, u32), job: &Job<'_>) -> Result<Vec<PathBuf>, PlotError> {
+    if stem.file_name().is_none() {
+        return Err(invalid(format!(
+            "output stem {} has no file name",
+            stem.display()
+        )));
+    }
+    let png = with_ext(stem, "png");
+    let svg = with_ext(stem, "svg");
+    ensure_font().map_err(|message| PlotError::Backend {
+        path: png.clone(),
+        message,
+    })?;
+    if let Some(parent) = stem.parent() {
+        if !parent.as_os_str().is_empty() {
+            std::fs::create_dir_all(parent)?;
+        }
+    }
+    let backend_err = |path: &Path| {
+        let path = path.to_path_buf();
+        move |message: String| PlotError::Backend { path, message }
+    };
+
+    {
+        let root = BitMapBackend::new(&png, size).into_drawing_area();
+        job.draw(&root).map_err(backend_err(&png))?;
+        root.present()
+            .map_err(|e| e.to_string())
+            .map_err(backend_err(&png))?;
+    }
+    {
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        job.draw(&root).map_err(backend_err(&svg))?;
+        root.present()
+            .map_err(|e| e.to_string())
+            .map_err(backend_err(&svg))?;
+    }
+    Ok(vec![png, svg])
+}
+
+/// Colour of series `i`: the ten "tab10" colours, then golden-angle hues.
+fn series_color(i: usize) -> RGBColor {
+    const TAB10: [(u8, u8, u8); 10] = [
+        (31, 119, 180),
+        (255, 127, 14),
+        (44, 160, 44),
+        (214, 39, 40),
+        (148, 103, 189),
+        (140, 86, 75),
+        (227, 119, 194),
+        (127, 127, 127),
+        (188, 189, 34),
+        (23, 190, 207),
+    ];
+    if let Some(&(r, g, b)) = TAB10.get(i) {
+        return RGBColor(r, g, b);
+    }
+    let h = ((i - TAB10.len()) as f64 * 0.618_033_988_749_895).fract();
+    hsl_to_rgb(h, 0.65, 0.45)
+}
+
+fn hsl_to_rgb(h: f64, s: f64, l: f64) -> RGBColor {
+    let c = (1.0 - (2.0 * l - 1.0).abs()) * s;
+    let hp = h * 6.0;
+    let x = c * (1.0 - (hp % 2.0 - 1.0).abs());
+    let (r, g, b) = match hp as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = l - c / 2.0;
+    let to = |v: f64| ((v + m) * 255.0).round().clamp(0.0, 255.0) as u8;
+    RGBColor(to(r), to(g), to(b))
+}
+
+/// Viridis colour map (matplotlib), linearly interpolated; `t` is clamped to `[0, 1]` and NaN
+/// maps to the middle colour.
+fn viridis(t: f64) -> RGBColor {
+    const TABLE: [(f64, f64, f64); 9] = [
+        (68.0, 1.0, 84.0),
+        (71.0, 44.0, 122.0),
+        (59.0, 81.0, 139.0),
+        (44.0, 113.0, 142.0),
+        (33.0, 144.0, 141.0),
+        (39.0, 173.0, 129.0),
+        (92.0, 200.0, 99.0),
+        (170.0, 220.0, 50.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let t = if t.is_nan() { 0.5 } else { t.clamp(0.0, 1.0) };
+    let s = t * (TABLE.len() - 1) as f64;
+    let k = (s.floor() as usize).min(TABLE.len() - 2);
+    let f = s - k as f64;
+    let (a, b) = (TABLE[k], TABLE[k + 1]);
+    let mix = |p: f64, q: f64| (p + f * (q - p)).round().clamp(0.0, 255.0) as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// Position of `v` in `[lo, hi]` as a fraction, without overflow for huge ranges.
+fn fraction(v: f64, lo: f64, hi: f64) -> f64 {
+    (v / 2.0 - lo / 2.0) / (hi / 2.0 - lo / 2.0)
+}
+
+/// Compact label for a colour-bar tick.
+fn format_value(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 {
+        "0".to_string()
+    } else if (1e-3..1e4).contains(&a) {
+        let s = format!("{v:.4}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        s.to_string()
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+fn draw_line_plot<DB, XS, YS>(
+    root: &DrawingArea<DB, Shift>,
+    plot: &LinePlot,
+    xs: XS,
+    ys: YS,
+) -> Result<(), String>
+where
+    DB: DrawingBackend,
+    XS: AsRangedCoord<Value = f64>,
+    YS: AsRangedCoord<Value = f64>,
+    XS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    YS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(&plot.title, (FONT, 28))
+        .margin(20)
+        .x_label_area_size(60)
+        .y_label_area_size(90)
+        .build_cartesian_2d(xs, ys)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc(plot.x_label.as_str())
+        .y_desc(plot.y_label.as_str())
+        .label_style((FONT, 16))
+        .axis_desc_style((FONT, 18))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(e)?;
+
+    for (i, s) in plot.series.iter().enumerate() {
+        let color = series_color(i);
+        let line = color.stroke_width(2);
+        let fill = color.filled();
+        let pts = s.x.iter().copied().zip(s.y.iter().copied());
+        let anno = match s.style {
+            SeriesStyle::Line => chart.draw_series(LineSeries::new(pts, line)).map_err(e)?,
+            SeriesStyle::Markers => chart
+                .draw_series(pts.map(|p| Circle::new(p, 4, fill)))
+                .map_err(e)?,
+            SeriesStyle::LineMarkers => {
+                chart
+                    .draw_series(LineSeries::new(pts.clone(), line))
+                    .map_err(e)?;
+                chart
+                    .draw_series(pts.map(|p| Circle::new(p, 4, fill)))
+                    .map_err(e)?
+            }
+        };
+        if !s.label.is_empty() {
+            let style = s.style;
+            anno.label(s.label.as_str()).legend(move |(x, y)| {
+                let base = EmptyElement::at((x, y));
+                let path = PathElement::new(
+                    if style == SeriesStyle::Markers {
+                        vec![]
+                    } else {
+                        vec![(0, 0), (24, 0)]
+                    },
+                    line,
+                );
+                let dot = Circle::new(
+                    (12, 0),
+                    if style == SeriesStyle::Line { 0 } else { 4 },
+                    fill,
+                );
+                base + path + dot
+            });
+        }
+    }
+    if plot.series.iter().any(|s| !s.label.is_empty()) {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font((FONT, 16))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .legend_area_size(30)
+            .draw()
+            .map_err(e)?;
+    }
+    Ok(())
+}
+
+fn draw_scalar_map<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &ScalarMap,
+    lo: f64,
+    hi: f64,
+) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let area = root
+        .titled(&map.title, (FONT, 28))
+        .map_err(e)?;
+    let (w, _) = area.dim_in_pixel();
+    let bar_width = 190u32.min(w / 3);
+    let (main, bar) = area.split_horizontally(w - bar_width);
+
+    // Geometry shared by the map and the colour bar so that they line up.
+    let (margin, x_label_area, y_label_area) = (20u32, 60u32, 90u32);
+
+    let (x0, x1) = map.x_range;
+    let (y0, y1) = map.y_range;
+    let mut chart = ChartBuilder::on(&main)
+        .margin(margin)
+        .x_label_area_size(x_label_area)
+        .y_label_area_size(y_label_area)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc(map.x_label.as_str())
+        .y_desc(map.y_label.as_str())
+        .label_style((FONT, 16))
+        .axis_desc_style((FONT, 18))
+        .draw()
+        .map_err(e)?;
+
+    let (nx, ny) = (map.nx, map.ny);
+    let cx = |ix: usize| x0 + (x1 - x0) * (ix as f64 / nx as f64);
+    let cy = |iy: usize| y0 + (y1 - y0) * (iy as f64 / ny as f64);
+    chart
+        .draw_series((0..ny).flat_map(|iy| {
+            (0..nx).map(move |ix| {
+                let v = map.values[ix + nx * iy];
+                Rectangle::new(
+                    [(cx(ix), cy(iy)), (cx(ix + 1), cy(iy + 1))],
+                    viridis(fraction(v, lo, hi)).filled(),
+                )
+            })
+        }))
+        .map_err(e)?;
+    // Frame the plotting area.
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(x0, y0), (x1, y1)],
+            BLACK.stroke_width(1),
+        )))
+        .map_err(e)?;
+
+    // Colour bar, drawn in pixel coordinates of `bar`.
+    let (bw, bh) = bar.dim_in_pixel();
+    let top = margin as i32;
+    let bottom = (bh as i32 - (margin + x_label_area) as i32).max(top + 10);
+    let left = 10i32;
+    let right = (left + 28).min(bw as i32 - 1);
+    let bands = 128i32;
+    for k in 0..bands {
+        let ya = bottom - (bottom - top) * k / bands;
+        let yb = bottom - (bottom - top) * (k + 1) / bands;
+        let t = (k as f64 + 0.5) / bands as f64;
+        bar.draw(&Rectangle::new([(left, yb), (right, ya)], viridis(t).filled()))
+            .map_err(e)?;
+    }
+    bar.draw(&Rectangle::new(
+        [(left, top), (right, bottom)],
+        BLACK.stroke_width(1),
+    ))
+    .map_err(e)?;
+    let tick_style = TextStyle::from((FONT, 15).into_font())
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    let nticks = 5;
+    for k in 0..nticks {
+        let f = k as f64 / (nticks - 1) as f64;
+        // Exact min and max at the ends; halves avoid overflow for huge ranges.
+        let v = if k == 0 {
+            lo
+        } else if k == nticks - 1 {
+            hi
+        } else {
+            2.0 * (lo / 2.0 + f * (hi / 2.0 - lo / 2.0))
+        };
+        let y = bottom - ((bottom - top) as f64 * f).round() as i32;
+        bar.draw(&PathElement::new(vec![(right, y), (right + 6, y)], BLACK))
+            .map_err(e)?;
+        bar.draw(&Text::new(format_value(v), (right + 9, y), tick_style.clone()))
+            .map_err(e)?;
+    }
+    if !map.value_label.is_empty() {
+        let label_style = TextStyle::from((FONT, 18).into_font())
+            .color(&BLACK)
+            .transform(FontTransform::Rotate90)
+            .pos(Pos::new(HPos::Center, VPos::Center));
+        let x = (bw as i32 - 22).max(right + 1);
+        bar.draw(&Text::new(
+            map.value_label.as_str(),
+            (x, (top + bottom) / 2),
+            label_style,
+        ))
+        .map_err(e)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    /// A fresh, unique temporary directory for one test.
+    fn temp_dir(name: &str) -> PathBuf {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos())
+            .unwrap_or(0);
+        let dir = std::env::temp_dir().join(format!(
+            "linpd-plot-test-{}-{}-{}-{}",
+            std::process::id(),
+            name,
+            COUNTER.fetch_add(1, Ordering::Relaxed),
+            nanos
+        ));
+        assert!(!dir.exists());
+        dir
+    }
+
+    /// Width and height from a PNG's IHDR chunk, after checking the signature.
+    fn png_size(path: &Path) -> (u32, u32) {
+        let bytes = std::fs::read(path).unwrap();
+        assert!(bytes.len() > 24, "PNG too short");
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "not a PNG signature");
+        assert_eq!(&bytes[12..16], b"IHDR");
+        let w = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
+        let h = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
+        (w, h)
+    }
+
+    fn check_outputs(files: &[PathBuf], stem: &Path, size: (u32, u32), texts: &[&str]) {
+        assert_eq!(files, &[with_ext(stem, "png"), with_ext(stem, "svg")]);
+        for f in files {
+            assert!(f.is_file(), "{} missing", f.display());
+        }
+        assert_eq!(png_size(&files[0]), size);
+        let svg = std::fs::read_to_string(&files[1]).unwrap();
+        assert!(svg.contains("<svg"), "no <svg element");
+        for t in texts {
+            assert!(svg.contains(t), "SVG lacks text {t:?}");
+        }
+    }
+
+    fn sample_plot() -> LinePlot {
+        let x: Vec<f64> = (0..50).map(|i| i as f64 / 49.0).collect();
+        LinePlot::new("Test title alpha", "position x", "displacement u")
+            .with_series(Series::new(
+                "sine",
+                x.clone(),
+                x.iter().map(|v| (6.0 * v).sin()).collect(),
+            ))
+            .with_series(
+                Series::new("square", x.clone(), x.iter().map(|v| v * v).collect())
+                    .with_style(SeriesStyle::Markers),
+            )
+            .with_series(
+                Series::new("cubic", x.clone(), x.iter().map(|v| v * v * v).collect())
+                    .with_style(SeriesStyle::LineMarkers),
+            )
+    }
+
+    fn sample_map(nx: usize, ny: usize) -> ScalarMap {
+        let values = (0..nx * ny)
+            .map(|k| {
+                let (ix, iy) = (k % nx, k / nx);
+                (ix as f64 * 0.3).sin() + iy as f64 * 0.1
+            })
+            .collect();
+        ScalarMap {
+            title: "Map title beta".into(),
+            x_label: "x coord".into(),
+            y_label: "y coord".into(),
+            nx,
+            ny,
+            x_range: (0.0, 2.0),
+            y_range: (-1.0, 1.0),
+            values,
+            value_label: "strain energy".into(),
+        }
+    }
+
+    #[test]
+    fn line_plot_writes_png_and_svg() {
+        let dir = temp_dir("line");
+        // Nested, non-existing parent directory must be created.
+        let stem = dir.join("nested").join("fig.v1");
+        let files = line_plot(&sample_plot(), &stem).unwrap();
+        check_outputs(
+            &files,
+            &stem,
+            DEFAULT_SIZE,
+            &["Test title alpha", "position x", "displacement u", "sine", "cubic"],
+        );
+        assert!(files[0].ends_with("fig.v1.png"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn line_plot_custom_size_log_axes_and_constant_series() {
+        let dir = temp_dir("log");
+        let stem = dir.join("loglog");
+        let h: Vec<f64> = [0.1, 0.05, 0.025, 0.0125].to_vec();
+        let plot = LinePlot {
+            log_x: true,
+            log_y: true,
+            ..LinePlot::new("Convergence", "h", "error")
+        }
+        .with_series(Series::new("err", h.clone(), h.iter().map(|v| 3.0 * v * v).collect()))
+        // Constant series at an exact power of ten on a log axis.
+        .with_series(Series::new("flat", h.clone(), vec![1e-2; 4]));
+        let files = line_plot_with_size(&plot, &stem, (640, 480)).unwrap();
+        check_outputs(&files, &stem, (640, 480), &["Convergence"]);
+
+        // Linear axes, a single point and a constant series, some unlabelled.
+        let stem2 = dir.join("const");
+        let plot = LinePlot::new("Constant", "", "")
+            .with_series(Series::new("", vec![1.0, 2.0, 3.0], vec![5.0; 3]))
+            .with_series(Series::new("", vec![2.0], vec![0.0]).with_style(SeriesStyle::Markers));
+        let files = line_plot(&plot, &stem2).unwrap();
+        check_outputs(&files, &stem2, DEFAULT_SIZE, &["Constant"]);
+
+        // Only log_x, with one x and zero range in x.
+        let stem3 = dir.join("semilog");
+        let plot = LinePlot {
+            log_x: true,
+            ..LinePlot::new("Semilog", "n", "t")
+        }
+        .with_series(Series::new("pt", vec![7.0, 7.0], vec![-1.0, 1.0]));
+        let files = line_plot(&plot, &stem3).unwrap();
+        check_outputs(&files, &stem3, DEFAULT_SIZE, &["Semilog"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn scalar_map_writes_png_and_svg() {
+        let dir = temp_dir("map");
+        let stem = dir.join("field");
+        let files = scalar_map(&sample_map(40, 20), &stem).unwrap();
+        check_outputs(
+            &files,
+            &stem,
+            DEFAULT_SIZE,
+            &["Map title beta", "x coord", "y coord", "strain energy"],
+        );
+        // A constant field must not panic and still draws.
+        let mut map = sample_map(3, 2);
+        map.values = vec![0.0; 6];
+        let stem2 = dir.join("constant");
+        let files = scalar_map_with_size(&map, &stem2, (800, 600)).unwrap();
+        check_outputs(&files, &stem2, (800, 600), &["Map title beta"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    fn assert_invalid(r: Result<Vec<PathBuf>, PlotError>, needle: &str) {
+        match r {
+            Err(PlotError::InvalidData(msg)) => {
+                assert!(msg.contains(needle), "message {msg:?} lacks {needle:?}")
+            }
+            other => panic!("expected InvalidData, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn invalid_line_data_is_rejected() {
+        let dir = temp_dir("bad-line");
+        let stem = dir.join("bad");
+
+        let mut p = sample_plot();
+        p.series[1].y.pop();
+        assert_invalid(line_plot(&p, &stem), "\"square\"");
+
+        let mut p = sample_plot();
+        p.series[2].y[3] = f64::NAN;
+        assert_invalid(line_plot(&p, &stem), "\"cubic\"");
+
+        let mut p = sample_plot();
+        p.series[0].x[0] = f64::INFINITY;
+        assert_invalid(line_plot(&p, &stem), "not finite");
+
+        let mut p = sample_plot();
+        p.log_y = true; // sine and x^2 include y <= 0
+        assert_invalid(line_plot(&p, &stem), "logarithmic");
+
+        let mut p = sample_plot();
+        p.log_x = true; // x starts at 0
+        assert_invalid(line_plot(&p, &stem), "logarithmic");
+
+        let mut p = sample_plot();
+        p.series[1].x.clear();
+        p.series[1].y.clear();
+        assert_invalid(line_plot(&p, &stem), "empty");
+
+        assert_invalid(line_plot(&LinePlot::default(), &stem), "no series");
+        assert_invalid(line_plot_with_size(&sample_plot(), &stem, (10, 10)), "size");
+
+        // Nothing was written for invalid input.
+        assert!(!dir.exists());
+    }
+
+    #[test]
+    fn invalid_map_data_is_rejected() {
+        let dir = temp_dir("bad-map");
+        let stem = dir.join("bad");
+
+        let mut m = sample_map(4, 3);
+        m.values.pop();
+        assert_invalid(scalar_map(&m, &stem), "nx*ny");
+
+        let mut m = sample_map(4, 3);
+        m.values[5] = f64::NAN;
+        assert_invalid(scalar_map(&m, &stem), "values[5]");
+
+        let mut m = sample_map(4, 3);
+        m.nx = 0;
+        m.values.clear();
+        assert_invalid(scalar_map(&m, &stem), "at least one cell");
+
+        let mut m = sample_map(4, 3);
+        m.x_range = (1.0, 1.0);
+        assert_invalid(scalar_map(&m, &stem), "x_range");
+
+        let mut m = sample_map(4, 3);
+        m.y_range = (0.0, f64::INFINITY);
+        assert_invalid(scalar_map(&m, &stem), "y_range");
+
+        let mut m = sample_map(4, 3);
+        m.nx = usize::MAX;
+        m.ny = 2;
+        assert_invalid(scalar_map(&m, &stem), "overflows");
+
+        assert!(!dir.exists());
+    }
+
+    #[test]
+    fn ranges_are_sane() {
+        let r = linear_range(5.0, 5.0);
+        assert!(r.start < 5.0 && r.end > 5.0);
+        let r = linear_range(0.0, 0.0);
+        assert_eq!(r, -1.0..1.0);
+        let r = linear_range(0.0, 10.0);
+        assert!((r.start + 0.5).abs() < 1e-12 && (r.end - 10.5).abs() < 1e-12);
+        let r = linear_range(-f64::MAX, f64::MAX);
+        assert!(r.start.is_finite() && r.end.is_finite() && r.start < r.end);
+
+        assert_eq!(log_range(2.0, 30.0), 1.0..100.0);
+        let r = log_range(1e-2, 1e-2);
+        assert!((r.start - 1e-3).abs() < 1e-15 && (r.end - 1e-1).abs() < 1e-15);
+        let r = log_range(f64::MAX, f64::MAX);
+        assert!(r.start.is_finite() && r.end.is_finite() && r.start < r.end);
+        let r = log_range(f64::MIN_POSITIVE, 1.0);
+        assert!(r.start > 0.0 && r.start <= f64::MIN_POSITIVE);
+
+        assert_eq!(viridis(0.0), RGBColor(68, 1, 84));
+        assert_eq!(viridis(1.0), RGBColor(253, 231, 37));
+        assert_eq!(viridis(f64::NAN), viridis(0.5));
+        assert_ne!(series_color(3), series_color(13));
+        assert_eq!(format_value(0.25), "0.25");
+        assert_eq!(format_value(1.5e-7), "1.500e-7");
+    }
+}
