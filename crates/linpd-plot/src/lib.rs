@@ -49,6 +49,9 @@ pub const DEFAULT_SIZE: (u32, u32) = (1000, 700);
 /// Smallest accepted image size in pixels (width, height).
 pub const MIN_SIZE: (u32, u32) = (320, 240);
 
+/// Approximate number of ticks plotters puts on an axis (used to choose label precision).
+const AXIS_TICKS: f64 = 20.0;
+
 /// Font family name under which the embedded DejaVu Sans font is registered.
 const FONT: &str = "sans-serif";
 
@@ -335,7 +338,9 @@ fn log_range(lo: f64, hi: f64) -> Range<f64> {
             b *= 10.0;
         }
     }
-    a..b
+    // Nudge outwards so that round-off in plotters' log tick generation keeps the end decades.
+    let (a2, b2) = (a * (1.0 - 1e-9), b * (1.0 + 1e-9));
+    (if a2 > 0.0 { a2 } else { a })..(if b2.is_finite() { b2 } else { b })
 }
 
 /// Validates the grid and returns the colour-scale range `(lo, hi)`, `lo < hi`.
@@ -423,12 +428,15 @@ impl Job<'_> {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         match self {
             Job::Line { plot, xr, yr } => {
+                let r = (xr, yr);
                 let (xr, yr) = (xr.clone(), yr.clone());
                 match (plot.log_x, plot.log_y) {
-                    (false, false) => draw_line_plot(root, plot, xr, yr),
-                    (true, false) => draw_line_plot(root, plot, xr.log_scale(), yr),
-                    (false, true) => draw_line_plot(root, plot, xr, yr.log_scale()),
-                    (true, true) => draw_line_plot(root, plot, xr.log_scale(), yr.log_scale()),
+                    (false, false) => draw_line_plot(root, plot, xr, yr, r),
+                    (true, false) => draw_line_plot(root, plot, xr.log_scale(), yr, r),
+                    (false, true) => draw_line_plot(root, plot, xr, yr.log_scale(), r),
+                    (true, true) => {
+                        draw_line_plot(root, plot, xr.log_scale(), yr.log_scale(), r)
+                    }
                 }
             }
             Job::Map { map, lo, hi } => draw_scalar_map(root, map, *lo, *hi),
@@ -543,17 +551,63 @@ fn fraction(v: f64, lo: f64, hi: f64) -> f64 {
     (v / 2.0 - lo / 2.0) / (hi / 2.0 - lo / 2.0)
 }
 
-/// Compact label for a colour-bar tick.
-fn format_value(v: f64) -> String {
-    let a = v.abs();
-    if v == 0.0 {
-        "0".to_string()
-    } else if (1e-3..1e4).contains(&a) {
-        let s = format!("{v:.4}");
-        let s = s.trim_end_matches('0').trim_end_matches('.');
-        s.to_string()
+/// Label for a tick value `v` on a linear scale spanning `[lo, hi]` with about `n` ticks:
+/// enough digits to tell neighbouring ticks apart, scientific notation for very large or
+/// small magnitudes, no "-0".
+fn tick_label(v: f64, lo: f64, hi: f64, n: f64) -> String {
+    let half_span = hi / 2.0 - lo / 2.0;
+    if !(v.is_finite() && half_span.is_finite() && half_span > 0.0) {
+        return format!("{v}");
+    }
+    if v.abs() <= half_span * 1e-9 {
+        return "0".to_string();
+    }
+    let step_exp = (2.0 * half_span / n).log10().floor();
+    let m = lo.abs().max(hi.abs());
+    let m_exp = m.log10().floor();
+    if !(1e-3..1e5).contains(&m) {
+        let digits = (m_exp - step_exp).clamp(0.0, 12.0) as usize;
+        let s = format!("{v:.digits$e}");
+        match s.split_once('e') {
+            Some((mant, exp)) if mant.contains('.') => {
+                format!("{}e{exp}", mant.trim_end_matches('0').trim_end_matches('.'))
+            }
+            _ => s,
+        }
     } else {
-        format!("{v:.3e}")
+        let decimals = (-step_exp).clamp(0.0, 15.0) as usize;
+        let s = format!("{v:.decimals$}");
+        let s = if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        };
+        if s == "-0" {
+            "0".to_string()
+        } else {
+            s
+        }
+    }
+}
+
+/// Label for a tick on a base-10 logarithmic axis spanning `[lo, hi]`: powers of ten only when
+/// the axis covers two decades or more, else mantissas 1, 2 and 5; other ticks get no label.
+fn log_tick_label(v: f64, lo: f64, hi: f64) -> String {
+    if !(v.is_finite() && v > 0.0) {
+        return String::new();
+    }
+    // Strip the accumulated round-off of repeated multiplication by 10.
+    let v = format!("{v:.11e}").parse::<f64>().unwrap_or(v);
+    let mantissa = v / 10f64.powf(v.log10().floor());
+    let mantissa = (mantissa * 1e6).round() / 1e6;
+    let keep: &[f64] = if hi / lo >= 99.0 { &[1.0, 10.0] } else { &[1.0, 2.0, 5.0, 10.0] };
+    if !keep.contains(&mantissa) {
+        return String::new();
+    }
+    if (1e-3..1e5).contains(&v) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
     }
 }
 
@@ -562,6 +616,7 @@ fn draw_line_plot<DB, XS, YS>(
     plot: &LinePlot,
     xs: XS,
     ys: YS,
+    (xs_range, ys_range): (&Range<f64>, &Range<f64>),
 ) -> Result<(), String>
 where
     DB: DrawingBackend,
@@ -572,6 +627,22 @@ where
 {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(e)?;
+    let (xr, yr) = (xs_range.clone(), ys_range.clone());
+    let (log_x, log_y) = (plot.log_x, plot.log_y);
+    let x_fmt = move |v: &f64| {
+        if log_x {
+            log_tick_label(*v, xr.start, xr.end)
+        } else {
+            tick_label(*v, xr.start, xr.end, AXIS_TICKS)
+        }
+    };
+    let y_fmt = move |v: &f64| {
+        if log_y {
+            log_tick_label(*v, yr.start, yr.end)
+        } else {
+            tick_label(*v, yr.start, yr.end, AXIS_TICKS)
+        }
+    };
     let mut chart = ChartBuilder::on(root)
         .caption(&plot.title, (FONT, 28))
         .margin(20)
@@ -583,6 +654,8 @@ where
         .configure_mesh()
         .x_desc(plot.x_label.as_str())
         .y_desc(plot.y_label.as_str())
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
         .label_style((FONT, 16))
         .axis_desc_style((FONT, 18))
         .light_line_style(RGBColor(235, 235, 235))
@@ -674,6 +747,8 @@ fn draw_scalar_map<DB: DrawingBackend>(
         .disable_mesh()
         .x_desc(map.x_label.as_str())
         .y_desc(map.y_label.as_str())
+        .x_label_formatter(&|v: &f64| tick_label(*v, x0, x1, AXIS_TICKS))
+        .y_label_formatter(&|v: &f64| tick_label(*v, y0, y1, AXIS_TICKS))
         .label_style((FONT, 16))
         .axis_desc_style((FONT, 18))
         .draw()
@@ -737,7 +812,7 @@ fn draw_scalar_map<DB: DrawingBackend>(
         let y = bottom - ((bottom - top) as f64 * f).round() as i32;
         bar.draw(&PathElement::new(vec![(right, y), (right + 6, y)], BLACK))
             .map_err(e)?;
-        bar.draw(&Text::new(format_value(v), (right + 9, y), tick_style.clone()))
+        bar.draw(&Text::new(tick_label(v, lo, hi, 40.0), (right + 9, y), tick_style.clone()))
             .map_err(e)?;
     }
     if !map.value_label.is_empty() {
@@ -777,6 +852,15 @@ mod tests {
         ));
         assert!(!dir.exists());
         dir
+    }
+
+    /// Removes a test directory unless `LINPD_PLOT_KEEP_TEST_OUTPUT` is set (for inspection).
+    fn cleanup(dir: &Path) {
+        if std::env::var_os("LINPD_PLOT_KEEP_TEST_OUTPUT").is_some() {
+            eprintln!("kept {}", dir.display());
+        } else {
+            std::fs::remove_dir_all(dir).unwrap();
+        }
     }
 
     /// Width and height from a PNG's IHDR chunk, after checking the signature.
@@ -854,7 +938,7 @@ mod tests {
             &["Test title alpha", "position x", "displacement u", "sine", "cubic"],
         );
         assert!(files[0].ends_with("fig.v1.png"));
-        std::fs::remove_dir_all(&dir).unwrap();
+        cleanup(&dir);
     }
 
     #[test]
@@ -890,7 +974,7 @@ mod tests {
         .with_series(Series::new("pt", vec![7.0, 7.0], vec![-1.0, 1.0]));
         let files = line_plot(&plot, &stem3).unwrap();
         check_outputs(&files, &stem3, DEFAULT_SIZE, &["Semilog"]);
-        std::fs::remove_dir_all(&dir).unwrap();
+        cleanup(&dir);
     }
 
     #[test]
@@ -910,7 +994,7 @@ mod tests {
         let stem2 = dir.join("constant");
         let files = scalar_map_with_size(&map, &stem2, (800, 600)).unwrap();
         check_outputs(&files, &stem2, (800, 600), &["Map title beta"]);
-        std::fs::remove_dir_all(&dir).unwrap();
+        cleanup(&dir);
     }
 
     fn assert_invalid(r: Result<Vec<PathBuf>, PlotError>, needle: &str) {
@@ -1004,9 +1088,11 @@ mod tests {
         let r = linear_range(-f64::MAX, f64::MAX);
         assert!(r.start.is_finite() && r.end.is_finite() && r.start < r.end);
 
-        assert_eq!(log_range(2.0, 30.0), 1.0..100.0);
+        let r = log_range(2.0, 30.0);
+        assert!((r.start - 1.0).abs() < 1e-6 && r.start <= 1.0);
+        assert!((r.end - 100.0).abs() < 1e-6 && r.end >= 100.0);
         let r = log_range(1e-2, 1e-2);
-        assert!((r.start - 1e-3).abs() < 1e-15 && (r.end - 1e-1).abs() < 1e-15);
+        assert!((r.start / 1e-3 - 1.0).abs() < 1e-6 && (r.end / 1e-1 - 1.0).abs() < 1e-6);
         let r = log_range(f64::MAX, f64::MAX);
         assert!(r.start.is_finite() && r.end.is_finite() && r.start < r.end);
         let r = log_range(f64::MIN_POSITIVE, 1.0);
@@ -1016,7 +1102,21 @@ mod tests {
         assert_eq!(viridis(1.0), RGBColor(253, 231, 37));
         assert_eq!(viridis(f64::NAN), viridis(0.5));
         assert_ne!(series_color(3), series_color(13));
-        assert_eq!(format_value(0.25), "0.25");
-        assert_eq!(format_value(1.5e-7), "1.500e-7");
+        assert_eq!(tick_label(0.25, 0.0, 1.0, 20.0), "0.25");
+        assert_eq!(tick_label(-1e-17, -1.0, 1.0, 20.0), "0");
+        assert_eq!(tick_label(0.30000000000000004, 0.0, 1.0, 20.0), "0.3");
+        assert_eq!(tick_label(1.5e-7, 0.0, 2e-7, 20.0), "1.5e-7");
+        assert_eq!(tick_label(2.5e6, 0.0, 1e7, 20.0), "2.5e6");
+        assert_eq!(tick_label(1500.0, 0.0, 2000.0, 20.0), "1500");
+        assert_ne!(
+            tick_label(1.00001, 1.00001, 1.00002, 20.0),
+            tick_label(1.000015, 1.00001, 1.00002, 20.0)
+        );
+        assert_eq!(log_tick_label(0.1 * 10.0 * 10.0 * 10.0, 0.1, 1e3), "100");
+        assert_eq!(log_tick_label(1e-7, 1e-9, 1.0), "1e-7");
+        assert_eq!(log_tick_label(0.001, 1e-3, 1.0), "0.001");
+        assert_eq!(log_tick_label(0.05, 1e-3, 1.0), "");
+        assert_eq!(log_tick_label(0.05, 1e-2, 0.1), "0.05");
+        assert_eq!(log_tick_label(0.07, 1e-2, 0.1), "");
     }
 }

@@ -1,0 +1,167 @@
+//! Sparse assembly of the stiffness `A` restricted to the free DOFs, pattern first and values
+//! second ("symbolic once, numeric many").
+//!
+//! The column of free DOF `(i, a)` holds the rows `(k, c)` for `k` in `{i} U F_i` (ascending)
+//! and every free component `c`. Because `A` is symmetric, the column of `(i, a)` is also its
+//! row, so the CSC arrays are filled column by column, in parallel over nodes, with no triplet
+//! sort. Values:
+//!
+//! ```text
+//! A[(i,a),(i,c)] = sum_j w_ij e_a e_c,       A[(i,a),(k,c)] = -w_ik e_a e_c   (k in F_i).
+//! ```
+//!
+//! Structurally zero entries of `e (x) e` (e.g. axis bonds) are kept so that the pattern does
+//! not depend on values and can be refilled for any material on the same family.
+
+use crate::BondOperator;
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use linpd_core::DofMap;
+use rayon::prelude::*;
+
+/// The CSC pattern of the reduced stiffness, with the split of the value array per node.
+#[derive(Debug, Clone)]
+pub struct Pattern {
+    symbolic: SymbolicSparseColMat<usize>,
+    /// `node_start[i]..node_start[i + 1]` is the range of values in node `i`'s columns.
+    node_start: Vec<usize>,
+}
+
+impl Pattern {
+    /// Builds the pattern of `op` over the free DOFs of `dofs`.
+    pub fn new(op: &BondOperator, dofs: &DofMap) -> Self {
+        let d = op.dim();
+        assert_eq!(dofs.n_dofs(), op.n_dofs(), "DOF map and operator disagree");
+        let n = op.n_nodes();
+        let free_comps = |k: usize| (0..d).filter(|&c| !dofs.is_constrained(d * k + c)).count();
+        // Rows per column of node i (the same for each of its free components).
+        let per_col: Vec<usize> = (0..n)
+            .into_par_iter()
+            .map(|i| free_comps(i) + op.family().neighbors(i).iter().map(|&k| free_comps(k as usize)).sum::<usize>())
+            .collect();
+        let mut col_ptr = Vec::with_capacity(dofs.n_free() + 1);
+        let mut node_start = Vec::with_capacity(n + 1);
+        col_ptr.push(0usize);
+        node_start.push(0usize);
+        for i in 0..n {
+            for _ in 0..free_comps(i) {
+                col_ptr.push(col_ptr.last().unwrap() + per_col[i]);
+            }
+            node_start.push(*col_ptr.last().unwrap());
+        }
+        let nnz = *col_ptr.last().unwrap();
+        let mut row_idx = vec![0usize; nnz];
+        for_each_node_slice(&mut row_idx, &node_start, |i, rows| {
+            let mut pos = 0;
+            let nf = free_comps(i);
+            let len = per_col[i];
+            for_merged(op, i, |k| {
+                for c in 0..d {
+                    if let Some(f) = dofs.free(d * k + c) {
+                        for col in 0..nf {
+                            rows[col * len + pos] = f;
+                        }
+                        pos += 1;
+                    }
+                }
+            });
+        });
+        // SAFETY-free: the checked constructor validates sortedness and bounds.
+        let symbolic = SymbolicSparseColMat::new_checked(dofs.n_free(), dofs.n_free(), col_ptr, None, row_idx);
+        Pattern { symbolic, node_start }
+    }
+
+    /// The symbolic CSC structure.
+    pub fn symbolic(&self) -> &SymbolicSparseColMat<usize> {
+        &self.symbolic
+    }
+    /// Stored entries (both triangles).
+    pub fn nnz(&self) -> usize {
+        self.symbolic.row_idx().len()
+    }
+
+    /// Fills `values` (length [`Pattern::nnz`]) with the entries of `op`.
+    pub fn fill(&self, op: &BondOperator, dofs: &DofMap, values: &mut [f64]) {
+        let d = op.dim();
+        assert_eq!(values.len(), self.nnz());
+        for_each_node_slice(values, &self.node_start, |i, vals| {
+            let free_a: Vec<usize> = (0..d).filter(|&a| !dofs.is_constrained(d * i + a)).collect();
+            if free_a.is_empty() {
+                return;
+            }
+            let len = vals.len() / free_a.len();
+            // Diagonal block D = sum_j w_ij e e^T.
+            let mut diag = [[0.0; 3]; 3];
+            for (&j, &w) in op.family().neighbors(i).iter().zip(op.weights(i)) {
+                let e = op.unit(i, j as usize);
+                for a in 0..d {
+                    for c in 0..d {
+                        diag[a][c] += w * e[a] * e[c];
+                    }
+                }
+            }
+            let nbrs = op.family().neighbors(i);
+            let ws = op.weights(i);
+            let mut pos = 0;
+            let mut bond = 0;
+            for_merged(op, i, |k| {
+                let (block, e) = if k == i {
+                    (None, [0.0; 3])
+                } else {
+                    debug_assert_eq!(nbrs[bond] as usize, k);
+                    let r = (Some(ws[bond]), op.unit(i, k));
+                    bond += 1;
+                    r
+                };
+                for c in 0..d {
+                    if dofs.is_constrained(d * k + c) {
+                        continue;
+                    }
+                    for (col, &a) in free_a.iter().enumerate() {
+                        vals[col * len + pos] = match block {
+                            None => diag[a][c],
+                            Some(w) => -w * e[a] * e[c],
+                        };
+                    }
+                    pos += 1;
+                }
+            });
+        });
+    }
+}
+
+/// Calls `f(k)` for `k` in `{i} U F_i`, ascending.
+#[inline]
+fn for_merged(op: &BondOperator, i: usize, mut f: impl FnMut(usize)) {
+    let mut self_done = false;
+    for &k in op.family().neighbors(i) {
+        let k = k as usize;
+        if !self_done && k > i {
+            f(i);
+            self_done = true;
+        }
+        f(k);
+    }
+    if !self_done {
+        f(i);
+    }
+}
+
+/// Runs `f(i, &mut data[start[i]..start[i+1]])` for every node in parallel.
+fn for_each_node_slice<T: Send>(data: &mut [T], start: &[usize], f: impl Fn(usize, &mut [T]) + Sync) {
+    let mut slices = Vec::with_capacity(start.len() - 1);
+    let mut rest = data;
+    for w in start.windows(2) {
+        let (head, tail) = rest.split_at_mut(w[1] - w[0]);
+        slices.push(head);
+        rest = tail;
+    }
+    slices.into_par_iter().enumerate().for_each(|(i, s)| f(i, s));
+}
+
+/// Assembles the reduced stiffness over the free DOFs of `dofs` (pattern and values).
+pub fn assemble(op: &BondOperator, dofs: &DofMap) -> SparseColMat<usize, f64> {
+    let pattern = Pattern::new(op, dofs);
+    let mut values = vec![0.0; pattern.nnz()];
+    pattern.fill(op, dofs, &mut values);
+    SparseColMat::new(pattern.symbolic, values)
+}
