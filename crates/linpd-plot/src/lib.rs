@@ -429,14 +429,20 @@ impl Job<'_> {
         match self {
             Job::Line { plot, xr, yr } => {
                 let r = (xr, yr);
-                let (xr, yr) = (xr.clone(), yr.clone());
+                let log = |range: &Range<f64>| {
+                    let (bold, light) = log_ticks(range.start, range.end);
+                    range
+                        .clone()
+                        .log_scale()
+                        .with_key_points(bold)
+                        .with_light_points(light)
+                };
+                let (lx, ly) = (xr.clone(), yr.clone());
                 match (plot.log_x, plot.log_y) {
-                    (false, false) => draw_line_plot(root, plot, xr, yr, r),
-                    (true, false) => draw_line_plot(root, plot, xr.log_scale(), yr, r),
-                    (false, true) => draw_line_plot(root, plot, xr, yr.log_scale(), r),
-                    (true, true) => {
-                        draw_line_plot(root, plot, xr.log_scale(), yr.log_scale(), r)
-                    }
+                    (false, false) => draw_line_plot(root, plot, lx, ly, r),
+                    (true, false) => draw_line_plot(root, plot, log(xr), ly, r),
+                    (false, true) => draw_line_plot(root, plot, lx, log(yr), r),
+                    (true, true) => draw_line_plot(root, plot, log(xr), log(yr), r),
                 }
             }
             Job::Map { map, lo, hi } => draw_scalar_map(root, map, *lo, *hi),
@@ -590,21 +596,43 @@ fn tick_label(v: f64, lo: f64, hi: f64, n: f64) -> String {
     }
 }
 
-/// Label for a tick on a base-10 logarithmic axis spanning `[lo, hi]`: powers of ten only when
-/// the axis covers two decades or more, else mantissas 1, 2 and 5; other ticks get no label.
-fn log_tick_label(v: f64, lo: f64, hi: f64) -> String {
-    if !(v.is_finite() && v > 0.0) {
-        return String::new();
+/// Labelled (bold) and unlabelled (light) ticks for a base-10 logarithmic axis on `[lo, hi]`:
+/// powers of ten (thinned out beyond 12 decades), plus 2x and 5x when the axis spans less than
+/// two decades; light ticks at 2..9 x 10^k when the axis spans at most 8 decades.
+fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    let pow10 = |k: i32| format!("1e{k}").parse::<f64>().unwrap_or(f64::NAN);
+    let inside = |v: f64| v.is_finite() && v >= lo && v <= hi;
+    let k0 = lo.log10().floor() as i32;
+    let k1 = hi.log10().ceil() as i32;
+    let span = hi.log10() - lo.log10();
+    let stride = ((span / 12.0).ceil() as i32).max(1);
+    let mut bold = Vec::new();
+    let mut light = Vec::new();
+    for k in k0..=k1 {
+        let d = pow10(k);
+        if inside(d) && k.rem_euclid(stride) == 0 {
+            bold.push(d);
+        }
+        for j in 2..=9 {
+            let v = d * j as f64;
+            if !inside(v) {
+                continue;
+            }
+            if span <= 2.01 && (j == 2 || j == 5) {
+                bold.push(v);
+            } else if span <= 8.01 {
+                light.push(v);
+            }
+        }
     }
-    // Strip the accumulated round-off of repeated multiplication by 10.
+    (bold, light)
+}
+
+/// Label for a tick on a base-10 logarithmic axis.
+fn log_tick_label(v: f64) -> String {
+    // Strip round-off (ticks are 1, 2 or 5 times a power of ten).
     let v = format!("{v:.11e}").parse::<f64>().unwrap_or(v);
-    let mantissa = v / 10f64.powf(v.log10().floor());
-    let mantissa = (mantissa * 1e6).round() / 1e6;
-    let keep: &[f64] = if hi / lo >= 99.0 { &[1.0, 10.0] } else { &[1.0, 2.0, 5.0, 10.0] };
-    if !keep.contains(&mantissa) {
-        return String::new();
-    }
-    if (1e-3..1e5).contains(&v) {
+    if (1e-3..1e5).contains(&v.abs()) {
         format!("{v}")
     } else {
         format!("{v:e}")
@@ -631,14 +659,14 @@ where
     let (log_x, log_y) = (plot.log_x, plot.log_y);
     let x_fmt = move |v: &f64| {
         if log_x {
-            log_tick_label(*v, xr.start, xr.end)
+            log_tick_label(*v)
         } else {
             tick_label(*v, xr.start, xr.end, AXIS_TICKS)
         }
     };
     let y_fmt = move |v: &f64| {
         if log_y {
-            log_tick_label(*v, yr.start, yr.end)
+            log_tick_label(*v)
         } else {
             tick_label(*v, yr.start, yr.end, AXIS_TICKS)
         }
@@ -724,9 +752,7 @@ fn draw_scalar_map<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(e)?;
-    let area = root
-        .titled(&map.title, (FONT, 28))
-        .map_err(e)?;
+    let area = root.titled(&map.title, (FONT, 28)).map_err(e)?;
     let (w, _) = area.dim_in_pixel();
     let bar_width = 190u32.min(w / 3);
     let (main, bar) = area.split_horizontally(w - bar_width);
@@ -787,8 +813,11 @@ fn draw_scalar_map<DB: DrawingBackend>(
         let ya = bottom - (bottom - top) * k / bands;
         let yb = bottom - (bottom - top) * (k + 1) / bands;
         let t = (k as f64 + 0.5) / bands as f64;
-        bar.draw(&Rectangle::new([(left, yb), (right, ya)], viridis(t).filled()))
-            .map_err(e)?;
+        bar.draw(&Rectangle::new(
+            [(left, yb), (right, ya)],
+            viridis(t).filled(),
+        ))
+        .map_err(e)?;
     }
     bar.draw(&Rectangle::new(
         [(left, top), (right, bottom)],
@@ -812,8 +841,12 @@ fn draw_scalar_map<DB: DrawingBackend>(
         let y = bottom - ((bottom - top) as f64 * f).round() as i32;
         bar.draw(&PathElement::new(vec![(right, y), (right + 6, y)], BLACK))
             .map_err(e)?;
-        bar.draw(&Text::new(tick_label(v, lo, hi, 40.0), (right + 9, y), tick_style.clone()))
-            .map_err(e)?;
+        bar.draw(&Text::new(
+            tick_label(v, lo, hi, 40.0),
+            (right + 9, y),
+            tick_style.clone(),
+        ))
+        .map_err(e)?;
     }
     if !map.value_label.is_empty() {
         let label_style = TextStyle::from((FONT, 18).into_font())
@@ -935,7 +968,13 @@ mod tests {
             &files,
             &stem,
             DEFAULT_SIZE,
-            &["Test title alpha", "position x", "displacement u", "sine", "cubic"],
+            &[
+                "Test title alpha",
+                "position x",
+                "displacement u",
+                "sine",
+                "cubic",
+            ],
         );
         assert!(files[0].ends_with("fig.v1.png"));
         cleanup(&dir);
@@ -951,7 +990,11 @@ mod tests {
             log_y: true,
             ..LinePlot::new("Convergence", "h", "error")
         }
-        .with_series(Series::new("err", h.clone(), h.iter().map(|v| 3.0 * v * v).collect()))
+        .with_series(Series::new(
+            "err",
+            h.clone(),
+            h.iter().map(|v| 3.0 * v * v).collect(),
+        ))
         // Constant series at an exact power of ten on a log axis.
         .with_series(Series::new("flat", h.clone(), vec![1e-2; 4]));
         let files = line_plot_with_size(&plot, &stem, (640, 480)).unwrap();
@@ -974,6 +1017,16 @@ mod tests {
         .with_series(Series::new("pt", vec![7.0, 7.0], vec![-1.0, 1.0]));
         let files = line_plot(&plot, &stem3).unwrap();
         check_outputs(&files, &stem3, DEFAULT_SIZE, &["Semilog"]);
+
+        // Tiny magnitudes get scientific tick labels instead of rows of "0.0".
+        let stem4 = dir.join("tiny");
+        let plot = LinePlot::new("Tiny", "x", "u").with_series(Series::new(
+            "u",
+            vec![0.0, 1.0, 2.0],
+            vec![0.0, 1e-7, 3e-7],
+        ));
+        let files = line_plot(&plot, &stem4).unwrap();
+        check_outputs(&files, &stem4, DEFAULT_SIZE, &["Tiny", "1.5e-7", "2.5e-7"]);
         cleanup(&dir);
     }
 
@@ -1078,6 +1131,23 @@ mod tests {
     }
 
     #[test]
+    fn unwritable_output_is_an_error_not_a_panic() {
+        let dir = temp_dir("unwritable");
+        std::fs::create_dir_all(&dir).unwrap();
+        let blocker = dir.join("file");
+        std::fs::write(&blocker, b"x").unwrap();
+        // The "parent directory" is a regular file: creating it must fail cleanly.
+        let r = line_plot(&sample_plot(), &blocker.join("sub").join("fig"));
+        assert!(matches!(r, Err(PlotError::Io(_))), "{r:?}");
+        let r = scalar_map(&sample_map(2, 2), &blocker.join("map"));
+        assert!(
+            matches!(r, Err(PlotError::Io(_) | PlotError::Backend { .. })),
+            "{r:?}"
+        );
+        cleanup(&dir);
+    }
+
+    #[test]
     fn ranges_are_sane() {
         let r = linear_range(5.0, 5.0);
         assert!(r.start < 5.0 && r.end > 5.0);
@@ -1112,11 +1182,15 @@ mod tests {
             tick_label(1.00001, 1.00001, 1.00002, 20.0),
             tick_label(1.000015, 1.00001, 1.00002, 20.0)
         );
-        assert_eq!(log_tick_label(0.1 * 10.0 * 10.0 * 10.0, 0.1, 1e3), "100");
-        assert_eq!(log_tick_label(1e-7, 1e-9, 1.0), "1e-7");
-        assert_eq!(log_tick_label(0.001, 1e-3, 1.0), "0.001");
-        assert_eq!(log_tick_label(0.05, 1e-3, 1.0), "");
-        assert_eq!(log_tick_label(0.05, 1e-2, 0.1), "0.05");
-        assert_eq!(log_tick_label(0.07, 1e-2, 0.1), "");
+        assert_eq!(log_tick_label(0.1 * 10.0 * 10.0 * 10.0), "100");
+        assert_eq!(log_tick_label(1e-7), "1e-7");
+        assert_eq!(log_tick_label(0.001), "0.001");
+        let (bold, light) = log_ticks(0.999e-3, 1.001);
+        assert_eq!(bold, vec![1e-3, 1e-2, 1e-1, 1.0]);
+        assert_eq!(light.len(), 3 * 8);
+        let (bold, _) = log_ticks(0.999e-2, 0.1001);
+        assert_eq!(bold, vec![1e-2, 2e-2, 5e-2, 1e-1]);
+        let (bold, light) = log_ticks(1e-300, 1e300);
+        assert!(bold.len() >= 2 && bold.len() <= 13 && light.is_empty());
     }
 }

@@ -1,0 +1,63 @@
+//! What a solve cost and how accurate it is.
+
+use serde::Serialize;
+
+/// Wall-clock seconds per phase.
+#[derive(Debug, Clone, Default, Serialize, PartialEq)]
+pub struct Timings {
+    /// Operator construction and assembly (filled by the caller).
+    pub assemble: f64,
+    /// Symbolic analysis (ordering, elimination tree).
+    pub symbolic: f64,
+    /// Numeric factorization.
+    pub numeric: f64,
+    /// Triangular solves or Krylov iterations.
+    pub solve: f64,
+    /// Solver total (symbolic + numeric + solve, and dispatch overhead).
+    pub total: f64,
+}
+
+/// The accuracy and cost of one solve.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct SolveReport {
+    /// Solver that ran (`cholesky`, `lu`, `dense`, `cg-jacobi`, `cg-jacobi-matrix-free`).
+    pub solver: String,
+    /// Unknowns (free DOFs).
+    pub n: usize,
+    /// Stored entries of the reduced stiffness (both triangles; 0 when matrix-free).
+    pub nnz_a: usize,
+    /// Stored entries of the factor (direct solvers).
+    pub nnz_factor: Option<usize>,
+    /// Krylov iterations (iterative solvers).
+    pub iterations: Option<usize>,
+    /// `||A u - f|| / ||f||` recomputed after the solve.
+    pub rel_residual: f64,
+    /// Phase timings in seconds.
+    pub timings: Timings,
+    /// Peak resident memory of the process (bytes), where the OS reports it.
+    pub peak_rss_bytes: Option<u64>,
+}
+
+impl SolveReport {
+    /// An empty report for `n` unknowns and `nnz_a` stored entries.
+    pub fn new(n: usize, nnz_a: usize) -> Self {
+        SolveReport {
+            solver: String::new(),
+            n,
+            nnz_a,
+            nnz_factor: None,
+            iterations: None,
+            rel_residual: f64::NAN,
+            timings: Timings::default(),
+            peak_rss_bytes: None,
+        }
+    }
+}
+
+/// Peak resident set size of this process (`VmHWM` of `/proc/self/status`), if available.
+pub fn peak_rss_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
