@@ -86,7 +86,7 @@ fn zero_pivot_names_the_original_dof() {
         Err(SolveError::NotPositiveDefinite { dof }) => assert_eq!(dof, bad),
         other => panic!("expected a zero pivot at {bad}, got {other:?}"),
     }
-    assert!(matches!(solve(&a, &vec![1.0; n], &SolverKind::Dense, 2), Err(SolveError::NotPositiveDefinite { .. })));
+    assert!(matches!(solve(&a, &vec![1.0; n], &SolverKind::Dense, 2), Err(SolveError::NotPositiveDefinite { .. } | SolveError::TooLargeForDense { .. })));
     assert!(matches!(solve(&a, &vec![1.0; n], &SolverKind::Cg(CgParams::default()), 2), Err(SolveError::Cg(_))));
     }
 }
