@@ -1,1 +1,16 @@
-//! placeholder
+//! The JSON scene: a plain serde mirror ([`raw`]) with unknown keys rejected, validated into a
+//! typed [`Problem`] whose errors name the JSON path (`model.horizon: must be > 0`), then built
+//! into an operator and solved ([`run`]), and written out ([`output`]).
+//!
+//! The key reference is `docs/problem-format.md`.
+#![deny(missing_docs)]
+
+pub mod error;
+pub mod output;
+pub mod problem;
+pub mod raw;
+pub mod run;
+
+pub use error::ProblemError;
+pub use problem::{BondModel, Constraint, Load, Problem, SolverSettings};
+pub use run::Solution;

@@ -1,0 +1,107 @@
+//! The `linpd` command line: solve scenes, validate them, benchmark the operators.
+//!
+//! The binary itself (`src/main.rs` of the facade package) only calls [`main`].
+#![deny(missing_docs)]
+
+mod bench;
+mod plots;
+
+use clap::{Parser, Subcommand};
+use linpd_problem::Problem;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Linear peridynamics: sparse operators and static solves from JSON scenes.
+///
+/// A scene file describes the grid, the model, constraints, loads and the solver; see
+/// docs/problem-format.md. Example: `linpd solve data/bar-point-load.json`.
+#[derive(Parser)]
+#[command(name = "linpd", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Solve a static scene; write result.json, u.csv and plots (PNG and SVG).
+    Solve {
+        /// The scene file (JSON).
+        scene: PathBuf,
+        /// Output directory (default: the scene's output.dir, else out/<name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print no progress messages.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Check a scene without solving it; prints a summary.
+    Validate {
+        /// The scene file (JSON).
+        scene: PathBuf,
+    },
+    /// Benchmark assembly, factorization, matvec and CG on standard cases; write JSON.
+    Bench(bench::BenchArgs),
+}
+
+/// Parses the command line, runs the command, prints errors to stderr.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), String> {
+    match cli.command {
+        Command::Solve { scene, out, quiet } => {
+            let problem = Problem::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+            let progress = |m: &str| {
+                if !quiet {
+                    eprintln!("[linpd] {m}");
+                }
+            };
+            let solution = problem.solve(&progress).map_err(|e| e.to_string())?;
+            let dir = out.unwrap_or_else(|| PathBuf::from(&problem.output_dir));
+            let mut files = solution.write(&dir).map_err(|e| e.to_string())?;
+            if problem.plot {
+                files.extend(plots::solution_plots(&problem, &solution, &dir).map_err(|e| format!("plot: {e}"))?);
+            }
+            let r = &solution.report;
+            println!(
+                "{}: {} nodes, {} unknowns, solver {}, relative residual {:.3e}, {:.3} s (assemble {:.3} s), peak memory {}",
+                problem.name,
+                solution.x.len(),
+                r.n,
+                r.solver,
+                r.rel_residual,
+                r.timings.assemble + r.timings.total,
+                r.timings.assemble,
+                r.peak_rss_bytes.map_or("n/a".into(), |b| format!("{:.1} MiB", b as f64 / 1048576.0)),
+            );
+            for f in files {
+                println!("wrote {}", f.display());
+            }
+            Ok(())
+        }
+        Command::Validate { scene } => {
+            let p = Problem::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+            let (mask, _) = p.constrained();
+            println!(
+                "{}: valid; dimension {}, {} nodes, horizon/spacing = {:.4}, {} constrained DOFs, {} loads",
+                p.name,
+                p.dim(),
+                p.grid.len(),
+                p.model.horizon / p.grid.spacing(),
+                mask.iter().filter(|&&c| c).count(),
+                p.loads.len()
+            );
+            Ok(())
+        }
+        Command::Bench(args) => bench::run(args),
+    }
+}

@@ -1,0 +1,50 @@
+//! Plots of a solution: 1D displacement profile; 2D displacement-magnitude map; 3D the
+//! magnitude on the mid-plane z = const.
+
+use linpd_plot::{line_plot, scalar_map, LinePlot, PlotError, ScalarMap, Series, SeriesStyle};
+use linpd_problem::{Problem, Solution};
+use std::path::{Path, PathBuf};
+
+pub fn solution_plots(p: &Problem, s: &Solution, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    let d = s.dim;
+    let counts = p.grid.counts();
+    match d {
+        1 => {
+            let (mut body, mut layer) = (Series::new("body", vec![], vec![]), Series::new("layer", vec![], vec![]));
+            layer.style = SeriesStyle::Markers;
+            for k in 0..s.x.len() {
+                let t = if s.is_layer[k] { &mut layer } else { &mut body };
+                t.x.push(s.x[k][0]);
+                t.y.push(s.u[k]);
+            }
+            let mut series = vec![body];
+            if !layer.x.is_empty() {
+                series.push(layer);
+            }
+            let plot = LinePlot { title: format!("{}: displacement", s.name), x_label: "x".into(), y_label: "u".into(), series, log_x: false, log_y: false };
+            line_plot(&plot, &dir.join("u"))
+        }
+        _ => {
+            let (nx, ny) = (counts[0], counts[1]);
+            let k0 = if d == 3 { counts[2] / 2 } else { 0 };
+            let mag = |n: usize| (0..d).map(|a| s.u[d * n + a].powi(2)).sum::<f64>().sqrt();
+            let values: Vec<f64> = (0..nx * ny).map(|q| mag(q + nx * ny * k0)).collect();
+            let first = s.x[nx * ny * k0];
+            let last = s.x[nx * ny * k0 + nx * ny - 1];
+            let h = p.grid.spacing();
+            let title = if d == 3 { format!("{}: |u| on z = {:.4}", s.name, first[2]) } else { format!("{}: |u|", s.name) };
+            let map = ScalarMap {
+                title,
+                x_label: "x".into(),
+                y_label: "y".into(),
+                nx,
+                ny,
+                x_range: (first[0] - 0.5 * h, last[0] + 0.5 * h),
+                y_range: (first[1] - 0.5 * h, last[1] + 0.5 * h),
+                values,
+                value_label: "|u|".into(),
+            };
+            scalar_map(&map, &dir.join("u_magnitude"))
+        }
+    }
+}

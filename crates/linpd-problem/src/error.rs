@@ -1,0 +1,50 @@
+//! Errors of the scene layer: every message names where in the scene the problem is.
+
+use thiserror::Error;
+
+/// What went wrong with a scene, from reading the file to solving it.
+#[non_exhaustive]
+#[derive(Debug, Error)]
+pub enum ProblemError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// Not JSON, or JSON of the wrong shape (unknown key, wrong type, missing key).
+    #[error("{path}: {message} (line {line}, column {column})")]
+    Parse {
+        /// JSON path of the failing element (`.` for the document).
+        path: String,
+        /// The parser's message.
+        message: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+    },
+    /// Well-formed JSON whose values are inconsistent.
+    #[error("{path}: {reason}")]
+    Invalid {
+        /// JSON path, e.g. `model.horizon`.
+        path: String,
+        /// What is wrong and, where possible, what to change.
+        reason: String,
+    },
+    /// The constraints leave part of the body free to move.
+    #[error("constraints: {0}")]
+    Unsupported(String),
+    /// The solver failed (singular system, no convergence).
+    #[error("solver: {0}")]
+    Solve(String),
+}
+
+impl ProblemError {
+    /// Shorthand for [`ProblemError::Invalid`].
+    pub fn invalid(path: impl Into<String>, reason: impl Into<String>) -> Self {
+        ProblemError::Invalid { path: path.into(), reason: reason.into() }
+    }
+}

@@ -1,0 +1,406 @@
+//! The validated scene: [`Problem::from_json`] turns text into typed, checked objects.
+
+use crate::raw::*;
+use crate::ProblemError;
+use linpd_core::{
+    BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Region,
+};
+use linpd_solve::{CgParams, SolverKind};
+
+/// An affine displacement `u = value + gradient x` on some components of a node set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Constraint {
+    /// Where.
+    pub region: Region,
+    /// Constant part.
+    pub value: Vec<f64>,
+    /// Gradient `H` (row-major `dim x dim`).
+    pub gradient: Vec<f64>,
+    /// Constrained components.
+    pub components: Vec<usize>,
+}
+
+impl Constraint {
+    /// Prescribed value of component `a` at `x`.
+    pub fn displacement(&self, x: &[f64], a: usize) -> f64 {
+        let d = self.value.len();
+        self.value[a] + (0..d).map(|b| self.gradient[a * d + b] * x[b]).sum::<f64>()
+    }
+}
+
+/// A load.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Load {
+    /// Force on one node.
+    Point {
+        /// The node.
+        node: usize,
+        /// The force.
+        force: Vec<f64>,
+    },
+    /// Body-force density on a region.
+    Body {
+        /// Where.
+        region: Region,
+        /// Force per unit volume.
+        density: Vec<f64>,
+    },
+}
+
+/// The bond-based model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BondModel {
+    /// Horizon.
+    pub horizon: f64,
+    /// Micromodulus.
+    pub micromodulus: Micromodulus,
+    /// Material.
+    pub material: Material,
+}
+
+/// Solver settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverSettings {
+    /// Which solver.
+    pub kind: SolverKind,
+    /// CG without assembling.
+    pub matrix_free: bool,
+}
+
+/// A validated scene.
+#[derive(Debug, Clone)]
+pub struct Problem {
+    /// Name.
+    pub name: String,
+    /// The lattice.
+    pub grid: Grid,
+    /// The model.
+    pub model: BondModel,
+    /// Volume constraints.
+    pub constraints: Vec<Constraint>,
+    /// Loads.
+    pub loads: Vec<Load>,
+    /// Solver.
+    pub solver: SolverSettings,
+    /// Output directory.
+    pub output_dir: String,
+    /// Write plots.
+    pub plot: bool,
+}
+
+fn core(path: &str, e: CoreError) -> ProblemError {
+    match e {
+        CoreError::Parameter { name, reason } => ProblemError::invalid(format!("{path}.{name}"), reason),
+        other => ProblemError::invalid(path, other.to_string()),
+    }
+}
+
+fn check_len(path: &str, v: &[f64], dim: usize) -> Result<(), ProblemError> {
+    if v.len() != dim {
+        return Err(ProblemError::invalid(path, format!("expected {dim} components (the scene's dimension), got {}", v.len())));
+    }
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err(ProblemError::invalid(path, "values must be finite"));
+    }
+    Ok(())
+}
+
+fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, ProblemError> {
+    let out = match r {
+        RawRegion::All => Region::All,
+        RawRegion::Box { min, max } => {
+            check_len(&format!("{path}.box.min"), min, dim)?;
+            check_len(&format!("{path}.box.max"), max, dim)?;
+            if let Some(a) = (0..dim).find(|&a| min[a] > max[a]) {
+                return Err(ProblemError::invalid(
+                    format!("{path}.box"),
+                    format!("min[{a}] = {} is greater than max[{a}] = {}", min[a], max[a]),
+                ));
+            }
+            Region::Box { min: min.clone(), max: max.clone() }
+        }
+        RawRegion::Union(parts) => Region::Union(
+            parts
+                .iter()
+                .enumerate()
+                .map(|(k, p)| region(&format!("{path}.union[{k}]"), p, dim))
+                .collect::<Result<_, _>>()?,
+        ),
+        RawRegion::Difference(a, b) => Region::Difference(
+            Box::new(region(&format!("{path}.difference[0]"), a, dim)?),
+            Box::new(region(&format!("{path}.difference[1]"), b, dim)?),
+        ),
+    };
+    Ok(out)
+}
+
+impl Problem {
+    /// Parses and validates scene text. Syntax and shape errors carry line, column and path.
+    pub fn from_json(text: &str) -> Result<Self, ProblemError> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let raw: RawProblem = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            ProblemError::Parse { path, message: strip_position(&inner.to_string()), line: inner.line(), column: inner.column() }
+        })?;
+        Self::from_raw(raw)
+    }
+
+    /// Reads and validates a scene file.
+    pub fn from_path(path: &std::path::Path) -> Result<Self, ProblemError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
+        Self::from_json(&text)
+    }
+
+    /// Validates the serde mirror.
+    pub fn from_raw(raw: RawProblem) -> Result<Self, ProblemError> {
+        let dim = raw.dimension;
+        if !(1..=3).contains(&dim) {
+            return Err(ProblemError::invalid("dimension", format!("must be 1, 2 or 3, got {dim}")));
+        }
+        if raw.name.trim().is_empty() {
+            return Err(ProblemError::invalid("name", "must not be empty"));
+        }
+        check_len("grid.min", &raw.grid.min, dim)?;
+        check_len("grid.max", &raw.grid.max, dim)?;
+        let placement = match raw.grid.placement {
+            RawPlacement::Vertex => Placement::Vertex,
+            RawPlacement::Cell => Placement::Cell,
+        };
+        let grid = Grid::new(&raw.grid.min, &raw.grid.max, raw.grid.spacing, raw.grid.layer, placement)
+            .map_err(|e| core("grid", e))?;
+        // Keep the operator within what this machine class can hold (2^31 stored entries).
+        let RawModel::Bond { horizon, partial_volume, plane, micromodulus: mm, material } = raw.model;
+        if !(horizon.is_finite() && horizon > 0.0) {
+            return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon}")));
+        }
+        let ratio = horizon / grid.spacing();
+        if ratio < 1.0 - linpd_core::GEOMETRY_RTOL {
+            return Err(ProblemError::invalid(
+                "grid.spacing",
+                format!("horizon/spacing = {ratio} gives no bonds (the horizon must be at least one spacing)"),
+            ));
+        }
+        if dim > 1 && ratio < std::f64::consts::SQRT_2 * (1.0 - linpd_core::GEOMETRY_RTOL) {
+            return Err(ProblemError::invalid(
+                "model.horizon",
+                format!("horizon/spacing = {ratio} bonds only along the axes, which leaves zero-energy shear modes; use horizon >= sqrt(2) * spacing"),
+            ));
+        }
+        let plane = match (dim, plane) {
+            (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
+            (2, Some(RawPlane::Strain)) => Some(PlaneModel::Strain),
+            (2, None) if mm.normalize != RawNormalize::None => {
+                return Err(ProblemError::invalid("model.plane", "2D scenes need \"plane\": \"stress\" or \"strain\""))
+            }
+            (2, None) => None,
+            (_, Some(_)) => return Err(ProblemError::invalid("model.plane", format!("only meaningful in 2D (dimension is {dim})"))),
+            (_, None) => None,
+        };
+        let micromodulus = micromodulus(&mm, horizon, plane, partial_volume)?;
+        micromodulus.validate(dim).map_err(|e| core("model.micromodulus", e))?;
+        let material = self::material(&material, dim)?;
+        let model = BondModel { horizon, micromodulus, material };
+
+        let mut constraints = Vec::new();
+        for (k, c) in raw.constraints.iter().enumerate() {
+            let p = format!("constraints[{k}]");
+            let region = region(&format!("{p}.region"), &c.region, dim)?;
+            check_len(&format!("{p}.displacement.value"), &c.displacement.value, dim)?;
+            let gradient = match &c.displacement.gradient {
+                None => vec![0.0; dim * dim],
+                Some(rows) => {
+                    if rows.len() != dim || rows.iter().any(|r| r.len() != dim) {
+                        return Err(ProblemError::invalid(
+                            format!("{p}.displacement.gradient"),
+                            format!("must be a {dim}x{dim} array of rows"),
+                        ));
+                    }
+                    let g: Vec<f64> = rows.iter().flatten().cloned().collect();
+                    if g.iter().any(|v| !v.is_finite()) {
+                        return Err(ProblemError::invalid(format!("{p}.displacement.gradient"), "values must be finite"));
+                    }
+                    g
+                }
+            };
+            let components = match &c.components {
+                None => (0..dim).collect(),
+                Some(cs) => {
+                    if cs.is_empty() || cs.iter().any(|&a| a >= dim) {
+                        return Err(ProblemError::invalid(
+                            format!("{p}.components"),
+                            format!("must list components in 0..{dim}, got {cs:?}"),
+                        ));
+                    }
+                    cs.clone()
+                }
+            };
+            let cons = Constraint { region, value: c.displacement.value.clone(), gradient, components };
+            if cons.region.nodes(&grid).is_empty() {
+                return Err(ProblemError::invalid(format!("{p}.region"), "contains no node of the grid"));
+            }
+            constraints.push(cons);
+        }
+
+        let mut loads = Vec::new();
+        for (k, l) in raw.loads.iter().enumerate() {
+            let p = format!("loads[{k}]");
+            loads.push(match l {
+                RawLoad::Point { at, force } => {
+                    check_len(&format!("{p}.at"), at, dim)?;
+                    check_len(&format!("{p}.force"), force, dim)?;
+                    let (node, d) = grid.nearest_node(at);
+                    let tol = 1e-6 * grid.spacing();
+                    if d > tol {
+                        return Err(ProblemError::invalid(
+                            format!("{p}.at"),
+                            format!(
+                                "no node at {at:?} (nearest node {node} is at {:?}, {d:e} away); point loads must sit on a node",
+                                &grid.position(node)[..dim]
+                            ),
+                        ));
+                    }
+                    Load::Point { node, force: force.clone() }
+                }
+                RawLoad::Body { region: r, density } => {
+                    check_len(&format!("{p}.density"), density, dim)?;
+                    let region = region(&format!("{p}.region"), r, dim)?;
+                    if region.nodes(&grid).is_empty() {
+                        return Err(ProblemError::invalid(format!("{p}.region"), "contains no node of the grid"));
+                    }
+                    Load::Body { region, density: density.clone() }
+                }
+            });
+        }
+
+        let cg = CgParams {
+            rtol: raw.solver.rtol.unwrap_or(CgParams::default().rtol),
+            max_iter: raw.solver.max_iter.unwrap_or(CgParams::default().max_iter),
+        };
+        if !(cg.rtol.is_finite() && cg.rtol > 0.0 && cg.rtol < 1.0) {
+            return Err(ProblemError::invalid("solver.rtol", format!("must be in (0, 1), got {}", cg.rtol)));
+        }
+        if cg.max_iter == 0 {
+            return Err(ProblemError::invalid("solver.max_iter", "must be >= 1"));
+        }
+        let kind = match raw.solver.kind {
+            RawSolverKind::Auto => SolverKind::Auto,
+            RawSolverKind::Cholesky => SolverKind::Cholesky,
+            RawSolverKind::Lu => SolverKind::Lu,
+            RawSolverKind::Cg => SolverKind::Cg(cg.clone()),
+            RawSolverKind::Dense => SolverKind::Dense,
+        };
+        if raw.solver.matrix_free && !matches!(kind, SolverKind::Cg(_)) {
+            return Err(ProblemError::invalid("solver.matrix_free", "only the cg solver can run matrix-free; set \"type\": \"cg\""));
+        }
+        if (raw.solver.rtol.is_some() || raw.solver.max_iter.is_some()) && !matches!(kind, SolverKind::Cg(_) | SolverKind::Auto) {
+            return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg solver only"));
+        }
+        let kind = match kind {
+            SolverKind::Auto => SolverKind::Auto,
+            k => k,
+        };
+        Ok(Problem {
+            output_dir: raw.output.dir.clone().unwrap_or_else(|| format!("out/{}", raw.name)),
+            plot: raw.output.plot.unwrap_or(true),
+            name: raw.name,
+            grid,
+            model,
+            constraints,
+            loads,
+            solver: SolverSettings { kind, matrix_free: raw.solver.matrix_free },
+        })
+    }
+
+    /// Spatial dimension.
+    pub fn dim(&self) -> usize {
+        self.grid.dim()
+    }
+}
+
+/// serde_json appends " at line L column C" to messages; we print position separately.
+fn strip_position(msg: &str) -> String {
+    match msg.rfind(" at line ") {
+        Some(i) => msg[..i].to_string(),
+        None => msg.to_string(),
+    }
+}
+
+fn micromodulus(mm: &RawMicromodulus, horizon: f64, plane: Option<PlaneModel>, partial_volume: bool) -> Result<Micromodulus, ProblemError> {
+    let p = "model.micromodulus";
+    let kernel = match mm.kernel {
+        RawKernel::Constant => Kernel::Constant,
+        RawKernel::InverseDistance => Kernel::InverseDistance,
+        RawKernel::Tent => Kernel::Tent,
+        RawKernel::Gaussian => Kernel::Gaussian { length: mm.length.unwrap_or(0.5 * horizon) },
+        RawKernel::Tabulated => {
+            let t = mm.table.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.table"), "the tabulated kernel needs a table {\"r_over_delta\": [...], \"g\": [...]}"))?;
+            Kernel::Tabulated { s: t.r_over_delta.clone(), g: t.g.clone() }
+        }
+    };
+    if mm.length.is_some() && mm.kernel != RawKernel::Gaussian {
+        return Err(ProblemError::invalid(format!("{p}.length"), "only the gaussian kernel takes a length"));
+    }
+    if mm.table.is_some() && mm.kernel != RawKernel::Tabulated {
+        return Err(ProblemError::invalid(format!("{p}.table"), "only the tabulated kernel takes a table"));
+    }
+    let (normalization, modulus) = match (mm.normalize, mm.modulus, mm.amplitude) {
+        (RawNormalize::None, None, Some(c)) => (Normalization::Amplitude(c), 1.0),
+        (RawNormalize::None, _, None) => {
+            return Err(ProblemError::invalid(format!("{p}.amplitude"), "\"normalize\": \"none\" needs an explicit amplitude"))
+        }
+        (RawNormalize::None, Some(_), Some(_)) => {
+            return Err(ProblemError::invalid(format!("{p}.modulus"), "give either a modulus (with normalize discrete/continuum) or an amplitude (with normalize none), not both"))
+        }
+        (_, _, Some(_)) => {
+            return Err(ProblemError::invalid(format!("{p}.amplitude"), "an explicit amplitude needs \"normalize\": \"none\""))
+        }
+        (_, None, None) => return Err(ProblemError::invalid(format!("{p}.modulus"), "missing: the modulus to normalize the kernel to")),
+        (RawNormalize::Discrete, Some(k), None) => (Normalization::Discrete, k),
+        (RawNormalize::Continuum, Some(k), None) => (Normalization::Continuum, k),
+    };
+    let m = Micromodulus { kernel, normalization, modulus, plane, partial_volume };
+    m.kernel.validate().map_err(|e| core(p, e))?;
+    Ok(m)
+}
+
+fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
+    let p = "model.material";
+    let mut phases = Vec::new();
+    for (k, ph) in raw.phases.iter().enumerate() {
+        let r = region(&format!("{p}.phases[{k}].region"), &ph.region, dim)?;
+        if !(ph.modulus.is_finite() && ph.modulus > 0.0) {
+            return Err(ProblemError::invalid(format!("{p}.phases[{k}].modulus"), format!("must be > 0, got {}", ph.modulus)));
+        }
+        phases.push((r, ph.modulus));
+    }
+    let rule = match raw.bond_rule {
+        None => BondRule::default(),
+        Some(RawBondRule::Min) => BondRule::Min,
+        Some(RawBondRule::Max) => BondRule::Max,
+        Some(RawBondRule::Arithmetic) => BondRule::Arithmetic,
+        Some(RawBondRule::Harmonic) => BondRule::Harmonic,
+        Some(RawBondRule::Geometric) => BondRule::Geometric,
+    };
+    let mut defects = Vec::new();
+    for (k, d) in raw.defects.iter().enumerate() {
+        let dp = format!("{p}.defects[{k}]");
+        let given = [d.point.is_some(), d.segment.is_some(), d.plane.is_some()].iter().filter(|&&b| b).count();
+        if given != 1 {
+            return Err(ProblemError::invalid(&dp, "give exactly one of \"point\" (1D), \"segment\" (2D) or \"plane\" (3D)"));
+        }
+        let defect = if let Some(x) = d.point {
+            Defect::Point { x, factor: d.factor }
+        } else if let Some([a, b]) = d.segment {
+            Defect::Segment { a, b, factor: d.factor }
+        } else {
+            let pl = d.plane.as_ref().unwrap();
+            let extent = pl.extent.as_ref().map(|r| region(&format!("{dp}.plane.extent"), r, 3)).transpose()?;
+            Defect::Plane { point: pl.point, normal: pl.normal, extent, factor: d.factor }
+        };
+        defect.validate(dim).map_err(|e| core(&dp, e))?;
+        defects.push(defect);
+    }
+    Ok(Material { phases, rule, defects })
+}

@@ -1,0 +1,335 @@
+//! The plain serde mirror of a scene file. Every struct denies unknown keys; meaning and
+//! consistency are checked later, in [`crate::Problem::from_raw`]. Keys are documented in
+//! `docs/problem-format.md`.
+
+use serde::Deserialize;
+
+/// A whole scene.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawProblem {
+    /// Free-form name (used in outputs).
+    pub name: String,
+    /// 1, 2 or 3.
+    pub dimension: usize,
+    /// The lattice.
+    pub grid: RawGrid,
+    /// The material model.
+    pub model: RawModel,
+    /// Volume constraints.
+    #[serde(default)]
+    pub constraints: Vec<RawConstraint>,
+    /// External loads.
+    #[serde(default)]
+    pub loads: Vec<RawLoad>,
+    /// Solver choice.
+    #[serde(default)]
+    pub solver: RawSolver,
+    /// Where results go.
+    #[serde(default)]
+    pub output: RawOutput,
+}
+
+/// `grid`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawGrid {
+    /// Lower corner of the body.
+    pub min: Vec<f64>,
+    /// Upper corner of the body.
+    pub max: Vec<f64>,
+    /// Lattice spacing.
+    pub spacing: f64,
+    /// Thickness of the outer layer (nodes outside `[min, max]`).
+    #[serde(default)]
+    pub layer: f64,
+    /// `vertex` (default) or `cell`.
+    #[serde(default)]
+    pub placement: RawPlacement,
+}
+
+/// `grid.placement`.
+#[derive(Debug, Clone, Copy, Deserialize, Default, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawPlacement {
+    /// Nodes at `min + i h`.
+    #[default]
+    Vertex,
+    /// Nodes at cell centres.
+    Cell,
+}
+
+/// `model`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RawModel {
+    /// Bond-based linear PD.
+    Bond {
+        /// Horizon `delta`.
+        horizon: f64,
+        /// Partial-volume scaling at the horizon edge.
+        #[serde(default)]
+        partial_volume: bool,
+        /// 2D assumption: `stress` or `strain`.
+        #[serde(default)]
+        plane: Option<RawPlane>,
+        /// Kernel and normalization.
+        micromodulus: RawMicromodulus,
+        /// Phases, bond rule, defects.
+        #[serde(default)]
+        material: RawMaterial,
+    },
+}
+
+/// `model.plane`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawPlane {
+    /// Plane stress.
+    Stress,
+    /// Plane strain.
+    Strain,
+}
+
+/// `model.micromodulus`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMicromodulus {
+    /// `constant`, `inverse_distance`, `tent`, `gaussian`, `tabulated`.
+    pub kernel: RawKernel,
+    /// Gaussian decay length (default `horizon / 2`).
+    #[serde(default)]
+    pub length: Option<f64>,
+    /// Tabulated kernel: `{"r_over_delta": [...], "g": [...]}`.
+    #[serde(default)]
+    pub table: Option<RawTable>,
+    /// Bulk modulus `K` (1D: the bar modulus of eq. (7)).
+    #[serde(default)]
+    pub modulus: Option<f64>,
+    /// `discrete` (default), `continuum` or `none` (then `amplitude` is required).
+    #[serde(default)]
+    pub normalize: RawNormalize,
+    /// Explicit amplitude `c` when `normalize` is `none`.
+    #[serde(default)]
+    pub amplitude: Option<f64>,
+}
+
+/// `model.micromodulus.kernel`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawKernel {
+    /// `g = 1`.
+    Constant,
+    /// `g = 1/r`.
+    InverseDistance,
+    /// `g = 1 - r/delta`.
+    Tent,
+    /// `g = exp(-(r/l)^2)`.
+    Gaussian,
+    /// Piecewise linear.
+    Tabulated,
+}
+
+/// `model.micromodulus.table`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawTable {
+    /// `r / delta`, increasing in `[0, 1]`.
+    pub r_over_delta: Vec<f64>,
+    /// `g` values.
+    pub g: Vec<f64>,
+}
+
+/// `model.micromodulus.normalize`.
+#[derive(Debug, Clone, Copy, Deserialize, Default, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawNormalize {
+    /// Lattice sum reproduces the modulus.
+    #[default]
+    Discrete,
+    /// Exact integral reproduces the modulus.
+    Continuum,
+    /// Explicit amplitude.
+    None,
+}
+
+/// `model.material`.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawMaterial {
+    /// `[{"region": R, "modulus": K}]`.
+    #[serde(default)]
+    pub phases: Vec<RawPhase>,
+    /// `min`, `max`, `arithmetic`, `harmonic` (default), `geometric`.
+    #[serde(default)]
+    pub bond_rule: Option<RawBondRule>,
+    /// Bond-degrading defects.
+    #[serde(default)]
+    pub defects: Vec<RawDefect>,
+}
+
+/// One phase.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPhase {
+    /// Where.
+    pub region: RawRegion,
+    /// Its modulus.
+    pub modulus: f64,
+}
+
+/// `model.material.bond_rule`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawBondRule {
+    /// Softer end.
+    Min,
+    /// Stiffer end.
+    Max,
+    /// Mean.
+    Arithmetic,
+    /// Series springs.
+    Harmonic,
+    /// Geometric mean.
+    Geometric,
+}
+
+/// A defect: exactly one of `point` (1D), `segment` (2D), `plane` (3D), and a `factor`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawDefect {
+    /// 1D location.
+    #[serde(default)]
+    pub point: Option<f64>,
+    /// 2D segment `[[x0, y0], [x1, y1]]`.
+    #[serde(default)]
+    pub segment: Option<[[f64; 2]; 2]>,
+    /// 3D plane.
+    #[serde(default)]
+    pub plane: Option<RawPlaneDefect>,
+    /// Multiplier of crossing bonds (0 cuts them).
+    pub factor: f64,
+}
+
+/// A 3D planar defect.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPlaneDefect {
+    /// A point on the plane.
+    pub point: [f64; 3],
+    /// The normal.
+    pub normal: [f64; 3],
+    /// Optional region of the plane that is defective.
+    #[serde(default)]
+    pub extent: Option<RawRegion>,
+}
+
+/// A region: `"all"`, `{"box": {...}}`, `{"union": [...]}`, `{"difference": [A, B]}`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum RawRegion {
+    /// Everything.
+    All,
+    /// A closed box.
+    Box {
+        /// Lower corner.
+        min: Vec<f64>,
+        /// Upper corner.
+        max: Vec<f64>,
+    },
+    /// Any of.
+    Union(Vec<RawRegion>),
+    /// First minus second.
+    Difference(Box<RawRegion>, Box<RawRegion>),
+}
+
+/// A volume constraint.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawConstraint {
+    /// Where.
+    pub region: RawRegion,
+    /// `u = value + gradient x`.
+    pub displacement: RawDisplacement,
+    /// Constrained components (default: all).
+    #[serde(default)]
+    pub components: Option<Vec<usize>>,
+}
+
+/// `u = value + gradient x`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawDisplacement {
+    /// Constant part (one entry per dimension).
+    pub value: Vec<f64>,
+    /// Displacement gradient `H` (rows), default zero.
+    #[serde(default)]
+    pub gradient: Option<Vec<Vec<f64>>>,
+}
+
+/// A load.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RawLoad {
+    /// A force on the node at `at`.
+    Point {
+        /// Location (must coincide with a node).
+        at: Vec<f64>,
+        /// Force vector.
+        force: Vec<f64>,
+    },
+    /// A body-force density on every node of a region (force = density * node volume).
+    Body {
+        /// Where.
+        region: RawRegion,
+        /// Force per unit volume.
+        density: Vec<f64>,
+    },
+}
+
+/// `solver`.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawSolver {
+    /// `auto` (default), `cholesky`, `lu`, `cg`, `dense`.
+    #[serde(rename = "type", default)]
+    pub kind: RawSolverKind,
+    /// CG relative residual target.
+    #[serde(default)]
+    pub rtol: Option<f64>,
+    /// CG iteration limit.
+    #[serde(default)]
+    pub max_iter: Option<usize>,
+    /// CG without an assembled matrix.
+    #[serde(default)]
+    pub matrix_free: bool,
+}
+
+/// `solver.type`.
+#[derive(Debug, Clone, Copy, Deserialize, Default, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawSolverKind {
+    /// Pick by size and dimension.
+    #[default]
+    Auto,
+    /// Sparse Cholesky.
+    Cholesky,
+    /// Sparse LU.
+    Lu,
+    /// Jacobi-PCG.
+    Cg,
+    /// Dense Cholesky.
+    Dense,
+}
+
+/// `output`.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawOutput {
+    /// Output directory (default `out/<name>`).
+    #[serde(default)]
+    pub dir: Option<String>,
+    /// Write PNG/SVG plots (default true).
+    #[serde(default)]
+    pub plot: Option<bool>,
+}
