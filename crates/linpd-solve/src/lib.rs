@@ -132,13 +132,14 @@ pub fn relative_residual(a: &SparseColMat<usize, f64>, symmetric: bool, x: &[f64
 /// The solver [`SolverKind::Auto`] picks for `n` unknowns in dimension `dim`.
 ///
 /// 1D operators are banded and badly conditioned (kappa ~ (N/m)^2): always direct. 2D up to
-/// 400k unknowns and 3D up to 60k unknowns: direct (3D fill grows like n^(4/3); 40^3 nodes
-/// with delta = 3h took ~200 s and ~12 GiB direct on this class of machine, notes pitfall 1).
+/// 200k unknowns: direct. 3D: direct only up to 3000 unknowns. With faer's AMD ordering the 3D
+/// fill is large: a 23^3-node cube with delta = 3h (28k unknowns) took 10.6 s and 1.1 GiB by
+/// Cholesky against 0.44 s by Jacobi-PCG on this 2-core machine.
 pub fn auto_choice(dim: usize, n: usize) -> SolverKind {
     match dim {
         1 => SolverKind::Cholesky,
-        2 if n <= 400_000 => SolverKind::Cholesky,
-        3 if n <= 60_000 => SolverKind::Cholesky,
+        2 if n <= 200_000 => SolverKind::Cholesky,
+        3 if n <= 3_000 => SolverKind::Cholesky,
         _ => SolverKind::Cg(CgParams::default()),
     }
 }
