@@ -9,6 +9,10 @@ use rayon::prelude::*;
 pub struct BondOperator {
     dim: usize,
     positions: Vec<Point>,
+    /// Lattice indices and spacing when built on a grid: bond vectors are then `(k_j - k_i) h`,
+    /// exact, instead of `x_j - x_i`, which loses `log10(|x| / |xi|)` digits to the rounding of
+    /// the positions (150 eps at x = 0.5 with h = 1/300).
+    lattice: Option<(Vec<[i32; 3]>, f64)>,
     family: BondFamily,
     /// `w_ij = lambda_ij nu_ij V_i V_j`, indexed like the family's neighbour lists.
     weights: Vec<f64>,
@@ -52,6 +56,12 @@ impl BondOperator {
         let c = micromodulus.amplitude(dim, horizon, h)?;
         let family = BondFamily::from_grid(grid, horizon);
         let positions = grid.positions();
+        let lattice: Vec<[i32; 3]> = (0..grid.len())
+            .map(|n| {
+                let k = grid.lattice_index(n);
+                [k[0] as i32, k[1] as i32, k[2] as i32]
+            })
+            .collect();
         let k_ref = micromodulus.reference_modulus();
         let moduli = (!material.phases.is_empty()).then(|| material.node_moduli(grid, k_ref));
         let vol = grid.volume();
@@ -63,9 +73,10 @@ impl BondOperator {
                 let family = &family;
                 let positions = &positions;
                 let moduli = &moduli;
+                let lattice = &lattice;
                 family.neighbors(i).iter().map(move |&j| {
                     let xj = positions[j as usize];
-                    let r = dist(&xi, &xj, dim);
+                    let r = h * lattice_len(&lattice[i], &lattice[j as usize]);
                     let nu = if micromodulus.partial_volume { partial_volume(r, horizon, h) } else { 1.0 };
                     let (ki, kj) = match moduli {
                         Some(m) => (m[i], m[j as usize]),
@@ -80,7 +91,7 @@ impl BondOperator {
                 })
             })
             .collect();
-        Ok(BondOperator { dim, positions, family, weights })
+        Ok(BondOperator { dim, positions, lattice: Some((lattice, h)), family, weights })
     }
 
     /// Builds an operator from explicit parts (weights indexed like `family`'s bonds and
@@ -88,7 +99,7 @@ impl BondOperator {
     pub fn from_parts(dim: usize, positions: Vec<Point>, family: BondFamily, weights: Vec<f64>) -> Self {
         assert_eq!(family.n_bonds(), weights.len(), "one weight per bond");
         assert_eq!(family.len(), positions.len(), "one position per node");
-        BondOperator { dim, positions, family, weights }
+        BondOperator { dim, positions, lattice: None, family, weights }
     }
 
     /// Spatial dimension = DOFs per node.
@@ -117,14 +128,30 @@ impl BondOperator {
         &self.weights[o..o + self.family.neighbors(i).len()]
     }
 
+    /// Reference bond vector `xi_ij = x_j - x_i` (exact lattice offset times `h` on grids).
+    #[inline]
+    pub fn bond_vector(&self, i: usize, j: usize) -> [f64; 3] {
+        let mut e = [0.0; 3];
+        match &self.lattice {
+            Some((k, h)) => {
+                for a in 0..self.dim {
+                    e[a] = (k[j][a] - k[i][a]) as f64 * h;
+                }
+            }
+            None => {
+                let (a, b) = (&self.positions[i], &self.positions[j]);
+                for k in 0..self.dim {
+                    e[k] = b[k] - a[k];
+                }
+            }
+        }
+        e
+    }
+
     /// Unit bond vector `e_ij` (first `dim` entries meaningful).
     #[inline]
     pub fn unit(&self, i: usize, j: usize) -> [f64; 3] {
-        let (a, b) = (&self.positions[i], &self.positions[j]);
-        let mut e = [0.0; 3];
-        for k in 0..self.dim {
-            e[k] = b[k] - a[k];
-        }
+        let mut e = self.bond_vector(i, j);
         let r = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
         e.iter_mut().for_each(|v| *v /= r);
         e
@@ -172,9 +199,11 @@ impl BondOperator {
     }
 }
 
+/// `|k_j - k_i|` in lattice units.
 #[inline]
-fn dist(a: &Point, b: &Point, dim: usize) -> f64 {
-    (0..dim).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt()
+fn lattice_len(a: &[i32; 3], b: &[i32; 3]) -> f64 {
+    let d: i64 = (0..3).map(|k| ((b[k] - a[k]) as i64).pow(2)).sum();
+    (d as f64).sqrt()
 }
 
 /// The nonlinear PMB force of the LAMMPS howto (Algorithm 5 without bond breaking and without
@@ -192,11 +221,11 @@ pub fn pmb_force(op: &BondOperator, u: &[f64]) -> Vec<f64> {
     f.par_chunks_mut(d).enumerate().for_each(|(i, fi)| {
         for (&j, &w) in op.family.neighbors(i).iter().zip(op.weights(i)) {
             let j = j as usize;
-            let (xi, xj) = (&op.positions[i], &op.positions[j]);
+            let xi = op.bond_vector(i, j);
             let mut y = [0.0; 3];
             let mut r0 = 0.0;
             for k in 0..d {
-                let x = xj[k] - xi[k];
+                let x = xi[k];
                 r0 += x * x;
                 y[k] = x + u[d * j + k] - u[d * i + k];
             }
