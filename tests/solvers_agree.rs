@@ -1,0 +1,80 @@
+//! Direct and iterative solvers agree on the same scene, and a second solve on the same
+//! pattern (new material values) reuses the pattern and the symbolic factorization.
+
+use linpd::bond::{BondOperator, Pattern};
+use linpd::core::{BondRule, DofMap, Material, Region};
+use linpd::problem::Problem;
+use linpd::solve::{solve, CgParams, Cholesky, SolverKind};
+
+fn scene(name: &str) -> Problem {
+    Problem::from_path(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name)).unwrap()
+}
+
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |a, x| a.max(x.abs()))
+}
+
+#[test]
+fn every_solver_gives_the_same_displacements() {
+    let base = scene("plate-tension-2d.json");
+    let mut solutions = Vec::new();
+    let cg = CgParams { rtol: 1e-12, max_iter: 50_000 };
+    for (kind, matrix_free) in [
+        (SolverKind::Cholesky, false),
+        (SolverKind::Lu, false),
+        (SolverKind::Dense, false),
+        (SolverKind::Cg(cg.clone()), false),
+        (SolverKind::Cg(cg.clone()), true),
+    ] {
+        let mut p = base.clone();
+        p.solver.kind = kind;
+        p.solver.matrix_free = matrix_free;
+        let s = p.solve(&|_| {}).unwrap();
+        assert!(s.report.rel_residual < 1e-11, "{}: residual {:e}", s.report.solver, s.report.rel_residual);
+        solutions.push((s.report.solver.clone(), s.u));
+    }
+    // kappa of the reduced plate stiffness is ~ (L/h)^2 ~ 3e3, so a 1e-12 residual bounds the
+    // solution error by ~3e-9 relative; 1e-8 leaves a factor 3.
+    let reference = &solutions[0].1;
+    for (name, u) in &solutions[1..] {
+        let diff: Vec<f64> = u.iter().zip(reference).map(|(a, b)| a - b).collect();
+        assert!(max_abs(&diff) <= 1e-8 * max_abs(reference), "{name} differs from cholesky by {:e}", max_abs(&diff));
+    }
+}
+
+#[test]
+fn second_material_reuses_pattern_and_symbolic_factorization() {
+    let p = scene("plate-tension-2d.json");
+    let (mask, _) = p.constrained();
+    let dofs = DofMap::new(2, &mask);
+    let op1 = p.operator().unwrap();
+    // Same family, other values: a stiff inclusion (bond rule min).
+    let mut material = Material::default();
+    material.phases.push((Region::Box { min: vec![0.3, 0.1], max: vec![0.6, 0.4] }, 5.0));
+    material.rule = BondRule::Min;
+    let op2 = BondOperator::on_grid(&p.grid, p.model.horizon, &p.model.micromodulus, &material).unwrap();
+    assert_eq!(op1.family(), op2.family());
+
+    let pattern = Pattern::new(&op1, &dofs);
+    let f: Vec<f64> = (0..dofs.n_free()).map(|k| ((k % 7) as f64 - 3.0) * 1e-3).collect();
+    let mut values = vec![0.0; pattern.nnz()];
+    let mut chol: Option<Cholesky> = None;
+    let mut analyses = 0;
+    for op in [&op1, &op2] {
+        pattern.fill(op, &dofs, &mut values);
+        let a = faer::sparse::SparseColMat::new(pattern.symbolic().clone(), values.clone());
+        let analysis = chol.get_or_insert_with(|| {
+            analyses += 1;
+            Cholesky::analyze(&a).unwrap()
+        });
+        let u = analysis.factor(&a).unwrap().solve(&f);
+        // Reference: assemble and analyse from scratch.
+        let fresh = linpd::bond::assemble(op, &dofs);
+        let (u_ref, _) = solve(&fresh, &f, &SolverKind::Cholesky, 2).unwrap();
+        let diff: Vec<f64> = u.iter().zip(&u_ref).map(|(a, b)| a - b).collect();
+        // Same arithmetic up to summation order: agreement at round-off times kappa (~3e3).
+        assert!(max_abs(&diff) <= 1e-11 * max_abs(&u_ref), "reused analysis differs by {:e}", max_abs(&diff));
+    }
+    // One analysis served both factorizations.
+    assert_eq!(analyses, 1);
+}
