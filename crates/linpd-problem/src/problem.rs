@@ -141,7 +141,13 @@ impl Problem {
         let raw: RawProblem = serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
             let inner = e.into_inner();
-            ProblemError::Parse { path, message: strip_position(&inner.to_string()), line: inner.line(), column: inner.column() }
+            let tagged = path == "model" || (path.starts_with("loads[") && !path.contains('.'));
+            if inner.is_data() && tagged {
+                if let Some(deeper) = locate(text).filter(|d| matches!(d, ProblemError::Parse { path: p, .. } if p.starts_with(&path) && p.len() > path.len())) {
+                    return deeper;
+                }
+            }
+            ProblemError::Parse { path: known_path(&path), message: strip_position(&inner.to_string()), line: inner.line(), column: inner.column() }
         })?;
         Self::from_raw(raw)
     }
@@ -178,7 +184,7 @@ impl Problem {
         let ratio = horizon / grid.spacing();
         if ratio < 1.0 - linpd_core::GEOMETRY_RTOL {
             return Err(ProblemError::invalid(
-                "grid.spacing",
+                "model.horizon",
                 format!("horizon/spacing = {ratio} gives no bonds (the horizon must be at least one spacing)"),
             ));
         }
@@ -319,6 +325,56 @@ impl Problem {
     }
 }
 
+/// `model` and `loads[k]` are internally tagged (`"type"`): serde buffers them before picking
+/// the variant, so an error inside them (`model.micromodulus.kernal`) is reported at the tagged
+/// object, at its closing brace. [`locate`] parses the text again through this untagged mirror
+/// of their fields (other keys ignored) to find the error's real path and position.
+#[derive(serde::Deserialize)]
+#[allow(dead_code)]
+struct Locate {
+    model: Option<LocateModel>,
+    loads: Option<Vec<LocateLoad>>,
+}
+
+#[derive(serde::Deserialize)]
+#[allow(dead_code)]
+struct LocateModel {
+    horizon: Option<f64>,
+    partial_volume: Option<bool>,
+    plane: Option<RawPlane>,
+    micromodulus: Option<RawMicromodulus>,
+    material: Option<RawMaterial>,
+}
+
+#[derive(serde::Deserialize)]
+#[allow(dead_code)]
+struct LocateLoad {
+    at: Option<Vec<f64>>,
+    force: Option<Vec<f64>>,
+    region: Option<RawRegion>,
+    density: Option<Vec<f64>>,
+}
+
+/// The first shape error inside `model` or `loads`, with its full path, if the mirror finds one.
+fn locate(text: &str) -> Option<ProblemError> {
+    let de = &mut serde_json::Deserializer::from_str(text);
+    let e = serde_path_to_error::deserialize::<_, Locate>(de).err()?;
+    let path = e.path().to_string();
+    let inner = e.into_inner();
+    // A syntax error further on is not the error being located.
+    if !inner.is_data() {
+        return None;
+    }
+    Some(ProblemError::Parse { path, message: strip_position(&inner.to_string()), line: inner.line(), column: inner.column() })
+}
+
+/// serde_path_to_error writes `?` for a key it has not read yet (a syntax error between two
+/// keys); keep the known part of the path (`.` for the document).
+fn known_path(path: &str) -> String {
+    let p = path.strip_suffix('?').unwrap_or(path).trim_end_matches('.');
+    if p.is_empty() { ".".into() } else { p.into() }
+}
+
 /// serde_json appends " at line L column C" to messages; we print position separately.
 fn strip_position(msg: &str) -> String {
     match msg.rfind(" at line ") {
@@ -399,7 +455,12 @@ fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
             let extent = pl.extent.as_ref().map(|r| region(&format!("{dp}.plane.extent"), r, 3)).transpose()?;
             Defect::Plane { point: pl.point, normal: pl.normal, extent, factor: d.factor }
         };
-        defect.validate(dim).map_err(|e| core(&dp, e))?;
+        defect.validate(dim).map_err(|e| match e {
+            // The core names the list ("defects") and the bare "normal"; point at the entry.
+            CoreError::Parameter { name, reason } if name == "defects" => ProblemError::invalid(&dp, reason),
+            CoreError::Parameter { name, reason } if name == "normal" => ProblemError::invalid(format!("{dp}.plane.normal"), reason),
+            e => core(&dp, e),
+        })?;
         defects.push(defect);
     }
     Ok(Material { phases, rule, defects })

@@ -31,15 +31,29 @@ fn par() -> Par {
 }
 
 impl Cholesky {
-    /// Symbolic analysis of the pattern of `a` (lower triangle read).
+    /// Symbolic analysis of the pattern of `a` (lower triangle read) with AMD ordering.
     pub fn analyze(a: &SparseColMat<usize, f64>) -> Result<Self, SolveError> {
-        let symbolic = factorize_symbolic_cholesky(
-            a.symbolic(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams::default(),
-        )
-        .map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
+        Self::analyze_with_ordering(a, None)
+    }
+
+    /// Symbolic analysis with a caller's fill-reducing permutation `perm[new] = old` (e.g.
+    /// nested dissection on the lattice), or AMD when `None`.
+    pub fn analyze_with_ordering(a: &SparseColMat<usize, f64>, perm: Option<&[usize]>) -> Result<Self, SolveError> {
+        let inv: Vec<usize>;
+        let ordering = match perm {
+            None => SymmetricOrdering::Amd,
+            Some(p) => {
+                assert_eq!(p.len(), a.nrows(), "ordering length");
+                let mut q = vec![0usize; p.len()];
+                for (new, &old) in p.iter().enumerate() {
+                    q[old] = new;
+                }
+                inv = q;
+                SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(p, &inv, p.len()))
+            }
+        };
+        let symbolic = factorize_symbolic_cholesky(a.symbolic(), Side::Lower, ordering, CholeskySymbolicParams::default())
+            .map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
         Ok(Cholesky { symbolic: Arc::new(symbolic) })
     }
 

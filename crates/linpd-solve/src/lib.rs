@@ -151,6 +151,17 @@ pub fn solve(
     kind: &SolverKind,
     dim: usize,
 ) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    solve_with_ordering(a, f, kind, dim, None)
+}
+
+/// [`solve`] with a fill-reducing permutation (`perm[new] = old`) for the Cholesky solver.
+pub fn solve_with_ordering(
+    a: &SparseColMat<usize, f64>,
+    f: &[f64],
+    kind: &SolverKind,
+    dim: usize,
+    perm: Option<&[usize]>,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
     let n = a.nrows();
     let kind = match kind {
         SolverKind::Auto => auto_choice(dim, n),
@@ -160,9 +171,9 @@ pub fn solve(
     let t0 = Instant::now();
     let u = match &kind {
         SolverKind::Cholesky | SolverKind::Auto => {
-            report.solver = "cholesky".into();
+            report.solver = if perm.is_some() { "cholesky-nd" } else { "cholesky-amd" }.into();
             let t = Instant::now();
-            let chol = Cholesky::analyze(a)?;
+            let chol = Cholesky::analyze_with_ordering(a, perm)?;
             report.timings.symbolic = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let factor = chol.factor(a)?;
