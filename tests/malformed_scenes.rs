@@ -173,7 +173,7 @@ fn cases() -> Vec<Case> {
         parse(
             "unknown key directly in model",
             e1(set("model", "horizn", json!(0.2))),
-            "model",
+            "model.horizn",
             "unknown field `horizn`",
         ),
         parse(
@@ -534,6 +534,35 @@ fn cases() -> Vec<Case> {
             needle: "1 rigid motion(s) of a connected piece of 25 node(s) are not constrained",
             check: None,
         },
+        // --- added with the struct-based model/load mirror and the size guard ---
+        parse(
+            "point load with a body-load key",
+            e1(|v| {
+                v["loads"][0]["density"] = json!([1.0]);
+            }),
+            "loads[0].density",
+            "not a key of a point load",
+        ),
+        parse(
+            "body load without density",
+            e1(|v| {
+                v["loads"] = json!([{"type": "body", "region": "all"}]);
+            }),
+            "loads[0].density",
+            "missing",
+        ),
+        parse(
+            "operator too large for the machine",
+            e1(|v| {
+                v["dimension"] = json!(3);
+                v["grid"] = json!({"min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 1.0], "spacing": 0.01});
+                v["model"]["horizon"] = json!(0.1);
+                v["constraints"] = json!([]);
+                v["loads"] = json!([]);
+            }),
+            "model.horizon",
+            "over the 16 GiB limit",
+        ),
     ]
 }
 

@@ -78,3 +78,15 @@ fn second_material_reuses_pattern_and_symbolic_factorization() {
     // One analysis served both factorizations.
     assert_eq!(analyses, 1);
 }
+
+#[test]
+fn auto_uses_the_scenes_cg_parameters_when_it_picks_cg() {
+    // The 3D cube has 28k unknowns: auto picks CG. With max_iter = 1 it must fail to converge,
+    // proving the scene's parameters reach the solver (they used to be ignored under auto).
+    let mut p = scene("cube-compression-3d.json");
+    p.solver.cg.max_iter = 1;
+    match p.solve(&|_| {}) {
+        Err(e) => assert!(e.to_string().contains("did not converge in 1 iterations"), "{e}"),
+        Ok(s) => panic!("converged in {:?} iterations with max_iter = 1", s.report.iterations),
+    }
+}

@@ -63,6 +63,8 @@ pub struct BondModel {
 pub struct SolverSettings {
     /// Which solver.
     pub kind: SolverKind,
+    /// CG parameters, also used when `auto` picks CG.
+    pub cg: CgParams,
     /// CG without assembling.
     pub matrix_free: bool,
 }
@@ -87,6 +89,9 @@ pub struct Problem {
     /// Write plots.
     pub plot: bool,
 }
+
+/// Largest estimated operator memory a scene may ask for (the machines are 24 GiB).
+pub const MEMORY_LIMIT_BYTES: f64 = 16.0 * 1073741824.0;
 
 fn core(path: &str, e: CoreError) -> ProblemError {
     match e {
@@ -141,12 +146,6 @@ impl Problem {
         let raw: RawProblem = serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
             let inner = e.into_inner();
-            let tagged = path == "model" || (path.starts_with("loads[") && !path.contains('.'));
-            if inner.is_data() && tagged {
-                if let Some(deeper) = locate(text).filter(|d| matches!(d, ProblemError::Parse { path: p, .. } if p.starts_with(&path) && p.len() > path.len())) {
-                    return deeper;
-                }
-            }
             ProblemError::Parse { path: known_path(&path), message: strip_position(&inner.to_string()), line: inner.line(), column: inner.column() }
         })?;
         Self::from_raw(raw)
@@ -176,8 +175,7 @@ impl Problem {
         };
         let grid = Grid::new(&raw.grid.min, &raw.grid.max, raw.grid.spacing, raw.grid.layer, placement)
             .map_err(|e| core("grid", e))?;
-        // Keep the operator within what this machine class can hold (2^31 stored entries).
-        let RawModel::Bond { horizon, partial_volume, plane, micromodulus: mm, material } = raw.model;
+        let RawModel { kind: RawModelKind::Bond, horizon, partial_volume, plane, micromodulus: mm, material } = raw.model;
         if !(horizon.is_finite() && horizon > 0.0) {
             return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon}")));
         }
@@ -192,6 +190,29 @@ impl Problem {
             return Err(ProblemError::invalid(
                 "model.horizon",
                 format!("horizon/spacing = {ratio} bonds only along the axes, which leaves zero-energy shear modes; use horizon >= sqrt(2) * spacing"),
+            ));
+        }
+        // Refuse operators that cannot fit: bonds ~ nodes x (ball volume in lattice units), 12
+        // bytes each (neighbour + weight), plus 16 bytes per assembled entry unless matrix-free.
+        let ball = match dim {
+            1 => 2.0 * ratio,
+            2 => std::f64::consts::PI * ratio * ratio,
+            _ => 4.0 / 3.0 * std::f64::consts::PI * ratio.powi(3),
+        };
+        let nodes = grid.len() as f64;
+        let entries = if raw.solver.matrix_free { 0.0 } else { nodes * (ball + 1.0) * (dim * dim) as f64 };
+        let bytes = nodes * ball * 12.0 + entries * 16.0;
+        if bytes > MEMORY_LIMIT_BYTES {
+            return Err(ProblemError::invalid(
+                "model.horizon",
+                format!(
+                    "{} nodes with horizon/spacing = {ratio:.3} (~{:.0} bonds each) need ~{:.1} GiB, over the {:.0} GiB limit; \
+                     use a coarser spacing, a smaller horizon or the matrix-free cg solver",
+                    grid.len(),
+                    ball,
+                    bytes / 1073741824.0,
+                    MEMORY_LIMIT_BYTES / 1073741824.0
+                ),
             ));
         }
         let plane = match (dim, plane) {
@@ -252,11 +273,23 @@ impl Problem {
         let mut loads = Vec::new();
         for (k, l) in raw.loads.iter().enumerate() {
             let p = format!("loads[{k}]");
-            loads.push(match l {
-                RawLoad::Point { at, force } => {
-                    check_len(&format!("{p}.at"), at, dim)?;
-                    check_len(&format!("{p}.force"), force, dim)?;
-                    let (node, d) = grid.nearest_node(at);
+            let only = |kind: &str, given: &[(&str, bool)]| -> Result<(), ProblemError> {
+                match given.iter().find(|(_, present)| *present) {
+                    Some((key, _)) => Err(ProblemError::invalid(format!("{p}.{key}"), format!("not a key of a {kind} load"))),
+                    None => Ok(()),
+                }
+            };
+            let need = |key: &str, v: &Option<Vec<f64>>| -> Result<Vec<f64>, ProblemError> {
+                let v = v.clone().ok_or_else(|| ProblemError::invalid(format!("{p}.{key}"), "missing"))?;
+                check_len(&format!("{p}.{key}"), &v, dim)?;
+                Ok(v)
+            };
+            loads.push(match l.kind {
+                RawLoadKind::Point => {
+                    only("point", &[("region", l.region.is_some()), ("density", l.density.is_some())])?;
+                    let at = need("at", &l.at)?;
+                    let force = need("force", &l.force)?;
+                    let (node, d) = grid.nearest_node(&at);
                     let tol = 1e-6 * grid.spacing();
                     if d > tol {
                         return Err(ProblemError::invalid(
@@ -267,15 +300,17 @@ impl Problem {
                             ),
                         ));
                     }
-                    Load::Point { node, force: force.clone() }
+                    Load::Point { node, force }
                 }
-                RawLoad::Body { region: r, density } => {
-                    check_len(&format!("{p}.density"), density, dim)?;
+                RawLoadKind::Body => {
+                    only("body", &[("at", l.at.is_some()), ("force", l.force.is_some())])?;
+                    let density = need("density", &l.density)?;
+                    let r = l.region.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.region"), "missing"))?;
                     let region = region(&format!("{p}.region"), r, dim)?;
                     if region.nodes(&grid).is_empty() {
                         return Err(ProblemError::invalid(format!("{p}.region"), "contains no node of the grid"));
                     }
-                    Load::Body { region, density: density.clone() }
+                    Load::Body { region, density }
                 }
             });
         }
@@ -303,10 +338,6 @@ impl Problem {
         if (raw.solver.rtol.is_some() || raw.solver.max_iter.is_some()) && !matches!(kind, SolverKind::Cg(_) | SolverKind::Auto) {
             return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg solver only"));
         }
-        let kind = match kind {
-            SolverKind::Auto => SolverKind::Auto,
-            k => k,
-        };
         Ok(Problem {
             output_dir: raw.output.dir.clone().unwrap_or_else(|| format!("out/{}", raw.name)),
             plot: raw.output.plot.unwrap_or(true),
@@ -315,7 +346,7 @@ impl Problem {
             model,
             constraints,
             loads,
-            solver: SolverSettings { kind, matrix_free: raw.solver.matrix_free },
+            solver: SolverSettings { kind, cg, matrix_free: raw.solver.matrix_free },
         })
     }
 
@@ -325,54 +356,15 @@ impl Problem {
     }
 }
 
-/// `model` and `loads[k]` are internally tagged (`"type"`): serde buffers them before picking
-/// the variant, so an error inside them (`model.micromodulus.kernal`) is reported at the tagged
-/// object, at its closing brace. [`locate`] parses the text again through this untagged mirror
-/// of their fields (other keys ignored) to find the error's real path and position.
-#[derive(serde::Deserialize)]
-#[allow(dead_code)]
-struct Locate {
-    model: Option<LocateModel>,
-    loads: Option<Vec<LocateLoad>>,
-}
-
-#[derive(serde::Deserialize)]
-#[allow(dead_code)]
-struct LocateModel {
-    horizon: Option<f64>,
-    partial_volume: Option<bool>,
-    plane: Option<RawPlane>,
-    micromodulus: Option<RawMicromodulus>,
-    material: Option<RawMaterial>,
-}
-
-#[derive(serde::Deserialize)]
-#[allow(dead_code)]
-struct LocateLoad {
-    at: Option<Vec<f64>>,
-    force: Option<Vec<f64>>,
-    region: Option<RawRegion>,
-    density: Option<Vec<f64>>,
-}
-
-/// The first shape error inside `model` or `loads`, with its full path, if the mirror finds one.
-fn locate(text: &str) -> Option<ProblemError> {
-    let de = &mut serde_json::Deserializer::from_str(text);
-    let e = serde_path_to_error::deserialize::<_, Locate>(de).err()?;
-    let path = e.path().to_string();
-    let inner = e.into_inner();
-    // A syntax error further on is not the error being located.
-    if !inner.is_data() {
-        return None;
-    }
-    Some(ProblemError::Parse { path, message: strip_position(&inner.to_string()), line: inner.line(), column: inner.column() })
-}
-
 /// serde_path_to_error writes `?` for a key it has not read yet (a syntax error between two
 /// keys); keep the known part of the path (`.` for the document).
 fn known_path(path: &str) -> String {
     let p = path.strip_suffix('?').unwrap_or(path).trim_end_matches('.');
-    if p.is_empty() { ".".into() } else { p.into() }
+    if p.is_empty() {
+        ".".into()
+    } else {
+        p.into()
+    }
 }
 
 /// serde_json appends " at line L column C" to messages; we print position separately.

@@ -59,26 +59,36 @@ pub enum RawPlacement {
     Cell,
 }
 
-/// `model`.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
-pub enum RawModel {
+/// `model.type`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawModelKind {
     /// Bond-based linear PD.
-    Bond {
-        /// Horizon `delta`.
-        horizon: f64,
-        /// Partial-volume scaling at the horizon edge.
-        #[serde(default)]
-        partial_volume: bool,
-        /// 2D assumption: `stress` or `strain`.
-        #[serde(default)]
-        plane: Option<RawPlane>,
-        /// Kernel and normalization.
-        micromodulus: RawMicromodulus,
-        /// Phases, bond rule, defects.
-        #[serde(default)]
-        material: RawMaterial,
-    },
+    Bond,
+}
+
+/// `model`. A plain struct with a `type` field rather than a serde-tagged enum: serde buffers
+/// tagged enums before choosing the variant, which loses the JSON path and position of errors
+/// inside them (`model.micromodulus.kernal` would be reported at `model`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawModel {
+    /// The model.
+    #[serde(rename = "type")]
+    pub kind: RawModelKind,
+    /// Horizon `delta`.
+    pub horizon: f64,
+    /// Partial-volume scaling at the horizon edge.
+    #[serde(default)]
+    pub partial_volume: bool,
+    /// 2D assumption: `stress` or `strain`.
+    #[serde(default)]
+    pub plane: Option<RawPlane>,
+    /// Kernel and normalization.
+    pub micromodulus: RawMicromodulus,
+    /// Phases, bond rule, defects.
+    #[serde(default)]
+    pub material: RawMaterial,
 }
 
 /// `model.plane`.
@@ -267,24 +277,36 @@ pub struct RawDisplacement {
     pub gradient: Option<Vec<Vec<f64>>>,
 }
 
-/// A load.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
-pub enum RawLoad {
+/// `loads[k].type`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawLoadKind {
     /// A force on the node at `at`.
-    Point {
-        /// Location (must coincide with a node).
-        at: Vec<f64>,
-        /// Force vector.
-        force: Vec<f64>,
-    },
+    Point,
     /// A body-force density on every node of a region (force = density * node volume).
-    Body {
-        /// Where.
-        region: RawRegion,
-        /// Force per unit volume.
-        density: Vec<f64>,
-    },
+    Body,
+}
+
+/// A load: `{"type": "point", "at", "force"}` or `{"type": "body", "region", "density"}`
+/// (a plain struct for the same reason as [`RawModel`]; the pairing is checked in validation).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLoad {
+    /// Point or body.
+    #[serde(rename = "type")]
+    pub kind: RawLoadKind,
+    /// Point load: location (must coincide with a node).
+    #[serde(default)]
+    pub at: Option<Vec<f64>>,
+    /// Point load: force vector.
+    #[serde(default)]
+    pub force: Option<Vec<f64>>,
+    /// Body load: where.
+    #[serde(default)]
+    pub region: Option<RawRegion>,
+    /// Body load: force per unit volume.
+    #[serde(default)]
+    pub density: Option<Vec<f64>>,
 }
 
 /// `solver`.

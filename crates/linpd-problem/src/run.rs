@@ -9,7 +9,7 @@
 use crate::{Load, Problem, ProblemError};
 use linpd_bond::{check_support, nested_dissection, BondOperator, Pattern, StencilOperator};
 use linpd_core::{DofMap, Point};
-use linpd_solve::{pcg, peak_rss_bytes, relative_residual, solve_with_ordering, LinearOperator, SolveError, SolveReport, SolverKind};
+use linpd_solve::{auto_choice, pcg, peak_rss_bytes, relative_residual, solve_with_ordering, LinearOperator, SolveError, SolveReport, SolverKind};
 use std::time::Instant;
 
 /// The result of a static solve.
@@ -168,7 +168,15 @@ impl Problem {
                 let reach = (self.model.horizon / self.grid.spacing() * (1.0 + linpd_core::GEOMETRY_RTOL)).floor() as usize;
                 nested_dissection(&self.grid, reach, &dofs)
             });
-            let (u, mut rep) = solve_with_ordering(&a, &f_free, &self.solver.kind, d, perm.as_deref()).map_err(map_err)?;
+            // `auto` picks by size; when it picks CG it uses the scene's rtol and max_iter.
+            let kind = match &self.solver.kind {
+                SolverKind::Auto => match auto_choice(d, a.nrows()) {
+                    SolverKind::Cg(_) => SolverKind::Cg(self.solver.cg.clone()),
+                    k => k,
+                },
+                k => k.clone(),
+            };
+            let (u, mut rep) = solve_with_ordering(&a, &f_free, &kind, d, perm.as_deref()).map_err(map_err)?;
             rep.timings.assemble = t_asm;
             debug_assert!((relative_residual(&a, true, &u, &f_free) - rep.rel_residual).abs() < 1e-12);
             (u, rep)
