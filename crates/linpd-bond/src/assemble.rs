@@ -80,51 +80,68 @@ impl Pattern {
     }
 
     /// Fills `values` (length [`Pattern::nnz`]) with the entries of `op`.
+    ///
+    /// One pass over `{i} U F_i` per node: each bond's `w e (x) e` is computed once, written
+    /// negated into the off-diagonal block and accumulated into the diagonal block, which is
+    /// written last at the position remembered for `k = i`.
     pub fn fill(&self, op: &BondOperator, dofs: &DofMap, values: &mut [f64]) {
         let d = op.dim();
         assert_eq!(values.len(), self.nnz());
         for_each_node_slice(values, &self.node_start, |i, vals| {
-            let free_a: Vec<usize> = (0..d).filter(|&a| !dofs.is_constrained(d * i + a)).collect();
-            if free_a.is_empty() {
-                return;
-            }
-            let len = vals.len() / free_a.len();
-            // Diagonal block D = sum_j w_ij e e^T.
-            let mut diag = [[0.0; 3]; 3];
-            for (&j, &w) in op.family().neighbors(i).iter().zip(op.weights(i)) {
-                let e = op.unit(i, j as usize);
-                for a in 0..d {
-                    for c in 0..d {
-                        diag[a][c] += w * e[a] * e[c];
-                    }
+            let mut free_a = [0usize; 3];
+            let mut nf = 0;
+            for a in 0..d {
+                if !dofs.is_constrained(d * i + a) {
+                    free_a[nf] = a;
+                    nf += 1;
                 }
             }
-            let nbrs = op.family().neighbors(i);
+            if nf == 0 {
+                return;
+            }
+            let len = vals.len() / nf;
             let ws = op.weights(i);
+            let mut diag = [[0.0; 3]; 3];
+            let mut diag_pos = 0;
             let mut pos = 0;
             let mut bond = 0;
             for_merged(op, i, |k| {
-                let (block, e) = if k == i {
-                    (None, [0.0; 3])
-                } else {
-                    debug_assert_eq!(nbrs[bond] as usize, k);
-                    let r = (Some(ws[bond]), op.unit(i, k));
-                    bond += 1;
-                    r
-                };
+                if k == i {
+                    diag_pos = pos;
+                    pos += (0..d).filter(|&c| !dofs.is_constrained(d * k + c)).count();
+                    return;
+                }
+                let w = ws[bond];
+                bond += 1;
+                // In 1D e (x) e = 1: no unit vector needed.
+                let e = if d == 1 { [1.0, 0.0, 0.0] } else { op.unit(i, k) };
+                let mut block = [[0.0; 3]; 3];
+                for a in 0..d {
+                    for c in 0..d {
+                        block[a][c] = w * e[a] * e[c];
+                        diag[a][c] += block[a][c];
+                    }
+                }
                 for c in 0..d {
                     if dofs.is_constrained(d * k + c) {
                         continue;
                     }
-                    for (col, &a) in free_a.iter().enumerate() {
-                        vals[col * len + pos] = match block {
-                            None => diag[a][c],
-                            Some(w) => -w * e[a] * e[c],
-                        };
+                    for (col, &a) in free_a[..nf].iter().enumerate() {
+                        vals[col * len + pos] = -block[a][c];
                     }
                     pos += 1;
                 }
             });
+            let mut p = diag_pos;
+            for c in 0..d {
+                if dofs.is_constrained(d * i + c) {
+                    continue;
+                }
+                for (col, &a) in free_a[..nf].iter().enumerate() {
+                    vals[col * len + p] = diag[a][c];
+                }
+                p += 1;
+            }
         });
     }
 }

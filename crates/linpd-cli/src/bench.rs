@@ -241,9 +241,10 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
 
     let direct_ok = case.dim == 1 || n <= args.direct_max_3d;
     if direct_ok {
-        // 1D: AMD keeps the band. 3D: nested dissection on the lattice (and AMD for reference).
+        // 1D: the natural order is the band (and AMD for reference). 3D: nested dissection on
+        // the lattice (and AMD for reference).
         let orderings: Vec<(&str, Option<Vec<usize>>)> = if case.dim == 1 {
-            vec![("cholesky", None)]
+            vec![("cholesky", Some((0..n).collect())), ("cholesky_amd", None)]
         } else {
             vec![("cholesky", Some(nested_dissection(&b.grid, case.m, &b.dofs))), ("cholesky_amd", None)]
         };
@@ -258,7 +259,12 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
             let t = Instant::now();
             let u = fac.solve(&b.f);
             let t_sol = secs(t);
-            out[key] = json!({"ordering": if perm.is_some() { "nested-dissection" } else { "amd" },
+            let ordering = match (&perm, case.dim) {
+                (None, _) => "amd",
+                (Some(_), 1) => "natural",
+                (Some(_), _) => "nested-dissection",
+            };
+            out[key] = json!({"ordering": ordering,
                 "time_symbolic": t_sym, "time_numeric": t_num, "time_solve": t_sol,
                 "nnz_l": chol.nnz_factor(), "rel_residual": relative_residual(&a, true, &u, &b.f)});
         }
