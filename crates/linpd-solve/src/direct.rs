@@ -140,6 +140,34 @@ pub fn lu_solve(a: &SparseColMat<usize, f64>, b: &[f64]) -> Result<(Vec<f64>, us
     Ok(((0..b.len()).map(|i| x[(i, 0)]).collect(), nnz, [ts, tn, tsol]))
 }
 
+/// Sparse LU for banded (1D nonlocal) matrices. faer's LU always orders columns by COLAMD, which
+/// spent ~27 s on a band of half-width 500 (shared notes, pitfall 2). COLAMD puts columns with
+/// more than `max(16, dense_col * n)` entries last without ordering them; `dense_col = 0` makes
+/// every band column "dense", so the analysis takes 0.6 s there and the band is kept. Returns
+/// the solution and `[symbolic, numeric, solve]` seconds.
+pub fn lu_solve_band(a: &SparseColMat<usize, f64>, b: &[f64]) -> Result<(Vec<f64>, [f64; 3]), SolveError> {
+    use faer::sparse::linalg::colamd::Control;
+    use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuSymbolicParams, NumericLu};
+    let t = Instant::now();
+    let params = LuSymbolicParams { colamd_params: Control { dense_row: 0.0, dense_col: 0.0, aggressive: true }, ..Default::default() };
+    let sym = factorize_symbolic_lu(a.symbolic(), params).map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
+    let ts = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut num = NumericLu::<usize, f64>::new();
+    let mut mem = MemBuffer::try_new(sym.factorize_numeric_lu_scratch::<f64>(par(), Default::default()))
+        .map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
+    let lu = sym.factorize_numeric_lu(&mut num, a.as_ref(), par(), MemStack::new(&mut mem), Default::default()).map_err(|e| match e {
+        faer::sparse::linalg::LuError::SymbolicSingular { index } => SolveError::Singular { dof: index },
+        other => SolveError::Factorization(format!("{other:?}")),
+    })?;
+    let tn = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut x = Mat::<f64>::from_fn(b.len(), 1, |i, _| b[i]);
+    let mut mem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(1, par()));
+    lu.solve_in_place_with_conj(Conj::No, x.as_mut(), par(), MemStack::new(&mut mem));
+    Ok(((0..b.len()).map(|i| x[(i, 0)]).collect(), [ts, tn, t.elapsed().as_secs_f64()]))
+}
+
 /// Largest system the dense solver accepts (8 * n^2 bytes = 800 MB at the limit).
 pub const DENSE_LIMIT: usize = 10_000;
 

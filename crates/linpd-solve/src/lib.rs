@@ -3,7 +3,9 @@
 //! * [`direct::Cholesky`]: sparse `L L^T` (faer), symbolic analysis kept and reused when only
 //!   values change ("symbolic once, numeric many"); a non-positive pivot is reported with the
 //!   original DOF it belongs to;
-//! * [`direct::lu_solve`]: sparse LU for unsymmetric systems;
+//! * [`direct::lu_solve`]: sparse LU for unsymmetric systems; [`direct::lu_solve_band`] the
+//!   same without COLAMD's cost on banded matrices;
+//! * [`gmres::gmres`]: restarted, right-preconditioned GMRES for unsymmetric systems;
 //! * [`direct::dense_solve`]: dense Cholesky for tiny systems;
 //! * [`cg::pcg`]: Jacobi-preconditioned conjugate gradients over any [`LinearOperator`]
 //!   (assembled or matrix-free), with the Params / Info / Error triple;
@@ -14,10 +16,12 @@
 
 pub mod cg;
 pub mod direct;
+pub mod gmres;
 pub mod report;
 
 pub use cg::{pcg, CgError, CgInfo, CgParams, LinearOperator};
-pub use direct::{dense_solve, lu_solve, Cholesky};
+pub use direct::{dense_solve, lu_solve, lu_solve_band, Cholesky};
+pub use gmres::{gmres, GmresError, GmresInfo, GmresParams};
 pub use report::{peak_rss_bytes, SolveReport, Timings};
 
 use faer::sparse::SparseColMat;

@@ -1,0 +1,327 @@
+//! Assembly of the blended, pure CE (28) and pure PD (29) operators in force form.
+
+use crate::{BlendError, Blending, Mesh, Regions};
+use linpd_core::{Kernel, Micromodulus, Normalization};
+
+/// Which model to assemble.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelKind {
+    /// The blended PD/CE (or PD/HOG) model, eq. (22) / (37).
+    Blended,
+    /// Classical elasticity everywhere, eq. (28).
+    PureCe,
+    /// Peridynamics everywhere, eq. (29), on the domain extended by a nonlocal boundary layer of
+    /// `N - 1` nodes per side (section 5).
+    PurePd,
+}
+
+/// Everything that defines a 1D blended problem's operator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlendParams {
+    /// Domain `(0, length)`.
+    pub length: f64,
+    /// Fine spacing `dx`.
+    pub dx: f64,
+    /// Horizon `eps`; must be `N dx` for an integer `N >= 1`.
+    pub horizon: f64,
+    /// Modulus `K` of eq. (7).
+    pub modulus: f64,
+    /// Micromodulus shape (normalized discretely: the lattice sum reproduces `K`).
+    pub kernel: Kernel,
+    /// `L1 < L2 < L3 < L4`.
+    pub regions: Regions,
+    /// Bridge shape.
+    pub blending: Blending,
+    /// Coarse CE spacing `2^k dx` in the pure CE regions (`None`: uniform `dx`).
+    pub ce_spacing: Option<f64>,
+    /// Use the PD/HOG model with `M = 4` (eq. (37)-(38)) instead of PD/CE (`M = 2`).
+    pub hog: bool,
+}
+
+impl BlendParams {
+    /// The paper's Table 3 setting: `(0, 1)`, `K = 1`, `eps = 0.05`, `dx = 1/300`,
+    /// `L = (0.12, 0.25, 0.75, 0.88)`, inverse-distance kernel, with the given blending.
+    pub fn table3(blending: Blending) -> Self {
+        BlendParams {
+            length: 1.0,
+            dx: 1.0 / 300.0,
+            horizon: 0.05,
+            modulus: 1.0,
+            kernel: Kernel::InverseDistance,
+            regions: Regions { l1: 0.12, l2: 0.25, l3: 0.75, l4: 0.88 },
+            blending,
+            ce_spacing: None,
+            hog: false,
+        }
+    }
+
+    /// Neighbours per side `N = eps / dx` (an integer up to `1e-6` relative).
+    pub fn n_side(&self) -> Result<usize, BlendError> {
+        let r = self.horizon / self.dx;
+        let n = r.round();
+        if !(r.is_finite()) || n < 1.0 || (r - n).abs() > 1e-6 * r.max(1.0) {
+            return Err(BlendError::param(
+                "horizon",
+                format!("horizon/dx = {r} must be a positive integer N (the paper's N = eps/dx); adjust horizon or dx"),
+            ));
+        }
+        Ok(n as usize)
+    }
+
+    /// Validates the geometry and parameters (also the model-independent ones).
+    pub fn validate(&self) -> Result<(), BlendError> {
+        let p = |n: &str, v: f64| -> Result<(), BlendError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(BlendError::param(n, format!("must be > 0, got {v}")))
+            }
+        };
+        p("length", self.length)?;
+        p("dx", self.dx)?;
+        p("horizon", self.horizon)?;
+        p("modulus", self.modulus)?;
+        let cells = self.length / self.dx;
+        if (cells - cells.round()).abs() > 1e-6 * cells || cells.round() < 2.0 {
+            return Err(BlendError::param("dx", format!("length/dx = {cells} must be an integer >= 2")));
+        }
+        self.n_side()?;
+        let r = &self.regions;
+        let l = [r.l1, r.l2, r.l3, r.l4];
+        if !(0.0 < r.l1 && r.l1 < r.l2 && r.l2 < r.l3 && r.l3 < r.l4 && r.l4 < self.length) {
+            return Err(BlendError::param(
+                "regions",
+                format!("need 0 < L1 < L2 < L3 < L4 < length = {}, got {l:?}", self.length),
+            ));
+        }
+        for (k, w) in [r.l2 - r.l1, r.l3 - r.l2, r.l4 - r.l3].iter().enumerate() {
+            if *w < self.dx * (1.0 - 1e-9) {
+                let name = ["left bridge L2 - L1", "PD region L3 - L2", "right bridge L4 - L3"][k];
+                return Err(BlendError::param("regions", format!("{name} = {w} is narrower than dx = {}", self.dx)));
+            }
+        }
+        self.blending.validate()?;
+        self.kernel.validate().map_err(|e| BlendError::param("kernel", e.to_string()))?;
+        if let Some(h) = self.ce_spacing {
+            let ratio = h / self.dx;
+            let k = ratio.log2().round();
+            if !(ratio.is_finite() && ratio >= 1.0) || (ratio - 2f64.powi(k as i32)).abs() > 1e-9 * ratio {
+                return Err(BlendError::param(
+                    "ce_spacing",
+                    format!("must be dx times a power of two (1, 2, 4, ...), got {ratio} dx"),
+                ));
+            }
+            if self.hog && ratio > 1.0 {
+                return Err(BlendError::param("ce_spacing", "the HOG model (hog = true) needs a uniform mesh"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// An assembled operator `A` (force form, `A u = f`) in CSR, with its mesh and blending values.
+#[derive(Debug, Clone)]
+pub struct BlendOperator {
+    /// Which model.
+    pub kind: ModelKind,
+    /// Nodes.
+    pub mesh: Mesh,
+    /// `beta` at the nodes.
+    pub beta: Vec<f64>,
+    /// Neighbours per side.
+    pub n_side: usize,
+    /// CSR row pointers.
+    pub row_ptr: Vec<usize>,
+    /// CSR columns (ascending per row).
+    pub col: Vec<usize>,
+    /// CSR values.
+    pub val: Vec<f64>,
+    /// Rows that mix nonlocal and local terms (the transition region `Omega_t`).
+    pub transition: Vec<bool>,
+}
+
+impl BlendOperator {
+    /// Assembles the operator of `kind` for `params`.
+    pub fn assemble(params: &BlendParams, kind: ModelKind) -> Result<Self, BlendError> {
+        params.validate()?;
+        let n_side = params.n_side()?;
+        let dx = params.dx;
+        let n_cells = (params.length / dx).round() as usize;
+        let eps = n_side as f64 * dx;
+        let tol = 1e-9 * dx;
+        let mesh = match kind {
+            ModelKind::PurePd => Mesh::uniform(-((n_side - 1) as f64) * dx, dx, n_cells + 2 * (n_side - 1)),
+            ModelKind::PureCe => Mesh::uniform(0.0, dx, n_cells),
+            ModelKind::Blended => match params.ce_spacing {
+                Some(h) if h > dx * (1.0 + 1e-9) => {
+                    let r = &params.regions;
+                    let k_lo = (((r.l1 - 2.0 * eps - h) / dx).floor() as i64).max(0);
+                    let k_hi = (((r.l4 + 2.0 * eps + h) / dx).ceil() as i64).min(n_cells as i64);
+                    Mesh::graded(0.0, dx, k_lo, k_hi, h, 0.0, params.length)
+                }
+                _ => Mesh::uniform(0.0, dx, n_cells),
+            },
+        };
+        let beta: Vec<f64> = mesh
+            .x
+            .iter()
+            .map(|&x| match kind {
+                ModelKind::PurePd => 1.0,
+                ModelKind::PureCe => 0.0,
+                ModelKind::Blended => params.blending.beta(x, &params.regions, tol),
+            })
+            .collect();
+        // Bond weights w_j = C(j dx) dx with C = c g normalized on the lattice (eq. (19)).
+        let mm = Micromodulus {
+            kernel: params.kernel.clone(),
+            normalization: Normalization::Discrete,
+            modulus: params.modulus,
+            plane: None,
+            partial_volume: false,
+        };
+        let c = mm.amplitude(1, eps, dx).map_err(|e| BlendError::param("kernel", e.to_string()))?;
+        let w: Vec<f64> = (1..=n_side).map(|j| c * params.kernel.shape(j as f64 * dx, eps) * dx).collect();
+        let k_ce = params.modulus;
+        let m_order = if params.hog { 4 } else { 2 };
+
+        let n = mesh.len();
+        let mut row_ptr = vec![0usize];
+        let mut col = Vec::new();
+        let mut val = Vec::new();
+        let mut transition = vec![false; n];
+        let width = 2 * (n_side + 2) + 1;
+        let mut acc = vec![0.0; width];
+        for i in 0..n {
+            let v_i = mesh.dual_length(i);
+            let k = mesh.fine[i];
+            // Nonlocal shares a_j for j = -N..N (0 where the neighbour is missing).
+            let mut a = vec![0.0; 2 * n_side + 1];
+            let mut any = false;
+            if let Some(k) = k {
+                for j in 1..=n_side as i64 {
+                    for s in [-1i64, 1] {
+                        if let Some(q) = mesh.node_of_fine(k + s * j) {
+                            let share = 0.5 * (beta[i] + beta[q]);
+                            a[(n_side as i64 + s * j) as usize] = share;
+                            any |= share > 0.0;
+                        }
+                    }
+                }
+            }
+            let pure_ce = !any && !params.hog;
+            if pure_ce {
+                // Non-uniform CE row (section 5.2.4), force form: symmetric.
+                let mut entries: Vec<(usize, f64)> = Vec::with_capacity(3);
+                if i > 0 && i + 1 < n {
+                    let (dl, dr) = (mesh.x[i] - mesh.x[i - 1], mesh.x[i + 1] - mesh.x[i]);
+                    entries.push((i - 1, -k_ce / dl));
+                    entries.push((i, k_ce / dl + k_ce / dr));
+                    entries.push((i + 1, -k_ce / dr));
+                } else {
+                    // End nodes carry Dirichlet conditions; keep the row nonsingular.
+                    entries.push((i, k_ce / v_i.max(dx)));
+                }
+                for (q, v) in entries {
+                    col.push(q);
+                    val.push(v);
+                }
+                row_ptr.push(col.len());
+                continue;
+            }
+            let k = k.expect("nonlocal rows lie on the fine lattice");
+            acc.iter_mut().for_each(|v| *v = 0.0);
+            let off = |o: i64| (o + n_side as i64 + 2) as usize;
+            // D_n = (1/n!) sum_j w_j (1 - a_j) xi_j^n  over j = +-1..+-N.
+            let mut d = [0.0f64; 5];
+            let mut all_pd = true;
+            for j in 1..=n_side as i64 {
+                for s in [-1i64, 1] {
+                    let aj = a[(n_side as i64 + s * j) as usize];
+                    let wj = w[(j - 1) as usize];
+                    if aj > 0.0 {
+                        acc[off(s * j)] -= wj * aj;
+                        acc[off(0)] += wj * aj;
+                    }
+                    if aj < 1.0 {
+                        all_pd = false;
+                    }
+                    let xi = (s * j) as f64 * dx;
+                    let mut p = 1.0;
+                    let mut fact = 1.0;
+                    for (m, dm) in d.iter_mut().enumerate().skip(1).take(m_order) {
+                        p *= xi;
+                        fact *= m as f64;
+                        *dm += wj * (1.0 - aj) * p / fact;
+                    }
+                }
+            }
+            transition[i] = !all_pd;
+            let has = |o: i64| mesh.node_of_fine(k + o).is_some();
+            // -(D1 u' + D2 u'') with centred 3-point differences (eq. (20)-(21)); with HOG,
+            // -(D1 u' + ... + D4 u'''') with centred 5-point differences for every derivative,
+            // so that the local part is exact for quartics like the Taylor expansion (36) with
+            // M = 4 (a 3-point u' would leave an O(u''' dx^2) error even for cubics).
+            let h2 = dx * dx;
+            if params.hog && has(-2) && has(2) {
+                let c1 = d[1] / (12.0 * dx);
+                let c2 = d[2] / (12.0 * h2);
+                let c3 = d[3] / (2.0 * dx * h2);
+                let c4 = d[4] / (h2 * h2);
+                // u'    = (-u2 + 8 u1 - 8 u-1 + u-2) / (12 dx)
+                // u''   = (-u2 + 16 u1 - 30 u0 + 16 u-1 - u-2) / (12 dx^2)
+                // u'''  = (u2 - 2 u1 + 2 u-1 - u-2) / (2 dx^3)
+                // u'''' = (u2 - 4 u1 + 6 u0 - 4 u-1 + u-2) / dx^4
+                acc[off(2)] -= -c1 - c2 + c3 + c4;
+                acc[off(1)] -= 8.0 * c1 + 16.0 * c2 - 2.0 * c3 - 4.0 * c4;
+                acc[off(0)] -= -30.0 * c2 + 6.0 * c4;
+                acc[off(-1)] -= -8.0 * c1 + 16.0 * c2 + 2.0 * c3 - 4.0 * c4;
+                acc[off(-2)] -= c1 - c2 - c3 + c4;
+            } else if has(-1) && has(1) {
+                // (Also HOG rows next to a domain end, where the 5-point stencil does not fit:
+                // the third and fourth derivative terms are dropped there.)
+                acc[off(1)] -= d[1] / (2.0 * dx) + d[2] / h2;
+                acc[off(-1)] -= -d[1] / (2.0 * dx) + d[2] / h2;
+                acc[off(0)] += 2.0 * d[2] / h2;
+            }
+            let reach = n_side as i64 + 2;
+            for o in -reach..=reach {
+                let v = acc[off(o)];
+                if v != 0.0 || o == 0 {
+                    if let Some(q) = mesh.node_of_fine(k + o) {
+                        col.push(q);
+                        val.push(v * v_i);
+                    }
+                }
+            }
+            row_ptr.push(col.len());
+        }
+        Ok(BlendOperator { kind, mesh, beta, n_side, row_ptr, col, val, transition })
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.mesh.len()
+    }
+    /// True without nodes.
+    pub fn is_empty(&self) -> bool {
+        self.mesh.is_empty()
+    }
+    /// Stored entries.
+    pub fn nnz(&self) -> usize {
+        self.val.len()
+    }
+    /// Entry `A(i, j)` (0 when not stored).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        let cols = &self.col[self.row_ptr[i]..self.row_ptr[i + 1]];
+        match cols.binary_search(&j) {
+            Ok(p) => self.val[self.row_ptr[i] + p],
+            Err(_) => 0.0,
+        }
+    }
+    /// `y = A u`.
+    pub fn apply(&self, u: &[f64], y: &mut [f64]) {
+        for i in 0..self.len() {
+            y[i] = (self.row_ptr[i]..self.row_ptr[i + 1]).map(|p| self.val[p] * u[self.col[p]]).sum();
+        }
+    }
+}

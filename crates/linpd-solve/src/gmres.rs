@@ -1,0 +1,140 @@
+//! Restarted GMRES with right preconditioning, for the unsymmetric blended operators.
+//!
+//! Solves `A x = b` as `A M^{-1} y = b`, `x = M^{-1} y`, so the residual GMRES minimizes is the
+//! true residual `b - A x` (no preconditioned-norm surprises). Modified Gram-Schmidt with one
+//! reorthogonalization pass; Givens rotations on the Hessenberg matrix. The true residual is
+//! recomputed at each restart and at exit.
+
+use crate::cg::LinearOperator;
+use serde::Serialize;
+
+/// GMRES parameters.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GmresParams {
+    /// Target `||b - A x|| / ||b||`.
+    pub rtol: f64,
+    /// Krylov dimension before a restart.
+    pub restart: usize,
+    /// Total iteration limit.
+    pub max_iter: usize,
+}
+
+impl Default for GmresParams {
+    fn default() -> Self {
+        GmresParams { rtol: 1e-12, restart: 30, max_iter: 300 }
+    }
+}
+
+/// A converged GMRES run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GmresInfo {
+    /// Iterations (applications of `A M^{-1}`).
+    pub iterations: usize,
+    /// Final true relative residual.
+    pub rel_residual: f64,
+}
+
+/// GMRES did not reach the target.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("GMRES did not converge in {iterations} iterations: relative residual {rel_residual:e} > {rtol:e}")]
+pub struct GmresError {
+    /// Iterations taken.
+    pub iterations: usize,
+    /// Relative residual reached.
+    pub rel_residual: f64,
+    /// Target.
+    pub rtol: f64,
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+fn residual(a: &impl LinearOperator, b: &[f64], x: &[f64]) -> Vec<f64> {
+    let mut r = vec![0.0; b.len()];
+    a.apply(x, &mut r);
+    r.iter_mut().zip(b).for_each(|(ri, bi)| *ri = bi - *ri);
+    r
+}
+
+/// Solves `A x = b` from the guess in `x`; `precond(r, z)` sets `z = M^{-1} r`.
+pub fn gmres(
+    a: &impl LinearOperator,
+    precond: &dyn Fn(&[f64], &mut [f64]),
+    b: &[f64],
+    x: &mut [f64],
+    params: &GmresParams,
+) -> Result<GmresInfo, GmresError> {
+    let n = a.n();
+    let bnorm = norm(b);
+    if bnorm == 0.0 {
+        x.iter_mut().for_each(|v| *v = 0.0);
+        return Ok(GmresInfo { iterations: 0, rel_residual: 0.0 });
+    }
+    let m = params.restart.max(1);
+    let mut it = 0;
+    let mut z = vec![0.0; n];
+    let mut w = vec![0.0; n];
+    loop {
+        let r = residual(a, b, x);
+        let beta = norm(&r);
+        if beta <= params.rtol * bnorm {
+            return Ok(GmresInfo { iterations: it, rel_residual: beta / bnorm });
+        }
+        if it >= params.max_iter {
+            return Err(GmresError { iterations: it, rel_residual: beta / bnorm, rtol: params.rtol });
+        }
+        let mut v: Vec<Vec<f64>> = vec![r.iter().map(|ri| ri / beta).collect()];
+        let mut h = vec![vec![0.0; m]; m + 1];
+        let (mut cs, mut sn) = (vec![0.0; m], vec![0.0; m]);
+        let mut g = vec![0.0; m + 1];
+        g[0] = beta;
+        let mut k = 0;
+        while k < m && it < params.max_iter {
+            precond(&v[k], &mut z);
+            a.apply(&z, &mut w);
+            for _pass in 0..2 {
+                for (j, vj) in v.iter().enumerate() {
+                    let hij: f64 = w.iter().zip(vj).map(|(p, q)| p * q).sum();
+                    h[j][k] += hij;
+                    w.iter_mut().zip(vj).for_each(|(p, q)| *p -= hij * q);
+                }
+            }
+            let hn = norm(&w);
+            h[k + 1][k] = hn;
+            for j in 0..k {
+                let t = cs[j] * h[j][k] + sn[j] * h[j + 1][k];
+                h[j + 1][k] = -sn[j] * h[j][k] + cs[j] * h[j + 1][k];
+                h[j][k] = t;
+            }
+            let d = (h[k][k] * h[k][k] + h[k + 1][k] * h[k + 1][k]).sqrt();
+            if d == 0.0 {
+                break;
+            }
+            cs[k] = h[k][k] / d;
+            sn[k] = h[k + 1][k] / d;
+            h[k][k] = d;
+            h[k + 1][k] = 0.0;
+            g[k + 1] = -sn[k] * g[k];
+            g[k] *= cs[k];
+            it += 1;
+            k += 1;
+            if g[k].abs() <= params.rtol * bnorm * 0.5 || hn == 0.0 {
+                break;
+            }
+            v.push(w.iter().map(|wi| wi / hn).collect());
+        }
+        // y = H^{-1} g (upper triangular k x k); x += M^{-1} V y.
+        let mut y = vec![0.0; k];
+        for i in (0..k).rev() {
+            let s: f64 = (i + 1..k).map(|j| h[i][j] * y[j]).sum();
+            y[i] = (g[i] - s) / h[i][i];
+        }
+        let mut vy = vec![0.0; n];
+        for (j, yj) in y.iter().enumerate() {
+            vy.iter_mut().zip(&v[j]).for_each(|(p, q)| *p += yj * q);
+        }
+        precond(&vy, &mut z);
+        x.iter_mut().zip(&z).for_each(|(p, q)| *p += q);
+    }
+}
