@@ -2,6 +2,7 @@
 
 use crate::{BlendError, Blending, Mesh, Regions};
 use linpd_core::{Kernel, Micromodulus, Normalization};
+use rayon::prelude::*;
 
 /// Which model to assemble.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -185,13 +186,12 @@ impl BlendOperator {
         let m_order = if params.hog { 4 } else { 2 };
 
         let n = mesh.len();
-        let mut row_ptr = vec![0usize];
-        let mut col = Vec::new();
-        let mut val = Vec::new();
-        let mut transition = vec![false; n];
         let width = 2 * (n_side + 2) + 1;
-        let mut acc = vec![0.0; width];
-        for i in 0..n {
+        // Rows are independent: assemble them in parallel, each into its own small buffers.
+        let row = |i: usize| -> (Vec<usize>, Vec<f64>, bool) {
+            let mut col = Vec::with_capacity(width);
+            let mut val = Vec::with_capacity(width);
+            let mut acc = vec![0.0; width];
             let v_i = mesh.dual_length(i);
             let k = mesh.fine[i];
             // Nonlocal shares a_j for j = -N..N (0 where the neighbour is missing).
@@ -225,11 +225,9 @@ impl BlendOperator {
                     col.push(q);
                     val.push(v);
                 }
-                row_ptr.push(col.len());
-                continue;
+                return (col, val, false);
             }
             let k = k.expect("nonlocal rows lie on the fine lattice");
-            acc.iter_mut().for_each(|v| *v = 0.0);
             let off = |o: i64| (o + n_side as i64 + 2) as usize;
             // D_n = (1/n!) sum_j w_j (1 - a_j) xi_j^n  over j = +-1..+-N.
             let mut d = [0.0f64; 5];
@@ -255,7 +253,7 @@ impl BlendOperator {
                     }
                 }
             }
-            transition[i] = !all_pd;
+            let is_transition = !all_pd;
             let has = |o: i64| mesh.node_of_fine(k + o).is_some();
             // -(D1 u' + D2 u'') with centred 3-point differences (eq. (20)-(21)); with HOG,
             // -(D1 u' + ... + D4 u'''') with centred 5-point differences for every derivative,
@@ -293,7 +291,21 @@ impl BlendOperator {
                     }
                 }
             }
-            row_ptr.push(col.len());
+            (col, val, is_transition)
+        };
+        let rows: Vec<(Vec<usize>, Vec<f64>, bool)> = (0..n).into_par_iter().map(row).collect();
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        row_ptr.push(0usize);
+        for r in &rows {
+            row_ptr.push(row_ptr.last().unwrap() + r.0.len());
+        }
+        let mut col = Vec::with_capacity(*row_ptr.last().unwrap());
+        let mut val = Vec::with_capacity(*row_ptr.last().unwrap());
+        let mut transition = Vec::with_capacity(n);
+        for (c, v, t) in rows {
+            col.extend(c);
+            val.extend(v);
+            transition.push(t);
         }
         Ok(BlendOperator { kind, mesh, beta, n_side, row_ptr, col, val, transition })
     }

@@ -5,6 +5,7 @@
 
 mod bench;
 mod plots;
+mod study_blend;
 
 use clap::{Parser, Subcommand};
 use linpd_problem::Problem;
@@ -42,6 +43,21 @@ enum Command {
     },
     /// Benchmark assembly, factorization, matvec and CG on standard cases; write JSON.
     Bench(bench::BenchArgs),
+    /// Reproduce a paper study: writes data.json, PNG and SVG plots, prints a table.
+    ///
+    /// Studies: blend-patch, blend-point-load, blend-pd-size, blend-bridge-size,
+    /// blend-load-location, blend-speedup, blend-speed-vs-error (Seleson, Beneddine &
+    /// Prudhomme 2013, Figs. 7-14).
+    Study {
+        /// The study name (e.g. blend-point-load); `list` prints them all.
+        name: String,
+        /// Output directory (default docs/studies/<name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Skip the dense-solver timings of blend-speedup (they take about a minute).
+        #[arg(long)]
+        no_dense: bool,
+    },
 }
 
 /// Parses the command line, runs the command, prints errors to stderr.
@@ -103,5 +119,17 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Bench(args) => bench::run(args),
+        Command::Study { name, out, no_dense } => {
+            if name == "list" {
+                for (n, d) in study_blend::STUDIES {
+                    println!("{n:<22} {d}");
+                }
+                return Ok(());
+            }
+            let dir = out.unwrap_or_else(|| PathBuf::from("docs/studies").join(&name));
+            study_blend::run(&name, &dir, !no_dense)?;
+            println!("wrote {}", dir.display());
+            Ok(())
+        }
     }
 }
