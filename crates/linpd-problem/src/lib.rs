@@ -5,6 +5,7 @@
 //! The key reference is `docs/problem-format.md`.
 #![deny(missing_docs)]
 
+pub(crate) mod blend;
 pub mod error;
 pub mod output;
 pub mod problem;
@@ -12,5 +13,5 @@ pub mod raw;
 pub mod run;
 
 pub use error::ProblemError;
-pub use problem::{BondModel, Constraint, Load, Problem, SolverSettings};
+pub use problem::{BlendScene, BondModel, Constraint, Load, Problem, SolverSettings};
 pub use run::Solution;

@@ -88,6 +88,26 @@ pub struct Problem {
     pub output_dir: String,
     /// Write plots.
     pub plot: bool,
+    /// For `blend` and `ce` models: the 1D blended-model problem (then `model` holds only the
+    /// horizon and micromodulus, and `constraints`/`loads` have been translated into it).
+    pub blend: Option<BlendScene>,
+}
+
+/// A 1D blended (or pure CE) problem: Seleson, Beneddine & Prudhomme (2013).
+#[derive(Debug, Clone)]
+pub struct BlendScene {
+    /// Operator parameters.
+    pub params: linpd_blend::BlendParams,
+    /// Blended or pure CE.
+    pub kind: linpd_blend::ModelKind,
+    /// `u(0)`.
+    pub u_left: f64,
+    /// `u(L)`.
+    pub u_right: f64,
+    /// Loads.
+    pub loads: Vec<linpd_blend::Load>,
+    /// Solver.
+    pub solver: linpd_blend::BlendSolver,
 }
 
 /// Largest estimated operator memory a scene may ask for (the machines are 24 GiB).
@@ -175,7 +195,34 @@ impl Problem {
         };
         let grid = Grid::new(&raw.grid.min, &raw.grid.max, raw.grid.spacing, raw.grid.layer, placement)
             .map_err(|e| core("grid", e))?;
-        let RawModel { kind: RawModelKind::Bond, horizon, partial_volume, plane, micromodulus: mm, material } = raw.model;
+        let RawModel {
+            kind: model_kind,
+            horizon,
+            partial_volume,
+            plane,
+            micromodulus: mm,
+            material,
+            regions: blend_regions,
+            blending,
+            blending_value,
+            blending_table,
+            ce_spacing,
+            hog,
+        } = raw.model.clone();
+        if model_kind == RawModelKind::Bond {
+            for (key, given) in [
+                ("regions", blend_regions.is_some()),
+                ("blending", blending.is_some()),
+                ("blending_value", blending_value.is_some()),
+                ("blending_table", blending_table.is_some()),
+                ("ce_spacing", ce_spacing.is_some()),
+                ("hog", hog.is_some()),
+            ] {
+                if given {
+                    return Err(ProblemError::invalid(format!("model.{key}"), "only blend models take this key"));
+                }
+            }
+        }
         if !(horizon.is_finite() && horizon > 0.0) {
             return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon}")));
         }
@@ -338,7 +385,12 @@ impl Problem {
         if (raw.solver.rtol.is_some() || raw.solver.max_iter.is_some()) && !matches!(kind, SolverKind::Cg(_) | SolverKind::Auto) {
             return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg solver only"));
         }
+        let blend = match model_kind {
+            RawModelKind::Bond => None,
+            k => Some(crate::blend::scene(k, &raw, &grid, &constraints, &loads)?),
+        };
         Ok(Problem {
+            blend,
             output_dir: raw.output.dir.clone().unwrap_or_else(|| format!("out/{}", raw.name)),
             plot: raw.output.plot.unwrap_or(true),
             name: raw.name,
@@ -372,6 +424,23 @@ fn strip_position(msg: &str) -> String {
     match msg.rfind(" at line ") {
         Some(i) => msg[..i].to_string(),
         None => msg.to_string(),
+    }
+}
+
+impl Problem {
+    /// The kernel shape of a micromodulus description.
+    pub(crate) fn kernel_of(mm: &RawMicromodulus, horizon: f64) -> Result<Kernel, ProblemError> {
+        let p = "model.micromodulus";
+        Ok(match mm.kernel {
+            RawKernel::Constant => Kernel::Constant,
+            RawKernel::InverseDistance => Kernel::InverseDistance,
+            RawKernel::Tent => Kernel::Tent,
+            RawKernel::Gaussian => Kernel::Gaussian { length: mm.length.unwrap_or(0.5 * horizon) },
+            RawKernel::Tabulated => {
+                let t = mm.table.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.table"), "the tabulated kernel needs a table {\"r_over_delta\": [...], \"g\": [...]}"))?;
+                Kernel::Tabulated { s: t.r_over_delta.clone(), g: t.g.clone() }
+            }
+        })
     }
 }
 

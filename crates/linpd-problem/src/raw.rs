@@ -65,6 +65,10 @@ pub enum RawPlacement {
 pub enum RawModelKind {
     /// Bond-based linear PD.
     Bond,
+    /// 1D blended PD / classical elasticity (Seleson, Beneddine & Prudhomme 2013).
+    Blend,
+    /// 1D classical elasticity, eq. (28) of the same paper.
+    Ce,
 }
 
 /// `model`. A plain struct with a `type` field rather than a serde-tagged enum: serde buffers
@@ -89,6 +93,48 @@ pub struct RawModel {
     /// Phases, bond rule, defects.
     #[serde(default)]
     pub material: RawMaterial,
+    /// Blend: `[L1, L2, L3, L4]`.
+    #[serde(default)]
+    pub regions: Option<[f64; 4]>,
+    /// Blend: `constant`, `linear`, `cubic` or `piecewise`.
+    #[serde(default)]
+    pub blending: Option<RawBlending>,
+    /// Blend with constant blending: the bridge value (default 0.5).
+    #[serde(default)]
+    pub blending_value: Option<f64>,
+    /// Blend with piecewise blending: `{"s": [...], "beta": [...]}`.
+    #[serde(default)]
+    pub blending_table: Option<RawBlendingTable>,
+    /// Blend: coarse CE spacing (a power-of-two multiple of the grid spacing).
+    #[serde(default)]
+    pub ce_spacing: Option<f64>,
+    /// Blend: the PD / higher-order-gradient model (M = 4) instead of PD / CE.
+    #[serde(default)]
+    pub hog: Option<bool>,
+}
+
+/// `model.blending`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawBlending {
+    /// Constant in the bridges.
+    Constant,
+    /// Linear ramp.
+    Linear,
+    /// `3 s^2 - 2 s^3`.
+    Cubic,
+    /// User table.
+    Piecewise,
+}
+
+/// `model.blending_table`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBlendingTable {
+    /// Bridge coordinates in `[0, 1]`.
+    pub s: Vec<f64>,
+    /// Values in `[0, 1]`.
+    pub beta: Vec<f64>,
 }
 
 /// `model.plane`.

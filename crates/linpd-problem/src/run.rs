@@ -95,6 +95,9 @@ impl Problem {
 
     /// Solves the static problem. `progress` receives one line per phase.
     pub fn solve(&self, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
+        if let Some(b) = &self.blend {
+            return crate::blend::solve(&self.name, b, progress);
+        }
         let d = self.dim();
         let t0 = Instant::now();
         progress(&format!("building bonds: {} nodes, horizon/spacing = {:.3}", self.grid.len(), self.model.horizon / self.grid.spacing()));

@@ -1,0 +1,164 @@
+//! `"type": "blend"` and `"type": "ce"` scenes: the 1D blended PD/CE model of Seleson,
+//! Beneddine & Prudhomme (2013) and its pure-CE limit, eq. (28).
+//!
+//! The generic scene keys keep their meaning: `grid` gives the domain `(0, L)` (`min` must be
+//! 0, no layer: the blended model has local Dirichlet conditions at both ends) and `dx`;
+//! `model.horizon` and `model.micromodulus` give `eps` (a multiple of `dx`), the kernel and `K`
+//! (discrete normalization, the paper's `eps^2 -> N(N+1) dx^2`); constraints must fix exactly the
+//! end nodes `x = 0` and `x = L`; loads are point loads on nodes (`b_i = delta_ip / dx` is a
+//! unit force) or body-force densities on boxes.
+
+use crate::raw::{RawBlending, RawModelKind, RawNormalize, RawProblem, RawSolverKind};
+use crate::{BlendScene, Constraint, Load, Problem, ProblemError, Solution};
+use linpd_blend::{solve_model, BlendParams, BlendSolver, Blending, ModelKind, Regions};
+use linpd_core::{Grid, Region};
+
+/// Validates the blend-specific keys and translates constraints and loads.
+pub(crate) fn scene(
+    kind: RawModelKind,
+    raw: &RawProblem,
+    grid: &Grid,
+    constraints: &[Constraint],
+    loads: &[Load],
+) -> Result<BlendScene, ProblemError> {
+    let m = &raw.model;
+    let name = if kind == RawModelKind::Ce { "ce" } else { "blend" };
+    if raw.dimension != 1 {
+        return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {}", raw.dimension)));
+    }
+    if raw.grid.min[0] != 0.0 {
+        return Err(ProblemError::invalid("grid.min", format!("{name} models live on (0, L): min must be [0.0]")));
+    }
+    if raw.grid.layer != 0.0 {
+        return Err(ProblemError::invalid("grid.layer", format!("{name} models have local Dirichlet conditions at both ends: no layer")));
+    }
+    if m.micromodulus.normalize != RawNormalize::Discrete {
+        return Err(ProblemError::invalid("model.micromodulus.normalize", format!("{name} models use the discrete normalization (eq. (19)): set \"discrete\"")));
+    }
+    if m.partial_volume || m.plane.is_some() || !m.material.phases.is_empty() || !m.material.defects.is_empty() {
+        return Err(ProblemError::invalid("model", format!("{name} models take no partial_volume, plane or material")));
+    }
+    let blended = kind == RawModelKind::Blend;
+    let (regions, blending) = if blended {
+        let r = m.regions.ok_or_else(|| ProblemError::invalid("model.regions", "missing: [L1, L2, L3, L4] with 0 < L1 < L2 < L3 < L4 < L"))?;
+        let b = match m.blending {
+            None => return Err(ProblemError::invalid("model.blending", "missing: constant, linear, cubic or piecewise")),
+            Some(RawBlending::Constant) => Blending::Constant { value: m.blending_value.unwrap_or(0.5) },
+            Some(RawBlending::Linear) => Blending::Linear,
+            Some(RawBlending::Cubic) => Blending::Cubic,
+            Some(RawBlending::Piecewise) => {
+                let t = m.blending_table.as_ref().ok_or_else(|| ProblemError::invalid("model.blending_table", "piecewise blending needs {\"s\": [...], \"beta\": [...]}"))?;
+                Blending::Piecewise { s: t.s.clone(), beta: t.beta.clone() }
+            }
+        };
+        if m.blending_value.is_some() && m.blending != Some(RawBlending::Constant) {
+            return Err(ProblemError::invalid("model.blending_value", "only constant blending takes a value"));
+        }
+        if m.blending_table.is_some() && m.blending != Some(RawBlending::Piecewise) {
+            return Err(ProblemError::invalid("model.blending_table", "only piecewise blending takes a table"));
+        }
+        (Regions { l1: r[0], l2: r[1], l3: r[2], l4: r[3] }, b)
+    } else {
+        for (key, given) in [("regions", m.regions.is_some()), ("blending", m.blending.is_some()), ("ce_spacing", m.ce_spacing.is_some()), ("hog", m.hog.is_some())] {
+            if given {
+                return Err(ProblemError::invalid(format!("model.{key}"), "the ce model takes no blending keys"));
+            }
+        }
+        // Pure CE: any admissible geometry, beta = 0 everywhere.
+        let l = raw.grid.max[0];
+        (Regions { l1: 0.25 * l, l2: 0.4 * l, l3: 0.6 * l, l4: 0.75 * l }, Blending::Linear)
+    };
+    let length = raw.grid.max[0];
+    let params = BlendParams {
+        length,
+        dx: raw.grid.spacing,
+        horizon: m.horizon,
+        modulus: m.micromodulus.modulus.unwrap_or(1.0),
+        kernel: Problem::kernel_of(&m.micromodulus, m.horizon)?,
+        regions,
+        blending,
+        ce_spacing: m.ce_spacing,
+        hog: m.hog.unwrap_or(false),
+    };
+    params.validate().map_err(|e| match e {
+        linpd_blend::BlendError::Parameter { name, reason } if name == "horizon" => ProblemError::invalid("model.horizon", reason),
+        linpd_blend::BlendError::Parameter { name, reason } if name == "dx" => ProblemError::invalid("grid.spacing", reason),
+        linpd_blend::BlendError::Parameter { name, reason } if name == "length" => ProblemError::invalid("grid.max", reason),
+        linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(format!("model.{name}"), reason),
+        other => ProblemError::invalid("model", other.to_string()),
+    })?;
+    // Dirichlet conditions: exactly the two end nodes.
+    let n = grid.len();
+    let (mut left, mut right) = (None, None);
+    for (k, c) in constraints.iter().enumerate() {
+        for node in c.region.nodes(grid) {
+            let x = grid.position(node)[0];
+            let v = c.displacement(&[x], 0);
+            if node == 0 {
+                left = Some(v);
+            } else if node == n - 1 {
+                right = Some(v);
+            } else {
+                return Err(ProblemError::invalid(
+                    format!("constraints[{k}].region"),
+                    format!("{name} models take Dirichlet conditions at x = 0 and x = L only; the region contains x = {x}"),
+                ));
+            }
+        }
+    }
+    let (u_left, u_right) = match (left, right) {
+        (Some(a), Some(b)) => (a, b),
+        _ => return Err(ProblemError::invalid("constraints", format!("{name} models need u fixed at both x = 0 and x = L ({} given)", left.is_some() as u8 + right.is_some() as u8))),
+    };
+    let mut out = Vec::new();
+    for (k, l) in loads.iter().enumerate() {
+        match l {
+            Load::Point { node, force } => out.push(linpd_blend::Load::Point { x: grid.position(*node)[0], force: force[0] }),
+            Load::Body { region, density } => {
+                let boxes = match region {
+                    Region::Box { min, max } => vec![(min[0], max[0])],
+                    Region::Union(parts) => parts
+                        .iter()
+                        .map(|r| match r {
+                            Region::Box { min, max } => Ok((min[0], max[0])),
+                            _ => Err(ProblemError::invalid(format!("loads[{k}].region"), "blend body loads take boxes or unions of boxes")),
+                        })
+                        .collect::<Result<_, _>>()?,
+                    _ => return Err(ProblemError::invalid(format!("loads[{k}].region"), "blend body loads take boxes or unions of boxes")),
+                };
+                out.extend(boxes.into_iter().map(|(a, b)| linpd_blend::Load::Body { from: a, to: b, density: density[0] }));
+            }
+        }
+    }
+    let solver = match raw.solver.kind {
+        RawSolverKind::Auto => BlendSolver::Auto,
+        RawSolverKind::Lu => BlendSolver::Lu,
+        RawSolverKind::Dense => BlendSolver::Dense,
+        other => {
+            return Err(ProblemError::invalid(
+                "solver.type",
+                format!("{other:?} is not available for {name} models (the blended matrix is unsymmetric): use auto, lu or dense").to_lowercase(),
+            ))
+        }
+    };
+    Ok(BlendScene { params, kind: if blended { ModelKind::Blended } else { ModelKind::PureCe }, u_left, u_right, loads: out, solver })
+}
+
+/// Solves a blend scene.
+pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
+    progress(&format!("assembling the 1D {:?} model: dx = {}, N = {}", b.kind, b.params.dx, b.params.n_side().unwrap_or(0)));
+    let s = solve_model(&b.params, b.kind, b.u_left, b.u_right, &b.loads, b.solver).map_err(|e| match e {
+        linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
+        other => ProblemError::Solve(other.to_string()),
+    })?;
+    progress(&format!("done: {} unknowns, solver {}, relative residual {:.2e}", s.report.n, s.report.solver, s.report.rel_residual));
+    Ok(Solution {
+        name: name.to_string(),
+        dim: 1,
+        x: s.x.iter().map(|&x| [x, 0.0, 0.0]).collect(),
+        u: s.u.clone(),
+        is_layer: vec![false; s.x.len()],
+        n_bonds: 0,
+        report: s.report,
+    })
+}
