@@ -223,7 +223,7 @@ fn cases() -> Vec<Case> {
             "unknown model type",
             e1(set("model", "type", json!("state"))),
             "model.type",
-            "unknown variant `state`, expected `bond`",
+            "unknown variant `state`, expected one of `bond`, `blend`, `ce`",
         ),
         parse(
             "unknown kernel",
@@ -534,6 +534,75 @@ fn cases() -> Vec<Case> {
             needle: "1 rigid motion(s) of a connected piece of 25 node(s) are not constrained",
             check: None,
         },
+        // --- blend and ce scenes ---
+        parse(
+            "blend in 2D",
+            e2(|v| {
+                v["model"]["type"] = json!("blend");
+                v["model"]["regions"] = json!([0.1, 0.2, 0.3, 0.4]);
+                v["model"]["blending"] = json!("cubic");
+                v["model"].as_object_mut().unwrap().remove("plane");
+            }),
+            "dimension",
+            "blend models are 1D",
+        ),
+        parse(
+            "blend without regions",
+            e1(|v| {
+                v["model"]["type"] = json!("blend");
+                v["model"]["blending"] = json!("cubic");
+                v["grid"]["layer"] = json!(0.0);
+                v["constraints"] = json!([{"region": {"box": {"min": [0.0], "max": [0.0]}}, "displacement": {"value": [0.0]}},
+                                          {"region": {"box": {"min": [1.0], "max": [1.0]}}, "displacement": {"value": [0.0]}}]);
+            }),
+            "model.regions",
+            "missing",
+        ),
+        parse(
+            "blend regions not ordered",
+            e1(|v| {
+                v["model"]["type"] = json!("blend");
+                v["model"]["blending"] = json!("linear");
+                v["model"]["regions"] = json!([0.3, 0.2, 0.6, 0.8]);
+                v["grid"]["layer"] = json!(0.0);
+                v["constraints"] = json!([{"region": {"box": {"min": [0.0], "max": [0.0]}}, "displacement": {"value": [0.0]}},
+                                          {"region": {"box": {"min": [1.0], "max": [1.0]}}, "displacement": {"value": [0.0]}}]);
+            }),
+            "model.regions",
+            "0 < L1 < L2 < L3 < L4",
+        ),
+        parse(
+            "blend with a layer",
+            e1(|v| {
+                v["model"]["type"] = json!("blend");
+                v["model"]["blending"] = json!("linear");
+                v["model"]["regions"] = json!([0.2, 0.3, 0.6, 0.8]);
+            }),
+            "grid.layer",
+            "no layer",
+        ),
+        parse(
+            "blend regions key on a bond model",
+            e1(|v| {
+                v["model"]["regions"] = json!([0.2, 0.3, 0.6, 0.8]);
+            }),
+            "model.regions",
+            "only blend models",
+        ),
+        parse(
+            "blend with a cg solver",
+            e1(|v| {
+                v["model"]["type"] = json!("blend");
+                v["model"]["blending"] = json!("linear");
+                v["model"]["regions"] = json!([0.2, 0.3, 0.6, 0.8]);
+                v["grid"]["layer"] = json!(0.0);
+                v["solver"] = json!({"type": "cg"});
+                v["constraints"] = json!([{"region": {"box": {"min": [0.0], "max": [0.0]}}, "displacement": {"value": [0.0]}},
+                                          {"region": {"box": {"min": [1.0], "max": [1.0]}}, "displacement": {"value": [0.0]}}]);
+            }),
+            "solver.type",
+            "unsymmetric",
+        ),
         // --- added with the struct-based model/load mirror and the size guard ---
         parse(
             "point load with a body-load key",

@@ -209,6 +209,10 @@ impl Problem {
             ce_spacing,
             hog,
         } = raw.model.clone();
+        if model_kind != RawModelKind::Bond && dim != 1 {
+            let name = if model_kind == RawModelKind::Ce { "ce" } else { "blend" };
+            return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {dim}")));
+        }
         if model_kind == RawModelKind::Bond {
             for (key, given) in [
                 ("regions", blend_regions.is_some()),
