@@ -46,5 +46,5 @@ pub mod solve;
 pub use blending::{Blending, Regions};
 pub use error::BlendError;
 pub use mesh::Mesh;
-pub use model::{BlendOperator, BlendParams, ModelKind};
+pub use model::{BlendOperator, BlendParams, LocalPart, ModelKind};
 pub use solve::{ce_exact_point_load, solve_model, BlendSolution, BlendSolver, Load};

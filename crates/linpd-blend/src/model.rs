@@ -139,6 +139,40 @@ pub struct BlendOperator {
     pub val: Vec<f64>,
     /// Rows that mix nonlocal and local terms (the transition region `Omega_t`).
     pub transition: Vec<bool>,
+    /// How each row's local (Taylor) part was assembled.
+    pub local: Vec<LocalPart>,
+}
+
+/// The local part of a row of the blended operator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LocalPart {
+    /// An end row (carries a Dirichlet condition).
+    End,
+    /// A pure CE row: `-K u''` by the (non-uniform) 3-point difference, nothing nonlocal.
+    Ce {
+        /// `K`.
+        k: f64,
+    },
+    /// A lattice row: nonlocal terms plus `-(D1 u' + D2 u'' [+ ...])`.
+    Lattice {
+        /// `D1`.
+        d1: f64,
+        /// `D2`.
+        d2: f64,
+        /// The local part uses the 3-point stencils (false: 5-point HOG stencils).
+        three_point: bool,
+    },
+}
+
+impl LocalPart {
+    /// The second-derivative coefficient (0 for end rows).
+    pub fn d2(&self) -> f64 {
+        match self {
+            LocalPart::End => 0.0,
+            LocalPart::Ce { k } => *k,
+            LocalPart::Lattice { d2, .. } => *d2,
+        }
+    }
 }
 
 impl BlendOperator {
@@ -188,7 +222,7 @@ impl BlendOperator {
         let n = mesh.len();
         let width = 2 * (n_side + 2) + 1;
         // Rows are independent: assemble them in parallel, each into its own small buffers.
-        let row = |i: usize| -> (Vec<usize>, Vec<f64>, bool) {
+        let row = |i: usize| -> (Vec<usize>, Vec<f64>, bool, LocalPart) {
             let mut col = Vec::with_capacity(width);
             let mut val = Vec::with_capacity(width);
             let mut acc = vec![0.0; width];
@@ -225,7 +259,8 @@ impl BlendOperator {
                     col.push(q);
                     val.push(v);
                 }
-                return (col, val, false);
+                let part = if i > 0 && i + 1 < n { LocalPart::Ce { k: k_ce } } else { LocalPart::End };
+                return (col, val, false, part);
             }
             let k = k.expect("nonlocal rows lie on the fine lattice");
             let off = |o: i64| (o + n_side as i64 + 2) as usize;
@@ -274,7 +309,9 @@ impl BlendOperator {
                 acc[off(0)] -= -30.0 * c2 + 6.0 * c4;
                 acc[off(-1)] -= -8.0 * c1 + 16.0 * c2 + 2.0 * c3 - 4.0 * c4;
                 acc[off(-2)] -= c1 - c2 - c3 + c4;
-            } else if has(-1) && has(1) {
+            }
+            let local3 = !(params.hog && has(-2) && has(2)) && has(-1) && has(1);
+            if local3 {
                 // (Also HOG rows next to a domain end, where the 5-point stencil does not fit:
                 // the third and fourth derivative terms are dropped there.)
                 acc[off(1)] -= d[1] / (2.0 * dx) + d[2] / h2;
@@ -291,9 +328,10 @@ impl BlendOperator {
                     }
                 }
             }
-            (col, val, is_transition)
+            let part = if i == 0 || i + 1 == n { LocalPart::End } else { LocalPart::Lattice { d1: d[1], d2: d[2], three_point: local3 } };
+            (col, val, is_transition, part)
         };
-        let rows: Vec<(Vec<usize>, Vec<f64>, bool)> = (0..n).into_par_iter().map(row).collect();
+        let rows: Vec<(Vec<usize>, Vec<f64>, bool, LocalPart)> = (0..n).into_par_iter().map(row).collect();
         let mut row_ptr = Vec::with_capacity(n + 1);
         row_ptr.push(0usize);
         for r in &rows {
@@ -302,12 +340,14 @@ impl BlendOperator {
         let mut col = Vec::with_capacity(*row_ptr.last().unwrap());
         let mut val = Vec::with_capacity(*row_ptr.last().unwrap());
         let mut transition = Vec::with_capacity(n);
-        for (c, v, t) in rows {
+        let mut local = Vec::with_capacity(n);
+        for (c, v, t, l) in rows {
             col.extend(c);
             val.extend(v);
             transition.push(t);
+            local.push(l);
         }
-        Ok(BlendOperator { kind, mesh, beta, n_side, row_ptr, col, val, transition })
+        Ok(BlendOperator { kind, mesh, beta, n_side, row_ptr, col, val, transition, local })
     }
 
     /// Number of nodes.
@@ -330,6 +370,75 @@ impl BlendOperator {
             Err(_) => 0.0,
         }
     }
+    /// The SPD preconditioner `P = A_nonlocal + A_div` in CSR: `A` with every row's 3-point local
+    /// part `-(D1 u' + D2 u'')` replaced by the divergence form `-(D2 u')'`, discretized with face
+    /// coefficients `(D2_i + D2_{i+1}) / 2` over each mesh interval (force form:
+    /// `k_f = D_f / (x_{i+1} - x_i)`). Both parts are symmetric positive semi-definite, whatever
+    /// the blending function, so `P` is SPD once Dirichlet conditions are applied; `A - P` is the
+    /// small non-divergence remainder (zero for linear `beta` in the continuum). Rows whose local
+    /// part uses 5-point stencils (HOG) keep them. Returns `None` when some interior row has no
+    /// 3-point local part to replace (then use `(A + A^T)/2` or LU).
+    pub fn divergence_preconditioner(&self) -> Option<(Vec<usize>, Vec<usize>, Vec<f64>)> {
+        let n = self.len();
+        let x = &self.mesh.x;
+        let dx = self.mesh.dx;
+        let mut rows: Vec<std::collections::BTreeMap<usize, f64>> = Vec::with_capacity(n);
+        for i in 0..n {
+            let mut r: std::collections::BTreeMap<usize, f64> =
+                (self.row_ptr[i]..self.row_ptr[i + 1]).map(|p| (self.col[p], self.val[p])).collect();
+            // Subtract the assembled local part, leaving the nonlocal part.
+            match self.local[i] {
+                LocalPart::End => {}
+                LocalPart::Ce { k } => {
+                    let (dl, dr) = (x[i] - x[i - 1], x[i + 1] - x[i]);
+                    *r.entry(i - 1).or_insert(0.0) += k / dl;
+                    *r.entry(i).or_insert(0.0) -= k / dl + k / dr;
+                    *r.entry(i + 1).or_insert(0.0) += k / dr;
+                }
+                LocalPart::Lattice { d1, d2, three_point } => {
+                    if !three_point {
+                        return None;
+                    }
+                    let v = self.mesh.dual_length(i);
+                    *r.entry(i + 1).or_insert(0.0) += (d1 / (2.0 * dx) + d2 / (dx * dx)) * v;
+                    *r.entry(i - 1).or_insert(0.0) += (-d1 / (2.0 * dx) + d2 / (dx * dx)) * v;
+                    *r.entry(i).or_insert(0.0) -= 2.0 * d2 / (dx * dx) * v;
+                }
+            }
+            rows.push(r);
+        }
+        // Add the divergence form -(D2 u')' interval by interval (end rows are never used).
+        for i in 0..n - 1 {
+            // An end row has no local part of its own: its face takes the neighbour's D2.
+            let (l, r) = (self.local[i], self.local[i + 1]);
+            let (dl, dr) = match (l, r) {
+                (LocalPart::End, _) => (r.d2(), r.d2()),
+                (_, LocalPart::End) => (l.d2(), l.d2()),
+                _ => (l.d2(), r.d2()),
+            };
+            let kf = 0.5 * (dl + dr) / (x[i + 1] - x[i]);
+            if kf == 0.0 {
+                continue;
+            }
+            for (a, b) in [(i, i + 1), (i + 1, i)] {
+                if self.local[a] != LocalPart::End {
+                    *rows[a].entry(a).or_insert(0.0) += kf;
+                    *rows[a].entry(b).or_insert(0.0) -= kf;
+                }
+            }
+        }
+        let mut rp = vec![0usize];
+        let (mut col, mut val) = (Vec::new(), Vec::new());
+        for r in rows {
+            for (c, v) in r {
+                col.push(c);
+                val.push(v);
+            }
+            rp.push(col.len());
+        }
+        Some((rp, col, val))
+    }
+
     /// `y = A u`.
     pub fn apply(&self, u: &[f64], y: &mut [f64]) {
         for i in 0..self.len() {
