@@ -3,9 +3,8 @@
 //!
 //! A node's row is nonlocal when `beta` is nonzero within its horizon, i.e. for
 //! `x in (L1 - eps, L4 + eps)`; its stencil reaches `eps` further. The fine zone is therefore
-//! `[L1 - 2 eps, L4 + 2 eps]`, widened by one coarse cell so that every node next to the zone
-//! still sees fine neighbours on its fine side, clipped to the domain and snapped to the fine
-//! lattice. Outside it, coarse nodes step away from the zone by `dx_CE` towards the domain ends;
+//! `[L1 - 2 eps, L4 + 2 eps]`, clipped to the domain and snapped outward to the fine lattice;
+//! rows near its edges are pure CE rows, which use the non-uniform 3-point stencil. Outside it, coarse nodes step away from the zone by `dx_CE` towards the domain ends;
 //! the last interval before an end is shorter when `dx_CE` does not divide the remaining length.
 //! CE rows use the non-uniform second difference of section 5.2.4, exact for quadratics.
 

@@ -190,8 +190,9 @@ impl BlendOperator {
             ModelKind::Blended => match params.ce_spacing {
                 Some(h) if h > dx * (1.0 + 1e-9) => {
                     let r = &params.regions;
-                    let k_lo = (((r.l1 - 2.0 * eps - h) / dx).floor() as i64).max(0);
-                    let k_hi = (((r.l4 + 2.0 * eps + h) / dx).ceil() as i64).min(n_cells as i64);
+                    let _ = h;
+                    let k_lo = (((r.l1 - 2.0 * eps) / dx).floor() as i64).max(0);
+                    let k_hi = (((r.l4 + 2.0 * eps) / dx).ceil() as i64).min(n_cells as i64);
                     Mesh::graded(0.0, dx, k_lo, k_hi, h, 0.0, params.length)
                 }
                 _ => Mesh::uniform(0.0, dx, n_cells),
