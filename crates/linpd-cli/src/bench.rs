@@ -144,23 +144,6 @@ fn build(case: &Case) -> Built {
     Built { grid, op, mm, horizon, dofs, f }
 }
 
-struct Reduced<'a> {
-    dofs: &'a DofMap,
-    st: &'a StencilOperator,
-}
-impl LinearOperator for Reduced<'_> {
-    fn n(&self) -> usize {
-        self.dofs.n_free()
-    }
-    fn apply(&self, x: &[f64], y: &mut [f64]) {
-        let mut full = vec![0.0; self.dofs.n_dofs()];
-        self.dofs.scatter(x, &mut full);
-        let mut out = vec![0.0; self.dofs.n_dofs()];
-        self.st.apply(&full, &mut out);
-        y.copy_from_slice(&self.dofs.gather(&out));
-    }
-}
-
 /// Writes the per-bond (unsummed) triplets of the reduced matrix, the right-hand side and a
 /// descriptor in the format of benches/peers/README.md.
 fn export(dir: &Path, name: &str, b: &Built, nnz: usize, max_iter: usize) -> std::io::Result<()> {
@@ -286,7 +269,7 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
         };
         eprintln!("[bench] {}: Jacobi-PCG (matrix-free stencil)", case.name);
         let st = StencilOperator::new(&b.grid, b.horizon, &b.mm).expect("stencil");
-        let red = Reduced { dofs: &b.dofs, st: &st };
+        let red = linpd_problem::Reduced { dofs: &b.dofs, apply_full: |x: &[f64], y: &mut [f64]| st.apply(x, y) };
         let (t_st, _) = time_avg(|| red.apply(&x, &mut y));
         let mut u = vec![0.0; n];
         let t = Instant::now();

@@ -121,7 +121,7 @@ impl Kernel {
     }
 
     /// Breakpoints in `[0, delta]` where `g` is not smooth (for exact quadrature).
-    fn breakpoints(&self, delta: f64) -> Vec<f64> {
+    pub fn breakpoints(&self, delta: f64) -> Vec<f64> {
         let mut b = vec![0.0];
         if let Kernel::Tabulated { s, .. } = self {
             b.extend(s.iter().filter(|&&v| v > 0.0 && v < 1.0).map(|v| v * delta));
@@ -185,14 +185,14 @@ pub fn dimensional_bulk_modulus(dim: usize, k: f64, plane: Option<PlaneModel>) -
     }
 }
 
-/// `\int_0^delta f(r) dr` by 8-point Gauss-Legendre on panels split at `breaks` and refined
-/// 64 times, exact for polynomials of degree <= 15 on each panel.
-fn integrate(f: impl Fn(f64) -> f64, breaks: &[f64]) -> f64 {
+/// `\int f` over `[breaks[0], breaks[last]]` by 8-point Gauss-Legendre, each interval between
+/// breaks cut into `panels(length)` equal panels; exact for polynomials of degree <= 15 on each.
+pub fn gauss_legendre(f: impl Fn(f64) -> f64, breaks: &[f64], panels: impl Fn(f64) -> usize) -> f64 {
     const X: [f64; 4] = [0.183_434_642_495_649_8, 0.525_532_409_916_329, 0.796_666_477_413_626_7, 0.960_289_856_497_536_3];
     const W: [f64; 4] = [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
     let mut total = 0.0;
     for seg in breaks.windows(2) {
-        let panels = 64;
+        let panels = panels(seg[1] - seg[0]).max(1);
         let w = (seg[1] - seg[0]) / panels as f64;
         for p in 0..panels {
             let mid = seg[0] + (p as f64 + 0.5) * w;
@@ -240,7 +240,8 @@ impl Micromodulus {
             2 => (2.0 * std::f64::consts::PI, 3),
             _ => (4.0 * std::f64::consts::PI, 4),
         };
-        omega * integrate(|r| if r > 0.0 { self.kernel.shape(r, delta) * r.powi(p) } else { 0.0 }, &self.kernel.breakpoints(delta))
+        let f = |r: f64| if r > 0.0 { self.kernel.shape(r, delta) * r.powi(p) } else { 0.0 };
+        omega * gauss_legendre(f, &self.kernel.breakpoints(delta), |_| 64)
     }
 
     /// The lattice sum `sum_k g(|kh|) nu_k h^d |kh|^2` over the interior stencil.

@@ -76,34 +76,11 @@ pub fn omega(chain: &Chain, rho: f64, k: f64) -> f64 {
     (chain.symbol(k) / rho).sqrt()
 }
 
-/// Gauss-Legendre nodes (positive half) and weights, 8 points.
-const GL_X: [f64; 4] =
-    [0.183_434_642_495_649_8, 0.525_532_409_916_329, 0.796_666_477_413_626_7, 0.960_289_856_497_536_3];
-const GL_W: [f64; 4] =
-    [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
-
-/// `\int_0^delta f`, 8-point Gauss-Legendre on panels of at most `delta/32` and at most
-/// `0.5/k_scale` wide, split at the kinks of tabulated kernels.
+/// `\int_0^delta f`, 8-point Gauss-Legendre (linpd-core's) on panels of at most `delta/32`
+/// and at most `0.5/k_scale` wide, split at the kinks of tabulated kernels.
 fn integrate(f: impl Fn(f64) -> f64, kernel: &Kernel, delta: f64, k_scale: f64) -> f64 {
-    let mut breaks = vec![0.0];
-    if let Kernel::Tabulated { s, .. } = kernel {
-        breaks.extend(s.iter().filter(|&&v| v > 0.0 && v < 1.0).map(|v| v * delta));
-    }
-    breaks.push(delta);
-    let mut total = 0.0;
-    for seg in breaks.windows(2) {
-        let len = seg[1] - seg[0];
-        let panels = ((32.0 * len / delta).ceil().max((2.0 * k_scale * len).ceil())).max(1.0) as usize;
-        let w = len / panels as f64;
-        for p in 0..panels {
-            let mid = seg[0] + (p as f64 + 0.5) * w;
-            for q in 0..4 {
-                let dx = 0.5 * w * GL_X[q];
-                total += 0.5 * w * GL_W[q] * (f(mid - dx) + f(mid + dx));
-            }
-        }
-    }
-    total
+    let panels = |len: f64| ((32.0 * len / delta).ceil().max((2.0 * k_scale * len).ceil())).max(1.0) as usize;
+    linpd_core::kernel::gauss_legendre(f, &kernel.breakpoints(delta), panels)
 }
 
 /// The amplitude `c` of `C = c g` normalized on the continuum to the 1D modulus `modulus`

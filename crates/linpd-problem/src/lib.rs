@@ -14,4 +14,4 @@ pub mod run;
 
 pub use error::ProblemError;
 pub use problem::{BlendScene, BondModel, Constraint, Load, Problem, SolverSettings};
-pub use run::Solution;
+pub use run::{Reduced, Solution};

@@ -450,16 +450,7 @@ impl Problem {
 
 fn micromodulus(mm: &RawMicromodulus, horizon: f64, plane: Option<PlaneModel>, partial_volume: bool) -> Result<Micromodulus, ProblemError> {
     let p = "model.micromodulus";
-    let kernel = match mm.kernel {
-        RawKernel::Constant => Kernel::Constant,
-        RawKernel::InverseDistance => Kernel::InverseDistance,
-        RawKernel::Tent => Kernel::Tent,
-        RawKernel::Gaussian => Kernel::Gaussian { length: mm.length.unwrap_or(0.5 * horizon) },
-        RawKernel::Tabulated => {
-            let t = mm.table.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.table"), "the tabulated kernel needs a table {\"r_over_delta\": [...], \"g\": [...]}"))?;
-            Kernel::Tabulated { s: t.r_over_delta.clone(), g: t.g.clone() }
-        }
-    };
+    let kernel = Problem::kernel_of(mm, horizon)?;
     if mm.length.is_some() && mm.kernel != RawKernel::Gaussian {
         return Err(ProblemError::invalid(format!("{p}.length"), "only the gaussian kernel takes a length"));
     }

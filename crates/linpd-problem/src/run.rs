@@ -31,10 +31,13 @@ pub struct Solution {
     pub report: SolveReport,
 }
 
-/// The reduced operator `A_ff` applied through a full-DOF apply.
-struct Reduced<'a, F: Fn(&[f64], &mut [f64]) + Sync> {
-    dofs: &'a DofMap,
-    apply_full: F,
+/// The reduced operator `A_ff`, applied through an apply over all DOFs (constrained entries
+/// zeroed on input, dropped on output): matrix-free CG on a constrained body.
+pub struct Reduced<'a, F: Fn(&[f64], &mut [f64]) + Sync> {
+    /// The free/constrained split.
+    pub dofs: &'a DofMap,
+    /// `y = A x` over all DOFs.
+    pub apply_full: F,
 }
 
 impl<F: Fn(&[f64], &mut [f64]) + Sync> LinearOperator for Reduced<'_, F> {
