@@ -383,30 +383,38 @@ impl BlendOperator {
         let n = self.len();
         let x = &self.mesh.x;
         let dx = self.mesh.dx;
-        let mut rows: Vec<std::collections::BTreeMap<usize, f64>> = Vec::with_capacity(n);
+        // Only entries (i, i-1), (i, i), (i, i+1) change: update a copy of the values in place.
+        // They are stored for every row with a local part (CE rows store exactly them; lattice
+        // rows store their whole stencil); a missing one means no divergence form is possible.
+        let mut val = self.val.clone();
+        let pos = |i: usize, j: usize| -> Option<usize> {
+            let cols = &self.col[self.row_ptr[i]..self.row_ptr[i + 1]];
+            cols.binary_search(&j).ok().map(|p| self.row_ptr[i] + p)
+        };
+        let mut add = |val: &mut [f64], i: usize, j: usize, v: f64| -> Option<()> {
+            val[pos(i, j)?] += v;
+            Some(())
+        };
         for i in 0..n {
-            let mut r: std::collections::BTreeMap<usize, f64> =
-                (self.row_ptr[i]..self.row_ptr[i + 1]).map(|p| (self.col[p], self.val[p])).collect();
             // Subtract the assembled local part, leaving the nonlocal part.
             match self.local[i] {
                 LocalPart::End => {}
                 LocalPart::Ce { k } => {
                     let (dl, dr) = (x[i] - x[i - 1], x[i + 1] - x[i]);
-                    *r.entry(i - 1).or_insert(0.0) += k / dl;
-                    *r.entry(i).or_insert(0.0) -= k / dl + k / dr;
-                    *r.entry(i + 1).or_insert(0.0) += k / dr;
+                    add(&mut val, i, i - 1, k / dl)?;
+                    add(&mut val, i, i, -(k / dl + k / dr))?;
+                    add(&mut val, i, i + 1, k / dr)?;
                 }
                 LocalPart::Lattice { d1, d2, three_point } => {
                     if !three_point {
                         return None;
                     }
                     let v = self.mesh.dual_length(i);
-                    *r.entry(i + 1).or_insert(0.0) += (d1 / (2.0 * dx) + d2 / (dx * dx)) * v;
-                    *r.entry(i - 1).or_insert(0.0) += (-d1 / (2.0 * dx) + d2 / (dx * dx)) * v;
-                    *r.entry(i).or_insert(0.0) -= 2.0 * d2 / (dx * dx) * v;
+                    add(&mut val, i, i + 1, (d1 / (2.0 * dx) + d2 / (dx * dx)) * v)?;
+                    add(&mut val, i, i - 1, (-d1 / (2.0 * dx) + d2 / (dx * dx)) * v)?;
+                    add(&mut val, i, i, -2.0 * d2 / (dx * dx) * v)?;
                 }
             }
-            rows.push(r);
         }
         // Add the divergence form -(D2 u')' interval by interval (end rows are never used).
         for i in 0..n - 1 {
@@ -423,21 +431,12 @@ impl BlendOperator {
             }
             for (a, b) in [(i, i + 1), (i + 1, i)] {
                 if self.local[a] != LocalPart::End {
-                    *rows[a].entry(a).or_insert(0.0) += kf;
-                    *rows[a].entry(b).or_insert(0.0) -= kf;
+                    add(&mut val, a, a, kf)?;
+                    add(&mut val, a, b, -kf)?;
                 }
             }
         }
-        let mut rp = vec![0usize];
-        let (mut col, mut val) = (Vec::new(), Vec::new());
-        for r in rows {
-            for (c, v) in r {
-                col.push(c);
-                val.push(v);
-            }
-            rp.push(col.len());
-        }
-        Some((rp, col, val))
+        Some((self.row_ptr.clone(), self.col.clone(), val))
     }
 
     /// `y = A u`.
