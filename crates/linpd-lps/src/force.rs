@@ -1,0 +1,95 @@
+//! The nonlinear LPS internal force (LAMMPS howto Algorithms 2-4; no damage, no contact, no
+//! short-range forces), its energy and the dilatation.
+//!
+//! ```text
+//! e_ij    = |Y_ij| - |xi_ij|,  Y_ij = xi_ij + u_j - u_i
+//! theta_i = (d / m_i) sum_j omega |xi| e_ij nu V_j                        (Algorithm 4)
+//! F_i     = V_i sum_j [ (d kappa - a G / d) (theta_i / m_i + theta_j / m_j) omega |xi|
+//!                       + a G (omega / m_i + omega / m_j) e_ij ] nu V_j Y_ij / |Y_ij|
+//!                                                                       (Algorithm 2)
+//! E       = sum_i V_i W_i,
+//! W_i     = kappa theta_i^2 / 2 + (a G / (2 m_i)) sum_j omega (e_ij - theta_i |xi| / d)^2 nu V_j
+//! ```
+//!
+//! In 3D `d kappa - a G / d = 3K - 5G` and `a G = 15 G`, the howto's formula; `F_i` is the
+//! howto's force density times `V_i`. `F = -dE/du` exactly (also on the lattice), because
+//! `sum_j omega e^d |xi| nu V_j = m theta / d - theta m / d = 0` removes the derivative of
+//! `theta` in the deviatoric term. `omega` is spherical, so `omega_+ = omega_-`.
+
+use crate::model::norm;
+use crate::LpsModel;
+use rayon::prelude::*;
+
+impl LpsModel {
+    /// Current bond `Y = xi + u_j - u_i`, its length and the extension `e = |Y| - |xi|`.
+    #[inline]
+    fn deformed(&self, u: &[f64], i: usize, j: usize, r: f64) -> ([f64; 3], f64, f64) {
+        let d = self.dim;
+        let mut y = self.bond_vector(i, j);
+        for a in 0..d {
+            y[a] += u[d * j + a] - u[d * i + a];
+        }
+        let ry = norm(&y);
+        (y, ry, ry - r)
+    }
+
+    /// Nonlinear dilatation `theta_i` of every node (Algorithm 4).
+    pub fn theta(&self, u: &[f64]) -> Vec<f64> {
+        assert_eq!(u.len(), self.n_dofs(), "displacement length");
+        let d = self.dim as f64;
+        (0..self.n_nodes())
+            .into_par_iter()
+            .map(|i| {
+                let s: f64 = self.bonds(i).map(|(j, w, r)| w * r * self.deformed(u, i, j, r).2).sum();
+                d / self.m[i] * s
+            })
+            .collect()
+    }
+
+    /// Strain-energy density `W_i` of every node.
+    pub fn energy_density(&self, u: &[f64]) -> Vec<f64> {
+        let theta = self.theta(u);
+        let d = self.dim as f64;
+        (0..self.n_nodes())
+            .into_par_iter()
+            .map(|i| {
+                let dev: f64 = self
+                    .bonds(i)
+                    .map(|(j, w, r)| {
+                        let ed = self.deformed(u, i, j, r).2 - theta[i] * r / d;
+                        w * ed * ed
+                    })
+                    .sum();
+                0.5 * self.kappa * theta[i] * theta[i] + 0.5 * self.a_g / self.m[i] * dev
+            })
+            .collect()
+    }
+
+    /// Total strain energy `E = sum_i V_i W_i`.
+    pub fn energy(&self, u: &[f64]) -> f64 {
+        self.energy_density(u).iter().sum::<f64>() * self.volume
+    }
+
+    /// Nonlinear internal force `F(u) = -dE/du` (force on each node, `V_i` times the force
+    /// density of Algorithm 2), written into `f`.
+    pub fn internal_force(&self, u: &[f64], f: &mut [f64]) {
+        assert_eq!(f.len(), self.n_dofs(), "force length");
+        let theta = self.theta(u);
+        let d = self.dim;
+        let c_theta = d as f64 * self.kappa - self.a_g / d as f64;
+        let vi = self.volume;
+        f.par_chunks_mut(d).enumerate().for_each(|(i, fi)| {
+            fi.iter_mut().for_each(|v| *v = 0.0);
+            let (ti, mi) = (theta[i], self.m[i]);
+            for (j, w, r) in self.bonds(i) {
+                // w = omega nu V_j; omega and nu are symmetric in (i, j).
+                let (y, ry, e) = self.deformed(u, i, j, r);
+                let (tj, mj) = (theta[j], self.m[j]);
+                let fhat = (c_theta * (ti / mi + tj / mj) * r + self.a_g * (1.0 / mi + 1.0 / mj) * e) * w;
+                for a in 0..d {
+                    fi[a] += vi * fhat * y[a] / ry;
+                }
+            }
+        });
+    }
+}

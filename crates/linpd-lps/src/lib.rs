@@ -1,0 +1,45 @@
+//! The linear peridynamic solid (LPS, ordinary state-based) on a lattice: the nonlinear
+//! internal force of the LAMMPS howto (Algorithms 2-4) and its analytic tangent stiffness at
+//! the reference configuration, assembled as a sparse symmetric matrix or applied matrix-free.
+//!
+//! # The model (LAMMPS howto eqs. (3)-(4), Silling et al. 2007)
+//!
+//! For node `i` with family `F_i`, bond `xi = x_j - x_i` (the exact lattice vector
+//! `(k_j - k_i) h`), current bond `Y = xi + u_j - u_i`, extension `e = |Y| - |xi|`,
+//! influence function `omega(|xi|)` ([`Influence`]) and partial-volume fraction `nu(|xi|)`:
+//!
+//! ```text
+//! m_i     = sum_j omega |xi|^2 nu V_j                       (eq. (4), Algorithm 3)
+//! theta_i = (d / m_i) sum_j omega |xi| e nu V_j             (Algorithm 4; d = 3, or 2 in 2D)
+//! W_i     = kappa theta_i^2 / 2 + (a G / (2 m_i)) sum_j omega (e - theta_i |xi| / d)^2 nu V_j
+//! ```
+//!
+//! with `(d, kappa, a) = (3, K, 15)` in 3D (eq. (3): `alpha = 15 G / m`) and `(2, kappa', 8)`
+//! in 2D (see [`model`] for the 2D constants). The force on node `i` (force, not force
+//! density: `F_i = V_i f_i`, `F = -dE/du`, `E = sum_i V_i W_i`) is Algorithm 2 without damage,
+//! contact or short-range forces:
+//!
+//! ```text
+//! F_i = V_i sum_j [ (d kappa - a G / d) (theta_i / m_i + theta_j / m_j) omega |xi|
+//!                   + a G (omega / m_i + omega / m_j) e ] nu V_j  Y / |Y|
+//! ```
+//!
+//! which in 3D is the howto's `(3K - 5G)` / `15G` formula. The tangent `A = -dF/du` at `u = 0`
+//! is symmetric positive semi-definite with the rigid motions in its null space; see
+//! [`tangent`].
+//!
+//! * [`LpsModel`] owns the lattice family, `omega`, `nu`, `|xi|` per bond and `m` per node;
+//! * [`force`]: `theta`, energy and the nonlinear internal force;
+//! * [`tangent`]: the sparse tangent ([`tangent::assemble_tangent`]) and the matrix-free
+//!   apply in factored form ([`LpsModel::apply_tangent`]).
+#![deny(missing_docs)]
+
+pub mod error;
+pub mod force;
+pub mod model;
+pub mod tangent;
+
+pub use error::LpsError;
+pub use linpd_core::PlaneModel;
+pub use model::{Influence, LpsModel, LpsParams};
+pub use tangent::{assemble_tangent, TangentPattern};

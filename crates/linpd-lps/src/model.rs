@@ -1,0 +1,297 @@
+//! The LPS model on a lattice: parameters, per-bond geometry and the weighted volume `m`.
+//!
+//! # Constants in 3D (LAMMPS howto eq. (3))
+//!
+//! `theta = (3/m) sum omega |xi| e nu V`, force state `t = (3K theta / m) omega x + alpha omega
+//! e^d`, `alpha = 15 G / m`, `e^d = e - theta x / 3`. Expanding `e^d` gives the howto's
+//! Algorithm 2 coefficients `(3K - 5G) theta / m` and `15 G / m`.
+//!
+//! # Constants in 2D (plane strain / plane stress)
+//!
+//! We use the 2D LPS of Le, Silling & Bobaru (2014) / Sarego et al. (2016), with the in-plane
+//! dilatation and the same energy form, re-derived here so that the constants are checked:
+//!
+//! ```text
+//! theta = (2/m) sum omega |xi| e nu V,   e^d = e - theta |xi| / 2,
+//! W = kappa' theta^2 / 2 + (alpha / 2) sum omega (e^d)^2 nu V,   alpha = 8 G / m.
+//! ```
+//!
+//! For an affine field `e = n . eps . n |xi|` (`n = xi/|xi|`) and a full circular family,
+//! `(2/m) int omega |xi|^2 n.eps.n = tr eps` (the mean of `n (x) n` over the circle is `I/2`) and
+//! `int omega |xi|^2 (n.eps^d.n)^2 = m (eps^d : eps^d) / 4` (mean of `cos^2 2phi` is `1/2`), so
+//! `W = kappa' (tr eps)^2 / 2 + G eps^d : eps^d`, the classical 2D energy with the 2D bulk
+//! modulus `kappa'` and `eps^d = eps - (tr eps / 2) I`:
+//!
+//! * plane strain: `kappa' = lambda + G = K + G/3`;
+//! * plane stress: `kappa' = lambda* + G = 9 K G / (3K + 4G) = E / (2 (1 - nu))`, with
+//!   `lambda* = 2 lambda G / (lambda + 2G)` (the out-of-plane strain eliminated).
+//!
+//! The force state is `t = (2 kappa' - 4G) (theta/m) omega x + (8G/m) omega e` (the cross term
+//! `sum omega e^d |xi| nu V = m theta / 2 - theta m / 2` vanishes identically, also on the
+//! lattice). The deviatoric factor `8G` matches e.g. NLMech's 2D state-based model and the
+//! plane-strain bulk factor `E / (2 (1 + nu) (1 - 2 nu)) = K + G/3` and plane-stress factor
+//! `E / (2 (1 - nu))` match its `Kadjust`. Le et al. write plane stress with the 3D dilatation
+//! `theta_3 = (1 - 2nu)/(1 - nu) theta`; both forms give the same classical limit; we keep
+//! the in-plane `theta` for both plane models so that the code is one formula.
+//!
+//! In general `(d, kappa, a) = (3, K, 15)` or `(2, kappa', 8)`, and
+//!
+//! ```text
+//! t_ij = (d kappa - a G / d) (theta_i / m_i) omega |xi| + (a G / m_i) omega e.
+//! ```
+//!
+//! # Influence function and partial volumes
+//!
+//! `omega = 1/|xi|` ([`Influence::InverseDistance`], the LAMMPS default) or `omega = 1`
+//! ([`Influence::Constant`]); `nu(|xi|)` is [`linpd_core::kernel::partial_volume`] (node radius
+//! `h/2`) or 1. `m` uses the same lattice sums as `theta`, so the lattice dilatation of an
+//! affine field `u = eps x` with `eps = epsilon I` is exactly `d epsilon` at every node, near
+//! surfaces too (`e = epsilon |xi|` for every bond, so the sums for `theta` and `m` coincide).
+
+use crate::LpsError;
+use linpd_core::kernel::partial_volume;
+use linpd_core::{BondFamily, Grid, PlaneModel, Point};
+
+/// The influence function `omega(|xi|)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Influence {
+    /// `omega = 1 / |xi|` (LAMMPS `peri/lps`).
+    #[default]
+    InverseDistance,
+    /// `omega = 1`.
+    Constant,
+}
+
+impl Influence {
+    /// `omega(r)` for a bond of length `r > 0`.
+    #[inline]
+    pub fn omega(self, r: f64) -> f64 {
+        match self {
+            Influence::InverseDistance => 1.0 / r,
+            Influence::Constant => 1.0,
+        }
+    }
+}
+
+/// Parameters of an LPS material on a lattice.
+#[allow(non_snake_case)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LpsParams {
+    /// Bulk modulus `K` (3D).
+    pub K: f64,
+    /// Shear modulus `G`.
+    pub G: f64,
+    /// Horizon `delta`.
+    pub horizon: f64,
+    /// Influence function `omega`.
+    pub influence: Influence,
+    /// Partial-volume scaling `nu` at the horizon edge (otherwise `nu = 1`).
+    pub partial_volume: bool,
+    /// Plane stress or plane strain; required in 2D, ignored in 3D.
+    pub plane: Option<PlaneModel>,
+}
+
+impl LpsParams {
+    /// Poisson ratio `nu = (3K - 2G) / (2 (3K + G))`.
+    pub fn poisson_ratio(&self) -> f64 {
+        (3.0 * self.K - 2.0 * self.G) / (2.0 * (3.0 * self.K + self.G))
+    }
+
+    /// The dilatational modulus `kappa` of the energy `kappa theta^2 / 2`: `K` in 3D,
+    /// `K + G/3` (plane strain) or `9KG/(3K + 4G)` (plane stress) in 2D.
+    pub fn kappa(&self, dim: usize) -> f64 {
+        let (k, g) = (self.K, self.G);
+        match (dim, self.plane) {
+            (2, Some(PlaneModel::Strain)) => k + g / 3.0,
+            (2, Some(PlaneModel::Stress)) => 9.0 * k * g / (3.0 * k + 4.0 * g),
+            _ => k,
+        }
+    }
+
+    /// The deviatoric factor `a` of `alpha = a G / m`: 15 in 3D, 8 in 2D.
+    pub fn deviatoric_factor(dim: usize) -> f64 {
+        if dim == 2 {
+            8.0
+        } else {
+            15.0
+        }
+    }
+
+    fn validate(&self, dim: usize, h: f64) -> Result<(), LpsError> {
+        if !(2..=3).contains(&dim) {
+            return Err(LpsError::Dimension(dim));
+        }
+        if dim == 2 && self.plane.is_none() {
+            return Err(LpsError::MissingPlane);
+        }
+        if !(self.K.is_finite() && self.K > 0.0) {
+            return Err(LpsError::BulkModulus(self.K));
+        }
+        if !(self.G.is_finite() && self.G > 0.0) {
+            return Err(LpsError::ShearModulus(self.G));
+        }
+        let nu = self.poisson_ratio();
+        if !(nu > -1.0 && nu < 0.5) {
+            return Err(LpsError::PoissonRatio { nu, bulk: self.K, shear: self.G });
+        }
+        // A horizon equal to h up to round-off still bonds the nearest neighbours.
+        if !(self.horizon.is_finite() && self.horizon >= h * (1.0 - linpd_core::GEOMETRY_RTOL)) {
+            return Err(LpsError::Horizon { horizon: self.horizon, spacing: h });
+        }
+        Ok(())
+    }
+}
+
+/// An LPS material on a lattice: the family, per-bond `omega`, `|xi|`, `nu` and per-node `m`.
+#[derive(Debug, Clone)]
+pub struct LpsModel {
+    pub(crate) grid: Grid,
+    pub(crate) dim: usize,
+    pub(crate) params: LpsParams,
+    pub(crate) lattice: Vec<[i64; 3]>,
+    pub(crate) family: BondFamily,
+    /// Per bond (family order): `omega nu V_j`, the weight of every lattice sum.
+    pub(crate) wv: Vec<f64>,
+    /// Per bond: `|xi|`.
+    pub(crate) len: Vec<f64>,
+    /// Per node: weighted volume `m`.
+    pub(crate) m: Vec<f64>,
+    /// Node volume `V = h^d` (uniform lattice).
+    pub(crate) volume: f64,
+    /// `kappa`.
+    pub(crate) kappa: f64,
+    /// `a G` (15 G in 3D, 8 G in 2D).
+    pub(crate) a_g: f64,
+}
+
+impl LpsModel {
+    /// The model on the family `BondFamily::from_grid(grid, delta)`.
+    pub fn new(grid: &Grid, params: &LpsParams) -> Result<Self, LpsError> {
+        params.validate(grid.dim(), grid.spacing())?;
+        let family = BondFamily::from_grid(grid, params.horizon);
+        Self::with_family(grid, family, params)
+    }
+
+    /// The model on a given family of lattice nodes (e.g. with bonds removed). Every bond
+    /// `i -> j` must have its reverse `j -> i`.
+    pub fn with_family(grid: &Grid, family: BondFamily, params: &LpsParams) -> Result<Self, LpsError> {
+        let dim = grid.dim();
+        params.validate(dim, grid.spacing())?;
+        let n = grid.len();
+        if family.len() != n {
+            return Err(LpsError::Family(format!("{} families for {} nodes", family.len(), n)));
+        }
+        for i in 0..n {
+            for &j in family.neighbors(i) {
+                let j = j as usize;
+                if j == i || j >= n || family.neighbors(j).binary_search(&(i as u32)).is_err() {
+                    return Err(LpsError::Family(format!("bond {i} -> {j} has no reverse bond")));
+                }
+            }
+        }
+        let h = grid.spacing();
+        let delta = params.horizon;
+        let volume = grid.volume();
+        let lattice: Vec<[i64; 3]> = (0..n).map(|i| grid.lattice_index(i)).collect();
+        let mut wv = Vec::with_capacity(family.n_bonds());
+        let mut len = Vec::with_capacity(family.n_bonds());
+        let mut m = vec![0.0; n];
+        for (i, mi) in m.iter_mut().enumerate() {
+            for &j in family.neighbors(i) {
+                let xi = lattice_vector(&lattice, h, i, j as usize);
+                let r = norm(&xi);
+                let nu = if params.partial_volume { partial_volume(r, delta, h) } else { 1.0 };
+                let w = params.influence.omega(r) * nu * volume;
+                // Algorithm 3: m_i = sum_j omega |xi|^2 nu V_j.
+                *mi += w * r * r;
+                wv.push(w);
+                len.push(r);
+            }
+            if *mi <= 0.0 {
+                return Err(LpsError::ZeroWeightedVolume { node: i, position: grid.position(i) });
+            }
+        }
+        Ok(LpsModel {
+            grid: grid.clone(),
+            dim,
+            params: *params,
+            lattice,
+            family,
+            wv,
+            len,
+            m,
+            volume,
+            kappa: params.kappa(dim),
+            a_g: LpsParams::deviatoric_factor(dim) * params.G,
+        })
+    }
+
+    /// Spatial dimension `d`.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.lattice.len()
+    }
+    /// Number of DOFs `d * n`.
+    pub fn n_dofs(&self) -> usize {
+        self.dim * self.n_nodes()
+    }
+    /// The parameters.
+    pub fn params(&self) -> &LpsParams {
+        &self.params
+    }
+    /// The lattice.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+    /// The bond family.
+    pub fn family(&self) -> &BondFamily {
+        &self.family
+    }
+    /// Weighted volume `m_i` of every node.
+    pub fn m(&self) -> &[f64] {
+        &self.m
+    }
+    /// Node volume `V`.
+    pub fn volume(&self) -> f64 {
+        self.volume
+    }
+    /// The dilatational modulus `kappa` (see [`LpsParams::kappa`]).
+    pub fn kappa(&self) -> f64 {
+        self.kappa
+    }
+    /// Reference positions.
+    pub fn positions(&self) -> Vec<Point> {
+        self.grid.positions()
+    }
+
+    /// Exact lattice bond vector `xi = x_j - x_i = (k_j - k_i) h`.
+    #[inline]
+    pub fn bond_vector(&self, i: usize, j: usize) -> [f64; 3] {
+        lattice_vector(&self.lattice, self.grid.spacing(), i, j)
+    }
+
+    /// Per bond of node `i` (family order): `(j, omega nu V_j, |xi|)`.
+    #[inline]
+    pub(crate) fn bonds(&self, i: usize) -> impl Iterator<Item = (usize, f64, f64)> + '_ {
+        let o = self.family.bond_offset(i);
+        self.family
+            .neighbors(i)
+            .iter()
+            .enumerate()
+            .map(move |(b, &j)| (j as usize, self.wv[o + b], self.len[o + b]))
+    }
+}
+
+#[inline]
+fn lattice_vector(lattice: &[[i64; 3]], h: f64, i: usize, j: usize) -> [f64; 3] {
+    let (a, b) = (lattice[i], lattice[j]);
+    [(b[0] - a[0]) as f64 * h, (b[1] - a[1]) as f64 * h, (b[2] - a[2]) as f64 * h]
+}
+
+#[inline]
+pub(crate) fn norm(v: &[f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}

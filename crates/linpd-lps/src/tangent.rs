@@ -1,0 +1,311 @@
+//! The analytic tangent stiffness `A = -dF/du` of the LPS force at the reference
+//! configuration, assembled sparse (CSC, force form, symmetric) or applied matrix-free.
+//!
+//! # Derivation
+//!
+//! At `u = 0` every `e` and `theta` vanish, so the geometric (second-derivative-of-`e`)
+//! terms drop out and `A` is the Hessian of the energy with the linearized extension
+//! `e_ij ~ b_ij . u = n_ij . (u_j - u_i)`, `n_ij = xi / |xi|`. With
+//!
+//! ```text
+//! g_k = d theta_k / du:  g_k[q] = (d/m_k) omega nu V_q xi_kq  (q in F_k),
+//!                        g_k[k] = -sum_{q in F_k} g_k[q],
+//! ```
+//!
+//! and `sum_j omega |xi| nu V_j b_kj = (m_k / d) g_k`, the Hessian of
+//! `sum_k V_k [kappa theta_k^2/2 + (aG/(2 m_k)) sum_j omega (e - theta_k |xi|/d)^2 nu V_j]`
+//! collapses to a bond part plus one rank-one term per node:
+//!
+//! ```text
+//! A = A_pair + sum_k C_k g_k g_k^T,       C_k = V_k (kappa - a G / d^2),
+//! A_pair = sum_{bonds i-j} s_ij (n n^T) on (i,i), (j,j) and -s_ij (n n^T) on (i,j), (j,i),
+//! s_ij   = V_i V_j a G omega nu (1/m_i + 1/m_j).
+//! ```
+//!
+//! In 3D `C_k = V_k (K - 5G/3)` (the `(3K - 5G)` term of Algorithm 2) and `aG = 15 G`. `C_k`
+//! may be negative (`G > 3K/5`), but `A` is positive semi-definite because it is the Hessian
+//! of a sum of squares; the rigid motions are in its null space (`b . u = 0` for them).
+//!
+//! # Assembly without dense products
+//!
+//! `g_k` is supported on `{k} U F_k`, so `g_k g_k^T` couples nodes up to `2 delta` apart. The
+//! pattern of column node `p` is the Minkowski difference `O - O` of the family's lattice
+//! offsets `O` (with `0`), clipped to the lattice; it is built once ([`TangentPattern`]) in
+//! lattice units, rows ascending, with structural zeros kept so that it does not depend on
+//! values. Values are filled in parallel over column nodes: for column `p`, the bonds of `p`
+//! give the pair blocks and every `k in {p} U F_p` adds `C_k g_k[q] g_k[p]^T` to rows
+//! `q in {k} U F_k`. Cost `O(n |F|^2 d^2)`; no matrix product is formed.
+//!
+//! The matrix-free apply uses the factored form: first `theta_k = g_k . u` for all `k`
+//! (the linearized dilatation), then `y_p = (A_pair u)_p + sum_{k in {p} U F_p} C_k theta_k
+//! g_k[p]`, the scatter `sum_k C_k g_k theta_k` written as a gather so that it runs in
+//! parallel over nodes without write conflicts.
+
+use crate::LpsModel;
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use rayon::prelude::*;
+use std::collections::BTreeSet;
+
+impl LpsModel {
+    /// `C_k = V (kappa - a G / d^2)`, the coefficient of `g_k g_k^T`.
+    pub fn dilatation_coefficient(&self) -> f64 {
+        let d = self.dim as f64;
+        self.volume * (self.kappa - self.a_g / (d * d))
+    }
+
+    /// `g_k[k] = -(d/m_k) sum_q omega nu V_q xi_kq` for every node (zero for full families).
+    fn g_self(&self) -> Vec<[f64; 3]> {
+        let d = self.dim as f64;
+        (0..self.n_nodes())
+            .into_par_iter()
+            .map(|k| {
+                let mut s = [0.0; 3];
+                for (q, w, _) in self.bonds(k) {
+                    let xi = self.bond_vector(k, q);
+                    for a in 0..3 {
+                        s[a] -= d / self.m[k] * w * xi[a];
+                    }
+                }
+                s
+            })
+            .collect()
+    }
+
+    /// Linearized dilatation `theta_k = g_k . u` of every node.
+    pub fn linearized_theta(&self, u: &[f64]) -> Vec<f64> {
+        assert_eq!(u.len(), self.n_dofs(), "displacement length");
+        let d = self.dim;
+        (0..self.n_nodes())
+            .into_par_iter()
+            .map(|k| {
+                let mut s = 0.0;
+                for (q, w, _) in self.bonds(k) {
+                    let xi = self.bond_vector(k, q);
+                    for a in 0..d {
+                        s += w * xi[a] * (u[d * q + a] - u[d * k + a]);
+                    }
+                }
+                d as f64 / self.m[k] * s
+            })
+            .collect()
+    }
+
+    /// `y = A u` without storing `A`, in the factored form `A_pair u + sum_k C_k g_k (g_k . u)`.
+    pub fn apply_tangent(&self, u: &[f64], y: &mut [f64]) {
+        assert_eq!(y.len(), self.n_dofs(), "output length");
+        let theta = self.linearized_theta(u);
+        let g_self = self.g_self();
+        let d = self.dim;
+        let df = d as f64;
+        let c = self.dilatation_coefficient();
+        let v = self.volume;
+        y.par_chunks_mut(d).enumerate().for_each(|(p, yp)| {
+            yp.iter_mut().for_each(|x| *x = 0.0);
+            // k = p.
+            for a in 0..d {
+                yp[a] += c * theta[p] * g_self[p][a];
+            }
+            for (j, w, r) in self.bonds(p) {
+                let xi = self.bond_vector(p, j);
+                // Pair: s (n . (u_p - u_j)) n with n = xi / r.
+                let s = v * self.a_g * w * (1.0 / self.m[p] + 1.0 / self.m[j]) / (r * r);
+                let mut proj = 0.0;
+                for a in 0..d {
+                    proj += xi[a] * (u[d * p + a] - u[d * j + a]);
+                }
+                // k = j: g_j[p] = (d/m_j) w xi_jp = -(d/m_j) w xi_pj.
+                let gk = -df / self.m[j] * w;
+                for a in 0..d {
+                    yp[a] += s * proj * xi[a] + c * theta[j] * gk * xi[a];
+                }
+            }
+        });
+    }
+}
+
+/// The CSC pattern of the LPS tangent over all DOFs (both triangles), built in lattice units.
+#[derive(Debug, Clone)]
+pub struct TangentPattern {
+    symbolic: SymbolicSparseColMat<usize>,
+    /// `node_start[p]..node_start[p + 1]`: the values of node `p`'s `d` columns.
+    node_start: Vec<usize>,
+    /// Offsets `O - O` sorted by node-number order (last axis slowest).
+    offsets: Vec<[i64; 3]>,
+    /// Dense table from an offset in `[-2R, 2R]^3` to its index in `offsets` (or `usize::MAX`).
+    table: Vec<usize>,
+    reach: i64,
+}
+
+impl TangentPattern {
+    /// Builds the pattern of `model`'s tangent.
+    pub fn new(model: &LpsModel) -> Self {
+        let n = model.n_nodes();
+        let d = model.dim;
+        let lat = &model.lattice;
+        let mut family_offsets: BTreeSet<[i64; 3]> = BTreeSet::new();
+        family_offsets.insert([0, 0, 0]);
+        for i in 0..n {
+            for &j in model.family.neighbors(i) {
+                let (a, b) = (lat[i], lat[j as usize]);
+                family_offsets.insert([b[0] - a[0], b[1] - a[1], b[2] - a[2]]);
+            }
+        }
+        let reach = family_offsets.iter().flatten().fold(0i64, |r, &x| r.max(x.abs()));
+        let mut set: BTreeSet<[i64; 3]> = BTreeSet::new();
+        for s in &family_offsets {
+            for t in &family_offsets {
+                // Keyed (z, y, x) so that BTreeSet order is node-number order.
+                set.insert([s[2] - t[2], s[1] - t[1], s[0] - t[0]]);
+            }
+        }
+        let offsets: Vec<[i64; 3]> = set.into_iter().map(|k| [k[2], k[1], k[0]]).collect();
+        let w = (4 * reach + 1) as usize;
+        let mut table = vec![usize::MAX; w * w * w];
+        for (idx, o) in offsets.iter().enumerate() {
+            table[table_index(o, reach)] = idx;
+        }
+        let grid = &model.grid;
+        let rows_of = |p: usize| -> Vec<usize> {
+            let l = lat[p];
+            offsets
+                .iter()
+                .filter_map(|o| grid.node_at([l[0] + o[0], l[1] + o[1], l[2] + o[2]]))
+                .collect()
+        };
+        let per_node: Vec<Vec<usize>> = (0..n).into_par_iter().map(rows_of).collect();
+        let mut col_ptr = Vec::with_capacity(d * n + 1);
+        let mut node_start = Vec::with_capacity(n + 1);
+        col_ptr.push(0usize);
+        node_start.push(0usize);
+        for rows in &per_node {
+            for _ in 0..d {
+                col_ptr.push(col_ptr.last().unwrap() + d * rows.len());
+            }
+            node_start.push(*col_ptr.last().unwrap());
+        }
+        let mut row_idx = Vec::with_capacity(*col_ptr.last().unwrap());
+        for rows in &per_node {
+            for _ in 0..d {
+                for &q in rows {
+                    for c in 0..d {
+                        row_idx.push(d * q + c);
+                    }
+                }
+            }
+        }
+        let symbolic = SymbolicSparseColMat::new_checked(d * n, d * n, col_ptr, None, row_idx);
+        TangentPattern { symbolic, node_start, offsets, table, reach }
+    }
+
+    /// The symbolic CSC structure.
+    pub fn symbolic(&self) -> &SymbolicSparseColMat<usize> {
+        &self.symbolic
+    }
+    /// Stored entries (both triangles, structural zeros included).
+    pub fn nnz(&self) -> usize {
+        self.symbolic.row_idx().len()
+    }
+
+    /// Fills `values` (length [`TangentPattern::nnz`]) with the tangent of `model`, which
+    /// must be the model (or one with the same family) the pattern was built for.
+    pub fn fill(&self, model: &LpsModel, values: &mut [f64]) {
+        assert_eq!(values.len(), self.nnz(), "values length");
+        let d = model.dim;
+        let df = d as f64;
+        let lat = &model.lattice;
+        let grid = &model.grid;
+        let c = model.dilatation_coefficient();
+        let v = model.volume;
+        let g_self = model.g_self();
+        for_each_node_slice(values, &self.node_start, |p, vals| {
+            let lp = lat[p];
+            // Row slot of each offset for this column node.
+            let mut slot = vec![usize::MAX; self.offsets.len()];
+            let mut nrows = 0;
+            for (idx, o) in self.offsets.iter().enumerate() {
+                if grid.node_at([lp[0] + o[0], lp[1] + o[1], lp[2] + o[2]]).is_some() {
+                    slot[idx] = nrows;
+                    nrows += 1;
+                }
+            }
+            debug_assert_eq!(vals.len(), d * d * nrows);
+            let pos = |q: usize| -> usize {
+                let lq = lat[q];
+                let o = [lq[0] - lp[0], lq[1] - lp[1], lq[2] - lp[2]];
+                slot[self.table[table_index(&o, self.reach)]]
+            };
+            // blocks[row][c][a] = A[(q, c), (p, a)].
+            let mut blocks = vec![[[0.0f64; 3]; 3]; nrows];
+            let add = |blocks: &mut [[[f64; 3]; 3]], r: usize, s: f64, x: &[f64; 3], y: &[f64; 3]| {
+                for cc in 0..d {
+                    for a in 0..d {
+                        blocks[r][cc][a] += s * x[cc] * y[a];
+                    }
+                }
+            };
+            let sp = pos(p);
+            // Pair part.
+            for (j, w, r) in model.bonds(p) {
+                let xi = model.bond_vector(p, j);
+                let s = v * model.a_g * w * (1.0 / model.m[p] + 1.0 / model.m[j]) / (r * r);
+                add(&mut blocks, sp, s, &xi, &xi);
+                add(&mut blocks, pos(j), -s, &xi, &xi);
+            }
+            // Dilatation part: k = p, then k in F_p.
+            let gp = g_self[p];
+            add(&mut blocks, sp, c, &g_self[p], &gp);
+            for (q, w, _) in model.bonds(p) {
+                let xi = model.bond_vector(p, q);
+                let g = df / model.m[p] * w;
+                add(&mut blocks, pos(q), c * g, &xi, &gp);
+            }
+            for (k, wpk, _) in model.bonds(p) {
+                // g_k[p] = (d/m_k) w xi_kp = -(d/m_k) w xi_pk.
+                let xi_pk = model.bond_vector(p, k);
+                let gkp_s = -df / model.m[k] * wpk;
+                let gkp = [gkp_s * xi_pk[0], gkp_s * xi_pk[1], gkp_s * xi_pk[2]];
+                add(&mut blocks, pos(k), c, &g_self[k], &gkp);
+                for (q, w, _) in model.bonds(k) {
+                    let xi = model.bond_vector(k, q);
+                    let g = df / model.m[k] * w;
+                    add(&mut blocks, pos(q), c * g, &xi, &gkp);
+                }
+            }
+            let len = d * nrows;
+            for (r, b) in blocks.iter().enumerate() {
+                for a in 0..d {
+                    for cc in 0..d {
+                        vals[a * len + d * r + cc] = b[cc][a];
+                    }
+                }
+            }
+        });
+    }
+}
+
+#[inline]
+fn table_index(o: &[i64; 3], reach: i64) -> usize {
+    let w = 4 * reach + 1;
+    let s = |x: i64| (x + 2 * reach) as usize;
+    s(o[0]) + w as usize * (s(o[1]) + w as usize * s(o[2]))
+}
+
+/// Runs `f(i, &mut data[start[i]..start[i+1]])` for every node in parallel.
+fn for_each_node_slice<T: Send>(data: &mut [T], start: &[usize], f: impl Fn(usize, &mut [T]) + Sync) {
+    let mut slices = Vec::with_capacity(start.len() - 1);
+    let mut rest = data;
+    for w in start.windows(2) {
+        let (head, tail) = rest.split_at_mut(w[1] - w[0]);
+        slices.push(head);
+        rest = tail;
+    }
+    slices.into_par_iter().enumerate().for_each(|(i, s)| f(i, s));
+}
+
+/// Assembles the tangent `A` (all DOFs, force form `F ~ -A u`) of `model`.
+pub fn assemble_tangent(model: &LpsModel) -> SparseColMat<usize, f64> {
+    let pattern = TangentPattern::new(model);
+    let mut values = vec![0.0; pattern.nnz()];
+    pattern.fill(model, &mut values);
+    SparseColMat::new(pattern.symbolic, values)
+}

@@ -1,0 +1,38 @@
+//! The fast blended-model studies regenerate their data and figures from the CLI (the slow
+//! ones, blend-pd-size, blend-bridge-size, blend-speedup and blend-speed-vs-error, take
+//! 30-90 s each and are run by hand; their outputs are committed under docs/studies/).
+
+use serde_json::Value;
+use std::process::Command;
+
+#[test]
+fn fast_studies_write_data_and_plots() {
+    let root = std::env::temp_dir().join(format!("linpd-study-smoke-{}", std::process::id()));
+    for (name, figures) in [
+        ("blend-patch", vec!["fig7_profiles", "fig8_strain_fluctuation"]),
+        ("blend-point-load", vec!["fig9_profiles", "fig9_profiles_zoom", "fig10_error_profiles"]),
+        ("blend-load-location", vec!["fig13_error_vs_load_location"]),
+    ] {
+        let dir = root.join(name);
+        let out = Command::new(env!("CARGO_BIN_EXE_linpd")).args(["study", name, "--out"]).arg(&dir).output().unwrap();
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+        let data: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("data.json")).unwrap()).unwrap();
+        assert_eq!(data["study"], name);
+        for f in figures {
+            for ext in ["png", "svg"] {
+                let p = dir.join(format!("{f}.{ext}"));
+                assert!(std::fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false), "{} missing or empty", p.display());
+            }
+        }
+    }
+    // The patch study's table: every model's strain spread at round-off (direct solves).
+    let data: Value = serde_json::from_str(&std::fs::read_to_string(root.join("blend-patch/data.json")).unwrap()).unwrap();
+    for m in data["models"].as_array().unwrap() {
+        assert!(m["strain_spread"].as_f64().unwrap() < 1e-12, "{}", m["model"]);
+    }
+    let bad = Command::new(env!("CARGO_BIN_EXE_linpd")).args(["study", "blend-nope", "--out"]).arg(root.join("x")).output().unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("unknown study `blend-nope`"));
+    assert!(!root.join("x").exists(), "no output for a failed study");
+    let _ = std::fs::remove_dir_all(&root);
+}
