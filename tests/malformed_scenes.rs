@@ -534,6 +534,73 @@ fn cases() -> Vec<Case> {
             needle: "1 rigid motion(s) of a connected piece of 25 node(s) are not constrained",
             check: None,
         },
+        // --- lps scenes ---
+        parse(
+            "lps without shear modulus",
+            e2(|v| {
+                v["model"] = json!({"type": "lps", "horizon": 0.5, "plane": "strain", "bulk_modulus": 2.0});
+            }),
+            "model.shear_modulus",
+            "missing",
+        ),
+        parse(
+            "lps with negative shear modulus",
+            e2(|v| {
+                v["model"] = json!({"type": "lps", "horizon": 0.5, "plane": "strain", "bulk_modulus": 2.0, "shear_modulus": -1.0});
+            }),
+            "model.shear_modulus",
+            "must be > 0",
+        ),
+        parse(
+            "lps with zero bulk modulus",
+            e2(|v| {
+                v["model"] = json!({"type": "lps", "horizon": 0.5, "plane": "strain", "bulk_modulus": 0.0, "shear_modulus": 1.0});
+            }),
+            "model.bulk_modulus",
+            "must be > 0",
+        ),
+        parse(
+            "lps with a micromodulus",
+            e2(|v| {
+                v["model"]["type"] = json!("lps");
+                v["model"]["bulk_modulus"] = json!(2.0);
+                v["model"]["shear_modulus"] = json!(1.0);
+            }),
+            "model.micromodulus",
+            "not a micromodulus",
+        ),
+        parse(
+            "lps in 1D",
+            e1(|v| {
+                v["model"] = json!({"type": "lps", "horizon": 0.2, "bulk_modulus": 2.0, "shear_modulus": 1.0});
+            }),
+            "dimension",
+            "2D or 3D",
+        ),
+        parse(
+            "lps horizon below the spacing",
+            e2(|v| {
+                v["model"] = json!({"type": "lps", "horizon": 0.1, "plane": "strain", "bulk_modulus": 2.0, "shear_modulus": 1.0});
+            }),
+            "model.horizon",
+            "below the spacing",
+        ),
+        parse(
+            "bulk modulus on a bond model",
+            e1(|v| {
+                v["model"]["bulk_modulus"] = json!(2.0);
+            }),
+            "model.bulk_modulus",
+            "only lps models",
+        ),
+        parse(
+            "bond model without micromodulus",
+            e1(|v| {
+                v["model"].as_object_mut().unwrap().remove("micromodulus");
+            }),
+            "model.micromodulus",
+            "missing",
+        ),
         // --- blend and ce scenes ---
         parse(
             "blend in 2D",

@@ -391,7 +391,7 @@ impl BlendOperator {
             let cols = &self.col[self.row_ptr[i]..self.row_ptr[i + 1]];
             cols.binary_search(&j).ok().map(|p| self.row_ptr[i] + p)
         };
-        let mut add = |val: &mut [f64], i: usize, j: usize, v: f64| -> Option<()> {
+        let add = |val: &mut [f64], i: usize, j: usize, v: f64| -> Option<()> {
             val[pos(i, j)?] += v;
             Some(())
         };

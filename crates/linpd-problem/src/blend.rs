@@ -23,6 +23,7 @@ pub(crate) fn scene(
 ) -> Result<BlendScene, ProblemError> {
     let m = &raw.model;
     let name = if kind == RawModelKind::Ce { "ce" } else { "blend" };
+    let mm = m.micromodulus.as_ref().ok_or_else(|| ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization"))?;
     if raw.dimension != 1 {
         return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {}", raw.dimension)));
     }
@@ -32,7 +33,7 @@ pub(crate) fn scene(
     if raw.grid.layer != 0.0 {
         return Err(ProblemError::invalid("grid.layer", format!("{name} models have local Dirichlet conditions at both ends: no layer")));
     }
-    if m.micromodulus.normalize != RawNormalize::Discrete {
+    if mm.normalize != RawNormalize::Discrete {
         return Err(ProblemError::invalid("model.micromodulus.normalize", format!("{name} models use the discrete normalization (eq. (19)): set \"discrete\"")));
     }
     if m.partial_volume || m.plane.is_some() || !m.material.phases.is_empty() || !m.material.defects.is_empty() {
@@ -73,8 +74,8 @@ pub(crate) fn scene(
         length,
         dx: raw.grid.spacing,
         horizon: m.horizon,
-        modulus: m.micromodulus.modulus.unwrap_or(1.0),
-        kernel: Problem::kernel_of(&m.micromodulus, m.horizon)?,
+        modulus: mm.modulus.unwrap_or(1.0),
+        kernel: Problem::kernel_of(mm, m.horizon)?,
         regions,
         blending,
         ce_spacing: m.ce_spacing,

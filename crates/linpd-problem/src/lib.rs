@@ -7,6 +7,7 @@
 
 pub(crate) mod blend;
 pub mod error;
+pub(crate) mod lps;
 pub mod output;
 pub mod problem;
 pub mod raw;

@@ -88,6 +88,8 @@ pub struct Problem {
     pub output_dir: String,
     /// Write plots.
     pub plot: bool,
+    /// For `lps` models: the LPS parameters (then `model` holds only the horizon).
+    pub lps: Option<linpd_lps::LpsParams>,
     /// For `blend` and `ce` models: the 1D blended-model problem (then `model` holds only the
     /// horizon and micromodulus, and `constraints`/`loads` have been translated into it).
     pub blend: Option<BlendScene>,
@@ -201,6 +203,9 @@ impl Problem {
             partial_volume,
             plane,
             micromodulus: mm,
+            bulk_modulus,
+            shear_modulus,
+            influence,
             material,
             regions: blend_regions,
             blending,
@@ -209,10 +214,34 @@ impl Problem {
             ce_spacing,
             hog,
         } = raw.model.clone();
-        if model_kind != RawModelKind::Bond && dim != 1 {
+        if matches!(model_kind, RawModelKind::Blend | RawModelKind::Ce) && dim != 1 {
             let name = if model_kind == RawModelKind::Ce { "ce" } else { "blend" };
             return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {dim}")));
         }
+        let lps = if model_kind == RawModelKind::Lps {
+            Some(lps_params(dim, horizon, grid.spacing(), partial_volume, plane, bulk_modulus, shear_modulus, influence, &mm, &material)?)
+        } else {
+            for (key, given) in [("bulk_modulus", bulk_modulus.is_some()), ("shear_modulus", shear_modulus.is_some()), ("influence", influence.is_some())] {
+                if given {
+                    return Err(ProblemError::invalid(format!("model.{key}"), "only lps models take this key"));
+                }
+            }
+            None
+        };
+        // Bond, blend and ce models need a micromodulus; for lps a placeholder is kept (unused).
+        let mm = match (mm, model_kind) {
+            (Some(m), _) => m,
+            (None, RawModelKind::Lps) => RawMicromodulus {
+                kernel: RawKernel::InverseDistance,
+                length: None,
+                table: None,
+                modulus: None,
+                normalize: RawNormalize::None,
+                amplitude: Some(1.0),
+            },
+            (None, _) => return Err(ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization")),
+        };
+        let plane = if model_kind == RawModelKind::Lps && dim == 2 { None } else { plane };
         if model_kind == RawModelKind::Bond {
             for (key, given) in [
                 ("regions", blend_regions.is_some()),
@@ -390,10 +419,14 @@ impl Problem {
             return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg solver only"));
         }
         let blend = match model_kind {
-            RawModelKind::Bond => None,
-            k => Some(crate::blend::scene(k, &raw, &grid, &constraints, &loads)?),
+            RawModelKind::Blend | RawModelKind::Ce => Some(crate::blend::scene(model_kind, &raw, &grid, &constraints, &loads)?),
+            RawModelKind::Bond | RawModelKind::Lps => None,
         };
+        if lps.is_some() && raw.solver.matrix_free {
+            return Err(ProblemError::invalid("solver.matrix_free", "not available for lps models yet (the Jacobi diagonal needs the assembled tangent)"));
+        }
         Ok(Problem {
+            lps,
             blend,
             output_dir: raw.output.dir.clone().unwrap_or_else(|| format!("out/{}", raw.name)),
             plot: raw.output.plot.unwrap_or(true),
@@ -446,6 +479,58 @@ impl Problem {
             }
         })
     }
+}
+
+/// Validates the lps keys (the model itself checks `m > 0` when it is built).
+#[allow(clippy::too_many_arguments)]
+fn lps_params(
+    dim: usize,
+    horizon: f64,
+    spacing: f64,
+    partial_volume: bool,
+    plane: Option<RawPlane>,
+    bulk: Option<f64>,
+    shear: Option<f64>,
+    influence: Option<RawInfluence>,
+    mm: &Option<RawMicromodulus>,
+    material: &RawMaterial,
+) -> Result<linpd_lps::LpsParams, ProblemError> {
+    if dim == 1 {
+        return Err(ProblemError::invalid("dimension", "lps models are 2D or 3D"));
+    }
+    if mm.is_some() {
+        return Err(ProblemError::invalid("model.micromodulus", "lps models take bulk_modulus and shear_modulus, not a micromodulus"));
+    }
+    if !material.phases.is_empty() || !material.defects.is_empty() {
+        return Err(ProblemError::invalid("model.material", "lps models are homogeneous for now"));
+    }
+    let k = bulk.ok_or_else(|| ProblemError::invalid("model.bulk_modulus", "missing"))?;
+    let g = shear.ok_or_else(|| ProblemError::invalid("model.shear_modulus", "missing"))?;
+    if !(k.is_finite() && k > 0.0) {
+        return Err(ProblemError::invalid("model.bulk_modulus", format!("must be > 0, got {k}")));
+    }
+    if !(g.is_finite() && g > 0.0) {
+        return Err(ProblemError::invalid("model.shear_modulus", format!("must be > 0, got {g}")));
+    }
+    let nu = (3.0 * k - 2.0 * g) / (2.0 * (3.0 * k + g));
+    if !(nu > -1.0 && nu < 0.5) {
+        return Err(ProblemError::invalid("model.shear_modulus", format!("Poisson ratio (3K - 2G)/(2(3K + G)) = {nu} is outside (-1, 1/2)")));
+    }
+    if horizon < spacing * (1.0 - linpd_core::GEOMETRY_RTOL) {
+        return Err(ProblemError::invalid("model.horizon", format!("horizon {horizon} is below the spacing {spacing}")));
+    }
+    let plane = match (dim, plane) {
+        (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
+        (2, Some(RawPlane::Strain)) => Some(PlaneModel::Strain),
+        (2, None) => return Err(ProblemError::invalid("model.plane", "2D lps scenes need \"plane\": \"stress\" or \"strain\"")),
+        (_, Some(_)) => return Err(ProblemError::invalid("model.plane", "only meaningful in 2D")),
+        (_, None) => None,
+    };
+    let influence = match influence {
+        None | Some(RawInfluence::InverseDistance) => linpd_lps::Influence::InverseDistance,
+        Some(RawInfluence::Constant) => linpd_lps::Influence::Constant,
+    };
+    Ok(linpd_lps::LpsParams { K: k, G: g, horizon, influence, partial_volume, plane })
 }
 
 fn micromodulus(mm: &RawMicromodulus, horizon: f64, plane: Option<PlaneModel>, partial_volume: bool) -> Result<Micromodulus, ProblemError> {

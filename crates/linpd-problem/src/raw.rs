@@ -69,6 +69,8 @@ pub enum RawModelKind {
     Blend,
     /// 1D classical elasticity, eq. (28) of the same paper.
     Ce,
+    /// Linearized state-based LPS (2D plane stress/strain, 3D).
+    Lps,
 }
 
 /// `model`. A plain struct with a `type` field rather than a serde-tagged enum: serde buffers
@@ -88,8 +90,18 @@ pub struct RawModel {
     /// 2D assumption: `stress` or `strain`.
     #[serde(default)]
     pub plane: Option<RawPlane>,
-    /// Kernel and normalization.
-    pub micromodulus: RawMicromodulus,
+    /// Kernel and normalization (bond, blend and ce models).
+    #[serde(default)]
+    pub micromodulus: Option<RawMicromodulus>,
+    /// LPS: bulk modulus `K`.
+    #[serde(default)]
+    pub bulk_modulus: Option<f64>,
+    /// LPS: shear modulus `G`.
+    #[serde(default)]
+    pub shear_modulus: Option<f64>,
+    /// LPS: influence function, `inverse_distance` (default) or `constant`.
+    #[serde(default)]
+    pub influence: Option<RawInfluence>,
     /// Phases, bond rule, defects.
     #[serde(default)]
     pub material: RawMaterial,
@@ -111,6 +123,16 @@ pub struct RawModel {
     /// Blend: the PD / higher-order-gradient model (M = 4) instead of PD / CE.
     #[serde(default)]
     pub hog: Option<bool>,
+}
+
+/// `model.influence`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawInfluence {
+    /// `omega = 1 / |xi|`.
+    InverseDistance,
+    /// `omega = 1`.
+    Constant,
 }
 
 /// `model.blending`.

@@ -101,6 +101,9 @@ impl Problem {
         if let Some(b) = &self.blend {
             return crate::blend::solve(&self.name, b, progress);
         }
+        if let Some(params) = &self.lps {
+            return crate::lps::solve(self, params, progress);
+        }
         let d = self.dim();
         let t0 = Instant::now();
         progress(&format!("building bonds: {} nodes, horizon/spacing = {:.3}", self.grid.len(), self.model.horizon / self.grid.spacing()));
