@@ -44,6 +44,9 @@ pub struct BenchArgs {
     /// has 59M triplets, 1.4 GB, and scipy needs several times that in memory).
     #[arg(long, default_value_t = 40_000_000)]
     peers_max_triplets: usize,
+    /// Also run the LPS tangent cases (3D cubes 10^3-40^3, delta = 3h).
+    #[arg(long)]
+    lps: bool,
     /// Run sparse Cholesky on 3D cases up to this many unknowns (AMD fill grows fast in 3D).
     #[arg(long, default_value_t = 30_000)]
     direct_max_3d: usize,
@@ -321,6 +324,9 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         "quick": args.quick,
         "cases": Value::Object(results),
     });
+    if args.lps {
+        doc["lps"] = crate::bench_lps::run(args.quick);
+    }
     if let Some(dir) = &export_dir {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches/peers/peer_bench.py");
         let peers_out = args.out.with_file_name("peers.json");

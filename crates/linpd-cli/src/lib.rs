@@ -4,8 +4,10 @@
 #![deny(missing_docs)]
 
 mod bench;
+mod bench_lps;
 mod plots;
 mod study_blend;
+mod study_lps;
 
 use clap::{Parser, Subcommand};
 use linpd_problem::Problem;
@@ -47,7 +49,7 @@ enum Command {
     ///
     /// Studies: blend-patch, blend-point-load, blend-pd-size, blend-bridge-size,
     /// blend-load-location, blend-speedup, blend-speed-vs-error (Seleson, Beneddine &
-    /// Prudhomme 2013, Figs. 7-14).
+    /// Prudhomme 2013, Figs. 7-14); lps-tension-bar.
     Study {
         /// The study name (e.g. blend-point-load); `list` prints them all.
         name: String,
@@ -58,6 +60,11 @@ enum Command {
         #[arg(long)]
         no_dense: bool,
     },
+}
+
+/// The rows and columns of `a` at free DOFs.
+pub(crate) fn bench_lps_reduce(a: &faer::sparse::SparseColMat<usize, f64>, dofs: &linpd_core::DofMap) -> faer::sparse::SparseColMat<usize, f64> {
+    linpd_problem::reduce_to_free(a, dofs)
 }
 
 /// Parses the command line, runs the command, prints errors to stderr.
@@ -124,10 +131,15 @@ fn run(cli: Cli) -> Result<(), String> {
                 for (n, d) in study_blend::STUDIES {
                     println!("{n:<22} {d}");
                 }
+                println!("{:<22} LPS tension bar vs classical elasticity, with and without surface correction", "lps-tension-bar");
                 return Ok(());
             }
             let dir = out.unwrap_or_else(|| PathBuf::from("docs/studies").join(&name));
-            study_blend::run(&name, &dir, !no_dense)?;
+            if name == "lps-tension-bar" {
+                study_lps::run(&dir)?;
+            } else {
+                study_blend::run(&name, &dir, !no_dense)?;
+            }
             println!("wrote {}", dir.display());
             Ok(())
         }

@@ -15,6 +15,12 @@
 //! howto's force density times `V_i`. `F = -dE/du` exactly (also on the lattice), because
 //! `sum_j omega e^d |xi| nu V_j = m theta / d - theta m / d = 0` removes the derivative of
 //! `theta` in the deviatoric term. `omega` is spherical, so `omega_+ = omega_-`.
+//!
+//! With a surface correction ([`crate::surface`]) `m_i` is no longer the lattice sum
+//! `m_i^lat = sum_j omega |xi|^2 nu V_j`, that cross term becomes `theta (m_i - m_i^lat) / d`,
+//! and `W_i` gets the extra term `a G theta_i^2 (m_i - m_i^lat) / (2 m_i d^2)` (zero without
+//! correction) so that `F = -dE/du` still holds: the force is always the gradient of
+//! `sum_i V_i [(kappa - a G / d^2) theta_i^2 / 2 + (a G / (2 m_i)) sum_j omega e^2 nu V_j]`.
 
 use crate::model::norm;
 use crate::LpsModel;
@@ -46,6 +52,51 @@ impl LpsModel {
             .collect()
     }
 
+    /// `theta_k` of one node for a displacement given node by node (used by the local
+    /// finite-difference tangent, [`crate::fd`]); the same sum as [`LpsModel::theta`].
+    pub(crate) fn theta_at(&self, k: usize, disp: impl Fn(usize) -> [f64; 3]) -> f64 {
+        let d = self.dim;
+        let uk = disp(k);
+        let s: f64 = self
+            .bonds(k)
+            .map(|(j, w, r)| {
+                let uj = disp(j);
+                let mut y = self.bond_vector(k, j);
+                for a in 0..d {
+                    y[a] += uj[a] - uk[a];
+                }
+                w * r * (norm(&y) - r)
+            })
+            .sum();
+        d as f64 / self.m[k] * s
+    }
+
+    /// The internal force on one node (the Algorithm 2 sum of [`LpsModel::internal_force`])
+    /// for a displacement and dilatation given node by node.
+    pub(crate) fn force_at(&self, i: usize, disp: impl Fn(usize) -> [f64; 3], theta: impl Fn(usize) -> f64) -> [f64; 3] {
+        let d = self.dim;
+        let c_theta = d as f64 * self.kappa - self.a_g / d as f64;
+        let vi = self.volume;
+        let ui = disp(i);
+        let (ti, mi) = (theta(i), self.m[i]);
+        let mut fi = [0.0; 3];
+        for (j, w, r) in self.bonds(i) {
+            let uj = disp(j);
+            let mut y = self.bond_vector(i, j);
+            for a in 0..d {
+                y[a] += uj[a] - ui[a];
+            }
+            let ry = norm(&y);
+            let e = ry - r;
+            let (tj, mj) = (theta(j), self.m[j]);
+            let fhat = (c_theta * (ti / mi + tj / mj) * r + self.a_g * (1.0 / mi + 1.0 / mj) * e) * w;
+            for a in 0..d {
+                fi[a] += vi * fhat * y[a] / ry;
+            }
+        }
+        fi
+    }
+
     /// Strain-energy density `W_i` of every node.
     pub fn energy_density(&self, u: &[f64]) -> Vec<f64> {
         let theta = self.theta(u);
@@ -53,14 +104,16 @@ impl LpsModel {
         (0..self.n_nodes())
             .into_par_iter()
             .map(|i| {
-                let dev: f64 = self
-                    .bonds(i)
-                    .map(|(j, w, r)| {
-                        let ed = self.deformed(u, i, j, r).2 - theta[i] * r / d;
-                        w * ed * ed
-                    })
-                    .sum();
-                0.5 * self.kappa * theta[i] * theta[i] + 0.5 * self.a_g / self.m[i] * dev
+                let (mut dev, mut m_lattice) = (0.0, 0.0);
+                for (j, w, r) in self.bonds(i) {
+                    let ed = self.deformed(u, i, j, r).2 - theta[i] * r / d;
+                    dev += w * ed * ed;
+                    m_lattice += w * r * r;
+                }
+                // Zero (bit for bit) unless a surface correction replaced m_i by m_0; then it
+                // is the term that keeps F = -dE/du (see `crate::surface`).
+                let surface = 0.5 * self.a_g * theta[i] * theta[i] * (self.m[i] - m_lattice) / (self.m[i] * d * d);
+                0.5 * self.kappa * theta[i] * theta[i] + 0.5 * self.a_g / self.m[i] * dev + surface
             })
             .collect()
     }

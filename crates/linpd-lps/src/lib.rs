@@ -31,15 +31,25 @@
 //! * [`LpsModel`] owns the lattice family, `omega`, `nu`, `|xi|` per bond and `m` per node;
 //! * [`force`]: `theta`, energy and the nonlinear internal force;
 //! * [`tangent`]: the sparse tangent ([`tangent::assemble_tangent`]) and the matrix-free
-//!   apply in factored form ([`LpsModel::apply_tangent`]).
+//!   apply in factored form ([`LpsModel::apply_tangent`]);
+//! * [`surface`]: the optional bulk weighted-volume surface correction
+//!   ([`LpsModel::with_surface_correction`]);
+//! * [`fd`]: the finite-difference tangent ([`fd_tangent`]), the Peridigm-style baseline;
+//! * [`tension`]: a static 3D tension bar against classical elasticity ([`tension_bar`]).
 #![deny(missing_docs)]
 
 pub mod error;
+pub mod fd;
 pub mod force;
 pub mod model;
+pub mod surface;
 pub mod tangent;
+pub mod tension;
 
 pub use error::LpsError;
 pub use linpd_core::PlaneModel;
 pub use model::{Influence, LpsModel, LpsParams};
+pub use fd::fd_tangent;
+pub use surface::SurfaceCorrection;
 pub use tangent::{assemble_tangent, TangentPattern};
+pub use tension::{tension_bar, TensionBar, TensionError, TensionResult};

@@ -162,6 +162,8 @@ pub struct LpsModel {
     pub(crate) kappa: f64,
     /// `a G` (15 G in 3D, 8 G in 2D).
     pub(crate) a_g: f64,
+    /// Which weighted volume `m` holds (see [`crate::surface`]).
+    pub(crate) surface: crate::SurfaceCorrection,
 }
 
 impl LpsModel {
@@ -223,6 +225,7 @@ impl LpsModel {
             volume,
             kappa: params.kappa(dim),
             a_g: LpsParams::deviatoric_factor(dim) * params.G,
+            surface: crate::SurfaceCorrection::None,
         })
     }
 

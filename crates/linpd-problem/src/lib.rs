@@ -15,4 +15,5 @@ pub mod run;
 
 pub use error::ProblemError;
 pub use problem::{BlendScene, BondModel, Constraint, Load, Problem, SolverSettings};
+pub use lps::reduce_to_free;
 pub use run::{Reduced, Solution};

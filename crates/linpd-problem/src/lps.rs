@@ -15,6 +15,10 @@ use linpd_solve::{auto_choice, solve_with_ordering, SolveError, SolverKind};
 use std::time::Instant;
 
 /// The rows and columns of `a` at free DOFs (order kept, so sorted columns stay sorted).
+pub fn reduce_to_free(a: &SparseColMat<usize, f64>, dofs: &DofMap) -> SparseColMat<usize, f64> {
+    reduce(a, dofs)
+}
+
 fn reduce(a: &SparseColMat<usize, f64>, dofs: &DofMap) -> SparseColMat<usize, f64> {
     let cp = a.symbolic().col_ptr();
     let ri = a.symbolic().row_idx();

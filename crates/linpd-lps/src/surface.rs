@@ -1,0 +1,105 @@
+//! Surface correction of the weighted volume: near-surface stiffening of the LPS model.
+//!
+//! # The problem
+//!
+//! A node within one horizon of a free surface has a truncated family, so its lattice sum
+//! `m_i = sum_j omega |xi|^2 nu V_j` is smaller than the interior value `m_0`. The LPS
+//! coefficients `d kappa / m_i` (dilatation) and `a G / m_i` (deviatoric, `alpha = 15 G / m`
+//! in 3D) therefore grow near the surface, and bonds between two near-surface nodes carry
+//! `1/m_i + 1/m_j` with both terms enlarged: the classical "surface effect" of
+//! peridynamics. Whether a truncated node ends up stiffer or softer than the bulk depends on
+//! the loading (the family is missing bonds, but the remaining ones are stiffer), and the
+//! two-horizon-wide stencil of the `theta_i theta_j` coupling spreads it.
+//!
+//! # The correction offered
+//!
+//! [`SurfaceCorrection::BulkWeightedVolume`] replaces every node's `m_i` by the interior
+//! lattice value `m_0 = sum_{k in stencil} omega(|k| h) nu(|k| h) V |k|^2 h^2` (the full
+//! lattice stencil of [`linpd_core::family::lattice_stencil`], so it exists even when the body
+//! is too thin to hold an interior node), everywhere: in `theta`, the force, the energy and
+//! both tangents. The bond coefficients then no longer grow at the surface: a truncated node
+//! simply has fewer bonds of bulk stiffness, as in bond-based models with a bulk-calibrated
+//! micromodulus. Use [`LpsModel::with_surface_correction`]; [`crate::LpsParams`] is unchanged.
+//!
+//! # Consistency
+//!
+//! The force (LAMMPS Algorithm 2 with the replaced `m`), the assembled tangent and the
+//! matrix-free tangent all read the same `m`, and the tangent derivation
+//! ([`crate::tangent`]) never uses `m_i = sum omega |xi|^2 nu V` (only `theta = g . u` with
+//! `g` built from the model's `m`), so `A = -dF/du` still holds exactly (tested with central
+//! differences). The energy gains the term `a G theta^2 (m_i - m_i^lat) / (2 m_i d^2)` (see
+//! [`crate::force`]) so that `F = -dE/du` also still holds; it is `>= 0` because `m_0 >=
+//! m_i^lat`, so `A` stays positive semi-definite with the rigid motions in its null space.
+//!
+//! # Known drawback
+//!
+//! The lattice dilatation is no longer exact for affine fields at surface nodes: for
+//! `u = epsilon x` (`epsilon` a scalar) `theta_i = d epsilon m_i^lat / m_0 < d epsilon`
+//! wherever the family is truncated (exact in the interior). Affine fields therefore no
+//! longer give zero force one to two horizons from the surface (they never did at the surface
+//! itself, where the force balances the missing traction), and the surface layer is softer in
+//! dilatation than the bulk instead of stiffer: the patch test degrades near surfaces. The
+//! correction trades local exactness of `theta` for a smaller global stiffening; see the
+//! tension-bar numbers in [`crate::tension`].
+
+use crate::model::norm;
+use crate::LpsModel;
+use linpd_core::family::lattice_stencil;
+use linpd_core::kernel::partial_volume;
+
+/// Which weighted volume `m` each node uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SurfaceCorrection {
+    /// `m_i` is the (truncated near surfaces) lattice sum of node `i`'s family.
+    #[default]
+    None,
+    /// Every node uses the interior lattice value `m_0` (see the module documentation).
+    BulkWeightedVolume,
+}
+
+impl LpsModel {
+    /// The weighted volume `m_0` of a full (interior) lattice family with this model's
+    /// horizon, influence function and partial volumes.
+    pub fn bulk_weighted_volume(&self) -> f64 {
+        let h = self.grid.spacing();
+        let delta = self.params.horizon;
+        let mut m0 = 0.0;
+        for k in lattice_stencil(self.dim, delta / h) {
+            let xi = [k[0] as f64 * h, k[1] as f64 * h, k[2] as f64 * h];
+            let r = norm(&xi);
+            let nu = if self.params.partial_volume { partial_volume(r, delta, h) } else { 1.0 };
+            let w = self.params.influence.omega(r) * nu * self.volume;
+            m0 += w * r * r;
+        }
+        m0
+    }
+
+    /// The model with the weighted volumes `m` rewritten by `correction`
+    /// ([`SurfaceCorrection::None`] restores the lattice sums of the model's family).
+    pub fn with_surface_correction(mut self, correction: SurfaceCorrection) -> Self {
+        match correction {
+            SurfaceCorrection::None => {
+                for i in 0..self.n_nodes() {
+                    let o = self.family.bond_offset(i);
+                    let nb = self.family.neighbors(i).len();
+                    let mut mi = 0.0;
+                    for b in o..o + nb {
+                        mi += self.wv[b] * self.len[b] * self.len[b];
+                    }
+                    self.m[i] = mi;
+                }
+            }
+            SurfaceCorrection::BulkWeightedVolume => {
+                let m0 = self.bulk_weighted_volume();
+                self.m.iter_mut().for_each(|m| *m = m0);
+            }
+        }
+        self.surface = correction;
+        self
+    }
+
+    /// The surface correction in effect.
+    pub fn surface_correction(&self) -> SurfaceCorrection {
+        self.surface
+    }
+}
