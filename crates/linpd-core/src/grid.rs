@@ -217,12 +217,6 @@ impl Grid {
         let d = (0..self.dim).map(|a| (p[a] - x[a]).powi(2)).sum::<f64>().sqrt();
         (n, d)
     }
-
-    /// True when every node of the grid is a lattice point of a full box (always, for now);
-    /// matrix-free stencil operators rely on it.
-    pub fn is_full_box(&self) -> bool {
-        true
-    }
 }
 
 #[cfg(test)]

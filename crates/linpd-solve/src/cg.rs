@@ -77,8 +77,9 @@ pub fn pcg(
     let n = a.n();
     assert_eq!(b.len(), n);
     assert_eq!(x.len(), n);
-    if let Some((i, &d)) = diag.iter().enumerate().find(|(_, &d)| !(d > 0.0)) {
-        return Err(CgError::Breakdown { iteration: 0, curvature: if i == usize::MAX { 0.0 } else { d } });
+    // A non-positive diagonal entry already proves A is not SPD (e_i . A e_i <= 0).
+    if let Some(&d) = diag.iter().find(|&&d| !(d > 0.0)) {
+        return Err(CgError::Breakdown { iteration: 0, curvature: d });
     }
     let inv: Vec<f64> = diag.iter().map(|d| 1.0 / d).collect();
     let bnorm = dot(b, b).sqrt();
