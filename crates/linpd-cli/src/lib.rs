@@ -7,6 +7,7 @@ mod bench;
 mod bench_lps;
 mod plots;
 mod study_blend;
+mod study_dynamics;
 mod study_lps;
 
 use clap::{Parser, Subcommand};
@@ -38,6 +39,18 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Run a scene's explicit dynamics (velocity Verlet); write history.json (energies),
+    /// u_<step>.csv snapshots and plots (1D: space-time map of u, energies).
+    Run {
+        /// The scene file (JSON) with a "dynamics" section.
+        scene: PathBuf,
+        /// Output directory (default: the scene's output.dir, else out/<name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print no progress messages.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Check a scene without solving it; prints a summary.
     Validate {
         /// The scene file (JSON).
@@ -49,7 +62,8 @@ enum Command {
     ///
     /// Studies: blend-patch, blend-point-load, blend-pd-size, blend-bridge-size,
     /// blend-load-location, blend-speedup, blend-speed-vs-error (Seleson, Beneddine &
-    /// Prudhomme 2013, Figs. 7-14); lps-tension-bar.
+    /// Prudhomme 2013, Figs. 7-14); lps-tension-bar; dispersion, stability (Seleson, Parks,
+    /// Gunzburger & Lehoucq 2009, section 4).
     Study {
         /// The study name (e.g. blend-point-load); `list` prints them all.
         name: String,
@@ -111,6 +125,40 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             Ok(())
         }
+        Command::Run { scene, out, quiet } => {
+            let problem = Problem::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+            let progress = |m: &str| {
+                if !quiet {
+                    eprintln!("[linpd] {m}");
+                }
+            };
+            let run = problem.run_dynamics(&progress).map_err(|e| format!("{}: {e}", scene.display()))?;
+            let dir = out.unwrap_or_else(|| PathBuf::from(&problem.output_dir));
+            let mut files = run.write(&dir).map_err(|e| e.to_string())?;
+            if problem.plot {
+                files.extend(plots::dynamics_plots(&run, &dir).map_err(|e| format!("plot: {e}"))?);
+            }
+            println!(
+                "{}: {} steps of dt = {:.4e} ({:.4} of dt_max = {:.4e}), {} DOFs ({} held), {} bonds; {:.3} s: {:.3e} steps/s, {:.3e} bond updates/s; energy drift max |E/E0 - 1| = {:.2e}, shadow {:.2e}",
+                run.name,
+                run.steps,
+                run.dt,
+                run.dt / run.limit.dt,
+                run.limit.dt,
+                run.n_dofs,
+                run.n_fixed,
+                run.n_bonds,
+                run.wall_seconds,
+                run.steps_per_second(),
+                run.bond_updates_per_second(),
+                run.max_total_drift(),
+                run.max_shadow_drift(),
+            );
+            if !quiet {
+                println!("wrote {} files into {} (history.json, {} snapshots)", files.len(), dir.display(), run.snapshots.len());
+            }
+            Ok(())
+        }
         Command::Validate { scene } => {
             let p = Problem::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
             let (mask, _) = p.constrained();
@@ -132,11 +180,16 @@ fn run(cli: Cli) -> Result<(), String> {
                     println!("{n:<22} {d}");
                 }
                 println!("{:<22} LPS tension bar vs classical elasticity, with and without surface correction", "lps-tension-bar");
+                for (n, d) in study_dynamics::STUDIES {
+                    println!("{n:<22} {d}");
+                }
                 return Ok(());
             }
             let dir = out.unwrap_or_else(|| PathBuf::from("docs/studies").join(&name));
             if name == "lps-tension-bar" {
                 study_lps::run(&dir)?;
+            } else if study_dynamics::STUDIES.iter().any(|(n, _)| *n == name) {
+                study_dynamics::run(&name, &dir)?;
             } else {
                 study_blend::run(&name, &dir, !no_dense)?;
             }

@@ -2,7 +2,7 @@
 //! magnitude on the mid-plane z = const.
 
 use linpd_plot::{line_plot, scalar_map, LinePlot, PlotError, ScalarMap, Series, SeriesStyle};
-use linpd_problem::{Problem, Solution};
+use linpd_problem::{DynamicsRun, Problem, Solution};
 use std::path::{Path, PathBuf};
 
 pub fn solution_plots(p: &Problem, s: &Solution, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
@@ -47,4 +47,36 @@ pub fn solution_plots(p: &Problem, s: &Solution, dir: &Path) -> Result<Vec<PathB
             scalar_map(&map, &dir.join("u_magnitude"))
         }
     }
+}
+
+/// Plots of a dynamics run: energies over time; in 1D also the space-time map of `u(x, t)`.
+pub fn dynamics_plots(r: &DynamicsRun, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    let t = r.times.clone();
+    let series = vec![
+        Series::new("kinetic", t.clone(), r.energies.iter().map(|e| e.kinetic).collect()),
+        Series::new("potential", t.clone(), r.energies.iter().map(|e| e.potential).collect()),
+        Series::new("total", t.clone(), r.energies.iter().map(|e| e.total()).collect()),
+    ];
+    let plot = LinePlot { title: format!("{}: energies", r.name), x_label: "t".into(), y_label: "energy".into(), series, log_x: false, log_y: false };
+    let mut files = line_plot(&plot, &dir.join("energy"))?;
+    if r.dim == 1 && r.snapshots.len() >= 2 {
+        let nx = r.x.len();
+        let ny = r.snapshots.len();
+        let h = if nx > 1 { r.x[1][0] - r.x[0][0] } else { 1.0 };
+        let dt_out = (t[ny - 1] - t[0]) / (ny - 1) as f64;
+        let values: Vec<f64> = r.snapshots.iter().flat_map(|u| u.iter().copied()).collect();
+        let map = ScalarMap {
+            title: format!("{}: u(x, t)", r.name),
+            x_label: "x".into(),
+            y_label: "t".into(),
+            nx,
+            ny,
+            x_range: (r.x[0][0] - 0.5 * h, r.x[nx - 1][0] + 0.5 * h),
+            y_range: (t[0] - 0.5 * dt_out, t[ny - 1] + 0.5 * dt_out),
+            values,
+            value_label: "u".into(),
+        };
+        files.extend(scalar_map(&map, &dir.join("u_xt"))?);
+    }
+    Ok(files)
 }

@@ -6,6 +6,7 @@
 #![deny(missing_docs)]
 
 pub(crate) mod blend;
+pub mod dynamics;
 pub mod error;
 pub(crate) mod lps;
 pub mod output;
@@ -17,3 +18,4 @@ pub use error::ProblemError;
 pub use problem::{BlendScene, BondModel, Constraint, Load, Problem, SolverSettings};
 pub use lps::reduce_to_free;
 pub use run::{Reduced, Solution};
+pub use dynamics::{Dynamics, DynamicsRun, Initial, TimeStep};

@@ -93,6 +93,8 @@ pub struct Problem {
     /// For `blend` and `ce` models: the 1D blended-model problem (then `model` holds only the
     /// horizon and micromodulus, and `constraints`/`loads` have been translated into it).
     pub blend: Option<BlendScene>,
+    /// The `dynamics` section (explicit time stepping with `linpd run`), if any.
+    pub dynamics: Option<crate::dynamics::Dynamics>,
 }
 
 /// A 1D blended (or pure CE) problem: Seleson, Beneddine & Prudhomme (2013).
@@ -425,9 +427,14 @@ impl Problem {
         if lps.is_some() && raw.solver.matrix_free {
             return Err(ProblemError::invalid("solver.matrix_free", "not available for lps models yet (the Jacobi diagonal needs the assembled tangent)"));
         }
+        let dynamics = match &raw.dynamics {
+            None => None,
+            Some(d) => Some(crate::dynamics::validate(d, dim, model_kind)?),
+        };
         Ok(Problem {
             lps,
             blend,
+            dynamics,
             output_dir: raw.output.dir.clone().unwrap_or_else(|| format!("out/{}", raw.name)),
             plot: raw.output.plot.unwrap_or(true),
             name: raw.name,

@@ -28,6 +28,75 @@ pub struct RawProblem {
     /// Where results go.
     #[serde(default)]
     pub output: RawOutput,
+    /// Explicit dynamics (`linpd run`).
+    #[serde(default)]
+    pub dynamics: Option<RawDynamics>,
+}
+
+/// `dynamics`: velocity-Verlet time stepping.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawDynamics {
+    /// Time step (exactly one of `dt`, `dt_safety`).
+    #[serde(default)]
+    pub dt: Option<f64>,
+    /// Time step as a fraction of the stability limit.
+    #[serde(default)]
+    pub dt_safety: Option<f64>,
+    /// Number of steps.
+    pub steps: usize,
+    /// Snapshot interval in steps (default: `steps / 10`, at least 1).
+    #[serde(default)]
+    pub output_every: Option<usize>,
+    /// Mass density `rho`.
+    pub density: f64,
+    /// Initial displacement (default: at rest, `u = 0`).
+    #[serde(default)]
+    pub initial: Option<RawInitial>,
+    /// Run even above the stability limit.
+    #[serde(default)]
+    pub allow_unstable: bool,
+}
+
+/// `dynamics.initial.type`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawInitialKind {
+    /// `u = 0`.
+    Rest,
+    /// `u = amplitude` on `[from, to]`.
+    SquarePulse,
+    /// The smooth pulse of section 4.4.1, centred at `center`, support `width`.
+    SmoothPulse,
+    /// `u = amplitude cos(wavenumber x)`.
+    Mode,
+}
+
+/// `dynamics.initial` (a plain struct with a `type` field, as [`RawModel`]).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawInitial {
+    /// Which initial condition.
+    #[serde(rename = "type")]
+    pub kind: RawInitialKind,
+    /// Square pulse: left end.
+    #[serde(default)]
+    pub from: Option<f64>,
+    /// Square pulse: right end.
+    #[serde(default)]
+    pub to: Option<f64>,
+    /// Smooth pulse: centre.
+    #[serde(default)]
+    pub center: Option<f64>,
+    /// Smooth pulse: support width.
+    #[serde(default)]
+    pub width: Option<f64>,
+    /// Mode: wavenumber `k`.
+    #[serde(default)]
+    pub wavenumber: Option<f64>,
+    /// Peak displacement (default 1).
+    #[serde(default)]
+    pub amplitude: Option<f64>,
 }
 
 /// `grid`.

@@ -1,0 +1,227 @@
+//! `linpd study dispersion` and `linpd study stability`: section 4 of Seleson, Parks, Gunzburger
+//! & Lehoucq (2009), "Peridynamics as an upscaling of molecular dynamics", on the nonlocal-spring
+//! lattice (`K_1 = rho = 1`, horizon `delta = 5`, `N = delta/dx` neighbours per side).
+//!
+//! * dispersion: `omega(k)` of the lattice (exact), of the PD continuum, of the series
+//!   (4.8)/(4.9), and measured from single-mode velocity-Verlet runs on a ring (compared with the
+//!   lattice relation corrected for Verlet, `sin(omega_num dt/2) = omega dt/2`), for N = 1, 5, 20.
+//! * stability: the bound (4.12), the exact limit `2/omega_max` and the measured blow-up limit of
+//!   the square pulse (4.14) on the bar `[0, 1000]` (fixed layers of width `delta`) over `dx`
+//!   (Fig. 4.2).
+
+use linpd_bond::BondOperator;
+use linpd_core::{Grid, Kernel, Material, Micromodulus, Normalization, Placement};
+use linpd_dynamics::dispersion::{continuum_amplitude, measure_omega, omega, omega_continuum, omega_paper_series, verlet_omega, ModalFit, ModeRun};
+use linpd_dynamics::initial::square_pulse;
+use linpd_dynamics::stability::{lattice_limit, paper_bound};
+use linpd_dynamics::{spring_constant, Chain, DynamicsError, LumpedMass, State, Verlet, VerletParams};
+use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
+use serde_json::json;
+use std::ops::ControlFlow;
+use std::path::Path;
+use std::time::Instant;
+
+/// The studies, with one line each for `study list`.
+pub const STUDIES: &[(&str, &str)] = &[
+    ("dispersion", "Seleson et al. 2009 sec. 4.2: omega(k) lattice vs continuum vs (4.8)/(4.9) vs measured (Verlet), N = 1, 5, 20"),
+    ("stability", "Seleson et al. 2009 Fig. 4.2: (4.12) vs exact limit vs measured square-pulse blow-up over dx"),
+];
+
+const DELTA: f64 = 5.0;
+const K1: f64 = 1.0;
+const RHO: f64 = 1.0;
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+/// Runs study `name` into `dir`.
+pub fn run(name: &str, dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    match name {
+        "dispersion" => dispersion(dir),
+        "stability" => stability(dir),
+        _ => Err(format!("unknown study `{name}`")),
+    }
+}
+
+fn write_data(dir: &Path, data: &serde_json::Value) -> Result<(), String> {
+    std::fs::write(dir.join("data.json"), serde_json::to_string_pretty(data).unwrap()).map_err(err)
+}
+
+fn max_rel(a: &[f64], b: &[f64], keep: impl Fn(usize) -> bool) -> f64 {
+    a.iter().zip(b).enumerate().filter(|(i, _)| keep(*i)).map(|(_, (x, y))| ((x - y) / y).abs()).fold(0.0, f64::max)
+}
+
+fn dispersion(dir: &Path) -> Result<(), String> {
+    let kernel = Kernel::InverseDistance;
+    let c = continuum_amplitude(&kernel, K1, DELTA).map_err(err)?;
+    let mut rows = Vec::new();
+    let mut table = String::from(
+        "| N | dx | continuum vs lattice, k delta <= 1 | continuum vs lattice, all k | (4.8)/(4.9) vs lattice, k delta <= 1 | (4.8)/(4.9) vs lattice, k delta <= 2 | measured vs Verlet-corrected lattice | measured vs uncorrected lattice |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    println!("max relative errors in omega(k) (K_1 = rho = 1, delta = 5, k in (0, pi/dx]):");
+    for n in [1usize, 5, 20] {
+        let dx = DELTA / n as f64;
+        let chain = Chain::springs(K1, n, dx).map_err(err)?;
+        let kmax = std::f64::consts::PI / dx;
+        let ks: Vec<f64> = (1..=200).map(|i| kmax * i as f64 / 200.0).collect();
+        let disc: Vec<f64> = ks.iter().map(|&k| omega(&chain, RHO, k)).collect();
+        let cont: Vec<f64> = ks.iter().map(|&k| omega_continuum(&kernel, c, DELTA, RHO, k)).collect();
+        let ser: Vec<f64> = ks.iter().map(|&k| omega_paper_series(K1, RHO, DELTA, k)).collect();
+        let ksr = &ks;
+        let long = |lim: f64| move |i: usize| ksr[i] * DELTA <= lim;
+        let e_cont_long = max_rel(&cont, &disc, long(1.0));
+        let e_cont_all = max_rel(&cont, &disc, |_| true);
+        let e_ser_1 = max_rel(&ser, &disc, long(1.0));
+        let e_ser_2 = max_rel(&ser, &disc, long(2.0));
+        // Single-mode runs on a ring of 200 nodes, dt = half the ring's limit, 4000 steps.
+        let nx = 200;
+        let ring = chain.ring(nx).map_err(err)?;
+        let dt = 0.5 * ring.dt_limit(RHO);
+        let (mut mk, mut mw, mut mpred, mut mdisc) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for m in [2usize, 5, 10, 20, 35, 50, 65, 80, 90, 100] {
+            let meas = measure_omega(&chain, RHO, &ModeRun { nx, mode: m, dt, steps: 4000 }, ModalFit::Recurrence).map_err(err)?;
+            let w = omega(&chain, RHO, meas.k);
+            mk.push(meas.k);
+            mw.push(meas.omega);
+            mpred.push(verlet_omega(w, dt).ok_or("mode above the limit")?);
+            mdisc.push(w);
+        }
+        let e_meas = max_rel(&mw, &mpred, |_| true);
+        let e_meas_raw = max_rel(&mw, &mdisc, |_| true);
+        println!(
+            "N = {n:2} (dx = {dx}): continuum {e_cont_long:.2e} (k delta <= 1), {e_cont_all:.2e} (all k); series {e_ser_1:.2e} (k delta <= 1), {e_ser_2:.2e} (<= 2); measured vs Verlet-corrected {e_meas:.2e}, vs uncorrected {e_meas_raw:.2e}"
+        );
+        table.push_str(&format!(
+            "| {n} | {dx} | {e_cont_long:.2e} | {e_cont_all:.2e} | {e_ser_1:.2e} | {e_ser_2:.2e} | {e_meas:.2e} | {e_meas_raw:.2e} |\n"
+        ));
+        let mut meas_series = Series::new("measured (Verlet run)", mk.clone(), mw.clone());
+        meas_series.style = SeriesStyle::Markers;
+        let plot = LinePlot {
+            title: format!("dispersion, N = {n} (dx = {dx}, delta = 5)"),
+            x_label: "k".into(),
+            y_label: "omega".into(),
+            series: vec![
+                Series::new("lattice (exact)", ks.clone(), disc.clone()),
+                Series::new(format!("lattice, Verlet-corrected (dt = {dt:.3})"), ks.clone(), disc.iter().map(|w| verlet_omega(*w, dt).unwrap_or(f64::NAN)).collect()),
+                Series::new("PD continuum", ks.clone(), cont.clone()),
+                Series::new("series (4.8)/(4.9)", ks.iter().copied().filter(|k| k * DELTA <= 2.5).collect(), ser.iter().zip(&ks).filter(|(_, k)| *k * DELTA <= 2.5).map(|(s, _)| *s).collect()),
+                meas_series,
+            ],
+            log_x: false,
+            log_y: false,
+        };
+        line_plot(&plot, &dir.join(format!("dispersion_N{n}"))).map_err(err)?;
+        rows.push(json!({
+            "N": n, "dx": dx, "k": ks, "omega_lattice": disc, "omega_continuum": cont, "omega_series": ser,
+            "measured": {"ring_nodes": nx, "dt": dt, "steps": 4000, "k": mk, "omega": mw, "omega_verlet_lattice": mpred, "omega_lattice": mdisc},
+            "max_rel_error": {
+                "continuum_vs_lattice_kdelta_le_1": e_cont_long, "continuum_vs_lattice_all": e_cont_all,
+                "series_vs_lattice_kdelta_le_1": e_ser_1, "series_vs_lattice_kdelta_le_2": e_ser_2,
+                "measured_vs_verlet_corrected": e_meas, "measured_vs_uncorrected": e_meas_raw,
+            }
+        }));
+    }
+    std::fs::write(dir.join("table.md"), &table).map_err(err)?;
+    write_data(dir, &json!({"study": "dispersion", "K1": K1, "rho": RHO, "delta": DELTA, "cases": rows}))
+}
+
+/// Runs the square pulse on the bar; `true` when it blows up (energy x1e3 or non-finite).
+fn blows_up(op: &BondOperator, mass: &LumpedMass, fixed: &[(usize, f64)], u0: &[f64], dt: f64, steps: usize) -> Result<bool, String> {
+    let verlet = Verlet::new(op, mass.clone()).with_fixed(fixed).map_err(err)?;
+    let params = VerletParams { output_every: 10, allow_unstable: true, ..VerletParams::new(dt, steps) };
+    let mut state = State::at_rest(u0.to_vec());
+    let mut e0 = f64::NAN;
+    let mut blew = false;
+    let r = verlet.run(&mut state, &params, None, |s| {
+        if s.step == 0 {
+            e0 = s.energy.total();
+        }
+        let e = s.energy.total();
+        if !e.is_finite() || e > 1e3 * e0 {
+            blew = true;
+            return ControlFlow::Break(());
+        }
+        ControlFlow::Continue(())
+    });
+    match r {
+        Ok(_) => Ok(blew),
+        Err(DynamicsError::Diverged { .. }) => Ok(true),
+        Err(e) => Err(err(e)),
+    }
+}
+
+fn stability(dir: &Path) -> Result<(), String> {
+    let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: Normalization::Discrete, modulus: K1, plane: None, partial_volume: false };
+    let steps = 2000;
+    let mut rows = Vec::new();
+    let mut table = String::from(
+        "| N | dx | dt (4.12) | dt_max exact (2/omega_max) | measured blow-up dt | exact / (4.12) | measured / (4.12) | measured / exact |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let (mut dxs, mut b412, mut exact, mut meas) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    println!("square pulse (4.14) on [0, 1000], delta = 5, K_1 = rho = 1, {steps} steps; blow-up = energy x1e3");
+    for n in [1usize, 2, 3, 5, 10, 20] {
+        let t = Instant::now();
+        let dx = DELTA / n as f64;
+        let chain = Chain::new(dx, DELTA, &mm).map_err(err)?;
+        let dt_exact = lattice_limit(&chain, RHO).dt;
+        let dt_412 = paper_bound(RHO, spring_constant(K1, n), n, dx);
+        let g = Grid::new(&[0.0], &[1000.0], dx, DELTA, Placement::Vertex).map_err(err)?;
+        let op = BondOperator::on_grid(&g, DELTA, &mm, &Material::default()).map_err(err)?;
+        let fixed: Vec<(usize, f64)> = (0..g.len()).filter(|&i| g.is_layer(i)).map(|i| (i, 0.0)).collect();
+        let mass = LumpedMass::uniform(RHO, dx, g.len()).map_err(err)?;
+        let u0: Vec<f64> = (0..g.len()).map(|i| square_pulse(g.position(i)[0])).collect();
+        // Bisection on dt / dt_exact in [0.9, 1.2].
+        let (mut lo, mut hi) = (0.9, 1.2);
+        if blows_up(&op, &mass, &fixed, &u0, lo * dt_exact, steps)? || !blows_up(&op, &mass, &fixed, &u0, hi * dt_exact, steps)? {
+            return Err(format!("N = {n}: the blow-up limit is not in [0.9, 1.2] dt_max"));
+        }
+        for _ in 0..12 {
+            let mid = 0.5 * (lo + hi);
+            if blows_up(&op, &mass, &fixed, &u0, mid * dt_exact, steps)? {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let dt_meas = 0.5 * (lo + hi) * dt_exact;
+        println!(
+            "N = {n:2}, dx = {dx:.4}: (4.12) {dt_412:.6}, exact {dt_exact:.6}, measured {dt_meas:.6} (stable at {:.6}, blows up at {:.6}); exact/(4.12) = {:.4}, measured/(4.12) = {:.4}, measured/exact = {:.5} [{:.1} s]",
+            lo * dt_exact,
+            hi * dt_exact,
+            dt_exact / dt_412,
+            dt_meas / dt_412,
+            dt_meas / dt_exact,
+            t.elapsed().as_secs_f64()
+        );
+        table.push_str(&format!(
+            "| {n} | {dx:.4} | {dt_412:.6} | {dt_exact:.6} | {dt_meas:.6} | {:.4} | {:.4} | {:.5} |\n",
+            dt_exact / dt_412,
+            dt_meas / dt_412,
+            dt_meas / dt_exact
+        ));
+        rows.push(json!({"N": n, "dx": dx, "dt_4_12": dt_412, "dt_exact": dt_exact, "dt_measured": dt_meas,
+            "dt_stable": lo * dt_exact, "dt_unstable": hi * dt_exact, "nodes": g.len()}));
+        dxs.push(dx);
+        b412.push(dt_412);
+        exact.push(dt_exact);
+        meas.push(dt_meas);
+    }
+    let mut m = Series::new("measured blow-up (square pulse)", dxs.clone(), meas);
+    m.style = SeriesStyle::Markers;
+    let mut e = Series::new("exact 2/omega_max", dxs.clone(), exact);
+    e.style = SeriesStyle::LineMarkers;
+    let plot = LinePlot {
+        title: "velocity-Verlet stability limit vs dx (delta = 5, K_1 = rho = 1)".into(),
+        x_label: "dx".into(),
+        y_label: "dt".into(),
+        series: vec![Series::new("(4.12)", dxs, b412), e, m],
+        log_x: false,
+        log_y: false,
+    };
+    line_plot(&plot, &dir.join("stability")).map_err(err)?;
+    std::fs::write(dir.join("table.md"), &table).map_err(err)?;
+    write_data(dir, &json!({"study": "stability", "K1": K1, "rho": RHO, "delta": DELTA, "domain": [0.0, 1000.0], "steps": steps,
+        "blow_up": "total energy above 1e3 x its initial value, or non-finite", "cases": rows}))
+}

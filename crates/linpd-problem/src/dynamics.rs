@@ -1,0 +1,462 @@
+//! The `dynamics` section of a scene: explicit velocity-Verlet time stepping of
+//! `M u'' = -A u + f` (`linpd-dynamics`) on the bond operator of the scene.
+//!
+//! * Masses are lumped, `M_i = rho V_i` (`V = h^d`, the node volume of the grid).
+//! * Constrained DOFs are held at their prescribed values (zero velocity) for the whole run;
+//!   bonds to them still act on free neighbours (volume constraints).
+//! * Loads are a constant external force (`f . u` enters the potential energy).
+//! * The stability limit is `dt_max = 2/sqrt(lambda_max(M_f^-1 A_ff))`. For a homogeneous 1D
+//!   bar it is taken as the limit of the infinite lattice, `2/omega_max` (the bar's matrix is a
+//!   principal submatrix of a Toeplitz section of the lattice minus a PSD diagonal, so this is a
+//!   lower bound of the bar's limit that the bar approaches as it grows); otherwise
+//!   `lambda_max` is found by power iteration (sharp, approaches `lambda_max` from below), and
+//!   the limit is used with a 1e-3 safety margin.
+//!
+//! Errors name the JSON path: `dynamics.dt: must be > 0, got 0`.
+
+use crate::raw::{RawDynamics, RawInitial, RawInitialKind, RawModelKind};
+use crate::{Problem, ProblemError};
+use linpd_core::Point;
+use linpd_dynamics::initial::smooth_pulse;
+use linpd_dynamics::stability::{lattice_limit, power_iteration, verlet_limit, PowerParams};
+use linpd_dynamics::{Chain, DtLimit, Energy, LumpedMass, State, Verlet, VerletParams};
+use serde_json::json;
+use std::io::Write;
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// How the time step is given.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TimeStep {
+    /// An explicit `dt`.
+    Dt(f64),
+    /// `dt = dt_safety * dt_max`.
+    Safety(f64),
+}
+
+/// The initial displacement (velocities start at zero).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Initial {
+    /// `u = 0`.
+    Rest,
+    /// `u = amplitude` on `[from, to]`, 0 elsewhere ((4.14) of the paper).
+    SquarePulse {
+        /// Left end.
+        from: f64,
+        /// Right end.
+        to: f64,
+        /// Height.
+        amplitude: f64,
+    },
+    /// The smooth pulse of section 4.4.1 (degree-21 smoothstep on each side), peak
+    /// `amplitude` at `center`, support `[center - width/2, center + width/2]`.
+    SmoothPulse {
+        /// Peak location.
+        center: f64,
+        /// Support width.
+        width: f64,
+        /// Peak height.
+        amplitude: f64,
+    },
+    /// `u = amplitude cos(wavenumber x)`.
+    Mode {
+        /// `k`.
+        wavenumber: f64,
+        /// Amplitude.
+        amplitude: f64,
+    },
+}
+
+impl Initial {
+    /// Displacement at `x` (1D).
+    pub fn at(&self, x: f64) -> f64 {
+        match *self {
+            Initial::Rest => 0.0,
+            Initial::SquarePulse { from, to, amplitude } => {
+                if (from..=to).contains(&x) {
+                    amplitude
+                } else {
+                    0.0
+                }
+            }
+            Initial::SmoothPulse { center, width, amplitude } => amplitude * smooth_pulse(500.0 + (x - center) * 20.0 / width),
+            Initial::Mode { wavenumber, amplitude } => amplitude * (wavenumber * x).cos(),
+        }
+    }
+}
+
+/// A validated `dynamics` section.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dynamics {
+    /// The time step.
+    pub step: TimeStep,
+    /// Number of steps.
+    pub steps: usize,
+    /// Snapshot interval (steps).
+    pub output_every: usize,
+    /// Mass density.
+    pub density: f64,
+    /// Initial displacement.
+    pub initial: Initial,
+    /// Run above the stability limit.
+    pub allow_unstable: bool,
+}
+
+fn positive(path: &str, x: f64) -> Result<f64, ProblemError> {
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(ProblemError::invalid(path, format!("must be > 0, got {x}")))
+    }
+}
+
+/// Validates `dynamics` (shape was checked by serde).
+pub(crate) fn validate(raw: &RawDynamics, dim: usize, kind: RawModelKind) -> Result<Dynamics, ProblemError> {
+    if kind != RawModelKind::Bond {
+        return Err(ProblemError::invalid(
+            "dynamics",
+            format!("only \"type\": \"bond\" models have explicit dynamics (model.type is {kind:?})").to_lowercase(),
+        ));
+    }
+    let step = match (raw.dt, raw.dt_safety) {
+        (Some(_), Some(_)) => {
+            return Err(ProblemError::invalid("dynamics", "give exactly one of dt and dt_safety, got both"))
+        }
+        (None, None) => {
+            return Err(ProblemError::invalid("dynamics", "missing the time step: give dt or dt_safety (a fraction of the stability limit)"))
+        }
+        (Some(dt), None) => TimeStep::Dt(positive("dynamics.dt", dt)?),
+        (None, Some(s)) => TimeStep::Safety(positive("dynamics.dt_safety", s)?),
+    };
+    if raw.steps == 0 {
+        return Err(ProblemError::invalid("dynamics.steps", "must be >= 1, got 0"));
+    }
+    let density = positive("dynamics.density", raw.density)?;
+    let output_every = match raw.output_every {
+        Some(0) => return Err(ProblemError::invalid("dynamics.output_every", "must be >= 1, got 0")),
+        Some(k) => k,
+        None => (raw.steps / 10).max(1),
+    };
+    let initial = match &raw.initial {
+        None => Initial::Rest,
+        Some(i) => initial(i, dim)?,
+    };
+    Ok(Dynamics { step, steps: raw.steps, output_every, density, initial, allow_unstable: raw.allow_unstable })
+}
+
+fn initial(i: &RawInitial, dim: usize) -> Result<Initial, ProblemError> {
+    let p = "dynamics.initial";
+    let keys = [
+        ("from", i.from),
+        ("to", i.to),
+        ("center", i.center),
+        ("width", i.width),
+        ("wavenumber", i.wavenumber),
+        ("amplitude", i.amplitude),
+    ];
+    let (name, allowed): (&str, &[&str]) = match i.kind {
+        RawInitialKind::Rest => ("rest", &[]),
+        RawInitialKind::SquarePulse => ("square_pulse", &["from", "to", "amplitude"]),
+        RawInitialKind::SmoothPulse => ("smooth_pulse", &["center", "width", "amplitude"]),
+        RawInitialKind::Mode => ("mode", &["wavenumber", "amplitude"]),
+    };
+    if let Some((key, _)) = keys.iter().find(|(k, v)| v.is_some() && !allowed.contains(k)) {
+        return Err(ProblemError::invalid(format!("{p}.{key}"), format!("not a key of a {name} initial condition")));
+    }
+    if dim != 1 && i.kind != RawInitialKind::Rest {
+        return Err(ProblemError::invalid(
+            format!("{p}.type"),
+            format!("{name} is a 1D initial condition (dimension is {dim}); use \"rest\" with loads or prescribed constraints"),
+        ));
+    }
+    let need = |key: &str, v: Option<f64>| -> Result<f64, ProblemError> {
+        let v = v.ok_or_else(|| ProblemError::invalid(format!("{p}.{key}"), format!("missing (required by {name})")))?;
+        if !v.is_finite() {
+            return Err(ProblemError::invalid(format!("{p}.{key}"), format!("must be finite, got {v}")));
+        }
+        Ok(v)
+    };
+    let amplitude = match i.amplitude {
+        None => 1.0,
+        Some(a) => need("amplitude", Some(a))?,
+    };
+    Ok(match i.kind {
+        RawInitialKind::Rest => Initial::Rest,
+        RawInitialKind::SquarePulse => {
+            let (from, to) = (need("from", i.from)?, need("to", i.to)?);
+            if from > to {
+                return Err(ProblemError::invalid(format!("{p}.from"), format!("from = {from} is greater than to = {to}")));
+            }
+            Initial::SquarePulse { from, to, amplitude }
+        }
+        RawInitialKind::SmoothPulse => Initial::SmoothPulse {
+            center: need("center", i.center)?,
+            width: positive(&format!("{p}.width"), need("width", i.width)?)?,
+            amplitude,
+        },
+        RawInitialKind::Mode => Initial::Mode { wavenumber: need("wavenumber", i.wavenumber)?, amplitude },
+    })
+}
+
+/// The stability limit of a scene and how it was obtained.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StabilityLimit {
+    /// `dt_max`.
+    pub dt: f64,
+    /// How it was computed.
+    pub method: String,
+}
+
+/// The result of `linpd run`: energies at every output, displacement snapshots, throughput.
+#[derive(Debug, Clone)]
+pub struct DynamicsRun {
+    /// Scene name.
+    pub name: String,
+    /// Dimension.
+    pub dim: usize,
+    /// Node positions.
+    pub x: Vec<Point>,
+    /// True for nodes of the outer layer.
+    pub is_layer: Vec<bool>,
+    /// Time step used.
+    pub dt: f64,
+    /// The stability limit.
+    pub limit: StabilityLimit,
+    /// Steps taken.
+    pub steps: usize,
+    /// Snapshot interval.
+    pub output_every: usize,
+    /// Bonds (each pair counted from both ends).
+    pub n_bonds: usize,
+    /// DOFs, of which `n_fixed` are held.
+    pub n_dofs: usize,
+    /// Held DOFs.
+    pub n_fixed: usize,
+    /// Step number of every output.
+    pub output_steps: Vec<usize>,
+    /// Time of every output.
+    pub times: Vec<f64>,
+    /// Energies at every output.
+    pub energies: Vec<Energy>,
+    /// Displacements (all DOFs) at every output.
+    pub snapshots: Vec<Vec<f64>>,
+    /// Wall time of the time loop (seconds, outputs included).
+    pub wall_seconds: f64,
+    /// Wall time of the set-up (operator, limit).
+    pub setup_seconds: f64,
+}
+
+impl DynamicsRun {
+    /// Time steps per second of wall time.
+    pub fn steps_per_second(&self) -> f64 {
+        self.steps as f64 / self.wall_seconds
+    }
+    /// Bond updates (one per bond end per step) per second.
+    pub fn bond_updates_per_second(&self) -> f64 {
+        self.steps as f64 * self.n_bonds as f64 / self.wall_seconds
+    }
+    /// `max_n |E_n - E_0| / |E_0|` of `E = E_k + E_p` (oscillates by `O(dt^2)`, no drift).
+    pub fn max_total_drift(&self) -> f64 {
+        let e0 = self.energies[0].total();
+        self.energies.iter().map(|e| (e.total() - e0).abs() / e0.abs()).fold(0.0, f64::max)
+    }
+    /// `max_n |E~_n - E~_0| / |E~_0|` of the shadow energy (conserved to round-off).
+    pub fn max_shadow_drift(&self) -> f64 {
+        let e0 = self.energies[0].shadow;
+        self.energies.iter().map(|e| (e.shadow - e0).abs() / e0.abs()).fold(0.0, f64::max)
+    }
+
+    /// The `history.json` document.
+    pub fn history_json(&self) -> serde_json::Value {
+        let e0 = self.energies[0].total();
+        let s0 = self.energies[0].shadow;
+        let rel = |d: f64, r: f64| if r != 0.0 { d / r.abs() } else { d };
+        json!({
+            "name": self.name,
+            "dimension": self.dim,
+            "dt": self.dt,
+            "dt_limit": self.limit.dt,
+            "dt_limit_method": self.limit.method,
+            "steps": self.steps,
+            "output_every": self.output_every,
+            "nodes": self.x.len(),
+            "dofs": self.n_dofs,
+            "fixed_dofs": self.n_fixed,
+            "bonds": self.n_bonds,
+            "step": self.output_steps,
+            "times": self.times,
+            "energies": {
+                "kinetic": self.energies.iter().map(|e| e.kinetic).collect::<Vec<_>>(),
+                "potential": self.energies.iter().map(|e| e.potential).collect::<Vec<_>>(),
+                "total": self.energies.iter().map(|e| e.total()).collect::<Vec<_>>(),
+                "shadow": self.energies.iter().map(|e| e.shadow).collect::<Vec<_>>(),
+                "drift": self.energies.iter().map(|e| rel(e.total() - e0, e0)).collect::<Vec<_>>(),
+                "shadow_drift": self.energies.iter().map(|e| rel(e.shadow - s0, s0)).collect::<Vec<_>>(),
+            },
+            "stats": {
+                "wall_seconds": self.wall_seconds,
+                "setup_seconds": self.setup_seconds,
+                "steps_per_second": self.steps_per_second(),
+                "bond_updates_per_second": self.bond_updates_per_second(),
+                "max_total_drift": self.max_total_drift(),
+                "max_shadow_drift": self.max_shadow_drift(),
+            }
+        })
+    }
+
+    /// Writes `history.json` and `u_<step>.csv` (step zero-padded) into `dir` (created if
+    /// missing); returns the paths.
+    pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, ProblemError> {
+        let io = |path: &Path| {
+            let path = path.display().to_string();
+            move |source| ProblemError::Io { path, source }
+        };
+        std::fs::create_dir_all(dir).map_err(io(dir))?;
+        let hist = dir.join("history.json");
+        std::fs::write(&hist, serde_json::to_string_pretty(&self.history_json()).expect("serializes")).map_err(io(&hist))?;
+        let mut files = vec![hist];
+        let width = self.steps.to_string().len();
+        let d = self.dim;
+        let header = ["x,u,layer", "x,y,u,v,layer", "x,y,z,u,v,w,layer"][d - 1];
+        for (step, u) in self.output_steps.iter().zip(&self.snapshots) {
+            let path = dir.join(format!("u_{step:0width$}.csv"));
+            let mut w = std::io::BufWriter::new(std::fs::File::create(&path).map_err(io(&path))?);
+            writeln!(w, "{header}").map_err(io(&path))?;
+            for (k, x) in self.x.iter().enumerate() {
+                let mut row: Vec<String> = (0..d).map(|a| format!("{:.17e}", x[a])).collect();
+                row.extend((0..d).map(|a| format!("{:.17e}", u[d * k + a])));
+                row.push((self.is_layer[k] as u8).to_string());
+                writeln!(w, "{}", row.join(",")).map_err(io(&path))?;
+            }
+            w.flush().map_err(io(&path))?;
+            files.push(path);
+        }
+        Ok(files)
+    }
+}
+
+impl Problem {
+    fn dynamics_section(&self) -> Result<&Dynamics, ProblemError> {
+        self.dynamics.as_ref().ok_or_else(|| {
+            ProblemError::invalid("dynamics", "missing: this scene has no \"dynamics\" section (dt or dt_safety, steps, density); `linpd solve` solves it statically")
+        })
+    }
+
+    /// The velocity-Verlet stability limit of the scene (see the module docs).
+    pub fn stability_limit(&self) -> Result<StabilityLimit, ProblemError> {
+        let dynamics = self.dynamics_section()?;
+        let op = self.operator()?;
+        self.limit_of(&op, dynamics)
+    }
+
+    fn mass(&self, rho: f64) -> Result<LumpedMass, ProblemError> {
+        LumpedMass::uniform(rho, self.grid.volume(), self.dim() * self.grid.len())
+            .map_err(|e| ProblemError::invalid("dynamics.density", e.to_string()))
+    }
+
+    fn fixed(&self) -> Vec<(usize, f64)> {
+        let (mask, ubar) = self.constrained();
+        mask.iter().enumerate().filter(|(_, m)| **m).map(|(i, _)| (i, ubar[i])).collect()
+    }
+
+    fn limit_of(&self, op: &linpd_bond::BondOperator, dynamics: &Dynamics) -> Result<StabilityLimit, ProblemError> {
+        let rho = dynamics.density;
+        if self.dim() == 1 && self.model.material.is_homogeneous() {
+            let chain = Chain::new(self.grid.spacing(), self.model.horizon, &self.model.micromodulus)
+                .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
+            let l = lattice_limit(&chain, rho);
+            return Ok(StabilityLimit { dt: l.dt, method: "2/omega_max of the infinite lattice (exact; a lower bound for the bar)".into() });
+        }
+        let mass = self.mass(rho)?;
+        let fixed: Vec<usize> = self.fixed().iter().map(|p| p.0).collect();
+        let info = power_iteration(op, &mass, &fixed, &PowerParams { max_iter: 5000, rtol: 1e-10, ..Default::default() })
+            .map_err(|e| ProblemError::invalid("dynamics", e.to_string()))?;
+        Ok(StabilityLimit {
+            dt: verlet_limit(info.lambda) * (1.0 - 1e-3),
+            method: format!("2/sqrt(lambda_max) by power iteration ({} iterations), less 0.1%", info.iterations),
+        })
+    }
+
+    /// Runs the `dynamics` section. `progress` receives one line per phase.
+    pub fn run_dynamics(&self, progress: &dyn Fn(&str)) -> Result<DynamicsRun, ProblemError> {
+        let dynamics = self.dynamics_section()?;
+        if self.blend.is_some() || self.lps.is_some() {
+            return Err(ProblemError::invalid("dynamics", "only bond models have explicit dynamics"));
+        }
+        let t0 = Instant::now();
+        let d = self.dim();
+        let n_nodes = self.grid.len();
+        progress(&format!("building bonds: {n_nodes} nodes, horizon/spacing = {:.3}", self.model.horizon / self.grid.spacing()));
+        let op = self.operator()?;
+        let limit = self.limit_of(&op, dynamics)?;
+        let dt = match dynamics.step {
+            TimeStep::Dt(dt) => dt,
+            TimeStep::Safety(s) => s * limit.dt,
+        };
+        if dt > limit.dt && !dynamics.allow_unstable {
+            let path = match dynamics.step {
+                TimeStep::Dt(_) => "dynamics.dt",
+                TimeStep::Safety(_) => "dynamics.dt_safety",
+            };
+            return Err(ProblemError::invalid(
+                path,
+                format!(
+                    "dt = {dt} exceeds the velocity-Verlet stability limit dt_max = {} ({}); use dt <= {}, dt_safety <= 1, or set \"allow_unstable\": true",
+                    limit.dt, limit.method, limit.dt
+                ),
+            ));
+        }
+        progress(&format!("dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {})", dt / limit.dt, limit.dt, limit.method));
+        let fixed = self.fixed();
+        let mass = self.mass(dynamics.density)?;
+        let verlet = Verlet::new(&op, mass).with_fixed(&fixed).map_err(|e| ProblemError::invalid("constraints", e.to_string()))?;
+        let positions = op.positions().to_vec();
+        let u0: Vec<f64> = if d == 1 { positions.iter().map(|x| dynamics.initial.at(x[0])).collect() } else { vec![0.0; d * n_nodes] };
+        let load = self.load_vector();
+        let loaded = load.iter().any(|f| *f != 0.0);
+        let params = VerletParams {
+            dt,
+            steps: dynamics.steps,
+            output_every: dynamics.output_every,
+            limit: DtLimit::Given(limit.dt),
+            allow_unstable: dynamics.allow_unstable,
+        };
+        let mut state = State::at_rest(u0);
+        let (mut output_steps, mut times, mut energies, mut snapshots) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let setup_seconds = t0.elapsed().as_secs_f64();
+        progress(&format!("running {} steps ({} DOFs, {} held, {} bonds)", dynamics.steps, d * n_nodes, fixed.len(), op.family().n_bonds()));
+        let t1 = Instant::now();
+        let mut force = |_t: f64, f: &mut [f64]| f.copy_from_slice(&load);
+        let info = verlet
+            .run(&mut state, &params, if loaded { Some(&mut force) } else { None }, |s| {
+                output_steps.push(s.step);
+                times.push(s.t);
+                energies.push(s.energy);
+                snapshots.push(s.u.to_vec());
+                ControlFlow::Continue(())
+            })
+            .map_err(|e| ProblemError::Solve(format!("dynamics: {e}")))?;
+        let wall_seconds = t1.elapsed().as_secs_f64();
+        progress(&format!("done: t = {:.6e} in {wall_seconds:.3} s", info.t));
+        Ok(DynamicsRun {
+            name: self.name.clone(),
+            dim: d,
+            x: positions,
+            is_layer: (0..n_nodes).map(|k| self.grid.is_layer(k)).collect(),
+            dt,
+            limit,
+            steps: info.steps,
+            output_every: dynamics.output_every,
+            n_bonds: op.family().n_bonds(),
+            n_dofs: d * n_nodes,
+            n_fixed: fixed.len(),
+            output_steps,
+            times,
+            energies,
+            snapshots,
+            wall_seconds,
+            setup_seconds,
+        })
+    }
+}
