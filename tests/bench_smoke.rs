@@ -9,7 +9,7 @@ fn quick_bench_writes_every_case_with_its_phases() {
     let dir = std::env::temp_dir().join(format!("linpd-bench-smoke-{}", std::process::id()));
     let out = dir.join("bench.json");
     let status = Command::new(env!("CARGO_BIN_EXE_linpd"))
-        .args(["bench", "--quick", "--out"])
+        .args(["bench", "--quick", "--lps", "--dynamics", "--out"])
         .arg(&out)
         .status()
         .expect("run linpd bench");
@@ -29,5 +29,8 @@ fn quick_bench_writes_every_case_with_its_phases() {
             assert_eq!(c["cholesky"]["ordering"], "nested-dissection");
         }
     }
+    // The LPS and dynamics sections ran too.
+    assert!(doc["lps"].as_object().is_some_and(|o| !o.is_empty()), "no lps section");
+    assert!(doc["dynamics"].is_object() || doc["dynamics"].is_array(), "no dynamics section");
     let _ = std::fs::remove_dir_all(&dir);
 }

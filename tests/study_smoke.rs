@@ -1,4 +1,4 @@
-//! The fast blended-model studies regenerate their data and figures from the CLI (the slow
+//! The fast studies (blended model, dispersion, md-pd) regenerate their data and figures from the CLI (the slow
 //! ones, blend-pd-size, blend-bridge-size, blend-speedup and blend-speed-vs-error, take
 //! 30-90 s each and are run by hand; their outputs are committed under docs/studies/).
 
@@ -12,6 +12,8 @@ fn fast_studies_write_data_and_plots() {
         ("blend-patch", vec!["fig7_profiles", "fig8_strain_fluctuation"]),
         ("blend-point-load", vec!["fig9_profiles", "fig9_profiles_zoom", "fig10_error_profiles"]),
         ("blend-load-location", vec!["fig13_error_vs_load_location"]),
+        ("dispersion", vec!["lattice_bond_3d", "lattice_lps_2d"]),
+        ("md-pd", vec!["snapshot", "square_md_pd_t150"]),
     ] {
         let dir = root.join(name);
         let out = Command::new(env!("CARGO_BIN_EXE_linpd")).args(["study", name, "--out"]).arg(&dir).output().unwrap();

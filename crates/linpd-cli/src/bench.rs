@@ -47,6 +47,10 @@ pub struct BenchArgs {
     /// Also run the LPS tangent cases (3D cubes 10^3-40^3, delta = 3h).
     #[arg(long)]
     lps: bool,
+    /// Also run the velocity-Verlet throughput cases (1D 10^5 nodes m = 20, 3D 40^3 delta = 3h)
+    /// with the assembled, per-bond and stencil operators.
+    #[arg(long)]
+    dynamics: bool,
     /// Run sparse Cholesky on 3D cases up to this many unknowns (AMD fill grows fast in 3D).
     #[arg(long, default_value_t = 30_000)]
     direct_max_3d: usize,
@@ -326,6 +330,9 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     });
     if args.lps {
         doc["lps"] = crate::bench_lps::run(args.quick);
+    }
+    if args.dynamics {
+        doc["dynamics"] = crate::bench_dynamics::run(args.quick, bw)?;
     }
     if let Some(dir) = &export_dir {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches/peers/peer_bench.py");

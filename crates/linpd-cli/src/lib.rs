@@ -4,11 +4,13 @@
 #![deny(missing_docs)]
 
 mod bench;
+mod bench_dynamics;
 mod bench_lps;
 mod plots;
 mod study_blend;
 mod study_dynamics;
 mod study_lps;
+mod study_md_pd;
 
 use clap::{Parser, Subcommand};
 use linpd_problem::Problem;
@@ -183,11 +185,14 @@ fn run(cli: Cli) -> Result<(), String> {
                 for (n, d) in study_dynamics::STUDIES {
                     println!("{n:<22} {d}");
                 }
+                println!("{:<22} {}", study_md_pd::NAME, study_md_pd::DESCRIPTION);
                 return Ok(());
             }
             let dir = out.unwrap_or_else(|| PathBuf::from("docs/studies").join(&name));
             if name == "lps-tension-bar" {
                 study_lps::run(&dir)?;
+            } else if name == study_md_pd::NAME {
+                study_md_pd::run(&dir)?;
             } else if study_dynamics::STUDIES.iter().any(|(n, _)| *n == name) {
                 study_dynamics::run(&name, &dir)?;
             } else {

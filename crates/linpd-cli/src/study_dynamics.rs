@@ -23,7 +23,7 @@ use std::time::Instant;
 
 /// The studies, with one line each for `study list`.
 pub const STUDIES: &[(&str, &str)] = &[
-    ("dispersion", "Seleson et al. 2009 sec. 4.2: omega(k) lattice vs continuum vs (4.8)/(4.9) vs measured (Verlet), N = 1, 5, 20"),
+    ("dispersion", "Seleson et al. 2009 sec. 4.2: omega(k) lattice vs continuum vs (4.8)/(4.9) vs measured (Verlet), N = 1, 5, 20; 2D/3D Bloch dispersion of bond/LPS"),
     ("stability", "Seleson et al. 2009 Fig. 4.2: (4.12) vs exact limit vs measured square-pulse blow-up over dx"),
 ];
 
@@ -124,7 +124,80 @@ fn dispersion(dir: &Path) -> Result<(), String> {
         }));
     }
     std::fs::write(dir.join("table.md"), &table).map_err(err)?;
-    write_data(dir, &json!({"study": "dispersion", "K1": K1, "rho": RHO, "delta": DELTA, "cases": rows}))
+    write_data(dir, &json!({"study": "dispersion", "K1": K1, "rho": RHO, "delta": DELTA, "cases": rows}))?;
+    lattice_dispersion(dir)
+}
+
+/// Bloch dispersion of the 2D (plane strain) and 3D bond-based and LPS operators along
+/// [100], [110], [111] (`linpd_dynamics::bloch`): `h = 1`, `delta = 3h`, `K = rho = 1`;
+/// bond-based `lambda = mu = 3K/5`, LPS `G = 0.3` (`lambda = K - 2G/3`, `mu = G`).
+/// Writes `lattice_<model>_<d>d.{png,svg}`, `lattice_table.md`, `lattice.json`.
+fn lattice_dispersion(dir: &Path) -> Result<(), String> {
+    use linpd_core::{DofMap, PlaneModel};
+    use linpd_dynamics::bloch::{classical_speeds, lattice_direction, lattice_reach, BlochStencil};
+    use linpd_lps::{assemble_tangent, Influence, LpsModel, LpsParams};
+    let (h, delta, k_bulk, g_lps) = (1.0, 3.0, 1.0, 0.3);
+    let mut table = String::from(
+        "| model | dim | direction | c_L (lattice) | c_P (classical) | c_L/c_P - 1 | c_T (lattice) | c_S (classical) | max c_T/c_S - 1 |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut cases = Vec::new();
+    println!("Bloch dispersion, delta = 3h, K = rho = 1 (2D: plane strain); long-wave speeds vs classical:");
+    for model in ["bond", "lps"] {
+        for dim in [2usize, 3] {
+            let plane = (dim == 2).then_some(PlaneModel::Strain);
+            let reach = lattice_reach(delta, h) * if model == "lps" { 2 } else { 1 };
+            let side = 2.0 * reach as f64 * h;
+            let g = Grid::new(&vec![0.0; dim], &vec![side; dim], h, 0.0, Placement::Vertex).map_err(err)?;
+            let (a, lambda, mu) = if model == "bond" {
+                let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: Normalization::Discrete, modulus: k_bulk, plane, partial_volume: false };
+                let op = BondOperator::on_grid(&g, delta, &mm, &Material::default()).map_err(err)?;
+                (linpd_bond::assemble(&op, &DofMap::all_free(g.len(), dim)), 0.6 * k_bulk, 0.6 * k_bulk)
+            } else {
+                let p = LpsParams { K: k_bulk, G: g_lps, horizon: delta, influence: Influence::InverseDistance, partial_volume: false, plane };
+                (assemble_tangent(&LpsModel::new(&g, &p).map_err(err)?), k_bulk - 2.0 * g_lps / 3.0, g_lps)
+            };
+            let s = BlochStencil::from_matrix(&a, dim, g.counts(), h, reach).map_err(err)?;
+            let (cp, cs) = classical_speeds(lambda, mu, RHO);
+            let dirs: &[[i32; 3]] = if dim == 2 { &[[1, 0, 0], [1, 1, 0]] } else { &[[1, 0, 0], [1, 1, 0], [1, 1, 1]] };
+            let mut series = Vec::new();
+            let mut dir_rows = Vec::new();
+            for m in dirs {
+                let n = lattice_direction(dim, *m);
+                let name = format!("[{}]", m[..dim].iter().map(|v| v.to_string()).collect::<String>());
+                // Zone edge along n: k n_a h = pi on the largest component.
+                let k_edge = std::f64::consts::PI / (h * n.iter().fold(0.0f64, |a, v| a.max(v.abs())));
+                let fr: Vec<f64> = (0..=100).map(|i| i as f64 / 100.0).collect();
+                let omegas: Vec<Vec<f64>> = fr.iter().map(|f| s.omegas(&n.iter().map(|v| v * f * k_edge).collect::<Vec<_>>(), RHO)).collect();
+                for b in 0..dim {
+                    series.push(Series::new(format!("{name} branch {}", b + 1), fr.clone(), omegas.iter().map(|w| w[b]).collect()));
+                }
+                let (cl, ct) = s.long_wave_speeds(&n, RHO);
+                let et = ct.iter().map(|c| c / cs - 1.0).fold(0.0f64, |a, e| if e.abs() > a.abs() { e } else { a });
+                println!("  {model} {dim}D {name}: c_L = {cl:.6} (c_P = {cp:.6}, {:+.2e}), c_T = {ct:.6?} (c_S = {cs:.6}, {et:+.2e})", cl / cp - 1.0);
+                table.push_str(&format!(
+                    "| {model} | {dim} | {name} | {cl:.6} | {cp:.6} | {:+.2e} | {} | {cs:.6} | {et:+.2e} |\n",
+                    cl / cp - 1.0,
+                    ct.iter().map(|c| format!("{c:.6}")).collect::<Vec<_>>().join(", ")
+                ));
+                dir_rows.push(json!({"direction": name, "k_edge": k_edge, "k_over_k_edge": fr, "omega": omegas,
+                    "c_L": cl, "c_T": ct, "c_P": cp, "c_S": cs}));
+            }
+            let plot = LinePlot {
+                title: format!("Bloch dispersion, {model} {dim}D{} (delta = 3h, K = rho = 1)", if dim == 2 { " plane strain" } else { "" }),
+                x_label: "k / k_edge (k_edge = pi / (h max|n_a|))".into(),
+                y_label: "omega".into(),
+                series,
+                log_x: false,
+                log_y: false,
+            };
+            line_plot(&plot, &dir.join(format!("lattice_{model}_{dim}d"))).map_err(err)?;
+            cases.push(json!({"model": model, "dim": dim, "lambda": lambda, "mu": mu, "grid_nodes_per_axis": 2 * reach + 1,
+                "stencil_nodes": s.len(), "directions": dir_rows}));
+        }
+    }
+    std::fs::write(dir.join("lattice_table.md"), &table).map_err(err)?;
+    std::fs::write(dir.join("lattice.json"), serde_json::to_string_pretty(&json!({"h": h, "delta": delta, "K": k_bulk, "rho": RHO,
+        "lps_G": g_lps, "plane": "strain", "cases": cases})).unwrap()).map_err(err)
 }
 
 /// Runs the square pulse on the bar; `true` when it blows up (energy x1e3 or non-finite).

@@ -16,6 +16,8 @@
 //!   Gershgorin and power-iteration estimates of `lambda_max`;
 //! * [`dispersion`]: the exact discrete relation, the continuum relation, the series (4.8)/(4.9),
 //!   the Verlet correction `sin(omega_num dt/2) = omega dt/2`, and a single-mode measurement;
+//! * [`bloch`]: Bloch dispersion of assembled 2D/3D lattice operators (bond-based, LPS) along
+//!   any direction, and their long-wave speeds;
 //! * [`initial`]: the initial displacements of section 4.4 (smooth pulse, square pulse (4.14)).
 //!
 //! # Example
@@ -51,6 +53,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod bloch;
 pub mod chain;
 pub mod dispersion;
 pub mod error;

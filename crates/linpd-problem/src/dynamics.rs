@@ -35,8 +35,8 @@ pub enum TimeStep {
     Safety(f64),
 }
 
-/// The initial displacement (velocities start at zero).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The initial displacement (velocities start at zero, except for [`Initial::Data`]).
+#[derive(Debug, Clone, PartialEq)]
 pub enum Initial {
     /// `u = 0`.
     Rest,
@@ -66,12 +66,21 @@ pub enum Initial {
         /// Amplitude.
         amplitude: f64,
     },
+    /// User data (any dimension): `u` and `v` over all DOFs, node-major (`dof = d node + a`,
+    /// nodes in grid order as in `result.json`), lengths checked against the grid.
+    Data {
+        /// Initial displacements.
+        u: Vec<f64>,
+        /// Initial velocities (zero when not given).
+        v: Option<Vec<f64>>,
+    },
 }
 
 impl Initial {
-    /// Displacement at `x` (1D).
+    /// Displacement at `x` (1D; 0 for [`Initial::Data`], which is not a function of `x`).
     pub fn at(&self, x: f64) -> f64 {
         match *self {
+            Initial::Data { .. } => 0.0,
             Initial::Rest => 0.0,
             Initial::SquarePulse { from, to, amplitude } => {
                 if (from..=to).contains(&x) {
@@ -82,6 +91,15 @@ impl Initial {
             }
             Initial::SmoothPulse { center, width, amplitude } => amplitude * smooth_pulse(500.0 + (x - center) * 20.0 / width),
             Initial::Mode { wavenumber, amplitude } => amplitude * (wavenumber * x).cos(),
+        }
+    }
+
+    /// The initial `(u, v)` over all DOFs at the node `positions`, `d` DOFs per node.
+    pub fn state(&self, positions: &[Point], d: usize) -> State {
+        match self {
+            Initial::Data { u, v } => State::new(u.clone(), v.clone().unwrap_or_else(|| vec![0.0; u.len()])),
+            _ if d == 1 => State::at_rest(positions.iter().map(|x| self.at(x[0])).collect()),
+            _ => State::at_rest(vec![0.0; d * positions.len()]),
         }
     }
 }
@@ -112,7 +130,7 @@ fn positive(path: &str, x: f64) -> Result<f64, ProblemError> {
 }
 
 /// Validates `dynamics` (shape was checked by serde).
-pub(crate) fn validate(raw: &RawDynamics, dim: usize, kind: RawModelKind) -> Result<Dynamics, ProblemError> {
+pub(crate) fn validate(raw: &RawDynamics, dim: usize, n_nodes: usize, kind: RawModelKind) -> Result<Dynamics, ProblemError> {
     if kind != RawModelKind::Bond {
         return Err(ProblemError::invalid(
             "dynamics",
@@ -140,13 +158,20 @@ pub(crate) fn validate(raw: &RawDynamics, dim: usize, kind: RawModelKind) -> Res
     };
     let initial = match &raw.initial {
         None => Initial::Rest,
-        Some(i) => initial(i, dim)?,
+        Some(i) => initial(i, dim, n_nodes)?,
     };
     Ok(Dynamics { step, steps: raw.steps, output_every, density, initial, allow_unstable: raw.allow_unstable })
 }
 
-fn initial(i: &RawInitial, dim: usize) -> Result<Initial, ProblemError> {
+fn initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, ProblemError> {
     let p = "dynamics.initial";
+    if i.kind == RawInitialKind::Data {
+        return data_initial(i, dim, n_nodes);
+    }
+    if i.u.is_some() || i.v.is_some() {
+        let key = if i.u.is_some() { "u" } else { "v" };
+        return Err(ProblemError::invalid(format!("{p}.{key}"), "only a \"data\" initial condition takes u and v"));
+    }
     let keys = [
         ("from", i.from),
         ("to", i.to),
@@ -160,6 +185,7 @@ fn initial(i: &RawInitial, dim: usize) -> Result<Initial, ProblemError> {
         RawInitialKind::SquarePulse => ("square_pulse", &["from", "to", "amplitude"]),
         RawInitialKind::SmoothPulse => ("smooth_pulse", &["center", "width", "amplitude"]),
         RawInitialKind::Mode => ("mode", &["wavenumber", "amplitude"]),
+        RawInitialKind::Data => unreachable!("handled above"),
     };
     if let Some((key, _)) = keys.iter().find(|(k, v)| v.is_some() && !allowed.contains(k)) {
         return Err(ProblemError::invalid(format!("{p}.{key}"), format!("not a key of a {name} initial condition")));
@@ -196,7 +222,39 @@ fn initial(i: &RawInitial, dim: usize) -> Result<Initial, ProblemError> {
             amplitude,
         },
         RawInitialKind::Mode => Initial::Mode { wavenumber: need("wavenumber", i.wavenumber)?, amplitude },
+        RawInitialKind::Data => unreachable!("handled above"),
     })
+}
+
+/// `"initial": {"type": "data", "u": [...], "v": [...]}`: `dim` values per node, node order.
+fn data_initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, ProblemError> {
+    let p = "dynamics.initial";
+    let keys = [("from", i.from), ("to", i.to), ("center", i.center), ("width", i.width), ("wavenumber", i.wavenumber), ("amplitude", i.amplitude)];
+    if let Some((key, _)) = keys.iter().find(|(_, v)| v.is_some()) {
+        return Err(ProblemError::invalid(format!("{p}.{key}"), "not a key of a data initial condition (it takes u and optionally v)"));
+    }
+    let expected = dim * n_nodes;
+    let check = |key: &str, values: &[f64]| -> Result<(), ProblemError> {
+        if values.len() != expected {
+            return Err(ProblemError::invalid(
+                format!("{p}.{key}"),
+                format!(
+                    "has {} values, expected {expected} = {n_nodes} nodes x {dim} components (node-major, nodes in grid order as in result.json, layers included)",
+                    values.len()
+                ),
+            ));
+        }
+        if let Some(k) = values.iter().position(|x| !x.is_finite()) {
+            return Err(ProblemError::invalid(format!("{p}.{key}[{k}]"), format!("must be finite, got {}", values[k])));
+        }
+        Ok(())
+    };
+    let u = i.u.clone().ok_or_else(|| ProblemError::invalid(format!("{p}.u"), "missing (required by data)"))?;
+    check("u", &u)?;
+    if let Some(v) = &i.v {
+        check("v", v)?;
+    }
+    Ok(Initial::Data { u, v: i.v.clone() })
 }
 
 /// The stability limit of a scene and how it was obtained.
@@ -306,7 +364,7 @@ impl DynamicsRun {
     }
 
     /// Writes `history.json` and `u_<step>.csv` (step zero-padded) into `dir` (created if
-    /// missing); returns the paths.
+    /// missing), and in 2D/3D also `u_<step>.vtk` ([`DynamicsRun::vtk`]); returns the paths.
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, ProblemError> {
         let io = |path: &Path| {
             let path = path.display().to_string();
@@ -332,7 +390,50 @@ impl DynamicsRun {
             w.flush().map_err(io(&path))?;
             files.push(path);
         }
+        if d >= 2 {
+            for (i, step) in self.output_steps.iter().enumerate() {
+                let path = dir.join(format!("u_{step:0width$}.vtk"));
+                std::fs::write(&path, self.vtk(i)).map_err(io(&path))?;
+                files.push(path);
+            }
+        }
         Ok(files)
+    }
+
+    /// Snapshot `i` as legacy ASCII VTK POLYDATA: the nodes as `POINTS` (z = 0 in 2D) with one
+    /// `VERTICES` cell each, and `POINT_DATA`: the displacement as `VECTORS displacement`
+    /// (3 components, 0 padded) and the outer-layer flag as `SCALARS layer int`.
+    pub fn vtk(&self, i: usize) -> String {
+        use std::fmt::Write as _;
+        let (d, n, u) = (self.dim, self.x.len(), &self.snapshots[i]);
+        let mut s = String::with_capacity(120 * n + 200);
+        let _ = write!(
+            s,
+            "# vtk DataFile Version 3.0\n{} step {} t = {:e}\nASCII\nDATASET POLYDATA\nPOINTS {n} double\n",
+            self.name.replace('\n', " "),
+            self.output_steps[i],
+            self.times[i]
+        );
+        let triple = |s: &mut String, v: &dyn Fn(usize) -> f64| {
+            let c: Vec<String> = (0..3).map(|a| if a < d { format!("{:.17e}", v(a)) } else { "0".into() }).collect();
+            let _ = writeln!(s, "{}", c.join(" "));
+        };
+        for x in &self.x {
+            triple(&mut s, &|a| x[a]);
+        }
+        let _ = writeln!(s, "VERTICES {n} {}", 2 * n);
+        for k in 0..n {
+            let _ = writeln!(s, "1 {k}");
+        }
+        let _ = writeln!(s, "POINT_DATA {n}\nVECTORS displacement double");
+        for k in 0..n {
+            triple(&mut s, &|a| u[d * k + a]);
+        }
+        let _ = writeln!(s, "SCALARS layer int 1\nLOOKUP_TABLE default");
+        for k in 0..n {
+            let _ = writeln!(s, "{}", self.is_layer[k] as u8);
+        }
+        s
     }
 }
 
@@ -412,7 +513,6 @@ impl Problem {
         let mass = self.mass(dynamics.density)?;
         let verlet = Verlet::new(&op, mass).with_fixed(&fixed).map_err(|e| ProblemError::invalid("constraints", e.to_string()))?;
         let positions = op.positions().to_vec();
-        let u0: Vec<f64> = if d == 1 { positions.iter().map(|x| dynamics.initial.at(x[0])).collect() } else { vec![0.0; d * n_nodes] };
         let load = self.load_vector();
         let loaded = load.iter().any(|f| *f != 0.0);
         let params = VerletParams {
@@ -422,7 +522,7 @@ impl Problem {
             limit: DtLimit::Given(limit.dt),
             allow_unstable: dynamics.allow_unstable,
         };
-        let mut state = State::at_rest(u0);
+        let mut state = dynamics.initial.state(&positions, d);
         let (mut output_steps, mut times, mut energies, mut snapshots) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let setup_seconds = t0.elapsed().as_secs_f64();
         progress(&format!("running {} steps ({} DOFs, {} held, {} bonds)", dynamics.steps, d * n_nodes, fixed.len(), op.family().n_bonds()));
@@ -458,5 +558,100 @@ impl Problem {
             wall_seconds,
             setup_seconds,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::Problem;
+    use serde_json::{json, Value};
+
+    /// 5 x 5 nodes (h = 0.1, no layer), delta = 3h, plane strain, no constraints.
+    fn scene(initial: Value) -> Value {
+        json!({
+            "name": "tiny-2d",
+            "dimension": 2,
+            "grid": {"min": [0.0, 0.0], "max": [0.4, 0.4], "spacing": 0.1},
+            "model": {"type": "bond", "horizon": 0.3, "plane": "strain", "partial_volume": false,
+                      "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "discrete"}},
+            "dynamics": {"dt_safety": 0.5, "steps": 4, "output_every": 2, "density": 1.0, "initial": initial}
+        })
+    }
+
+    fn error_of(v: &Value) -> String {
+        match Problem::from_json(&v.to_string()) {
+            Ok(_) => "ok".into(),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn data_initial_fields_set_u_and_v() {
+        let n = 25;
+        let u: Vec<f64> = (0..2 * n).map(|k| 1e-3 * (k as f64).sin()).collect();
+        let p = Problem::from_json(&scene(json!({"type": "data", "u": u})).to_string()).unwrap();
+        let r = p.run_dynamics(&|_| {}).unwrap();
+        // serde_json's default float parsing may be off by an ulp.
+        assert!(r.snapshots[0].iter().zip(&u).all(|(a, b)| (a - b).abs() <= 1e-15 * b.abs()), "step 0 is the data");
+        assert!(r.energies[0].potential > 0.0);
+        // A uniform velocity translates the free body rigidly: u = v t exactly.
+        let v: Vec<f64> = (0..2 * n).map(|k| if k % 2 == 0 { 0.5 } else { -0.25 }).collect();
+        let p = Problem::from_json(&scene(json!({"type": "data", "u": vec![0.0; 2 * n], "v": v})).to_string()).unwrap();
+        let r = p.run_dynamics(&|_| {}).unwrap();
+        let (t, last) = (*r.times.last().unwrap(), r.snapshots.last().unwrap());
+        for (k, x) in last.iter().enumerate() {
+            assert!((x - v[k] * t).abs() < 1e-12, "dof {k}: {x} vs {}", v[k] * t);
+        }
+    }
+
+    #[test]
+    fn data_initial_errors_name_the_path() {
+        let cases = [
+            (json!({"type": "data", "u": vec![0.0; 49]}), "dynamics.initial.u: has 49 values, expected 50 = 25 nodes x 2 components"),
+            (json!({"type": "data", "u": vec![0.0; 50], "v": vec![0.0; 75]}), "dynamics.initial.v: has 75 values, expected 50"),
+            (json!({"type": "data", "v": vec![0.0; 50]}), "dynamics.initial.u: missing"),
+            (json!({"type": "data", "u": vec![0.0; 50], "amplitude": 2.0}), "dynamics.initial.amplitude: not a key of a data initial condition"),
+            (json!({"type": "rest", "u": vec![0.0; 50]}), "dynamics.initial.u: only a \"data\" initial condition takes u and v"),
+            (json!({"type": "data", "u": "abc"}), "dynamics.initial.u"),
+        ];
+        for (initial, needle) in cases {
+            let msg = error_of(&scene(initial));
+            assert!(msg.contains(needle), "{msg:?} lacks {needle:?}");
+        }
+    }
+
+    #[test]
+    fn two_dimensional_runs_write_parseable_vtk() {
+        let u: Vec<f64> = (0..50).map(|k| 1e-3 * k as f64).collect();
+        let p = Problem::from_json(&scene(json!({"type": "data", "u": u})).to_string()).unwrap();
+        let r = p.run_dynamics(&|_| {}).unwrap();
+        let dir = std::env::temp_dir().join(format!("linpd-vtk-test-{}", std::process::id()));
+        let files = r.write(&dir).unwrap();
+        let vtk: Vec<_> = files.iter().filter(|f| f.extension().is_some_and(|e| e == "vtk")).collect();
+        assert_eq!(vtk.len(), 3, "steps 0, 2, 4: {files:?}");
+        assert!(dir.join("u_0.vtk").exists() && dir.join("u_4.vtk").exists());
+        let text = std::fs::read_to_string(dir.join("u_0.vtk")).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "# vtk DataFile Version 3.0");
+        assert_eq!(lines[2], "ASCII");
+        assert_eq!(lines[3], "DATASET POLYDATA");
+        assert_eq!(lines[4], "POINTS 25 double");
+        let floats = |l: &str| l.split_whitespace().map(|t| t.parse::<f64>().unwrap()).collect::<Vec<_>>();
+        let points: Vec<Vec<f64>> = lines[5..30].iter().map(|l| floats(l)).collect();
+        assert!(points.iter().all(|p| p.len() == 3 && p[2] == 0.0));
+        assert_eq!(points[6], vec![0.1, 0.1, 0.0]);
+        assert_eq!(lines[30], "VERTICES 25 50");
+        assert!(lines[31..56].iter().enumerate().all(|(k, l)| *l == format!("1 {k}")));
+        assert_eq!(lines[56], "POINT_DATA 25");
+        assert_eq!(lines[57], "VECTORS displacement double");
+        let vectors: Vec<Vec<f64>> = lines[58..83].iter().map(|l| floats(l)).collect();
+        assert_eq!(vectors.len(), 25);
+        for (k, v) in vectors.iter().enumerate() {
+            let w = [u[2 * k], u[2 * k + 1], 0.0];
+            assert!(v.len() == 3 && v.iter().zip(&w).all(|(a, b)| (a - b).abs() <= 1e-15 * b.abs()), "{v:?} vs {w:?}");
+        }
+        assert_eq!(lines[83], "SCALARS layer int 1");
+        assert_eq!(lines.len(), 85 + 25);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

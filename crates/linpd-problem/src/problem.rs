@@ -429,7 +429,7 @@ impl Problem {
         }
         let dynamics = match &raw.dynamics {
             None => None,
-            Some(d) => Some(crate::dynamics::validate(d, dim, model_kind)?),
+            Some(d) => Some(crate::dynamics::validate(d, dim, grid.len(), model_kind)?),
         };
         Ok(Problem {
             lps,

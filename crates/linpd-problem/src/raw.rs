@@ -70,6 +70,8 @@ pub enum RawInitialKind {
     SmoothPulse,
     /// `u = amplitude cos(wavenumber x)`.
     Mode,
+    /// User data: `u` (and optionally `v`), `dimension` values per node in node order.
+    Data,
 }
 
 /// `dynamics.initial` (a plain struct with a `type` field, as [`RawModel`]).
@@ -97,6 +99,12 @@ pub struct RawInitial {
     /// Peak displacement (default 1).
     #[serde(default)]
     pub amplitude: Option<f64>,
+    /// Data: initial displacements (all DOFs, node-major).
+    #[serde(default)]
+    pub u: Option<Vec<f64>>,
+    /// Data: initial velocities (all DOFs, node-major; default 0).
+    #[serde(default)]
+    pub v: Option<Vec<f64>>,
 }
 
 /// `grid`.
