@@ -16,6 +16,7 @@
 use crate::BondOperator;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use linpd_core::DofMap;
+use linpd_core::par::for_each_node_slice;
 use rayon::prelude::*;
 
 /// The CSC pattern of the reduced stiffness, with the split of the value array per node.
@@ -161,18 +162,6 @@ fn for_merged(op: &BondOperator, i: usize, mut f: impl FnMut(usize)) {
     if !self_done {
         f(i);
     }
-}
-
-/// Runs `f(i, &mut data[start[i]..start[i+1]])` for every node in parallel.
-fn for_each_node_slice<T: Send>(data: &mut [T], start: &[usize], f: impl Fn(usize, &mut [T]) + Sync) {
-    let mut slices = Vec::with_capacity(start.len() - 1);
-    let mut rest = data;
-    for w in start.windows(2) {
-        let (head, tail) = rest.split_at_mut(w[1] - w[0]);
-        slices.push(head);
-        rest = tail;
-    }
-    slices.into_par_iter().enumerate().for_each(|(i, s)| f(i, s));
 }
 
 /// Assembles the reduced stiffness over the free DOFs of `dofs` (pattern and values).

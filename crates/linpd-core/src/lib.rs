@@ -7,6 +7,7 @@
 //! * [`family`]: bond families within the horizon (lattice stencil and cell list);
 //! * [`kernel`]: micromodulus shapes and their normalization to an elastic modulus;
 //! * [`material`]: heterogeneous moduli, bond rules and defects that degrade bonds;
+//! * [`par`]: the parallel per-node slice fill used by the assemblers;
 //! * [`dof`]: DOF numbering and the free/constrained split;
 //! * [`error`]: the error type shared by these modules.
 //!
@@ -20,6 +21,7 @@ pub mod family;
 pub mod grid;
 pub mod kernel;
 pub mod material;
+pub mod par;
 pub mod region;
 
 pub use dof::DofMap;

@@ -43,6 +43,7 @@
 
 use crate::LpsModel;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use linpd_core::par::for_each_node_slice;
 use rayon::prelude::*;
 use std::collections::BTreeSet;
 
@@ -288,18 +289,6 @@ fn table_index(o: &[i64; 3], reach: i64) -> usize {
     let w = 4 * reach + 1;
     let s = |x: i64| (x + 2 * reach) as usize;
     s(o[0]) + w as usize * (s(o[1]) + w as usize * s(o[2]))
-}
-
-/// Runs `f(i, &mut data[start[i]..start[i+1]])` for every node in parallel.
-fn for_each_node_slice<T: Send>(data: &mut [T], start: &[usize], f: impl Fn(usize, &mut [T]) + Sync) {
-    let mut slices = Vec::with_capacity(start.len() - 1);
-    let mut rest = data;
-    for w in start.windows(2) {
-        let (head, tail) = rest.split_at_mut(w[1] - w[0]);
-        slices.push(head);
-        rest = tail;
-    }
-    slices.into_par_iter().enumerate().for_each(|(i, s)| f(i, s));
 }
 
 /// Assembles the tangent `A` (all DOFs, force form `F ~ -A u`) of `model`.
