@@ -3,7 +3,8 @@
 
 #![allow(clippy::needless_range_loop)]
 
-use faer::sparse::SparseColMat;
+mod common;
+use common::{dense, max_abs, random_vec};
 use linpd_core::{Grid, Placement};
 use linpd_lps::{
     assemble_tangent, fd_tangent, tension_bar, Influence, LpsModel, LpsParams, PlaneModel, SurfaceCorrection, TensionBar,
@@ -25,31 +26,6 @@ fn model(dim: usize, nodes: usize, p: &LpsParams, s: SurfaceCorrection) -> LpsMo
     let max = vec![(nodes - 1) as f64 * H; dim];
     let g = Grid::new(&vec![0.0; dim], &max, H, 0.0, Placement::Vertex).unwrap();
     LpsModel::new(&g, p).unwrap().with_surface_correction(s)
-}
-
-fn dense(a: &SparseColMat<usize, f64>) -> Vec<Vec<f64>> {
-    let mut m = vec![vec![0.0; a.ncols()]; a.nrows()];
-    for j in 0..a.ncols() {
-        for (i, v) in a.row_idx_of_col(j).zip(a.val_of_col(j)) {
-            m[i][j] += *v;
-        }
-    }
-    m
-}
-
-fn max_abs(m: &[Vec<f64>]) -> f64 {
-    m.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()))
-}
-
-fn random_vec(n: usize, mut s: u64) -> Vec<f64> {
-    (0..n)
-        .map(|_| {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        })
-        .collect()
 }
 
 #[test]

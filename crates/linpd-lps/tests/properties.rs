@@ -10,10 +10,12 @@
 
 #![allow(clippy::needless_range_loop)] // index loops mirror the matrix notation A[i][j]
 
-use faer::sparse::SparseColMat;
 use linpd_core::{BondFamily, Grid, Placement};
 use linpd_lps::{assemble_tangent, Influence, LpsError, LpsModel, LpsParams, PlaneModel};
 use nalgebra::{DMatrix, SymmetricEigen};
+
+mod common;
+use common::{dense, max_abs, random_vec};
 
 const H: f64 = 0.1;
 
@@ -38,32 +40,6 @@ fn variants() -> Vec<(usize, usize, LpsParams)> {
         (2, 8, params(3.0, Influence::InverseDistance, true, Some(PlaneModel::Strain))),
         (2, 8, params(3.0, Influence::Constant, true, Some(PlaneModel::Stress))),
     ]
-}
-
-fn dense(a: &SparseColMat<usize, f64>) -> Vec<Vec<f64>> {
-    let mut m = vec![vec![0.0; a.ncols()]; a.nrows()];
-    for j in 0..a.ncols() {
-        for (i, v) in a.row_idx_of_col(j).zip(a.val_of_col(j)) {
-            m[i][j] += *v;
-        }
-    }
-    m
-}
-
-fn max_abs(m: &[Vec<f64>]) -> f64 {
-    m.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()))
-}
-
-/// Seeded xorshift in [-1, 1).
-fn random_vec(n: usize, mut s: u64) -> Vec<f64> {
-    (0..n)
-        .map(|_| {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        })
-        .collect()
 }
 
 /// `u = H x`.
