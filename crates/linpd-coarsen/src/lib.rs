@@ -98,6 +98,8 @@
 //!   `N_x`. Centre of a length-4 bar: r^1 = 0.15/0.2/0.3 (r^2 = 2 r^1) give -4.8/-0.84/-0.030 %
 //!   (C^1) and -5.2/-0.90/-0.031 % (C^2); whole body -1e-15.
 
+pub mod io;
+
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting::{factor, solve};
 use faer::{Conj, Mat, Par};
