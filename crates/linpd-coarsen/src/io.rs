@@ -1,2 +1,724 @@
-//! Reading and writing coarsened moduli (Matrix Market + node list). Placeholder: filled in by
-//! the I/O work for issue #4.
+//! Reading and writing coarsened moduli: a Matrix Market file of the pointwise micromodulus
+//! tensor plus a CSV node list.
+//!
+//! # The model a file holds
+//!
+//! A level-`m` model in dimension `d` has `n` nodes with positions `x_i`, volumes `v_i > 0`, the
+//! index `level0[i]` of the node in the level-0 model, and a sparse pointwise micromodulus
+//! tensor: a `d x d` block `C_ij = C(x_i, x_j)` for every bonded pair `i != j`. The force density
+//! is eq. (4)/(10) discretised,
+//!
+//! ```text
+//! L u_i = sum_{j != i} C_ij (u_j - u_i) v_j,
+//! ```
+//!
+//! and the nodal stiffness `K = -dF/du` of the nodal forces `F_i = v_i L u_i` is
+//!
+//! ```text
+//! K_ij = -v_i v_j C_ij   (i != j),      K_ii = -sum_{j != i} K_ij,
+//! ```
+//!
+//! so every block row of `K` sums to zero (rigid translations cost nothing). `K` is symmetric
+//! exactly when `C_ij = C_ji^T` ([`ModuliFile::asymmetry`] measures the departure).
+//!
+//! # Files, for a stem such as `out/level-1`
+//!
+//! `out/level-1.mtx`:
+//!
+//! ```text
+//! %%MatrixMarket matrix coordinate real general
+//! % linpd coarsened moduli
+//! % level 1
+//! % dim 2
+//! % nodes level-1.nodes.csv
+//! % entry (d*i+a+1, d*j+b+1) = C(x_i, x_j)[a][b], pointwise micromodulus tensor; L u_i = sum_j C_ij (u_j - u_i) v_j
+//! 2n 2n nnz
+//! 1 3 1.00000000000000000e0
+//! ...
+//! ```
+//!
+//! Entries are 1-based, values printed with `{:.17e}` (18 significant digits: reading gives back
+//! the same bits); only blocks with `i != j` are stored (the diagonal block follows from the zero
+//! row sums), and exact zeros are omitted.
+//!
+//! `out/level-1.nodes.csv`: header `x,y,z,volume,level0`, one row per node in level order, unused
+//! coordinates 0, floats `{:.17e}`.
+
+use faer::sparse::{SparseColMat, Triplet};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// The CSV header of a nodes file.
+pub const NODES_HEADER: &str = "x,y,z,volume,level0";
+
+const BANNER: &str = "%%MatrixMarket matrix coordinate real general";
+
+/// A problem with a moduli file. Every message starts with the file; syntax errors add the
+/// 1-based line and say what was expected.
+#[non_exhaustive]
+#[derive(Debug, Error)]
+pub enum IoError {
+    /// The file is missing or unreadable.
+    #[error("{path}: cannot read: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The file could not be written.
+    #[error("{path}: cannot write: {source}")]
+    Write {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A line does not have the expected form.
+    #[error("{path}, line {line}: expected {expected}, found `{found}`")]
+    Syntax {
+        /// The file.
+        path: String,
+        /// 1-based line (0 when the file ended early).
+        line: usize,
+        /// What the line should hold.
+        expected: String,
+        /// The offending text.
+        found: String,
+    },
+    /// A well-formed value that is not allowed (dimension, sizes, indices, values, volumes).
+    #[error("{path}, line {line}: {reason}")]
+    Invalid {
+        /// The file.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The number of entry lines differs from the size line.
+    #[error("{path}: the size line declares {declared} entries but the file has {found}")]
+    EntryCount {
+        /// The file.
+        path: String,
+        /// From the size line.
+        declared: usize,
+        /// Entry lines read.
+        found: usize,
+    },
+    /// The in-memory model is inconsistent (caught before writing).
+    #[error("moduli model: {0}")]
+    Model(String),
+}
+
+/// A coarsened level model as stored on disk (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModuliFile {
+    /// Coarsening level `m` (0 = the original model).
+    pub level: usize,
+    /// Dimension `d` in 1..=3.
+    pub dim: usize,
+    /// Node positions (unused coordinates 0).
+    pub positions: Vec<[f64; 3]>,
+    /// Node volumes `v_i > 0`.
+    pub volumes: Vec<f64>,
+    /// Index of each node in the level-0 model.
+    pub level0: Vec<usize>,
+    /// 0-based scalar entries `(d*i + a, d*j + b, C(x_i, x_j)[a][b])`, `i != j`.
+    pub entries: Vec<(usize, usize, f64)>,
+}
+
+fn show(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// `stem` + `suffix` (appended, so `level-1.5` keeps its dot).
+fn with_suffix(stem: &Path, suffix: &str) -> PathBuf {
+    let mut s = stem.as_os_str().to_owned();
+    s.push(suffix);
+    PathBuf::from(s)
+}
+
+fn read_text(path: &Path) -> Result<String, IoError> {
+    std::fs::read_to_string(path).map_err(|source| IoError::Read { path: show(path), source })
+}
+
+impl ModuliFile {
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.volumes.len()
+    }
+
+    /// Checks the in-memory model: the rules [`ModuliFile::read`] enforces on a file.
+    pub fn validate(&self) -> Result<(), IoError> {
+        let d = self.dim;
+        let n = self.n_nodes();
+        if !(1..=3).contains(&d) {
+            return Err(IoError::Model(format!("dim must be 1, 2 or 3, got {d}")));
+        }
+        if self.positions.len() != n || self.level0.len() != n {
+            return Err(IoError::Model(format!(
+                "{} positions, {} volumes and {} level0 indices: need one of each per node",
+                self.positions.len(),
+                n,
+                self.level0.len()
+            )));
+        }
+        if let Some(i) = self.volumes.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(IoError::Model(format!("node {i}: volume must be finite and > 0, got {}", self.volumes[i])));
+        }
+        if let Some(i) = self.positions.iter().position(|x| x.iter().any(|c| !c.is_finite())) {
+            return Err(IoError::Model(format!("node {i}: position {:?} is not finite", self.positions[i])));
+        }
+        for &(r, c, v) in &self.entries {
+            if r >= d * n || c >= d * n {
+                return Err(IoError::Model(format!("entry ({r}, {c}) is outside the {0}x{0} matrix", d * n)));
+            }
+            if r / d == c / d {
+                return Err(IoError::Model(format!("entry ({r}, {c}) lies in the diagonal block of node {}", r / d)));
+            }
+            if !v.is_finite() {
+                return Err(IoError::Model(format!("entry ({r}, {c}) = {v} is not finite")));
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes `<stem>.mtx` and `<stem>.nodes.csv` (creating the directory); returns both paths.
+    pub fn write(&self, stem: &Path) -> Result<Vec<PathBuf>, IoError> {
+        self.validate()?;
+        let mtx = with_suffix(stem, ".mtx");
+        let csv = with_suffix(stem, ".nodes.csv");
+        let werr = |p: &Path| {
+            let p = show(p);
+            move |source| IoError::Write { path: p, source }
+        };
+        if let Some(dir) = mtx.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(werr(dir))?;
+        }
+        let d = self.dim;
+        let n = self.n_nodes();
+        let csv_name = csv.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let kept: Vec<&(usize, usize, f64)> = self.entries.iter().filter(|e| e.2 != 0.0).collect();
+        let mut s = String::new();
+        let _ = writeln!(s, "{BANNER}");
+        let _ = writeln!(s, "% linpd coarsened moduli");
+        let _ = writeln!(s, "% level {}", self.level);
+        let _ = writeln!(s, "% dim {d}");
+        let _ = writeln!(s, "% nodes {csv_name}");
+        let _ = writeln!(
+            s,
+            "% entry (d*i+a+1, d*j+b+1) = C(x_i, x_j)[a][b], pointwise micromodulus tensor; L u_i = sum_j C_ij (u_j - u_i) v_j"
+        );
+        let _ = writeln!(s, "{} {} {}", d * n, d * n, kept.len());
+        for &&(r, c, v) in &kept {
+            let _ = writeln!(s, "{} {} {v:.17e}", r + 1, c + 1);
+        }
+        std::fs::write(&mtx, s).map_err(werr(&mtx))?;
+        let mut s = String::new();
+        let _ = writeln!(s, "{NODES_HEADER}");
+        for i in 0..n {
+            let x = self.positions[i];
+            let _ = writeln!(s, "{:.17e},{:.17e},{:.17e},{:.17e},{}", x[0], x[1], x[2], self.volumes[i], self.level0[i]);
+        }
+        std::fs::write(&csv, s).map_err(werr(&csv))?;
+        Ok(vec![mtx, csv])
+    }
+
+    /// Reads `<stem>.mtx` and its nodes file: the name in the `% nodes` comment (beside the
+    /// matrix) when that file exists, else `<stem>.nodes.csv`.
+    pub fn read(mtx_path: &Path) -> Result<ModuliFile, IoError> {
+        let path = show(mtx_path);
+        let text = read_text(mtx_path)?;
+        let syntax = |line: usize, expected: &str, found: &str| IoError::Syntax {
+            path: path.clone(),
+            line,
+            expected: expected.into(),
+            found: found.chars().take(80).collect(),
+        };
+        let invalid = |line: usize, reason: String| IoError::Invalid { path: path.clone(), line, reason };
+        let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l.trim()));
+
+        // Banner.
+        let (ln, banner) = lines.next().unwrap_or((1, ""));
+        let toks: Vec<String> = banner.split_whitespace().map(|t| t.to_ascii_lowercase()).collect();
+        if toks.len() != 5 || toks[0] != "%%matrixmarket" || toks[1..] != ["matrix", "coordinate", "real", "general"] {
+            return Err(syntax(ln, &format!("the banner `{BANNER}`"), banner));
+        }
+
+        // Comments (level, dim, nodes), then the size line.
+        let (mut level, mut dim, mut nodes_name) = (0usize, None::<(usize, usize)>, None::<String>);
+        let (size_ln, size_line) = loop {
+            let Some((ln, l)) = lines.next() else {
+                return Err(syntax(0, "a size line `rows cols entries`", "end of file"));
+            };
+            if l.is_empty() {
+                continue;
+            }
+            let Some(c) = l.strip_prefix('%') else { break (ln, l) };
+            let mut it = c.split_whitespace();
+            match it.next() {
+                Some("level") => {
+                    let v = it.next().unwrap_or("");
+                    level = v.parse().map_err(|_| syntax(ln, "`% level <m>` with a non-negative integer m", l))?;
+                }
+                Some("dim") => {
+                    let v = it.next().unwrap_or("");
+                    let d: usize = v.parse().map_err(|_| syntax(ln, "`% dim <d>` with d = 1, 2 or 3", l))?;
+                    if !(1..=3).contains(&d) {
+                        return Err(invalid(ln, format!("dim must be 1, 2 or 3, got {d}")));
+                    }
+                    dim = Some((d, ln));
+                }
+                Some("nodes") => {
+                    let v = c.trim_start().strip_prefix("nodes").unwrap_or("").trim();
+                    if !v.is_empty() {
+                        nodes_name = Some(v.to_string());
+                    }
+                }
+                _ => {}
+            }
+        };
+        let Some((d, _)) = dim else {
+            return Err(syntax(size_ln, "a `% dim <d>` comment before the size line", size_line));
+        };
+        let size: Vec<usize> = size_line.split_whitespace().map(|t| t.parse::<usize>()).collect::<Result<_, _>>().unwrap_or_default();
+        if size.len() != 3 {
+            return Err(syntax(size_ln, "a size line `rows cols entries` (three non-negative integers)", size_line));
+        }
+        let (rows, cols, nnz) = (size[0], size[1], size[2]);
+        if rows != cols {
+            return Err(invalid(size_ln, format!("the matrix must be square, got {rows} rows and {cols} columns")));
+        }
+
+        // Nodes file.
+        let dir = mtx_path.parent().unwrap_or(Path::new(""));
+        let default_csv = {
+            let s = mtx_path.as_os_str().to_string_lossy();
+            PathBuf::from(format!("{}.nodes.csv", s.strip_suffix(".mtx").unwrap_or(&s)))
+        };
+        let csv_path = match &nodes_name {
+            Some(name) if dir.join(name).is_file() || !default_csv.is_file() => dir.join(name),
+            _ => default_csv,
+        };
+        let (positions, volumes, level0) = read_nodes(&csv_path)?;
+        let n = volumes.len();
+        if rows != d * n {
+            return Err(invalid(
+                size_ln,
+                format!("the matrix has {rows} rows but dim {d} x {n} nodes (in {}) = {} are needed", show(&csv_path), d * n),
+            ));
+        }
+
+        // Entries.
+        let mut entries = Vec::with_capacity(nnz);
+        for (ln, l) in lines {
+            if l.is_empty() || l.starts_with('%') {
+                continue;
+            }
+            let t: Vec<&str> = l.split_whitespace().collect();
+            let parsed = (t.len() == 3).then(|| (t[0].parse::<usize>(), t[1].parse::<usize>(), t[2].parse::<f64>()));
+            let Some((Ok(r), Ok(c), Ok(v))) = parsed else {
+                return Err(syntax(ln, "an entry `row col value` (1-based integer indices, a real value)", l));
+            };
+            if r == 0 || c == 0 || r > rows || c > cols {
+                return Err(invalid(ln, format!("entry ({r}, {c}) is out of range: indices are 1-based and at most {rows}")));
+            }
+            let (r, c) = (r - 1, c - 1);
+            if r / d == c / d {
+                return Err(invalid(
+                    ln,
+                    format!(
+                        "entry ({}, {}) lies inside the diagonal block of node {}; only bonded pairs i != j are stored \
+                         (the diagonal block follows from the zero row sums)",
+                        r + 1,
+                        c + 1,
+                        r / d
+                    ),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(invalid(ln, format!("entry ({}, {}) has the non-finite value {}", r + 1, c + 1, t[2])));
+            }
+            entries.push((r, c, v));
+        }
+        if entries.len() != nnz {
+            return Err(IoError::EntryCount { path, declared: nnz, found: entries.len() });
+        }
+        Ok(ModuliFile { level, dim: d, positions, volumes, level0, entries })
+    }
+
+    /// The nodal stiffness `K` (`d n x d n`, CSC, duplicates summed): `K_ij = -v_i v_j C_ij`
+    /// (`i != j`), `K_ii = -sum_{j != i} K_ij`.
+    pub fn stiffness(&self) -> SparseColMat<usize, f64> {
+        let d = self.dim;
+        let n_dofs = d * self.n_nodes();
+        let mut t = Vec::with_capacity(2 * self.entries.len());
+        for &(r, c, v) in &self.entries {
+            let (i, j, b) = (r / d, c / d, c % d);
+            let k = self.volumes[i] * self.volumes[j] * v;
+            t.push(Triplet::new(r, c, -k));
+            t.push(Triplet::new(r, d * i + b, k));
+        }
+        SparseColMat::try_new_from_triplets(n_dofs, n_dofs, &t).expect("indices checked by validate/read")
+    }
+
+    /// `max |C_ij[a][b] - C_ji[b][a]| / max |C|` (0 for an empty model): the relative departure
+    /// from the symmetry `C(x, q) = C(q, x)^T` that makes `K` symmetric.
+    pub fn asymmetry(&self) -> f64 {
+        let mut m: std::collections::HashMap<(usize, usize), f64> = Default::default();
+        for &(r, c, v) in &self.entries {
+            *m.entry((r, c)).or_default() += v;
+        }
+        let max = m.values().fold(0.0f64, |a, v| a.max(v.abs()));
+        if max == 0.0 {
+            return 0.0;
+        }
+        let diff = m.iter().fold(0.0f64, |a, (&(r, c), &v)| a.max((v - m.get(&(c, r)).copied().unwrap_or(0.0)).abs()));
+        diff / max
+    }
+}
+
+type Nodes = (Vec<[f64; 3]>, Vec<f64>, Vec<usize>);
+
+fn read_nodes(path: &Path) -> Result<Nodes, IoError> {
+    let p = show(path);
+    let text = read_text(path)?;
+    let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l.trim()));
+    let header = lines.next().map(|x| x.1).unwrap_or("");
+    let norm: String = header.chars().filter(|c| !c.is_whitespace()).collect();
+    if norm != NODES_HEADER {
+        return Err(IoError::Syntax { path: p, line: 1, expected: format!("the header `{NODES_HEADER}`"), found: header.chars().take(80).collect() });
+    }
+    let (mut x, mut v, mut l0) = (Vec::new(), Vec::new(), Vec::new());
+    for (ln, l) in lines {
+        if l.is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = l.split(',').map(str::trim).collect();
+        let ok = f.len() == 5;
+        let nums: Option<Vec<f64>> = ok.then(|| f[..4].iter().map(|s| s.parse::<f64>().ok()).collect()).flatten();
+        let idx = ok.then(|| f[4].parse::<usize>().ok()).flatten();
+        let (Some(nums), Some(idx)) = (nums, idx) else {
+            return Err(IoError::Syntax {
+                path: p,
+                line: ln,
+                expected: "a row `x,y,z,volume,level0` (four reals and a non-negative integer)".into(),
+                found: l.chars().take(80).collect(),
+            });
+        };
+        let node = v.len();
+        if nums[..3].iter().any(|c| !c.is_finite()) {
+            return Err(IoError::Invalid { path: p, line: ln, reason: format!("node {node}: the position must be finite, got {:?}", &nums[..3]) });
+        }
+        if !(nums[3].is_finite() && nums[3] > 0.0) {
+            return Err(IoError::Invalid { path: p, line: ln, reason: format!("node {node}: the volume must be finite and > 0, got {}", f[3]) });
+        }
+        x.push([nums[0], nums[1], nums[2]]);
+        v.push(nums[3]);
+        l0.push(idx);
+    }
+    Ok((x, v, l0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh directory under the system temp dir, unique to this process and `tag`.
+    fn temp_dir(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("linpd-coarsen-io-{}-{tag}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// A 2D model on a 3x2 lattice with irrational-looking values (every bit matters) and the
+    /// symmetric tensor `C_ij = c_ij n n^T` (n the unit bond vector) within radius 1.5.
+    fn sample_2d() -> ModuliFile {
+        let mut positions = Vec::new();
+        for k in 0..2 {
+            for i in 0..3 {
+                positions.push([i as f64 * 0.1 + 1.0 / 3.0, k as f64 * 0.1 - 0.7, 0.0]);
+            }
+        }
+        let n = positions.len();
+        let volumes: Vec<f64> = (0..n).map(|i| 0.01 * (1.0 + i as f64 / 7.0)).collect();
+        let mut entries = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let dx = [positions[j][0] - positions[i][0], positions[j][1] - positions[i][1]];
+                let r = dx[0].hypot(dx[1]);
+                if i == j || r > 0.15 {
+                    continue;
+                }
+                let e = [dx[0] / r, dx[1] / r];
+                let c = (1.0 - r / 0.15) * std::f64::consts::PI;
+                for a in 0..2 {
+                    for b in 0..2 {
+                        entries.push((2 * i + a, 2 * j + b, c * e[a] * e[b]));
+                    }
+                }
+            }
+        }
+        ModuliFile { level: 2, dim: 2, positions, volumes, level0: (0..n).map(|i| 4 * i + 1).collect(), entries }
+    }
+
+    #[test]
+    fn round_trip_is_bit_exact() {
+        let dir = temp_dir("round-trip");
+        let mut m = sample_2d();
+        m.entries.retain(|e| e.2 != 0.0); // exact zeros are not written
+        m.entries.push((0, 3, -1.234_567_890_123_456_7e-300));
+        let files = m.write(&dir.join("level-2")).unwrap();
+        assert_eq!(files, vec![dir.join("level-2.mtx"), dir.join("level-2.nodes.csv")]);
+        let back = ModuliFile::read(&files[0]).unwrap();
+        assert_eq!(back.level, 2);
+        assert_eq!(back.dim, 2);
+        assert_eq!(back.level0, m.level0);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.volumes), bits(&m.volumes));
+        for (p, q) in back.positions.iter().zip(&m.positions) {
+            assert_eq!(bits(p), bits(q));
+        }
+        assert_eq!(back.entries.len(), m.entries.len());
+        for (p, q) in back.entries.iter().zip(&m.entries) {
+            assert_eq!((p.0, p.1, p.2.to_bits()), (q.0, q.1, q.2.to_bits()));
+        }
+        let text = std::fs::read_to_string(&files[0]).unwrap();
+        assert!(text.contains("% nodes level-2.nodes.csv\n"), "{text}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn zeros_are_omitted() {
+        let dir = temp_dir("zeros");
+        let mut m = sample_2d();
+        let with_zeros = m.entries.iter().filter(|e| e.2 == 0.0).count();
+        assert!(with_zeros > 0, "the axis-aligned bonds give n n^T zeros");
+        m.write(&dir.join("z")).unwrap();
+        let back = ModuliFile::read(&dir.join("z.mtx")).unwrap();
+        m.entries.retain(|e| e.2 != 0.0);
+        assert_eq!(back.entries, m.entries);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn stiffness_has_zero_row_sums_and_is_symmetric() {
+        let m = sample_2d();
+        assert_eq!(m.asymmetry(), 0.0);
+        let k = m.stiffness();
+        let nd = 2 * m.n_nodes();
+        assert_eq!((k.nrows(), k.ncols()), (nd, nd));
+        let mut dense = vec![vec![0.0; nd]; nd];
+        let (cp, ri) = (k.symbolic().col_ptr(), k.symbolic().row_idx());
+        for j in 0..nd {
+            for p in cp[j]..cp[j + 1] {
+                dense[ri[p]][j] += k.val()[p];
+            }
+        }
+        let scale = dense.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
+        assert!(scale > 0.0);
+        // Translations: sum over block columns of K (each component separately) vanishes.
+        for r in 0..nd {
+            for b in 0..2 {
+                let s: f64 = (0..m.n_nodes()).map(|j| dense[r][2 * j + b]).sum();
+                assert!(s.abs() <= 1e-15 * scale * nd as f64, "row {r} comp {b}: {s}");
+            }
+        }
+        for r in 0..nd {
+            for c in 0..nd {
+                assert!((dense[r][c] - dense[c][r]).abs() <= 1e-15 * scale, "K[{r}][{c}]");
+            }
+        }
+        // K = -dF/du: K_ij = -v_i v_j C_ij for one stored entry.
+        for &(r, c, v) in &m.entries {
+            assert_eq!(dense[r][c], -m.volumes[r / 2] * m.volumes[c / 2] * v, "K[{r}][{c}]");
+        }
+    }
+
+    #[test]
+    fn asymmetry_is_relative() {
+        let m = ModuliFile {
+            level: 1,
+            dim: 1,
+            positions: vec![[0.0; 3], [1.0, 0.0, 0.0]],
+            volumes: vec![1.0, 1.0],
+            level0: vec![0, 2],
+            entries: vec![(0, 1, 4.0), (1, 0, 3.0)],
+        };
+        assert_eq!(m.asymmetry(), 0.25);
+    }
+
+    /// Writes a hand-made `.mtx` with the standard nodes file (three 1D nodes) beside it and
+    /// returns the read error.
+    fn bad(tag: &str, mtx: &str, nodes: Option<&str>) -> String {
+        let dir = temp_dir(tag);
+        let nodes = nodes.unwrap_or("x,y,z,volume,level0\n0,0,0,0.5,0\n1,0,0,0.5,2\n2,0,0,0.5,4\n");
+        std::fs::write(dir.join("m.nodes.csv"), nodes).unwrap();
+        std::fs::write(dir.join("m.mtx"), mtx).unwrap();
+        let e = ModuliFile::read(&dir.join("m.mtx")).expect_err("the file must be rejected").to_string();
+        let _ = std::fs::remove_dir_all(&dir);
+        e
+    }
+
+    const HEAD: &str = "%%MatrixMarket matrix coordinate real general\n% level 1\n% dim 1\n";
+
+    fn check(e: &str, needles: &[&str]) {
+        for n in needles {
+            assert!(e.contains(n), "`{n}` not in: {e}");
+        }
+    }
+
+    #[test]
+    fn good_hand_written_file_reads() {
+        let dir = temp_dir("good");
+        std::fs::write(dir.join("m.nodes.csv"), "x,y,z,volume,level0\n0,0,0,0.5,0\n1,0,0,0.5,2\n").unwrap();
+        std::fs::write(dir.join("m.mtx"), format!("{HEAD}% a comment\n2 2 2\n1 2 1.5\n\n2 1 1.5\n")).unwrap();
+        let m = ModuliFile::read(&dir.join("m.mtx")).unwrap();
+        assert_eq!(m.entries, vec![(0, 1, 1.5), (1, 0, 1.5)]);
+        assert_eq!(m.level0, vec![0, 2]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn nodes_comment_names_the_csv() {
+        let dir = temp_dir("nodes-comment");
+        std::fs::write(dir.join("other.csv"), "x,y,z,volume,level0\n0,0,0,0.5,0\n1,0,0,0.5,2\n").unwrap();
+        std::fs::write(dir.join("m.mtx"), format!("{HEAD}% nodes other.csv\n2 2 1\n1 2 1.5\n")).unwrap();
+        let m = ModuliFile::read(&dir.join("m.mtx")).unwrap();
+        assert_eq!(m.n_nodes(), 2);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn missing_files_are_named() {
+        let dir = temp_dir("missing");
+        let e = ModuliFile::read(&dir.join("none.mtx")).unwrap_err().to_string();
+        check(&e, &["none.mtx", "cannot read"]);
+        std::fs::write(dir.join("m.mtx"), format!("{HEAD}3 3 0\n")).unwrap();
+        let e = ModuliFile::read(&dir.join("m.mtx")).unwrap_err().to_string();
+        check(&e, &["m.nodes.csv", "cannot read"]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn bad_banner() {
+        let e = bad("banner", "%%MatrixMarket matrix array real general\n% dim 1\n3 3\n", None);
+        check(&e, &["m.mtx", "line 1", "expected the banner `%%MatrixMarket matrix coordinate real general`", "array"]);
+        let e = bad("banner-sym", "%%MatrixMarket matrix coordinate real symmetric\n% dim 1\n3 3 0\n", None);
+        check(&e, &["line 1", "symmetric"]);
+        let e = bad("banner-empty", "", None);
+        check(&e, &["line 1", "expected the banner"]);
+    }
+
+    #[test]
+    fn missing_dim() {
+        let e = bad("no-dim", "%%MatrixMarket matrix coordinate real general\n% level 1\n3 3 0\n", None);
+        check(&e, &["m.mtx", "line 3", "expected a `% dim <d>` comment before the size line"]);
+    }
+
+    #[test]
+    fn dim_out_of_range() {
+        let e = bad("dim4", "%%MatrixMarket matrix coordinate real general\n% dim 4\n3 3 0\n", None);
+        check(&e, &["m.mtx", "line 2", "dim must be 1, 2 or 3, got 4"]);
+        let e = bad("dim-x", "%%MatrixMarket matrix coordinate real general\n% dim two\n3 3 0\n", None);
+        check(&e, &["line 2", "expected `% dim <d>`"]);
+    }
+
+    #[test]
+    fn rows_differ_from_cols() {
+        let e = bad("rect", &format!("{HEAD}3 4 0\n"), None);
+        check(&e, &["line 4", "must be square, got 3 rows and 4 columns"]);
+    }
+
+    #[test]
+    fn rows_differ_from_dim_times_nodes() {
+        let e = bad("size", &format!("{HEAD}4 4 0\n"), None);
+        check(&e, &["line 4", "4 rows", "dim 1 x 3 nodes", "m.nodes.csv", "= 3"]);
+    }
+
+    #[test]
+    fn bad_size_line() {
+        let e = bad("size-line", &format!("{HEAD}3 3\n"), None);
+        check(&e, &["line 4", "expected a size line `rows cols entries`", "`3 3`"]);
+    }
+
+    #[test]
+    fn index_out_of_range() {
+        let e = bad("range", &format!("{HEAD}3 3 1\n1 4 1.0\n"), None);
+        check(&e, &["line 5", "entry (1, 4) is out of range", "at most 3"]);
+        let e = bad("zero-index", &format!("{HEAD}3 3 1\n0 2 1.0\n"), None);
+        check(&e, &["line 5", "entry (0, 2) is out of range", "1-based"]);
+    }
+
+    #[test]
+    fn entry_in_diagonal_block() {
+        let e = bad("diag", &format!("{HEAD}3 3 1\n2 2 1.0\n"), None);
+        check(&e, &["line 5", "entry (2, 2) lies inside the diagonal block of node 1"]);
+        // 2D: (1, 2) is node 0 component 0 against node 0 component 1.
+        let nodes = "x,y,z,volume,level0\n0,0,0,0.5,0\n1,0,0,0.5,1\n";
+        let e = bad("diag-2d", "%%MatrixMarket matrix coordinate real general\n% dim 2\n4 4 1\n1 2 1.0\n", Some(nodes));
+        check(&e, &["line 4", "entry (1, 2) lies inside the diagonal block of node 0"]);
+    }
+
+    #[test]
+    fn non_finite_value() {
+        let e = bad("nan", &format!("{HEAD}3 3 1\n1 2 NaN\n"), None);
+        check(&e, &["line 5", "non-finite value NaN"]);
+        let e = bad("inf", &format!("{HEAD}3 3 1\n1 2 inf\n"), None);
+        check(&e, &["line 5", "non-finite value inf"]);
+    }
+
+    #[test]
+    fn bad_entry_line() {
+        let e = bad("entry", &format!("{HEAD}3 3 1\n1 2\n"), None);
+        check(&e, &["line 5", "expected an entry `row col value`", "`1 2`"]);
+        let e = bad("entry-x", &format!("{HEAD}3 3 1\n1 2 x\n"), None);
+        check(&e, &["line 5", "expected an entry"]);
+    }
+
+    #[test]
+    fn wrong_entry_count() {
+        let e = bad("count", &format!("{HEAD}3 3 3\n1 2 1.0\n2 1 1.0\n"), None);
+        check(&e, &["m.mtx", "declares 3 entries but the file has 2"]);
+    }
+
+    #[test]
+    fn csv_header_wrong() {
+        let e = bad("header", &format!("{HEAD}3 3 0\n"), Some("x,y,z,vol,level0\n0,0,0,1,0\n"));
+        check(&e, &["m.nodes.csv", "line 1", "expected the header `x,y,z,volume,level0`", "x,y,z,vol,level0"]);
+    }
+
+    #[test]
+    fn csv_row_malformed() {
+        let e = bad("row", &format!("{HEAD}3 3 0\n"), Some("x,y,z,volume,level0\n0,0,0,1\n"));
+        check(&e, &["m.nodes.csv", "line 2", "expected a row `x,y,z,volume,level0`"]);
+        let e = bad("row-level0", &format!("{HEAD}3 3 0\n"), Some("x,y,z,volume,level0\n0,0,0,1,-1\n"));
+        check(&e, &["line 2", "non-negative integer"]);
+    }
+
+    #[test]
+    fn bad_volumes() {
+        let e = bad("vol0", &format!("{HEAD}3 3 0\n"), Some("x,y,z,volume,level0\n0,0,0,1,0\n1,0,0,0,1\n"));
+        check(&e, &["m.nodes.csv", "line 3", "node 1: the volume must be finite and > 0, got 0"]);
+        let e = bad("vol-neg", &format!("{HEAD}3 3 0\n"), Some("x,y,z,volume,level0\n0,0,0,-2,0\n"));
+        check(&e, &["line 2", "node 0", "got -2"]);
+        let e = bad("vol-nan", &format!("{HEAD}3 3 0\n"), Some("x,y,z,volume,level0\n0,0,0,NaN,0\n"));
+        check(&e, &["line 2", "got NaN"]);
+    }
+
+    #[test]
+    fn write_refuses_inconsistent_models() {
+        let dir = temp_dir("write-bad");
+        let mut m = sample_2d();
+        m.entries.push((0, 1, 1.0));
+        let e = m.write(&dir.join("w")).unwrap_err().to_string();
+        check(&e, &["diagonal block of node 0"]);
+        let mut m = sample_2d();
+        m.volumes[3] = 0.0;
+        check(&m.write(&dir.join("w")).unwrap_err().to_string(), &["node 3", "volume"]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
