@@ -2,7 +2,16 @@
 //! condensation, plus Example 5.1 of Silling (2010).
 #![allow(clippy::needless_range_loop)]
 
-use linpd_coarsen::{coarsen, coarsen_with, every_kth, local_resolvent, CoarsenError, LevelModel, Matching};
+use linpd_coarsen::{coarsen, coarsen_with, every_kth, local_resolvent, CoarsenError, LevelModel, Matching, Options};
+
+fn opts(radius: f64, matching: Matching) -> Options {
+    Options { matching, ..Options::fixed(radius) }
+}
+
+/// 1D positions.
+fn xs(m: &LevelModel) -> Vec<f64> {
+    m.positions().iter().map(|p| p[0]).collect()
+}
 
 const H: f64 = 0.005; // spacing = level-0 volume v (Example 5.1)
 const R0: f64 = 0.05; // level-0 interaction distance, r0 = 10 v
@@ -78,7 +87,7 @@ fn check_property_9(
         is_ret[p] = true;
         cidx[p] = k;
     }
-    let x = fine.positions();
+    let x = xs(fine);
     let mut worst: f64 = 0.0;
     for (k, &xi) in parent.iter().enumerate() {
         assert!(fine.horizon_of(xi) <= radius + 1e-12, "r^m must cover the level-(m-1) bonds of x");
@@ -89,7 +98,7 @@ fn check_property_9(
         let mut a = vec![vec![0.0; excl.len()]; excl.len()];
         let mut b = vec![0.0; excl.len()];
         for (row, &z) in excl.iter().enumerate() {
-            for &(p, c) in fine.bonds(z) {
+            for (p, c) in fine.bonds_1d(z) {
                 if (x[p] - x[xi]).abs() > radius * (1.0 + 1e-12) {
                     continue;
                 }
@@ -111,9 +120,9 @@ fn check_property_9(
             Matching::ForceDensity => (1.0, 1.0),
             Matching::TotalForce => (fine.volumes()[xi], coarse.volumes()[k]),
         };
-        let l_fine = wf * fine.force_density_at(xi, &u0);
-        let l_coarse = wc * coarse.force_density_at(k, &um);
-        let scale: f64 = wf * fine.bonds(xi).iter().map(|&(p, c)| (c * fine.volumes()[p] * (u0[p] - u0[xi])).abs()).sum::<f64>();
+        let l_fine = wf * fine.force_density_at(xi, &u0)[0];
+        let l_coarse = wc * coarse.force_density_at(k, &um)[0];
+        let scale: f64 = wf * fine.bonds_1d(xi).map(|(p, c)| (c * fine.volumes()[p] * (u0[p] - u0[xi])).abs()).sum::<f64>();
         worst = worst.max((l_fine - l_coarse).abs() / scale);
     }
     worst
@@ -144,9 +153,9 @@ fn resolvent_rows_sum_to_one_eq8_and_retained_rows_are_identity_eq7() {
 fn force_equality_property_eq9_two_levels() {
     let m0 = level0();
     for matching in [Matching::TotalForce, Matching::ForceDensity] {
-        let c1 = coarsen_with(&m0, &every_kth(N, 4), 0.1, matching).unwrap();
+        let c1 = coarsen_with(&m0, &every_kth(N, 4), &opts(0.1, matching)).unwrap();
         let e1 = check_property_9(&m0, &c1.parent, &c1.model, 0.1, 7, matching);
-        let c2 = coarsen_with(&c1.model, &every_kth(c1.model.len(), 2), 0.2, matching).unwrap();
+        let c2 = coarsen_with(&c1.model, &every_kth(c1.model.len(), 2), &opts(0.2, matching)).unwrap();
         let e2 = check_property_9(&c1.model, &c2.parent, &c2.model, 0.2, 11, matching);
         println!("property (9) {matching:?}: max rel. mismatch level 1 = {e1:.2e}, level 2 = {e2:.2e}");
         assert!(e1 < 1e-11 && e2 < 1e-11);
@@ -161,7 +170,7 @@ fn force_equality_property_eq9_nonuniform_volumes() {
     let v: Vec<f64> = (0..N).map(|i| H * (1.0 + 0.5 * jit[(i * 7) % N])).collect();
     let m0 = LevelModel::from_kernel(x, v, R0, tent).unwrap();
     for matching in [Matching::TotalForce, Matching::ForceDensity] {
-        let c1 = coarsen_with(&m0, &every_kth(N, 3), 0.1, matching).unwrap();
+        let c1 = coarsen_with(&m0, &every_kth(N, 3), &opts(0.1, matching)).unwrap();
         let e = check_property_9(&m0, &c1.parent, &c1.model, 0.1, 5, matching);
         println!("property (9) {matching:?}, non-uniform grid: max rel. mismatch = {e:.2e}");
         assert!(e < 1e-11);
@@ -185,7 +194,7 @@ fn printed_formula_is_off_by_v() {
     for q in 0..loc.n_retained {
         let mut sum = 0.0;
         for (k, &p) in loc.nodes.iter().enumerate() {
-            sum += H * m0.micromodulus(xi, p) * loc.s[(k, q)]; // C^0_ik S_kj
+            sum += H * m0.micromodulus(xi, p)[0] * loc.s[(k, q)]; // C^0_ik S_kj
         }
         printed += H * sum * (u[q] - ux);
         derived += sum * (u[q] - ux);
@@ -206,7 +215,8 @@ fn whole_body_neighbourhood_is_static_condensation() {
             b0[p] = 1.0 + (p as f64 * H);
         }
     }
-    let u0 = m0.solve_dirichlet(&b0, &[(0, 0.0), (N - 1, 0.0)]).unwrap();
+    let f0: Vec<f64> = (0..N).map(|p| b0[p] * m0.volumes()[p]).collect();
+    let u0 = m0.solve_dirichlet(&f0, &[(0, 0.0), (N - 1, 0.0)]).unwrap();
     let umax = u0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for matching in [Matching::TotalForce, Matching::ForceDensity] {
         // coarse body force: the nodal force is conserved (TotalForce) or the density (ForceDensity)
@@ -220,16 +230,18 @@ fn whole_body_neighbourhood_is_static_condensation() {
                 })
                 .collect()
         };
-        let c1 = coarsen_with(&m0, &ret1, 10.0, matching).unwrap();
+        let c1 = coarsen_with(&m0, &ret1, &opts(10.0, matching)).unwrap();
         let b1 = lump(&m0, &c1.model, &c1.parent, &b0);
         let n1 = c1.model.len();
-        let u1 = c1.model.solve_dirichlet(&b1, &[(0, 0.0), (n1 - 1, 0.0)]).unwrap();
+        let f1: Vec<f64> = (0..n1).map(|k| b1[k] * c1.model.volumes()[k]).collect();
+        let u1 = c1.model.solve_dirichlet(&f1, &[(0, 0.0), (n1 - 1, 0.0)]).unwrap();
         let err1 = c1.parent.iter().zip(&u1).map(|(&p, &u)| (u - u0[p]).abs()).fold(0.0, f64::max) / umax;
 
-        let c2 = coarsen_with(&c1.model, &every_kth(n1, 2), 10.0, matching).unwrap();
+        let c2 = coarsen_with(&c1.model, &every_kth(n1, 2), &opts(10.0, matching)).unwrap();
         let b2 = lump(&c1.model, &c2.model, &c2.parent, &b1);
         let n2 = c2.model.len();
-        let u2 = c2.model.solve_dirichlet(&b2, &[(0, 0.0), (n2 - 1, 0.0)]).unwrap();
+        let f2: Vec<f64> = (0..n2).map(|k| b2[k] * c2.model.volumes()[k]).collect();
+        let u2 = c2.model.solve_dirichlet(&f2, &[(0, 0.0), (n2 - 1, 0.0)]).unwrap();
         let err2 =
             c2.parent.iter().zip(&u2).map(|(&p, &u)| (u - u0[c1.parent[p]]).abs()).fold(0.0, f64::max) / umax;
         println!(
@@ -252,23 +264,23 @@ fn example_5_1_symmetry_and_bulk_modulus() {
     let c1 = coarsen(&m0, &every_kth(N, 4), r1).unwrap();
     let c2 = coarsen(&c1.model, &every_kth(c1.model.len(), 2), r2).unwrap();
     let m_ref = m0.second_moment(100);
-    let x0 = m0.positions();
+    let x0 = xs(&m0);
     // interior: far enough from the ends that no neighbourhood in the chain touches them
     let margin = R0 + r1 + r2;
     let interior = |x: f64| x > margin && x < 1.0 - margin;
     let mut worst = [0.0f64; 2];
     let mut asym = [0.0f64; 2];
     for (lvl, m) in [&c1.model, &c2.model].into_iter().enumerate() {
-        let x = m.positions();
-        let cmax = (0..m.len()).flat_map(|i| m.bonds(i).iter().map(|b| b.1.abs())).fold(0.0, f64::max);
+        let x = xs(m);
+        let cmax = m.max_abs();
         for i in 0..m.len() {
             if !interior(x[i]) {
                 continue;
             }
             worst[lvl] = worst[lvl].max((m.second_moment(i) - m_ref).abs() / m_ref);
-            for &(j, c) in m.bonds(i) {
+            for (j, c) in m.bonds_1d(i) {
                 if interior(x[j]) {
-                    asym[lvl] = asym[lvl].max((c - m.micromodulus(j, i)).abs() / cmax);
+                    asym[lvl] = asym[lvl].max((c - m.micromodulus(j, i)[0]).abs() / cmax);
                 }
             }
         }
@@ -286,7 +298,8 @@ fn example_5_1_symmetry_and_bulk_modulus() {
     );
     // C^1 at bond distances (for inspection, cf. Figure 3)
     let i = c1.model.len() / 2;
-    let row: Vec<String> = c1.model.bonds(i).iter().filter(|b| b.0 > i).map(|&(j, c)| format!("{:.3}:{:.4}", c1.model.positions()[j] - c1.model.positions()[i], c)).collect();
+    let x1 = xs(&c1.model);
+    let row: Vec<String> = c1.model.bonds_1d(i).filter(|b| b.0 > i).map(|(j, c)| format!("{:.3}:{:.4}", x1[j] - x1[i], c)).collect();
     println!("C^1(x, x+d) at x = 0.5: {}", row.join(" "));
     assert!(asym[0] < 1e-10 && asym[1] < 1e-10);
     assert!(worst[0] < MOMENT_TOL && worst[1] < MOMENT_TOL);
@@ -302,9 +315,9 @@ fn isolated_excluded_node_is_an_error_not_a_panic() {
     let m0 = level0();
     // node 5 (excluded by every-4th) loses all its bonds
     let bonds: Vec<Vec<(usize, f64)>> = (0..N)
-        .map(|i| if i == 5 { vec![] } else { m0.bonds(i).iter().copied().filter(|b| b.0 != 5).collect() })
+        .map(|i| if i == 5 { vec![] } else { m0.bonds_1d(i).filter(|b| b.0 != 5).collect() })
         .collect();
-    let m = LevelModel::new(m0.positions().to_vec(), m0.volumes().to_vec(), bonds).unwrap();
+    let m = LevelModel::from_bonds_1d(xs(&m0), m0.volumes().to_vec(), bonds).unwrap();
     let err = coarsen(&m, &every_kth(N, 4), 0.1).unwrap_err();
     println!("{err}");
     match &err {
@@ -315,20 +328,23 @@ fn isolated_excluded_node_is_an_error_not_a_panic() {
 }
 
 #[test]
-fn radius_too_small_is_an_error_naming_the_node() {
-    // bonds only at distances 2h..3h: with r^1 = 1.5h the excluded neighbours x±h have no bond in N_x
-    let x: Vec<f64> = (0..N).map(|i| i as f64 * H).collect();
-    let gap = |a: f64, b: f64| {
-        let d = (a - b).abs();
-        if d > 1.5 * H && d < 3.5 * H { 1.0 } else { 0.0 }
-    };
-    let m = LevelModel::from_kernel(x, vec![H; N], 3.5 * H, gap).unwrap();
-    let err = coarsen(&m, &every_kth(N, 4), 1.5 * H).unwrap_err();
+fn bad_radius_and_retained_sets_are_clear_errors() {
+    let m0 = level0();
+    let ret = every_kth(N, 4);
+    // r^m below the level's horizon (0.05): bonds of x would be cut
+    let err = coarsen(&m0, &ret, 0.03).unwrap_err();
     println!("{err}");
-    assert!(matches!(err, CoarsenError::SingularLocal { excluded: 1, retained: 0, .. }), "{err:?}");
-    assert!(err.to_string().contains("has no bond inside N_x"));
-    // a large enough radius works
-    assert!(coarsen(&m, &every_kth(N, 4), 8.0 * H).is_ok());
+    assert!(matches!(err, CoarsenError::RadiusBelowHorizon { .. }), "{err:?}");
+    assert!(err.to_string().contains("smaller than the horizon"));
+    // empty, foreign (not a subset of B^(m-1)) and duplicated retained sets
+    let e = coarsen(&m0, &[], 0.1).unwrap_err().to_string();
+    assert!(e.contains("empty"), "{e}");
+    let e = coarsen(&m0, &[0, 4, N + 3], 0.1).unwrap_err().to_string();
+    assert!(e.contains(&format!("retained node {}", N + 3)) && e.contains("subset"), "{e}");
+    let e = coarsen(&m0, &[0, 4, 4], 0.1).unwrap_err().to_string();
+    assert!(e.contains("listed twice"), "{e}");
+    // non-finite radius
+    assert!(coarsen(&m0, &ret, f64::NAN).is_err());
 }
 
 /// Signed moment ratio M^m / M^0 at the centre of a bar of `n` nodes (n - 1 divisible by 8).
