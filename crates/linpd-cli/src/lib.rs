@@ -13,7 +13,7 @@ mod study_lps;
 mod study_md_pd;
 
 use clap::{Parser, Subcommand};
-use linpd_problem::Problem;
+use linpd_problem::{Problem, Scene};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -98,22 +98,30 @@ pub fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
         Command::Solve { scene, out, quiet } => {
-            let problem = Problem::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+            let problem = Scene::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
             let progress = |m: &str| {
                 if !quiet {
                     eprintln!("[linpd] {m}");
                 }
             };
             let solution = problem.solve(&progress).map_err(|e| e.to_string())?;
-            let dir = out.unwrap_or_else(|| PathBuf::from(&problem.output_dir));
+            let dir = out.unwrap_or_else(|| PathBuf::from(problem.output_dir()));
             let mut files = solution.write(&dir).map_err(|e| e.to_string())?;
-            if problem.plot {
-                files.extend(plots::solution_plots(&problem, &solution, &dir).map_err(|e| format!("plot: {e}"))?);
+            match &problem {
+                Scene::Grid(p) if p.plot => {
+                    files.extend(plots::solution_plots(p, &solution, &dir).map_err(|e| format!("plot: {e}"))?);
+                }
+                // Coarsened levels have no lattice: 1D gets the displacement profile; the 2D/3D
+                // maps need a grid (scattered nodes are not plotted yet).
+                Scene::Coarsened(c) if c.plot && c.dim == 1 => {
+                    files.extend(plots::profile_1d(&solution, &dir).map_err(|e| format!("plot: {e}"))?);
+                }
+                _ => {}
             }
             let r = &solution.report;
             println!(
                 "{}: {} nodes, {} unknowns, solver {}, relative residual {:.3e}, {:.3} s (assemble {:.3} s), peak memory {}",
-                problem.name,
+                problem.name(),
                 solution.x.len(),
                 r.n,
                 r.solver,
@@ -162,7 +170,25 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Validate { scene } => {
-            let p = Problem::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+            let p = match Scene::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))? {
+                Scene::Grid(p) => p,
+                Scene::Coarsened(c) => {
+                    let (mask, _) = c.constrained();
+                    println!(
+                        "{}: valid; coarsened level {} from {}, dimension {}, {} nodes, {} bonded pairs, K {}, {} constrained DOFs, {} loads",
+                        c.name,
+                        c.level,
+                        c.moduli_path.display(),
+                        c.dim,
+                        c.n_nodes(),
+                        c.n_bonds,
+                        if c.is_symmetric() { "symmetric".to_string() } else { format!("unsymmetric (relative asymmetry {:.2e})", c.asymmetry) },
+                        mask.iter().filter(|&&m| m).count(),
+                        c.loads.len()
+                    );
+                    return Ok(());
+                }
+            };
             let (mask, _) = p.constrained();
             println!(
                 "{}: valid; dimension {}, {} nodes, horizon/spacing = {:.4}, {} constrained DOFs, {} loads",

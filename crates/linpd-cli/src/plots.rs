@@ -9,21 +9,7 @@ pub fn solution_plots(p: &Problem, s: &Solution, dir: &Path) -> Result<Vec<PathB
     let d = s.dim;
     let counts = p.grid.counts();
     match d {
-        1 => {
-            let (mut body, mut layer) = (Series::new("body", vec![], vec![]), Series::new("layer", vec![], vec![]));
-            layer.style = SeriesStyle::Markers;
-            for k in 0..s.x.len() {
-                let t = if s.is_layer[k] { &mut layer } else { &mut body };
-                t.x.push(s.x[k][0]);
-                t.y.push(s.u[k]);
-            }
-            let mut series = vec![body];
-            if !layer.x.is_empty() {
-                series.push(layer);
-            }
-            let plot = LinePlot { title: format!("{}: displacement", s.name), x_label: "x".into(), y_label: "u".into(), series, log_x: false, log_y: false };
-            line_plot(&plot, &dir.join("u"))
-        }
+        1 => profile_1d(s, dir),
         _ => {
             let (nx, ny) = (counts[0], counts[1]);
             let k0 = if d == 3 { counts[2] / 2 } else { 0 };
@@ -47,6 +33,24 @@ pub fn solution_plots(p: &Problem, s: &Solution, dir: &Path) -> Result<Vec<PathB
             scalar_map(&map, &dir.join("u_magnitude"))
         }
     }
+}
+
+/// The 1D displacement profile (layer nodes as markers); needs only the solution, so it also
+/// serves coarsened levels.
+pub fn profile_1d(s: &Solution, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    let (mut body, mut layer) = (Series::new("body", vec![], vec![]), Series::new("layer", vec![], vec![]));
+    layer.style = SeriesStyle::Markers;
+    for k in 0..s.x.len() {
+        let t = if s.is_layer[k] { &mut layer } else { &mut body };
+        t.x.push(s.x[k][0]);
+        t.y.push(s.u[k]);
+    }
+    let mut series = vec![body];
+    if !layer.x.is_empty() {
+        series.push(layer);
+    }
+    let plot = LinePlot { title: format!("{}: displacement", s.name), x_label: "x".into(), y_label: "u".into(), series, log_x: false, log_y: false };
+    line_plot(&plot, &dir.join("u"))
 }
 
 /// Plots of a dynamics run: energies over time; in 1D also the space-time map of `u(x, t)`.

@@ -22,15 +22,17 @@ pub(crate) fn scene(
     loads: &[Load],
 ) -> Result<BlendScene, ProblemError> {
     let m = &raw.model;
+    let grid_raw = raw.grid.as_ref().expect("Problem::from_raw requires a grid for blend and ce models");
+    let horizon = m.horizon.expect("Problem::from_raw requires a horizon for blend and ce models");
     let name = if kind == RawModelKind::Ce { "ce" } else { "blend" };
     let mm = m.micromodulus.as_ref().ok_or_else(|| ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization"))?;
     if raw.dimension != 1 {
         return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {}", raw.dimension)));
     }
-    if raw.grid.min[0] != 0.0 {
+    if grid_raw.min[0] != 0.0 {
         return Err(ProblemError::invalid("grid.min", format!("{name} models live on (0, L): min must be [0.0]")));
     }
-    if raw.grid.layer != 0.0 {
+    if grid_raw.layer != 0.0 {
         return Err(ProblemError::invalid("grid.layer", format!("{name} models have local Dirichlet conditions at both ends: no layer")));
     }
     if mm.normalize != RawNormalize::Discrete {
@@ -66,16 +68,16 @@ pub(crate) fn scene(
             }
         }
         // Pure CE: any admissible geometry, beta = 0 everywhere.
-        let l = raw.grid.max[0];
+        let l = grid_raw.max[0];
         (Regions { l1: 0.25 * l, l2: 0.4 * l, l3: 0.6 * l, l4: 0.75 * l }, Blending::Linear)
     };
-    let length = raw.grid.max[0];
+    let length = grid_raw.max[0];
     let params = BlendParams {
         length,
-        dx: raw.grid.spacing,
-        horizon: m.horizon,
+        dx: grid_raw.spacing,
+        horizon,
         modulus: mm.modulus.unwrap_or(1.0),
-        kernel: Problem::kernel_of(mm, m.horizon)?,
+        kernel: Problem::kernel_of(mm, horizon)?,
         regions,
         blending,
         ce_spacing: m.ce_spacing,

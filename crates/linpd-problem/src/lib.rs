@@ -6,6 +6,7 @@
 #![deny(missing_docs)]
 
 pub(crate) mod blend;
+pub mod coarsened;
 pub mod dynamics;
 pub mod error;
 pub(crate) mod lps;
@@ -14,6 +15,7 @@ pub mod problem;
 pub mod raw;
 pub mod run;
 
+pub use coarsened::{CoarsenedScene, ModuliFile, Scene};
 pub use error::ProblemError;
 pub use problem::{BlendScene, BondModel, Constraint, Load, Problem, SolverSettings};
 pub use lps::reduce_to_free;

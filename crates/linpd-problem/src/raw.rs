@@ -12,8 +12,10 @@ pub struct RawProblem {
     pub name: String,
     /// 1, 2 or 3.
     pub dimension: usize,
-    /// The lattice.
-    pub grid: RawGrid,
+    /// The lattice (required by every model except `coarsened`, whose nodes come from its
+    /// nodes file).
+    #[serde(default)]
+    pub grid: Option<RawGrid>,
     /// The material model.
     pub model: RawModel,
     /// Volume constraints.
@@ -148,6 +150,21 @@ pub enum RawModelKind {
     Ce,
     /// Linearized state-based LPS (2D plane stress/strain, 3D).
     Lps,
+    /// A coarsened level model read from a moduli file (`linpd_coarsen::io`).
+    Coarsened,
+}
+
+impl RawModelKind {
+    /// The name used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            RawModelKind::Bond => "bond",
+            RawModelKind::Blend => "blend",
+            RawModelKind::Ce => "ce",
+            RawModelKind::Lps => "lps",
+            RawModelKind::Coarsened => "coarsened",
+        }
+    }
 }
 
 /// `model`. A plain struct with a `type` field rather than a serde-tagged enum: serde buffers
@@ -159,8 +176,12 @@ pub struct RawModel {
     /// The model.
     #[serde(rename = "type")]
     pub kind: RawModelKind,
-    /// Horizon `delta`.
-    pub horizon: f64,
+    /// Horizon `delta` (required by every model except `coarsened`; checked in validation).
+    #[serde(default)]
+    pub horizon: Option<f64>,
+    /// Coarsened: the Matrix Market moduli file (relative paths start at the scene's directory).
+    #[serde(default)]
+    pub moduli: Option<String>,
     /// Partial-volume scaling at the horizon edge.
     #[serde(default)]
     pub partial_volume: bool,
