@@ -7,7 +7,7 @@
 //!
 //! Set `LINPD_PRINT_ERRORS=1` to print every message (useful when reviewing the wording).
 
-use linpd::problem::{Problem, ProblemError};
+use linpd::problem::{ModuliFile, Problem, ProblemError, Scene};
 use serde_json::{json, Value};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -53,12 +53,54 @@ fn base_3d() -> Value {
     })
 }
 
+/// A small coarsened level on disk (written once per test process): 11 nodes at 0, 0.1, ..., 1,
+/// volumes 0.1, `C = 1` between nodes one or two spacings apart. Returns the `.mtx` path.
+fn coarse_moduli() -> &'static str {
+    static PATH: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    PATH.get_or_init(|| {
+        let dir = std::env::temp_dir().join(format!("linpd-malformed-coarse-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let n = 11;
+        let entries = (0..n)
+            .flat_map(|i: usize| (0..n).filter(move |&j: &usize| (1..=2).contains(&i.abs_diff(j))).map(move |j| (i, j, 1.0)))
+            .collect();
+        let m = ModuliFile {
+            level: 1,
+            dim: 1,
+            positions: (0..n).map(|i| [0.1 * i as f64, 0.0, 0.0]).collect(),
+            volumes: vec![0.1; n],
+            level0: (0..n).map(|i| 2 * i).collect(),
+            entries,
+        };
+        m.write(&dir.join("level-1")).unwrap();
+        // A broken copy for the file-error case.
+        std::fs::write(dir.join("bad.mtx"), "%%MatrixMarket matrix array real general\n").unwrap();
+        dir.join("level-1.mtx").to_string_lossy().into_owned()
+    })
+}
+
+/// A valid 1D coarsened scene on [`coarse_moduli`]: left end fixed, unit force at the right.
+fn base_coarsened() -> Value {
+    json!({
+        "name": "small-coarse-bar",
+        "dimension": 1,
+        "model": {"type": "coarsened", "moduli": coarse_moduli()},
+        "constraints": [{"region": {"box": {"min": [-1.0], "max": [0.0]}}, "displacement": {"value": [0.0]}}],
+        "loads": [{"type": "point", "at": [1.0], "force": [1.0]}]
+    })
+}
+
+/// The coarsened base scene with `edit` applied.
+fn ec(edit: impl FnOnce(&mut Value)) -> String {
+    edited(base_coarsened, edit)
+}
+
 /// Where the error is expected.
 #[derive(Clone, Copy, PartialEq, Debug)]
 enum Stage {
-    /// `Problem::from_json` fails.
+    /// `Scene::from_json` (= `Problem::from_json` for lattice models) fails.
     Parse,
-    /// `Problem::from_json` succeeds and `Problem::solve` fails with `ProblemError::Unsupported`.
+    /// `Scene::from_json` succeeds and `solve` fails with `ProblemError::Unsupported`.
     Solve,
 }
 
@@ -699,13 +741,71 @@ fn cases() -> Vec<Case> {
             "model.horizon",
             "over the 16 GiB limit",
         ),
+        // --- grid and horizon are optional in the mirror, required by lattice models ---
+        parse("bond model without a grid", e1(remove("", "grid")), "grid", "required for model type bond"),
+        parse("bond model with a moduli file", e1(set("model", "moduli", json!("level-1.mtx"))), "model.moduli", "only coarsened models"),
+        // --- coarsened scenes ---
+        parse("coarsened: moduli file missing", ec(set("model", "moduli", json!("/nonexistent/level-1.mtx"))), "model.moduli", "/nonexistent/level-1.mtx: cannot read"),
+        parse(
+            "coarsened: relative moduli path resolved against the scene directory",
+            ec(set("model", "moduli", json!("no-such-level.mtx"))),
+            "model.moduli",
+            "./no-such-level.mtx: cannot read",
+        ),
+        parse("coarsened: moduli key missing", ec(remove("model", "moduli")), "model.moduli", "missing: the Matrix Market file"),
+        parse(
+            "coarsened: malformed moduli file",
+            ec(|v| v["model"]["moduli"] = json!(coarse_moduli().replace("level-1.mtx", "bad.mtx"))),
+            "model.moduli",
+            "bad.mtx, line 1: expected the banner",
+        ),
+        parse(
+            "coarsened: dimension differs from the file",
+            ec(set("", "dimension", json!(2))),
+            "dimension",
+            "the scene has dimension 2 but the moduli file",
+        ),
+        parse(
+            "coarsened: grid given",
+            ec(set("", "grid", json!({"min": [0.0], "max": [1.0], "spacing": 0.1}))),
+            "grid",
+            "not used by a coarsened model (its nodes come from",
+        ),
+        parse("coarsened: horizon given", ec(set("model", "horizon", json!(0.2))), "model.horizon", "not used by a coarsened model"),
+        parse(
+            "coarsened: micromodulus given",
+            ec(set("model", "micromodulus", json!({"kernel": "constant", "modulus": 1.0}))),
+            "model.micromodulus",
+            "not used by a coarsened model",
+        ),
+        parse("coarsened: bulk modulus given", ec(set("model", "bulk_modulus", json!(1.0))), "model.bulk_modulus", "not used by a coarsened model"),
+        parse(
+            "coarsened: point load off the nodes",
+            ec(|v| v["loads"] = json!([{"type": "point", "at": [0.55], "force": [1.0]}])),
+            "loads[0].at",
+            "point loads must sit on a node",
+        ),
+        parse(
+            "coarsened: constraint region without nodes",
+            ec(|v| v["constraints"][0]["region"] = json!({"box": {"min": [2.0], "max": [3.0]}})),
+            "constraints[0].region",
+            "contains no node of the coarsened level",
+        ),
+        Case {
+            name: "coarsened: unconstrained body",
+            text: ec(|v| v["constraints"] = json!([])),
+            stage: Stage::Solve,
+            path: "constraints",
+            needle: "1 rigid motion(s) of a connected piece of 11 node(s) are not constrained",
+            check: None,
+        },
     ]
 }
 
 /// Runs one case; `Err` describes how it failed.
 fn run(case: &Case) -> Result<String, String> {
     let outcome = catch_unwind(AssertUnwindSafe(|| -> Result<ProblemError, String> {
-        match (Problem::from_json(&case.text), case.stage) {
+        match (Scene::from_json(&case.text, std::path::Path::new(".")), case.stage) {
             (Err(e), Stage::Parse) => Ok(e),
             (Err(e), Stage::Solve) => Err(format!("expected to parse, got: {e}")),
             (Ok(_), Stage::Parse) => Err("the scene was accepted".into()),
@@ -744,11 +844,17 @@ fn run(case: &Case) -> Result<String, String> {
 
 #[test]
 fn base_scenes_are_valid_and_solve() {
-    for (name, base) in [("1D", base_1d as fn() -> Value), ("2D", base_2d)] {
-        let p = Problem::from_json(&base().to_string()).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
+    for (name, base) in [("1D", base_1d as fn() -> Value), ("2D", base_2d), ("coarsened", base_coarsened)] {
+        let p = Scene::from_json(&base().to_string(), std::path::Path::new(".")).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
         let s = p.solve(&|_| {}).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
         assert!(s.report.rel_residual < 1e-10, "{name}: residual {}", s.report.rel_residual);
     }
+}
+
+#[test]
+fn problem_refers_coarsened_scenes_to_scene() {
+    let e = Problem::from_json(&base_coarsened().to_string()).unwrap_err().to_string();
+    assert!(e.starts_with("model.type: a coarsened scene has no grid"), "{e}");
 }
 
 #[test]
