@@ -2,6 +2,9 @@
 //! typed [`Problem`] whose errors name the JSON path (`model.horizon: must be > 0`), then built
 //! into an operator and solved ([`run`]), and written out ([`output`]).
 //!
+//! Coarsened levels (`"model": {"type": "coarsened", "moduli": ...}`) have no grid: they are
+//! read by [`Scene`] into a [`CoarsenedScene`] ([`coarsened`]).
+//!
 //! The key reference is `docs/problem-format.md`.
 #![deny(missing_docs)]
 
