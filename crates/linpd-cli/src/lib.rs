@@ -53,6 +53,19 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Coarsen a scene's model over several levels (Silling 2010); write per level the coarsened
+    /// moduli (level-<m>.mtx + level-<m>.nodes.csv) and a JSON summary; optionally solve the
+    /// scene's problem at every level and compare at the shared nodes. See docs/coarsening.md.
+    Coarsen {
+        /// The pipeline file (JSON).
+        pipeline: PathBuf,
+        /// Output directory (default: the pipeline's output.dir, else out/<name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print no progress messages.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Check a scene without solving it; prints a summary.
     Validate {
         /// The scene file (JSON).
@@ -199,6 +212,27 @@ fn run(cli: Cli) -> Result<(), String> {
                 mask.iter().filter(|&&c| c).count(),
                 p.loads.len()
             );
+            Ok(())
+        }
+        Command::Coarsen { pipeline, out, quiet } => {
+            let p = linpd_problem::Pipeline::from_path(&pipeline).map_err(|e| format!("{}: {e}", pipeline.display()))?;
+            let progress = |m: &str| {
+                if !quiet {
+                    eprintln!("[linpd] {m}");
+                }
+            };
+            let dir = out.unwrap_or_else(|| p.output_dir.clone());
+            let r = p.run(&dir, &progress).map_err(|e| format!("{}: {e}", pipeline.display()))?;
+            println!("{}: {} levels coarsened in {:.3} s", r.name, r.levels.len() - 1, r.seconds_coarsening);
+            println!("{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}", "level", "nodes", "bonds", "radius", "tail", "classes", "hit rate", "err shared");
+            for l in &r.levels {
+                let (radius, tail, classes, hit) = l.step.as_ref().map_or(("-".into(), "-".into(), "-".into(), "-".into()), |s| {
+                    (format!("{:.4e}", s.radius), format!("{:.2e}", s.tail), s.classes.to_string(), format!("{:.4}", s.hit_rate))
+                });
+                let err = l.error_shared.map_or("-".into(), |e| format!("{e:.3e}"));
+                println!("{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}", l.level, l.nodes, l.bonds, radius, tail, classes, hit, err);
+            }
+            println!("wrote {}", dir.display());
             Ok(())
         }
         Command::Bench(args) => bench::run(args),

@@ -14,12 +14,14 @@ pub mod dynamics;
 pub mod error;
 pub(crate) mod lps;
 pub mod output;
+pub mod pipeline;
 pub mod problem;
 pub mod raw;
 pub mod run;
 
 pub use coarsened::{CoarsenedScene, ModuliFile, Scene};
 pub use error::ProblemError;
+pub use pipeline::{level0_model, Pipeline, PipelineResult};
 pub use problem::{BlendScene, BondModel, Constraint, Load, Problem, SolverSettings};
 pub use lps::reduce_to_free;
 pub use run::{Reduced, Solution};
