@@ -51,6 +51,9 @@ pub struct BenchArgs {
     /// with the assembled, per-bond and stencil operators.
     #[arg(long)]
     dynamics: bool,
+    /// Also run the coarsening cases (1D 10^5-10^6 nodes two levels, 2D 200 x 200 one level).
+    #[arg(long)]
+    coarsen: bool,
     /// Run sparse Cholesky on 3D cases up to this many unknowns (AMD fill grows fast in 3D).
     #[arg(long, default_value_t = 30_000)]
     direct_max_3d: usize,
@@ -330,6 +333,9 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     });
     if args.lps {
         doc["lps"] = crate::bench_lps::run(args.quick);
+    }
+    if args.coarsen {
+        doc["coarsen"] = crate::bench_coarsen::run(args.quick)?;
     }
     if args.dynamics {
         doc["dynamics"] = crate::bench_dynamics::run(args.quick, bw)?;

@@ -4,10 +4,12 @@
 #![deny(missing_docs)]
 
 mod bench;
+mod bench_coarsen;
 mod bench_dynamics;
 mod bench_lps;
 mod plots;
 mod study_blend;
+mod study_coarsen;
 mod study_dynamics;
 mod study_lps;
 mod study_md_pd;
@@ -78,7 +80,8 @@ enum Command {
     /// Studies: blend-patch, blend-point-load, blend-pd-size, blend-bridge-size,
     /// blend-load-location, blend-speedup, blend-speed-vs-error (Seleson, Beneddine &
     /// Prudhomme 2013, Figs. 7-14); lps-tension-bar; dispersion, stability (Seleson, Parks,
-    /// Gunzburger & Lehoucq 2009, section 4).
+    /// Gunzburger & Lehoucq 2009, section 4); coarsen-tent, coarsen-composite, coarsen-defect,
+    /// coarsen-speed-vs-error (Silling 2010, Figs. 3, 5, 7, and a 2D speed-vs-error map).
     Study {
         /// The study name (e.g. blend-point-load); `list` prints them all.
         name: String,
@@ -246,6 +249,9 @@ fn run(cli: Cli) -> Result<(), String> {
                     println!("{n:<22} {d}");
                 }
                 println!("{:<22} {}", study_md_pd::NAME, study_md_pd::DESCRIPTION);
+                for (n, d) in study_coarsen::STUDIES {
+                    println!("{n:<22} {d}");
+                }
                 return Ok(());
             }
             let dir = out.unwrap_or_else(|| PathBuf::from("docs/studies").join(&name));
@@ -253,6 +259,8 @@ fn run(cli: Cli) -> Result<(), String> {
                 study_lps::run(&dir)?;
             } else if name == study_md_pd::NAME {
                 study_md_pd::run(&dir)?;
+            } else if study_coarsen::STUDIES.iter().any(|(n, _)| *n == name) {
+                study_coarsen::run(&name, &dir)?;
             } else if study_dynamics::STUDIES.iter().any(|(n, _)| *n == name) {
                 study_dynamics::run(&name, &dir)?;
             } else {

@@ -259,7 +259,6 @@ pub struct PipelineResult {
 impl Pipeline {
     /// Runs every step, writes the levels into `dir`, and (if asked) solves and compares.
     pub fn run(&self, dir: &Path, progress: &dyn Fn(&str)) -> Result<PipelineResult, ProblemError> {
-        std::fs::create_dir_all(dir).map_err(|source| ProblemError::Io { path: dir.display().to_string(), source })?;
         let d = self.scene.dim();
         let t = Instant::now();
         let m0 = level0_model(&self.scene)?;
@@ -295,13 +294,12 @@ impl Pipeline {
                 rep.n_fine, rep.n_coarse, rep.radius, rep.horizon_fine, rep.tail, rep.classes, rep.hit_rate, rep.asymmetry, rep.seconds_total
             ));
             let model = if self.symmetrize { c.model.symmetrized() } else { c.model };
-            let files = write_level(&model, m, dir)?;
             results.push(LevelResult {
                 level: m,
                 nodes: model.len(),
                 bonds: model.n_bonds(),
                 step: Some(rep),
-                files,
+                files: Vec::new(),
                 error_shared: None,
                 solve_seconds: None,
                 u_shared: Vec::new(),
@@ -348,6 +346,11 @@ impl Pipeline {
                     r.error_shared.unwrap_or(0.0)
                 ));
             }
+        }
+        // nothing is written before every level (and every solve) has succeeded
+        std::fs::create_dir_all(dir).map_err(|source| ProblemError::Io { path: dir.display().to_string(), source })?;
+        for (m, model) in models.iter().enumerate().skip(1) {
+            results[m].files = write_level(model, m, dir)?;
         }
         let result = PipelineResult { name: self.name.clone(), dimension: d, levels: results, shared_x, seconds_coarsening };
         result.write(dir)?;
