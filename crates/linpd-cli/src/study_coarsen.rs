@@ -1,0 +1,453 @@
+//! `linpd study coarsen-<name>`: the examples of Silling (2010), "A coarsening method for linear
+//! peridynamics", section 5 (Figs. 3, 5 and 7), and a speed-versus-error map of a 2D plate.
+//! Each study writes `data.json`, PNG and SVG plots into its directory and prints a table.
+//!
+//! Level 0 of the 1D studies: bar [0, 1], spacing = volume `v = 0.005` (201 nodes),
+//! `r0 = 0.05`. Loads are nodal forces on nodes shared by all levels, the same at every level
+//! (`Matching::TotalForce`, the crate's default; a body-force density `b` gives `f = b v^0`).
+//! The same examples are tests in `crates/linpd-coarsen/tests/examples.rs` (with the tolerances).
+
+use linpd_bond::{assemble, BondOperator};
+use linpd_coarsen::{coarsen, every_kth, retain_every, Coarsened, LevelModel, StepReport};
+use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
+use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
+use serde_json::{json, Value};
+use std::path::Path;
+use std::time::Instant;
+
+/// The studies, with one line each for `study list`.
+pub const STUDIES: &[(&str, &str)] = &[
+    ("coarsen-tent", "Silling 2010 Fig. 3: C^0, C^1, C^2 vs bond distance at the centre (tent kernel)"),
+    ("coarsen-composite", "Silling 2010 Fig. 5: striped composite, u per level, global stretch vs F/E_eff"),
+    ("coarsen-defect", "Silling 2010 Fig. 7: bar with a defect, u near it per level, jumps vs radius"),
+    ("coarsen-speed-vs-error", "2D bond-based plate: (coarsening + coarse solve) / fine solve time vs error"),
+];
+
+const H: f64 = 0.005;
+const N: usize = 201;
+const R0: f64 = 0.05;
+/// Larger than the bar: every neighbourhood is the whole body (exact static condensation).
+const WHOLE: f64 = 10.0;
+/// Radius pairs (r^1, r^2): the paper's (2 r0, 2 r^1), larger ones, the whole body.
+const RADII: [(f64, f64); 4] = [(0.1, 0.2), (0.2, 0.4), (0.3, 0.6), (WHOLE, WHOLE)];
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+fn write(dir: &Path, data: &Value) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(err)?;
+    std::fs::write(dir.join("data.json"), serde_json::to_string_pretty(data).unwrap()).map_err(err)
+}
+
+fn plot(dir: &Path, name: &str, title: &str, xl: &str, yl: &str, series: Vec<Series>, log_y: bool) -> Result<(), String> {
+    let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: false, log_y };
+    line_plot(&p, &dir.join(name)).map(|_| ()).map_err(err)
+}
+
+fn series(label: &str, x: Vec<f64>, y: Vec<f64>, style: SeriesStyle) -> Series {
+    Series { label: label.into(), x, y, style }
+}
+
+fn radius_label(r: f64) -> String {
+    if r >= WHOLE {
+        "whole body".into()
+    } else {
+        format!("{r}")
+    }
+}
+
+/// Runs study `name` into `dir`.
+pub fn run(name: &str, dir: &Path) -> Result<(), String> {
+    match name {
+        "coarsen-tent" => tent_study(dir),
+        "coarsen-composite" => composite_study(dir),
+        "coarsen-defect" => defect_study(dir),
+        "coarsen-speed-vs-error" => speed_vs_error(dir),
+        other => Err(format!("unknown study `{other}`; available: {}", STUDIES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))),
+    }
+}
+
+// ----------------------------------------------------------------------------------------------
+// 1D level-0 models (Examples 5.1-5.3)
+// ----------------------------------------------------------------------------------------------
+
+/// `0 < d < r`, guarded: a bond of exactly 10 spacings may come out as 0.04999999999.
+fn inside(d: f64, r: f64) -> bool {
+    d > 1e-9 * r && d < r * (1.0 - 1e-9)
+}
+
+fn tent(x: f64, q: f64) -> f64 {
+    let d = (q - x).abs();
+    if inside(d, R0) {
+        1.0 - d / R0
+    } else {
+        0.0
+    }
+}
+
+/// Stripe `k = [0.05 k, 0.05 (k + 1))`, even `k` hard; a node on a boundary belongs to the
+/// stripe on its right.
+fn hard(x: f64) -> bool {
+    ((x / 0.05 + 1e-9).floor() as i64) % 2 == 0
+}
+
+fn composite(x: f64, q: f64) -> f64 {
+    if !inside((q - x).abs(), R0) {
+        0.0
+    } else if hard(x) && hard(q) {
+        10.0
+    } else {
+        1.0
+    }
+}
+
+/// Tent times `mu = 0.1` for bonds with `x <= 0.5 <= q` or `q <= 0.5 <= x` (closed, as printed:
+/// the node at 0.5 has all its bonds weakened).
+fn defect(x: f64, q: f64) -> f64 {
+    let (xd, t) = (0.5, 1e-9);
+    let crosses = (x <= xd + t && xd - t <= q) || (q <= xd + t && xd - t <= x);
+    tent(x, q) * if crosses { 0.1 } else { 1.0 }
+}
+
+fn level0(c: fn(f64, f64) -> f64) -> Result<LevelModel, String> {
+    LevelModel::from_kernel((0..N).map(|i| i as f64 * H).collect(), vec![H; N], R0, c).map_err(err)
+}
+
+fn chain(m0: &LevelModel, k1: usize, k2: usize, r1: f64, r2: f64) -> Result<(Coarsened, Coarsened), String> {
+    let c1 = coarsen(m0, &every_kth(m0.len(), k1), r1).map_err(err)?;
+    let c2 = coarsen(&c1.model, &every_kth(c1.model.len(), k2), r2).map_err(err)?;
+    Ok((c1, c2))
+}
+
+/// Solves a 1D level with prescribed displacements and nodal forces given by level-0 index;
+/// returns `(x, u)` of the level's nodes and `u` by level-0 index (NaN where absent).
+fn solve(m: &LevelModel, fixed: &[(usize, f64)], loads: &[(usize, f64)]) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), String> {
+    let local = |p: usize| m.level0().iter().position(|&q| q == p).ok_or(format!("level-0 node {p} is not in the level"));
+    let mut f = vec![0.0; m.len()];
+    for &(p, v) in loads {
+        f[local(p)?] += v;
+    }
+    let fixed = fixed.iter().map(|&(p, g)| Ok((local(p)?, g))).collect::<Result<Vec<_>, String>>()?;
+    let u = m.solve_dirichlet(&f, &fixed).map_err(err)?;
+    let mut by0 = vec![f64::NAN; N];
+    for (k, &p) in m.level0().iter().enumerate() {
+        by0[p] = u[k];
+    }
+    Ok((m.positions().iter().map(|p| p[0]).collect(), u, by0))
+}
+
+/// `(q - x, C(x, q))` of the row at level-0 node `p`, sorted by offset.
+fn row(m: &LevelModel, p: usize) -> (Vec<f64>, Vec<f64>) {
+    let i = m.level0().iter().position(|&q| q == p).expect("node in level");
+    let x = m.positions();
+    m.bonds_1d(i).map(|(j, c)| (x[j][0] - x[i][0], c)).unzip()
+}
+
+// ----------------------------------------------------------------------------------------------
+// coarsen-tent (Fig. 3)
+// ----------------------------------------------------------------------------------------------
+
+fn tent_study(dir: &Path) -> Result<(), String> {
+    let m0 = level0(tent)?;
+    // x = 0.5 (node 100) is a level-1 node; level 2 (every 8th node) has none there: its row is
+    // taken at 0.48 (node 96), the level-2 node nearest the centre.
+    let (s0, c0) = row(&m0, 100);
+    let mut out = vec![json!({"level": 0, "x": 0.5, "radius": R0, "offset": s0, "c": c0})];
+    let mut plots = vec![series("C^0 (x = 0.5)", s0, c0, SeriesStyle::LineMarkers)];
+    println!("{:>6} {:>11} {:>6} {:>12} {:>12} {:>10} {:>10}", "level", "radius", "x", "C(x, x+h_m)", "M/M^0 - 1", "tail", "bonds");
+    let m_ref = m0.second_moment(100);
+    for (r1, r2) in [RADII[0], RADII[3]] {
+        let (c1, c2) = chain(&m0, 4, 2, r1, r2)?;
+        for (lvl, c, p, x, r) in [(1, &c1, 100, 0.5, r1), (2, &c2, 96, 0.48, r2)] {
+            let (s, v) = row(&c.model, p);
+            let i = c.model.level0().iter().position(|&q| q == p).unwrap();
+            let moment = c.model.second_moment(i) / m_ref - 1.0;
+            let near = s.iter().zip(&v).find(|(o, _)| **o > 0.0).map_or(0.0, |t| *t.1);
+            println!("{lvl:>6} {:>11} {x:>6} {near:>12.4e} {moment:>+12.3e} {:>10.2e} {:>10}", radius_label(r), c.report.tail, s.len());
+            out.push(json!({"level": lvl, "x": x, "radius": r, "offset": s.clone(), "c": v.clone(), "moment_rel_error": moment, "report": c.report}));
+            // the plot stops at |q - x| = 0.25 (the whole-body rows are < 1e-2 of their peak beyond)
+            let (ps, pv): (Vec<f64>, Vec<f64>) = s.iter().zip(&v).filter(|(o, _)| o.abs() <= 0.25 + 1e-9).map(|(a, b)| (*a, *b)).unzip();
+            plots.push(series(&format!("C^{lvl} (x = {x}), r^{lvl} = {}", radius_label(r)), ps, pv, if r >= WHOLE { SeriesStyle::Line } else { SeriesStyle::LineMarkers }));
+        }
+    }
+    write(dir, &json!({"study": "coarsen-tent", "spacing": H, "r0": R0, "levels": "every 4th, then every 2nd (201 -> 51 -> 26)", "rows": out}))?;
+    plot(dir, "fig3_micromodulus", "Fig. 3: tent kernel coarsened (201 -> 51 -> 26 nodes), rows at the centre", "bond distance q - x", "C(x, q)", plots, false)
+}
+
+// ----------------------------------------------------------------------------------------------
+// coarsen-composite (Fig. 5)
+// ----------------------------------------------------------------------------------------------
+
+/// Dense Gaussian elimination with partial pivoting (the 20-node cell).
+fn gauss(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+    let n = b.len();
+    for k in 0..n {
+        let p = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())).unwrap();
+        a.swap(k, p);
+        b.swap(k, p);
+        for i in k + 1..n {
+            let f = a[i][k] / a[k][k];
+            for j in k..n {
+                a[i][j] -= f * a[k][j];
+            }
+            b[i] -= f * b[k];
+        }
+    }
+    let mut x = vec![0.0; n];
+    for k in (0..n).rev() {
+        let s: f64 = (k + 1..n).map(|j| a[k][j] * x[j]).sum();
+        x[k] = (b[k] - s) / a[k][k];
+    }
+    x
+}
+
+/// Effective bar modulus of the periodic cell of `n` nodes (independent of the coarsening):
+/// `u = eps x + w`, `w` periodic (`w_0 = 0`) in equilibrium, `E = 2 <W> / eps^2` with the node
+/// energy density `W_i = 1/4 sum_b C_b (u_q - u_i)^2 v` over the bonds to the cell's images.
+fn cell_modulus(n: usize, c: fn(f64, f64) -> f64) -> f64 {
+    let (period, eps) = (n as f64 * H, 1e-3);
+    let y: Vec<f64> = (0..n).map(|i| i as f64 * H).collect();
+    let mut bonds = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            for s in -2i32..=2 {
+                let q = y[j] + s as f64 * period;
+                let cij = c(y[i], q);
+                if cij != 0.0 {
+                    bonds.push((i, j, q - y[i], cij));
+                }
+            }
+        }
+    }
+    let (mut a, mut b) = (vec![vec![0.0; n]; n], vec![0.0; n]);
+    for &(i, j, d, cij) in &bonds {
+        a[i][j] += cij * H;
+        a[i][i] -= cij * H;
+        b[i] -= eps * cij * d * H;
+    }
+    a[0] = vec![0.0; n];
+    a[0][0] = 1.0;
+    b[0] = 0.0;
+    let w = gauss(a, b);
+    let energy: f64 = bonds.iter().map(|&(i, j, d, cij)| 0.25 * cij * (eps * d + w[j] - w[i]).powi(2) * H).sum();
+    2.0 * (energy / n as f64) / (eps * eps)
+}
+
+fn composite_study(dir: &Path) -> Result<(), String> {
+    let m0 = level0(composite)?;
+    let e_eff = cell_modulus(20, composite);
+    // leftmost three level-2 nodes fixed, rightmost three loaded with b v^0, b = 0.001
+    let fixed = [(0, 0.0), (8, 0.0), (16, 0.0)];
+    let loads: Vec<(usize, f64)> = [184, 192, 200].iter().map(|&p| (p, 0.001 * H)).collect();
+    let force: f64 = loads.iter().map(|l| l.1).sum();
+    let target = force / e_eff;
+    // stretch between x = 0.2 and 0.8: level-2 nodes, 6 periods apart, 0.12 from the BCs
+    let stretch = |u: &[f64]| (u[160] - u[40]) / 0.6;
+    let (x0, u0, by0) = solve(&m0, &fixed, &loads)?;
+    let s0 = stretch(&by0);
+    println!("E_eff (periodic cell) = {e_eff:.6e}, F = {force:.3e}, F/E_eff = {target:.6e}");
+    println!("{:>6} {:>11} {:>11} {:>14} {:>14} {:>10}", "level", "r^1", "r^2", "stretch", "vs F/E_eff", "vs level 0");
+    println!("{:>6} {:>11} {:>11} {s0:>14.6e} {:>+14.3e} {:>10}", 0, "-", "-", s0 / target - 1.0, "-");
+    let mut table = vec![json!({"level": 0, "stretch": s0, "rel_to_target": s0 / target - 1.0})];
+    let mut plots = vec![series("level 0", x0.clone(), u0.clone(), SeriesStyle::Line)];
+    let mut fields = vec![json!({"level": 0, "x": x0, "u": u0})];
+    for (r1, r2) in RADII {
+        let (c1, c2) = chain(&m0, 4, 2, r1, r2)?;
+        for (lvl, c, r) in [(1, &c1, r1), (2, &c2, r2)] {
+            let (x, u, by) = solve(&c.model, &fixed, &loads)?;
+            let s = stretch(&by);
+            println!("{lvl:>6} {:>11} {:>11} {s:>14.6e} {:>+14.3e} {:>+10.3e}", radius_label(r1), radius_label(r2), s / target - 1.0, s / s0 - 1.0);
+            table.push(json!({"level": lvl, "r1": r1, "r2": r2, "radius": r, "stretch": s, "rel_to_target": s / target - 1.0, "rel_to_level0": s / s0 - 1.0, "tail": c.report.tail}));
+            if r1 == RADII[0].0 {
+                plots.push(series(&format!("level {lvl} (r^{lvl} = {r})"), x.clone(), u.clone(), SeriesStyle::LineMarkers));
+                fields.push(json!({"level": lvl, "radius": r, "x": x, "u": u}));
+            }
+        }
+    }
+    write(dir, &json!({"study": "coarsen-composite", "e_eff": e_eff, "force": force, "stretch_target": target, "stretch_between": [0.2, 0.8], "stretch": table, "fields": fields}))?;
+    plot(dir, "fig5_displacement", "Fig. 5: striped composite, levels 0, 1, 2 (r^1 = 0.1, r^2 = 0.2)", "x", "u", plots, false)
+}
+
+// ----------------------------------------------------------------------------------------------
+// coarsen-defect (Fig. 7)
+// ----------------------------------------------------------------------------------------------
+
+fn defect_study(dir: &Path) -> Result<(), String> {
+    let m0 = level0(defect)?;
+    // u = x on the three leftmost and rightmost level-2 nodes (every 9th level-0 node)
+    let fixed: Vec<(usize, f64)> = [0, 9, 18, 180, 189, 198].iter().map(|&p| (p, p as f64 * H)).collect();
+    let (x0, u0, by0) = solve(&m0, &fixed, &[])?;
+    let shared: Vec<usize> = (0..=198).step_by(9).collect();
+    let umax = shared.iter().fold(0.0f64, |a, &p| a.max(by0[p].abs()));
+    // the shared pair either side of 0.5 (0.495, 0.54) and, per level, its adjacent pair
+    let jump_shared = |u: &[f64]| u[108] - u[99];
+    let adjacent = [(99, 101), (99, 102), (99, 108)];
+    let j0 = jump_shared(&by0);
+    println!("{:>6} {:>11} {:>11} {:>16} {:>11} {:>22} {:>14}", "level", "r^1", "r^2", "u(.54)-u(.495)", "vs level 0", "adjacent-pair jump", "shared err");
+    println!("{:>6} {:>11} {:>11} {j0:>16.6e} {:>11} {:>22} {:>14}", 0, "-", "-", "-", format!("{:.5e} (.495-.505)", by0[101] - by0[99]), "-");
+    let mut table = vec![json!({"level": 0, "jump_shared": j0, "jump_adjacent": by0[101] - by0[99], "adjacent": [0.495, 0.505]})];
+    let window = |x: &[f64], u: &[f64]| -> (Vec<f64>, Vec<f64>) { x.iter().zip(u).filter(|(x, _)| (0.35 - 1e-9..=0.65 + 1e-9).contains(*x)).map(|(a, b)| (*a, *b)).unzip() };
+    let (wx, wu) = window(&x0, &u0);
+    let mut plots = vec![series("level 0", wx.clone(), wu.clone(), SeriesStyle::LineMarkers)];
+    let mut fields = vec![json!({"level": 0, "x": wx, "u": wu})];
+    for (r1, r2) in RADII {
+        let (c1, c2) = chain(&m0, 3, 3, r1, r2)?;
+        for (lvl, c, r) in [(1, &c1, r1), (2, &c2, r2)] {
+            let (x, u, by) = solve(&c.model, &fixed, &[])?;
+            let j = jump_shared(&by);
+            let (a, b) = adjacent[lvl];
+            let ja = by[b] - by[a];
+            let e = shared.iter().map(|&p| (by[p] - by0[p]).abs()).fold(0.0, f64::max) / umax;
+            println!(
+                "{lvl:>6} {:>11} {:>11} {j:>16.6e} {:>+11.3e} {:>22} {e:>14.3e}",
+                radius_label(r1),
+                radius_label(r2),
+                j / j0 - 1.0,
+                format!("{ja:.5e} ({:.3}-{:.3})", a as f64 * H, b as f64 * H)
+            );
+            table.push(json!({"level": lvl, "r1": r1, "r2": r2, "radius": r, "jump_shared": j, "jump_rel_error": j / j0 - 1.0,
+                "jump_adjacent": ja, "adjacent": [a as f64 * H, b as f64 * H], "shared_rel_error": e, "tail": c.report.tail}));
+            if r1 == RADII[0].0 {
+                let (wx, wu) = window(&x, &u);
+                plots.push(series(&format!("level {lvl} (r^{lvl} = {r})"), wx.clone(), wu.clone(), SeriesStyle::LineMarkers));
+                fields.push(json!({"level": lvl, "radius": r, "x": wx, "u": wu}));
+            }
+        }
+    }
+    write(dir, &json!({"study": "coarsen-defect", "x_defect": 0.5, "mu": 0.1, "levels": "every 3rd, then every 3rd (201 -> 67 -> 23)", "jumps": table, "fields": fields}))?;
+    plot(dir, "fig7_defect", "Fig. 7: bar with a defect at x = 0.5, levels 0, 1, 2 (r^1 = 0.1, r^2 = 0.2)", "x", "u", plots, false)
+}
+
+// ----------------------------------------------------------------------------------------------
+// coarsen-speed-vs-error (2D plate)
+// ----------------------------------------------------------------------------------------------
+
+/// Plate nodes per side, spacing, horizon in spacings.
+const PLATE_N: usize = 121;
+const PLATE_H: f64 = 0.1;
+const PLATE_M: f64 = 3.0;
+
+fn plate_level0() -> Result<LevelModel, String> {
+    let side = (PLATE_N - 1) as f64 * PLATE_H;
+    let g = Grid::new(&[0.0, 0.0], &[side, side], PLATE_H, 0.0, Placement::Vertex).map_err(err)?;
+    let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: Normalization::Continuum, modulus: 1.0, plane: Some(PlaneModel::Stress), partial_volume: false };
+    let op = BondOperator::on_grid(&g, PLATE_M * PLATE_H, &mm, &Material::default()).map_err(err)?;
+    let k = assemble(&op, &DofMap::all_free(g.len(), 2));
+    LevelModel::from_stiffness(2, g.positions(), vec![g.volume(); g.len()], &k).map_err(err)
+}
+
+/// Fixed DOFs and nodal forces of the plate BVP at level `m`: every DOF of the shared (level-2,
+/// every 4th node per axis) nodes on x = 0 held, a total force 1e-3 in x split equally over the
+/// shared nodes on x = max. By level-0 index, so the same at every level.
+fn plate_bvp(m0: &LevelModel) -> (Vec<usize>, Vec<(usize, f64)>) {
+    let side = (PLATE_N - 1) as f64 * PLATE_H;
+    let on = |t: f64| (t / PLATE_H).round() as usize % 4 == 0;
+    let shared: Vec<usize> = (0..m0.len()).filter(|&i| on(m0.positions()[i][0]) && on(m0.positions()[i][1])).collect();
+    let left: Vec<usize> = shared.iter().copied().filter(|&i| m0.positions()[i][0] < 1e-9).collect();
+    let right: Vec<usize> = shared.iter().copied().filter(|&i| m0.positions()[i][0] > side - 1e-9).collect();
+    let f = 1e-3 / right.len() as f64;
+    (left, right.iter().map(|&i| (2 * i, f)).collect())
+}
+
+/// Solves level `m` with the plate BVP; returns `u` by level-0 node (2 per node, NaN if absent)
+/// and the solve time.
+fn plate_solve(m: &LevelModel, held: &[usize], loads: &[(usize, f64)]) -> Result<(Vec<f64>, f64), String> {
+    let n0 = PLATE_N * PLATE_N;
+    let mut local = vec![usize::MAX; n0];
+    for (k, &p) in m.level0().iter().enumerate() {
+        local[p] = k;
+    }
+    let t = Instant::now();
+    let mut f = vec![0.0; 2 * m.len()];
+    for &(dof0, v) in loads {
+        f[2 * local[dof0 / 2] + dof0 % 2] += v;
+    }
+    let fixed: Vec<(usize, f64)> = held.iter().flat_map(|&p| [(2 * local[p], 0.0), (2 * local[p] + 1, 0.0)]).collect();
+    let u = m.solve_dirichlet(&f, &fixed).map_err(err)?;
+    let secs = t.elapsed().as_secs_f64();
+    let mut by0 = vec![f64::NAN; 2 * n0];
+    for (k, &p) in m.level0().iter().enumerate() {
+        by0[2 * p] = u[2 * k];
+        by0[2 * p + 1] = u[2 * k + 1];
+    }
+    Ok((by0, secs))
+}
+
+/// `max |u^m - u^0| / max |u^0|` (Euclidean per node) over the shared nodes.
+fn shared_error(u: &[f64], u0: &[f64]) -> f64 {
+    let on = |p: usize| (p % PLATE_N) % 4 == 0 && (p / PLATE_N) % 4 == 0;
+    let (mut e, mut m) = (0.0f64, 0.0f64);
+    for p in (0..PLATE_N * PLATE_N).filter(|&p| on(p)) {
+        e = e.max(((u[2 * p] - u0[2 * p]).powi(2) + (u[2 * p + 1] - u0[2 * p + 1]).powi(2)).sqrt());
+        m = m.max((u0[2 * p].powi(2) + u0[2 * p + 1].powi(2)).sqrt());
+    }
+    e / m
+}
+
+fn report_json(r: &StepReport) -> Value {
+    json!(r)
+}
+
+fn speed_vs_error(dir: &Path) -> Result<(), String> {
+    let t = Instant::now();
+    let m0 = plate_level0()?;
+    let t_build = t.elapsed().as_secs_f64();
+    let (held, loads) = plate_bvp(&m0);
+    let (u0, t_fine) = plate_solve(&m0, &held, &loads)?;
+    let d0 = m0.horizon();
+    println!(
+        "level 0: {} nodes ({PLATE_N}^2, h = {PLATE_H}, delta = {PLATE_M}h, inverse-distance, plane stress), {} DOFs, built in {t_build:.2} s, fine solve {t_fine:.3} s",
+        m0.len(),
+        2 * m0.len()
+    );
+    println!("(level 2: 'coarsen s' includes its level-1 step; time ratio = (coarsen s + solve s) / fine solve)");
+    println!("{:>6} {:>7} {:>8} {:>8} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10}", "level", "r/delta", "radius", "nodes", "tail", "coarsen s", "solve s", "time ratio", "rel. error", "hit rate");
+    let mut rows = Vec::new();
+    let mut pts: [(Vec<f64>, Vec<f64>); 2] = [(vec![], vec![]), (vec![], vec![])];
+    // Level 2 is built on the level 1 of the same k with the paper's rule r^2 = 2 delta^1
+    // (footnote 1; delta^1 = k delta^0 is the level-1 horizon). k delta^1 = k^2 delta^0 would
+    // cover most of the plate with dense local problems of several thousand unknowns, and
+    // k = 6 (r^2 = 3.6, ~20 s) would take the study past a minute: levels 2 are k = 2, 3, 4.
+    let mut level1 = Vec::new();
+    for k in [2.0, 3.0, 4.0, 6.0] {
+        let t = Instant::now();
+        let c1 = coarsen(&m0, &retain_every(&m0, 2).map_err(err)?, k * d0).map_err(err)?;
+        let t_c1 = t.elapsed().as_secs_f64();
+        let (u1, t_s1) = plate_solve(&c1.model, &held, &loads)?;
+        let e1 = shared_error(&u1, &u0);
+        let ratio = (t_c1 + t_s1) / t_fine;
+        println!("{:>6} {:>7} {:>8.3} {:>8} {:>10.2e} {t_c1:>10.3} {t_s1:>10.3} {ratio:>10.2} {e1:>11.3e} {:>10.3}", 1, format!("{k}"), k * d0, c1.model.len(), c1.report.tail, c1.report.hit_rate);
+        rows.push(json!({"level": 1, "radius_over_horizon": k, "radius": k * d0, "coarsen_seconds": t_c1, "solve_seconds": t_s1, "time_ratio": ratio, "rel_error": e1, "report": report_json(&c1.report)}));
+        pts[0].0.push(ratio);
+        pts[0].1.push(e1);
+        if k < 6.0 {
+            level1.push((k, c1, t_c1));
+        }
+    }
+    for (k, c1, t_c1) in level1 {
+        let d1 = c1.model.horizon();
+        let t = Instant::now();
+        let c2 = coarsen(&c1.model, &retain_every(&c1.model, 2).map_err(err)?, 2.0 * d1).map_err(err)?;
+        let t_c2 = t.elapsed().as_secs_f64() + t_c1;
+        let (u2, t_s2) = plate_solve(&c2.model, &held, &loads)?;
+        let e2 = shared_error(&u2, &u0);
+        let ratio = (t_c2 + t_s2) / t_fine;
+        println!("{:>6} {:>7} {:>8.3} {:>8} {:>10.2e} {t_c2:>10.3} {t_s2:>10.3} {ratio:>10.2} {e2:>11.3e} {:>10.3}", 2, format!("{k}, 2"), 2.0 * d1, c2.model.len(), c2.report.tail, c2.report.hit_rate);
+        rows.push(json!({"level": 2, "level1_radius_over_horizon": k, "radius_over_horizon": 2.0, "radius": 2.0 * d1, "level1_radius": k * d0,
+            "coarsen_seconds": t_c2, "solve_seconds": t_s2, "time_ratio": ratio, "rel_error": e2, "report": report_json(&c2.report)}));
+        pts[1].0.push(ratio);
+        pts[1].1.push(e2);
+    }
+    let [(x1, y1), (x2, y2)] = pts;
+    write(dir, &json!({"study": "coarsen-speed-vs-error", "nodes_per_side": PLATE_N, "spacing": PLATE_H, "horizon": d0, "fine_solve_seconds": t_fine, "rows": rows}))?;
+    let p = LinePlot {
+        title: format!("2D plate {PLATE_N}^2, delta = 3h: coarsening error vs time"),
+        x_label: "time ratio (coarsening + coarse solve) / fine solve".into(),
+        y_label: "max |u^m - u^0| / max |u^0|".into(),
+        series: vec![series("level 1 (r = 2, 3, 4, 6 delta^0)", x1, y1, SeriesStyle::LineMarkers), series("level 2 (r^1 = 2, 3, 4 delta^0; r^2 = 2 delta^1)", x2, y2, SeriesStyle::LineMarkers)],
+        log_x: false,
+        log_y: true,
+    };
+    line_plot(&p, &dir.join("speed_vs_error")).map(|_| ()).map_err(err)
+}
