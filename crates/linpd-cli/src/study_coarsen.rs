@@ -122,7 +122,10 @@ fn chain(m0: &LevelModel, k1: usize, k2: usize, r1: f64, r2: f64) -> Result<(Coa
 
 /// Solves a 1D level with prescribed displacements and nodal forces given by level-0 index;
 /// returns `(x, u)` of the level's nodes and `u` by level-0 index (NaN where absent).
-fn solve(m: &LevelModel, fixed: &[(usize, f64)], loads: &[(usize, f64)]) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), String> {
+/// `(x, u, u by level-0 index)` of a 1D level.
+type Fields = (Vec<f64>, Vec<f64>, Vec<f64>);
+
+fn solve(m: &LevelModel, fixed: &[(usize, f64)], loads: &[(usize, f64)]) -> Result<Fields, String> {
     let local = |p: usize| m.level0().iter().position(|&q| q == p).ok_or(format!("level-0 node {p} is not in the level"));
     let mut f = vec![0.0; m.len()];
     for &(p, v) in loads {
@@ -180,6 +183,7 @@ fn tent_study(dir: &Path) -> Result<(), String> {
 // ----------------------------------------------------------------------------------------------
 
 /// Dense Gaussian elimination with partial pivoting (the 20-node cell).
+#[allow(clippy::needless_range_loop)]
 fn gauss(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
     let n = b.len();
     for k in 0..n {
@@ -342,7 +346,7 @@ fn plate_level0() -> Result<LevelModel, String> {
 /// shared nodes on x = max. By level-0 index, so the same at every level.
 fn plate_bvp(m0: &LevelModel) -> (Vec<usize>, Vec<(usize, f64)>) {
     let side = (PLATE_N - 1) as f64 * PLATE_H;
-    let on = |t: f64| (t / PLATE_H).round() as usize % 4 == 0;
+    let on = |t: f64| ((t / PLATE_H).round() as usize).is_multiple_of(4);
     let shared: Vec<usize> = (0..m0.len()).filter(|&i| on(m0.positions()[i][0]) && on(m0.positions()[i][1])).collect();
     let left: Vec<usize> = shared.iter().copied().filter(|&i| m0.positions()[i][0] < 1e-9).collect();
     let right: Vec<usize> = shared.iter().copied().filter(|&i| m0.positions()[i][0] > side - 1e-9).collect();
@@ -376,7 +380,7 @@ fn plate_solve(m: &LevelModel, held: &[usize], loads: &[(usize, f64)]) -> Result
 
 /// `max |u^m - u^0| / max |u^0|` (Euclidean per node) over the shared nodes.
 fn shared_error(u: &[f64], u0: &[f64]) -> f64 {
-    let on = |p: usize| (p % PLATE_N) % 4 == 0 && (p / PLATE_N) % 4 == 0;
+    let on = |p: usize| (p % PLATE_N).is_multiple_of(4) && (p / PLATE_N).is_multiple_of(4);
     let (mut e, mut m) = (0.0f64, 0.0f64);
     for p in (0..PLATE_N * PLATE_N).filter(|&p| on(p)) {
         e = e.max(((u[2 * p] - u0[2 * p]).powi(2) + (u[2 * p + 1] - u0[2 * p + 1]).powi(2)).sqrt());
