@@ -15,17 +15,8 @@ use std::time::Instant;
 
 fn tent_bar(n: usize) -> LevelModel {
     let h = 0.005;
-    let r0 = 10.0 * h;
     let x: Vec<f64> = (0..n).map(|i| i as f64 * h).collect();
-    LevelModel::from_kernel(x, vec![h; n], r0, move |a, b| {
-        let d = (a - b).abs();
-        if d > 0.0 && d < r0 {
-            1.0 - d / r0
-        } else {
-            0.0
-        }
-    })
-    .expect("a valid bar")
+    LevelModel::from_kernel(x, vec![h; n], linpd_coarsen::paper::R0, linpd_coarsen::paper::tent).expect("a valid bar")
 }
 
 fn case_1d(n: usize) -> Result<Value, String> {

@@ -8,6 +8,7 @@
 //! The same examples are tests in `crates/linpd-coarsen/tests/examples.rs` (with the tolerances).
 
 use linpd_bond::{assemble, BondOperator};
+use linpd_coarsen::paper::{composite, defect, tent, R0};
 use linpd_coarsen::{coarsen, every_kth, retain_every, Coarsened, LevelModel, StepReport};
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
@@ -25,7 +26,6 @@ pub const STUDIES: &[(&str, &str)] = &[
 
 const H: f64 = 0.005;
 const N: usize = 201;
-const R0: f64 = 0.05;
 /// Larger than the bar: every neighbourhood is the whole body (exact static condensation).
 const WHOLE: f64 = 10.0;
 /// Radius pairs (r^1, r^2): the paper's (2 r0, 2 r^1), larger ones, the whole body.
@@ -71,44 +71,6 @@ pub fn run(name: &str, dir: &Path) -> Result<(), String> {
 // ----------------------------------------------------------------------------------------------
 // 1D level-0 models (Examples 5.1-5.3)
 // ----------------------------------------------------------------------------------------------
-
-/// `0 < d < r`, guarded: a bond of exactly 10 spacings may come out as 0.04999999999.
-fn inside(d: f64, r: f64) -> bool {
-    d > 1e-9 * r && d < r * (1.0 - 1e-9)
-}
-
-fn tent(x: f64, q: f64) -> f64 {
-    let d = (q - x).abs();
-    if inside(d, R0) {
-        1.0 - d / R0
-    } else {
-        0.0
-    }
-}
-
-/// Stripe `k = [0.05 k, 0.05 (k + 1))`, even `k` hard; a node on a boundary belongs to the
-/// stripe on its right.
-fn hard(x: f64) -> bool {
-    ((x / 0.05 + 1e-9).floor() as i64) % 2 == 0
-}
-
-fn composite(x: f64, q: f64) -> f64 {
-    if !inside((q - x).abs(), R0) {
-        0.0
-    } else if hard(x) && hard(q) {
-        10.0
-    } else {
-        1.0
-    }
-}
-
-/// Tent times `mu = 0.1` for bonds with `x <= 0.5 <= q` or `q <= 0.5 <= x` (closed, as printed:
-/// the node at 0.5 has all its bonds weakened).
-fn defect(x: f64, q: f64) -> f64 {
-    let (xd, t) = (0.5, 1e-9);
-    let crosses = (x <= xd + t && xd - t <= q) || (q <= xd + t && xd - t <= x);
-    tent(x, q) * if crosses { 0.1 } else { 1.0 }
-}
 
 fn level0(c: fn(f64, f64) -> f64) -> Result<LevelModel, String> {
     LevelModel::from_kernel((0..N).map(|i| i as f64 * H).collect(), vec![H; N], R0, c).map_err(err)

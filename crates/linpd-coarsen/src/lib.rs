@@ -125,6 +125,7 @@ mod bvp;
 mod cells;
 pub mod io;
 mod level;
+pub mod paper;
 mod retain;
 mod step;
 

@@ -9,61 +9,16 @@
 //! tolerance says what it was set from.
 #![allow(clippy::needless_range_loop)]
 
+use linpd_coarsen::paper::{composite, defect, hard, inside, tent, R0, X_DEFECT};
 use linpd_coarsen::{coarsen, every_kth, Coarsened, LevelModel};
 
 const H: f64 = 0.005; // spacing = level-0 volume v
 const N: usize = 201; // bar [0, 1]
-const R0: f64 = 0.05; // level-0 interaction distance
 /// Larger than the bar: every N_x is the whole body (exact static condensation).
 const WHOLE: f64 = 10.0;
 
-/// `0 < d < r` with the float comparison guarded: bond lengths are differences of `i * H`, so a
-/// bond of exactly 10 spacings may come out as 0.04999999999 and must still be excluded.
-fn inside(d: f64, r: f64) -> bool {
-    d > 1e-9 * r && d < r * (1.0 - 1e-9)
-}
-
 fn positions() -> Vec<f64> {
     (0..N).map(|i| i as f64 * H).collect()
-}
-
-/// Example 5.1: tent `C0 = 1 - |q - x| / r0` for `0 < |q - x| < r0`.
-fn tent(x: f64, q: f64) -> f64 {
-    let d = (q - x).abs();
-    if inside(d, R0) {
-        1.0 - d / R0
-    } else {
-        0.0
-    }
-}
-
-/// Example 5.2 stripes: stripe `k = [0.05 k, 0.05 (k + 1))`, even `k` hard. A node on a stripe
-/// boundary belongs to the stripe on its right (the `1e-9` shift, relative to the stripe width,
-/// absorbs the rounding of `i * H / 0.05`).
-fn hard(x: f64) -> bool {
-    ((x / 0.05 + 1e-9).floor() as i64) % 2 == 0
-}
-
-/// Example 5.2 micromodulus: 10 if both ends hard, 1 if either end soft.
-fn composite(x: f64, q: f64) -> f64 {
-    if !inside((q - x).abs(), R0) {
-        0.0
-    } else if hard(x) && hard(q) {
-        10.0
-    } else {
-        1.0
-    }
-}
-
-const X_DEFECT: f64 = 0.5;
-
-/// Example 5.3: tent times `mu = 0.1` for bonds with `x <= x_d <= q` or `q <= x_d <= x`. The
-/// inequalities are closed as printed, so the node at `x_d = 0.5` has *all* its bonds weakened
-/// (followed literally; a half-open rule would weaken only one side of it).
-fn defect(x: f64, q: f64) -> f64 {
-    let t = 1e-9;
-    let crosses = (x <= X_DEFECT + t && X_DEFECT - t <= q) || (q <= X_DEFECT + t && X_DEFECT - t <= x);
-    tent(x, q) * if crosses { 0.1 } else { 1.0 }
 }
 
 fn level0(c: fn(f64, f64) -> f64) -> LevelModel {
