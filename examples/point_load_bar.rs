@@ -68,7 +68,12 @@ fn main() {
         let (n, _) = grid.nearest_node(&[x]);
         let classical = 0.5 * x.min(1.0 - x);
         let diff = (u[n] - classical).abs();
-        println!("u({x}) = {:.6}, classical {classical:.6}, difference {:.2e} ({:.2}% of the peak {peak:.4})", u[n], diff, 100.0 * diff / peak);
+        println!(
+            "u({x}) = {:.6}, classical {classical:.6}, difference {:.2e} ({:.2}% of the peak {peak:.4})",
+            u[n],
+            diff,
+            100.0 * diff / peak
+        );
         assert!(diff < 0.05 * peak, "nonlocal and classical solutions differ by {diff} at x = {x}");
     }
 }

@@ -38,7 +38,10 @@ fn assembled_1d_matrix_is_eq_29_entry_for_entry() {
             -h * f_pd / j.unsigned_abs() as f64
         };
         // Entries are single products except the diagonal (a sum of 2N terms): 4N eps relative.
-        assert!((v - expected).abs() <= 4.0 * n_side as f64 * f64::EPSILON * expected.abs(), "j = {j}: {v} vs {expected}");
+        assert!(
+            (v - expected).abs() <= 4.0 * n_side as f64 * f64::EPSILON * expected.abs(),
+            "j = {j}: {v} vs {expected}"
+        );
     }
 }
 
@@ -65,8 +68,14 @@ fn discrete_normalization_reproduces_classical_elasticity_for_quadratics() {
                 let lu = -au[i] / h;
                 // Round-off bound: the values u_j carry relative error eps, and the sum cancels
                 // terms of size w_ij (|u_j| + |u_i|) / V; 8 eps per term covers the operations.
-                let scale: f64 = op.family().neighbors(i).iter().zip(op.weights(i))
-                    .map(|(&j, w)| w * (u[j as usize].abs() + u[i].abs())).sum::<f64>() / h;
+                let scale: f64 = op
+                    .family()
+                    .neighbors(i)
+                    .iter()
+                    .zip(op.weights(i))
+                    .map(|(&j, w)| w * (u[j as usize].abs() + u[i].abs()))
+                    .sum::<f64>()
+                    / h;
                 let tol = 8.0 * f64::EPSILON * scale;
                 assert!((lu - 2.0 * k * a2).abs() <= tol, "{kernel:?} node {i}: L u = {lu}, expected {}", 2.0 * k * a2);
             }
@@ -79,14 +88,15 @@ fn patch_test_strain_spread_is_round_off() {
     // data/bar-patch-test.json: u = x imposed on both nonlocal layers, no load. The paper's
     // Table 2 uses dx = 0.02 with eps = 0.05 (eps/dx = 2.5, not a lattice multiple); the scene
     // uses dx = 0.0125 so that N = eps/dx = 4 is an integer and the layer holds N nodes.
-    let p = Problem::from_path(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/bar-patch-test.json"))).unwrap();
+    let p = Problem::from_path(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/bar-patch-test.json")))
+        .unwrap();
     let s = p.solve(&|_| {}).unwrap();
     let strains: Vec<f64> = (0..s.x.len() - 1).map(|i| (s.u[i + 1] - s.u[i]) / (s.x[i + 1][0] - s.x[i][0])).collect();
     let max = strains.iter().cloned().fold(f64::MIN, f64::max);
     let min = strains.iter().cloned().fold(f64::MAX, f64::min);
     let spread = max.abs() - min.abs(); // eq. (30)
-    // The paper reports 1.22e-12 for PD (Fig. 7b); with kappa ~ (N_x/N)^2 ~ 400 and 80 unknowns
-    // a backward-stable solve gives ~ eps * kappa * dx^-1 ~ 1e-11: we require 1e-11.
+                                        // The paper reports 1.22e-12 for PD (Fig. 7b); with kappa ~ (N_x/N)^2 ~ 400 and 80 unknowns
+                                        // a backward-stable solve gives ~ eps * kappa * dx^-1 ~ 1e-11: we require 1e-11.
     assert!(spread.abs() <= 1e-11, "strain spread {spread:e}");
     for (x, u) in s.x.iter().zip(&s.u) {
         assert!((u - x[0]).abs() <= 1e-13, "u({}) = {u}", x[0]);

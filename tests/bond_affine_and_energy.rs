@@ -20,7 +20,8 @@ fn build(dim: usize, m: usize, norm: Normalization, plane: Option<PlaneModel>) -
     let h = 1.0 / 64.0; // exact positions
     let side = (2 * m + 2) as f64 * h;
     let g = Grid::new(&vec![0.0; dim], &vec![side; dim], h, 0.0, Placement::Vertex).unwrap();
-    let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: norm, modulus: K, plane, partial_volume: false };
+    let mm =
+        Micromodulus { kernel: Kernel::InverseDistance, normalization: norm, modulus: K, plane, partial_volume: false };
     let op = BondOperator::on_grid(&g, m as f64 * h, &mm, &Material::default()).unwrap();
     (g, op)
 }
@@ -72,7 +73,11 @@ fn affine_fields_give_zero_interior_force() {
                 continue;
             }
             // Round-off: the sum cancels terms w |e.(u_j - u_i)| with u exact to eps |u|.
-            let scale: f64 = op.family().neighbors(n).iter().zip(op.weights(n))
+            let scale: f64 = op
+                .family()
+                .neighbors(n)
+                .iter()
+                .zip(op.weights(n))
                 .map(|(&j, w)| w * (0..dim).map(|a| u[dim * j as usize + a].abs() + u[dim * n + a].abs()).sum::<f64>())
                 .sum();
             for a in 0..dim {

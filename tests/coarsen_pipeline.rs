@@ -47,8 +47,11 @@ fn bundled_pipelines_run_and_write_readable_levels() {
             assert!(out.join(format!("level-{m}.json")).exists());
             println!(
                 "{name} level {m}: {} nodes, r = {:.4e}, tail {:.2e}, hit rate {:.3}, error at shared nodes {:.3e}",
-                l["nodes"], step["radius"].as_f64().unwrap(), step["tail"].as_f64().unwrap(),
-                step["hit_rate"].as_f64().unwrap(), l["error_shared"].as_f64().unwrap()
+                l["nodes"],
+                step["radius"].as_f64().unwrap(),
+                step["tail"].as_f64().unwrap(),
+                step["hit_rate"].as_f64().unwrap(),
+                l["error_shared"].as_f64().unwrap()
             );
         }
         assert!(out.join("shared.csv").exists());
@@ -91,7 +94,7 @@ fn a_coarsened_level_solves_as_a_scene_like_in_the_pipeline() {
     let p = dir.join("p.pipeline.json");
     std::fs::write(
         &p,
-        format!(r#"{{"name": "p", "scene": "scene0.json", "levels": [{{"every": 4, "radius": 0.15}}, {{"every": 2, "radius": 0.3}}], "solve": true}}"#),
+        r#"{"name": "p", "scene": "scene0.json", "levels": [{"every": 4, "radius": 0.15}, {"every": 2, "radius": 0.3}], "solve": true}"#,
     )
     .unwrap();
     let out = dir.join("out");
@@ -127,19 +130,59 @@ fn malformed_pipelines_fail_with_the_cause_and_write_nothing() {
     let sc = scene.display().to_string();
     let cases: Vec<(String, &str)> = vec![
         ("{".into(), "line"),
-        (format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "radius": 0.1}}], "colour": 1}}"#), "unknown field `colour`"),
+        (
+            format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "radius": 0.1}}], "colour": 1}}"#),
+            "unknown field `colour`",
+        ),
         (format!(r#"{{"name": "b", "scene": "{sc}", "levels": []}}"#), "levels: must list at least one"),
-        (format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "nodes": [0], "radius": 0.1}}]}}"#), "exactly one of `every`"),
+        (
+            format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "nodes": [0], "radius": 0.1}}]}}"#),
+            "exactly one of `every`",
+        ),
         (format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2}}]}}"#), "exactly one of `radius`"),
-        (format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 1, "radius": 0.1}}]}}"#), "levels[0].every: must be >= 2"),
-        (format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "radius": 0.01}}]}}"#), "smaller than the horizon"),
+        (
+            format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 1, "radius": 0.1}}]}}"#),
+            "levels[0].every: must be >= 2",
+        ),
+        (
+            format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "radius": 0.01}}]}}"#),
+            "smaller than the horizon",
+        ),
         (format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"nodes": [], "radius": 0.1}}]}}"#), "empty"),
-        (format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"nodes": [0, 4, 999], "radius": 0.1}}]}}"#), "retained node 999"),
-        (format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "tolerance": 1e-12, "radius_max": 0.12}}]}}"#), "tail of C^m is still"),
-        (format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "radius": 0.1, "radius_growth": 2.0}}]}}"#), "belong to the radius rule"),
-        (r#"{"name": "b", "scene": "no-such-scene.json", "levels": [{"every": 2, "radius": 0.1}]}"#.into(), "no-such-scene.json"),
-        (format!(r#"{{"name": "b", "scene": "{}", "levels": [{{"every": 2, "radius": 0.1}}]}}"#, root().join("data/blend-point-load.json").display()), "not blend/ce"),
-        (format!(r#"{{"name": "b", "scene": "{}", "levels": [{{"every": 4, "radius": 0.15}}], "solve": true}}"#, root().join("data/bar-point-load.json").display()), "not kept at the coarsest level"),
+        (
+            format!(r#"{{"name": "b", "scene": "{sc}", "levels": [{{"nodes": [0, 4, 999], "radius": 0.1}}]}}"#),
+            "retained node 999",
+        ),
+        (
+            format!(
+                r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "tolerance": 1e-12, "radius_max": 0.12}}]}}"#
+            ),
+            "tail of C^m is still",
+        ),
+        (
+            format!(
+                r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "radius": 0.1, "radius_growth": 2.0}}]}}"#
+            ),
+            "belong to the radius rule",
+        ),
+        (
+            r#"{"name": "b", "scene": "no-such-scene.json", "levels": [{"every": 2, "radius": 0.1}]}"#.into(),
+            "no-such-scene.json",
+        ),
+        (
+            format!(
+                r#"{{"name": "b", "scene": "{}", "levels": [{{"every": 2, "radius": 0.1}}]}}"#,
+                root().join("data/blend-point-load.json").display()
+            ),
+            "not blend/ce",
+        ),
+        (
+            format!(
+                r#"{{"name": "b", "scene": "{}", "levels": [{{"every": 4, "radius": 0.15}}], "solve": true}}"#,
+                root().join("data/bar-point-load.json").display()
+            ),
+            "not kept at the coarsest level",
+        ),
     ];
     for (k, (text, needle)) in cases.iter().enumerate() {
         let p = dir.join(format!("bad{k}.pipeline.json"));

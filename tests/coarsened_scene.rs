@@ -167,7 +167,11 @@ fn bar_1d_cli_and_library_match_a_dense_solve() {
     // The binary: validate, then solve (result.json holds the exact f64s).
     let v = Command::new(env!("CARGO_BIN_EXE_linpd")).arg("validate").arg(&scene).output().unwrap();
     let text = String::from_utf8_lossy(&v.stdout);
-    assert!(v.status.success() && text.contains("valid; coarsened level 1"), "{text} {}", String::from_utf8_lossy(&v.stderr));
+    assert!(
+        v.status.success() && text.contains("valid; coarsened level 1"),
+        "{text} {}",
+        String::from_utf8_lossy(&v.stderr)
+    );
     let o = Command::new(env!("CARGO_BIN_EXE_linpd")).arg("solve").arg(&scene).arg("-q").output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let r: Value = serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();

@@ -40,7 +40,10 @@ fn square_pulse_scene_runs_and_conserves_the_shadow_energy() {
     assert_eq!(r.snapshots.len(), 101, "outputs at steps 0, 4, ..., 400");
     assert!((r.dt / r.limit.dt - 0.85).abs() < 1e-12);
     let (shadow, total) = (r.max_shadow_drift(), r.max_total_drift());
-    println!("max |E~/E~0 - 1| = {shadow:e}, max |E/E0 - 1| = {total:e}, {:.3e} bond updates/s", r.bond_updates_per_second());
+    println!(
+        "max |E~/E~0 - 1| = {shadow:e}, max |E/E0 - 1| = {total:e}, {:.3e} bond updates/s",
+        r.bond_updates_per_second()
+    );
     assert!(shadow <= 1e-12, "shadow energy drift {shadow:e}");
     let e0 = r.energies[0].total();
     for e in &r.energies {
@@ -83,14 +86,22 @@ fn malformed_dynamics_sections_name_the_path() {
         (
             "dt above the limit",
             with_dt(1.1 * limit),
-            vec!["dynamics.dt: ".into(), "exceeds the velocity-Verlet stability limit".into(), format!("dt_max = {limit}")],
+            vec![
+                "dynamics.dt: ".into(),
+                "exceeds the velocity-Verlet stability limit".into(),
+                format!("dt_max = {limit}"),
+            ],
         ),
         (
             "dt_safety above 1",
             set("dt_safety", json!(1.05)),
             vec!["dynamics.dt_safety: ".into(), format!("dt_max = {limit}"), "allow_unstable".into()],
         ),
-        ("dt and dt_safety", set("dt", json!(0.1)), vec!["dynamics: give exactly one of dt and dt_safety, got both".into()]),
+        (
+            "dt and dt_safety",
+            set("dt", json!(0.1)),
+            vec!["dynamics: give exactly one of dt and dt_safety, got both".into()],
+        ),
         ("unknown key", set("dtt", json!(0.1)), vec!["dynamics.dtt: unknown field `dtt`".into()]),
         (
             "unknown initial key",
@@ -129,7 +140,14 @@ fn linpd_run_writes_history_and_refuses_static_scenes() {
     let bin = env!("CARGO_BIN_EXE_linpd");
     let out = std::env::temp_dir().join(format!("linpd-run-test-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let o = Command::new(bin).arg("run").arg(data("wave-square-pulse-1d.json")).arg("--out").arg(&out).arg("-q").output().unwrap();
+    let o = Command::new(bin)
+        .arg("run")
+        .arg(data("wave-square-pulse-1d.json"))
+        .arg("--out")
+        .arg(&out)
+        .arg("-q")
+        .output()
+        .unwrap();
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("steps/s") && stdout.contains("bond updates/s"), "{stdout}");
@@ -152,7 +170,14 @@ fn linpd_run_writes_history_and_refuses_static_scenes() {
     assert!(stderr.contains("dynamics: missing"), "{stderr}");
     assert!(!out.exists(), "nothing written for a static scene");
 
-    let o = Command::new(bin).arg("run").arg(data("wave-square-pulse-1d.json")).arg("--out").arg("/dev/null/x").arg("-q").output().unwrap();
+    let o = Command::new(bin)
+        .arg("run")
+        .arg(data("wave-square-pulse-1d.json"))
+        .arg("--out")
+        .arg("/dev/null/x")
+        .arg("-q")
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert!(stderr.contains("/dev/null/x"), "the unwritable directory is named: {stderr}");

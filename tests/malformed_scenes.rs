@@ -62,7 +62,9 @@ fn coarse_moduli() -> &'static str {
         std::fs::create_dir_all(&dir).unwrap();
         let n = 11;
         let entries = (0..n)
-            .flat_map(|i: usize| (0..n).filter(move |&j: &usize| (1..=2).contains(&i.abs_diff(j))).map(move |j| (i, j, 1.0)))
+            .flat_map(|i: usize| {
+                (0..n).filter(move |&j: &usize| (1..=2).contains(&i.abs_diff(j))).map(move |j| (i, j, 1.0))
+            })
             .collect();
         let m = ModuliFile {
             level: 1,
@@ -113,8 +115,11 @@ struct Case {
     /// Must occur in `err.to_string()` as well.
     needle: &'static str,
     /// Extra check on the error value (e.g. the variant, line and column).
-    check: Option<fn(&ProblemError, &str) -> Result<(), String>>,
+    check: Option<ErrorCheck>,
 }
+
+/// An extra check on a rejected scene's error and its message.
+type ErrorCheck = fn(&ProblemError, &str) -> Result<(), String>;
 
 /// Navigates a `/`-separated pointer (`model/micromodulus`) and returns the object there.
 fn at<'a>(v: &'a mut Value, pointer: &str) -> &'a mut Value {
@@ -743,16 +748,31 @@ fn cases() -> Vec<Case> {
         ),
         // --- grid and horizon are optional in the mirror, required by lattice models ---
         parse("bond model without a grid", e1(remove("", "grid")), "grid", "required for model type bond"),
-        parse("bond model with a moduli file", e1(set("model", "moduli", json!("level-1.mtx"))), "model.moduli", "only coarsened models"),
+        parse(
+            "bond model with a moduli file",
+            e1(set("model", "moduli", json!("level-1.mtx"))),
+            "model.moduli",
+            "only coarsened models",
+        ),
         // --- coarsened scenes ---
-        parse("coarsened: moduli file missing", ec(set("model", "moduli", json!("/nonexistent/level-1.mtx"))), "model.moduli", "/nonexistent/level-1.mtx: cannot read"),
+        parse(
+            "coarsened: moduli file missing",
+            ec(set("model", "moduli", json!("/nonexistent/level-1.mtx"))),
+            "model.moduli",
+            "/nonexistent/level-1.mtx: cannot read",
+        ),
         parse(
             "coarsened: relative moduli path resolved against the scene directory",
             ec(set("model", "moduli", json!("no-such-level.mtx"))),
             "model.moduli",
             "./no-such-level.mtx: cannot read",
         ),
-        parse("coarsened: moduli key missing", ec(remove("model", "moduli")), "model.moduli", "missing: the Matrix Market file"),
+        parse(
+            "coarsened: moduli key missing",
+            ec(remove("model", "moduli")),
+            "model.moduli",
+            "missing: the Matrix Market file",
+        ),
         parse(
             "coarsened: malformed moduli file",
             ec(|v| v["model"]["moduli"] = json!(coarse_moduli().replace("level-1.mtx", "bad.mtx"))),
@@ -771,14 +791,24 @@ fn cases() -> Vec<Case> {
             "grid",
             "not used by a coarsened model (its nodes come from",
         ),
-        parse("coarsened: horizon given", ec(set("model", "horizon", json!(0.2))), "model.horizon", "not used by a coarsened model"),
+        parse(
+            "coarsened: horizon given",
+            ec(set("model", "horizon", json!(0.2))),
+            "model.horizon",
+            "not used by a coarsened model",
+        ),
         parse(
             "coarsened: micromodulus given",
             ec(set("model", "micromodulus", json!({"kernel": "constant", "modulus": 1.0}))),
             "model.micromodulus",
             "not used by a coarsened model",
         ),
-        parse("coarsened: bulk modulus given", ec(set("model", "bulk_modulus", json!(1.0))), "model.bulk_modulus", "not used by a coarsened model"),
+        parse(
+            "coarsened: bulk modulus given",
+            ec(set("model", "bulk_modulus", json!(1.0))),
+            "model.bulk_modulus",
+            "not used by a coarsened model",
+        ),
         parse(
             "coarsened: point load off the nodes",
             ec(|v| v["loads"] = json!([{"type": "point", "at": [0.55], "force": [1.0]}])),
@@ -845,7 +875,8 @@ fn run(case: &Case) -> Result<String, String> {
 #[test]
 fn base_scenes_are_valid_and_solve() {
     for (name, base) in [("1D", base_1d as fn() -> Value), ("2D", base_2d), ("coarsened", base_coarsened)] {
-        let p = Scene::from_json(&base().to_string(), std::path::Path::new(".")).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
+        let p = Scene::from_json(&base().to_string(), std::path::Path::new("."))
+            .unwrap_or_else(|e| panic!("{name} base scene: {e}"));
         let s = p.solve(&|_| {}).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
         assert!(s.report.rel_residual < 1e-10, "{name}: residual {}", s.report.rel_residual);
     }

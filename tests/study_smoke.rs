@@ -25,24 +25,35 @@ fn fast_studies_write_data_and_plots() {
         for f in figures {
             for ext in ["png", "svg"] {
                 let p = dir.join(format!("{f}.{ext}"));
-                assert!(std::fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false), "{} missing or empty", p.display());
+                assert!(
+                    std::fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false),
+                    "{} missing or empty",
+                    p.display()
+                );
             }
         }
     }
     // The patch study's table: every model's strain spread at round-off (direct solves).
-    let data: Value = serde_json::from_str(&std::fs::read_to_string(root.join("blend-patch/data.json")).unwrap()).unwrap();
+    let data: Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("blend-patch/data.json")).unwrap()).unwrap();
     for m in data["models"].as_array().unwrap() {
         assert!(m["strain_spread"].as_f64().unwrap() < 1e-12, "{}", m["model"]);
     }
     // Silling 2010 Example 5.3 (crates/linpd-coarsen/tests/examples.rs): with a whole-body
     // radius the coarse levels reproduce the level-0 jump across the defect to round-off.
-    let data: Value = serde_json::from_str(&std::fs::read_to_string(root.join("coarsen-defect/data.json")).unwrap()).unwrap();
-    let whole: Vec<&Value> = data["jumps"].as_array().unwrap().iter().filter(|r| r["r1"].as_f64() == Some(10.0)).collect();
+    let data: Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("coarsen-defect/data.json")).unwrap()).unwrap();
+    let whole: Vec<&Value> =
+        data["jumps"].as_array().unwrap().iter().filter(|r| r["r1"].as_f64() == Some(10.0)).collect();
     assert_eq!(whole.len(), 2);
     for r in whole {
         assert!(r["jump_rel_error"].as_f64().unwrap().abs() < 1e-12, "{r}");
     }
-    let bad = Command::new(env!("CARGO_BIN_EXE_linpd")).args(["study", "blend-nope", "--out"]).arg(root.join("x")).output().unwrap();
+    let bad = Command::new(env!("CARGO_BIN_EXE_linpd"))
+        .args(["study", "blend-nope", "--out"])
+        .arg(root.join("x"))
+        .output()
+        .unwrap();
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("unknown study `blend-nope`"));
     assert!(!root.join("x").exists(), "no output for a failed study");

@@ -59,7 +59,10 @@ impl Blending {
             }
             Blending::Piecewise { s, beta } => {
                 if s.len() < 2 || s.len() != beta.len() {
-                    return Err(BlendError::param("blending", "piecewise needs >= 2 points with equal lengths of s and beta"));
+                    return Err(BlendError::param(
+                        "blending",
+                        "piecewise needs >= 2 points with equal lengths of s and beta",
+                    ));
                 }
                 if s.windows(2).any(|w| !(w[1] > w[0])) || s[0] < 0.0 || s[s.len() - 1] > 1.0 {
                     return Err(BlendError::param("blending.s", "must increase strictly within [0, 1]"));

@@ -77,6 +77,8 @@ impl BlendSolution {
 }
 
 /// The exact CE solution for a point load `F` at `x_p` on `(x0, xl)` with end values (section 5.2).
+/// (The eight arguments are the symbols of the closed form.)
+#[allow(clippy::too_many_arguments)]
 pub fn ce_exact_point_load(x: f64, x0: f64, xl: f64, u0: f64, ul: f64, xp: f64, k: f64, force: f64) -> f64 {
     let d0 = (ul - u0) / (xl - x0) + force / k * (xl - xp) / (xl - x0);
     let dl = d0 - force / k;
@@ -206,7 +208,10 @@ pub fn solve_model(
             Load::Point { x: xp, force } => {
                 let i = x.partition_point(|&p| p < xp - tol);
                 if i >= n || (x[i] - xp).abs() > tol {
-                    return Err(BlendError::param(format!("loads[{k}].at"), format!("no node at x = {xp}: point loads must sit on a node")));
+                    return Err(BlendError::param(
+                        format!("loads[{k}].at"),
+                        format!("no node at x = {xp}: point loads must sit on a node"),
+                    ));
                 }
                 f[i] += force;
             }
@@ -317,10 +322,13 @@ pub fn solve_model(
                     // P is symmetric: its CSR arrays are its CSC arrays (no transpose). Rounding
                     // of the dual lengths can leave ~1e-16 relative asymmetry; Cholesky reads one
                     // triangle, which is harmless for a preconditioner.
-                    Some((rp0, col0, val0)) => (reduce(&rp0, &col0, &val0).into_csc_symmetric(), "cholesky(divergence form)+gmres"),
+                    Some((rp0, col0, val0)) => {
+                        (reduce(&rp0, &col0, &val0).into_csc_symmetric(), "cholesky(divergence form)+gmres")
+                    }
                     None => (a.symmetric_part(), "cholesky(sym part)+gmres"),
                 };
-                let chol = Cholesky::analyze_with_ordering(&s, Some(&natural)).map_err(|e| BlendError::Solve(e.to_string()))?;
+                let chol = Cholesky::analyze_with_ordering(&s, Some(&natural))
+                    .map_err(|e| BlendError::Solve(e.to_string()))?;
                 report.timings.symbolic = t.elapsed().as_secs_f64();
                 let t = Instant::now();
                 if let Ok(fac) = chol.factor(&s) {
@@ -371,7 +379,8 @@ pub fn solve_model(
             // model's preconditioner).
             let t = Instant::now();
             let s = Csr { n: a.n, rp: a.rp.clone(), col: a.col.clone(), val: a.val.clone() }.into_csc_symmetric();
-            let chol = Cholesky::analyze_with_ordering(&s, Some(&natural)).map_err(|e| BlendError::Solve(e.to_string()))?;
+            let chol =
+                Cholesky::analyze_with_ordering(&s, Some(&natural)).map_err(|e| BlendError::Solve(e.to_string()))?;
             report.timings.symbolic = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let fac = chol.factor(&s).map_err(|e| BlendError::Solve(e.to_string()))?;
@@ -395,5 +404,12 @@ pub fn solve_model(
         return Err(BlendError::Solve("the solution has non-finite values".into()));
     }
     let u: Vec<f64> = (0..n).map(|i| fixed[i].unwrap_or_else(|| u_free[free_index[i]])).collect();
-    Ok(BlendSolution { kind, x: op.mesh.x.clone(), u, beta: op.beta.clone(), transition: op.transition.clone(), report })
+    Ok(BlendSolution {
+        kind,
+        x: op.mesh.x.clone(),
+        u,
+        beta: op.beta.clone(),
+        transition: op.transition.clone(),
+        report,
+    })
 }

@@ -66,7 +66,10 @@ fn compare(op: &BlendOperator, reference: &[Vec<(usize, f64)>], dx: f64, rows: i
         for &(j, v) in &reference[i] {
             let ours = -op.get(i, j) / dx;
             // Sums of <= 4N terms of size <= scale: 8 N eps relative to the row's largest entry.
-            assert!((ours - v).abs() <= 8.0 * op.n_side as f64 * f64::EPSILON * scale, "row {i} col {j}: {ours} vs Algorithm A {v}");
+            assert!(
+                (ours - v).abs() <= 8.0 * op.n_side as f64 * f64::EPSILON * scale,
+                "row {i} col {j}: {ours} vs Algorithm A {v}"
+            );
         }
         let stored = op.row_ptr[i + 1] - op.row_ptr[i];
         let nonzero = reference[i].iter().filter(|(_, v)| *v != 0.0).count();

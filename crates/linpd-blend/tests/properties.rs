@@ -33,7 +33,13 @@ fn check_polynomial(p: &BlendParams, coeffs: &[f64]) {
         let expected = -p.modulus * upp[i] * op.mesh.dual_length(i);
         // Round-off: the row cancels terms |A_ij| |u_j|; 64 eps of that sum.
         let scale: f64 = (op.row_ptr[i]..op.row_ptr[i + 1]).map(|q| (op.val[q] * u[op.col[q]]).abs()).sum();
-        assert!((au[i] - expected).abs() <= 64.0 * f64::EPSILON * scale, "{:?} node {i} x {}: {} vs {expected}", p.blending, x[i], au[i]);
+        assert!(
+            (au[i] - expected).abs() <= 64.0 * f64::EPSILON * scale,
+            "{:?} node {i} x {}: {} vs {expected}",
+            p.blending,
+            x[i],
+            au[i]
+        );
     }
 }
 
@@ -94,7 +100,9 @@ fn check_hog_quartic(p: &BlendParams, coeffs: &[f64]) {
     let u: Vec<f64> = x.iter().map(|&x| coeffs.iter().rev().fold(0.0, |acc, c| acc * x + c)).collect();
     // k-th derivative of the polynomial at x.
     let deriv = |x: f64, k: usize| -> f64 {
-        (k..coeffs.len()).map(|m| (m - k + 1..=m).map(|v| v as f64).product::<f64>() * coeffs[m] * x.powi((m - k) as i32)).sum()
+        (k..coeffs.len())
+            .map(|m| (m - k + 1..=m).map(|v| v as f64).product::<f64>() * coeffs[m] * x.powi((m - k) as i32))
+            .sum()
     };
     let mut au = vec![0.0; x.len()];
     op.apply(&u, &mut au);
@@ -106,7 +114,13 @@ fn check_hog_quartic(p: &BlendParams, coeffs: &[f64]) {
         let expected = -(p.modulus * deriv(x[i], 2) + kappa * deriv(x[i], 4)) * op.mesh.dual_length(i);
         // Round-off: the 5-point stencils cancel terms of size |A_ij u_j|; 256 eps of their sum.
         let scale: f64 = (op.row_ptr[i]..op.row_ptr[i + 1]).map(|q| (op.val[q] * u[op.col[q]]).abs()).sum();
-        assert!((au[i] - expected).abs() <= 256.0 * f64::EPSILON * scale, "{:?} node {i} x {}: {} vs {expected}", p.blending, x[i], au[i]);
+        assert!(
+            (au[i] - expected).abs() <= 256.0 * f64::EPSILON * scale,
+            "{:?} node {i} x {}: {} vs {expected}",
+            p.blending,
+            x[i],
+            au[i]
+        );
         checked += 1;
     }
     assert!(checked > 100);
@@ -129,7 +143,8 @@ fn patch_test_strain_is_constant_to_round_off() {
         // of 1e-13) is held to 1e-11 (measured 1.9e-12 for linear blending).
         for (solver, bound) in [(BlendSolver::Lu, 1e-12), (BlendSolver::Auto, 1e-11)] {
             let s = solve_model(&p, kind, 0.0, 1.0, &[], solver).unwrap();
-            let strain: Vec<f64> = s.x.windows(2).zip(s.u.windows(2)).map(|(x, u)| (u[1] - u[0]) / (x[1] - x[0])).collect();
+            let strain: Vec<f64> =
+                s.x.windows(2).zip(s.u.windows(2)).map(|(x, u)| (u[1] - u[0]) / (x[1] - x[0])).collect();
             let (mx, mn) = strain.iter().fold((f64::MIN, f64::MAX), |(a, b), v| (a.max(v.abs()), b.min(v.abs())));
             assert!(mx - mn <= bound, "{kind:?} {blending:?} {solver:?}: strain spread {:e}", mx - mn);
         }
@@ -156,7 +171,10 @@ fn asymmetry_is_confined_to_transition_rows() {
                 }
                 let d = (op.val[q] - op.get(j, i)).abs();
                 if d > 1e-13 * scale {
-                    assert!(op.transition[i] || op.transition[j], "asymmetric ({i},{j}) outside the transition rows: {d:e}");
+                    assert!(
+                        op.transition[i] || op.transition[j],
+                        "asymmetric ({i},{j}) outside the transition rows: {d:e}"
+                    );
                     asym_rows += 1;
                 }
             }

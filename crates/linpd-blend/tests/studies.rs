@@ -78,7 +78,8 @@ fn error_falls_with_bridge_size_for_linear_and_cubic_only() {
     let at = |b: Blending, half: f64| {
         let mut q = p.clone();
         q.blending = b;
-        q.regions = Regions { l1: 0.5 - s / 2.0 - half, l2: 0.5 - s / 2.0, l3: 0.5 + s / 2.0, l4: 0.5 + s / 2.0 + half };
+        q.regions =
+            Regions { l1: 0.5 - s / 2.0 - half, l2: 0.5 - s / 2.0, l3: 0.5 + s / 2.0, l4: 0.5 + s / 2.0 + half };
         e2(&pd, &solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load(), BlendSolver::Auto).unwrap())
     };
     for b in [Blending::Linear, Blending::Cubic] {
@@ -112,20 +113,90 @@ fn coarse_ce_mesh_keeps_the_error() {
 fn bad_input_is_named() {
     let base = BlendParams::table3(Blending::Cubic);
     let cases: Vec<(BlendParams, &str, &str)> = vec![
-        ({ let mut p = base.clone(); p.regions = Regions { l1: 0.3, l2: 0.2, l3: 0.75, l4: 0.88 }; p }, "regions", "L1 < L2"),
-        ({ let mut p = base.clone(); p.regions.l4 = 1.2; p }, "regions", "< length"),
-        ({ let mut p = base.clone(); p.regions.l2 = p.regions.l1 + 0.001; p }, "regions", "narrower than dx"),
-        ({ let mut p = base.clone(); p.horizon = 0.051; p }, "horizon", "positive integer N"),
-        ({ let mut p = base.clone(); p.ce_spacing = Some(3.0 * p.dx); p }, "ce_spacing", "power of two"),
-        ({ let mut p = base.clone(); p.dx = 0.3; p }, "dx", "integer"),
-        ({ let mut p = base.clone(); p.blending = Blending::Constant { value: 1.5 }; p }, "blending.value", "[0, 1]"),
-        ({ let mut p = base.clone(); p.hog = true; p.ce_spacing = Some(2.0 * p.dx); p }, "ce_spacing", "uniform"),
+        (
+            {
+                let mut p = base.clone();
+                p.regions = Regions { l1: 0.3, l2: 0.2, l3: 0.75, l4: 0.88 };
+                p
+            },
+            "regions",
+            "L1 < L2",
+        ),
+        (
+            {
+                let mut p = base.clone();
+                p.regions.l4 = 1.2;
+                p
+            },
+            "regions",
+            "< length",
+        ),
+        (
+            {
+                let mut p = base.clone();
+                p.regions.l2 = p.regions.l1 + 0.001;
+                p
+            },
+            "regions",
+            "narrower than dx",
+        ),
+        (
+            {
+                let mut p = base.clone();
+                p.horizon = 0.051;
+                p
+            },
+            "horizon",
+            "positive integer N",
+        ),
+        (
+            {
+                let mut p = base.clone();
+                p.ce_spacing = Some(3.0 * p.dx);
+                p
+            },
+            "ce_spacing",
+            "power of two",
+        ),
+        (
+            {
+                let mut p = base.clone();
+                p.dx = 0.3;
+                p
+            },
+            "dx",
+            "integer",
+        ),
+        (
+            {
+                let mut p = base.clone();
+                p.blending = Blending::Constant { value: 1.5 };
+                p
+            },
+            "blending.value",
+            "[0, 1]",
+        ),
+        (
+            {
+                let mut p = base.clone();
+                p.hog = true;
+                p.ce_spacing = Some(2.0 * p.dx);
+                p
+            },
+            "ce_spacing",
+            "uniform",
+        ),
     ];
     for (p, name, needle) in cases {
         let e = solve_model(&p, ModelKind::Blended, 0.0, 0.0, &load(), BlendSolver::Auto).unwrap_err().to_string();
-        assert!(e.starts_with(&format!("{name}: ")) && e.contains(needle), "expected `{name}: ...{needle}...`, got `{e}`");
+        assert!(
+            e.starts_with(&format!("{name}: ")) && e.contains(needle),
+            "expected `{name}: ...{needle}...`, got `{e}`"
+        );
     }
     // A point load off the mesh.
-    let e = solve_model(&base, ModelKind::Blended, 0.0, 0.0, &[Load::Point { x: 0.5001, force: 1.0 }], BlendSolver::Auto).unwrap_err();
+    let e =
+        solve_model(&base, ModelKind::Blended, 0.0, 0.0, &[Load::Point { x: 0.5001, force: 1.0 }], BlendSolver::Auto)
+            .unwrap_err();
     assert!(e.to_string().contains("no node at x = 0.5001"), "{e}");
 }

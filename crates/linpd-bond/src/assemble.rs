@@ -15,8 +15,8 @@
 
 use crate::BondOperator;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use linpd_core::DofMap;
 use linpd_core::par::for_each_node_slice;
+use linpd_core::DofMap;
 use rayon::prelude::*;
 
 /// The CSC pattern of the reduced stiffness, with the split of the value array per node.

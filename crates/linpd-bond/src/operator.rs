@@ -37,10 +37,7 @@ impl BondOperator {
         }
         let ratio = horizon / h;
         if ratio < 1.0 - GEOMETRY_RTOL {
-            return Err(CoreError::param(
-                "horizon",
-                format!("horizon/spacing = {ratio} gives no bonds (need >= 1)"),
-            ));
+            return Err(CoreError::param("horizon", format!("horizon/spacing = {ratio} gives no bonds (need >= 1)")));
         }
         if dim > 1 && ratio < std::f64::consts::SQRT_2 * (1.0 - GEOMETRY_RTOL) {
             return Err(CoreError::param(

@@ -52,9 +52,8 @@ fn assembled_matrix_is_symmetric_with_zero_row_sums_and_rigid_null_space() {
             }
             // Rigid motions: translations and infinitesimal rotations give zero force.
             let x = o.positions();
-            let mut modes: Vec<Vec<f64>> = (0..dim)
-                .map(|a| (0..n).map(|k| if k % dim == a { 1.0 } else { 0.0 }).collect())
-                .collect();
+            let mut modes: Vec<Vec<f64>> =
+                (0..dim).map(|a| (0..n).map(|k| if k % dim == a { 1.0 } else { 0.0 }).collect()).collect();
             if dim >= 2 {
                 for (p, q) in [(0usize, 1usize), (1, 2), (0, 2)].into_iter().take(if dim == 2 { 1 } else { 3 }) {
                     let mut m = vec![0.0; n];

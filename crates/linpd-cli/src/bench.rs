@@ -71,9 +71,21 @@ struct Case {
 fn cases(quick: bool) -> Vec<Case> {
     let c = |name: &str, dim, nodes, m| Case { name: name.into(), dim, nodes, m };
     if quick {
-        vec![c("1d-n1e5-m50", 1, 2_000, 10), c("1d-n1e4-m500", 1, 1_000, 50), c("3d-20", 3, 8, 3), c("3d-30", 3, 10, 3), c("3d-40", 3, 12, 3)]
+        vec![
+            c("1d-n1e5-m50", 1, 2_000, 10),
+            c("1d-n1e4-m500", 1, 1_000, 50),
+            c("3d-20", 3, 8, 3),
+            c("3d-30", 3, 10, 3),
+            c("3d-40", 3, 12, 3),
+        ]
     } else {
-        vec![c("1d-n1e5-m50", 1, 100_000, 50), c("1d-n1e4-m500", 1, 10_000, 500), c("3d-20", 3, 20, 3), c("3d-30", 3, 30, 3), c("3d-40", 3, 40, 3)]
+        vec![
+            c("1d-n1e5-m50", 1, 100_000, 50),
+            c("1d-n1e4-m500", 1, 10_000, 500),
+            c("3d-20", 3, 20, 3),
+            c("3d-30", 3, 30, 3),
+            c("3d-40", 3, 40, 3),
+        ]
     }
 }
 
@@ -124,7 +136,13 @@ struct Built {
 
 fn build(case: &Case) -> Built {
     let h = 1.0;
-    let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: Normalization::Discrete, modulus: 1.0, plane: None, partial_volume: false };
+    let mm = Micromodulus {
+        kernel: Kernel::InverseDistance,
+        normalization: Normalization::Discrete,
+        modulus: 1.0,
+        plane: None,
+        partial_volume: false,
+    };
     let horizon = case.m as f64 * h;
     let d = case.dim;
     let last = (case.nodes - 1) as f64 * h;
@@ -274,7 +292,9 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
         let info = pcg(&SymCsc(&a), &diag, &b.f, &mut u, &params);
         let t_cg = secs(t);
         out["cg"] = match info {
-            Ok(i) => json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual, "rtol": params.rtol}),
+            Ok(i) => {
+                json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual, "rtol": params.rtol})
+            }
             Err(e) => json!({"error": e.to_string(), "time": t_cg}),
         };
         eprintln!("[bench] {}: Jacobi-PCG (matrix-free stencil)", case.name);
@@ -286,7 +306,9 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
         let info = pcg(&red, &diag, &b.f, &mut u, &params);
         let t_cg = secs(t);
         out["cg_matrix_free"] = match info {
-            Ok(i) => json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual, "apply_time": t_st}),
+            Ok(i) => {
+                json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual, "apply_time": t_st})
+            }
             Err(e) => json!({"error": e.to_string(), "time": t_cg}),
         };
     } else {
@@ -360,8 +382,13 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         for (name, ours) in doc["cases"].as_object().unwrap().clone() {
             let Some(p) = peers["cases"].get(&name) else { continue };
             let f = |v: &Value| v.as_f64();
-            let chol_ours = ours["cholesky"]["time_symbolic"].as_f64().zip(ours["cholesky"]["time_numeric"].as_f64()).map(|(a, b)| a + b);
-            let chol_peer = f(&p["cholesky_analyze"]).zip(f(&p["cholesky_factor"]).or(f(&p["cholmod_factor"]))).map(|(a, b)| a + b)
+            let chol_ours = ours["cholesky"]["time_symbolic"]
+                .as_f64()
+                .zip(ours["cholesky"]["time_numeric"].as_f64())
+                .map(|(a, b)| a + b);
+            let chol_peer = f(&p["cholesky_analyze"])
+                .zip(f(&p["cholesky_factor"]).or(f(&p["cholmod_factor"])))
+                .map(|(a, b)| a + b)
                 .or(f(&p["cholmod_analyze"]).zip(f(&p["cholmod_factor"])).map(|(a, b)| a + b));
             ratios.insert(name, json!({
                 "assembly_speedup_vs_scipy_coo_to_csr": ratio(f(&p["coo_to_csr"]), f(&ours["time_assembly"])),
@@ -378,7 +405,8 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     if let Some(parent) = args.out.parent() {
         std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
     }
-    std::fs::write(&args.out, serde_json::to_string_pretty(&doc).unwrap()).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    std::fs::write(&args.out, serde_json::to_string_pretty(&doc).unwrap())
+        .map_err(|e| format!("{}: {e}", args.out.display()))?;
     print_table(&doc);
     println!("wrote {}", args.out.display());
     Ok(())
@@ -386,10 +414,18 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
 
 fn print_table(doc: &Value) {
     let g = |v: &Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
-    println!("copy bandwidth {:.2} GB/s, {} threads", doc["machine"]["copy_bandwidth_bytes_per_s"].as_f64().unwrap_or(0.0) / 1e9, doc["machine"]["threads"]);
-    println!("{:<14} {:>9} {:>11} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8} {:>8}", "case", "unknowns", "nnz(A)", "asm s", "mv/bnd", "chol s", "nnzL/A", "cg s", "cg iters", "mf-cg s", "RSS GiB");
+    println!(
+        "copy bandwidth {:.2} GB/s, {} threads",
+        doc["machine"]["copy_bandwidth_bytes_per_s"].as_f64().unwrap_or(0.0) / 1e9,
+        doc["machine"]["threads"]
+    );
+    println!(
+        "{:<14} {:>9} {:>11} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8} {:>8}",
+        "case", "unknowns", "nnz(A)", "asm s", "mv/bnd", "chol s", "nnzL/A", "cg s", "cg iters", "mf-cg s", "RSS GiB"
+    );
     for (name, c) in doc["cases"].as_object().unwrap() {
-        let chol = c["cholesky"]["time_symbolic"].as_f64().zip(c["cholesky"]["time_numeric"].as_f64()).map(|(a, b)| a + b);
+        let chol =
+            c["cholesky"]["time_symbolic"].as_f64().zip(c["cholesky"]["time_numeric"].as_f64()).map(|(a, b)| a + b);
         let fill = c["cholesky"]["nnz_l"].as_f64().zip(c["nnz_a"].as_f64()).map(|(l, a)| l / a);
         println!(
             "{:<14} {:>9} {:>11} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8} {:>8}",

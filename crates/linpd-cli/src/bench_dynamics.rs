@@ -39,7 +39,15 @@ fn reset_peak_rss() {
 }
 
 /// Best wall time of `reps` runs of `steps` steps from `u0` at rest; returns it and the final `u`.
-fn time_run<A: Stiffness + ?Sized>(op: &A, mass: &LumpedMass, u0: &[f64], dt: f64, limit: f64, steps: usize, reps: usize) -> Result<(f64, Vec<f64>), String> {
+fn time_run<A: Stiffness + ?Sized>(
+    op: &A,
+    mass: &LumpedMass,
+    u0: &[f64],
+    dt: f64,
+    limit: f64,
+    steps: usize,
+    reps: usize,
+) -> Result<(f64, Vec<f64>), String> {
     let verlet = Verlet::new(op, mass.clone());
     let params = VerletParams { dt, steps, output_every: 0, limit: DtLimit::Given(limit), allow_unstable: false };
     let mut best = f64::MAX;
@@ -62,15 +70,24 @@ fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
 /// Runs the dynamics cases and prints a table; `bw` is the copy bandwidth (bytes/s).
 pub fn run(quick: bool, bw: f64) -> Result<Value, String> {
     // (name, dim, nodes per axis, horizon / h)
-    let cases: [(&str, usize, usize, usize); 2] =
-        if quick { [("1d-n1e5-m20", 1, 2_000, 5), ("3d-40-d3", 3, 8, 3)] } else { [("1d-n1e5-m20", 1, 100_000, 20), ("3d-40-d3", 3, 40, 3)] };
+    let cases: [(&str, usize, usize, usize); 2] = if quick {
+        [("1d-n1e5-m20", 1, 2_000, 5), ("3d-40-d3", 3, 8, 3)]
+    } else {
+        [("1d-n1e5-m20", 1, 100_000, 20), ("3d-40-d3", 3, 40, 3)]
+    };
     let (steps, reps) = if quick { (20, 2) } else { (200, 3) };
     let mut out = serde_json::Map::new();
     let mut rows = Vec::new();
     for (name, d, nodes, m) in cases {
         eprintln!("[bench] dynamics {name}: building");
         let h = 1.0;
-        let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: Normalization::Discrete, modulus: 1.0, plane: None, partial_volume: false };
+        let mm = Micromodulus {
+            kernel: Kernel::InverseDistance,
+            normalization: Normalization::Discrete,
+            modulus: 1.0,
+            plane: None,
+            partial_volume: false,
+        };
         let horizon = m as f64 * h;
         let last = (nodes - 1) as f64 * h;
         let grid = Grid::new(&vec![0.0; d], &vec![last; d], h, 0.0, Placement::Vertex).map_err(|e| e.to_string())?;
@@ -88,7 +105,13 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, String> {
                 "ratio_to_bound": per_step / bound, "peak_rss_bytes": rss, "max_rel_diff_u_vs_per_bond": diff});
             rows.push(format!(
                 "{:<12} {:<9} {:>9.3} {:>10.1} {:>11.3e} {:>9.3} {:>8.2} {:>8.3}",
-                name, key, per_step * 1e3, 1.0 / per_step, bonds as f64 / per_step, bytes / 1e6, per_step / bound,
+                name,
+                key,
+                per_step * 1e3,
+                1.0 / per_step,
+                bonds as f64 / per_step,
+                bytes / 1e6,
+                per_step / bound,
                 rss.map_or(f64::NAN, |b| b as f64 / 1073741824.0)
             ));
             ops.insert(key.to_string(), v);
@@ -116,7 +139,14 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, String> {
         let apply = |x: &[f64], y: &mut [f64]| sym_matvec(&a, x, y);
         eprintln!("[bench] dynamics {name}: assembled, {steps} steps x {reps}");
         let (t_as, u_as) = time_run(&apply, &mass, &u0, dt, limit, steps, reps)?;
-        entry("assembled", t_as, vec_bytes + 16.0 * nnz as f64 + 8.0 * n as f64, bonds, peak_rss_bytes(), Some(max_rel_diff(&u_as, &u_ref)));
+        entry(
+            "assembled",
+            t_as,
+            vec_bytes + 16.0 * nnz as f64 + 8.0 * n as f64,
+            bonds,
+            peak_rss_bytes(),
+            Some(max_rel_diff(&u_as, &u_ref)),
+        );
         drop(a);
 
         // Matrix-free stencil.
@@ -126,15 +156,23 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, String> {
         let (t_st, u_st) = time_run(&st, &mass, &u0, dt, limit, steps, reps)?;
         entry("stencil", t_st, vec_bytes, bonds, peak_rss_bytes(), Some(max_rel_diff(&u_st, &u_ref)));
 
-        out.insert(name.to_string(), json!({"dim": d, "nodes": n_nodes, "dofs": n, "bonds": bonds, "nnz_a": nnz,
-            "time_assembly": t_asm, "dt": dt, "dt_limit_gershgorin": limit, "operators": Value::Object(ops)}));
+        out.insert(
+            name.to_string(),
+            json!({"dim": d, "nodes": n_nodes, "dofs": n, "bonds": bonds, "nnz_a": nnz,
+            "time_assembly": t_asm, "dt": dt, "dt_limit_gershgorin": limit, "operators": Value::Object(ops)}),
+        );
     }
     println!("dynamics: velocity Verlet, {steps} steps (best of {reps}), dt = 0.5 x Gershgorin limit, copy bandwidth {:.2} GB/s", bw / 1e9);
-    println!("{:<12} {:<9} {:>9} {:>10} {:>11} {:>9} {:>8} {:>8}", "case", "operator", "ms/step", "steps/s", "bond upd/s", "MB/step", "t/bound", "RSS GiB");
+    println!(
+        "{:<12} {:<9} {:>9} {:>10} {:>11} {:>9} {:>8} {:>8}",
+        "case", "operator", "ms/step", "steps/s", "bond upd/s", "MB/step", "t/bound", "RSS GiB"
+    );
     for r in &rows {
         println!("{r}");
     }
-    Ok(json!({"steps": steps, "repetitions": reps, "copy_bandwidth_bytes_per_s": bw, "threads": rayon::current_num_threads(),
+    Ok(
+        json!({"steps": steps, "repetitions": reps, "copy_bandwidth_bytes_per_s": bw, "threads": rayon::current_num_threads(),
         "bandwidth_model": "13 vector streams of 8n bytes per step + assembled 16 B/entry + 8 B/column, per-bond 12 B/bond + 20 B/node, stencil vectors only",
-        "cases": Value::Object(out)}))
+        "cases": Value::Object(out)}),
+    )
 }

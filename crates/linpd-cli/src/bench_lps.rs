@@ -41,7 +41,8 @@ fn clamped_cube(grid: &Grid, nodes: usize) -> (DofMap, Vec<f64>) {
 
 /// Runs the LPS cases; `quick` shrinks them.
 pub fn run(quick: bool) -> Value {
-    let sizes: &[(usize, bool)] = if quick { &[(6, true), (8, false)] } else { &[(10, true), (20, true), (30, true), (40, false)] };
+    let sizes: &[(usize, bool)] =
+        if quick { &[(6, true), (8, false)] } else { &[(10, true), (20, true), (30, true), (40, false)] };
     let mut out = serde_json::Map::new();
     for &(nodes, assembled) in sizes {
         reset_peak_rss();
@@ -50,12 +51,25 @@ pub fn run(quick: bool) -> Value {
         let h = 1.0;
         let last = (nodes - 1) as f64 * h;
         let grid = Grid::new(&[0.0; 3], &[last; 3], h, 0.0, Placement::Vertex).expect("grid");
-        let params = LpsParams { K: 2.0, G: 0.5, horizon: 3.0 * h, influence: Influence::InverseDistance, partial_volume: false, plane: None };
+        let params = LpsParams {
+            K: 2.0,
+            G: 0.5,
+            horizon: 3.0 * h,
+            influence: Influence::InverseDistance,
+            partial_volume: false,
+            plane: None,
+        };
         let t = Instant::now();
         let model = LpsModel::new(&grid, &params).expect("model");
         let t_model = secs(t);
         // The bond-based operator of the same grid, for the nnz and apply comparisons.
-        let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: Normalization::Discrete, modulus: 2.0, plane: None, partial_volume: false };
+        let mm = Micromodulus {
+            kernel: Kernel::InverseDistance,
+            normalization: Normalization::Discrete,
+            modulus: 2.0,
+            plane: None,
+            partial_volume: false,
+        };
         let bond = BondOperator::on_grid(&grid, 3.0 * h, &mm, &Material::default()).expect("bond");
         let bond_nnz = bond.family().n_bonds() * 9 + grid.len() * 9;
         let n = 3 * grid.len();
@@ -89,7 +103,8 @@ pub fn run(quick: bool) -> Value {
                 let t_fd = secs(t);
                 let diff = fd.val().iter().zip(a.val()).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
                 let scale = a.val().iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                case["fd_tangent"] = json!({"time": t_fd, "ratio_to_analytic": t_fd / t_asm, "max_rel_difference": diff / scale});
+                case["fd_tangent"] =
+                    json!({"time": t_fd, "ratio_to_analytic": t_fd / t_asm, "max_rel_difference": diff / scale});
             }
             let (dofs, f) = clamped_cube(&grid, nodes);
             let ar = crate::bench_lps_reduce(&a, &dofs);
@@ -110,7 +125,10 @@ pub fn run(quick: bool) -> Value {
             // surface, so Jacobi would change little).
             let (dofs, f) = clamped_cube(&grid, nodes);
             let fr = dofs.gather(&f);
-            let op = linpd_problem::Reduced { dofs: &dofs, apply_full: |x: &[f64], y: &mut [f64]| model.apply_tangent(x, y) };
+            let op = linpd_problem::Reduced {
+                dofs: &dofs,
+                apply_full: |x: &[f64], y: &mut [f64]| model.apply_tangent(x, y),
+            };
             let mut u = vec![0.0; fr.len()];
             let t = Instant::now();
             let info = pcg(&op, &vec![1.0; fr.len()], &fr, &mut u, &CgParams { rtol: 1e-8, max_iter: 5_000 });

@@ -95,7 +95,10 @@ enum Command {
 }
 
 /// The rows and columns of `a` at free DOFs.
-pub(crate) fn bench_lps_reduce(a: &faer::sparse::SparseColMat<usize, f64>, dofs: &linpd_core::DofMap) -> faer::sparse::SparseColMat<usize, f64> {
+pub(crate) fn bench_lps_reduce(
+    a: &faer::sparse::SparseColMat<usize, f64>,
+    dofs: &linpd_core::DofMap,
+) -> faer::sparse::SparseColMat<usize, f64> {
     linpd_problem::reduce_to_free(a, dofs)
 }
 
@@ -181,7 +184,12 @@ fn run(cli: Cli) -> Result<(), String> {
                 run.max_shadow_drift(),
             );
             if !quiet {
-                println!("wrote {} files into {} (history.json, {} snapshots)", files.len(), dir.display(), run.snapshots.len());
+                println!(
+                    "wrote {} files into {} (history.json, {} snapshots)",
+                    files.len(),
+                    dir.display(),
+                    run.snapshots.len()
+                );
             }
             Ok(())
         }
@@ -218,7 +226,8 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Coarsen { pipeline, out, quiet } => {
-            let p = linpd_problem::Pipeline::from_path(&pipeline).map_err(|e| format!("{}: {e}", pipeline.display()))?;
+            let p =
+                linpd_problem::Pipeline::from_path(&pipeline).map_err(|e| format!("{}: {e}", pipeline.display()))?;
             let progress = |m: &str| {
                 if !quiet {
                     eprintln!("[linpd] {m}");
@@ -227,13 +236,25 @@ fn run(cli: Cli) -> Result<(), String> {
             let dir = out.unwrap_or_else(|| p.output_dir.clone());
             let r = p.run(&dir, &progress).map_err(|e| format!("{}: {e}", pipeline.display()))?;
             println!("{}: {} levels coarsened in {:.3} s", r.name, r.levels.len() - 1, r.seconds_coarsening);
-            println!("{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}", "level", "nodes", "bonds", "radius", "tail", "classes", "hit rate", "err shared");
+            println!(
+                "{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}",
+                "level", "nodes", "bonds", "radius", "tail", "classes", "hit rate", "err shared"
+            );
             for l in &r.levels {
-                let (radius, tail, classes, hit) = l.step.as_ref().map_or(("-".into(), "-".into(), "-".into(), "-".into()), |s| {
-                    (format!("{:.4e}", s.radius), format!("{:.2e}", s.tail), s.classes.to_string(), format!("{:.4}", s.hit_rate))
-                });
+                let (radius, tail, classes, hit) =
+                    l.step.as_ref().map_or(("-".into(), "-".into(), "-".into(), "-".into()), |s| {
+                        (
+                            format!("{:.4e}", s.radius),
+                            format!("{:.2e}", s.tail),
+                            s.classes.to_string(),
+                            format!("{:.4}", s.hit_rate),
+                        )
+                    });
                 let err = l.error_shared.map_or("-".into(), |e| format!("{e:.3e}"));
-                println!("{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}", l.level, l.nodes, l.bonds, radius, tail, classes, hit, err);
+                println!(
+                    "{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}",
+                    l.level, l.nodes, l.bonds, radius, tail, classes, hit, err
+                );
             }
             println!("wrote {}", dir.display());
             Ok(())
@@ -244,7 +265,10 @@ fn run(cli: Cli) -> Result<(), String> {
                 for (n, d) in study_blend::STUDIES {
                     println!("{n:<22} {d}");
                 }
-                println!("{:<22} LPS tension bar vs classical elasticity, with and without surface correction", "lps-tension-bar");
+                println!(
+                    "{:<22} LPS tension bar vs classical elasticity, with and without surface correction",
+                    "lps-tension-bar"
+                );
                 for (n, d) in study_dynamics::STUDIES {
                     println!("{n:<22} {d}");
                 }

@@ -18,7 +18,8 @@ pub fn solution_plots(p: &Problem, s: &Solution, dir: &Path) -> Result<Vec<PathB
             let first = s.x[nx * ny * k0];
             let last = s.x[nx * ny * k0 + nx * ny - 1];
             let h = p.grid.spacing();
-            let title = if d == 3 { format!("{}: |u| on z = {:.4}", s.name, first[2]) } else { format!("{}: |u|", s.name) };
+            let title =
+                if d == 3 { format!("{}: |u| on z = {:.4}", s.name, first[2]) } else { format!("{}: |u|", s.name) };
             let map = ScalarMap {
                 title,
                 x_label: "x".into(),
@@ -49,7 +50,14 @@ pub fn profile_1d(s: &Solution, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     if !layer.x.is_empty() {
         series.push(layer);
     }
-    let plot = LinePlot { title: format!("{}: displacement", s.name), x_label: "x".into(), y_label: "u".into(), series, log_x: false, log_y: false };
+    let plot = LinePlot {
+        title: format!("{}: displacement", s.name),
+        x_label: "x".into(),
+        y_label: "u".into(),
+        series,
+        log_x: false,
+        log_y: false,
+    };
     line_plot(&plot, &dir.join("u"))
 }
 
@@ -61,7 +69,14 @@ pub fn dynamics_plots(r: &DynamicsRun, dir: &Path) -> Result<Vec<PathBuf>, PlotE
         Series::new("potential", t.clone(), r.energies.iter().map(|e| e.potential).collect()),
         Series::new("total", t.clone(), r.energies.iter().map(|e| e.total()).collect()),
     ];
-    let plot = LinePlot { title: format!("{}: energies", r.name), x_label: "t".into(), y_label: "energy".into(), series, log_x: false, log_y: false };
+    let plot = LinePlot {
+        title: format!("{}: energies", r.name),
+        x_label: "t".into(),
+        y_label: "energy".into(),
+        series,
+        log_x: false,
+        log_y: false,
+    };
     let mut files = line_plot(&plot, &dir.join("energy"))?;
     if r.dim == 1 && r.snapshots.len() >= 2 {
         let nx = r.x.len();

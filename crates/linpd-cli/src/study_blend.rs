@@ -2,7 +2,9 @@
 //! (2013), section 5, Figs. 7-14, plus a speed-versus-error map. Each study writes `data.json`,
 //! PNG and SVG plots into its directory and prints a table.
 
-use linpd_blend::{ce_exact_point_load, solve_model, BlendParams, BlendSolution, BlendSolver, Blending, Load, ModelKind, Regions};
+use linpd_blend::{
+    ce_exact_point_load, solve_model, BlendParams, BlendSolution, BlendSolver, Blending, Load, ModelKind, Regions,
+};
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
 use serde_json::{json, Value};
 use std::path::Path;
@@ -51,7 +53,15 @@ fn write(dir: &Path, data: &Value) -> Result<(), String> {
     std::fs::write(dir.join("data.json"), serde_json::to_string_pretty(data).unwrap()).map_err(err)
 }
 
-fn plot(dir: &Path, name: &str, title: &str, xl: &str, yl: &str, series: Vec<Series>, log_y: bool) -> Result<(), String> {
+fn plot(
+    dir: &Path,
+    name: &str,
+    title: &str,
+    xl: &str,
+    yl: &str,
+    series: Vec<Series>,
+    log_y: bool,
+) -> Result<(), String> {
     let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: false, log_y };
     line_plot(&p, &dir.join(name)).map(|_| ()).map_err(err)
 }
@@ -80,7 +90,10 @@ pub fn run(name: &str, dir: &Path, dense: bool) -> Result<(), String> {
         "blend-load-location" => load_location(dir),
         "blend-speedup" => speedup(dir, dense),
         "blend-speed-vs-error" => speed_vs_error(dir),
-        other => Err(format!("unknown study `{other}`; available: {}", STUDIES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))),
+        other => Err(format!(
+            "unknown study `{other}`; available: {}",
+            STUDIES.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
+        )),
     }
 }
 
@@ -89,14 +102,20 @@ fn patch(dir: &Path) -> Result<(), String> {
     let mut p = BlendParams::table3(Blending::Cubic);
     p.regions = Regions { l1: 0.35, l2: 0.4, l3: 0.6, l4: 0.65 };
     p.dx = 0.0125;
-    let mut cases: Vec<(String, ModelKind, Blending)> = vec![("CE".into(), ModelKind::PureCe, Blending::Cubic), ("PD".into(), ModelKind::PurePd, Blending::Cubic)];
+    let mut cases: Vec<(String, ModelKind, Blending)> =
+        vec![("CE".into(), ModelKind::PureCe, Blending::Cubic), ("PD".into(), ModelKind::PurePd, Blending::Cubic)];
     cases.extend(blendings().into_iter().map(|(n, b)| (format!("blended {n}"), ModelKind::Blended, b)));
     let (mut rows, mut prof, mut fluct) = (Vec::new(), Vec::new(), Vec::new());
     println!("{:<18} {:>12} {:>12}", "model", "spread (30)", "solver");
     for (label, kind, b) in cases {
         p.blending = b;
         let s = solve_model(&p, kind, 0.0, 1.0, &[], BlendSolver::Lu).map_err(err)?;
-        let (xs, strain): (Vec<f64>, Vec<f64>) = s.x.windows(2).zip(s.u.windows(2)).filter(|(x, _)| x[0] >= -1e-12 && x[1] <= 1.0 + 1e-12).map(|(x, u)| (x[0], (u[1] - u[0]) / (x[1] - x[0]))).unzip();
+        let (xs, strain): (Vec<f64>, Vec<f64>) =
+            s.x.windows(2)
+                .zip(s.u.windows(2))
+                .filter(|(x, _)| x[0] >= -1e-12 && x[1] <= 1.0 + 1e-12)
+                .map(|(x, u)| (x[0], (u[1] - u[0]) / (x[1] - x[0])))
+                .unzip();
         let mx = strain.iter().fold(f64::MIN, |a, v| a.max(v.abs()));
         let mn = strain.iter().fold(f64::MAX, |a, v| a.min(v.abs()));
         println!("{label:<18} {:>12.3e} {:>12}", mx - mn, s.report.solver);
@@ -118,7 +137,11 @@ fn point_load(dir: &Path) -> Result<(), String> {
     let exact: Vec<f64> = xs.iter().map(|&x| ce_exact_point_load(x, 0.0, 1.0, 0.0, 0.0, 0.5, 1.0, 1.0)).collect();
     let pd_on: Vec<f64> = xs.iter().map(|&x| pd.at(x)).collect();
     let mut out = Vec::new();
-    let mut prof = vec![series("PD", xs.clone(), pd_on.clone(), SeriesStyle::Line), series("CE exact", xs.clone(), exact.clone(), SeriesStyle::Line), series("CE", xs.clone(), ce.u.clone(), SeriesStyle::Markers)];
+    let mut prof = vec![
+        series("PD", xs.clone(), pd_on.clone(), SeriesStyle::Line),
+        series("CE exact", xs.clone(), exact.clone(), SeriesStyle::Line),
+        series("CE", xs.clone(), ce.u.clone(), SeriesStyle::Markers),
+    ];
     let mut errs = Vec::new();
     let (ei, e2, _) = errors(&pd, &ce);
     println!("{:<10} {:>12} {:>12}", "model", "e_r,inf (33)", "e_r,2 (34)");
@@ -137,19 +160,28 @@ fn point_load(dir: &Path) -> Result<(), String> {
     }
     write(dir, &json!({"study": "blend-point-load", "x": xs, "u_pd": pd_on, "u_ce_exact": exact, "models": out}))?;
     plot(dir, "fig9_profiles", "Point load (Table 3): PD, CE and blended", "x", "u", prof.clone(), false)?;
-    let zoom: Vec<Series> = prof.into_iter().map(|mut s| {
-        let keep: Vec<usize> = (0..s.x.len()).filter(|&i| (0.4..=0.6).contains(&s.x[i])).collect();
-        s.x = keep.iter().map(|&i| s.x[i]).collect();
-        s.y = keep.iter().map(|&i| s.y[i]).collect();
-        s
-    }).collect();
+    let zoom: Vec<Series> = prof
+        .into_iter()
+        .map(|mut s| {
+            let keep: Vec<usize> = (0..s.x.len()).filter(|&i| (0.4..=0.6).contains(&s.x[i])).collect();
+            s.x = keep.iter().map(|&i| s.x[i]).collect();
+            s.y = keep.iter().map(|&i| s.y[i]).collect();
+            s
+        })
+        .collect();
     plot(dir, "fig9_profiles_zoom", "Point load: close-up", "x", "u", zoom, false)?;
     plot(dir, "fig10_error_profiles", "|u_PD - u| for each blending function", "x", "|u_PD - u|", errs, true)
 }
 
 /// Shared sweep: for each horizon (eps, dx), solve PD once and blended models for each
 /// geometry in `geometries(eps, dx)`; record e_r,2.
-fn sweep(dir: &Path, study: &str, xlabel: &str, geometries: impl Fn(f64, f64) -> Vec<(f64, Regions)>, load_at: f64) -> Result<(), String> {
+fn sweep(
+    dir: &Path,
+    study: &str,
+    xlabel: &str,
+    geometries: impl Fn(f64, f64) -> Vec<(f64, Regions)>,
+    load_at: f64,
+) -> Result<(), String> {
     let mut data = Vec::new();
     for (eps, dx) in [(0.05, 0.0005), (0.025, 0.00025)] {
         let mut p = BlendParams::table3(Blending::Cubic);
@@ -171,15 +203,37 @@ fn sweep(dir: &Path, study: &str, xlabel: &str, geometries: impl Fn(f64, f64) ->
                 xs.push(*param);
                 es.push(errors(&pd, &s).1);
             }
-            println!("eps = {eps}: {name:<9} e_r,2 from {:.3e} (at {:.4}) to {:.3e} (at {:.4})", es[0], xs[0], es[es.len() - 1], xs[xs.len() - 1]);
+            println!(
+                "eps = {eps}: {name:<9} e_r,2 from {:.3e} (at {:.4}) to {:.3e} (at {:.4})",
+                es[0],
+                xs[0],
+                es[es.len() - 1],
+                xs[xs.len() - 1]
+            );
             all.push(json!({"blending": name, "param": xs, "e_2": es}));
             let (x, y) = positive(&xs, &es);
             plots.push(series(name, x, y, SeriesStyle::LineMarkers));
         }
         let tag = if eps > 0.04 { "eps1" } else { "eps2" };
-        plot(dir, &format!("{study}_{tag}"), &format!("e_r,2 vs {xlabel} (eps = {eps}, dx = {dx})"), xlabel, "e_r,2", plots, true)?;
+        plot(
+            dir,
+            &format!("{study}_{tag}"),
+            &format!("e_r,2 vs {xlabel} (eps = {eps}, dx = {dx})"),
+            xlabel,
+            "e_r,2",
+            plots,
+            true,
+        )?;
         let diff: Vec<f64> = ce.x.iter().zip(&ce.u).map(|(x, u)| pd.at(*x) - u).collect();
-        plot(dir, &format!("pd_minus_ce_{tag}"), &format!("u_PD - u_CE (eps = {eps})"), "x", "u_PD - u_CE", vec![series("u_PD - u_CE", ce.x.clone(), diff, SeriesStyle::Line)], false)?;
+        plot(
+            dir,
+            &format!("pd_minus_ce_{tag}"),
+            &format!("u_PD - u_CE (eps = {eps})"),
+            "x",
+            "u_PD - u_CE",
+            vec![series("u_PD - u_CE", ce.x.clone(), diff, SeriesStyle::Line)],
+            false,
+        )?;
         data.push(json!({"eps": eps, "dx": dx, "curves": all}));
     }
     write(dir, &json!({"study": study, "sweeps": data}))
@@ -188,38 +242,56 @@ fn sweep(dir: &Path, study: &str, xlabel: &str, geometries: impl Fn(f64, f64) ->
 fn pd_size(dir: &Path) -> Result<(), String> {
     // Section 5.2.1: bridges of 0.1 each, PD region centred at the load, size varied (the paper
     // steps by 2 dx; we step by 20 dx to keep the run short).
-    sweep(dir, "blend-pd-size", "|Omega_PD|", |_eps, dx| {
-        let mut g = Vec::new();
-        let mut k = 1;
-        loop {
-            let s = 20.0 * dx * k as f64;
-            if s > 0.6 + 1e-12 {
-                break;
+    sweep(
+        dir,
+        "blend-pd-size",
+        "|Omega_PD|",
+        |_eps, dx| {
+            let mut g = Vec::new();
+            let mut k = 1;
+            loop {
+                let s = 20.0 * dx * k as f64;
+                if s > 0.6 + 1e-12 {
+                    break;
+                }
+                g.push((
+                    s,
+                    Regions { l1: 0.5 - s / 2.0 - 0.1, l2: 0.5 - s / 2.0, l3: 0.5 + s / 2.0, l4: 0.5 + s / 2.0 + 0.1 },
+                ));
+                k += 1;
             }
-            g.push((s, Regions { l1: 0.5 - s / 2.0 - 0.1, l2: 0.5 - s / 2.0, l3: 0.5 + s / 2.0, l4: 0.5 + s / 2.0 + 0.1 }));
-            k += 1;
-        }
-        g
-    }, 0.5)
+            g
+        },
+        0.5,
+    )
 }
 
 fn bridge_size(dir: &Path) -> Result<(), String> {
     // Section 5.2.2: |Omega_PD| = 2 eps - 6 dx, bridge half-size |Omega_b|/2 varied (the paper
     // steps by dx; we step by 10 dx).
-    sweep(dir, "blend-bridge-size", "|Omega_b|/2", |eps, dx| {
-        let s = 2.0 * eps - 6.0 * dx;
-        let mut g = Vec::new();
-        let mut k = 1;
-        loop {
-            let b = 10.0 * dx * k as f64;
-            if b > 0.3 + 1e-12 {
-                break;
+    sweep(
+        dir,
+        "blend-bridge-size",
+        "|Omega_b|/2",
+        |eps, dx| {
+            let s = 2.0 * eps - 6.0 * dx;
+            let mut g = Vec::new();
+            let mut k = 1;
+            loop {
+                let b = 10.0 * dx * k as f64;
+                if b > 0.3 + 1e-12 {
+                    break;
+                }
+                g.push((
+                    b,
+                    Regions { l1: 0.5 - s / 2.0 - b, l2: 0.5 - s / 2.0, l3: 0.5 + s / 2.0, l4: 0.5 + s / 2.0 + b },
+                ));
+                k += 1;
             }
-            g.push((b, Regions { l1: 0.5 - s / 2.0 - b, l2: 0.5 - s / 2.0, l3: 0.5 + s / 2.0, l4: 0.5 + s / 2.0 + b }));
-            k += 1;
-        }
-        g
-    }, 0.5)
+            g
+        },
+        0.5,
+    )
 }
 
 fn load_location(dir: &Path) -> Result<(), String> {
@@ -252,7 +324,15 @@ fn load_location(dir: &Path) -> Result<(), String> {
         curves.push(json!({"blending": name, "x_p": locations, "e_2": es}));
     }
     write(dir, &json!({"study": "blend-load-location", "curves": curves}))?;
-    plot(dir, "fig13_error_vs_load_location", "e_r,2 vs point-load location (eps = 0.05, dx = 0.005)", "x_p", "e_r,2", plots, true)
+    plot(
+        dir,
+        "fig13_error_vs_load_location",
+        "e_r,2 vs point-load location (eps = 0.05, dx = 0.005)",
+        "x_p",
+        "e_r,2",
+        plots,
+        true,
+    )
 }
 
 /// Fig. 14 geometry: dx = 1e-4, eps = 0.05, |Omega_PD| = 6 eps, bridges 3 dx.
@@ -274,8 +354,16 @@ fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
     let p = fig14_params(Blending::Cubic);
     let (pd, t_pd) = timed(&p, ModelKind::PurePd, &load, BlendSolver::Auto)?;
     let t_pd_dense = if dense { Some(timed(&p, ModelKind::PurePd, &load, BlendSolver::Dense)?.1) } else { None };
-    println!("PD: {} unknowns, {t_pd:.3} s ({}){}", pd.report.n, pd.report.solver, t_pd_dense.map_or(String::new(), |t| format!(", dense LU {t:.1} s")));
-    println!("{:>6} {:>8} {:>12} {:>10} {:>9} {:>12} {:>22}", "ratio", "nodes", "e_w (35)", "time s", "speedup", "dense speedup", "solver");
+    println!(
+        "PD: {} unknowns, {t_pd:.3} s ({}){}",
+        pd.report.n,
+        pd.report.solver,
+        t_pd_dense.map_or(String::new(), |t| format!(", dense LU {t:.1} s"))
+    );
+    println!(
+        "{:>6} {:>8} {:>12} {:>10} {:>9} {:>12} {:>22}",
+        "ratio", "nodes", "e_w (35)", "time s", "speedup", "dense speedup", "solver"
+    );
     let (mut rows, mut rs, mut ews, mut sps, mut dsps) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut blended_solution = None;
     for k in 0..=9 {
@@ -286,7 +374,13 @@ fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
         let ew = errors(&pd, &s).2;
         let td = if dense { Some(timed(&q, ModelKind::Blended, &load, BlendSolver::Dense)?.1) } else { None };
         let dsp = t_pd_dense.zip(td).map(|(a, b)| a / b);
-        println!("{ratio:>6} {:>8} {ew:>12.3e} {t:>10.3} {:>9.2} {:>12} {:>22}", s.x.len(), t_pd / t, dsp.map_or("-".into(), |v| format!("{v:.2}")), s.report.solver);
+        println!(
+            "{ratio:>6} {:>8} {ew:>12.3e} {t:>10.3} {:>9.2} {:>12} {:>22}",
+            s.x.len(),
+            t_pd / t,
+            dsp.map_or("-".into(), |v| format!("{v:.2}")),
+            s.report.solver
+        );
         rows.push(json!({"ratio": ratio, "nodes": s.x.len(), "e_w": ew, "time": t, "speedup": t_pd / t, "time_dense": td, "speedup_dense": dsp, "solver": s.report.solver, "timings": s.report.timings}));
         rs.push(ratio);
         ews.push(ew);
@@ -300,13 +394,46 @@ fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
     }
     let b = blended_solution.unwrap();
     let exact: Vec<f64> = pd.x.iter().map(|&x| ce_exact_point_load(x, 0.0, 1.0, 0.0, 0.0, 0.5, 1.0, 1.0)).collect();
-    write(dir, &json!({"study": "blend-speedup", "pd_time": t_pd, "pd_time_dense": t_pd_dense, "pd_solver": pd.report.solver, "rows": rows}))?;
+    write(
+        dir,
+        &json!({"study": "blend-speedup", "pd_time": t_pd, "pd_time_dense": t_pd_dense, "pd_solver": pd.report.solver, "rows": rows}),
+    )?;
     let inside = |x: &f64| (0.0..=1.0).contains(x);
-    let (px, pu): (Vec<f64>, Vec<f64>) = pd.x.iter().zip(&pd.u).filter(|(x, _)| inside(x)).map(|(a, b)| (*a, *b)).unzip();
+    let (px, pu): (Vec<f64>, Vec<f64>) =
+        pd.x.iter().zip(&pd.u).filter(|(x, _)| inside(x)).map(|(a, b)| (*a, *b)).unzip();
     let ex: Vec<f64> = pd.x.iter().zip(&exact).filter(|(x, _)| inside(x)).map(|(_, e)| *e).collect();
-    plot(dir, "fig14a_pd_vs_ce", "PD vs CE exact (dx = 1e-4, eps = 0.05)", "x", "u", vec![series("PD", px.clone(), pu.clone(), SeriesStyle::Line), series("CE exact", px.clone(), ex, SeriesStyle::Line)], false)?;
-    plot(dir, "fig14b_pd_vs_blended", "PD vs blended (cubic, CE mesh ratio 512)", "x", "u", vec![series("PD", px, pu, SeriesStyle::Line), series("blended", b.x.clone(), b.u.clone(), SeriesStyle::Markers)], false)?;
-    loglog(dir, "fig14c_error_vs_ratio", "Weighted relative error (35) vs CE mesh ratio", "dx_CE / dx", "e_w", vec![series("cubic", rs.clone(), ews, SeriesStyle::LineMarkers)])?;
+    plot(
+        dir,
+        "fig14a_pd_vs_ce",
+        "PD vs CE exact (dx = 1e-4, eps = 0.05)",
+        "x",
+        "u",
+        vec![
+            series("PD", px.clone(), pu.clone(), SeriesStyle::Line),
+            series("CE exact", px.clone(), ex, SeriesStyle::Line),
+        ],
+        false,
+    )?;
+    plot(
+        dir,
+        "fig14b_pd_vs_blended",
+        "PD vs blended (cubic, CE mesh ratio 512)",
+        "x",
+        "u",
+        vec![
+            series("PD", px, pu, SeriesStyle::Line),
+            series("blended", b.x.clone(), b.u.clone(), SeriesStyle::Markers),
+        ],
+        false,
+    )?;
+    loglog(
+        dir,
+        "fig14c_error_vs_ratio",
+        "Weighted relative error (35) vs CE mesh ratio",
+        "dx_CE / dx",
+        "e_w",
+        vec![series("cubic", rs.clone(), ews, SeriesStyle::LineMarkers)],
+    )?;
     let mut sp = vec![series("sparse, best solvers", rs.clone(), sps, SeriesStyle::LineMarkers)];
     if dsps.len() == rs.len() {
         sp.push(series("dense LU (MATLAB-like)", rs.clone(), dsps, SeriesStyle::LineMarkers));
@@ -321,7 +448,10 @@ fn speed_vs_error(dir: &Path) -> Result<(), String> {
     let (ce, t_ce) = timed(&p, ModelKind::PureCe, &load, BlendSolver::Auto)?;
     let e_ce = errors(&pd, &ce).1;
     let mut plots = Vec::new();
-    let mut data = vec![json!({"model": "PD", "time": t_pd, "e_2": 0.0, "solver": pd.report.solver}), json!({"model": "CE", "time": t_ce, "e_2": e_ce, "solver": ce.report.solver})];
+    let mut data = vec![
+        json!({"model": "PD", "time": t_pd, "e_2": 0.0, "solver": pd.report.solver}),
+        json!({"model": "CE", "time": t_ce, "e_2": e_ce, "solver": ce.report.solver}),
+    ];
     println!("PD {t_pd:.3} s ({}); CE {t_ce:.4} s, e_r,2 = {e_ce:.3e}", pd.report.solver);
     let mut ymin = e_ce;
     for (name, b) in blendings() {
@@ -336,12 +466,30 @@ fn speed_vs_error(dir: &Path) -> Result<(), String> {
             ts.push(t);
             es.push(e);
         }
-        println!("blended {name:<9}: time {:.3}..{:.3} s, e_r,2 {:.3e}..{:.3e}", ts.iter().cloned().fold(f64::MAX, f64::min), ts.iter().cloned().fold(0.0, f64::max), es.iter().cloned().fold(f64::MAX, f64::min), es.iter().cloned().fold(0.0, f64::max));
+        println!(
+            "blended {name:<9}: time {:.3}..{:.3} s, e_r,2 {:.3e}..{:.3e}",
+            ts.iter().cloned().fold(f64::MAX, f64::min),
+            ts.iter().cloned().fold(0.0, f64::max),
+            es.iter().cloned().fold(f64::MAX, f64::min),
+            es.iter().cloned().fold(0.0, f64::max)
+        );
         plots.push(series(&format!("blended {name} (ratios 1..512)"), ts, es, SeriesStyle::LineMarkers));
     }
     plots.push(series("pure CE", vec![t_ce], vec![e_ce], SeriesStyle::Markers));
     // Full PD has zero error against itself: draw its time as a vertical line.
-    plots.push(series("full PD (reference) time", vec![t_pd, t_pd], vec![ymin.max(1e-16) / 2.0, e_ce * 2.0], SeriesStyle::Line));
+    plots.push(series(
+        "full PD (reference) time",
+        vec![t_pd, t_pd],
+        vec![ymin.max(1e-16) / 2.0, e_ce * 2.0],
+        SeriesStyle::Line,
+    ));
     write(dir, &json!({"study": "blend-speed-vs-error", "points": data}))?;
-    loglog(dir, "speed_vs_error", "Point load (dx = 1e-4, eps = 0.05): wall time vs e_r,2 against full PD", "wall time (s)", "e_r,2", plots)
+    loglog(
+        dir,
+        "speed_vs_error",
+        "Point load (dx = 1e-4, eps = 0.05): wall time vs e_r,2 against full PD",
+        "wall time (s)",
+        "e_r,2",
+        plots,
+    )
 }

@@ -40,7 +40,15 @@ fn write(dir: &Path, data: &Value) -> Result<(), String> {
     std::fs::write(dir.join("data.json"), serde_json::to_string_pretty(data).unwrap()).map_err(err)
 }
 
-fn plot(dir: &Path, name: &str, title: &str, xl: &str, yl: &str, series: Vec<Series>, log_y: bool) -> Result<(), String> {
+fn plot(
+    dir: &Path,
+    name: &str,
+    title: &str,
+    xl: &str,
+    yl: &str,
+    series: Vec<Series>,
+    log_y: bool,
+) -> Result<(), String> {
     let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: false, log_y };
     line_plot(&p, &dir.join(name)).map(|_| ()).map_err(err)
 }
@@ -64,7 +72,10 @@ pub fn run(name: &str, dir: &Path) -> Result<(), String> {
         "coarsen-composite" => composite_study(dir),
         "coarsen-defect" => defect_study(dir),
         "coarsen-speed-vs-error" => speed_vs_error(dir),
-        other => Err(format!("unknown study `{other}`; available: {}", STUDIES.iter().map(|s| s.0).collect::<Vec<_>>().join(", "))),
+        other => Err(format!(
+            "unknown study `{other}`; available: {}",
+            STUDIES.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
+        )),
     }
 }
 
@@ -88,7 +99,8 @@ fn chain(m0: &LevelModel, k1: usize, k2: usize, r1: f64, r2: f64) -> Result<(Coa
 type Fields = (Vec<f64>, Vec<f64>, Vec<f64>);
 
 fn solve(m: &LevelModel, fixed: &[(usize, f64)], loads: &[(usize, f64)]) -> Result<Fields, String> {
-    let local = |p: usize| m.level0().iter().position(|&q| q == p).ok_or(format!("level-0 node {p} is not in the level"));
+    let local =
+        |p: usize| m.level0().iter().position(|&q| q == p).ok_or(format!("level-0 node {p} is not in the level"));
     let mut f = vec![0.0; m.len()];
     for &(p, v) in loads {
         f[local(p)?] += v;
@@ -120,7 +132,10 @@ fn tent_study(dir: &Path) -> Result<(), String> {
     let (s0, c0) = row(&m0, 100);
     let mut out = vec![json!({"level": 0, "x": 0.5, "radius": R0, "offset": s0, "c": c0})];
     let mut plots = vec![series("C^0 (x = 0.5)", s0, c0, SeriesStyle::LineMarkers)];
-    println!("{:>6} {:>11} {:>6} {:>12} {:>12} {:>10} {:>10}", "level", "radius", "x", "C(x, x+h_m)", "M/M^0 - 1", "tail", "bonds");
+    println!(
+        "{:>6} {:>11} {:>6} {:>12} {:>12} {:>10} {:>10}",
+        "level", "radius", "x", "C(x, x+h_m)", "M/M^0 - 1", "tail", "bonds"
+    );
     let m_ref = m0.second_moment(100);
     for (r1, r2) in [RADII[0], RADII[3]] {
         let (c1, c2) = chain(&m0, 4, 2, r1, r2)?;
@@ -129,15 +144,37 @@ fn tent_study(dir: &Path) -> Result<(), String> {
             let i = c.model.level0().iter().position(|&q| q == p).unwrap();
             let moment = c.model.second_moment(i) / m_ref - 1.0;
             let near = s.iter().zip(&v).find(|(o, _)| **o > 0.0).map_or(0.0, |t| *t.1);
-            println!("{lvl:>6} {:>11} {x:>6} {near:>12.4e} {moment:>+12.3e} {:>10.2e} {:>10}", radius_label(r), c.report.tail, s.len());
+            println!(
+                "{lvl:>6} {:>11} {x:>6} {near:>12.4e} {moment:>+12.3e} {:>10.2e} {:>10}",
+                radius_label(r),
+                c.report.tail,
+                s.len()
+            );
             out.push(json!({"level": lvl, "x": x, "radius": r, "offset": s.clone(), "c": v.clone(), "moment_rel_error": moment, "report": c.report}));
             // the plot stops at |q - x| = 0.25 (the whole-body rows are < 1e-2 of their peak beyond)
-            let (ps, pv): (Vec<f64>, Vec<f64>) = s.iter().zip(&v).filter(|(o, _)| o.abs() <= 0.25 + 1e-9).map(|(a, b)| (*a, *b)).unzip();
-            plots.push(series(&format!("C^{lvl} (x = {x}), r^{lvl} = {}", radius_label(r)), ps, pv, if r >= WHOLE { SeriesStyle::Line } else { SeriesStyle::LineMarkers }));
+            let (ps, pv): (Vec<f64>, Vec<f64>) =
+                s.iter().zip(&v).filter(|(o, _)| o.abs() <= 0.25 + 1e-9).map(|(a, b)| (*a, *b)).unzip();
+            plots.push(series(
+                &format!("C^{lvl} (x = {x}), r^{lvl} = {}", radius_label(r)),
+                ps,
+                pv,
+                if r >= WHOLE { SeriesStyle::Line } else { SeriesStyle::LineMarkers },
+            ));
         }
     }
-    write(dir, &json!({"study": "coarsen-tent", "spacing": H, "r0": R0, "levels": "every 4th, then every 2nd (201 -> 51 -> 26)", "rows": out}))?;
-    plot(dir, "fig3_micromodulus", "Fig. 3: tent kernel coarsened (201 -> 51 -> 26 nodes), rows at the centre", "bond distance q - x", "C(x, q)", plots, false)
+    write(
+        dir,
+        &json!({"study": "coarsen-tent", "spacing": H, "r0": R0, "levels": "every 4th, then every 2nd (201 -> 51 -> 26)", "rows": out}),
+    )?;
+    plot(
+        dir,
+        "fig3_micromodulus",
+        "Fig. 3: tent kernel coarsened (201 -> 51 -> 26 nodes), rows at the centre",
+        "bond distance q - x",
+        "C(x, q)",
+        plots,
+        false,
+    )
 }
 
 // ----------------------------------------------------------------------------------------------
@@ -223,16 +260,38 @@ fn composite_study(dir: &Path) -> Result<(), String> {
         for (lvl, c, r) in [(1, &c1, r1), (2, &c2, r2)] {
             let (x, u, by) = solve(&c.model, &fixed, &loads)?;
             let s = stretch(&by);
-            println!("{lvl:>6} {:>11} {:>11} {s:>14.6e} {:>+14.3e} {:>+10.3e}", radius_label(r1), radius_label(r2), s / target - 1.0, s / s0 - 1.0);
+            println!(
+                "{lvl:>6} {:>11} {:>11} {s:>14.6e} {:>+14.3e} {:>+10.3e}",
+                radius_label(r1),
+                radius_label(r2),
+                s / target - 1.0,
+                s / s0 - 1.0
+            );
             table.push(json!({"level": lvl, "r1": r1, "r2": r2, "radius": r, "stretch": s, "rel_to_target": s / target - 1.0, "rel_to_level0": s / s0 - 1.0, "tail": c.report.tail}));
             if r1 == RADII[0].0 {
-                plots.push(series(&format!("level {lvl} (r^{lvl} = {r})"), x.clone(), u.clone(), SeriesStyle::LineMarkers));
+                plots.push(series(
+                    &format!("level {lvl} (r^{lvl} = {r})"),
+                    x.clone(),
+                    u.clone(),
+                    SeriesStyle::LineMarkers,
+                ));
                 fields.push(json!({"level": lvl, "radius": r, "x": x, "u": u}));
             }
         }
     }
-    write(dir, &json!({"study": "coarsen-composite", "e_eff": e_eff, "force": force, "stretch_target": target, "stretch_between": [0.2, 0.8], "stretch": table, "fields": fields}))?;
-    plot(dir, "fig5_displacement", "Fig. 5: striped composite, levels 0, 1, 2 (r^1 = 0.1, r^2 = 0.2)", "x", "u", plots, false)
+    write(
+        dir,
+        &json!({"study": "coarsen-composite", "e_eff": e_eff, "force": force, "stretch_target": target, "stretch_between": [0.2, 0.8], "stretch": table, "fields": fields}),
+    )?;
+    plot(
+        dir,
+        "fig5_displacement",
+        "Fig. 5: striped composite, levels 0, 1, 2 (r^1 = 0.1, r^2 = 0.2)",
+        "x",
+        "u",
+        plots,
+        false,
+    )
 }
 
 // ----------------------------------------------------------------------------------------------
@@ -250,10 +309,24 @@ fn defect_study(dir: &Path) -> Result<(), String> {
     let jump_shared = |u: &[f64]| u[108] - u[99];
     let adjacent = [(99, 101), (99, 102), (99, 108)];
     let j0 = jump_shared(&by0);
-    println!("{:>6} {:>11} {:>11} {:>16} {:>11} {:>22} {:>14}", "level", "r^1", "r^2", "u(.54)-u(.495)", "vs level 0", "adjacent-pair jump", "shared err");
-    println!("{:>6} {:>11} {:>11} {j0:>16.6e} {:>11} {:>22} {:>14}", 0, "-", "-", "-", format!("{:.5e} (.495-.505)", by0[101] - by0[99]), "-");
-    let mut table = vec![json!({"level": 0, "jump_shared": j0, "jump_adjacent": by0[101] - by0[99], "adjacent": [0.495, 0.505]})];
-    let window = |x: &[f64], u: &[f64]| -> (Vec<f64>, Vec<f64>) { x.iter().zip(u).filter(|(x, _)| (0.35 - 1e-9..=0.65 + 1e-9).contains(*x)).map(|(a, b)| (*a, *b)).unzip() };
+    println!(
+        "{:>6} {:>11} {:>11} {:>16} {:>11} {:>22} {:>14}",
+        "level", "r^1", "r^2", "u(.54)-u(.495)", "vs level 0", "adjacent-pair jump", "shared err"
+    );
+    println!(
+        "{:>6} {:>11} {:>11} {j0:>16.6e} {:>11} {:>22} {:>14}",
+        0,
+        "-",
+        "-",
+        "-",
+        format!("{:.5e} (.495-.505)", by0[101] - by0[99]),
+        "-"
+    );
+    let mut table =
+        vec![json!({"level": 0, "jump_shared": j0, "jump_adjacent": by0[101] - by0[99], "adjacent": [0.495, 0.505]})];
+    let window = |x: &[f64], u: &[f64]| -> (Vec<f64>, Vec<f64>) {
+        x.iter().zip(u).filter(|(x, _)| (0.35 - 1e-9..=0.65 + 1e-9).contains(*x)).map(|(a, b)| (*a, *b)).unzip()
+    };
     let (wx, wu) = window(&x0, &u0);
     let mut plots = vec![series("level 0", wx.clone(), wu.clone(), SeriesStyle::LineMarkers)];
     let mut fields = vec![json!({"level": 0, "x": wx, "u": wu})];
@@ -276,13 +349,29 @@ fn defect_study(dir: &Path) -> Result<(), String> {
                 "jump_adjacent": ja, "adjacent": [a as f64 * H, b as f64 * H], "shared_rel_error": e, "tail": c.report.tail}));
             if r1 == RADII[0].0 {
                 let (wx, wu) = window(&x, &u);
-                plots.push(series(&format!("level {lvl} (r^{lvl} = {r})"), wx.clone(), wu.clone(), SeriesStyle::LineMarkers));
+                plots.push(series(
+                    &format!("level {lvl} (r^{lvl} = {r})"),
+                    wx.clone(),
+                    wu.clone(),
+                    SeriesStyle::LineMarkers,
+                ));
                 fields.push(json!({"level": lvl, "radius": r, "x": wx, "u": wu}));
             }
         }
     }
-    write(dir, &json!({"study": "coarsen-defect", "x_defect": 0.5, "mu": 0.1, "levels": "every 3rd, then every 3rd (201 -> 67 -> 23)", "jumps": table, "fields": fields}))?;
-    plot(dir, "fig7_defect", "Fig. 7: bar with a defect at x = 0.5, levels 0, 1, 2 (r^1 = 0.1, r^2 = 0.2)", "x", "u", plots, false)
+    write(
+        dir,
+        &json!({"study": "coarsen-defect", "x_defect": 0.5, "mu": 0.1, "levels": "every 3rd, then every 3rd (201 -> 67 -> 23)", "jumps": table, "fields": fields}),
+    )?;
+    plot(
+        dir,
+        "fig7_defect",
+        "Fig. 7: bar with a defect at x = 0.5, levels 0, 1, 2 (r^1 = 0.1, r^2 = 0.2)",
+        "x",
+        "u",
+        plots,
+        false,
+    )
 }
 
 // ----------------------------------------------------------------------------------------------
@@ -297,7 +386,13 @@ const PLATE_M: f64 = 3.0;
 fn plate_level0() -> Result<LevelModel, String> {
     let side = (PLATE_N - 1) as f64 * PLATE_H;
     let g = Grid::new(&[0.0, 0.0], &[side, side], PLATE_H, 0.0, Placement::Vertex).map_err(err)?;
-    let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: Normalization::Continuum, modulus: 1.0, plane: Some(PlaneModel::Stress), partial_volume: false };
+    let mm = Micromodulus {
+        kernel: Kernel::InverseDistance,
+        normalization: Normalization::Continuum,
+        modulus: 1.0,
+        plane: Some(PlaneModel::Stress),
+        partial_volume: false,
+    };
     let op = BondOperator::on_grid(&g, PLATE_M * PLATE_H, &mm, &Material::default()).map_err(err)?;
     let k = assemble(&op, &DofMap::all_free(g.len(), 2));
     LevelModel::from_stiffness(2, g.positions(), vec![g.volume(); g.len()], &k).map_err(err)
@@ -368,7 +463,10 @@ fn speed_vs_error(dir: &Path) -> Result<(), String> {
         2 * m0.len()
     );
     println!("(level 2: 'coarsen s' includes its level-1 step; time ratio = (coarsen s + solve s) / fine solve)");
-    println!("{:>6} {:>7} {:>8} {:>8} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10}", "level", "r/delta", "radius", "nodes", "tail", "coarsen s", "solve s", "time ratio", "rel. error", "hit rate");
+    println!(
+        "{:>6} {:>7} {:>8} {:>8} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10}",
+        "level", "r/delta", "radius", "nodes", "tail", "coarsen s", "solve s", "time ratio", "rel. error", "hit rate"
+    );
     let mut rows = Vec::new();
     let mut pts: [(Vec<f64>, Vec<f64>); 2] = [(vec![], vec![]), (vec![], vec![])];
     // Level 2 is built on the level 1 of the same k with the paper's rule r^2 = 2 delta^1
@@ -383,7 +481,15 @@ fn speed_vs_error(dir: &Path) -> Result<(), String> {
         let (u1, t_s1) = plate_solve(&c1.model, &held, &loads)?;
         let e1 = shared_error(&u1, &u0);
         let ratio = (t_c1 + t_s1) / t_fine;
-        println!("{:>6} {:>7} {:>8.3} {:>8} {:>10.2e} {t_c1:>10.3} {t_s1:>10.3} {ratio:>10.2} {e1:>11.3e} {:>10.3}", 1, format!("{k}"), k * d0, c1.model.len(), c1.report.tail, c1.report.hit_rate);
+        println!(
+            "{:>6} {:>7} {:>8.3} {:>8} {:>10.2e} {t_c1:>10.3} {t_s1:>10.3} {ratio:>10.2} {e1:>11.3e} {:>10.3}",
+            1,
+            format!("{k}"),
+            k * d0,
+            c1.model.len(),
+            c1.report.tail,
+            c1.report.hit_rate
+        );
         rows.push(json!({"level": 1, "radius_over_horizon": k, "radius": k * d0, "coarsen_seconds": t_c1, "solve_seconds": t_s1, "time_ratio": ratio, "rel_error": e1, "report": report_json(&c1.report)}));
         pts[0].0.push(ratio);
         pts[0].1.push(e1);
@@ -399,19 +505,33 @@ fn speed_vs_error(dir: &Path) -> Result<(), String> {
         let (u2, t_s2) = plate_solve(&c2.model, &held, &loads)?;
         let e2 = shared_error(&u2, &u0);
         let ratio = (t_c2 + t_s2) / t_fine;
-        println!("{:>6} {:>7} {:>8.3} {:>8} {:>10.2e} {t_c2:>10.3} {t_s2:>10.3} {ratio:>10.2} {e2:>11.3e} {:>10.3}", 2, format!("{k}, 2"), 2.0 * d1, c2.model.len(), c2.report.tail, c2.report.hit_rate);
+        println!(
+            "{:>6} {:>7} {:>8.3} {:>8} {:>10.2e} {t_c2:>10.3} {t_s2:>10.3} {ratio:>10.2} {e2:>11.3e} {:>10.3}",
+            2,
+            format!("{k}, 2"),
+            2.0 * d1,
+            c2.model.len(),
+            c2.report.tail,
+            c2.report.hit_rate
+        );
         rows.push(json!({"level": 2, "level1_radius_over_horizon": k, "radius_over_horizon": 2.0, "radius": 2.0 * d1, "level1_radius": k * d0,
             "coarsen_seconds": t_c2, "solve_seconds": t_s2, "time_ratio": ratio, "rel_error": e2, "report": report_json(&c2.report)}));
         pts[1].0.push(ratio);
         pts[1].1.push(e2);
     }
     let [(x1, y1), (x2, y2)] = pts;
-    write(dir, &json!({"study": "coarsen-speed-vs-error", "nodes_per_side": PLATE_N, "spacing": PLATE_H, "horizon": d0, "fine_solve_seconds": t_fine, "rows": rows}))?;
+    write(
+        dir,
+        &json!({"study": "coarsen-speed-vs-error", "nodes_per_side": PLATE_N, "spacing": PLATE_H, "horizon": d0, "fine_solve_seconds": t_fine, "rows": rows}),
+    )?;
     let p = LinePlot {
         title: format!("2D plate {PLATE_N}^2, delta = 3h: coarsening error vs time"),
         x_label: "time ratio (coarsening + coarse solve) / fine solve".into(),
         y_label: "max |u^m - u^0| / max |u^0|".into(),
-        series: vec![series("level 1 (r = 2, 3, 4, 6 delta^0)", x1, y1, SeriesStyle::LineMarkers), series("level 2 (r^1 = 2, 3, 4 delta^0; r^2 = 2 delta^1)", x2, y2, SeriesStyle::LineMarkers)],
+        series: vec![
+            series("level 1 (r = 2, 3, 4, 6 delta^0)", x1, y1, SeriesStyle::LineMarkers),
+            series("level 2 (r^1 = 2, 3, 4 delta^0; r^2 = 2 delta^1)", x2, y2, SeriesStyle::LineMarkers),
+        ],
         log_x: false,
         log_y: true,
     };

@@ -11,7 +11,9 @@
 
 use linpd_bond::BondOperator;
 use linpd_core::{Grid, Kernel, Material, Micromodulus, Normalization, Placement};
-use linpd_dynamics::dispersion::{continuum_amplitude, measure_omega, omega, omega_continuum, omega_paper_series, verlet_omega, ModalFit, ModeRun};
+use linpd_dynamics::dispersion::{
+    continuum_amplitude, measure_omega, omega, omega_continuum, omega_paper_series, verlet_omega, ModalFit, ModeRun,
+};
 use linpd_dynamics::initial::square_pulse;
 use linpd_dynamics::stability::{lattice_limit, paper_bound};
 use linpd_dynamics::{spring_constant, Chain, DynamicsError, LumpedMass, State, Verlet, VerletParams};
@@ -81,7 +83,8 @@ fn dispersion(dir: &Path) -> Result<(), String> {
         let dt = 0.5 * ring.dt_limit(RHO);
         let (mut mk, mut mw, mut mpred, mut mdisc) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for m in [2usize, 5, 10, 20, 35, 50, 65, 80, 90, 100] {
-            let meas = measure_omega(&chain, RHO, &ModeRun { nx, mode: m, dt, steps: 4000 }, ModalFit::Recurrence).map_err(err)?;
+            let meas = measure_omega(&chain, RHO, &ModeRun { nx, mode: m, dt, steps: 4000 }, ModalFit::Recurrence)
+                .map_err(err)?;
             let w = omega(&chain, RHO, meas.k);
             mk.push(meas.k);
             mw.push(meas.omega);
@@ -104,9 +107,17 @@ fn dispersion(dir: &Path) -> Result<(), String> {
             y_label: "omega".into(),
             series: vec![
                 Series::new("lattice (exact)", ks.clone(), disc.clone()),
-                Series::new(format!("lattice, Verlet-corrected (dt = {dt:.3})"), ks.clone(), disc.iter().map(|w| verlet_omega(*w, dt).unwrap_or(f64::NAN)).collect()),
+                Series::new(
+                    format!("lattice, Verlet-corrected (dt = {dt:.3})"),
+                    ks.clone(),
+                    disc.iter().map(|w| verlet_omega(*w, dt).unwrap_or(f64::NAN)).collect(),
+                ),
                 Series::new("PD continuum", ks.clone(), cont.clone()),
-                Series::new("series (4.8)/(4.9)", ks.iter().copied().filter(|k| k * DELTA <= 2.5).collect(), ser.iter().zip(&ks).filter(|(_, k)| *k * DELTA <= 2.5).map(|(s, _)| *s).collect()),
+                Series::new(
+                    "series (4.8)/(4.9)",
+                    ks.iter().copied().filter(|k| k * DELTA <= 2.5).collect(),
+                    ser.iter().zip(&ks).filter(|(_, k)| *k * DELTA <= 2.5).map(|(s, _)| *s).collect(),
+                ),
                 meas_series,
             ],
             log_x: false,
@@ -149,11 +160,24 @@ fn lattice_dispersion(dir: &Path) -> Result<(), String> {
             let side = 2.0 * reach as f64 * h;
             let g = Grid::new(&vec![0.0; dim], &vec![side; dim], h, 0.0, Placement::Vertex).map_err(err)?;
             let (a, lambda, mu) = if model == "bond" {
-                let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: Normalization::Discrete, modulus: k_bulk, plane, partial_volume: false };
+                let mm = Micromodulus {
+                    kernel: Kernel::InverseDistance,
+                    normalization: Normalization::Discrete,
+                    modulus: k_bulk,
+                    plane,
+                    partial_volume: false,
+                };
                 let op = BondOperator::on_grid(&g, delta, &mm, &Material::default()).map_err(err)?;
                 (linpd_bond::assemble(&op, &DofMap::all_free(g.len(), dim)), 0.6 * k_bulk, 0.6 * k_bulk)
             } else {
-                let p = LpsParams { K: k_bulk, G: g_lps, horizon: delta, influence: Influence::InverseDistance, partial_volume: false, plane };
+                let p = LpsParams {
+                    K: k_bulk,
+                    G: g_lps,
+                    horizon: delta,
+                    influence: Influence::InverseDistance,
+                    partial_volume: false,
+                    plane,
+                };
                 (assemble_tangent(&LpsModel::new(&g, &p).map_err(err)?), k_bulk - 2.0 * g_lps / 3.0, g_lps)
             };
             let s = BlochStencil::from_matrix(&a, dim, g.counts(), h, reach).map_err(err)?;
@@ -167,9 +191,14 @@ fn lattice_dispersion(dir: &Path) -> Result<(), String> {
                 // Zone edge along n: k n_a h = pi on the largest component.
                 let k_edge = std::f64::consts::PI / (h * n.iter().fold(0.0f64, |a, v| a.max(v.abs())));
                 let fr: Vec<f64> = (0..=100).map(|i| i as f64 / 100.0).collect();
-                let omegas: Vec<Vec<f64>> = fr.iter().map(|f| s.omegas(&n.iter().map(|v| v * f * k_edge).collect::<Vec<_>>(), RHO)).collect();
+                let omegas: Vec<Vec<f64>> =
+                    fr.iter().map(|f| s.omegas(&n.iter().map(|v| v * f * k_edge).collect::<Vec<_>>(), RHO)).collect();
                 for b in 0..dim {
-                    series.push(Series::new(format!("{name} branch {}", b + 1), fr.clone(), omegas.iter().map(|w| w[b]).collect()));
+                    series.push(Series::new(
+                        format!("{name} branch {}", b + 1),
+                        fr.clone(),
+                        omegas.iter().map(|w| w[b]).collect(),
+                    ));
                 }
                 let (cl, ct) = s.long_wave_speeds(&n, RHO);
                 let et = ct.iter().map(|c| c / cs - 1.0).fold(0.0f64, |a, e| if e.abs() > a.abs() { e } else { a });
@@ -183,7 +212,10 @@ fn lattice_dispersion(dir: &Path) -> Result<(), String> {
                     "c_L": cl, "c_T": ct, "c_P": cp, "c_S": cs}));
             }
             let plot = LinePlot {
-                title: format!("Bloch dispersion, {model} {dim}D{} (delta = 3h, K = rho = 1)", if dim == 2 { " plane strain" } else { "" }),
+                title: format!(
+                    "Bloch dispersion, {model} {dim}D{} (delta = 3h, K = rho = 1)",
+                    if dim == 2 { " plane strain" } else { "" }
+                ),
                 x_label: "k / k_edge (k_edge = pi / (h max|n_a|))".into(),
                 y_label: "omega".into(),
                 series,
@@ -191,17 +223,31 @@ fn lattice_dispersion(dir: &Path) -> Result<(), String> {
                 log_y: false,
             };
             line_plot(&plot, &dir.join(format!("lattice_{model}_{dim}d"))).map_err(err)?;
-            cases.push(json!({"model": model, "dim": dim, "lambda": lambda, "mu": mu, "grid_nodes_per_axis": 2 * reach + 1,
-                "stencil_nodes": s.len(), "directions": dir_rows}));
+            cases.push(
+                json!({"model": model, "dim": dim, "lambda": lambda, "mu": mu, "grid_nodes_per_axis": 2 * reach + 1,
+                "stencil_nodes": s.len(), "directions": dir_rows}),
+            );
         }
     }
     std::fs::write(dir.join("lattice_table.md"), &table).map_err(err)?;
-    std::fs::write(dir.join("lattice.json"), serde_json::to_string_pretty(&json!({"h": h, "delta": delta, "K": k_bulk, "rho": RHO,
-        "lps_G": g_lps, "plane": "strain", "cases": cases})).unwrap()).map_err(err)
+    std::fs::write(
+        dir.join("lattice.json"),
+        serde_json::to_string_pretty(&json!({"h": h, "delta": delta, "K": k_bulk, "rho": RHO,
+        "lps_G": g_lps, "plane": "strain", "cases": cases}))
+        .unwrap(),
+    )
+    .map_err(err)
 }
 
 /// Runs the square pulse on the bar; `true` when it blows up (energy x1e3 or non-finite).
-fn blows_up(op: &BondOperator, mass: &LumpedMass, fixed: &[(usize, f64)], u0: &[f64], dt: f64, steps: usize) -> Result<bool, String> {
+fn blows_up(
+    op: &BondOperator,
+    mass: &LumpedMass,
+    fixed: &[(usize, f64)],
+    u0: &[f64],
+    dt: f64,
+    steps: usize,
+) -> Result<bool, String> {
     let verlet = Verlet::new(op, mass.clone()).with_fixed(fixed).map_err(err)?;
     let params = VerletParams { output_every: 10, allow_unstable: true, ..VerletParams::new(dt, steps) };
     let mut state = State::at_rest(u0.to_vec());
@@ -226,7 +272,13 @@ fn blows_up(op: &BondOperator, mass: &LumpedMass, fixed: &[(usize, f64)], u0: &[
 }
 
 fn stability(dir: &Path) -> Result<(), String> {
-    let mm = Micromodulus { kernel: Kernel::InverseDistance, normalization: Normalization::Discrete, modulus: K1, plane: None, partial_volume: false };
+    let mm = Micromodulus {
+        kernel: Kernel::InverseDistance,
+        normalization: Normalization::Discrete,
+        modulus: K1,
+        plane: None,
+        partial_volume: false,
+    };
     let steps = 2000;
     let mut rows = Vec::new();
     let mut table = String::from(
@@ -247,7 +299,9 @@ fn stability(dir: &Path) -> Result<(), String> {
         let u0: Vec<f64> = (0..g.len()).map(|i| square_pulse(g.position(i)[0])).collect();
         // Bisection on dt / dt_exact in [0.9, 1.2].
         let (mut lo, mut hi) = (0.9, 1.2);
-        if blows_up(&op, &mass, &fixed, &u0, lo * dt_exact, steps)? || !blows_up(&op, &mass, &fixed, &u0, hi * dt_exact, steps)? {
+        if blows_up(&op, &mass, &fixed, &u0, lo * dt_exact, steps)?
+            || !blows_up(&op, &mass, &fixed, &u0, hi * dt_exact, steps)?
+        {
             return Err(format!("N = {n}: the blow-up limit is not in [0.9, 1.2] dt_max"));
         }
         for _ in 0..12 {
@@ -295,6 +349,9 @@ fn stability(dir: &Path) -> Result<(), String> {
     };
     line_plot(&plot, &dir.join("stability")).map_err(err)?;
     std::fs::write(dir.join("table.md"), &table).map_err(err)?;
-    write_data(dir, &json!({"study": "stability", "K1": K1, "rho": RHO, "delta": DELTA, "domain": [0.0, 1000.0], "steps": steps,
-        "blow_up": "total energy above 1e3 x its initial value, or non-finite", "cases": rows}))
+    write_data(
+        dir,
+        &json!({"study": "stability", "K1": K1, "rho": RHO, "delta": DELTA, "domain": [0.0, 1000.0], "steps": steps,
+        "blow_up": "total energy above 1e3 x its initial value, or non-finite", "cases": rows}),
+    )
 }

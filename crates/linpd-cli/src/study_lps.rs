@@ -11,7 +11,10 @@ use std::path::Path;
 pub fn run(dir: &Path) -> Result<(), String> {
     let mut rows = Vec::new();
     let mut series = Vec::new();
-    println!("{:>7} {:>6} {:>12} {:>10} {:>12} {:>10} {:>9}", "h", "d/h", "correction", "unknowns", "elong. err", "nu_eff", "time s");
+    println!(
+        "{:>7} {:>6} {:>12} {:>10} {:>12} {:>10} {:>9}",
+        "h", "d/h", "correction", "unknowns", "elong. err", "nu_eff", "time s"
+    );
     for (ratio, surface, label) in [
         (2.0, SurfaceCorrection::None, "delta = 2h"),
         (3.0, SurfaceCorrection::None, "delta = 3h"),
@@ -19,10 +22,27 @@ pub fn run(dir: &Path) -> Result<(), String> {
     ] {
         let (mut xs, mut ys) = (Vec::new(), Vec::new());
         for h in [0.125, 0.0833333333333333, 0.0625] {
-            let bar = TensionBar { length: 1.0, width: 0.5, spacing: h, horizon_ratio: ratio, bulk: 2.0, shear: 1.0, sigma: 1e-3, influence: Influence::InverseDistance, surface };
+            let bar = TensionBar {
+                length: 1.0,
+                width: 0.5,
+                spacing: h,
+                horizon_ratio: ratio,
+                bulk: 2.0,
+                shear: 1.0,
+                sigma: 1e-3,
+                influence: Influence::InverseDistance,
+                surface,
+            };
             let r = tension_bar(&bar).map_err(|e| e.to_string())?;
             let err = r.elongation / r.elongation_classical - 1.0;
-            println!("{h:>7.4} {ratio:>6} {:>12} {:>10} {:>11.2}% {:>10.3} {:>9.2}", if surface == SurfaceCorrection::None { "none" } else { "bulk m0" }, r.unknowns, 100.0 * err, r.poisson_effective, r.solve_seconds);
+            println!(
+                "{h:>7.4} {ratio:>6} {:>12} {:>10} {:>11.2}% {:>10.3} {:>9.2}",
+                if surface == SurfaceCorrection::None { "none" } else { "bulk m0" },
+                r.unknowns,
+                100.0 * err,
+                r.poisson_effective,
+                r.solve_seconds
+            );
             rows.push(json!({"h": h, "horizon_ratio": ratio, "correction": format!("{surface:?}"), "unknowns": r.unknowns,
                 "elongation": r.elongation, "elongation_classical": r.elongation_classical, "relative_error": err,
                 "poisson_effective": r.poisson_effective, "poisson_classical": r.poisson_classical, "solve_seconds": r.solve_seconds}));
@@ -32,7 +52,18 @@ pub fn run(dir: &Path) -> Result<(), String> {
         series.push(Series { label: label.into(), x: xs, y: ys, style: SeriesStyle::LineMarkers });
     }
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
-    std::fs::write(dir.join("data.json"), serde_json::to_string_pretty(&json!({"study": "lps-tension-bar", "rows": rows})).unwrap()).map_err(|e| e.to_string())?;
-    let plot = LinePlot { title: "LPS tension bar (L = 1, W = 0.5, K = 2, G = 1): elongation error vs classical".into(), x_label: "spacing h".into(), y_label: "elongation error (%)".into(), series, log_x: false, log_y: false };
+    std::fs::write(
+        dir.join("data.json"),
+        serde_json::to_string_pretty(&json!({"study": "lps-tension-bar", "rows": rows})).unwrap(),
+    )
+    .map_err(|e| e.to_string())?;
+    let plot = LinePlot {
+        title: "LPS tension bar (L = 1, W = 0.5, K = 2, G = 1): elongation error vs classical".into(),
+        x_label: "spacing h".into(),
+        y_label: "elongation error (%)".into(),
+        series,
+        log_x: false,
+        log_y: false,
+    };
     line_plot(&plot, &dir.join("elongation_error")).map(|_| ()).map_err(|e| e.to_string())
 }

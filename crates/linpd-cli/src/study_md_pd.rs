@@ -89,7 +89,14 @@ fn window(m: &Model, nx: usize) -> (usize, usize) {
     (lo, hi)
 }
 
-fn simulate(m: &Model, u0: impl Fn(f64) -> f64, dt: f64, steps: usize, snap_steps: &[usize], with_map: bool) -> Result<Run, String> {
+fn simulate(
+    m: &Model,
+    u0: impl Fn(f64) -> f64,
+    dt: f64,
+    steps: usize,
+    snap_steps: &[usize],
+    with_map: bool,
+) -> Result<Run, String> {
     let start = Instant::now();
     let nx = (L / m.dx).round() as usize;
     let ring: Ring = Chain::springs(K1, m.n, m.dx).map_err(err)?.ring(nx).map_err(err)?;
@@ -98,7 +105,7 @@ fn simulate(m: &Model, u0: impl Fn(f64) -> f64, dt: f64, steps: usize, snap_step
     let params = VerletParams { output_every: 1, limit: DtLimit::Given(limit), ..VerletParams::new(dt, steps) };
     let mut state = State::at_rest((0..nx).map(|i| u0(ring.position(i))).collect());
     let (lo, hi) = window(m, nx);
-    let col_stride = ((hi - lo + 1) + MAP_COLS - 1) / MAP_COLS;
+    let col_stride = (hi - lo + 1).div_ceil(MAP_COLS);
     let row_stride = (steps + 1).div_ceil(MAP_ROWS).max(1);
     let two_dx = 2.0 * m.dx;
     let (mut snaps, mut map, mut map_t) = (Vec::new(), Vec::new(), Vec::new());
@@ -184,7 +191,9 @@ pub fn run(dir: &Path) -> Result<(), String> {
     let total = Instant::now();
 
     // ---- Smooth pulse (Figs. 4.3-4.5, Table 4.1) ----
-    println!("smooth pulse p(x) at 500 on the ring [0, 1000), K_1 = rho = 1, dt by (4.13) with dt_0 = {DT0}, t = {T_SMOOTH}");
+    println!(
+        "smooth pulse p(x) at 500 on the ring [0, 1000), K_1 = rho = 1, dt by (4.13) with dt_0 = {DT0}, t = {T_SMOOTH}"
+    );
     println!(
         "{:<30} {:>6} {:>3} {:>9} {:>9} {:>6} {:>12} {:>10} {:>10} {:>7}",
         "model", "Nx", "N", "dt (4.13)", "dt used", "Nt", "Nx N Nt", "dE/E", "dE~/E~", "wall s"
@@ -225,13 +234,32 @@ pub fn run(dir: &Path) -> Result<(), String> {
                 Series::new(m.label, x, u)
             })
             .collect();
-        let plot = LinePlot { title: title.into(), x_label: "x".into(), y_label: "u".into(), series, log_x: false, log_y: false };
+        let plot = LinePlot {
+            title: title.into(),
+            x_label: "x".into(),
+            y_label: "u".into(),
+            series,
+            log_x: false,
+            log_y: false,
+        };
         line_plot(&plot, &dir.join(stem)).map(|_| ()).map_err(err)
     };
     let all = ["ccm", "pd_fine", "md", "pd_coarse", "pd_coarser"];
     fig44(&all, WIN.0, WIN.1, &format!("smooth pulse, displacement at t = {T_SMOOTH}"), "snapshot")?;
-    fig44(&all, 330.0, 420.0, &format!("smooth pulse at t = {T_SMOOTH}, zoom on the left-going wave"), "snapshot_zoom")?;
-    fig44(&["md_local", "md"], WIN.0, WIN.1, &format!("local vs nonlocal MD at t = {T_SMOOTH} (Fig. 4.5)"), "snapshot_local_vs_nonlocal")?;
+    fig44(
+        &all,
+        330.0,
+        420.0,
+        &format!("smooth pulse at t = {T_SMOOTH}, zoom on the left-going wave"),
+        "snapshot_zoom",
+    )?;
+    fig44(
+        &["md_local", "md"],
+        WIN.0,
+        WIN.1,
+        &format!("local vs nonlocal MD at t = {T_SMOOTH} (Fig. 4.5)"),
+        "snapshot_local_vs_nonlocal",
+    )?;
 
     // Dispersive tail: amplitude of the trailing ripple behind the left-going front, |u| on
     // [365, 420] (d'Alembert: the wave occupies [340, 360] at t = 150.05, zero elsewhere).
@@ -245,7 +273,9 @@ pub fn run(dir: &Path) -> Result<(), String> {
         let (_, u) = cut(m, &r.snaps[0].1, WIN.0, 500.0);
         u.iter().fold(0.0f64, |a, v| a.max(*v))
     };
-    println!("smooth pulse at t = {T_SMOOTH}: left-going peak (d'Alembert 0.5) and trailing ripple max|u| on [365, 420]:");
+    println!(
+        "smooth pulse at t = {T_SMOOTH}: left-going peak (d'Alembert 0.5) and trailing ripple max|u| on [365, 420]:"
+    );
     let mut shape = Vec::new();
     for k in all.iter().chain(&["md_local"]) {
         println!("  {:<30} peak {:.4}  ripple {:.3e}", get(k).0.label, peak(k), tail(k));
@@ -260,7 +290,9 @@ pub fn run(dir: &Path) -> Result<(), String> {
     for (m, _, r) in &smooth {
         let rel = r.bond_updates(m.n) / cost_md;
         println!("  {:<30} Nx {:>6} N {:>3} Nt {:>5} relative cost {:.3}", m.label, r.nx, m.n, r.steps, rel);
-        costs.push(json!({"model": m.key, "Nx": r.nx, "N": m.n, "Nt": r.steps, "cost": r.bond_updates(m.n), "relative": rel}));
+        costs.push(
+            json!({"model": m.key, "Nx": r.nx, "N": m.n, "Nt": r.steps, "cost": r.bond_updates(m.n), "relative": rel}),
+        );
     }
 
     // ---- Square pulse (Fig. 4.6): dt = 0.0649 for all ----
@@ -306,7 +338,16 @@ pub fn run(dir: &Path) -> Result<(), String> {
             r.snaps.iter().map(|(_, u)| (0..u.len()).map(|i| (u[(i + 1) % u.len()] - u[i]).abs()).sum()).collect();
         println!(
             "{:<30} {:>10.4} {:>10.4} {:>8.2} {:>10.4} {:>10.4} {:>8.2} {:>9.2e} {:>9.2e} {:>7.2}",
-            m.label, stats[0].0, stats[0].1, tv[0], stats[1].0, stats[1].1, tv[1], r.drift_total, r.drift_shadow, r.wall
+            m.label,
+            stats[0].0,
+            stats[0].1,
+            tv[0],
+            stats[1].0,
+            stats[1].1,
+            tv[1],
+            r.drift_total,
+            r.drift_shadow,
+            r.wall
         );
         fronts.push(format!(
             "  {:<30} over {:.4} under {:.4} | over {:.4} under {:.4}",
@@ -332,7 +373,13 @@ pub fn run(dir: &Path) -> Result<(), String> {
         for (ccm, stem) in [(false, "md_pd"), (true, "ccm")] {
             let series = sq_runs
                 .iter()
-                .filter(|(m, _)| if ccm { m.key == "ccm" } else { ["md", "pd_fine", "pd_coarse", "pd_coarser"].contains(&m.key) })
+                .filter(|(m, _)| {
+                    if ccm {
+                        m.key == "ccm"
+                    } else {
+                        ["md", "pd_fine", "pd_coarse", "pd_coarser"].contains(&m.key)
+                    }
+                })
                 .map(|(m, r)| {
                     let (x, u) = cut(m, &r.snaps[i].1, WIN.0, 500.0);
                     Series::new(m.label, x, u)

@@ -18,7 +18,9 @@ impl LevelModel {
         let mut g = vec![None; nd];
         for &(i, v) in fixed {
             if i >= nd || !v.is_finite() {
-                return Err(CoarsenError::InvalidInput(format!("prescribed DOF {i} = {v} out of range (n = {nd}) or not finite")));
+                return Err(CoarsenError::InvalidInput(format!(
+                    "prescribed DOF {i} = {v} out of range (n = {nd}) or not finite"
+                )));
             }
             g[i] = Some(v);
         }

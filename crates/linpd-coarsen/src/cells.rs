@@ -36,7 +36,8 @@ impl Cells {
             s *= 2.0;
         }
         let counts = count(s);
-        let mut cells = Self { dim, lo, s, counts, starts: vec![0; counts.iter().product::<usize>() + 1], items: Vec::new() };
+        let mut cells =
+            Self { dim, lo, s, counts, starts: vec![0; counts.iter().product::<usize>() + 1], items: Vec::new() };
         let keys: Vec<usize> = ids.iter().map(|&i| cells.flat(cells.cell_of(&points[i]))).collect();
         for &k in &keys {
             cells.starts[k + 1] += 1;

@@ -220,7 +220,8 @@ impl ModuliFile {
         let _ = writeln!(s, "{NODES_HEADER}");
         for i in 0..n {
             let x = self.positions[i];
-            let _ = writeln!(s, "{:.17e},{:.17e},{:.17e},{:.17e},{}", x[0], x[1], x[2], self.volumes[i], self.level0[i]);
+            let _ =
+                writeln!(s, "{:.17e},{:.17e},{:.17e},{:.17e},{}", x[0], x[1], x[2], self.volumes[i], self.level0[i]);
         }
         std::fs::write(&csv, s).map_err(werr(&csv))?;
         Ok(vec![mtx, csv])
@@ -283,7 +284,8 @@ impl ModuliFile {
         let Some((d, _)) = dim else {
             return Err(syntax(size_ln, "a `% dim <d>` comment before the size line", size_line));
         };
-        let size: Vec<usize> = size_line.split_whitespace().map(|t| t.parse::<usize>()).collect::<Result<_, _>>().unwrap_or_default();
+        let size: Vec<usize> =
+            size_line.split_whitespace().map(|t| t.parse::<usize>()).collect::<Result<_, _>>().unwrap_or_default();
         if size.len() != 3 {
             return Err(syntax(size_ln, "a size line `rows cols entries` (three non-negative integers)", size_line));
         }
@@ -307,7 +309,11 @@ impl ModuliFile {
         if rows != d * n {
             return Err(invalid(
                 size_ln,
-                format!("the matrix has {rows} rows but dim {d} x {n} nodes (in {}) = {} are needed", show(&csv_path), d * n),
+                format!(
+                    "the matrix has {rows} rows but dim {d} x {n} nodes (in {}) = {} are needed",
+                    show(&csv_path),
+                    d * n
+                ),
             ));
         }
 
@@ -323,7 +329,10 @@ impl ModuliFile {
                 return Err(syntax(ln, "an entry `row col value` (1-based integer indices, a real value)", l));
             };
             if r == 0 || c == 0 || r > rows || c > cols {
-                return Err(invalid(ln, format!("entry ({r}, {c}) is out of range: indices are 1-based and at most {rows}")));
+                return Err(invalid(
+                    ln,
+                    format!("entry ({r}, {c}) is out of range: indices are 1-based and at most {rows}"),
+                ));
             }
             let (r, c) = (r - 1, c - 1);
             if r / d == c / d {
@@ -389,7 +398,12 @@ fn read_nodes(path: &Path) -> Result<Nodes, IoError> {
     let header = lines.next().map(|x| x.1).unwrap_or("");
     let norm: String = header.chars().filter(|c| !c.is_whitespace()).collect();
     if norm != NODES_HEADER {
-        return Err(IoError::Syntax { path: p, line: 1, expected: format!("the header `{NODES_HEADER}`"), found: header.chars().take(80).collect() });
+        return Err(IoError::Syntax {
+            path: p,
+            line: 1,
+            expected: format!("the header `{NODES_HEADER}`"),
+            found: header.chars().take(80).collect(),
+        });
     }
     let (mut x, mut v, mut l0) = (Vec::new(), Vec::new(), Vec::new());
     for (ln, l) in lines {
@@ -410,10 +424,18 @@ fn read_nodes(path: &Path) -> Result<Nodes, IoError> {
         };
         let node = v.len();
         if nums[..3].iter().any(|c| !c.is_finite()) {
-            return Err(IoError::Invalid { path: p, line: ln, reason: format!("node {node}: the position must be finite, got {:?}", &nums[..3]) });
+            return Err(IoError::Invalid {
+                path: p,
+                line: ln,
+                reason: format!("node {node}: the position must be finite, got {:?}", &nums[..3]),
+            });
         }
         if !(nums[3].is_finite() && nums[3] > 0.0) {
-            return Err(IoError::Invalid { path: p, line: ln, reason: format!("node {node}: the volume must be finite and > 0, got {}", f[3]) });
+            return Err(IoError::Invalid {
+                path: p,
+                line: ln,
+                reason: format!("node {node}: the volume must be finite and > 0, got {}", f[3]),
+            });
         }
         x.push([nums[0], nums[1], nums[2]]);
         v.push(nums[3]);

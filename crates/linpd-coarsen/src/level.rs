@@ -61,7 +61,11 @@ impl LevelModel {
         }
         for i in 0..n {
             if x[i].iter().any(|t| !t.is_finite()) || !v[i].is_finite() || v[i] <= 0.0 {
-                return bad(format!("node {i}: position {:?} / volume {} must be finite, volume > 0", &x[i][..dim], v[i]));
+                return bad(format!(
+                    "node {i}: position {:?} / volume {} must be finite, volume > 0",
+                    &x[i][..dim],
+                    v[i]
+                ));
             }
         }
         let mut model = Self { dim, x, v, level0, offsets, cols, c };
@@ -110,7 +114,12 @@ impl LevelModel {
 
     /// 1D level-0 model from a pointwise micromodulus `c(x, q)` evaluated for
     /// `0 < |q - x| <= horizon` (zero values are not stored). `c` should be symmetric.
-    pub fn from_kernel(x: Vec<f64>, v: Vec<f64>, horizon: f64, c: impl Fn(f64, f64) -> f64 + Sync) -> Result<Self, CoarsenError> {
+    pub fn from_kernel(
+        x: Vec<f64>,
+        v: Vec<f64>,
+        horizon: f64,
+        c: impl Fn(f64, f64) -> f64 + Sync,
+    ) -> Result<Self, CoarsenError> {
         let mut order: Vec<usize> = (0..x.len()).collect();
         order.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
         let r = horizon * (1.0 + 1e-12);
@@ -137,7 +146,12 @@ impl LevelModel {
     /// Level-0 model from a nodal stiffness `K = -dF/du` (`d n x d n`, DOF `d i + a`, zero
     /// block-row sums), e.g. an assembled bond-based operator or the LPS tangent:
     /// `C(x_i, x_j) = -K_ij / (v_i v_j)` for `i != j`; the diagonal blocks are implied.
-    pub fn from_stiffness(dim: usize, x: Vec<Point>, v: Vec<f64>, k: &SparseColMat<usize, f64>) -> Result<Self, CoarsenError> {
+    pub fn from_stiffness(
+        dim: usize,
+        x: Vec<Point>,
+        v: Vec<f64>,
+        k: &SparseColMat<usize, f64>,
+    ) -> Result<Self, CoarsenError> {
         let n = x.len();
         if !(1..=3).contains(&dim) || k.nrows() != dim * n || k.ncols() != dim * n || v.len() != n {
             return Err(CoarsenError::InvalidInput(format!(

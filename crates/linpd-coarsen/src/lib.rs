@@ -131,7 +131,9 @@ mod step;
 
 pub use level::LevelModel;
 pub use retain::{check_retained, coarse_volumes, every_kth, retain_every};
-pub use step::{coarsen, coarsen_with, local_resolvent, Coarsened, LocalResolvent, Matching, Options, Radius, StepReport};
+pub use step::{
+    coarsen, coarsen_with, local_resolvent, Coarsened, LocalResolvent, Matching, Options, Radius, StepReport,
+};
 
 /// Errors of model construction and coarsening.
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -49,4 +49,3 @@ pub fn defect(x: f64, q: f64) -> f64 {
     let crosses = (x <= X_DEFECT + t && X_DEFECT - t <= q) || (q <= X_DEFECT + t && X_DEFECT - t <= x);
     tent(x, q) * if crosses { 0.1 } else { 1.0 }
 }
-

@@ -11,6 +11,10 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::time::Instant;
 
+/// One local solve's output: the coarsened row values, whether the sparse LU was used, and
+/// the local problem's size.
+type LocalRow = (Vec<f64>, bool, usize);
+
 /// What "the level-m force equals the level-(m-1) force" (9) is applied to; see the crate docs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Matching {
@@ -368,7 +372,8 @@ impl<'a> Step<'a> {
         let zt: Mat<f64> = if ne == 0 {
             Mat::zeros(0, d)
         } else if sparse {
-            let mt: Vec<Triplet<usize, usize, f64>> = m_trip.iter().map(|t| Triplet::new(t.col, t.row, t.val)).collect();
+            let mt: Vec<Triplet<usize, usize, f64>> =
+                m_trip.iter().map(|t| Triplet::new(t.col, t.row, t.val)).collect();
             let mt = SparseColMat::<usize, f64>::try_new_from_triplets(de, de, &mt).expect("indices in range");
             let lu = mt.sp_lu().map_err(|_| singular(0, "makes the sparse LU of the local problem fail"))?;
             use faer::linalg::solvers::Solve;
@@ -415,7 +420,10 @@ impl<'a> Step<'a> {
             }
             let rel = res.norm_max() / (mnorm * zt.norm_max() * de as f64 + g.norm_max()).max(f64::MIN_POSITIVE);
             if rel > 1e-8 {
-                return Err(singular(0, &format!("makes the local problem (13) numerically singular (relative residual {rel:.1e})")));
+                return Err(singular(
+                    0,
+                    &format!("makes the local problem (13) numerically singular (relative residual {rel:.1e})"),
+                ));
             }
         }
         let zb = zt.transpose() * &bmat; // d x dR
@@ -464,7 +472,7 @@ impl<'a> Step<'a> {
         let t_hoods = t1.elapsed().as_secs_f64();
         // 3. one local solve per class
         let t2 = Instant::now();
-        let solved: Vec<Result<(Vec<f64>, bool, usize), CoarsenError>> = reps
+        let solved: Vec<Result<LocalRow, CoarsenError>> = reps
             .par_iter()
             .map_init(Vec::new, |buf, &k| {
                 let xi = self.parent[k];
@@ -610,7 +618,12 @@ fn structural_check(fine: &LevelModel, hood: &Hood, xi: usize, r: f64) -> Result
 
 /// The full resolvent `S` of retained node `xi` (eq. (14)), by solving `M S_E = -B` (dense LU):
 /// for tests of (8) and for reconstructing level-(m-1) displacements from level-m ones.
-pub fn local_resolvent(fine: &LevelModel, is_retained: &[bool], xi: usize, radius: f64) -> Result<LocalResolvent, CoarsenError> {
+pub fn local_resolvent(
+    fine: &LevelModel,
+    is_retained: &[bool],
+    xi: usize,
+    radius: f64,
+) -> Result<LocalResolvent, CoarsenError> {
     let parent: Vec<usize> = (0..fine.len()).filter(|&p| is_retained[p]).collect();
     let step = Step::new(fine, parent, &Options::fixed(radius))?;
     let all: Vec<usize> = (0..fine.len()).collect();
@@ -642,7 +655,13 @@ pub fn local_resolvent(fine: &LevelModel, is_retained: &[bool], xi: usize, radiu
     use faer::linalg::solvers::Solve;
     let s = a.partial_piv_lu().solve(rhs);
     if s.col_iter().any(|c| c.iter().any(|t| !t.is_finite())) {
-        return Err(CoarsenError::singular(fine, xi, radius, hood.nodes[nr.min(nn - 1)], "makes the local problem (13) singular"));
+        return Err(CoarsenError::singular(
+            fine,
+            xi,
+            radius,
+            hood.nodes[nr.min(nn - 1)],
+            "makes the local problem (13) singular",
+        ));
     }
     Ok(LocalResolvent { nodes: hood.nodes, n_retained: nr, s })
 }

@@ -122,7 +122,8 @@ fn check_property_9(
         };
         let l_fine = wf * fine.force_density_at(xi, &u0)[0];
         let l_coarse = wc * coarse.force_density_at(k, &um)[0];
-        let scale: f64 = wf * fine.bonds_1d(xi).map(|(p, c)| (c * fine.volumes()[p] * (u0[p] - u0[xi])).abs()).sum::<f64>();
+        let scale: f64 =
+            wf * fine.bonds_1d(xi).map(|(p, c)| (c * fine.volumes()[p] * (u0[p] - u0[xi])).abs()).sum::<f64>();
         worst = worst.max((l_fine - l_coarse).abs() / scale);
     }
     worst
@@ -242,8 +243,7 @@ fn whole_body_neighbourhood_is_static_condensation() {
         let n2 = c2.model.len();
         let f2: Vec<f64> = (0..n2).map(|k| b2[k] * c2.model.volumes()[k]).collect();
         let u2 = c2.model.solve_dirichlet(&f2, &[(0, 0.0), (n2 - 1, 0.0)]).unwrap();
-        let err2 =
-            c2.parent.iter().zip(&u2).map(|(&p, &u)| (u - u0[c1.parent[p]]).abs()).fold(0.0, f64::max) / umax;
+        let err2 = c2.parent.iter().zip(&u2).map(|(&p, &u)| (u - u0[c1.parent[p]]).abs()).fold(0.0, f64::max) / umax;
         println!(
             "static condensation {matching:?}: {N} -> {n1} -> {n2} nodes, max|u| = {umax:.4e}, rel. error level 1 = {err1:.2e}, level 2 = {err2:.2e}, asym C1 = {:.1e}, C2 = {:.1e}",
             c1.model.asymmetry(),
@@ -299,7 +299,8 @@ fn example_5_1_symmetry_and_bulk_modulus() {
     // C^1 at bond distances (for inspection, cf. Figure 3)
     let i = c1.model.len() / 2;
     let x1 = xs(&c1.model);
-    let row: Vec<String> = c1.model.bonds_1d(i).filter(|b| b.0 > i).map(|(j, c)| format!("{:.3}:{:.4}", x1[j] - x1[i], c)).collect();
+    let row: Vec<String> =
+        c1.model.bonds_1d(i).filter(|b| b.0 > i).map(|(j, c)| format!("{:.3}:{:.4}", x1[j] - x1[i], c)).collect();
     println!("C^1(x, x+d) at x = 0.5: {}", row.join(" "));
     assert!(asym[0] < 1e-10 && asym[1] < 1e-10);
     assert!(worst[0] < MOMENT_TOL && worst[1] < MOMENT_TOL);
@@ -314,9 +315,8 @@ const MOMENT_TOL: f64 = 0.25;
 fn isolated_excluded_node_is_an_error_not_a_panic() {
     let m0 = level0();
     // node 5 (excluded by every-4th) loses all its bonds
-    let bonds: Vec<Vec<(usize, f64)>> = (0..N)
-        .map(|i| if i == 5 { vec![] } else { m0.bonds_1d(i).filter(|b| b.0 != 5).collect() })
-        .collect();
+    let bonds: Vec<Vec<(usize, f64)>> =
+        (0..N).map(|i| if i == 5 { vec![] } else { m0.bonds_1d(i).filter(|b| b.0 != 5).collect() }).collect();
     let m = LevelModel::from_bonds_1d(xs(&m0), m0.volumes().to_vec(), bonds).unwrap();
     let err = coarsen(&m, &every_kth(N, 4), 0.1).unwrap_err();
     println!("{err}");

@@ -9,7 +9,7 @@
 //! tolerance says what it was set from.
 #![allow(clippy::needless_range_loop)]
 
-use linpd_coarsen::paper::{composite, defect, hard, inside, tent, R0, X_DEFECT};
+use linpd_coarsen::paper::{composite, defect, inside, tent, R0};
 use linpd_coarsen::{coarsen, every_kth, Coarsened, LevelModel};
 
 const H: f64 = 0.005; // spacing = level-0 volume v
@@ -35,7 +35,9 @@ fn chain(m0: &LevelModel, k1: usize, k2: usize, r1: f64, r2: f64) -> (Coarsened,
 /// Solves a level with prescribed displacements and nodal forces given by *level-0* index;
 /// returns `u` by level-0 index (NaN where the level has no node).
 fn solve(m: &LevelModel, fixed: &[(usize, f64)], loads: &[(usize, f64)]) -> Vec<f64> {
-    let local = |p: usize| m.level0().iter().position(|&q| q == p).unwrap_or_else(|| panic!("level-0 node {p} is not in this level"));
+    let local = |p: usize| {
+        m.level0().iter().position(|&q| q == p).unwrap_or_else(|| panic!("level-0 node {p} is not in this level"))
+    };
     let mut f = vec![0.0; m.len()];
     for &(p, v) in loads {
         f[local(p)] += v;
@@ -212,7 +214,8 @@ fn example_5_1_rows_are_symmetric_positive_near_and_decay() {
         let get = |r: &[(f64, f64)], s: f64| r.iter().find(|t| (t.0 - s).abs() < 1e-9).map_or(0.0, |t| t.1);
         a.iter().chain(b).map(|t| (get(a, t.0) - get(b, t.0)).abs()).fold(0.0, f64::max) / cmax
     };
-    let d: Vec<(f64, f64)> = rows[..rows.len() - 1].iter().map(|(a, b)| (dist(a, &whole.0), dist(b, &whole.1))).collect();
+    let d: Vec<(f64, f64)> =
+        rows[..rows.len() - 1].iter().map(|(a, b)| (dist(a, &whole.0), dist(b, &whole.1))).collect();
     println!("row distance to the whole-body rows (max |dC| / max C): {d:?}");
     for w in d.windows(2) {
         assert!(w[1].0 < w[0].0 && w[1].1 < w[0].1, "rows do not converge: {d:?}");
@@ -252,7 +255,9 @@ fn example_5_2_cell_modulus_reproduces_the_homogeneous_formula() {
     let (eh, es) = (bar_modulus(10.0), bar_modulus(1.0));
     let e = cell_modulus(20, composite);
     let (reuss, voigt) = (2.0 / (1.0 / eh + 1.0 / es), 0.5 * (eh + es));
-    println!("composite E_eff = {e:.6e}; stripes alone: hard {eh:.4e}, soft {es:.4e}; Reuss {reuss:.4e}, Voigt {voigt:.4e}");
+    println!(
+        "composite E_eff = {e:.6e}; stripes alone: hard {eh:.4e}, soft {es:.4e}; Reuss {reuss:.4e}, Voigt {voigt:.4e}"
+    );
     assert!(e > es && e < reuss, "E_eff {e} outside (soft, Reuss) = ({es}, {reuss})");
     // one period of the bar has the same stiffness whichever node the cell starts at
     let e2 = cell_modulus(40, composite);
@@ -268,7 +273,10 @@ fn example_5_2_global_stretch_matches_the_effective_modulus_at_every_level() {
     let loads = composite_loads();
     let u0 = solve(&m0, &COMPOSITE_FIXED, &loads);
     let s0 = stretch(&u0);
-    println!("E_eff = {e_eff:.6e}, F = {force:.3e}, F/E_eff = {target:.6e}; level 0 stretch {s0:.6e} ({:+.2e})", s0 / target - 1.0);
+    println!(
+        "E_eff = {e_eff:.6e}, F = {force:.3e}, F/E_eff = {target:.6e}; level 0 stretch {s0:.6e} ({:+.2e})",
+        s0 / target - 1.0
+    );
     // Level 0 against the cell: the load is carried by a uniform axial force F between the
     // fixed and the loaded nodes, and 0.2/0.8 are 0.12 (2.4 r0) from them. Measured 8.0e-7
     // relative (what is left of the end disturbances, which decay over a few horizons; the cell

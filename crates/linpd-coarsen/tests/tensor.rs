@@ -165,7 +165,8 @@ fn property_9(fine: &LevelModel, radius: f64) -> f64 {
             .iter()
             .zip(fine.blocks(xi).chunks(d * d))
             .map(|(&p, b)| {
-                (0..d * d).map(|e| (b[e] * (u0[d * p + e % d] - u0[d * xi + e % d])).abs()).sum::<f64>() * fine.volumes()[p]
+                (0..d * d).map(|e| (b[e] * (u0[d * p + e % d] - u0[d * xi + e % d])).abs()).sum::<f64>()
+                    * fine.volumes()[p]
             })
             .sum::<f64>()
             * fine.volumes()[xi];
@@ -226,7 +227,10 @@ fn radius_rule_stops_at_the_tolerance_and_reports_the_tail() {
     let tol = 1e-3;
     let opts = Options { radius: Radius::Auto { tol, start: None, growth: 1.25, max: None }, ..Options::fixed(1.0) };
     let c = coarsen_with(&m0, &ret, &opts).unwrap();
-    println!("2D 41x41 delta = 2h, tol {tol:.0e}: tried (r/h, tail) = {:?}", c.report.tried.iter().map(|(r, t)| (r / H, *t)).collect::<Vec<_>>());
+    println!(
+        "2D 41x41 delta = 2h, tol {tol:.0e}: tried (r/h, tail) = {:?}",
+        c.report.tried.iter().map(|(r, t)| (r / H, *t)).collect::<Vec<_>>()
+    );
     let tried = &c.report.tried;
     assert!(c.report.tail <= tol);
     assert!((tried[0].0 - 4.0 * H).abs() < 1e-12, "starts at 2 delta");

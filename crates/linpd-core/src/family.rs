@@ -54,10 +54,7 @@ impl BondFamily {
                 let idx = grid.lattice_index(i);
                 stencil
                     .iter()
-                    .filter_map(|k| {
-                        grid.node_at([idx[0] + k[0], idx[1] + k[1], idx[2] + k[2]])
-                            .map(|j| j as u32)
-                    })
+                    .filter_map(|k| grid.node_at([idx[0] + k[0], idx[1] + k[1], idx[2] + k[2]]).map(|j| j as u32))
                     .collect()
             })
             .collect();

@@ -44,13 +44,7 @@ impl Grid {
     ///
     /// `(max - min) / h` must be an integer up to a relative tolerance of `1e-6`; the layer
     /// holds `floor(layer / h)` nodes per side (a layer thinner than `h` holds none).
-    pub fn new(
-        min: &[f64],
-        max: &[f64],
-        h: f64,
-        layer: f64,
-        placement: Placement,
-    ) -> Result<Self, CoreError> {
+    pub fn new(min: &[f64], max: &[f64], h: f64, layer: f64, placement: Placement) -> Result<Self, CoreError> {
         let dim = min.len();
         if !(1..=3).contains(&dim) {
             return Err(CoreError::Dimension(dim));
@@ -88,9 +82,7 @@ impl Grid {
             if (cells - n).abs() > 1e-6 * cells.max(1.0) || n < 1.0 {
                 return Err(CoreError::param(
                     "spacing",
-                    format!(
-                        "axis {a}: (max - min) / spacing = {cells} is not a positive integer"
-                    ),
+                    format!("axis {a}: (max - min) / spacing = {cells} is not a positive integer"),
                 ));
             }
             let n = n as i64;

@@ -188,8 +188,10 @@ pub fn dimensional_bulk_modulus(dim: usize, k: f64, plane: Option<PlaneModel>) -
 /// `\int f` over `[breaks[0], breaks[last]]` by 8-point Gauss-Legendre, each interval between
 /// breaks cut into `panels(length)` equal panels; exact for polynomials of degree <= 15 on each.
 pub fn gauss_legendre(f: impl Fn(f64) -> f64, breaks: &[f64], panels: impl Fn(f64) -> usize) -> f64 {
-    const X: [f64; 4] = [0.183_434_642_495_649_8, 0.525_532_409_916_329, 0.796_666_477_413_626_7, 0.960_289_856_497_536_3];
-    const W: [f64; 4] = [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
+    const X: [f64; 4] =
+        [0.183_434_642_495_649_8, 0.525_532_409_916_329, 0.796_666_477_413_626_7, 0.960_289_856_497_536_3];
+    const W: [f64; 4] =
+        [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
     let mut total = 0.0;
     for seg in breaks.windows(2) {
         let panels = panels(seg[1] - seg[0]).max(1);
@@ -296,10 +298,14 @@ mod tests {
         let c3 = mm(Kernel::InverseDistance, Normalization::Continuum, None).amplitude(3, d, 0.01).unwrap();
         assert_relative_eq!(c3, 18.0 * k / (PI * d.powi(4)), max_relative = 1e-13);
         // Plane stress with E = K (nu = 1/3): c = 9E/(pi delta^3).
-        let cs = mm(Kernel::InverseDistance, Normalization::Continuum, Some(PlaneModel::Stress)).amplitude(2, d, 0.01).unwrap();
+        let cs = mm(Kernel::InverseDistance, Normalization::Continuum, Some(PlaneModel::Stress))
+            .amplitude(2, d, 0.01)
+            .unwrap();
         assert_relative_eq!(cs, 9.0 * k / (PI * d.powi(3)), max_relative = 1e-13);
         // Plane strain with E = 3K(1 - 2/4) = 1.5K: c = 48E/(5 pi delta^3).
-        let ce = mm(Kernel::InverseDistance, Normalization::Continuum, Some(PlaneModel::Strain)).amplitude(2, d, 0.01).unwrap();
+        let ce = mm(Kernel::InverseDistance, Normalization::Continuum, Some(PlaneModel::Strain))
+            .amplitude(2, d, 0.01)
+            .unwrap();
         assert_relative_eq!(ce, 48.0 * 1.5 * k / (5.0 * PI * d.powi(3)), max_relative = 1e-13);
         // Tent in 1D: int_0^d (1 - r/d) r^2 dr = d^3/12, so c = 12K/d^3.
         let ct = mm(Kernel::Tent, Normalization::Continuum, None).amplitude(1, d, 0.01).unwrap();

@@ -100,7 +100,14 @@ impl Defect {
         if needed != dim {
             return Err(CoreError::param(
                 "defects",
-                format!("a {} defect needs dimension {needed}, the scene has {dim}", match needed { 1 => "point", 2 => "segment", _ => "plane" }),
+                format!(
+                    "a {} defect needs dimension {needed}, the scene has {dim}",
+                    match needed {
+                        1 => "point",
+                        2 => "segment",
+                        _ => "plane",
+                    }
+                ),
             ));
         }
         Ok(())
@@ -192,11 +199,7 @@ impl Material {
         (0..grid.len())
             .map(|n| {
                 let x = grid.position(n);
-                self.phases
-                    .iter()
-                    .rev()
-                    .find(|(r, _)| r.contains(&x, grid.dim(), tol))
-                    .map_or(reference, |(_, k)| *k)
+                self.phases.iter().rev().find(|(r, _)| r.contains(&x, grid.dim(), tol)).map_or(reference, |(_, k)| *k)
             })
             .collect()
     }

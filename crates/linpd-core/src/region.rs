@@ -57,9 +57,7 @@ impl Region {
     pub fn contains(&self, x: &Point, dim: usize, tol: f64) -> bool {
         match self {
             Region::All => true,
-            Region::Box { min, max } => {
-                (0..dim).all(|a| x[a] >= min[a] - tol && x[a] <= max[a] + tol)
-            }
+            Region::Box { min, max } => (0..dim).all(|a| x[a] >= min[a] - tol && x[a] <= max[a] + tol),
             Region::Union(parts) => parts.iter().any(|r| r.contains(x, dim, tol)),
             Region::Difference(a, b) => a.contains(x, dim, tol) && !b.contains(x, dim, tol),
         }
@@ -68,9 +66,7 @@ impl Region {
     /// The nodes of `grid` inside the region, ascending.
     pub fn nodes(&self, grid: &Grid) -> Vec<usize> {
         let tol = crate::GEOMETRY_RTOL * grid.spacing();
-        (0..grid.len())
-            .filter(|&n| self.contains(&grid.position(n), grid.dim(), tol))
-            .collect()
+        (0..grid.len()).filter(|&n| self.contains(&grid.position(n), grid.dim(), tol)).collect()
     }
 }
 

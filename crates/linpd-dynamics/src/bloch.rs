@@ -83,7 +83,10 @@ impl BlochStencil {
             if ax < dim && n < 2 * reach + 1 {
                 return Err(DynamicsError::param(
                     "counts",
-                    format!("axis {ax} has {n} nodes; the centre's stencil is complete only with >= 2 reach + 1 = {}", 2 * reach + 1),
+                    format!(
+                        "axis {ax} has {n} nodes; the centre's stencil is complete only with >= 2 reach + 1 = {}",
+                        2 * reach + 1
+                    ),
                 ));
             }
             if ax >= dim && n != 1 {
@@ -94,7 +97,13 @@ impl BlochStencil {
         if a.nrows() != dim * n_nodes || a.ncols() != dim * n_nodes {
             return Err(DynamicsError::param(
                 "matrix",
-                format!("is {} x {}, expected {} x {} ({n_nodes} nodes x {dim} DOFs)", a.nrows(), a.ncols(), dim * n_nodes, dim * n_nodes),
+                format!(
+                    "is {} x {}, expected {} x {} ({n_nodes} nodes x {dim} DOFs)",
+                    a.nrows(),
+                    a.ncols(),
+                    dim * n_nodes,
+                    dim * n_nodes
+                ),
             ));
         }
         let centre: [i64; 3] = [0, 1, 2].map(|ax| ((counts[ax] - 1) / 2) as i64);
@@ -269,7 +278,8 @@ mod tests {
         let delta = m as f64 * h;
         let reach = lattice_reach(delta, h);
         let g = grid(dim, h, reach);
-        let mm = Micromodulus { kernel, normalization: Normalization::Discrete, modulus: 1.0, plane, partial_volume: false };
+        let mm =
+            Micromodulus { kernel, normalization: Normalization::Discrete, modulus: 1.0, plane, partial_volume: false };
         let op = BondOperator::on_grid(&g, delta, &mm, &Material::default()).unwrap();
         let a = assemble(&op, &DofMap::all_free(g.len(), dim));
         BlochStencil::from_matrix(&a, dim, g.counts(), h, reach).unwrap()
@@ -280,7 +290,14 @@ mod tests {
         let delta = m as f64 * h;
         let reach = 2 * lattice_reach(delta, h);
         let g = grid(dim, h, reach);
-        let p = LpsParams { K: 1.0, G: shear, horizon: delta, influence: Influence::InverseDistance, partial_volume: false, plane };
+        let p = LpsParams {
+            K: 1.0,
+            G: shear,
+            horizon: delta,
+            influence: Influence::InverseDistance,
+            partial_volume: false,
+            plane,
+        };
         let a = assemble_tangent(&LpsModel::new(&g, &p).unwrap());
         BlochStencil::from_matrix(&a, dim, g.counts(), h, reach).unwrap()
     }
@@ -290,7 +307,13 @@ mod tests {
         for (m, kernel) in [(1usize, Kernel::InverseDistance), (3, Kernel::InverseDistance), (5, Kernel::Constant)] {
             let h = 0.5;
             let delta = m as f64 * h;
-            let mm = Micromodulus { kernel, normalization: Normalization::Discrete, modulus: 1.0, plane: None, partial_volume: false };
+            let mm = Micromodulus {
+                kernel,
+                normalization: Normalization::Discrete,
+                modulus: 1.0,
+                plane: None,
+                partial_volume: false,
+            };
             let chain = Chain::new(h, delta, &mm).unwrap();
             let reach = lattice_reach(delta, h);
             let g = grid(1, h, reach);
@@ -309,7 +332,13 @@ mod tests {
     fn too_small_grid_is_refused() {
         let h = 0.1;
         let g = grid(2, h, 2);
-        let mm = Micromodulus { kernel: Kernel::Constant, normalization: Normalization::Discrete, modulus: 1.0, plane: Some(PlaneModel::Strain), partial_volume: false };
+        let mm = Micromodulus {
+            kernel: Kernel::Constant,
+            normalization: Normalization::Discrete,
+            modulus: 1.0,
+            plane: Some(PlaneModel::Strain),
+            partial_volume: false,
+        };
         let op = BondOperator::on_grid(&g, 3.0 * h, &mm, &Material::default()).unwrap();
         let a = assemble(&op, &DofMap::all_free(g.len(), 2));
         assert!(BlochStencil::from_matrix(&a, 2, g.counts(), h, 3).is_err());
@@ -354,7 +383,8 @@ mod tests {
             check(&lps(2, m, Some(PlaneModel::Strain), 0.3), 2, 0.8, 0.3, m, "LPS 2D strain");
         }
         // G = 3K/5 is the Cauchy point where LPS reduces to the bond-based operator.
-        let (a, b) = (lps(2, 3, Some(PlaneModel::Strain), 0.6), bond(2, 3, Kernel::InverseDistance, Some(PlaneModel::Strain)));
+        let (a, b) =
+            (lps(2, 3, Some(PlaneModel::Strain), 0.6), bond(2, 3, Kernel::InverseDistance, Some(PlaneModel::Strain)));
         let n = lattice_direction(2, [1, 1, 0]);
         assert!((a.long_wave_speeds(&n, 1.0).0 / b.long_wave_speeds(&n, 1.0).0 - 1.0).abs() < 1e-12);
     }

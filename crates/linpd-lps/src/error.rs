@@ -16,9 +16,7 @@ pub enum LpsError {
     ///
     /// For positive finite `K`, `G` this only happens when one modulus is so small relative
     /// to the other that `nu` rounds to a bound.
-    #[error(
-        "Poisson ratio nu = (3K - 2G) / (2 (3K + G)) = {nu} is outside (-1, 1/2) (K = {bulk}, G = {shear})"
-    )]
+    #[error("Poisson ratio nu = (3K - 2G) / (2 (3K + G)) = {nu} is outside (-1, 1/2) (K = {bulk}, G = {shear})")]
     PoissonRatio {
         /// The computed Poisson ratio.
         nu: f64,

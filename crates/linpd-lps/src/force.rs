@@ -73,7 +73,12 @@ impl LpsModel {
 
     /// The internal force on one node (the Algorithm 2 sum of [`LpsModel::internal_force`])
     /// for a displacement and dilatation given node by node.
-    pub(crate) fn force_at(&self, i: usize, disp: impl Fn(usize) -> [f64; 3], theta: impl Fn(usize) -> f64) -> [f64; 3] {
+    pub(crate) fn force_at(
+        &self,
+        i: usize,
+        disp: impl Fn(usize) -> [f64; 3],
+        theta: impl Fn(usize) -> f64,
+    ) -> [f64; 3] {
         let d = self.dim;
         let c_theta = d as f64 * self.kappa - self.a_g / d as f64;
         let vi = self.volume;

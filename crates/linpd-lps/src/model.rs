@@ -280,11 +280,7 @@ impl LpsModel {
     #[inline]
     pub(crate) fn bonds(&self, i: usize) -> impl Iterator<Item = (usize, f64, f64)> + '_ {
         let o = self.family.bond_offset(i);
-        self.family
-            .neighbors(i)
-            .iter()
-            .enumerate()
-            .map(move |(b, &j)| (j as usize, self.wv[o + b], self.len[o + b]))
+        self.family.neighbors(i).iter().enumerate().map(move |(b, &j)| (j as usize, self.wv[o + b], self.len[o + b]))
     }
 }
 

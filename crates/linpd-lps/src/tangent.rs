@@ -168,10 +168,7 @@ impl TangentPattern {
         let grid = &model.grid;
         let rows_of = |p: usize| -> Vec<usize> {
             let l = lat[p];
-            offsets
-                .iter()
-                .filter_map(|o| grid.node_at([l[0] + o[0], l[1] + o[1], l[2] + o[2]]))
-                .collect()
+            offsets.iter().filter_map(|o| grid.node_at([l[0] + o[0], l[1] + o[1], l[2] + o[2]])).collect()
         };
         let per_node: Vec<Vec<usize>> = (0..n).into_par_iter().map(rows_of).collect();
         let mut col_ptr = Vec::with_capacity(d * n + 1);

@@ -7,13 +7,21 @@ mod common;
 use common::{dense, max_abs, random_vec};
 use linpd_core::{Grid, Placement};
 use linpd_lps::{
-    assemble_tangent, fd_tangent, tension_bar, Influence, LpsModel, LpsParams, PlaneModel, SurfaceCorrection, TensionBar,
+    assemble_tangent, fd_tangent, tension_bar, Influence, LpsModel, LpsParams, PlaneModel, SurfaceCorrection,
+    TensionBar,
 };
 
 const H: f64 = 0.1;
 
 fn variants() -> Vec<(usize, usize, LpsParams)> {
-    let p = |ratio: f64, influence, pv, plane| LpsParams { K: 2.0, G: 0.5, horizon: ratio * H, influence, partial_volume: pv, plane };
+    let p = |ratio: f64, influence, pv, plane| LpsParams {
+        K: 2.0,
+        G: 0.5,
+        horizon: ratio * H,
+        influence,
+        partial_volume: pv,
+        plane,
+    };
     vec![
         (3, 5, p(2.0, Influence::InverseDistance, true, None)),
         (3, 5, p(2.0, Influence::Constant, false, None)),
@@ -146,7 +154,11 @@ fn fd_tangent_matches_assembled_tangent() {
             assert_eq!(a.col_ptr(), f.col_ptr());
             let scale = a.val().iter().fold(0.0f64, |x, v| x.max(v.abs()));
             let err = a.val().iter().zip(f.val()).fold(0.0f64, |x, (u, v)| x.max((u - v).abs()));
-            eprintln!("fd_tangent {s:?} dim {dim} {:?}: max|A_fd - A|/max|A| = {:.2e} ({t_fd:.3} s)", p.influence, err / scale);
+            eprintln!(
+                "fd_tangent {s:?} dim {dim} {:?}: max|A_fd - A|/max|A| = {:.2e} ({t_fd:.3} s)",
+                p.influence,
+                err / scale
+            );
             assert!(err <= 1e-7 * scale, "{:.3e}", err / scale);
         }
     }

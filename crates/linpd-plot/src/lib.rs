@@ -83,12 +83,7 @@ pub struct Series {
 impl Series {
     /// A series drawn as a line ([`SeriesStyle::Line`]).
     pub fn new(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
-        Self {
-            label: label.into(),
-            x,
-            y,
-            style: SeriesStyle::Line,
-        }
+        Self { label: label.into(), x, y, style: SeriesStyle::Line }
     }
 
     /// The same series with another drawing style.
@@ -117,17 +112,8 @@ pub struct LinePlot {
 
 impl LinePlot {
     /// An empty linear-axes chart with the given title and axis labels.
-    pub fn new(
-        title: impl Into<String>,
-        x_label: impl Into<String>,
-        y_label: impl Into<String>,
-    ) -> Self {
-        Self {
-            title: title.into(),
-            x_label: x_label.into(),
-            y_label: y_label.into(),
-            ..Self::default()
-        }
+    pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> Self {
+        Self { title: title.into(), x_label: x_label.into(), y_label: y_label.into(), ..Self::default() }
     }
 
     /// The same chart with one more series.
@@ -194,11 +180,7 @@ pub fn line_plot(plot: &LinePlot, stem: &Path) -> Result<Vec<PathBuf>, PlotError
 
 /// Like [`line_plot`] with an explicit image size `(width, height)` in pixels (at least
 /// [`MIN_SIZE`]); the SVG uses the same nominal size.
-pub fn line_plot_with_size(
-    plot: &LinePlot,
-    stem: &Path,
-    size: (u32, u32),
-) -> Result<Vec<PathBuf>, PlotError> {
+pub fn line_plot_with_size(plot: &LinePlot, stem: &Path, size: (u32, u32)) -> Result<Vec<PathBuf>, PlotError> {
     check_size(size)?;
     let (xr, yr) = line_plot_ranges(plot)?;
     render(stem, size, &Job::Line { plot, xr, yr })
@@ -213,11 +195,7 @@ pub fn scalar_map(map: &ScalarMap, stem: &Path) -> Result<Vec<PathBuf>, PlotErro
 
 /// Like [`scalar_map`] with an explicit image size `(width, height)` in pixels (at least
 /// [`MIN_SIZE`]); the SVG uses the same nominal size.
-pub fn scalar_map_with_size(
-    map: &ScalarMap,
-    stem: &Path,
-    size: (u32, u32),
-) -> Result<Vec<PathBuf>, PlotError> {
+pub fn scalar_map_with_size(map: &ScalarMap, stem: &Path, size: (u32, u32)) -> Result<Vec<PathBuf>, PlotError> {
     check_size(size)?;
     let (lo, hi) = scalar_map_value_range(map)?;
     render(stem, size, &Job::Map { map, lo, hi })
@@ -233,10 +211,7 @@ fn invalid(msg: impl Into<String>) -> PlotError {
 
 fn check_size((w, h): (u32, u32)) -> Result<(), PlotError> {
     if w < MIN_SIZE.0 || h < MIN_SIZE.1 {
-        return Err(invalid(format!(
-            "image size {w}x{h} is below the minimum {}x{}",
-            MIN_SIZE.0, MIN_SIZE.1
-        )));
+        return Err(invalid(format!("image size {w}x{h} is below the minimum {}x{}", MIN_SIZE.0, MIN_SIZE.1)));
     }
     Ok(())
 }
@@ -254,18 +229,11 @@ fn line_plot_ranges(plot: &LinePlot) -> Result<(Range<f64>, Range<f64>), PlotErr
             return Err(invalid(format!("{name} is empty")));
         }
         if s.x.len() != s.y.len() {
-            return Err(invalid(format!(
-                "{name}: x has {} values but y has {}",
-                s.x.len(),
-                s.y.len()
-            )));
+            return Err(invalid(format!("{name}: x has {} values but y has {}", s.x.len(), s.y.len())));
         }
         for (axis, data, log) in [("x", &s.x, plot.log_x), ("y", &s.y, plot.log_y)] {
             if let Some(k) = data.iter().position(|v| !v.is_finite()) {
-                return Err(invalid(format!(
-                    "{name}: {axis}[{k}] = {} is not finite",
-                    data[k]
-                )));
+                return Err(invalid(format!("{name}: {axis}[{k}] = {} is not finite", data[k])));
             }
             if log {
                 if let Some(k) = data.iter().position(|&v| v <= 0.0) {
@@ -283,16 +251,8 @@ fn line_plot_ranges(plot: &LinePlot) -> Result<(Range<f64>, Range<f64>), PlotErr
             ymax = ymax.max(y);
         }
     }
-    let xr = if plot.log_x {
-        log_range(xmin, xmax)
-    } else {
-        linear_range(xmin, xmax)
-    };
-    let yr = if plot.log_y {
-        log_range(ymin, ymax)
-    } else {
-        linear_range(ymin, ymax)
-    };
+    let xr = if plot.log_x { log_range(xmin, xmax) } else { linear_range(xmin, xmax) };
+    let yr = if plot.log_y { log_range(ymin, ymax) } else { linear_range(ymin, ymax) };
     Ok((xr, yr))
 }
 
@@ -346,15 +306,9 @@ fn log_range(lo: f64, hi: f64) -> Range<f64> {
 /// Validates the grid and returns the colour-scale range `(lo, hi)`, `lo < hi`.
 fn scalar_map_value_range(map: &ScalarMap) -> Result<(f64, f64), PlotError> {
     if map.nx == 0 || map.ny == 0 {
-        return Err(invalid(format!(
-            "grid must have at least one cell, got nx = {}, ny = {}",
-            map.nx, map.ny
-        )));
+        return Err(invalid(format!("grid must have at least one cell, got nx = {}, ny = {}", map.nx, map.ny)));
     }
-    let n = map
-        .nx
-        .checked_mul(map.ny)
-        .ok_or_else(|| invalid(format!("nx*ny overflows ({} x {})", map.nx, map.ny)))?;
+    let n = map.nx.checked_mul(map.ny).ok_or_else(|| invalid(format!("nx*ny overflows ({} x {})", map.nx, map.ny)))?;
     if map.values.len() != n {
         return Err(invalid(format!(
             "values has {} entries, expected nx*ny = {}*{} = {n}",
@@ -365,17 +319,12 @@ fn scalar_map_value_range(map: &ScalarMap) -> Result<(f64, f64), PlotError> {
     }
     for (axis, (a, b)) in [("x_range", map.x_range), ("y_range", map.y_range)] {
         if !(a.is_finite() && b.is_finite() && a < b) || is_degenerate(a, b) {
-            return Err(invalid(format!(
-                "{axis} = ({a}, {b}) must be finite with min < max"
-            )));
+            return Err(invalid(format!("{axis} = ({a}, {b}) must be finite with min < max")));
         }
     }
     if let Some(k) = map.values.iter().position(|v| !v.is_finite()) {
         let (ix, iy) = (k % map.nx, k / map.nx);
-        return Err(invalid(format!(
-            "values[{k}] (ix = {ix}, iy = {iy}) = {} is not finite",
-            map.values[k]
-        )));
+        return Err(invalid(format!("values[{k}] (ix = {ix}, iy = {iy}) = {} is not finite", map.values[k])));
     }
     let lo = map.values.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = map.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -412,16 +361,8 @@ fn with_ext(stem: &Path, ext: &str) -> PathBuf {
 
 /// A validated drawing job, drawable on any backend.
 enum Job<'a> {
-    Line {
-        plot: &'a LinePlot,
-        xr: Range<f64>,
-        yr: Range<f64>,
-    },
-    Map {
-        map: &'a ScalarMap,
-        lo: f64,
-        hi: f64,
-    },
+    Line { plot: &'a LinePlot, xr: Range<f64>, yr: Range<f64> },
+    Map { map: &'a ScalarMap, lo: f64, hi: f64 },
 }
 
 impl Job<'_> {
@@ -431,11 +372,7 @@ impl Job<'_> {
                 let r = (xr, yr);
                 let log = |range: &Range<f64>| {
                     let (bold, light) = log_ticks(range.start, range.end);
-                    range
-                        .clone()
-                        .log_scale()
-                        .with_key_points(bold)
-                        .with_light_points(light)
+                    range.clone().log_scale().with_key_points(bold).with_light_points(light)
                 };
                 let (lx, ly) = (xr.clone(), yr.clone());
                 match (plot.log_x, plot.log_y) {
@@ -453,17 +390,11 @@ impl Job<'_> {
 /// Draws `job` onto a PNG and an SVG backend and writes both files.
 fn render(stem: &Path, size: (u32, u32), job: &Job<'_>) -> Result<Vec<PathBuf>, PlotError> {
     if stem.file_name().is_none() {
-        return Err(invalid(format!(
-            "output stem {} has no file name",
-            stem.display()
-        )));
+        return Err(invalid(format!("output stem {} has no file name", stem.display())));
     }
     let png = with_ext(stem, "png");
     let svg = with_ext(stem, "svg");
-    ensure_font().map_err(|message| PlotError::Backend {
-        path: png.clone(),
-        message,
-    })?;
+    ensure_font().map_err(|message| PlotError::Backend { path: png.clone(), message })?;
     if let Some(parent) = stem.parent() {
         if !parent.as_os_str().is_empty() {
             std::fs::create_dir_all(parent)?;
@@ -475,20 +406,33 @@ fn render(stem: &Path, size: (u32, u32), job: &Job<'_>) -> Result<Vec<PathBuf>, 
     };
 
     {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
-        job.draw(&root).map_err(backend_err(&png))?;
-        root.present()
-            .map_err(|e| e.to_string())
-            .map_err(backend_err(&png))?;
+        // Drawn into an RGB buffer and encoded here (see `write_png`), so plotters does not
+        // need its image-crate encoder.
+        let mut rgb = vec![0u8; 3 * size.0 as usize * size.1 as usize];
+        {
+            let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+            job.draw(&root).map_err(backend_err(&png))?;
+            root.present().map_err(|e| e.to_string()).map_err(backend_err(&png))?;
+        }
+        write_png(&png, size, &rgb).map_err(backend_err(&png))?;
     }
     {
         let root = SVGBackend::new(&svg, size).into_drawing_area();
         job.draw(&root).map_err(backend_err(&svg))?;
-        root.present()
-            .map_err(|e| e.to_string())
-            .map_err(backend_err(&svg))?;
+        root.present().map_err(|e| e.to_string()).map_err(backend_err(&svg))?;
     }
     Ok(vec![png, svg])
+}
+
+/// Encodes an 8-bit RGB buffer as a PNG file.
+fn write_png(path: &Path, size: (u32, u32), rgb: &[u8]) -> Result<(), String> {
+    let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), size.0, size.1);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
+    writer.write_image_data(rgb).map_err(|e| e.to_string())?;
+    writer.finish().map_err(|e| e.to_string())
 }
 
 /// Colour of series `i`: the ten "tab10" colours, then golden-angle hues.
@@ -583,11 +527,7 @@ fn tick_label(v: f64, lo: f64, hi: f64, n: f64) -> String {
     } else {
         let decimals = (-step_exp).clamp(0.0, 15.0) as usize;
         let s = format!("{v:.decimals$}");
-        let s = if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            s
-        };
+        let s = if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s };
         if s == "-0" {
             "0".to_string()
         } else {
@@ -697,35 +637,19 @@ where
         let pts = s.x.iter().copied().zip(s.y.iter().copied());
         let anno = match s.style {
             SeriesStyle::Line => chart.draw_series(LineSeries::new(pts, line)).map_err(e)?,
-            SeriesStyle::Markers => chart
-                .draw_series(pts.map(|p| Circle::new(p, 4, fill)))
-                .map_err(e)?,
+            SeriesStyle::Markers => chart.draw_series(pts.map(|p| Circle::new(p, 4, fill))).map_err(e)?,
             SeriesStyle::LineMarkers => {
-                chart
-                    .draw_series(LineSeries::new(pts.clone(), line))
-                    .map_err(e)?;
-                chart
-                    .draw_series(pts.map(|p| Circle::new(p, 4, fill)))
-                    .map_err(e)?
+                chart.draw_series(LineSeries::new(pts.clone(), line)).map_err(e)?;
+                chart.draw_series(pts.map(|p| Circle::new(p, 4, fill))).map_err(e)?
             }
         };
         if !s.label.is_empty() {
             let style = s.style;
             anno.label(s.label.as_str()).legend(move |(x, y)| {
                 let base = EmptyElement::at((x, y));
-                let path = PathElement::new(
-                    if style == SeriesStyle::Markers {
-                        vec![]
-                    } else {
-                        vec![(0, 0), (24, 0)]
-                    },
-                    line,
-                );
-                let dot = Circle::new(
-                    (12, 0),
-                    if style == SeriesStyle::Line { 0 } else { 4 },
-                    fill,
-                );
+                let path =
+                    PathElement::new(if style == SeriesStyle::Markers { vec![] } else { vec![(0, 0), (24, 0)] }, line);
+                let dot = Circle::new((12, 0), if style == SeriesStyle::Line { 0 } else { 4 }, fill);
                 base + path + dot
             });
         }
@@ -787,20 +711,12 @@ fn draw_scalar_map<DB: DrawingBackend>(
         .draw_series((0..ny).flat_map(|iy| {
             (0..nx).map(move |ix| {
                 let v = map.values[ix + nx * iy];
-                Rectangle::new(
-                    [(cx(ix), cy(iy)), (cx(ix + 1), cy(iy + 1))],
-                    viridis(fraction(v, lo, hi)).filled(),
-                )
+                Rectangle::new([(cx(ix), cy(iy)), (cx(ix + 1), cy(iy + 1))], viridis(fraction(v, lo, hi)).filled())
             })
         }))
         .map_err(e)?;
     // Frame the plotting area.
-    chart
-        .draw_series(std::iter::once(Rectangle::new(
-            [(x0, y0), (x1, y1)],
-            BLACK.stroke_width(1),
-        )))
-        .map_err(e)?;
+    chart.draw_series(std::iter::once(Rectangle::new([(x0, y0), (x1, y1)], BLACK.stroke_width(1)))).map_err(e)?;
 
     // Colour bar, drawn in pixel coordinates of `bar`.
     let (bw, bh) = bar.dim_in_pixel();
@@ -813,20 +729,10 @@ fn draw_scalar_map<DB: DrawingBackend>(
         let ya = bottom - (bottom - top) * k / bands;
         let yb = bottom - (bottom - top) * (k + 1) / bands;
         let t = (k as f64 + 0.5) / bands as f64;
-        bar.draw(&Rectangle::new(
-            [(left, yb), (right, ya)],
-            viridis(t).filled(),
-        ))
-        .map_err(e)?;
+        bar.draw(&Rectangle::new([(left, yb), (right, ya)], viridis(t).filled())).map_err(e)?;
     }
-    bar.draw(&Rectangle::new(
-        [(left, top), (right, bottom)],
-        BLACK.stroke_width(1),
-    ))
-    .map_err(e)?;
-    let tick_style = TextStyle::from((FONT, 15).into_font())
-        .color(&BLACK)
-        .pos(Pos::new(HPos::Left, VPos::Center));
+    bar.draw(&Rectangle::new([(left, top), (right, bottom)], BLACK.stroke_width(1))).map_err(e)?;
+    let tick_style = TextStyle::from((FONT, 15).into_font()).color(&BLACK).pos(Pos::new(HPos::Left, VPos::Center));
     let nticks = 5;
     for k in 0..nticks {
         let f = k as f64 / (nticks - 1) as f64;
@@ -839,14 +745,8 @@ fn draw_scalar_map<DB: DrawingBackend>(
             2.0 * (lo / 2.0 + f * (hi / 2.0 - lo / 2.0))
         };
         let y = bottom - ((bottom - top) as f64 * f).round() as i32;
-        bar.draw(&PathElement::new(vec![(right, y), (right + 6, y)], BLACK))
-            .map_err(e)?;
-        bar.draw(&Text::new(
-            tick_label(v, lo, hi, 40.0),
-            (right + 9, y),
-            tick_style.clone(),
-        ))
-        .map_err(e)?;
+        bar.draw(&PathElement::new(vec![(right, y), (right + 6, y)], BLACK)).map_err(e)?;
+        bar.draw(&Text::new(tick_label(v, lo, hi, 40.0), (right + 9, y), tick_style.clone())).map_err(e)?;
     }
     if !map.value_label.is_empty() {
         let label_style = TextStyle::from((FONT, 18).into_font())
@@ -854,12 +754,7 @@ fn draw_scalar_map<DB: DrawingBackend>(
             .transform(FontTransform::Rotate90)
             .pos(Pos::new(HPos::Center, VPos::Center));
         let x = (bw as i32 - 22).max(right + 1);
-        bar.draw(&Text::new(
-            map.value_label.as_str(),
-            (x, (top + bottom) / 2),
-            label_style,
-        ))
-        .map_err(e)?;
+        bar.draw(&Text::new(map.value_label.as_str(), (x, (top + bottom) / 2), label_style)).map_err(e)?;
     }
     Ok(())
 }
@@ -872,10 +767,8 @@ mod tests {
     /// A fresh, unique temporary directory for one test.
     fn temp_dir(name: &str) -> PathBuf {
         static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_nanos())
-            .unwrap_or(0);
+        let nanos =
+            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
         let dir = std::env::temp_dir().join(format!(
             "linpd-plot-test-{}-{}-{}-{}",
             std::process::id(),
@@ -923,14 +816,9 @@ mod tests {
     fn sample_plot() -> LinePlot {
         let x: Vec<f64> = (0..50).map(|i| i as f64 / 49.0).collect();
         LinePlot::new("Test title alpha", "position x", "displacement u")
-            .with_series(Series::new(
-                "sine",
-                x.clone(),
-                x.iter().map(|v| (6.0 * v).sin()).collect(),
-            ))
+            .with_series(Series::new("sine", x.clone(), x.iter().map(|v| (6.0 * v).sin()).collect()))
             .with_series(
-                Series::new("square", x.clone(), x.iter().map(|v| v * v).collect())
-                    .with_style(SeriesStyle::Markers),
+                Series::new("square", x.clone(), x.iter().map(|v| v * v).collect()).with_style(SeriesStyle::Markers),
             )
             .with_series(
                 Series::new("cubic", x.clone(), x.iter().map(|v| v * v * v).collect())
@@ -968,13 +856,7 @@ mod tests {
             &files,
             &stem,
             DEFAULT_SIZE,
-            &[
-                "Test title alpha",
-                "position x",
-                "displacement u",
-                "sine",
-                "cubic",
-            ],
+            &["Test title alpha", "position x", "displacement u", "sine", "cubic"],
         );
         assert!(files[0].ends_with("fig.v1.png"));
         cleanup(&dir);
@@ -985,18 +867,10 @@ mod tests {
         let dir = temp_dir("log");
         let stem = dir.join("loglog");
         let h: Vec<f64> = [0.1, 0.05, 0.025, 0.0125].to_vec();
-        let plot = LinePlot {
-            log_x: true,
-            log_y: true,
-            ..LinePlot::new("Convergence", "h", "error")
-        }
-        .with_series(Series::new(
-            "err",
-            h.clone(),
-            h.iter().map(|v| 3.0 * v * v).collect(),
-        ))
-        // Constant series at an exact power of ten on a log axis.
-        .with_series(Series::new("flat", h.clone(), vec![1e-2; 4]));
+        let plot = LinePlot { log_x: true, log_y: true, ..LinePlot::new("Convergence", "h", "error") }
+            .with_series(Series::new("err", h.clone(), h.iter().map(|v| 3.0 * v * v).collect()))
+            // Constant series at an exact power of ten on a log axis.
+            .with_series(Series::new("flat", h.clone(), vec![1e-2; 4]));
         let files = line_plot_with_size(&plot, &stem, (640, 480)).unwrap();
         check_outputs(&files, &stem, (640, 480), &["Convergence"]);
 
@@ -1010,21 +884,18 @@ mod tests {
 
         // Only log_x, with one x and zero range in x.
         let stem3 = dir.join("semilog");
-        let plot = LinePlot {
-            log_x: true,
-            ..LinePlot::new("Semilog", "n", "t")
-        }
-        .with_series(Series::new("pt", vec![7.0, 7.0], vec![-1.0, 1.0]));
+        let plot = LinePlot { log_x: true, ..LinePlot::new("Semilog", "n", "t") }.with_series(Series::new(
+            "pt",
+            vec![7.0, 7.0],
+            vec![-1.0, 1.0],
+        ));
         let files = line_plot(&plot, &stem3).unwrap();
         check_outputs(&files, &stem3, DEFAULT_SIZE, &["Semilog"]);
 
         // Tiny magnitudes get scientific tick labels instead of rows of "0.0".
         let stem4 = dir.join("tiny");
-        let plot = LinePlot::new("Tiny", "x", "u").with_series(Series::new(
-            "u",
-            vec![0.0, 1.0, 2.0],
-            vec![0.0, 1e-7, 3e-7],
-        ));
+        let plot =
+            LinePlot::new("Tiny", "x", "u").with_series(Series::new("u", vec![0.0, 1.0, 2.0], vec![0.0, 1e-7, 3e-7]));
         let files = line_plot(&plot, &stem4).unwrap();
         check_outputs(&files, &stem4, DEFAULT_SIZE, &["Tiny", "1.5e-7", "2.5e-7"]);
         cleanup(&dir);
@@ -1035,12 +906,7 @@ mod tests {
         let dir = temp_dir("map");
         let stem = dir.join("field");
         let files = scalar_map(&sample_map(40, 20), &stem).unwrap();
-        check_outputs(
-            &files,
-            &stem,
-            DEFAULT_SIZE,
-            &["Map title beta", "x coord", "y coord", "strain energy"],
-        );
+        check_outputs(&files, &stem, DEFAULT_SIZE, &["Map title beta", "x coord", "y coord", "strain energy"]);
         // A constant field must not panic and still draws.
         let mut map = sample_map(3, 2);
         map.values = vec![0.0; 6];
@@ -1140,10 +1006,7 @@ mod tests {
         let r = line_plot(&sample_plot(), &blocker.join("sub").join("fig"));
         assert!(matches!(r, Err(PlotError::Io(_))), "{r:?}");
         let r = scalar_map(&sample_map(2, 2), &blocker.join("map"));
-        assert!(
-            matches!(r, Err(PlotError::Io(_) | PlotError::Backend { .. })),
-            "{r:?}"
-        );
+        assert!(matches!(r, Err(PlotError::Io(_) | PlotError::Backend { .. })), "{r:?}");
         cleanup(&dir);
     }
 
@@ -1178,10 +1041,7 @@ mod tests {
         assert_eq!(tick_label(1.5e-7, 0.0, 2e-7, 20.0), "1.5e-7");
         assert_eq!(tick_label(2.5e6, 0.0, 1e7, 20.0), "2.5e6");
         assert_eq!(tick_label(1500.0, 0.0, 2000.0, 20.0), "1500");
-        assert_ne!(
-            tick_label(1.00001, 1.00001, 1.00002, 20.0),
-            tick_label(1.000015, 1.00001, 1.00002, 20.0)
-        );
+        assert_ne!(tick_label(1.00001, 1.00001, 1.00002, 20.0), tick_label(1.000015, 1.00001, 1.00002, 20.0));
         assert_eq!(log_tick_label(0.1 * 10.0 * 10.0 * 10.0), "100");
         assert_eq!(log_tick_label(1e-7), "1e-7");
         assert_eq!(log_tick_label(0.001), "0.001");

@@ -25,32 +25,53 @@ pub(crate) fn scene(
     let grid_raw = raw.grid.as_ref().expect("Problem::from_raw requires a grid for blend and ce models");
     let horizon = m.horizon.expect("Problem::from_raw requires a horizon for blend and ce models");
     let name = if kind == RawModelKind::Ce { "ce" } else { "blend" };
-    let mm = m.micromodulus.as_ref().ok_or_else(|| ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization"))?;
+    let mm = m
+        .micromodulus
+        .as_ref()
+        .ok_or_else(|| ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization"))?;
     if raw.dimension != 1 {
-        return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {}", raw.dimension)));
+        return Err(ProblemError::invalid(
+            "dimension",
+            format!("{name} models are 1D, got dimension {}", raw.dimension),
+        ));
     }
     if grid_raw.min[0] != 0.0 {
         return Err(ProblemError::invalid("grid.min", format!("{name} models live on (0, L): min must be [0.0]")));
     }
     if grid_raw.layer != 0.0 {
-        return Err(ProblemError::invalid("grid.layer", format!("{name} models have local Dirichlet conditions at both ends: no layer")));
+        return Err(ProblemError::invalid(
+            "grid.layer",
+            format!("{name} models have local Dirichlet conditions at both ends: no layer"),
+        ));
     }
     if mm.normalize != RawNormalize::Discrete {
-        return Err(ProblemError::invalid("model.micromodulus.normalize", format!("{name} models use the discrete normalization (eq. (19)): set \"discrete\"")));
+        return Err(ProblemError::invalid(
+            "model.micromodulus.normalize",
+            format!("{name} models use the discrete normalization (eq. (19)): set \"discrete\""),
+        ));
     }
     if m.partial_volume || m.plane.is_some() || !m.material.phases.is_empty() || !m.material.defects.is_empty() {
         return Err(ProblemError::invalid("model", format!("{name} models take no partial_volume, plane or material")));
     }
     let blended = kind == RawModelKind::Blend;
     let (regions, blending) = if blended {
-        let r = m.regions.ok_or_else(|| ProblemError::invalid("model.regions", "missing: [L1, L2, L3, L4] with 0 < L1 < L2 < L3 < L4 < L"))?;
+        let r = m.regions.ok_or_else(|| {
+            ProblemError::invalid("model.regions", "missing: [L1, L2, L3, L4] with 0 < L1 < L2 < L3 < L4 < L")
+        })?;
         let b = match m.blending {
-            None => return Err(ProblemError::invalid("model.blending", "missing: constant, linear, cubic or piecewise")),
+            None => {
+                return Err(ProblemError::invalid("model.blending", "missing: constant, linear, cubic or piecewise"))
+            }
             Some(RawBlending::Constant) => Blending::Constant { value: m.blending_value.unwrap_or(0.5) },
             Some(RawBlending::Linear) => Blending::Linear,
             Some(RawBlending::Cubic) => Blending::Cubic,
             Some(RawBlending::Piecewise) => {
-                let t = m.blending_table.as_ref().ok_or_else(|| ProblemError::invalid("model.blending_table", "piecewise blending needs {\"s\": [...], \"beta\": [...]}"))?;
+                let t = m.blending_table.as_ref().ok_or_else(|| {
+                    ProblemError::invalid(
+                        "model.blending_table",
+                        "piecewise blending needs {\"s\": [...], \"beta\": [...]}",
+                    )
+                })?;
                 Blending::Piecewise { s: t.s.clone(), beta: t.beta.clone() }
             }
         };
@@ -62,7 +83,12 @@ pub(crate) fn scene(
         }
         (Regions { l1: r[0], l2: r[1], l3: r[2], l4: r[3] }, b)
     } else {
-        for (key, given) in [("regions", m.regions.is_some()), ("blending", m.blending.is_some()), ("ce_spacing", m.ce_spacing.is_some()), ("hog", m.hog.is_some())] {
+        for (key, given) in [
+            ("regions", m.regions.is_some()),
+            ("blending", m.blending.is_some()),
+            ("ce_spacing", m.ce_spacing.is_some()),
+            ("hog", m.hog.is_some()),
+        ] {
             if given {
                 return Err(ProblemError::invalid(format!("model.{key}"), "the ce model takes no blending keys"));
             }
@@ -84,9 +110,15 @@ pub(crate) fn scene(
         hog: m.hog.unwrap_or(false),
     };
     params.validate().map_err(|e| match e {
-        linpd_blend::BlendError::Parameter { name, reason } if name == "horizon" => ProblemError::invalid("model.horizon", reason),
-        linpd_blend::BlendError::Parameter { name, reason } if name == "dx" => ProblemError::invalid("grid.spacing", reason),
-        linpd_blend::BlendError::Parameter { name, reason } if name == "length" => ProblemError::invalid("grid.max", reason),
+        linpd_blend::BlendError::Parameter { name, reason } if name == "horizon" => {
+            ProblemError::invalid("model.horizon", reason)
+        }
+        linpd_blend::BlendError::Parameter { name, reason } if name == "dx" => {
+            ProblemError::invalid("grid.spacing", reason)
+        }
+        linpd_blend::BlendError::Parameter { name, reason } if name == "length" => {
+            ProblemError::invalid("grid.max", reason)
+        }
         linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(format!("model.{name}"), reason),
         other => ProblemError::invalid("model", other.to_string()),
     })?;
@@ -104,19 +136,31 @@ pub(crate) fn scene(
             } else {
                 return Err(ProblemError::invalid(
                     format!("constraints[{k}].region"),
-                    format!("{name} models take Dirichlet conditions at x = 0 and x = L only; the region contains x = {x}"),
+                    format!(
+                        "{name} models take Dirichlet conditions at x = 0 and x = L only; the region contains x = {x}"
+                    ),
                 ));
             }
         }
     }
     let (u_left, u_right) = match (left, right) {
         (Some(a), Some(b)) => (a, b),
-        _ => return Err(ProblemError::invalid("constraints", format!("{name} models need u fixed at both x = 0 and x = L ({} given)", left.is_some() as u8 + right.is_some() as u8))),
+        _ => {
+            return Err(ProblemError::invalid(
+                "constraints",
+                format!(
+                    "{name} models need u fixed at both x = 0 and x = L ({} given)",
+                    left.is_some() as u8 + right.is_some() as u8
+                ),
+            ))
+        }
     };
     let mut out = Vec::new();
     for (k, l) in loads.iter().enumerate() {
         match l {
-            Load::Point { node, force } => out.push(linpd_blend::Load::Point { x: grid.position(*node)[0], force: force[0] }),
+            Load::Point { node, force } => {
+                out.push(linpd_blend::Load::Point { x: grid.position(*node)[0], force: force[0] })
+            }
             Load::Body { region, density } => {
                 let boxes = match region {
                     Region::Box { min, max } => vec![(min[0], max[0])],
@@ -124,12 +168,24 @@ pub(crate) fn scene(
                         .iter()
                         .map(|r| match r {
                             Region::Box { min, max } => Ok((min[0], max[0])),
-                            _ => Err(ProblemError::invalid(format!("loads[{k}].region"), "blend body loads take boxes or unions of boxes")),
+                            _ => Err(ProblemError::invalid(
+                                format!("loads[{k}].region"),
+                                "blend body loads take boxes or unions of boxes",
+                            )),
                         })
                         .collect::<Result<_, _>>()?,
-                    _ => return Err(ProblemError::invalid(format!("loads[{k}].region"), "blend body loads take boxes or unions of boxes")),
+                    _ => {
+                        return Err(ProblemError::invalid(
+                            format!("loads[{k}].region"),
+                            "blend body loads take boxes or unions of boxes",
+                        ))
+                    }
                 };
-                out.extend(boxes.into_iter().map(|(a, b)| linpd_blend::Load::Body { from: a, to: b, density: density[0] }));
+                out.extend(boxes.into_iter().map(|(a, b)| linpd_blend::Load::Body {
+                    from: a,
+                    to: b,
+                    density: density[0],
+                }));
             }
         }
     }
@@ -144,17 +200,32 @@ pub(crate) fn scene(
             ))
         }
     };
-    Ok(BlendScene { params, kind: if blended { ModelKind::Blended } else { ModelKind::PureCe }, u_left, u_right, loads: out, solver })
+    Ok(BlendScene {
+        params,
+        kind: if blended { ModelKind::Blended } else { ModelKind::PureCe },
+        u_left,
+        u_right,
+        loads: out,
+        solver,
+    })
 }
 
 /// Solves a blend scene.
 pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
-    progress(&format!("assembling the 1D {:?} model: dx = {}, N = {}", b.kind, b.params.dx, b.params.n_side().unwrap_or(0)));
+    progress(&format!(
+        "assembling the 1D {:?} model: dx = {}, N = {}",
+        b.kind,
+        b.params.dx,
+        b.params.n_side().unwrap_or(0)
+    ));
     let s = solve_model(&b.params, b.kind, b.u_left, b.u_right, &b.loads, b.solver).map_err(|e| match e {
         linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
         other => ProblemError::Solve(other.to_string()),
     })?;
-    progress(&format!("done: {} unknowns, solver {}, relative residual {:.2e}", s.report.n, s.report.solver, s.report.rel_residual));
+    progress(&format!(
+        "done: {} unknowns, solver {}, relative residual {:.2e}",
+        s.report.n, s.report.solver, s.report.rel_residual
+    ));
     Ok(Solution {
         name: name.to_string(),
         dim: 1,

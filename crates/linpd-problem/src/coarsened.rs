@@ -109,9 +109,9 @@ fn nodes_file(mtx: &Path) -> PathBuf {
     let s = mtx.as_os_str().to_string_lossy();
     let default = PathBuf::from(format!("{}.nodes.csv", s.strip_suffix(".mtx").unwrap_or(&s)));
     let named = std::fs::read_to_string(mtx).ok().and_then(|t| {
-        t.lines()
-            .take_while(|l| l.starts_with('%') || l.trim().is_empty())
-            .find_map(|l| l.strip_prefix('%').map(str::trim).and_then(|c| c.strip_prefix("nodes ")).map(|n| n.trim().to_string()))
+        t.lines().take_while(|l| l.starts_with('%') || l.trim().is_empty()).find_map(|l| {
+            l.strip_prefix('%').map(str::trim).and_then(|c| c.strip_prefix("nodes ")).map(|n| n.trim().to_string())
+        })
     });
     match named.map(|n| mtx.parent().unwrap_or(Path::new("")).join(n)) {
         Some(p) if p.is_file() || !default.is_file() => p,
@@ -148,7 +148,10 @@ impl CoarsenedScene {
             return Err(ProblemError::invalid("name", "must not be empty"));
         }
         if raw.model.kind != RawModelKind::Coarsened {
-            return Err(ProblemError::invalid("model.type", format!("expected \"coarsened\", got \"{}\"", raw.model.kind.name())));
+            return Err(ProblemError::invalid(
+                "model.type",
+                format!("expected \"coarsened\", got \"{}\"", raw.model.kind.name()),
+            ));
         }
         let RawModel {
             kind: _,
@@ -168,7 +171,8 @@ impl CoarsenedScene {
             ce_spacing,
             hog,
         } = &raw.model;
-        let material_given = !material.phases.is_empty() || material.bond_rule.is_some() || !material.defects.is_empty();
+        let material_given =
+            !material.phases.is_empty() || material.bond_rule.is_some() || !material.defects.is_empty();
         for (key, given) in [
             ("horizon", horizon.is_some()),
             ("partial_volume", *partial_volume),
@@ -193,7 +197,10 @@ impl CoarsenedScene {
             }
         }
         let moduli = moduli.as_ref().ok_or_else(|| {
-            ProblemError::invalid("model.moduli", "missing: the Matrix Market file of the coarsened moduli (e.g. \"out/level-1.mtx\")")
+            ProblemError::invalid(
+                "model.moduli",
+                "missing: the Matrix Market file of the coarsened moduli (e.g. \"out/level-1.mtx\")",
+            )
         })?;
         let moduli_path = if Path::new(moduli).is_absolute() { PathBuf::from(moduli) } else { base_dir.join(moduli) };
         if raw.grid.is_some() {
@@ -203,28 +210,43 @@ impl CoarsenedScene {
             ));
         }
         if raw.dynamics.is_some() {
-            return Err(ProblemError::invalid("dynamics", "explicit dynamics is not available for coarsened models (bond models only)"));
+            return Err(ProblemError::invalid(
+                "dynamics",
+                "explicit dynamics is not available for coarsened models (bond models only)",
+            ));
         }
         if raw.solver.matrix_free {
-            return Err(ProblemError::invalid("solver.matrix_free", "not available for coarsened models (K is read assembled)"));
+            return Err(ProblemError::invalid(
+                "solver.matrix_free",
+                "not available for coarsened models (K is read assembled)",
+            ));
         }
         let file = ModuliFile::read(&moduli_path).map_err(|e| ProblemError::invalid("model.moduli", e.to_string()))?;
         if file.dim != dim {
             return Err(ProblemError::invalid(
                 "dimension",
-                format!("the scene has dimension {dim} but the moduli file {} holds a {}D model (% dim {})", moduli_path.display(), file.dim, file.dim),
+                format!(
+                    "the scene has dimension {dim} but the moduli file {} holds a {}D model (% dim {})",
+                    moduli_path.display(),
+                    file.dim,
+                    file.dim
+                ),
             ));
         }
         let h = file.volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
         let nodes = LevelNodes { dim, positions: &file.positions, h: if h.is_finite() { h } else { 1.0 } };
         if file.n_nodes() == 0 {
-            return Err(ProblemError::invalid("model.moduli", format!("{}: the level has no nodes", moduli_path.display())));
+            return Err(ProblemError::invalid(
+                "model.moduli",
+                format!("{}: the level has no nodes", moduli_path.display()),
+            ));
         }
         let (constraints, loads) = constraints_and_loads(&raw, dim, &nodes)?;
         let (kind, cg) = solver_kind(&raw.solver)?;
         let stiffness = file.stiffness();
         let asymmetry = relative_asymmetry(&stiffness);
-        let mut pairs: Vec<(usize, usize)> = file.entries.iter().filter(|e| e.2 != 0.0).map(|e| (e.0 / dim, e.1 / dim)).collect();
+        let mut pairs: Vec<(usize, usize)> =
+            file.entries.iter().filter(|e| e.2 != 0.0).map(|e| (e.0 / dim, e.1 / dim)).collect();
         pairs.sort_unstable();
         pairs.dedup();
         Ok(CoarsenedScene {
@@ -310,7 +332,8 @@ impl CoarsenedScene {
         }
         // Rigid motions left free by the constraints, per connected piece of the bond graph.
         let mut lists = vec![Vec::<u32>::new(); n];
-        let (cp, ri, val) = (self.stiffness.symbolic().col_ptr(), self.stiffness.symbolic().row_idx(), self.stiffness.val());
+        let (cp, ri, val) =
+            (self.stiffness.symbolic().col_ptr(), self.stiffness.symbolic().row_idx(), self.stiffness.val());
         for c in 0..self.stiffness.ncols() {
             for p in cp[c]..cp[c + 1] {
                 let (i, j) = (ri[p] / d, c / d);
@@ -328,7 +351,10 @@ impl CoarsenedScene {
         let support = BondOperator::from_parts(d, self.positions.clone(), family.clone(), vec![1.0; family.n_bonds()]);
         check_support(&support, &dofs).map_err(|e| {
             let at: Vec<Vec<f64>> = e.nodes.iter().take(3).map(|&k| self.positions[k][..d].to_vec()).collect();
-            ProblemError::Unsupported(format!("{e} (first positions {at:?}; coarsened level from {})", self.moduli_path.display()))
+            ProblemError::Unsupported(format!(
+                "{e} (first positions {at:?}; coarsened level from {})",
+                self.moduli_path.display()
+            ))
         })?;
 
         let f_full = self.load_vector();
@@ -342,7 +368,12 @@ impl CoarsenedScene {
         let name_dof = |free: usize| -> String {
             let full = dofs.free_dofs()[free];
             let node = full / d;
-            format!("node {node} at {:?} (level-0 node {}), component {}", &self.positions[node][..d], self.level0[node], full % d)
+            format!(
+                "node {node} at {:?} (level-0 node {}), component {}",
+                &self.positions[node][..d],
+                self.level0[node],
+                full % d
+            )
         };
         let map_err = |e: SolveError| -> ProblemError {
             match e {
@@ -362,7 +393,11 @@ impl CoarsenedScene {
                 },
                 k => k.clone(),
             };
-            progress(&format!("solving: {} unknowns, {} stored entries, K symmetric, {kind:?}", a.nrows(), a.val().len()));
+            progress(&format!(
+                "solving: {} unknowns, {} stored entries, K symmetric, {kind:?}",
+                a.nrows(),
+                a.val().len()
+            ));
             let direct = !matches!(kind, SolverKind::Cg(_));
             let (u, rep) = linpd_solve::solve(&a, &f_free, &kind, d).map_err(map_err)?;
             if direct && !(rep.rel_residual <= 1e-6) {
@@ -402,7 +437,11 @@ impl CoarsenedScene {
         if u.iter().any(|v| !v.is_finite()) {
             return Err(ProblemError::Solve("the solution has non-finite values".into()));
         }
-        progress(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
+        progress(&format!(
+            "done in {:.3} s, relative residual {:.2e}",
+            t0.elapsed().as_secs_f64(),
+            report.rel_residual
+        ));
         Ok(Solution {
             name: self.name.clone(),
             dim: d,
@@ -438,7 +477,8 @@ impl Scene {
 
     /// Reads and validates a scene file (relative moduli paths start at its directory).
     pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
         Self::from_json(&text, path.parent().unwrap_or(Path::new("")))
     }
 

@@ -89,7 +89,9 @@ impl Initial {
                     0.0
                 }
             }
-            Initial::SmoothPulse { center, width, amplitude } => amplitude * smooth_pulse(500.0 + (x - center) * 20.0 / width),
+            Initial::SmoothPulse { center, width, amplitude } => {
+                amplitude * smooth_pulse(500.0 + (x - center) * 20.0 / width)
+            }
             Initial::Mode { wavenumber, amplitude } => amplitude * (wavenumber * x).cos(),
         }
     }
@@ -130,7 +132,12 @@ fn positive(path: &str, x: f64) -> Result<f64, ProblemError> {
 }
 
 /// Validates `dynamics` (shape was checked by serde).
-pub(crate) fn validate(raw: &RawDynamics, dim: usize, n_nodes: usize, kind: RawModelKind) -> Result<Dynamics, ProblemError> {
+pub(crate) fn validate(
+    raw: &RawDynamics,
+    dim: usize,
+    n_nodes: usize,
+    kind: RawModelKind,
+) -> Result<Dynamics, ProblemError> {
     if kind != RawModelKind::Bond {
         return Err(ProblemError::invalid(
             "dynamics",
@@ -142,7 +149,10 @@ pub(crate) fn validate(raw: &RawDynamics, dim: usize, n_nodes: usize, kind: RawM
             return Err(ProblemError::invalid("dynamics", "give exactly one of dt and dt_safety, got both"))
         }
         (None, None) => {
-            return Err(ProblemError::invalid("dynamics", "missing the time step: give dt or dt_safety (a fraction of the stability limit)"))
+            return Err(ProblemError::invalid(
+                "dynamics",
+                "missing the time step: give dt or dt_safety (a fraction of the stability limit)",
+            ))
         }
         (Some(dt), None) => TimeStep::Dt(positive("dynamics.dt", dt)?),
         (None, Some(s)) => TimeStep::Safety(positive("dynamics.dt_safety", s)?),
@@ -197,7 +207,8 @@ fn initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, Proble
         ));
     }
     let need = |key: &str, v: Option<f64>| -> Result<f64, ProblemError> {
-        let v = v.ok_or_else(|| ProblemError::invalid(format!("{p}.{key}"), format!("missing (required by {name})")))?;
+        let v =
+            v.ok_or_else(|| ProblemError::invalid(format!("{p}.{key}"), format!("missing (required by {name})")))?;
         if !v.is_finite() {
             return Err(ProblemError::invalid(format!("{p}.{key}"), format!("must be finite, got {v}")));
         }
@@ -212,7 +223,10 @@ fn initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, Proble
         RawInitialKind::SquarePulse => {
             let (from, to) = (need("from", i.from)?, need("to", i.to)?);
             if from > to {
-                return Err(ProblemError::invalid(format!("{p}.from"), format!("from = {from} is greater than to = {to}")));
+                return Err(ProblemError::invalid(
+                    format!("{p}.from"),
+                    format!("from = {from} is greater than to = {to}"),
+                ));
             }
             Initial::SquarePulse { from, to, amplitude }
         }
@@ -229,9 +243,19 @@ fn initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, Proble
 /// `"initial": {"type": "data", "u": [...], "v": [...]}`: `dim` values per node, node order.
 fn data_initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, ProblemError> {
     let p = "dynamics.initial";
-    let keys = [("from", i.from), ("to", i.to), ("center", i.center), ("width", i.width), ("wavenumber", i.wavenumber), ("amplitude", i.amplitude)];
+    let keys = [
+        ("from", i.from),
+        ("to", i.to),
+        ("center", i.center),
+        ("width", i.width),
+        ("wavenumber", i.wavenumber),
+        ("amplitude", i.amplitude),
+    ];
     if let Some((key, _)) = keys.iter().find(|(_, v)| v.is_some()) {
-        return Err(ProblemError::invalid(format!("{p}.{key}"), "not a key of a data initial condition (it takes u and optionally v)"));
+        return Err(ProblemError::invalid(
+            format!("{p}.{key}"),
+            "not a key of a data initial condition (it takes u and optionally v)",
+        ));
     }
     let expected = dim * n_nodes;
     let check = |key: &str, values: &[f64]| -> Result<(), ProblemError> {
@@ -372,7 +396,8 @@ impl DynamicsRun {
         };
         std::fs::create_dir_all(dir).map_err(io(dir))?;
         let hist = dir.join("history.json");
-        std::fs::write(&hist, serde_json::to_string_pretty(&self.history_json()).expect("serializes")).map_err(io(&hist))?;
+        std::fs::write(&hist, serde_json::to_string_pretty(&self.history_json()).expect("serializes"))
+            .map_err(io(&hist))?;
         let mut files = vec![hist];
         let width = self.steps.to_string().len();
         let d = self.dim;
@@ -467,12 +492,16 @@ impl Problem {
             let chain = Chain::new(self.grid.spacing(), self.model.horizon, &self.model.micromodulus)
                 .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
             let l = lattice_limit(&chain, rho);
-            return Ok(StabilityLimit { dt: l.dt, method: "2/omega_max of the infinite lattice (exact; a lower bound for the bar)".into() });
+            return Ok(StabilityLimit {
+                dt: l.dt,
+                method: "2/omega_max of the infinite lattice (exact; a lower bound for the bar)".into(),
+            });
         }
         let mass = self.mass(rho)?;
         let fixed: Vec<usize> = self.fixed().iter().map(|p| p.0).collect();
-        let info = power_iteration(op, &mass, &fixed, &PowerParams { max_iter: 5000, rtol: 1e-10, ..Default::default() })
-            .map_err(|e| ProblemError::invalid("dynamics", e.to_string()))?;
+        let info =
+            power_iteration(op, &mass, &fixed, &PowerParams { max_iter: 5000, rtol: 1e-10, ..Default::default() })
+                .map_err(|e| ProblemError::invalid("dynamics", e.to_string()))?;
         Ok(StabilityLimit {
             dt: verlet_limit(info.lambda) * (1.0 - 1e-3),
             method: format!("2/sqrt(lambda_max) by power iteration ({} iterations), less 0.1%", info.iterations),
@@ -488,7 +517,10 @@ impl Problem {
         let t0 = Instant::now();
         let d = self.dim();
         let n_nodes = self.grid.len();
-        progress(&format!("building bonds: {n_nodes} nodes, horizon/spacing = {:.3}", self.model.horizon / self.grid.spacing()));
+        progress(&format!(
+            "building bonds: {n_nodes} nodes, horizon/spacing = {:.3}",
+            self.model.horizon / self.grid.spacing()
+        ));
         let op = self.operator()?;
         let limit = self.limit_of(&op, dynamics)?;
         let dt = match dynamics.step {
@@ -511,7 +543,9 @@ impl Problem {
         progress(&format!("dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {})", dt / limit.dt, limit.dt, limit.method));
         let fixed = self.fixed();
         let mass = self.mass(dynamics.density)?;
-        let verlet = Verlet::new(&op, mass).with_fixed(&fixed).map_err(|e| ProblemError::invalid("constraints", e.to_string()))?;
+        let verlet = Verlet::new(&op, mass)
+            .with_fixed(&fixed)
+            .map_err(|e| ProblemError::invalid("constraints", e.to_string()))?;
         let positions = op.positions().to_vec();
         let load = self.load_vector();
         let loaded = load.iter().any(|f| *f != 0.0);
@@ -523,9 +557,16 @@ impl Problem {
             allow_unstable: dynamics.allow_unstable,
         };
         let mut state = dynamics.initial.state(&positions, d);
-        let (mut output_steps, mut times, mut energies, mut snapshots) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut output_steps, mut times, mut energies, mut snapshots) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let setup_seconds = t0.elapsed().as_secs_f64();
-        progress(&format!("running {} steps ({} DOFs, {} held, {} bonds)", dynamics.steps, d * n_nodes, fixed.len(), op.family().n_bonds()));
+        progress(&format!(
+            "running {} steps ({} DOFs, {} held, {} bonds)",
+            dynamics.steps,
+            d * n_nodes,
+            fixed.len(),
+            op.family().n_bonds()
+        ));
         let t1 = Instant::now();
         let mut force = |_t: f64, f: &mut [f64]| f.copy_from_slice(&load);
         let info = verlet
@@ -607,11 +648,23 @@ mod tests {
     #[test]
     fn data_initial_errors_name_the_path() {
         let cases = [
-            (json!({"type": "data", "u": vec![0.0; 49]}), "dynamics.initial.u: has 49 values, expected 50 = 25 nodes x 2 components"),
-            (json!({"type": "data", "u": vec![0.0; 50], "v": vec![0.0; 75]}), "dynamics.initial.v: has 75 values, expected 50"),
+            (
+                json!({"type": "data", "u": vec![0.0; 49]}),
+                "dynamics.initial.u: has 49 values, expected 50 = 25 nodes x 2 components",
+            ),
+            (
+                json!({"type": "data", "u": vec![0.0; 50], "v": vec![0.0; 75]}),
+                "dynamics.initial.v: has 75 values, expected 50",
+            ),
             (json!({"type": "data", "v": vec![0.0; 50]}), "dynamics.initial.u: missing"),
-            (json!({"type": "data", "u": vec![0.0; 50], "amplitude": 2.0}), "dynamics.initial.amplitude: not a key of a data initial condition"),
-            (json!({"type": "rest", "u": vec![0.0; 50]}), "dynamics.initial.u: only a \"data\" initial condition takes u and v"),
+            (
+                json!({"type": "data", "u": vec![0.0; 50], "amplitude": 2.0}),
+                "dynamics.initial.amplitude: not a key of a data initial condition",
+            ),
+            (
+                json!({"type": "rest", "u": vec![0.0; 50]}),
+                "dynamics.initial.u: only a \"data\" initial condition takes u and v",
+            ),
             (json!({"type": "data", "u": "abc"}), "dynamics.initial.u"),
         ];
         for (initial, needle) in cases {

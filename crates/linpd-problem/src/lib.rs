@@ -20,9 +20,9 @@ pub mod raw;
 pub mod run;
 
 pub use coarsened::{CoarsenedScene, ModuliFile, Scene};
+pub use dynamics::{Dynamics, DynamicsRun, Initial, TimeStep};
 pub use error::ProblemError;
+pub use lps::reduce_to_free;
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
 pub use problem::{BlendScene, BondModel, Constraint, Load, Problem, SolverSettings};
-pub use lps::reduce_to_free;
 pub use run::{Reduced, Solution};
-pub use dynamics::{Dynamics, DynamicsRun, Initial, TimeStep};

@@ -43,7 +43,11 @@ fn reduce(a: &SparseColMat<usize, f64>, dofs: &DofMap) -> SparseColMat<usize, f6
 pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
     let d = p.dim();
     let t0 = Instant::now();
-    progress(&format!("building the LPS model: {} nodes, horizon/spacing = {:.3}", p.grid.len(), params.horizon / p.grid.spacing()));
+    progress(&format!(
+        "building the LPS model: {} nodes, horizon/spacing = {:.3}",
+        p.grid.len(),
+        params.horizon / p.grid.spacing()
+    ));
     let model = LpsModel::new(&p.grid, params).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
     let (mask, ubar) = p.constrained();
     let dofs = DofMap::new(d, &mask);

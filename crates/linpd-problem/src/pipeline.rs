@@ -124,7 +124,8 @@ fn inv(path: impl Into<String>, reason: impl Into<String>) -> ProblemError {
 impl Pipeline {
     /// Reads and validates a pipeline file (and its scene).
     pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
         let de = &mut serde_json::Deserializer::from_str(&text);
         let raw: RawPipeline = serde_path_to_error::deserialize(de).map_err(|e| {
             let p = e.path().to_string();
@@ -146,7 +147,8 @@ impl Pipeline {
             return Err(inv("levels", "must list at least one coarsening step"));
         }
         let scene_path = base.join(&raw.scene);
-        let scene = Problem::from_path(&scene_path).map_err(|e| inv("scene", format!("{}: {e}", scene_path.display())))?;
+        let scene =
+            Problem::from_path(&scene_path).map_err(|e| inv("scene", format!("{}: {e}", scene_path.display())))?;
         if scene.blend.is_some() {
             return Err(inv("scene", "coarsening supports bond and lps models, not blend/ce"));
         }
@@ -155,9 +157,16 @@ impl Pipeline {
             let p = |k: &str| format!("levels[{i}].{k}");
             let retain = match (l.every, &l.nodes) {
                 (Some(k), None) if k >= 2 => Retain::Every(k),
-                (Some(k), None) => return Err(inv(p("every"), format!("must be >= 2 (every k-th node per axis), got {k}"))),
+                (Some(k), None) => {
+                    return Err(inv(p("every"), format!("must be >= 2 (every k-th node per axis), got {k}")))
+                }
                 (None, Some(n)) => Retain::Nodes(n.clone()),
-                _ => return Err(inv(format!("levels[{i}]"), "give exactly one of `every` (every k-th node per axis) and `nodes` (level-(m-1) indices)")),
+                _ => {
+                    return Err(inv(
+                        format!("levels[{i}]"),
+                        "give exactly one of `every` (every k-th node per axis) and `nodes` (level-(m-1) indices)",
+                    ))
+                }
             };
             let rule_keys = l.radius_start.is_some() || l.radius_growth.is_some() || l.radius_max.is_some();
             let radius = match (l.radius, l.tolerance) {
@@ -187,7 +196,10 @@ impl Pipeline {
                     }
                     Radius::Auto { tol, start: l.radius_start, growth, max: l.radius_max }
                 }
-                _ => return Err(inv(format!("levels[{i}]"), "give exactly one of `radius` (fixed r^m) and `tolerance` (grow r^m until the tail is below it)")),
+                _ => return Err(inv(
+                    format!("levels[{i}]"),
+                    "give exactly one of `radius` (fixed r^m) and `tolerance` (grow r^m until the tail is below it)",
+                )),
             };
             levels.push(LevelSpec { retain, radius });
         }
@@ -216,7 +228,8 @@ pub fn level0_model(p: &Problem) -> Result<LevelModel, ProblemError> {
         let op: BondOperator = p.operator()?;
         assemble(&op, &DofMap::all_free(n, d))
     };
-    LevelModel::from_stiffness(d, p.grid.positions(), vec![p.grid.volume(); n], &k).map_err(|e| inv("model", e.to_string()))
+    LevelModel::from_stiffness(d, p.grid.positions(), vec![p.grid.volume(); n], &k)
+        .map_err(|e| inv("model", e.to_string()))
 }
 
 /// One level's outcome.
@@ -262,7 +275,13 @@ impl Pipeline {
         let d = self.scene.dim();
         let t = Instant::now();
         let m0 = level0_model(&self.scene)?;
-        progress(&format!("level 0: {} nodes, {} bonds, horizon {:.4e} ({:.2} s)", m0.len(), m0.n_bonds(), m0.horizon(), t.elapsed().as_secs_f64()));
+        progress(&format!(
+            "level 0: {} nodes, {} bonds, horizon {:.4e} ({:.2} s)",
+            m0.len(),
+            m0.n_bonds(),
+            m0.horizon(),
+            t.elapsed().as_secs_f64()
+        ));
         let mut models = vec![m0];
         let mut results = vec![LevelResult {
             level: 0,
@@ -281,7 +300,9 @@ impl Pipeline {
             let path = format!("levels[{i}]");
             let retained = match &spec.retain {
                 Retain::Every(k) => retain_every(fine, *k).map_err(|e| inv(&path, e.to_string()))?,
-                Retain::Nodes(n) => check_retained(n, fine.len()).map_err(|e| inv(format!("{path}.nodes"), e.to_string()))?,
+                Retain::Nodes(n) => {
+                    check_retained(n, fine.len()).map_err(|e| inv(format!("{path}.nodes"), e.to_string()))?
+                }
             };
             if retained.len() == fine.len() {
                 return Err(inv(&path, format!("retains all {} nodes of level {i}: nothing to coarsen", fine.len())));
@@ -324,9 +345,11 @@ impl Pipeline {
                     f[d * at[&p] + a] += val;
                 }
                 let t = Instant::now();
-                let u = model.solve_dirichlet(&f, &fixed).map_err(|e| ProblemError::Solve(format!("level {lvl}: {e}")))?;
+                let u =
+                    model.solve_dirichlet(&f, &fixed).map_err(|e| ProblemError::Solve(format!("level {lvl}: {e}")))?;
                 let secs = t.elapsed().as_secs_f64();
-                let us: Vec<f64> = shared0.iter().flat_map(|p| (0..d).map(move |a| (p, a))).map(|(p, a)| u[d * at[p] + a]).collect();
+                let us: Vec<f64> =
+                    shared0.iter().flat_map(|p| (0..d).map(move |a| (p, a))).map(|(p, a)| u[d * at[p] + a]).collect();
                 results[lvl].solve_seconds = Some(secs);
                 results[lvl].u_shared = us;
             }
@@ -352,7 +375,8 @@ impl Pipeline {
         for (m, model) in models.iter().enumerate().skip(1) {
             results[m].files = write_level(model, m, dir)?;
         }
-        let result = PipelineResult { name: self.name.clone(), dimension: d, levels: results, shared_x, seconds_coarsening };
+        let result =
+            PipelineResult { name: self.name.clone(), dimension: d, levels: results, shared_x, seconds_coarsening };
         result.write(dir)?;
         Ok(result)
     }
@@ -360,7 +384,10 @@ impl Pipeline {
     /// Constrained DOFs `(level-0 node, component, value)` and nodal forces `(node, comp, f)`
     /// on the shared nodes (see the module docs).
     #[allow(clippy::type_complexity)]
-    fn shared_bvp(&self, shared0: &[usize]) -> Result<(Vec<(usize, usize, f64)>, Vec<(usize, usize, f64)>), ProblemError> {
+    fn shared_bvp(
+        &self,
+        shared0: &[usize],
+    ) -> Result<(Vec<(usize, usize, f64)>, Vec<(usize, usize, f64)>), ProblemError> {
         let p = &self.scene;
         let d = p.dim();
         let (mask, ubar) = p.constrained();
@@ -394,7 +421,10 @@ impl Pipeline {
                     let v = p.grid.volume();
                     let nodes: Vec<usize> = region.nodes(&p.grid).into_iter().filter(|&i| is_shared[i]).collect();
                     if nodes.is_empty() {
-                        return Err(inv(format!("loads[{li}]"), "the body load's region contains no node of the coarsest level"));
+                        return Err(inv(
+                            format!("loads[{li}]"),
+                            "the body load's region contains no node of the coarsest level",
+                        ));
                     }
                     for i in nodes {
                         (0..d).for_each(|a| f.push((i, a, density[a] * v)));

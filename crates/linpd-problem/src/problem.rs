@@ -3,7 +3,8 @@
 use crate::raw::*;
 use crate::ProblemError;
 use linpd_core::{
-    BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point, Region,
+    BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point,
+    Region,
 };
 use linpd_solve::{CgParams, SolverKind};
 
@@ -126,7 +127,10 @@ fn core(path: &str, e: CoreError) -> ProblemError {
 
 pub(crate) fn check_len(path: &str, v: &[f64], dim: usize) -> Result<(), ProblemError> {
     if v.len() != dim {
-        return Err(ProblemError::invalid(path, format!("expected {dim} components (the scene's dimension), got {}", v.len())));
+        return Err(ProblemError::invalid(
+            path,
+            format!("expected {dim} components (the scene's dimension), got {}", v.len()),
+        ));
     }
     if v.iter().any(|x| !x.is_finite()) {
         return Err(ProblemError::invalid(path, "values must be finite"));
@@ -169,7 +173,12 @@ pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, ProblemError> {
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner();
-        ProblemError::Parse { path: known_path(&path), message: strip_position(&inner.to_string()), line: inner.line(), column: inner.column() }
+        ProblemError::Parse {
+            path: known_path(&path),
+            message: strip_position(&inner.to_string()),
+            line: inner.line(),
+            column: inner.column(),
+        }
     })
 }
 
@@ -247,9 +256,24 @@ impl Problem {
             return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {dim}")));
         }
         let lps = if model_kind == RawModelKind::Lps {
-            Some(lps_params(dim, horizon, grid.spacing(), partial_volume, plane, bulk_modulus, shear_modulus, influence, &mm, &material)?)
+            Some(lps_params(
+                dim,
+                horizon,
+                grid.spacing(),
+                partial_volume,
+                plane,
+                bulk_modulus,
+                shear_modulus,
+                influence,
+                &mm,
+                &material,
+            )?)
         } else {
-            for (key, given) in [("bulk_modulus", bulk_modulus.is_some()), ("shear_modulus", shear_modulus.is_some()), ("influence", influence.is_some())] {
+            for (key, given) in [
+                ("bulk_modulus", bulk_modulus.is_some()),
+                ("shear_modulus", shear_modulus.is_some()),
+                ("influence", influence.is_some()),
+            ] {
                 if given {
                     return Err(ProblemError::invalid(format!("model.{key}"), "only lps models take this key"));
                 }
@@ -267,7 +291,9 @@ impl Problem {
                 normalize: RawNormalize::None,
                 amplitude: Some(1.0),
             },
-            (None, _) => return Err(ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization")),
+            (None, _) => {
+                return Err(ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization"))
+            }
         };
         let plane = if model_kind == RawModelKind::Lps && dim == 2 { None } else { plane };
         if model_kind == RawModelKind::Bond {
@@ -330,7 +356,9 @@ impl Problem {
                 return Err(ProblemError::invalid("model.plane", "2D scenes need \"plane\": \"stress\" or \"strain\""))
             }
             (2, None) => None,
-            (_, Some(_)) => return Err(ProblemError::invalid("model.plane", format!("only meaningful in 2D (dimension is {dim})"))),
+            (_, Some(_)) => {
+                return Err(ProblemError::invalid("model.plane", format!("only meaningful in 2D (dimension is {dim})")))
+            }
             (_, None) => None,
         };
         let micromodulus = micromodulus(&mm, horizon, plane, partial_volume)?;
@@ -341,11 +369,16 @@ impl Problem {
         let (constraints, loads) = constraints_and_loads(&raw, dim, &grid)?;
         let (kind, cg) = solver_kind(&raw.solver)?;
         let blend = match model_kind {
-            RawModelKind::Blend | RawModelKind::Ce => Some(crate::blend::scene(model_kind, &raw, &grid, &constraints, &loads)?),
+            RawModelKind::Blend | RawModelKind::Ce => {
+                Some(crate::blend::scene(model_kind, &raw, &grid, &constraints, &loads)?)
+            }
             RawModelKind::Bond | RawModelKind::Lps | RawModelKind::Coarsened => None,
         };
         if lps.is_some() && raw.solver.matrix_free {
-            return Err(ProblemError::invalid("solver.matrix_free", "not available for lps models yet (the Jacobi diagonal needs the assembled tangent)"));
+            return Err(ProblemError::invalid(
+                "solver.matrix_free",
+                "not available for lps models yet (the Jacobi diagonal needs the assembled tangent)",
+            ));
         }
         let dynamics = match &raw.dynamics {
             None => None,
@@ -406,7 +439,11 @@ impl NodeSet for Grid {
 }
 
 /// Validates `constraints` and `loads` against the nodes they refer to.
-pub(crate) fn constraints_and_loads(raw: &RawProblem, dim: usize, nodes: &dyn NodeSet) -> Result<(Vec<Constraint>, Vec<Load>), ProblemError> {
+pub(crate) fn constraints_and_loads(
+    raw: &RawProblem,
+    dim: usize,
+    nodes: &dyn NodeSet,
+) -> Result<(Vec<Constraint>, Vec<Load>), ProblemError> {
     let mut constraints = Vec::new();
     for (k, c) in raw.constraints.iter().enumerate() {
         let p = format!("constraints[{k}]");
@@ -452,7 +489,9 @@ pub(crate) fn constraints_and_loads(raw: &RawProblem, dim: usize, nodes: &dyn No
         let p = format!("loads[{k}]");
         let only = |kind: &str, given: &[(&str, bool)]| -> Result<(), ProblemError> {
             match given.iter().find(|(_, present)| *present) {
-                Some((key, _)) => Err(ProblemError::invalid(format!("{p}.{key}"), format!("not a key of a {kind} load"))),
+                Some((key, _)) => {
+                    Err(ProblemError::invalid(format!("{p}.{key}"), format!("not a key of a {kind} load")))
+                }
                 None => Ok(()),
             }
         };
@@ -516,7 +555,10 @@ pub(crate) fn solver_kind(raw: &RawSolver) -> Result<(SolverKind, CgParams), Pro
         RawSolverKind::Dense => SolverKind::Dense,
     };
     if raw.matrix_free && !matches!(kind, SolverKind::Cg(_)) {
-        return Err(ProblemError::invalid("solver.matrix_free", "only the cg solver can run matrix-free; set \"type\": \"cg\""));
+        return Err(ProblemError::invalid(
+            "solver.matrix_free",
+            "only the cg solver can run matrix-free; set \"type\": \"cg\"",
+        ));
     }
     if (raw.rtol.is_some() || raw.max_iter.is_some()) && !matches!(kind, SolverKind::Cg(_) | SolverKind::Auto) {
         return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg solver only"));
@@ -553,7 +595,12 @@ impl Problem {
             RawKernel::Tent => Kernel::Tent,
             RawKernel::Gaussian => Kernel::Gaussian { length: mm.length.unwrap_or(0.5 * horizon) },
             RawKernel::Tabulated => {
-                let t = mm.table.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.table"), "the tabulated kernel needs a table {\"r_over_delta\": [...], \"g\": [...]}"))?;
+                let t = mm.table.as_ref().ok_or_else(|| {
+                    ProblemError::invalid(
+                        format!("{p}.table"),
+                        "the tabulated kernel needs a table {\"r_over_delta\": [...], \"g\": [...]}",
+                    )
+                })?;
                 Kernel::Tabulated { s: t.r_over_delta.clone(), g: t.g.clone() }
             }
         })
@@ -578,7 +625,10 @@ fn lps_params(
         return Err(ProblemError::invalid("dimension", "lps models are 2D or 3D"));
     }
     if mm.is_some() {
-        return Err(ProblemError::invalid("model.micromodulus", "lps models take bulk_modulus and shear_modulus, not a micromodulus"));
+        return Err(ProblemError::invalid(
+            "model.micromodulus",
+            "lps models take bulk_modulus and shear_modulus, not a micromodulus",
+        ));
     }
     if !material.phases.is_empty() || !material.defects.is_empty() {
         return Err(ProblemError::invalid("model.material", "lps models are homogeneous for now"));
@@ -593,15 +643,23 @@ fn lps_params(
     }
     let nu = (3.0 * k - 2.0 * g) / (2.0 * (3.0 * k + g));
     if !(nu > -1.0 && nu < 0.5) {
-        return Err(ProblemError::invalid("model.shear_modulus", format!("Poisson ratio (3K - 2G)/(2(3K + G)) = {nu} is outside (-1, 1/2)")));
+        return Err(ProblemError::invalid(
+            "model.shear_modulus",
+            format!("Poisson ratio (3K - 2G)/(2(3K + G)) = {nu} is outside (-1, 1/2)"),
+        ));
     }
     if horizon < spacing * (1.0 - linpd_core::GEOMETRY_RTOL) {
-        return Err(ProblemError::invalid("model.horizon", format!("horizon {horizon} is below the spacing {spacing}")));
+        return Err(ProblemError::invalid(
+            "model.horizon",
+            format!("horizon {horizon} is below the spacing {spacing}"),
+        ));
     }
     let plane = match (dim, plane) {
         (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
         (2, Some(RawPlane::Strain)) => Some(PlaneModel::Strain),
-        (2, None) => return Err(ProblemError::invalid("model.plane", "2D lps scenes need \"plane\": \"stress\" or \"strain\"")),
+        (2, None) => {
+            return Err(ProblemError::invalid("model.plane", "2D lps scenes need \"plane\": \"stress\" or \"strain\""))
+        }
         (_, Some(_)) => return Err(ProblemError::invalid("model.plane", "only meaningful in 2D")),
         (_, None) => None,
     };
@@ -612,7 +670,12 @@ fn lps_params(
     Ok(linpd_lps::LpsParams { K: k, G: g, horizon, influence, partial_volume, plane })
 }
 
-fn micromodulus(mm: &RawMicromodulus, horizon: f64, plane: Option<PlaneModel>, partial_volume: bool) -> Result<Micromodulus, ProblemError> {
+fn micromodulus(
+    mm: &RawMicromodulus,
+    horizon: f64,
+    plane: Option<PlaneModel>,
+    partial_volume: bool,
+) -> Result<Micromodulus, ProblemError> {
     let p = "model.micromodulus";
     let kernel = Problem::kernel_of(mm, horizon)?;
     if mm.length.is_some() && mm.kernel != RawKernel::Gaussian {
@@ -624,15 +687,27 @@ fn micromodulus(mm: &RawMicromodulus, horizon: f64, plane: Option<PlaneModel>, p
     let (normalization, modulus) = match (mm.normalize, mm.modulus, mm.amplitude) {
         (RawNormalize::None, None, Some(c)) => (Normalization::Amplitude(c), 1.0),
         (RawNormalize::None, _, None) => {
-            return Err(ProblemError::invalid(format!("{p}.amplitude"), "\"normalize\": \"none\" needs an explicit amplitude"))
+            return Err(ProblemError::invalid(
+                format!("{p}.amplitude"),
+                "\"normalize\": \"none\" needs an explicit amplitude",
+            ))
         }
-        (RawNormalize::None, Some(_), Some(_)) => {
-            return Err(ProblemError::invalid(format!("{p}.modulus"), "give either a modulus (with normalize discrete/continuum) or an amplitude (with normalize none), not both"))
-        }
+        (RawNormalize::None, Some(_), Some(_)) => return Err(ProblemError::invalid(
+            format!("{p}.modulus"),
+            "give either a modulus (with normalize discrete/continuum) or an amplitude (with normalize none), not both",
+        )),
         (_, _, Some(_)) => {
-            return Err(ProblemError::invalid(format!("{p}.amplitude"), "an explicit amplitude needs \"normalize\": \"none\""))
+            return Err(ProblemError::invalid(
+                format!("{p}.amplitude"),
+                "an explicit amplitude needs \"normalize\": \"none\"",
+            ))
         }
-        (_, None, None) => return Err(ProblemError::invalid(format!("{p}.modulus"), "missing: the modulus to normalize the kernel to")),
+        (_, None, None) => {
+            return Err(ProblemError::invalid(
+                format!("{p}.modulus"),
+                "missing: the modulus to normalize the kernel to",
+            ))
+        }
         (RawNormalize::Discrete, Some(k), None) => (Normalization::Discrete, k),
         (RawNormalize::Continuum, Some(k), None) => (Normalization::Continuum, k),
     };
@@ -647,7 +722,10 @@ fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
     for (k, ph) in raw.phases.iter().enumerate() {
         let r = region(&format!("{p}.phases[{k}].region"), &ph.region, dim)?;
         if !(ph.modulus.is_finite() && ph.modulus > 0.0) {
-            return Err(ProblemError::invalid(format!("{p}.phases[{k}].modulus"), format!("must be > 0, got {}", ph.modulus)));
+            return Err(ProblemError::invalid(
+                format!("{p}.phases[{k}].modulus"),
+                format!("must be > 0, got {}", ph.modulus),
+            ));
         }
         phases.push((r, ph.modulus));
     }
@@ -664,7 +742,10 @@ fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
         let dp = format!("{p}.defects[{k}]");
         let given = [d.point.is_some(), d.segment.is_some(), d.plane.is_some()].iter().filter(|&&b| b).count();
         if given != 1 {
-            return Err(ProblemError::invalid(&dp, "give exactly one of \"point\" (1D), \"segment\" (2D) or \"plane\" (3D)"));
+            return Err(ProblemError::invalid(
+                &dp,
+                "give exactly one of \"point\" (1D), \"segment\" (2D) or \"plane\" (3D)",
+            ));
         }
         let defect = if let Some(x) = d.point {
             Defect::Point { x, factor: d.factor }
@@ -678,7 +759,9 @@ fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
         defect.validate(dim).map_err(|e| match e {
             // The core names the list ("defects") and the bare "normal"; point at the entry.
             CoreError::Parameter { name, reason } if name == "defects" => ProblemError::invalid(&dp, reason),
-            CoreError::Parameter { name, reason } if name == "normal" => ProblemError::invalid(format!("{dp}.plane.normal"), reason),
+            CoreError::Parameter { name, reason } if name == "normal" => {
+                ProblemError::invalid(format!("{dp}.plane.normal"), reason)
+            }
             e => core(&dp, e),
         })?;
         defects.push(defect);

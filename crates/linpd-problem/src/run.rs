@@ -9,7 +9,10 @@
 use crate::{Load, Problem, ProblemError};
 use linpd_bond::{check_support, nested_dissection, BondOperator, Pattern, StencilOperator};
 use linpd_core::{DofMap, Point};
-use linpd_solve::{auto_choice, pcg, peak_rss_bytes, relative_residual, solve_with_ordering, LinearOperator, SolveError, SolveReport, SolverKind};
+use linpd_solve::{
+    auto_choice, pcg, peak_rss_bytes, relative_residual, solve_with_ordering, LinearOperator, SolveError, SolveReport,
+    SolverKind,
+};
 use std::time::Instant;
 
 /// The result of a static solve.
@@ -106,7 +109,11 @@ impl Problem {
         }
         let d = self.dim();
         let t0 = Instant::now();
-        progress(&format!("building bonds: {} nodes, horizon/spacing = {:.3}", self.grid.len(), self.model.horizon / self.grid.spacing()));
+        progress(&format!(
+            "building bonds: {} nodes, horizon/spacing = {:.3}",
+            self.grid.len(),
+            self.model.horizon / self.grid.spacing()
+        ));
         let op = self.operator()?;
         let (mask, ubar) = self.constrained();
         let dofs = DofMap::new(d, &mask);
@@ -151,12 +158,25 @@ impl Problem {
                 None
             };
             let info = match &stencil {
-                Some(s) => pcg(&Reduced { dofs: &dofs, apply_full: |x: &[f64], y: &mut [f64]| s.apply(x, y) }, &diag, &f_free, &mut u, params),
-                None => pcg(&Reduced { dofs: &dofs, apply_full: |x: &[f64], y: &mut [f64]| op.apply(x, y) }, &diag, &f_free, &mut u, params),
+                Some(s) => pcg(
+                    &Reduced { dofs: &dofs, apply_full: |x: &[f64], y: &mut [f64]| s.apply(x, y) },
+                    &diag,
+                    &f_free,
+                    &mut u,
+                    params,
+                ),
+                None => pcg(
+                    &Reduced { dofs: &dofs, apply_full: |x: &[f64], y: &mut [f64]| op.apply(x, y) },
+                    &diag,
+                    &f_free,
+                    &mut u,
+                    params,
+                ),
             }
             .map_err(|e| map_err(SolveError::Cg(e)))?;
             let mut rep = SolveReport::new(dofs.n_free(), 0);
-            rep.solver = if stencil.is_some() { "cg-jacobi-matrix-free-stencil" } else { "cg-jacobi-matrix-free" }.into();
+            rep.solver =
+                if stencil.is_some() { "cg-jacobi-matrix-free-stencil" } else { "cg-jacobi-matrix-free" }.into();
             rep.iterations = Some(info.iterations);
             rep.rel_residual = info.rel_residual;
             rep.timings.solve = t.elapsed().as_secs_f64();
@@ -171,13 +191,19 @@ impl Problem {
             pattern.fill(&op, &dofs, &mut values);
             let a = faer::sparse::SparseColMat::new(pattern.symbolic().clone(), values);
             let t_asm = t.elapsed().as_secs_f64();
-            progress(&format!("solving: {} unknowns, {} stored entries, solver {:?}", a.nrows(), a.val().len(), self.solver.kind));
+            progress(&format!(
+                "solving: {} unknowns, {} stored entries, solver {:?}",
+                a.nrows(),
+                a.val().len(),
+                self.solver.kind
+            ));
             // 1D: the natural order is a band, already fill-optimal (AMD's analysis of a 10^5-node
             // band costs ~1 s for nothing). 2D/3D: nested dissection on the lattice beats AMD.
             let perm = if d == 1 {
                 (0..dofs.n_free()).collect()
             } else {
-                let reach = (self.model.horizon / self.grid.spacing() * (1.0 + linpd_core::GEOMETRY_RTOL)).floor() as usize;
+                let reach =
+                    (self.model.horizon / self.grid.spacing() * (1.0 + linpd_core::GEOMETRY_RTOL)).floor() as usize;
                 nested_dissection(&self.grid, reach, &dofs)
             };
             let perm = Some(perm);
@@ -203,7 +229,11 @@ impl Problem {
         if u.iter().any(|v| !v.is_finite()) {
             return Err(ProblemError::Solve("the solution has non-finite values".into()));
         }
-        progress(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
+        progress(&format!(
+            "done in {:.3} s, relative residual {:.2e}",
+            t0.elapsed().as_secs_f64(),
+            report.rel_residual
+        ));
         Ok(Solution {
             name: self.name.clone(),
             dim: d,

@@ -4,7 +4,8 @@ use crate::SolveError;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError as DenseLltError;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholeskyRaw, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw,
+    SymmetricOrdering,
 };
 use faer::sparse::SparseColMat;
 use faer::{Conj, Mat, MatMut, Par, Side};
@@ -52,8 +53,9 @@ impl Cholesky {
                 SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(p, &inv, p.len()))
             }
         };
-        let symbolic = factorize_symbolic_cholesky(a.symbolic(), Side::Lower, ordering, CholeskySymbolicParams::default())
-            .map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
+        let symbolic =
+            factorize_symbolic_cholesky(a.symbolic(), Side::Lower, ordering, CholeskySymbolicParams::default())
+                .map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
         Ok(Cholesky { symbolic: Arc::new(symbolic) })
     }
 
@@ -70,9 +72,9 @@ impl Cholesky {
     /// Numeric factorization of `a`, which must have the analysed pattern.
     pub fn factor(&self, a: &SparseColMat<usize, f64>) -> Result<CholeskyFactor, SolveError> {
         let mut l_values = Vec::new();
-        l_values
-            .try_reserve_exact(self.symbolic.len_val())
-            .map_err(|_| SolveError::Factorization(format!("out of memory for {} factor entries", self.symbolic.len_val())))?;
+        l_values.try_reserve_exact(self.symbolic.len_val()).map_err(|_| {
+            SolveError::Factorization(format!("out of memory for {} factor entries", self.symbolic.len_val()))
+        })?;
         l_values.resize(self.symbolic.len_val(), 0.0);
         let req = self.symbolic.factorize_numeric_llt_scratch::<f64>(par(), Default::default());
         let mut mem = MemBuffer::try_new(req).map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
@@ -149,17 +151,22 @@ pub fn lu_solve_band(a: &SparseColMat<usize, f64>, b: &[f64]) -> Result<(Vec<f64
     use faer::sparse::linalg::colamd::Control;
     use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuSymbolicParams, NumericLu};
     let t = Instant::now();
-    let params = LuSymbolicParams { colamd_params: Control { dense_row: 0.0, dense_col: 0.0, aggressive: true }, ..Default::default() };
+    let params = LuSymbolicParams {
+        colamd_params: Control { dense_row: 0.0, dense_col: 0.0, aggressive: true },
+        ..Default::default()
+    };
     let sym = factorize_symbolic_lu(a.symbolic(), params).map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
     let ts = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut num = NumericLu::<usize, f64>::new();
     let mut mem = MemBuffer::try_new(sym.factorize_numeric_lu_scratch::<f64>(par(), Default::default()))
         .map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
-    let lu = sym.factorize_numeric_lu(&mut num, a.as_ref(), par(), MemStack::new(&mut mem), Default::default()).map_err(|e| match e {
-        faer::sparse::linalg::LuError::SymbolicSingular { index } => SolveError::Singular { dof: index },
-        other => SolveError::Factorization(format!("{other:?}")),
-    })?;
+    let lu = sym
+        .factorize_numeric_lu(&mut num, a.as_ref(), par(), MemStack::new(&mut mem), Default::default())
+        .map_err(|e| match e {
+            faer::sparse::linalg::LuError::SymbolicSingular { index } => SolveError::Singular { dof: index },
+            other => SolveError::Factorization(format!("{other:?}")),
+        })?;
     let tn = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut x = Mat::<f64>::from_fn(b.len(), 1, |i, _| b[i]);

@@ -111,9 +111,7 @@ pub fn matvec(a: &SparseColMat<usize, f64>, x: &[f64], y: &mut [f64]) {
 pub fn diagonal(a: &SparseColMat<usize, f64>) -> Vec<f64> {
     let cp = a.symbolic().col_ptr();
     let ri = a.symbolic().row_idx();
-    (0..a.ncols())
-        .map(|j| (cp[j]..cp[j + 1]).filter(|&p| ri[p] == j).map(|p| a.val()[p]).sum())
-        .collect()
+    (0..a.ncols()).map(|j| (cp[j]..cp[j + 1]).filter(|&p| ri[p] == j).map(|p| a.val()[p]).sum()).collect()
 }
 
 /// `||A x - b|| / ||b||` (or `||A x||` when `b = 0`).

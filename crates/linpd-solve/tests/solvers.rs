@@ -72,21 +72,24 @@ fn zero_pivot_names_the_original_dof() {
     // error must point at 137.
     // 20x20 is factored simplicially, 150x150 supernodally: both index conventions are checked.
     for (nx, bad) in [(20, 137), (150, 11_111)] {
-    let a = spd(nx);
-    let n = a.nrows();
-    let mut t = Vec::new();
-    for j in 0..n {
-        for (i, v) in a.row_idx_of_col(j).zip(a.val_of_col(j)) {
-            let v = if i == bad || j == bad { 0.0 } else { *v };
-            t.push(Triplet::new(i, j, v));
+        let a = spd(nx);
+        let n = a.nrows();
+        let mut t = Vec::new();
+        for j in 0..n {
+            for (i, v) in a.row_idx_of_col(j).zip(a.val_of_col(j)) {
+                let v = if i == bad || j == bad { 0.0 } else { *v };
+                t.push(Triplet::new(i, j, v));
+            }
         }
-    }
-    let a = SparseColMat::try_new_from_triplets(n, n, &t).unwrap();
-    match solve(&a, &vec![1.0; n], &SolverKind::Cholesky, 2) {
-        Err(SolveError::NotPositiveDefinite { dof }) => assert_eq!(dof, bad),
-        other => panic!("expected a zero pivot at {bad}, got {other:?}"),
-    }
-    assert!(matches!(solve(&a, &vec![1.0; n], &SolverKind::Dense, 2), Err(SolveError::NotPositiveDefinite { .. } | SolveError::TooLargeForDense { .. })));
-    assert!(matches!(solve(&a, &vec![1.0; n], &SolverKind::Cg(CgParams::default()), 2), Err(SolveError::Cg(_))));
+        let a = SparseColMat::try_new_from_triplets(n, n, &t).unwrap();
+        match solve(&a, &vec![1.0; n], &SolverKind::Cholesky, 2) {
+            Err(SolveError::NotPositiveDefinite { dof }) => assert_eq!(dof, bad),
+            other => panic!("expected a zero pivot at {bad}, got {other:?}"),
+        }
+        assert!(matches!(
+            solve(&a, &vec![1.0; n], &SolverKind::Dense, 2),
+            Err(SolveError::NotPositiveDefinite { .. } | SolveError::TooLargeForDense { .. })
+        ));
+        assert!(matches!(solve(&a, &vec![1.0; n], &SolverKind::Cg(CgParams::default()), 2), Err(SolveError::Cg(_))));
     }
 }
