@@ -17,7 +17,7 @@
 
 use linpd::bond::{assemble, BondOperator};
 use linpd::core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, Region};
-use linpd::solve::{solve, SolverKind};
+use linpd::solve::{solve_assembled, MatrixHints, SolverSpec};
 
 fn main() {
     let h = 1.0 / 300.0;
@@ -49,7 +49,8 @@ fn main() {
     f_full[p] = 1.0;
 
     let a = assemble(&op, &dofs);
-    let (u_free, report) = solve(&a, &dofs.gather(&f_full), &SolverKind::Cholesky, 1).expect("solve");
+    let (u_free, report) =
+        solve_assembled(&a, &dofs.gather(&f_full), &SolverSpec::Cholesky, &MatrixHints::symmetric(1)).expect("solve");
     let mut u = vec![0.0; grid.len()];
     dofs.scatter(&u_free, &mut u);
     println!("solved {} unknowns with {}: relative residual {:.2e}", report.n, report.solver, report.rel_residual);

@@ -614,7 +614,7 @@ fn cases() -> Vec<Case> {
                 v["model"]["shear_modulus"] = json!(1.0);
             }),
             "model.micromodulus",
-            "not a micromodulus",
+            "not a key of lps models (only bond, blend and ce models take it)",
         ),
         parse(
             "lps in 1D",
@@ -717,6 +717,53 @@ fn cases() -> Vec<Case> {
             "solver.type",
             "unsymmetric",
         ),
+        // --- one key table (RawModelKind::keys): a key of another model type is an error ---
+        parse(
+            "lps with a blend key (hog)",
+            e2(|v| {
+                v["model"] = json!({"type": "lps", "horizon": 0.5, "plane": "strain", "bulk_modulus": 2.0,
+                                    "shear_modulus": 1.0, "hog": true});
+            }),
+            "model.hog",
+            "not a key of lps models (only blend models take it)",
+        ),
+        parse(
+            "lps with blending, regions and ce_spacing",
+            e2(|v| {
+                v["model"] = json!({"type": "lps", "horizon": 0.5, "plane": "strain", "bulk_modulus": 2.0,
+                                    "shear_modulus": 1.0, "regions": [0.1, 0.2, 0.3, 0.4], "blending": "linear",
+                                    "ce_spacing": 0.1});
+            }),
+            "model.regions",
+            "not a key of lps models",
+        ),
+        parse(
+            "ce with a blending value",
+            e1(|v| {
+                v["model"]["type"] = json!("ce");
+                v["model"]["blending_value"] = json!(0.3);
+            }),
+            "model.blending_value",
+            "not a key of ce models (only blend models take it)",
+        ),
+        parse(
+            "ce with a blending table",
+            e1(|v| {
+                v["model"]["type"] = json!("ce");
+                v["model"]["blending_table"] = json!({"s": [0.0, 1.0], "beta": [0.0, 1.0]});
+            }),
+            "model.blending_table",
+            "not a key of ce models",
+        ),
+        parse(
+            "blend with a plane",
+            e1(|v| {
+                v["model"]["type"] = json!("blend");
+                v["model"]["plane"] = json!("stress");
+            }),
+            "model.plane",
+            "not a key of blend models (only bond and lps models take it)",
+        ),
         // --- added with the struct-based model/load mirror and the size guard ---
         parse(
             "point load with a body-load key",
@@ -795,19 +842,19 @@ fn cases() -> Vec<Case> {
             "coarsened: horizon given",
             ec(set("model", "horizon", json!(0.2))),
             "model.horizon",
-            "not used by a coarsened model",
+            "not a key of coarsened models",
         ),
         parse(
             "coarsened: micromodulus given",
             ec(set("model", "micromodulus", json!({"kernel": "constant", "modulus": 1.0}))),
             "model.micromodulus",
-            "not used by a coarsened model",
+            "not a key of coarsened models",
         ),
         parse(
             "coarsened: bulk modulus given",
             ec(set("model", "bulk_modulus", json!(1.0))),
             "model.bulk_modulus",
-            "not used by a coarsened model",
+            "not a key of coarsened models",
         ),
         parse(
             "coarsened: point load off the nodes",

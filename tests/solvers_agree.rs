@@ -4,7 +4,7 @@
 use linpd::bond::{BondOperator, Pattern};
 use linpd::core::{BondRule, DofMap, Material, Region};
 use linpd::problem::Problem;
-use linpd::solve::{solve, CgParams, Cholesky, SolverKind};
+use linpd::solve::{solve_assembled, CgParams, Cholesky, MatrixHints, PreconditionerKind, SolverSpec};
 
 fn scene(name: &str) -> Problem {
     Problem::from_path(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name)).unwrap()
@@ -19,19 +19,14 @@ fn every_solver_gives_the_same_displacements() {
     let base = scene("plate-tension-2d.json");
     let mut solutions = Vec::new();
     let cg = CgParams { rtol: 1e-12, max_iter: 50_000 };
-    for (kind, matrix_free) in [
-        (SolverKind::Cholesky, false),
-        (SolverKind::Lu, false),
-        (SolverKind::Dense, false),
-        (SolverKind::Cg(cg.clone()), false),
-        (SolverKind::Cg(cg.clone()), true),
-    ] {
+    let cg_spec =
+        |matrix_free| SolverSpec::Cg { params: cg.clone(), preconditioner: PreconditionerKind::Jacobi, matrix_free };
+    for spec in [SolverSpec::Cholesky, SolverSpec::Lu, SolverSpec::Dense, cg_spec(false), cg_spec(true)] {
         let mut p = base.clone();
-        p.solver.kind = kind;
-        p.solver.matrix_free = matrix_free;
+        p.solver = spec;
         let s = p.solve(&|_| {}).unwrap();
         assert!(s.report.rel_residual < 1e-11, "{}: residual {:e}", s.report.solver, s.report.rel_residual);
-        solutions.push((s.report.solver.clone(), s.u));
+        solutions.push((s.report.solver, s.u));
     }
     // kappa of the reduced plate stiffness is ~ (L/h)^2 ~ 3e3, so a 1e-12 residual bounds the
     // solution error by ~3e-9 relative; 1e-8 leaves a factor 3.
@@ -70,7 +65,7 @@ fn second_material_reuses_pattern_and_symbolic_factorization() {
         let u = analysis.factor(&a).unwrap().solve(&f);
         // Reference: assemble and analyse from scratch.
         let fresh = linpd::bond::assemble(op, &dofs);
-        let (u_ref, _) = solve(&fresh, &f, &SolverKind::Cholesky, 2).unwrap();
+        let (u_ref, _) = solve_assembled(&fresh, &f, &SolverSpec::Cholesky, &MatrixHints::symmetric(2)).unwrap();
         let diff: Vec<f64> = u.iter().zip(&u_ref).map(|(a, b)| a - b).collect();
         // Same arithmetic up to summation order: agreement at round-off times kappa (~3e3).
         assert!(max_abs(&diff) <= 1e-11 * max_abs(&u_ref), "reused analysis differs by {:e}", max_abs(&diff));
@@ -84,7 +79,7 @@ fn auto_uses_the_scenes_cg_parameters_when_it_picks_cg() {
     // The 3D cube has 28k unknowns: auto picks CG. With max_iter = 1 it must fail to converge,
     // proving the scene's parameters reach the solver (they used to be ignored under auto).
     let mut p = scene("cube-compression-3d.json");
-    p.solver.cg.max_iter = 1;
+    p.solver = SolverSpec::Auto(CgParams { max_iter: 1, ..CgParams::default() });
     match p.solve(&|_| {}) {
         Err(e) => assert!(e.to_string().contains("did not converge in 1 iterations"), "{e}"),
         Ok(s) => panic!("converged in {:?} iterations with max_iter = 1", s.report.iterations),

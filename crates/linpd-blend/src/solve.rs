@@ -7,12 +7,15 @@
 //! Cholesky in the natural (band) order and solves `A u = f` by GMRES preconditioned with
 //! `S^{-1}`: a handful of iterations, so the cost is one Cholesky of the band, like pure PD.
 //! If `S` is not positive definite or GMRES stalls, it falls back to sparse LU with partial
-//! pivoting ([`linpd_solve::lu_solve_band`]).
+//! pivoting ([`linpd_solve::Lu`] with [`LuOrdering::Band`]).
 
 use crate::model::{BlendOperator, BlendParams, ModelKind};
 use crate::BlendError;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use linpd_solve::{gmres, lu_solve_band, peak_rss_bytes, Cholesky, GmresParams, LinearOperator, SolveReport};
+use linpd_solve::{
+    gmres, peak_rss_bytes, Cholesky, CholeskyOrdering, FactorPreconditioner, GmresParams, GmresPreconditioner,
+    LinearOperator, Lu, LuOrdering, SolveError, SolveReport, SolverId,
+};
 use std::time::Instant;
 
 /// A load on the bar.
@@ -87,6 +90,20 @@ pub fn ce_exact_point_load(x: f64, x0: f64, xl: f64, u0: f64, ul: f64, xp: f64, 
     } else {
         ul - dl * (xl - x)
     }
+}
+
+/// Sparse LU keeping the band ([`LuOrdering::Band`]); the solution and the
+/// `[symbolic, numeric, solve]` seconds.
+fn lu_band(a: &faer::sparse::SparseColMat<usize, f64>, b: &[f64]) -> Result<(Vec<f64>, [f64; 3]), SolveError> {
+    let t = Instant::now();
+    let lu = Lu::analyze(a, LuOrdering::Band)?;
+    let ts = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let factor = lu.factor(a)?;
+    let tn = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let u = factor.solve(b);
+    Ok((u, [ts, tn, t.elapsed().as_secs_f64()]))
 }
 
 /// CSR transpose (counting sort by column).
@@ -288,13 +305,13 @@ pub fn solve_model(
         Csr { n: nf, rp, col, val }
     };
     let t_asm = t_asm + t0.elapsed().as_secs_f64() - t_asm;
-    let mut report = SolveReport::new(nf, a.val.len());
+    let mut report = SolveReport::new(SolverId::LuBand, nf, a.val.len());
     report.timings.assemble = t_asm;
     let natural: Vec<usize> = (0..nf).collect();
     let t1 = Instant::now();
     let u_free = match (kind, solver) {
         (_, BlendSolver::Dense) => {
-            report.solver = "dense-lu".into();
+            report.solver = SolverId::DenseLu;
             if nf > 20_000 {
                 return Err(BlendError::Solve(format!("dense LU refused for {nf} unknowns (limit 20000)")));
             }
@@ -323,9 +340,9 @@ pub fn solve_model(
                     // of the dual lengths can leave ~1e-16 relative asymmetry; Cholesky reads one
                     // triangle, which is harmless for a preconditioner.
                     Some((rp0, col0, val0)) => {
-                        (reduce(&rp0, &col0, &val0).into_csc_symmetric(), "cholesky(divergence form)+gmres")
+                        (reduce(&rp0, &col0, &val0).into_csc_symmetric(), GmresPreconditioner::DivergenceForm)
                     }
-                    None => (a.symmetric_part(), "cholesky(sym part)+gmres"),
+                    None => (a.symmetric_part(), GmresPreconditioner::SymmetricPart),
                 };
                 let chol = Cholesky::analyze_with_ordering(&s, Some(&natural))
                     .map_err(|e| BlendError::Solve(e.to_string()))?;
@@ -335,8 +352,8 @@ pub fn solve_model(
                     report.timings.numeric = t.elapsed().as_secs_f64();
                     report.nnz_factor = Some(chol.nnz_factor());
                     let t = Instant::now();
-                    let mut x = fac.solve(&rhs);
-                    let pre = |r: &[f64], z: &mut [f64]| z.copy_from_slice(&fac.solve(r));
+                    let x = fac.solve(&rhs);
+                    let mut x = x;
                     // Stop at a normwise backward error of 16 eps: ||r|| <= 16 eps ||A|| ||x||,
                     // what a backward-stable direct solve achieves. (A fixed relative residual
                     // such as 1e-13 is out of reach when kappa ~ 1e8, as for 10^4 nodes.)
@@ -345,10 +362,10 @@ pub fn solve_model(
                     let fnorm = rhs.iter().map(|v| v * v).sum::<f64>().sqrt().max(f64::MIN_POSITIVE);
                     let rtol = (16.0 * f64::EPSILON * norm_a * xn / fnorm).clamp(1e-15, 1e-8);
                     let params = GmresParams { rtol, restart: 40, max_iter: 200 };
-                    if let Ok(info) = gmres(&a, &pre, &rhs, &mut x, &params) {
+                    if let Ok(info) = gmres(&a, &FactorPreconditioner(fac), &rhs, &mut x, &params) {
                         report.iterations = Some(info.iterations);
                         report.timings.solve = t.elapsed().as_secs_f64();
-                        report.solver = label.into();
+                        report.solver = SolverId::Gmres(label);
                         u = Some(x);
                     }
                 }
@@ -356,8 +373,8 @@ pub fn solve_model(
             match u {
                 Some(u) => u,
                 None => {
-                    let (u, ts) = lu_solve_band(&a.to_csc(), &rhs).map_err(|e| BlendError::Solve(e.to_string()))?;
-                    report.solver = "lu-band".into();
+                    let (u, ts) = lu_band(&a.to_csc(), &rhs).map_err(|e| BlendError::Solve(e.to_string()))?;
+                    report.solver = SolverId::LuBand;
                     report.timings.symbolic += ts[0];
                     report.timings.numeric += ts[1];
                     report.timings.solve += ts[2];
@@ -366,8 +383,8 @@ pub fn solve_model(
             }
         }
         (_, BlendSolver::Lu) => {
-            let (u, ts) = lu_solve_band(&a.to_csc(), &rhs).map_err(|e| BlendError::Solve(e.to_string()))?;
-            report.solver = "lu-band".into();
+            let (u, ts) = lu_band(&a.to_csc(), &rhs).map_err(|e| BlendError::Solve(e.to_string()))?;
+            report.solver = SolverId::LuBand;
             report.timings.symbolic = ts[0];
             report.timings.numeric = ts[1];
             report.timings.solve = ts[2];
@@ -389,7 +406,7 @@ pub fn solve_model(
             let t = Instant::now();
             let u = fac.solve(&rhs);
             report.timings.solve = t.elapsed().as_secs_f64();
-            report.solver = "cholesky-band".into();
+            report.solver = SolverId::Cholesky(CholeskyOrdering::Band);
             u
         }
     };

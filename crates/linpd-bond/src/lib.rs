@@ -18,20 +18,19 @@
 //!
 //! * [`BondOperator`] holds the family and the per-bond weights; it applies `A` without
 //!   storing it ([`BondOperator::apply`]) and assembles it ([`assemble`]);
+//! * [`LatticeBondModel`]: the operator on a lattice as a [`linpd_core::Model`] (nested
+//!   dissection ordering, stencil apply when homogeneous);
 //! * [`stencil::StencilOperator`] applies `A` on a homogeneous full-box lattice from the
 //!   stencil alone (no per-bond storage);
-//! * [`ordering`]: nested dissection on the lattice, a fill-reducing ordering for Cholesky;
-//! * [`support`] checks that constraints remove every rigid motion before a solve.
 #![deny(missing_docs)]
 
 pub mod assemble;
+pub mod model;
 pub mod operator;
-pub mod ordering;
 pub mod stencil;
-pub mod support;
 
 pub use assemble::{assemble, Pattern};
+pub use linpd_core::nested_dissection;
+pub use model::LatticeBondModel;
 pub use operator::{pmb_force, BondOperator};
-pub use ordering::nested_dissection;
 pub use stencil::StencilOperator;
-pub use support::{check_support, Unsupported};

@@ -3,7 +3,8 @@
 //! matrix-free and stencil applies, and `A = -dF/du` for the nonlinear PMB force.
 
 use faer::sparse::SparseColMat;
-use linpd_bond::{assemble, check_support, pmb_force, BondOperator, StencilOperator};
+use linpd_bond::{assemble, pmb_force, BondOperator, StencilOperator};
+use linpd_core::check_support;
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
 
 fn op(dim: usize, kernel: Kernel, pv: bool) -> (Grid, BondOperator, Micromodulus) {

@@ -15,7 +15,10 @@
 use clap::Args;
 use linpd_bond::{nested_dissection, BondOperator, Pattern, StencilOperator};
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement};
-use linpd_solve::{pcg, peak_rss_bytes, relative_residual, sym_matvec, CgParams, Cholesky, LinearOperator, SymCsc};
+use linpd_solve::{
+    pcg, peak_rss_bytes, relative_residual, sym_matvec, CgParams, Cholesky, Jacobi, LinearOperator, ReducedOperator,
+    SymCsc,
+};
 use serde_json::{json, Value};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -286,10 +289,10 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
     if case.dim == 3 {
         eprintln!("[bench] {}: Jacobi-PCG (assembled)", case.name);
         let params = CgParams { rtol: 1e-8, max_iter: 20_000 };
-        let diag = linpd_solve::diagonal(&a);
+        let jacobi = Jacobi::new(&linpd_solve::diagonal(&a)).expect("SPD diagonal");
         let mut u = vec![0.0; n];
         let t = Instant::now();
-        let info = pcg(&SymCsc(&a), &diag, &b.f, &mut u, &params);
+        let info = pcg(&SymCsc(&a), &jacobi, &b.f, &mut u, &params);
         let t_cg = secs(t);
         out["cg"] = match info {
             Ok(i) => {
@@ -299,11 +302,11 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
         };
         eprintln!("[bench] {}: Jacobi-PCG (matrix-free stencil)", case.name);
         let st = StencilOperator::new(&b.grid, b.horizon, &b.mm).expect("stencil");
-        let red = linpd_problem::Reduced { dofs: &b.dofs, apply_full: |x: &[f64], y: &mut [f64]| st.apply(x, y) };
+        let red = ReducedOperator::new(&st, &b.dofs);
         let (t_st, _) = time_avg(|| red.apply(&x, &mut y));
         let mut u = vec![0.0; n];
         let t = Instant::now();
-        let info = pcg(&red, &diag, &b.f, &mut u, &params);
+        let info = pcg(&red, &jacobi, &b.f, &mut u, &params);
         let t_cg = secs(t);
         out["cg_matrix_free"] = match info {
             Ok(i) => {

@@ -7,9 +7,10 @@
 //! matrix-free (factored apply) only.
 
 use linpd_bond::BondOperator;
+use linpd_core::FnOperator;
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement};
 use linpd_lps::{assemble_tangent, Influence, LpsModel, LpsParams};
-use linpd_solve::{diagonal, pcg, peak_rss_bytes, CgParams, SymCsc};
+use linpd_solve::{diagonal, pcg, peak_rss_bytes, CgParams, Identity, Jacobi, ReducedOperator, SymCsc};
 use serde_json::{json, Value};
 use std::time::Instant;
 
@@ -112,7 +113,8 @@ pub fn run(quick: bool) -> Value {
             let fr = dofs.gather(&f);
             let mut u = vec![0.0; fr.len()];
             let t = Instant::now();
-            let info = pcg(&SymCsc(&ar), &diagonal(&ar), &fr, &mut u, &CgParams { rtol: 1e-8, max_iter: 20_000 });
+            let info = Jacobi::new(&diagonal(&ar))
+                .and_then(|m| pcg(&SymCsc(&ar), &m, &fr, &mut u, &CgParams { rtol: 1e-8, max_iter: 20_000 }));
             let t_cg = secs(t);
             case["cg"] = match info {
                 Ok(i) => json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual}),
@@ -125,13 +127,11 @@ pub fn run(quick: bool) -> Value {
             // surface, so Jacobi would change little).
             let (dofs, f) = clamped_cube(&grid, nodes);
             let fr = dofs.gather(&f);
-            let op = linpd_problem::Reduced {
-                dofs: &dofs,
-                apply_full: |x: &[f64], y: &mut [f64]| model.apply_tangent(x, y),
-            };
+            let full = FnOperator { n: dofs.n_dofs(), apply: |x: &[f64], y: &mut [f64]| model.apply_tangent(x, y) };
+            let op = ReducedOperator::new(&full, &dofs);
             let mut u = vec![0.0; fr.len()];
             let t = Instant::now();
-            let info = pcg(&op, &vec![1.0; fr.len()], &fr, &mut u, &CgParams { rtol: 1e-8, max_iter: 5_000 });
+            let info = pcg(&op, &Identity, &fr, &mut u, &CgParams { rtol: 1e-8, max_iter: 5_000 });
             let t_cg = secs(t);
             case["cg_matrix_free_unpreconditioned"] = match info {
                 Ok(i) => json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual}),

@@ -79,12 +79,16 @@ impl DofMap {
     /// Gathers the free entries of a full vector.
     pub fn gather(&self, full: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; self.n_free];
+        self.gather_into(full, &mut out);
+        out
+    }
+    /// Gathers the free entries of a full vector into `free` (length [`DofMap::n_free`]).
+    pub fn gather_into(&self, full: &[f64], free: &mut [f64]) {
         for (dof, &f) in self.free_index.iter().enumerate() {
             if f != CONSTRAINED {
-                out[f] = full[dof];
+                free[f] = full[dof];
             }
         }
-        out
     }
 }
 

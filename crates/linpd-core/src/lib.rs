@@ -9,6 +9,11 @@
 //! * [`material`]: heterogeneous moduli, bond rules and defects that degrade bonds;
 //! * [`par`]: the parallel per-node slice fill used by the assemblers;
 //! * [`dof`]: DOF numbering and the free/constrained split;
+//! * [`op`]: the one operator trait ([`LinearOperator`]) of solvers and dynamics;
+//! * [`sparse`]: CSC products, diagonal, restriction to free DOFs, asymmetry;
+//! * [`model`]: the [`Model`] interface every static model implements;
+//! * [`ordering`]: nested dissection on the lattice, a fill-reducing ordering for Cholesky;
+//! * [`support`]: do the constraints remove every rigid motion of a model?
 //! * [`error`]: the error type shared by these modules.
 //!
 //! Indices into node arrays are `usize`; bond offsets are `usize` as well so that a family
@@ -21,8 +26,13 @@ pub mod family;
 pub mod grid;
 pub mod kernel;
 pub mod material;
+pub mod model;
+pub mod op;
+pub mod ordering;
 pub mod par;
 pub mod region;
+pub mod sparse;
+pub mod support;
 
 pub use dof::DofMap;
 pub use error::CoreError;
@@ -30,7 +40,12 @@ pub use family::BondFamily;
 pub use grid::{Grid, Placement};
 pub use kernel::{Kernel, Micromodulus, Normalization, PlaneModel};
 pub use material::{BondRule, Defect, Material};
+pub use model::{AssembledModel, FastApply, Model, ModelOperator, Ordering};
+pub use op::{FnOperator, LinearOperator};
+pub use ordering::nested_dissection;
 pub use region::Region;
+pub use sparse::Csc;
+pub use support::{check_support, Unsupported};
 
 /// Points are stored with three coordinates; in 1D and 2D the unused ones are zero.
 pub type Point = [f64; 3];

@@ -42,6 +42,7 @@ pub mod error;
 pub mod fd;
 pub mod force;
 pub mod model;
+pub mod static_model;
 pub mod surface;
 pub mod tangent;
 pub mod tension;

@@ -21,7 +21,8 @@
 //!   (it carries the force into the body), the grip layer is rigid.
 //! * Solve `A_ff u_f = f_f` on the free DOFs, `A` from [`crate::assemble_tangent`] (the
 //!   linearization at `u = 0`, i.e. small strains), reduced by keeping free rows/columns:
-//!   sparse Cholesky (AMD) up to [`CHOLESKY_LIMIT`] unknowns, else Jacobi-PCG (`rtol 1e-10`).
+//!   sparse Cholesky (nested dissection) up to [`CHOLESKY_LIMIT`] unknowns, else Jacobi-PCG
+//!   (`rtol 1e-10`), through [`linpd_solve::solve_model`].
 //!   Partial volumes are on (`nu` of [`linpd_core::kernel::partial_volume`]).
 //!
 //! # Measurements (body nodes only)
@@ -39,10 +40,9 @@
 //! against `E = 9KG/(3K+G)`, `nu = (3K-2G)/(2(3K+G))`: axial strain `sigma/E`, lateral
 //! `-nu sigma / E`.
 
-use crate::{assemble_tangent, Influence, LpsError, LpsModel, LpsParams, SurfaceCorrection};
-use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use crate::{Influence, LpsError, LpsModel, LpsParams, SurfaceCorrection};
 use linpd_core::{CoreError, Grid, Placement};
-use linpd_solve::{diagonal, pcg, CgError, CgParams, Cholesky, SolveError, SymCsc};
+use linpd_solve::{solve_model, CgParams, Dirichlet, SolverSpec, StaticError};
 use std::time::Instant;
 use thiserror::Error;
 
@@ -114,12 +114,9 @@ pub enum TensionError {
     /// The LPS model could not be built.
     #[error(transparent)]
     Lps(#[from] LpsError),
-    /// The direct solver failed.
+    /// The linear solve failed.
     #[error(transparent)]
-    Solve(#[from] SolveError),
-    /// PCG failed.
-    #[error(transparent)]
-    Cg(#[from] CgError),
+    Solve(#[from] StaticError),
 }
 
 /// Solves the static tension bar `params` (see the module documentation).
@@ -160,38 +157,27 @@ pub fn tension_bar(params: &TensionBar) -> Result<TensionResult, TensionError> {
     let plane: Vec<i64> = (0..n).map(|i| grid.lattice_index(i)[0] - nl).collect();
     let n_load = plane.iter().filter(|&&b| b >= nb).count();
 
-    // Free DOF numbering: everything but the grip.
-    let mut new_of = vec![usize::MAX; 3 * n];
-    let mut free = 0;
-    for i in 0..n {
-        if plane[i] >= 0 {
-            for a in 0..3 {
-                new_of[3 * i + a] = free;
-                free += 1;
-            }
-        }
-    }
-    let a = reduce(&assemble_tangent(&model), &new_of, free);
-    let mut b = vec![0.0; free];
+    // The grip (every node with x < 0) is held in x, y and z; the load layer carries the force.
+    let grip: Vec<bool> = (0..3 * n).map(|dof| plane[dof / 3] < 0).collect();
+    let bc = Dirichlet::new(3, &grip, vec![0.0; 3 * n]);
+    let free = bc.dofs().n_free();
+    let mut f = vec![0.0; 3 * n];
     let f_node = p.sigma * p.width * p.width / n_load as f64;
     for i in 0..n {
         if plane[i] >= nb {
-            b[new_of[3 * i]] = f_node;
+            f[3 * i] = f_node;
         }
     }
-
-    let start = Instant::now();
-    let mut cg_iterations = 0;
-    let uf = if free <= CHOLESKY_LIMIT {
-        Cholesky::analyze(&a)?.factor(&a)?.solve(&b)
+    let spec = if free <= CHOLESKY_LIMIT {
+        SolverSpec::Cholesky
     } else {
-        let mut x = vec![0.0; free];
-        let info = pcg(&SymCsc(&a), &diagonal(&a), &b, &mut x, &CgParams { rtol: 1e-10, max_iter: 50_000 })?;
-        cg_iterations = info.iterations;
-        x
+        SolverSpec::cg(CgParams { rtol: 1e-10, max_iter: 50_000 })
     };
+    let start = Instant::now();
+    let solved = solve_model(&model, &bc, &f, &spec, &|_| {})?;
+    let cg_iterations = solved.report.iterations.unwrap_or(0);
     let solve_seconds = start.elapsed().as_secs_f64();
-    let u = |i: usize, c: usize| if new_of[3 * i + c] == usize::MAX { 0.0 } else { uf[new_of[3 * i + c]] };
+    let u = |i: usize, c: usize| solved.u[3 * i + c];
 
     // Per body plane: mean u_x and the transverse least-squares slopes.
     let nbu = nb as usize;
@@ -237,25 +223,4 @@ pub fn tension_bar(params: &TensionBar) -> Result<TensionResult, TensionError> {
         solve_seconds,
         cg_iterations,
     })
-}
-
-/// The rows and columns of `a` with `new_of[dof] != usize::MAX`, renumbered (monotone, so
-/// rows stay sorted).
-fn reduce(a: &SparseColMat<usize, f64>, new_of: &[usize], free: usize) -> SparseColMat<usize, f64> {
-    let mut col_ptr = Vec::with_capacity(free + 1);
-    col_ptr.push(0usize);
-    let (mut rows, mut vals) = (Vec::new(), Vec::new());
-    for j in 0..a.ncols() {
-        if new_of[j] == usize::MAX {
-            continue;
-        }
-        for (i, v) in a.row_idx_of_col(j).zip(a.val_of_col(j)) {
-            if new_of[i] != usize::MAX {
-                rows.push(new_of[i]);
-                vals.push(*v);
-            }
-        }
-        col_ptr.push(rows.len());
-    }
-    SparseColMat::new(SymbolicSparseColMat::new_checked(free, free, col_ptr, None, rows), vals)
 }

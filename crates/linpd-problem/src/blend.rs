@@ -50,9 +50,8 @@ pub(crate) fn scene(
             format!("{name} models use the discrete normalization (eq. (19)): set \"discrete\""),
         ));
     }
-    if m.partial_volume || m.plane.is_some() || !m.material.phases.is_empty() || !m.material.defects.is_empty() {
-        return Err(ProblemError::invalid("model", format!("{name} models take no partial_volume, plane or material")));
-    }
+    // partial_volume, plane, material and (for ce) the blending keys are not keys of these
+    // models: rejected by `check_model_keys` before this point.
     let blended = kind == RawModelKind::Blend;
     let (regions, blending) = if blended {
         let r = m.regions.ok_or_else(|| {
@@ -83,16 +82,6 @@ pub(crate) fn scene(
         }
         (Regions { l1: r[0], l2: r[1], l3: r[2], l4: r[3] }, b)
     } else {
-        for (key, given) in [
-            ("regions", m.regions.is_some()),
-            ("blending", m.blending.is_some()),
-            ("ce_spacing", m.ce_spacing.is_some()),
-            ("hog", m.hog.is_some()),
-        ] {
-            if given {
-                return Err(ProblemError::invalid(format!("model.{key}"), "the ce model takes no blending keys"));
-            }
-        }
         // Pure CE: any admissible geometry, beta = 0 everywhere.
         let l = grid_raw.max[0];
         (Regions { l1: 0.25 * l, l2: 0.4 * l, l3: 0.6 * l, l4: 0.75 * l }, Blending::Linear)

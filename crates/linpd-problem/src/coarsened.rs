@@ -13,25 +13,23 @@
 //! and equilibrium is `K u = f` with `f_i` the point forces plus `b v_i` for a body-force density
 //! `b`. Constraints are eliminated as in [`crate::run`]: `u = u_bar + u_f`,
 //! `K_ff u_f = f_f - (K u_bar)_f`. Before factorizing, the bonded-pair graph is checked for
-//! rigid motions the constraints leave free ([`linpd_bond::check_support`]), so a floating body
+//! rigid motions the constraints leave free ([`linpd_core::check_support`]), so a floating body
 //! is reported by its nodes rather than as a zero pivot. `K` is symmetric when
 //! `C(x, q) = C(q, x)^T`; then the solve is a sparse Cholesky (or the scene's solver), otherwise
 //! a sparse LU, and the report's `solver` says why.
 
-use crate::problem::{constraints_and_loads, solver_kind, NodeSet};
-use crate::raw::{RawModel, RawModelKind, RawProblem};
-use crate::{Constraint, Load, ProblemError, Solution, SolverSettings};
-use faer::sparse::SparseColMat;
-use linpd_bond::{check_support, BondOperator};
-use linpd_core::{BondFamily, DofMap, Point, Region, GEOMETRY_RTOL};
-use linpd_solve::{lu_solve, matvec, peak_rss_bytes, relative_residual, SolveError, SolveReport, SolverKind};
+use crate::problem::{constraints_and_loads, solver_spec, NodeSet};
+use crate::raw::{RawModelKind, RawProblem};
+use crate::run::static_error;
+use crate::{Constraint, Load, ProblemError, Solution};
+use linpd_core::{AssembledModel, Model, Point, Region, GEOMETRY_RTOL};
+use linpd_solve::{solve_model, Dirichlet, SolverSpec};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 pub use linpd_coarsen::io::{IoError, ModuliFile};
 
-/// `K` counts as symmetric when `max |K - K^T| <= SYMMETRY_RTOL max |K|`.
-pub const SYMMETRY_RTOL: f64 = 1e-12;
+pub use linpd_core::sparse::SYMMETRY_RTOL;
 
 /// A validated coarsened scene.
 #[derive(Debug, Clone)]
@@ -50,8 +48,8 @@ pub struct CoarsenedScene {
     pub volumes: Vec<f64>,
     /// Index of each node in the level-0 model.
     pub level0: Vec<usize>,
-    /// The nodal stiffness `K` (`dim * n` square, CSC).
-    pub stiffness: SparseColMat<usize, f64>,
+    /// The level as a model: its nodal stiffness `K` (`dim * n` square, CSC).
+    pub model: AssembledModel,
     /// Bonded pairs: nonzero off-diagonal blocks of `K` (each pair counted from both ends when
     /// both directions are stored).
     pub n_bonds: usize,
@@ -62,7 +60,7 @@ pub struct CoarsenedScene {
     /// Loads.
     pub loads: Vec<Load>,
     /// Solver.
-    pub solver: SolverSettings,
+    pub solver: SolverSpec,
     /// Output directory.
     pub output_dir: String,
     /// Write plots.
@@ -119,21 +117,7 @@ fn nodes_file(mtx: &Path) -> PathBuf {
     }
 }
 
-/// `max |A - A^T| / max |A|` of a square CSC matrix (0 when `A = 0`).
-pub fn relative_asymmetry(a: &SparseColMat<usize, f64>) -> f64 {
-    let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
-    let mut m: std::collections::HashMap<(usize, usize), f64> = Default::default();
-    for j in 0..a.ncols() {
-        for p in cp[j]..cp[j + 1] {
-            *m.entry((ri[p], j)).or_default() += v[p];
-        }
-    }
-    let max = m.values().fold(0.0f64, |s, x| s.max(x.abs()));
-    if max == 0.0 {
-        return 0.0;
-    }
-    m.iter().fold(0.0f64, |s, (&(r, c), &x)| s.max((x - m.get(&(c, r)).copied().unwrap_or(0.0)).abs())) / max
-}
+pub use linpd_core::sparse::relative_asymmetry;
 
 impl CoarsenedScene {
     /// Validates a parsed scene whose `model.type` is `coarsened`; relative moduli paths start
@@ -153,49 +137,8 @@ impl CoarsenedScene {
                 format!("expected \"coarsened\", got \"{}\"", raw.model.kind.name()),
             ));
         }
-        let RawModel {
-            kind: _,
-            horizon,
-            moduli,
-            partial_volume,
-            plane,
-            micromodulus,
-            bulk_modulus,
-            shear_modulus,
-            influence,
-            material,
-            regions,
-            blending,
-            blending_value,
-            blending_table,
-            ce_spacing,
-            hog,
-        } = &raw.model;
-        let material_given =
-            !material.phases.is_empty() || material.bond_rule.is_some() || !material.defects.is_empty();
-        for (key, given) in [
-            ("horizon", horizon.is_some()),
-            ("partial_volume", *partial_volume),
-            ("plane", plane.is_some()),
-            ("micromodulus", micromodulus.is_some()),
-            ("bulk_modulus", bulk_modulus.is_some()),
-            ("shear_modulus", shear_modulus.is_some()),
-            ("influence", influence.is_some()),
-            ("material", material_given),
-            ("regions", regions.is_some()),
-            ("blending", blending.is_some()),
-            ("blending_value", blending_value.is_some()),
-            ("blending_table", blending_table.is_some()),
-            ("ce_spacing", ce_spacing.is_some()),
-            ("hog", hog.is_some()),
-        ] {
-            if given {
-                return Err(ProblemError::invalid(
-                    format!("model.{key}"),
-                    "not used by a coarsened model (its micromodulus tensor comes from the moduli file); remove this key",
-                ));
-            }
-        }
+        crate::problem::check_model_keys(&raw.model)?;
+        let moduli = &raw.model.moduli;
         let moduli = moduli.as_ref().ok_or_else(|| {
             ProblemError::invalid(
                 "model.moduli",
@@ -242,9 +185,10 @@ impl CoarsenedScene {
             ));
         }
         let (constraints, loads) = constraints_and_loads(&raw, dim, &nodes)?;
-        let (kind, cg) = solver_kind(&raw.solver)?;
-        let stiffness = file.stiffness();
-        let asymmetry = relative_asymmetry(&stiffness);
+        let solver = solver_spec(&raw.solver)?;
+        let model = AssembledModel::new("coarsened", dim, file.positions.clone(), file.stiffness())
+            .with_labels("level-0 node", file.level0.clone());
+        let asymmetry = model.asymmetry();
         let mut pairs: Vec<(usize, usize)> =
             file.entries.iter().filter(|e| e.2 != 0.0).map(|e| (e.0 / dim, e.1 / dim)).collect();
         pairs.sort_unstable();
@@ -259,12 +203,12 @@ impl CoarsenedScene {
             positions: file.positions,
             volumes: file.volumes,
             level0: file.level0,
-            stiffness,
+            model,
             n_bonds: pairs.len(),
             asymmetry,
             constraints,
             loads,
-            solver: SolverSettings { kind, cg, matrix_free: false },
+            solver,
             build_seconds: t0.elapsed().as_secs_f64(),
         })
     }
@@ -320,123 +264,18 @@ impl CoarsenedScene {
         f
     }
 
-    /// Solves `K u = f` with the constraints eliminated. `progress` receives one line per phase.
+    /// Solves `K u = f` with the constraints eliminated ([`linpd_solve::solve_model`]: sparse
+    /// LU when `K` is unsymmetric, whatever the scene asked). `progress` receives one line per
+    /// phase.
     pub fn solve(&self, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
-        let d = self.dim;
-        let n = self.n_nodes();
         let t0 = Instant::now();
         let (mask, ubar) = self.constrained();
-        let dofs = DofMap::new(d, &mask);
-        if dofs.n_free() == 0 {
-            return Err(ProblemError::invalid("constraints", "every DOF is constrained: nothing to solve"));
-        }
-        // Rigid motions left free by the constraints, per connected piece of the bond graph.
-        let mut lists = vec![Vec::<u32>::new(); n];
-        let (cp, ri, val) =
-            (self.stiffness.symbolic().col_ptr(), self.stiffness.symbolic().row_idx(), self.stiffness.val());
-        for c in 0..self.stiffness.ncols() {
-            for p in cp[c]..cp[c + 1] {
-                let (i, j) = (ri[p] / d, c / d);
-                if i != j && val[p] != 0.0 {
-                    lists[i].push(j as u32);
-                    lists[j].push(i as u32);
-                }
-            }
-        }
-        for l in &mut lists {
-            l.sort_unstable();
-            l.dedup();
-        }
-        let family = BondFamily::from_lists(lists);
-        let support = BondOperator::from_parts(d, self.positions.clone(), family.clone(), vec![1.0; family.n_bonds()]);
-        check_support(&support, &dofs).map_err(|e| {
-            let at: Vec<Vec<f64>> = e.nodes.iter().take(3).map(|&k| self.positions[k][..d].to_vec()).collect();
-            ProblemError::Unsupported(format!(
-                "{e} (first positions {at:?}; coarsened level from {})",
-                self.moduli_path.display()
-            ))
-        })?;
-
-        let f_full = self.load_vector();
-        let mut k_ubar = vec![0.0; d * n];
-        matvec(&self.stiffness, &ubar, &mut k_ubar);
-        let rhs: Vec<f64> = f_full.iter().zip(&k_ubar).map(|(f, k)| f - k).collect();
-        let f_free = dofs.gather(&rhs);
-        let a = crate::reduce_to_free(&self.stiffness, &dofs);
-        let t_asm = t0.elapsed().as_secs_f64() + self.build_seconds;
-
-        let name_dof = |free: usize| -> String {
-            let full = dofs.free_dofs()[free];
-            let node = full / d;
-            format!(
-                "node {node} at {:?} (level-0 node {}), component {}",
-                &self.positions[node][..d],
-                self.level0[node],
-                full % d
-            )
-        };
-        let map_err = |e: SolveError| -> ProblemError {
-            match e {
-                SolveError::NotPositiveDefinite { dof } | SolveError::Singular { dof } => ProblemError::Solve(format!(
-                    "{e}: {}; the coarsened body is not held there (add constraints) or its moduli are not positive",
-                    name_dof(dof)
-                )),
-                other => ProblemError::Solve(other.to_string()),
-            }
-        };
-        let symmetric = self.is_symmetric();
-        let (u_free, mut report) = if symmetric {
-            let kind = match &self.solver.kind {
-                SolverKind::Auto => match linpd_solve::auto_choice(d, a.nrows()) {
-                    SolverKind::Cg(_) => SolverKind::Cg(self.solver.cg.clone()),
-                    k => k,
-                },
-                k => k.clone(),
-            };
-            progress(&format!(
-                "solving: {} unknowns, {} stored entries, K symmetric, {kind:?}",
-                a.nrows(),
-                a.val().len()
-            ));
-            let direct = !matches!(kind, SolverKind::Cg(_));
-            let (u, rep) = linpd_solve::solve(&a, &f_free, &kind, d).map_err(map_err)?;
-            if direct && !(rep.rel_residual <= 1e-6) {
-                return Err(ProblemError::Solve(format!(
-                    "the reduced stiffness is numerically singular (relative residual {:.2e} after {}); add constraints",
-                    rep.rel_residual, rep.solver
-                )));
-            }
-            (u, rep)
-        } else {
-            progress(&format!(
-                "solving: {} unknowns, {} stored entries, K unsymmetric (relative asymmetry {:.2e}): sparse LU",
-                a.nrows(),
-                a.val().len(),
-                self.asymmetry
-            ));
-            let t = Instant::now();
-            let (u, nnz, ts) = lu_solve(&a, &f_free).map_err(map_err)?;
-            let mut rep = SolveReport::new(a.nrows(), a.val().len());
-            rep.solver = format!("lu (K unsymmetric: relative asymmetry {:.2e} > {SYMMETRY_RTOL:e})", self.asymmetry);
-            rep.nnz_factor = Some(nnz);
-            (rep.timings.symbolic, rep.timings.numeric, rep.timings.solve) = (ts[0], ts[1], ts[2]);
-            rep.timings.total = t.elapsed().as_secs_f64();
-            rep.rel_residual = relative_residual(&a, false, &u, &f_free);
-            rep.peak_rss_bytes = peak_rss_bytes();
-            if u.iter().any(|v| !v.is_finite()) || !(rep.rel_residual <= 1e-6) {
-                return Err(ProblemError::Solve(format!(
-                    "the reduced stiffness is numerically singular (LU relative residual {:.2e}); add constraints",
-                    rep.rel_residual
-                )));
-            }
-            (u, rep)
-        };
-        report.timings.assemble = t_asm;
-        let mut u = ubar;
-        dofs.scatter(&u_free, &mut u);
-        if u.iter().any(|v| !v.is_finite()) {
-            return Err(ProblemError::Solve("the solution has non-finite values".into()));
-        }
+        let bc = Dirichlet::new(self.dim, &mask, ubar);
+        let context = format!("; coarsened level from {}", self.moduli_path.display());
+        let solved = solve_model(&self.model, &bc, &self.load_vector(), &self.solver, progress)
+            .map_err(|e| static_error(e, &context))?;
+        let mut report = solved.report;
+        report.timings.assemble += self.build_seconds;
         progress(&format!(
             "done in {:.3} s, relative residual {:.2e}",
             t0.elapsed().as_secs_f64(),
@@ -444,10 +283,10 @@ impl CoarsenedScene {
         ));
         Ok(Solution {
             name: self.name.clone(),
-            dim: d,
+            dim: self.dim,
             x: self.positions.clone(),
-            u,
-            is_layer: vec![false; n],
+            u: solved.u,
+            is_layer: vec![false; self.n_nodes()],
             n_bonds: self.n_bonds,
             report,
         })

@@ -6,7 +6,7 @@ use linpd_core::{
     BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point,
     Region,
 };
-use linpd_solve::{CgParams, SolverKind};
+use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
 
 /// An affine displacement `u = value + gradient x` on some components of a node set.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,17 +59,6 @@ pub struct BondModel {
     pub material: Material,
 }
 
-/// Solver settings.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SolverSettings {
-    /// Which solver.
-    pub kind: SolverKind,
-    /// CG parameters, also used when `auto` picks CG.
-    pub cg: CgParams,
-    /// CG without assembling.
-    pub matrix_free: bool,
-}
-
 /// A validated scene.
 #[derive(Debug, Clone)]
 pub struct Problem {
@@ -84,7 +73,7 @@ pub struct Problem {
     /// Loads.
     pub loads: Vec<Load>,
     /// Solver.
-    pub solver: SolverSettings,
+    pub solver: SolverSpec,
     /// Output directory.
     pub output_dir: String,
     /// Write plots.
@@ -167,6 +156,11 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
     Ok(out)
 }
 
+/// The one check of which model type takes which key ([`RawModelKind::keys`]).
+pub(crate) fn check_model_keys(model: &RawModel) -> Result<(), ProblemError> {
+    model.check_keys().map_err(|(key, reason)| ProblemError::invalid(format!("model.{key}"), reason))
+}
+
 /// Parses scene text into the serde mirror; syntax and shape errors carry line, column and path.
 pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, ProblemError> {
     let de = &mut serde_json::Deserializer::from_str(text);
@@ -205,6 +199,7 @@ impl Problem {
             return Err(ProblemError::invalid("name", "must not be empty"));
         }
         let model_kind = raw.model.kind;
+        check_model_keys(&raw.model)?;
         if model_kind == RawModelKind::Coarsened {
             return Err(ProblemError::invalid(
                 "model.type",
@@ -222,9 +217,6 @@ impl Problem {
         };
         let grid = Grid::new(&raw_grid.min, &raw_grid.max, raw_grid.spacing, raw_grid.layer, placement)
             .map_err(|e| core("grid", e))?;
-        if raw.model.moduli.is_some() {
-            return Err(ProblemError::invalid("model.moduli", "only coarsened models take a moduli file"));
-        }
         // Optional in the mirror only because coarsened models have none; the wording matches
         // serde's so that the message reads the same as before.
         let Some(horizon) = raw.model.horizon else {
@@ -244,12 +236,8 @@ impl Problem {
             shear_modulus,
             influence,
             material,
-            regions: blend_regions,
-            blending,
-            blending_value,
-            blending_table,
-            ce_spacing,
-            hog,
+            // The blend keys are read by `crate::blend::scene`.
+            ..
         } = raw.model.clone();
         if matches!(model_kind, RawModelKind::Blend | RawModelKind::Ce) && dim != 1 {
             let name = if model_kind == RawModelKind::Ce { "ce" } else { "blend" };
@@ -265,19 +253,9 @@ impl Problem {
                 bulk_modulus,
                 shear_modulus,
                 influence,
-                &mm,
                 &material,
             )?)
         } else {
-            for (key, given) in [
-                ("bulk_modulus", bulk_modulus.is_some()),
-                ("shear_modulus", shear_modulus.is_some()),
-                ("influence", influence.is_some()),
-            ] {
-                if given {
-                    return Err(ProblemError::invalid(format!("model.{key}"), "only lps models take this key"));
-                }
-            }
             None
         };
         // Bond, blend and ce models need a micromodulus; for lps a placeholder is kept (unused).
@@ -296,20 +274,6 @@ impl Problem {
             }
         };
         let plane = if model_kind == RawModelKind::Lps && dim == 2 { None } else { plane };
-        if model_kind == RawModelKind::Bond {
-            for (key, given) in [
-                ("regions", blend_regions.is_some()),
-                ("blending", blending.is_some()),
-                ("blending_value", blending_value.is_some()),
-                ("blending_table", blending_table.is_some()),
-                ("ce_spacing", ce_spacing.is_some()),
-                ("hog", hog.is_some()),
-            ] {
-                if given {
-                    return Err(ProblemError::invalid(format!("model.{key}"), "only blend models take this key"));
-                }
-            }
-        }
         if !(horizon.is_finite() && horizon > 0.0) {
             return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon}")));
         }
@@ -367,7 +331,7 @@ impl Problem {
         let model = BondModel { horizon, micromodulus, material };
 
         let (constraints, loads) = constraints_and_loads(&raw, dim, &grid)?;
-        let (kind, cg) = solver_kind(&raw.solver)?;
+        let solver = solver_spec(&raw.solver)?;
         let blend = match model_kind {
             RawModelKind::Blend | RawModelKind::Ce => {
                 Some(crate::blend::scene(model_kind, &raw, &grid, &constraints, &loads)?)
@@ -395,7 +359,7 @@ impl Problem {
             model,
             constraints,
             loads,
-            solver: SolverSettings { kind, cg, matrix_free: raw.solver.matrix_free },
+            solver,
         })
     }
 
@@ -534,9 +498,9 @@ pub(crate) fn constraints_and_loads(
     Ok((constraints, loads))
 }
 
-/// Validates `solver` into the solver kind and the CG parameters (`matrix_free` is checked here
-/// against the kind; whether the model supports it is the caller's business).
-pub(crate) fn solver_kind(raw: &RawSolver) -> Result<(SolverKind, CgParams), ProblemError> {
+/// Validates `solver` into a [`SolverSpec`] (`matrix_free` is checked here against the kind;
+/// whether the model supports it is the caller's business).
+pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
     let cg = CgParams {
         rtol: raw.rtol.unwrap_or(CgParams::default().rtol),
         max_iter: raw.max_iter.unwrap_or(CgParams::default().max_iter),
@@ -547,23 +511,25 @@ pub(crate) fn solver_kind(raw: &RawSolver) -> Result<(SolverKind, CgParams), Pro
     if cg.max_iter == 0 {
         return Err(ProblemError::invalid("solver.max_iter", "must be >= 1"));
     }
-    let kind = match raw.kind {
-        RawSolverKind::Auto => SolverKind::Auto,
-        RawSolverKind::Cholesky => SolverKind::Cholesky,
-        RawSolverKind::Lu => SolverKind::Lu,
-        RawSolverKind::Cg => SolverKind::Cg(cg.clone()),
-        RawSolverKind::Dense => SolverKind::Dense,
-    };
-    if raw.matrix_free && !matches!(kind, SolverKind::Cg(_)) {
+    let is_cg = raw.kind == RawSolverKind::Cg;
+    if raw.matrix_free && !is_cg {
         return Err(ProblemError::invalid(
             "solver.matrix_free",
             "only the cg solver can run matrix-free; set \"type\": \"cg\"",
         ));
     }
-    if (raw.rtol.is_some() || raw.max_iter.is_some()) && !matches!(kind, SolverKind::Cg(_) | SolverKind::Auto) {
+    if (raw.rtol.is_some() || raw.max_iter.is_some()) && !(is_cg || raw.kind == RawSolverKind::Auto) {
         return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg solver only"));
     }
-    Ok((kind, cg))
+    Ok(match raw.kind {
+        RawSolverKind::Auto => SolverSpec::Auto(cg),
+        RawSolverKind::Cholesky => SolverSpec::Cholesky,
+        RawSolverKind::Lu => SolverSpec::Lu,
+        RawSolverKind::Dense => SolverSpec::Dense,
+        RawSolverKind::Cg => {
+            SolverSpec::Cg { params: cg, preconditioner: PreconditionerKind::Jacobi, matrix_free: raw.matrix_free }
+        }
+    })
 }
 
 /// serde_path_to_error writes `?` for a key it has not read yet (a syntax error between two
@@ -618,17 +584,10 @@ fn lps_params(
     bulk: Option<f64>,
     shear: Option<f64>,
     influence: Option<RawInfluence>,
-    mm: &Option<RawMicromodulus>,
     material: &RawMaterial,
 ) -> Result<linpd_lps::LpsParams, ProblemError> {
     if dim == 1 {
         return Err(ProblemError::invalid("dimension", "lps models are 2D or 3D"));
-    }
-    if mm.is_some() {
-        return Err(ProblemError::invalid(
-            "model.micromodulus",
-            "lps models take bulk_modulus and shear_modulus, not a micromodulus",
-        ));
     }
     if !material.phases.is_empty() || !material.defects.is_empty() {
         return Err(ProblemError::invalid("model.material", "lps models are homogeneous for now"));

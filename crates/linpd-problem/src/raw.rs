@@ -155,6 +155,34 @@ pub enum RawModelKind {
 }
 
 impl RawModelKind {
+    /// Every model type, in the order of the docs.
+    pub const ALL: [RawModelKind; 5] =
+        [RawModelKind::Bond, RawModelKind::Lps, RawModelKind::Blend, RawModelKind::Ce, RawModelKind::Coarsened];
+
+    /// The keys of `model` this type takes besides `type`: THE table of which model takes
+    /// which key. A key present in a scene and missing here is an error naming the key, the
+    /// model type and the types that do take it ([`RawModel::check_keys`]).
+    pub fn keys(self) -> &'static [&'static str] {
+        match self {
+            RawModelKind::Bond => &["horizon", "partial_volume", "plane", "micromodulus", "material"],
+            RawModelKind::Lps => {
+                &["horizon", "partial_volume", "plane", "bulk_modulus", "shear_modulus", "influence", "material"]
+            }
+            RawModelKind::Blend => &[
+                "horizon",
+                "micromodulus",
+                "regions",
+                "blending",
+                "blending_value",
+                "blending_table",
+                "ce_spacing",
+                "hog",
+            ],
+            RawModelKind::Ce => &["horizon", "micromodulus"],
+            RawModelKind::Coarsened => &["moduli"],
+        }
+    }
+
     /// The name used in scene files.
     pub fn name(self) -> &'static str {
         match self {
@@ -221,6 +249,55 @@ pub struct RawModel {
     /// Blend: the PD / higher-order-gradient model (M = 4) instead of PD / CE.
     #[serde(default)]
     pub hog: Option<bool>,
+}
+
+impl RawModel {
+    /// The keys given in the scene (`partial_volume` counts when true, `material` when it is not
+    /// the default).
+    pub fn present_keys(&self) -> Vec<&'static str> {
+        let m = &self.material;
+        let material = !m.phases.is_empty() || m.bond_rule.is_some() || !m.defects.is_empty();
+        [
+            ("horizon", self.horizon.is_some()),
+            ("moduli", self.moduli.is_some()),
+            ("partial_volume", self.partial_volume),
+            ("plane", self.plane.is_some()),
+            ("micromodulus", self.micromodulus.is_some()),
+            ("bulk_modulus", self.bulk_modulus.is_some()),
+            ("shear_modulus", self.shear_modulus.is_some()),
+            ("influence", self.influence.is_some()),
+            ("material", material),
+            ("regions", self.regions.is_some()),
+            ("blending", self.blending.is_some()),
+            ("blending_value", self.blending_value.is_some()),
+            ("blending_table", self.blending_table.is_some()),
+            ("ce_spacing", self.ce_spacing.is_some()),
+            ("hog", self.hog.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(key, given)| given.then_some(key))
+        .collect()
+    }
+
+    /// Rejects the first given key that this model type does not take
+    /// ([`RawModelKind::keys`]): `(key, message)` with the message naming the types that take it.
+    pub fn check_keys(&self) -> Result<(), (&'static str, String)> {
+        let kind = self.kind;
+        for key in self.present_keys() {
+            if kind.keys().contains(&key) {
+                continue;
+            }
+            let takers: Vec<&str> =
+                RawModelKind::ALL.iter().filter(|k| k.keys().contains(&key)).map(|k| k.name()).collect();
+            let takers = match takers.as_slice() {
+                [] => "no model".to_string(),
+                [one] => format!("only {one} models"),
+                [init @ .., last] => format!("only {} and {last} models", init.join(", ")),
+            };
+            return Err((key, format!("not a key of {} models ({takers} take it); remove it", kind.name())));
+        }
+        Ok(())
+    }
 }
 
 /// `model.influence`.

@@ -1,5 +1,6 @@
 //! What a solve cost and how accurate it is.
 
+use crate::SolverId;
 use serde::Serialize;
 
 /// Wall-clock seconds per phase.
@@ -20,8 +21,11 @@ pub struct Timings {
 /// The accuracy and cost of one solve.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct SolveReport {
-    /// Solver that ran (`cholesky`, `lu`, `dense`, `cg-jacobi`, `cg-jacobi-matrix-free`).
-    pub solver: String,
+    /// Solver that ran (serialized as its short name: `cholesky-nd`, `lu`, `cg-jacobi`, ...).
+    pub solver: SolverId,
+    /// Why this solver ran when the scene asked for another (e.g. `K` unsymmetric).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
     /// Unknowns (free DOFs).
     pub n: usize,
     /// Stored entries of the reduced stiffness (both triangles; 0 when matrix-free).
@@ -39,10 +43,11 @@ pub struct SolveReport {
 }
 
 impl SolveReport {
-    /// An empty report for `n` unknowns and `nnz_a` stored entries.
-    pub fn new(n: usize, nnz_a: usize) -> Self {
+    /// An empty report of `solver` for `n` unknowns and `nnz_a` stored entries.
+    pub fn new(solver: SolverId, n: usize, nnz_a: usize) -> Self {
         SolveReport {
-            solver: String::new(),
+            solver,
+            note: None,
             n,
             nnz_a,
             nnz_factor: None,

@@ -5,7 +5,8 @@
 //! reorthogonalization pass; Givens rotations on the Hessenberg matrix. The true residual is
 //! recomputed at each restart and at exit.
 
-use crate::cg::LinearOperator;
+use crate::precond::Preconditioner;
+use linpd_core::LinearOperator;
 use serde::Serialize;
 
 /// GMRES parameters.
@@ -57,10 +58,10 @@ fn residual(a: &impl LinearOperator, b: &[f64], x: &[f64]) -> Vec<f64> {
     r
 }
 
-/// Solves `A x = b` from the guess in `x`; `precond(r, z)` sets `z = M^{-1} r`.
+/// Solves `A x = b` from the guess in `x`, right-preconditioned by `m` (`z = M^{-1} r`).
 pub fn gmres(
     a: &impl LinearOperator,
-    precond: &dyn Fn(&[f64], &mut [f64]),
+    m_inv: &impl Preconditioner,
     b: &[f64],
     x: &mut [f64],
     params: &GmresParams,
@@ -91,7 +92,7 @@ pub fn gmres(
         g[0] = beta;
         let mut k = 0;
         while k < m && it < params.max_iter {
-            precond(&v[k], &mut z);
+            m_inv.apply(&v[k], &mut z);
             a.apply(&z, &mut w);
             for _pass in 0..2 {
                 for (j, vj) in v.iter().enumerate() {
@@ -134,7 +135,7 @@ pub fn gmres(
         for (j, yj) in y.iter().enumerate() {
             vy.iter_mut().zip(&v[j]).for_each(|(p, q)| *p += yj * q);
         }
-        precond(&vy, &mut z);
+        m_inv.apply(&vy, &mut z);
         x.iter_mut().zip(&z).for_each(|(p, q)| *p += q);
     }
 }

@@ -7,7 +7,7 @@
 //! first and the separator last, and stops at boxes of at most `LEAF` nodes, which keep their
 //! natural (lexicographic) order.
 
-use linpd_core::{DofMap, Grid};
+use crate::{DofMap, Grid};
 
 /// Boxes with at most this many nodes are not split further.
 const LEAF: usize = 64;
@@ -65,7 +65,7 @@ fn dissect(lo: [usize; 3], hi: [usize; 3], reach: usize, counts: [usize; 3], out
 #[cfg(test)]
 mod tests {
     use super::*;
-    use linpd_core::Placement;
+    use crate::Placement;
 
     #[test]
     fn is_a_permutation_of_the_free_dofs() {

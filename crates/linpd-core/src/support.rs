@@ -1,6 +1,7 @@
 //! Do the constraints remove every rigid motion?
 //!
-//! A component of the bond graph (bonds with `w > 0`) whose constrained DOFs do not pin all of
+//! A component of a model's interaction graph ([`Model::for_each_partner`]: for the bond model
+//! the bonds with `w > 0`) whose constrained DOFs do not pin all of
 //! its rigid motions makes the reduced stiffness singular. For each component with rigid-mode
 //! matrix `M` (translations and rotations about its centroid, scaled by its size) and its rows
 //! `R` at constrained DOFs, the number of floating modes is `rank(M^T M) - rank(R^T R)`; ranks
@@ -8,8 +9,8 @@
 //! matrices. This catches floating pieces before a factorization can return garbage (a
 //! rotation mode of a pinned 2D body gives a tiny positive pivot, not a zero one).
 
-use crate::BondOperator;
-use linpd_core::DofMap;
+use crate::model::Model;
+use crate::DofMap;
 use nalgebra::{DMatrix, SymmetricEigen};
 
 /// A part of the body that constraints do not hold.
@@ -37,6 +38,8 @@ impl std::fmt::Display for Unsupported {
     }
 }
 
+impl std::error::Error for Unsupported {}
+
 fn find(parent: &mut [usize], mut i: usize) -> usize {
     while parent[i] != i {
         parent[i] = parent[parent[i]];
@@ -54,27 +57,26 @@ fn rank(g: &DMatrix<f64>) -> usize {
     eig.eigenvalues.iter().filter(|&&v| v > 1e-10 * max).count()
 }
 
-/// Checks every component; returns the first unsupported one.
-pub fn check_support(op: &BondOperator, dofs: &DofMap) -> Result<(), Unsupported> {
-    let n = op.n_nodes();
-    let d = op.dim();
+/// Checks every connected piece of the model's interaction graph; returns the first
+/// unsupported one.
+pub fn check_support(model: &dyn Model, dofs: &DofMap) -> Result<(), Unsupported> {
+    let n = model.n_nodes();
+    let d = model.dim();
     let mut parent: Vec<usize> = (0..n).collect();
     for i in 0..n {
-        for (&j, &w) in op.family().neighbors(i).iter().zip(op.weights(i)) {
-            if w > 0.0 {
-                let (a, b) = (find(&mut parent, i), find(&mut parent, j as usize));
-                if a != b {
-                    parent[a.max(b)] = a.min(b);
-                }
+        model.for_each_partner(i, &mut |j| {
+            let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+            if a != b {
+                parent[a.max(b)] = a.min(b);
             }
-        }
+        });
     }
     let mut members: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
     for i in 0..n {
         let r = find(&mut parent, i);
         members.entry(r).or_default().push(i);
     }
-    let x = op.positions();
+    let x: Vec<crate::Point> = (0..n).map(|i| model.position(i)).collect();
     for nodes in members.values() {
         // Quick accept: a component with every DOF of some node constrained in 1D.
         let mut c = [0.0; 3];

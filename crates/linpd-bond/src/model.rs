@@ -1,0 +1,151 @@
+//! The bond-based operator as a [`Model`]: [`BondOperator`] on any point set (AMD ordering),
+//! and [`LatticeBondModel`], the same operator on a lattice, which adds the lattice's
+//! fill-reducing ordering and, for a homogeneous material, the stencil apply for matrix-free CG.
+
+use crate::{BondOperator, Pattern, StencilOperator};
+use linpd_core::sparse::Csc;
+use linpd_core::{
+    nested_dissection, DofMap, FastApply, Grid, LinearOperator, Micromodulus, Model, Ordering, Point, GEOMETRY_RTOL,
+};
+
+impl LinearOperator for BondOperator {
+    fn n(&self) -> usize {
+        self.n_dofs()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        BondOperator::apply(self, x, y)
+    }
+}
+
+impl LinearOperator for StencilOperator {
+    fn n(&self) -> usize {
+        self.n_dofs()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        StencilOperator::apply(self, x, y)
+    }
+}
+
+impl BondOperator {
+    /// Diagonal of `A` over all DOFs: `A[(i,a),(i,a)] = sum_j w_ij e_a^2`.
+    pub fn diagonal(&self) -> Vec<f64> {
+        let d = self.dim();
+        let mut diag = vec![0.0; self.n_dofs()];
+        for i in 0..self.n_nodes() {
+            for (&j, &w) in self.family().neighbors(i).iter().zip(self.weights(i)) {
+                let e = self.unit(i, j as usize);
+                for a in 0..d {
+                    diag[d * i + a] += w * e[a] * e[a];
+                }
+            }
+        }
+        diag
+    }
+
+    /// `A_ff` assembled on the free DOFs (pattern, then values).
+    pub fn assemble_free(&self, dofs: &DofMap) -> Csc {
+        let pattern = Pattern::new(self, dofs);
+        let mut values = vec![0.0; pattern.nnz()];
+        pattern.fill(self, dofs, &mut values);
+        Csc::new(pattern.symbolic().clone(), values)
+    }
+}
+
+impl Model for BondOperator {
+    fn kind(&self) -> &'static str {
+        "bond"
+    }
+    fn dim(&self) -> usize {
+        BondOperator::dim(self)
+    }
+    fn n_nodes(&self) -> usize {
+        BondOperator::n_nodes(self)
+    }
+    fn position(&self, i: usize) -> Point {
+        self.positions()[i]
+    }
+    /// Bonds with `w > 0` (a defect with factor 0 cuts a bond).
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        for (&j, &w) in self.family().neighbors(i).iter().zip(self.weights(i)) {
+            if w > 0.0 {
+                f(j as usize);
+            }
+        }
+    }
+    fn apply(&self, u: &[f64], y: &mut [f64]) {
+        BondOperator::apply(self, u, y)
+    }
+    fn diagonal(&self) -> Vec<f64> {
+        BondOperator::diagonal(self)
+    }
+    fn assemble_free(&self, dofs: &DofMap) -> Csc {
+        BondOperator::assemble_free(self, dofs)
+    }
+}
+
+/// A [`BondOperator`] on the nodes of a lattice.
+#[derive(Debug, Clone)]
+pub struct LatticeBondModel {
+    op: BondOperator,
+    grid: Grid,
+    horizon: f64,
+    /// The micromodulus when the material is homogeneous (then the stencil applies `A`).
+    homogeneous: Option<Micromodulus>,
+}
+
+impl LatticeBondModel {
+    /// The operator `op` built on `grid` with `horizon`; `homogeneous` is the micromodulus
+    /// when every bond has it unmodified (no phases, no defects).
+    pub fn new(op: BondOperator, grid: Grid, horizon: f64, homogeneous: Option<Micromodulus>) -> Self {
+        LatticeBondModel { op, grid, horizon, homogeneous }
+    }
+    /// The operator.
+    pub fn operator(&self) -> &BondOperator {
+        &self.op
+    }
+    /// The lattice.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+}
+
+impl Model for LatticeBondModel {
+    fn kind(&self) -> &'static str {
+        "bond"
+    }
+    fn dim(&self) -> usize {
+        self.op.dim()
+    }
+    fn n_nodes(&self) -> usize {
+        self.op.n_nodes()
+    }
+    fn position(&self, i: usize) -> Point {
+        self.op.positions()[i]
+    }
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        Model::for_each_partner(&self.op, i, f)
+    }
+    fn apply(&self, u: &[f64], y: &mut [f64]) {
+        self.op.apply(u, y)
+    }
+    fn diagonal(&self) -> Vec<f64> {
+        self.op.diagonal()
+    }
+    fn assemble_free(&self, dofs: &DofMap) -> Csc {
+        self.op.assemble_free(dofs)
+    }
+    /// 1D: the natural order is a band, already fill-optimal (AMD's analysis of a 10^5-node
+    /// band costs ~1 s for nothing). 2D/3D: nested dissection on the lattice beats AMD.
+    fn ordering(&self, dofs: &DofMap) -> Ordering {
+        if self.op.dim() == 1 {
+            return Ordering::Natural;
+        }
+        let reach = (self.horizon / self.grid.spacing() * (1.0 + GEOMETRY_RTOL)).floor() as usize;
+        Ordering::NestedDissection(nested_dissection(&self.grid, reach, dofs))
+    }
+    fn fast_apply(&self) -> Option<FastApply<'_>> {
+        let mm = self.homogeneous.as_ref()?;
+        let stencil = StencilOperator::new(&self.grid, self.horizon, mm).ok()?;
+        Some(FastApply { op: Box::new(stencil), label: "stencil" })
+    }
+}

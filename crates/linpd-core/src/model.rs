@@ -1,0 +1,215 @@
+//! The one interface of a static linear PD model.
+//!
+//! Every model (bond-based, LPS, coarsened level, ...) is a linear map from nodal displacements
+//! to nodal forces, `F_int = -A u`, with `A` the stiffness: `d` DOFs per node, numbered
+//! node-major ([`crate::DofMap`]). What a solver needs of a model, and nothing else, is here:
+//!
+//! * geometry: the dimension, the node positions, and which nodes interact (the pairs with a
+//!   nonzero coupling, for the rigid-motion check of [`crate::support`]);
+//! * `A` three ways: applied over all DOFs ([`Model::apply`], for the constrained right-hand
+//!   side `f - A u_bar` and matrix-free Krylov), its diagonal (Jacobi), and assembled on the
+//!   free DOFs only ([`Model::assemble_free`], never the full matrix when the model can avoid
+//!   it);
+//! * solver hints: whether `A` is symmetric ([`Model::asymmetry`]), a fill-reducing ordering
+//!   for a sparse Cholesky ([`Model::ordering`]), a cheaper matrix-free apply
+//!   ([`Model::fast_apply`]).
+//!
+//! The Dirichlet elimination and the solver dispatch are written once, in `linpd-solve`,
+//! against this trait; a new model implements it and is solved by every solver.
+
+use crate::op::LinearOperator;
+use crate::sparse::Csc;
+use crate::{DofMap, Point};
+
+/// A fill-reducing ordering for a sparse Cholesky of `A_ff`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Ordering {
+    /// faer's approximate minimum degree.
+    Amd,
+    /// The natural order (already fill-optimal for a 1D band).
+    Natural,
+    /// A model-specific permutation `perm[new] = old` of the free DOFs (e.g. nested dissection
+    /// on the lattice).
+    NestedDissection(Vec<usize>),
+}
+
+/// A cheaper way to apply `A` over all DOFs than [`Model::apply`], with a label for reports.
+pub struct FastApply<'a> {
+    /// `y = A x` over all DOFs.
+    pub op: Box<dyn LinearOperator + 'a>,
+    /// What it is (`"stencil"`), appended to the solver's name in reports.
+    pub label: &'static str,
+}
+
+/// A static linear peridynamic model: `F_int = -A u` (see the module docs).
+pub trait Model: Sync {
+    /// The model family for messages (`"bond"`, `"lps"`, `"coarsened"`).
+    fn kind(&self) -> &'static str;
+    /// Spatial dimension `d` (DOFs per node).
+    fn dim(&self) -> usize;
+    /// Number of nodes.
+    fn n_nodes(&self) -> usize;
+    /// Position of node `i` (unused coordinates 0).
+    fn position(&self, i: usize) -> Point;
+    /// Calls `f(j)` for every node `j != i` coupled to `i` by a nonzero stiffness block
+    /// (order and repeats do not matter). Only connectivity is asked: for the LPS model the
+    /// bond family suffices (the two-horizon couplings connect the same pieces).
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize));
+    /// `y = A u` over all `d * n_nodes` DOFs.
+    fn apply(&self, u: &[f64], y: &mut [f64]);
+    /// The diagonal of `A` over all DOFs.
+    fn diagonal(&self) -> Vec<f64>;
+    /// `A_ff`: the rows and columns of the free DOFs of `dofs`, assembled (both triangles,
+    /// sorted rows in each column).
+    fn assemble_free(&self, dofs: &DofMap) -> Csc;
+    /// `max |A - A^T| / max |A|`; the solvers treat `A` as symmetric when it is at most
+    /// [`crate::sparse::SYMMETRY_RTOL`].
+    fn asymmetry(&self) -> f64 {
+        0.0
+    }
+    /// A fill-reducing ordering of the free DOFs for a sparse Cholesky.
+    fn ordering(&self, _dofs: &DofMap) -> Ordering {
+        Ordering::Amd
+    }
+    /// A cheaper matrix-free apply than [`Model::apply`], if the model has one.
+    fn fast_apply(&self) -> Option<FastApply<'_>> {
+        None
+    }
+    /// Why the model cannot run matrix-free (`None`: it can).
+    fn matrix_free_unavailable(&self) -> Option<&'static str> {
+        None
+    }
+    /// Describes node `i` for an error message (position, and e.g. its level-0 number).
+    fn describe_node(&self, i: usize) -> String {
+        let x = self.position(i);
+        format!("node {i} at {:?}", &x[..self.dim()])
+    }
+}
+
+/// Number of DOFs of a model.
+pub fn n_dofs(model: &dyn Model) -> usize {
+    model.dim() * model.n_nodes()
+}
+
+/// A model's full-DOF `apply` as a [`LinearOperator`].
+pub struct ModelOperator<'a>(pub &'a dyn Model);
+
+impl LinearOperator for ModelOperator<'_> {
+    fn n(&self) -> usize {
+        n_dofs(self.0)
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        self.0.apply(x, y)
+    }
+}
+
+/// A model given by its assembled stiffness `K` over all DOFs (a coarsened level read from a
+/// file, a matrix from elsewhere): `apply` is the CSC product, the interaction graph is the
+/// pattern of the nonzero off-diagonal blocks.
+#[derive(Debug, Clone)]
+pub struct AssembledModel {
+    kind: &'static str,
+    dim: usize,
+    positions: Vec<Point>,
+    k: Csc,
+    /// Computed on first use (a hash over the entries of `K`).
+    asymmetry: std::sync::OnceLock<f64>,
+    partners: crate::BondFamily,
+    labels: Option<(&'static str, Vec<usize>)>,
+}
+
+impl AssembledModel {
+    /// `K` (`dim * positions.len()` square) on the nodes at `positions`; `kind` names the model
+    /// in messages.
+    pub fn new(kind: &'static str, dim: usize, positions: Vec<Point>, k: Csc) -> Self {
+        assert_eq!(k.nrows(), dim * positions.len(), "K size");
+        let n = positions.len();
+        let mut lists = vec![Vec::<u32>::new(); n];
+        let (cp, ri, val) = (k.symbolic().col_ptr(), k.symbolic().row_idx(), k.val());
+        for c in 0..k.ncols() {
+            for p in cp[c]..cp[c + 1] {
+                let (i, j) = (ri[p] / dim, c / dim);
+                if i != j && val[p] != 0.0 {
+                    lists[i].push(j as u32);
+                    lists[j].push(i as u32);
+                }
+            }
+        }
+        for l in &mut lists {
+            l.sort_unstable();
+            l.dedup();
+        }
+        AssembledModel {
+            kind,
+            dim,
+            positions,
+            k,
+            asymmetry: std::sync::OnceLock::new(),
+            partners: crate::BondFamily::from_lists(lists),
+            labels: None,
+        }
+    }
+
+    /// Sets the relative asymmetry when the caller knows it already.
+    pub fn with_asymmetry(self, asymmetry: f64) -> Self {
+        let _ = self.asymmetry.set(asymmetry);
+        self
+    }
+
+    /// Names every node in messages also by `label` (e.g. `"level-0 node"`) and its number.
+    pub fn with_labels(mut self, label: &'static str, numbers: Vec<usize>) -> Self {
+        assert_eq!(numbers.len(), self.positions.len(), "one number per node");
+        self.labels = Some((label, numbers));
+        self
+    }
+
+    /// The stiffness over all DOFs.
+    pub fn stiffness(&self) -> &Csc {
+        &self.k
+    }
+
+    /// The interaction graph (nonzero off-diagonal blocks, both directions).
+    pub fn partners(&self) -> &crate::BondFamily {
+        &self.partners
+    }
+}
+
+impl Model for AssembledModel {
+    fn kind(&self) -> &'static str {
+        self.kind
+    }
+    fn dim(&self) -> usize {
+        self.dim
+    }
+    fn n_nodes(&self) -> usize {
+        self.positions.len()
+    }
+    fn position(&self, i: usize) -> Point {
+        self.positions[i]
+    }
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        self.partners.neighbors(i).iter().for_each(|&j| f(j as usize));
+    }
+    fn apply(&self, u: &[f64], y: &mut [f64]) {
+        crate::sparse::matvec(&self.k, u, y)
+    }
+    fn diagonal(&self) -> Vec<f64> {
+        crate::sparse::diagonal(&self.k)
+    }
+    fn assemble_free(&self, dofs: &DofMap) -> Csc {
+        crate::sparse::restrict_to_free(&self.k, dofs)
+    }
+    fn asymmetry(&self) -> f64 {
+        *self.asymmetry.get_or_init(|| crate::sparse::relative_asymmetry(&self.k))
+    }
+    fn matrix_free_unavailable(&self) -> Option<&'static str> {
+        Some("K is read assembled")
+    }
+    fn describe_node(&self, i: usize) -> String {
+        let x = &self.positions[i][..self.dim];
+        match &self.labels {
+            Some((label, numbers)) => format!("node {i} at {x:?} ({label} {})", numbers[i]),
+            None => format!("node {i} at {x:?}"),
+        }
+    }
+}

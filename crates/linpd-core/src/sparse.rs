@@ -1,0 +1,130 @@
+//! Sparse helpers shared by the models and the solvers (faer CSC matrices, `usize` indices):
+//! products, the diagonal, the restriction to free DOFs, the relative asymmetry.
+//!
+//! faer's own CSC product is sequential (shared/notes pitfall 3); [`sym_matvec`] uses the
+//! symmetry to compute each output entry as one independent dot product, in parallel.
+
+use crate::op::LinearOperator;
+use crate::DofMap;
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use rayon::prelude::*;
+
+/// A CSC matrix with `usize` indices, the storage of every assembled linpd operator.
+pub type Csc = SparseColMat<usize, f64>;
+
+/// `A` counts as symmetric when `max |A - A^T| <= SYMMETRY_RTOL max |A|` ([`relative_asymmetry`]).
+pub const SYMMETRY_RTOL: f64 = 1e-12;
+
+/// `y = A x` for a symmetric CSC matrix, parallel over columns (column j of a symmetric
+/// matrix is row j, so each output entry is one independent dot product).
+pub fn sym_matvec(a: &Csc, x: &[f64], y: &mut [f64]) {
+    let cp = a.symbolic().col_ptr();
+    let ri = a.symbolic().row_idx();
+    let v = a.val();
+    y.par_iter_mut().enumerate().with_min_len(256).for_each(|(j, yj)| {
+        let mut s = 0.0;
+        for p in cp[j]..cp[j + 1] {
+            s += v[p] * x[ri[p]];
+        }
+        *yj = s;
+    });
+}
+
+/// `y = A x` for a general CSC matrix (sequential scatter).
+pub fn matvec(a: &Csc, x: &[f64], y: &mut [f64]) {
+    y.iter_mut().for_each(|v| *v = 0.0);
+    let cp = a.symbolic().col_ptr();
+    let ri = a.symbolic().row_idx();
+    let v = a.val();
+    for j in 0..a.ncols() {
+        for p in cp[j]..cp[j + 1] {
+            y[ri[p]] += v[p] * x[j];
+        }
+    }
+}
+
+/// Diagonal of a CSC matrix (duplicate entries summed).
+pub fn diagonal(a: &Csc) -> Vec<f64> {
+    let cp = a.symbolic().col_ptr();
+    let ri = a.symbolic().row_idx();
+    (0..a.ncols()).map(|j| (cp[j]..cp[j + 1]).filter(|&p| ri[p] == j).map(|p| a.val()[p]).sum()).collect()
+}
+
+/// `||A x - b|| / ||b||` (or `||A x||` when `b = 0`), with the symmetric (parallel) product
+/// when `symmetric`, else the general one.
+pub fn relative_residual(a: &Csc, symmetric: bool, x: &[f64], b: &[f64]) -> f64 {
+    let mut r = vec![0.0; b.len()];
+    if symmetric {
+        sym_matvec(a, x, &mut r);
+    } else {
+        matvec(a, x, &mut r);
+    }
+    let num: f64 = r.iter().zip(b).map(|(p, q)| (p - q) * (p - q)).sum::<f64>().sqrt();
+    let den: f64 = b.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if den > 0.0 {
+        num / den
+    } else {
+        num
+    }
+}
+
+/// The rows and columns of `a` at free DOFs (order kept, so sorted columns stay sorted).
+pub fn restrict_to_free(a: &Csc, dofs: &DofMap) -> Csc {
+    let cp = a.symbolic().col_ptr();
+    let ri = a.symbolic().row_idx();
+    let (mut col_ptr, mut rows, mut vals) = (vec![0usize], Vec::new(), Vec::new());
+    for j in 0..a.ncols() {
+        if dofs.is_constrained(j) {
+            continue;
+        }
+        for p in cp[j]..cp[j + 1] {
+            if let Some(r) = dofs.free(ri[p]) {
+                rows.push(r);
+                vals.push(a.val()[p]);
+            }
+        }
+        col_ptr.push(rows.len());
+    }
+    let n = dofs.n_free();
+    SparseColMat::new(SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows), vals)
+}
+
+/// `max |A - A^T| / max |A|` of a square CSC matrix, duplicates summed (0 when `A = 0`).
+pub fn relative_asymmetry(a: &Csc) -> f64 {
+    let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
+    let mut m: std::collections::HashMap<(usize, usize), f64> = Default::default();
+    for j in 0..a.ncols() {
+        for p in cp[j]..cp[j + 1] {
+            *m.entry((ri[p], j)).or_default() += v[p];
+        }
+    }
+    let max = m.values().fold(0.0f64, |s, x| s.max(x.abs()));
+    if max == 0.0 {
+        return 0.0;
+    }
+    m.iter().fold(0.0f64, |s, (&(r, c), &x)| s.max((x - m.get(&(c, r)).copied().unwrap_or(0.0)).abs())) / max
+}
+
+/// A symmetric CSC matrix as a [`LinearOperator`] (parallel [`sym_matvec`]).
+pub struct SymCsc<'a>(pub &'a Csc);
+
+impl LinearOperator for SymCsc<'_> {
+    fn n(&self) -> usize {
+        self.0.nrows()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        sym_matvec(self.0, x, y)
+    }
+}
+
+/// A general CSC matrix as a [`LinearOperator`] (sequential [`matvec`]).
+pub struct GeneralCsc<'a>(pub &'a Csc);
+
+impl LinearOperator for GeneralCsc<'_> {
+    fn n(&self) -> usize {
+        self.0.nrows()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        matvec(self.0, x, y)
+    }
+}

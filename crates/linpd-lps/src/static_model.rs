@@ -1,0 +1,45 @@
+//! The linearized LPS solid as a [`Model`]: the tangent `A` of [`crate::tangent`] at `u = 0`.
+//!
+//! The tangent couples nodes up to two horizons apart (the dilatation of a neighbour), so the
+//! nested-dissection separators are `2 delta / h` planes thick. The interaction graph for the
+//! rigid-motion check is the bond family: two nodes two horizons apart are coupled only
+//! through a common neighbour, so the connected pieces are the same.
+
+use crate::{assemble_tangent, LpsModel};
+use linpd_core::sparse::{diagonal, restrict_to_free, Csc};
+use linpd_core::{nested_dissection, DofMap, Model, Ordering, Point, GEOMETRY_RTOL};
+
+impl Model for LpsModel {
+    fn kind(&self) -> &'static str {
+        "lps"
+    }
+    fn dim(&self) -> usize {
+        LpsModel::dim(self)
+    }
+    fn n_nodes(&self) -> usize {
+        LpsModel::n_nodes(self)
+    }
+    fn position(&self, i: usize) -> Point {
+        self.grid().position(i)
+    }
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        self.family().neighbors(i).iter().for_each(|&j| f(j as usize));
+    }
+    fn apply(&self, u: &[f64], y: &mut [f64]) {
+        self.apply_tangent(u, y)
+    }
+    /// From the assembled tangent (there is no cheaper closed form yet).
+    fn diagonal(&self) -> Vec<f64> {
+        diagonal(&assemble_tangent(self))
+    }
+    fn assemble_free(&self, dofs: &DofMap) -> Csc {
+        restrict_to_free(&assemble_tangent(self), dofs)
+    }
+    fn ordering(&self, dofs: &DofMap) -> Ordering {
+        let reach = (2.0 * self.params().horizon / self.grid().spacing() * (1.0 + GEOMETRY_RTOL)).floor() as usize;
+        Ordering::NestedDissection(nested_dissection(self.grid(), reach, dofs))
+    }
+    fn matrix_free_unavailable(&self) -> Option<&'static str> {
+        Some("the Jacobi diagonal needs the assembled tangent")
+    }
+}

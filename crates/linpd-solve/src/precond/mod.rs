@@ -1,0 +1,32 @@
+//! Preconditioners: `z = M^{-1} r` for an `M` close to `A` and cheap to invert.
+//!
+//! A Krylov method takes any [`Preconditioner`]; a new one is one file here implementing the
+//! trait plus one [`crate::PreconditionerKind`] variant (the scene's `solver.preconditioner`
+//! key) and one arm in [`crate::PreconditionerKind::build`]; no caller changes.
+//!
+//! * [`Identity`]: `M = I`;
+//! * [`Jacobi`]: `M = diag(A)`;
+//! * [`FactorPreconditioner`]: an exact factorization of an SPD `M` (e.g. the divergence-form
+//!   or symmetric part of the blended operator of linpd-blend).
+
+mod factor;
+mod jacobi;
+
+pub use factor::FactorPreconditioner;
+pub use jacobi::Jacobi;
+
+/// `z = M^{-1} r`.
+pub trait Preconditioner: Sync {
+    /// Sets `z = M^{-1} r` (`z` is overwritten).
+    fn apply(&self, r: &[f64], z: &mut [f64]);
+}
+
+/// No preconditioning: `z = r`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Identity;
+
+impl Preconditioner for Identity {
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        z.copy_from_slice(r);
+    }
+}

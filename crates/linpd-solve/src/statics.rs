@@ -1,0 +1,283 @@
+//! The one static solve of linpd: a [`Model`], prescribed displacements ([`Dirichlet`]) and
+//! nodal forces in, displacements and a [`SolveReport`] out. Scenes of every model type,
+//! coarsening pipelines, the studies and the tension bar all come through here.
+//!
+//! 1. every DOF constrained, or a rigid motion left free ([`linpd_core::check_support`] on the
+//!    model's own interaction graph): a typed error before any factorization;
+//! 2. `A_ff u_f = f_f - (A u_bar)_f` ([`crate::bc`]);
+//! 3. assembled ([`Model::assemble_free`]) and solved by [`solve_assembled`], or matrix-free
+//!    CG on the [`ReducedOperator`] of the model's fastest apply;
+//! 4. `u = u_bar + u_f`, checked finite.
+
+use crate::bc::{Dirichlet, ReducedOperator};
+use crate::direct::{dense_solve, Cholesky, Lu, LuOrdering};
+use crate::krylov::cg::pcg;
+use crate::report::peak_rss_bytes;
+use crate::spec::{CholeskyOrdering, MatrixFree, SolverId, SolverSpec};
+use crate::{SolveError, SolveReport};
+use linpd_core::sparse::{diagonal, relative_residual, Csc, SymCsc, SYMMETRY_RTOL};
+use linpd_core::{check_support, LinearOperator, Model, ModelOperator, Ordering, Unsupported};
+use std::time::Instant;
+
+/// A direct solve whose relative residual exceeds this is reported as numerically singular
+/// rather than returned: backward-stable factorizations reach `eps * kappa`, and `kappa`
+/// beyond 1e10 means a mechanism the support check could not see (e.g. zero moduli).
+pub const DIRECT_RESIDUAL_LIMIT: f64 = 1e-6;
+
+/// What [`solve_assembled`] needs to know about the matrix besides its entries.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatrixHints {
+    /// Spatial dimension (for `auto`).
+    pub dim: usize,
+    /// `max |A - A^T| / max |A|`: above [`SYMMETRY_RTOL`] the solve is a sparse LU whatever
+    /// was asked.
+    pub asymmetry: f64,
+    /// Fill-reducing ordering for a sparse Cholesky.
+    pub ordering: Ordering,
+}
+
+impl MatrixHints {
+    /// A symmetric matrix in dimension `dim`, AMD ordering.
+    pub fn symmetric(dim: usize) -> Self {
+        MatrixHints { dim, asymmetry: 0.0, ordering: Ordering::Amd }
+    }
+}
+
+/// Solves the assembled system `A u = f` with `spec` and reports what it cost; the residual
+/// is recomputed with the symmetric product for symmetric `A`, the general one otherwise.
+pub fn solve_assembled(
+    a: &Csc,
+    f: &[f64],
+    spec: &SolverSpec,
+    hints: &MatrixHints,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    let n = a.nrows();
+    let symmetric = hints.asymmetry <= SYMMETRY_RTOL;
+    let mut note = None;
+    let spec = match spec.resolve(hints.dim, n) {
+        s if !symmetric && s != SolverSpec::Lu => {
+            note = Some(format!(
+                "{s} asked, sparse LU used: A is unsymmetric (relative asymmetry {:.2e} > {SYMMETRY_RTOL:e})",
+                hints.asymmetry
+            ));
+            SolverSpec::Lu
+        }
+        s => s,
+    };
+    let t0 = Instant::now();
+    let (u, mut report) = match &spec {
+        SolverSpec::Cholesky | SolverSpec::Auto(_) => {
+            let (perm, label) = match &hints.ordering {
+                Ordering::Amd => (None, CholeskyOrdering::Amd),
+                Ordering::Natural => (Some((0..n).collect::<Vec<_>>()), CholeskyOrdering::Natural),
+                Ordering::NestedDissection(p) => (Some(p.clone()), CholeskyOrdering::NestedDissection),
+            };
+            let mut report = SolveReport::new(SolverId::Cholesky(label), n, a.val().len());
+            let t = Instant::now();
+            let chol = Cholesky::analyze_with_ordering(a, perm.as_deref())?;
+            report.timings.symbolic = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let factor = chol.factor(a)?;
+            report.timings.numeric = t.elapsed().as_secs_f64();
+            report.nnz_factor = Some(chol.nnz_factor());
+            let t = Instant::now();
+            let u = factor.solve(f);
+            report.timings.solve = t.elapsed().as_secs_f64();
+            (u, report)
+        }
+        SolverSpec::Lu => {
+            let mut report = SolveReport::new(SolverId::Lu, n, a.val().len());
+            let t = Instant::now();
+            let lu = Lu::analyze(a, LuOrdering::Colamd)?;
+            report.timings.symbolic = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let factor = lu.factor(a)?;
+            report.timings.numeric = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let u = factor.solve(f);
+            report.timings.solve = t.elapsed().as_secs_f64();
+            // faer does not expose the LU fill; the stored entries of A are a lower bound.
+            report.nnz_factor = Some(a.val().len());
+            (u, report)
+        }
+        SolverSpec::Dense => {
+            let mut report = SolveReport::new(SolverId::Dense, n, a.val().len());
+            let t = Instant::now();
+            let u = dense_solve(a, f)?;
+            report.timings.numeric = t.elapsed().as_secs_f64();
+            report.nnz_factor = Some(n * (n + 1) / 2);
+            (u, report)
+        }
+        SolverSpec::Cg { params, preconditioner, matrix_free: _ } => {
+            let id = SolverId::Cg { preconditioner: *preconditioner, matrix_free: MatrixFree::No };
+            let mut report = SolveReport::new(id, n, a.val().len());
+            let t = Instant::now();
+            let m_inv = preconditioner.build(&diagonal(a))?;
+            let mut u = vec![0.0; n];
+            let info = pcg(&SymCsc(a), &m_inv, f, &mut u, params)?;
+            report.timings.solve = t.elapsed().as_secs_f64();
+            report.iterations = Some(info.iterations);
+            (u, report)
+        }
+    };
+    if u.iter().any(|v| !v.is_finite()) {
+        return Err(SolveError::NonFinite);
+    }
+    report.note = note;
+    report.timings.total = t0.elapsed().as_secs_f64();
+    report.rel_residual = relative_residual(a, symmetric, &u, f);
+    report.peak_rss_bytes = peak_rss_bytes();
+    let direct = !matches!(spec, SolverSpec::Cg { .. });
+    if direct && !(report.rel_residual <= DIRECT_RESIDUAL_LIMIT) {
+        return Err(SolveError::NumericallySingular { rel_residual: report.rel_residual, solver: report.solver });
+    }
+    Ok((u, report))
+}
+
+/// A failed static solve of a model.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum StaticError {
+    /// No free DOF.
+    #[error("every DOF is constrained: nothing to solve")]
+    NothingFree,
+    /// A connected piece can move rigidly.
+    #[error("{source} (first positions {positions:?})")]
+    Unsupported {
+        /// Which piece and how many motions.
+        source: Unsupported,
+        /// Positions of its first nodes (at most 3).
+        positions: Vec<Vec<f64>>,
+    },
+    /// The model cannot be applied matrix-free.
+    #[error("matrix_free is not available for {kind} models: {why}")]
+    MatrixFreeUnavailable {
+        /// The model kind.
+        kind: &'static str,
+        /// Why.
+        why: &'static str,
+    },
+    /// CG was asked for an unsymmetric operator.
+    #[error("the {kind} operator is unsymmetric (relative asymmetry {asymmetry:.2e}): matrix-free CG needs a symmetric one; use lu")]
+    UnsymmetricForCg {
+        /// The model kind.
+        kind: &'static str,
+        /// `max |A - A^T| / max |A|`.
+        asymmetry: f64,
+    },
+    /// The solver failed at a DOF.
+    #[error("{source}: {at}; the body is not held there (add constraints) or its couplings are cut around it")]
+    AtDof {
+        /// The solver's error.
+        source: SolveError,
+        /// The node and component (from the model's [`Model::describe_node`]).
+        at: String,
+    },
+    /// The solver failed.
+    #[error(transparent)]
+    Solve(SolveError),
+}
+
+impl From<SolveError> for StaticError {
+    fn from(e: SolveError) -> Self {
+        StaticError::Solve(e)
+    }
+}
+
+/// Displacements over all DOFs and the report of their solve.
+#[derive(Debug, Clone)]
+pub struct StaticSolution {
+    /// `u` over all DOFs (`d` per node, node-major).
+    pub u: Vec<f64>,
+    /// Accuracy and cost (`timings.assemble` covers the right-hand side and the assembly).
+    pub report: SolveReport,
+}
+
+/// Solves `A u = f` for `model` with the prescribed displacements of `bc` (see the module
+/// docs). `progress` receives one line per phase.
+pub fn solve_model(
+    model: &dyn Model,
+    bc: &Dirichlet,
+    f: &[f64],
+    spec: &SolverSpec,
+    progress: &dyn Fn(&str),
+) -> Result<StaticSolution, StaticError> {
+    let d = model.dim();
+    let dofs = bc.dofs();
+    if dofs.n_free() == 0 {
+        return Err(StaticError::NothingFree);
+    }
+    check_support(model, dofs).map_err(|source| StaticError::Unsupported {
+        positions: source.nodes.iter().take(3).map(|&i| model.position(i)[..d].to_vec()).collect(),
+        source,
+    })?;
+    let t0 = Instant::now();
+    let rhs = bc.reduced_rhs(&ModelOperator(model), f);
+    let asymmetry = model.asymmetry();
+    let at_dof = |e: SolveError| -> StaticError {
+        match e {
+            SolveError::NotPositiveDefinite { dof } | SolveError::Singular { dof } if dof < dofs.n_free() => {
+                let full = dofs.free_dofs()[dof];
+                StaticError::AtDof {
+                    at: format!("{}, component {}", model.describe_node(full / d), full % d),
+                    source: e,
+                }
+            }
+            other => StaticError::Solve(other),
+        }
+    };
+    let (u_free, mut report) = match spec {
+        SolverSpec::Cg { params, preconditioner, matrix_free: true } => {
+            if let Some(why) = model.matrix_free_unavailable() {
+                return Err(StaticError::MatrixFreeUnavailable { kind: model.kind(), why });
+            }
+            if asymmetry > SYMMETRY_RTOL {
+                return Err(StaticError::UnsymmetricForCg { kind: model.kind(), asymmetry });
+            }
+            progress(&format!("solving matrix-free with {spec}: {} unknowns", dofs.n_free()));
+            let diag = dofs.gather(&model.diagonal());
+            let t = Instant::now();
+            let fast = model.fast_apply();
+            let model_op = ModelOperator(model);
+            let (full, how): (&dyn LinearOperator, MatrixFree) = match &fast {
+                Some(fa) => (&*fa.op, MatrixFree::Fast(fa.label)),
+                None => (&model_op, MatrixFree::Model),
+            };
+            let m_inv = preconditioner.build(&diag).map_err(|e| at_dof(e.into()))?;
+            let mut u = vec![0.0; dofs.n_free()];
+            let info =
+                pcg(&ReducedOperator::new(full, dofs), &m_inv, &rhs, &mut u, params).map_err(|e| at_dof(e.into()))?;
+            let id = SolverId::Cg { preconditioner: *preconditioner, matrix_free: how };
+            let mut report = SolveReport::new(id, dofs.n_free(), 0);
+            report.iterations = Some(info.iterations);
+            report.rel_residual = info.rel_residual;
+            report.timings.solve = t.elapsed().as_secs_f64();
+            report.timings.total = report.timings.solve;
+            report.peak_rss_bytes = peak_rss_bytes();
+            (u, report)
+        }
+        _ => {
+            progress(&format!("assembling: {} free DOFs", dofs.n_free()));
+            let t = Instant::now();
+            let a = model.assemble_free(dofs);
+            let t_asm = t.elapsed().as_secs_f64();
+            let hints = MatrixHints { dim: d, asymmetry, ordering: model.ordering(dofs) };
+            progress(&format!(
+                "solving: {} unknowns, {} stored entries, solver {}",
+                a.nrows(),
+                a.val().len(),
+                spec.resolve(d, a.nrows())
+            ));
+            let (u, report) = solve_assembled(&a, &rhs, spec, &hints).map_err(at_dof)?;
+            progress(&format!("assembled in {t_asm:.3} s"));
+            (u, report)
+        }
+    };
+    // Everything outside the solver proper: the right-hand side, the assembly, the diagonal.
+    report.timings.assemble = t0.elapsed().as_secs_f64() - report.timings.total;
+    let u = bc.expand(&u_free);
+    if u.iter().any(|v| !v.is_finite()) {
+        return Err(StaticError::Solve(SolveError::NonFinite));
+    }
+    Ok(StaticSolution { u, report })
+}
