@@ -73,3 +73,34 @@ pub fn cell_modulus(n: usize, c: impl Fn(f64, f64) -> f64) -> f64 {
     let energy: f64 = bonds.iter().map(|&(i, j, d, cij)| 0.25 * cij * (eps * d + w[j] - w[i]).powi(2) * H).sum();
     2.0 * (energy / n as f64) / (eps * eps)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauss_solves_a_system_that_needs_pivoting() {
+        // a[0][0] = 0: without the row swap the elimination divides by zero.
+        let x = gauss(vec![vec![0.0, 2.0, 1.0], vec![1.0, 1.0, 0.0], vec![2.0, 0.0, 3.0]], vec![7.0, 3.0, 11.0]);
+        for (xi, ei) in x.iter().zip([1.0, 2.0, 3.0]) {
+            assert!((xi - ei).abs() < 1e-14, "{x:?}");
+        }
+    }
+
+    #[test]
+    fn cell_modulus_of_a_homogeneous_cell_is_the_bar_modulus() {
+        // Constant C = 1 for 0 < |q - x| < r0 = 10 H: w = 0 by symmetry and
+        // E = sum over the 18 bonds of a node of C d^2 v / 2 = H^3 sum_{k=1}^{9} k^2 = 285 H^3 (`inside`
+        // excludes |q - x| = r0).
+        let c = |x: f64, q: f64| {
+            if linpd_coarsen::paper::inside((q - x).abs(), linpd_coarsen::paper::R0) {
+                1.0
+            } else {
+                0.0
+            }
+        };
+        let e = cell_modulus(20, c);
+        let expected = 285.0 * H.powi(3);
+        assert!((e - expected).abs() < 1e-9 * expected, "{e} vs {expected}");
+    }
+}

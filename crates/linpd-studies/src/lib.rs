@@ -135,3 +135,41 @@ impl Study {
         self.to_possible_value().expect("no study is skipped")
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The names are the ones `linpd study` accepted before the registry (docs/studies/README.md
+    /// and the committed outputs under docs/studies/ use them), in `linpd study list` order.
+    #[test]
+    fn registry_names_are_the_cli_names() {
+        let names: Vec<String> = Study::all().iter().map(Study::name).collect();
+        assert_eq!(
+            names,
+            [
+                "blend-patch",
+                "blend-point-load",
+                "blend-pd-size",
+                "blend-bridge-size",
+                "blend-load-location",
+                "blend-speedup",
+                "blend-speed-vs-error",
+                "lps-tension-bar",
+                "dispersion",
+                "stability",
+                "md-pd",
+                "coarsen-tent",
+                "coarsen-composite",
+                "coarsen-defect",
+                "coarsen-speed-vs-error",
+            ]
+        );
+        for s in Study::all() {
+            assert_eq!(Study::from_name(&s.name()), Some(*s));
+            assert!(!s.description().is_empty(), "{s:?} has no description");
+            assert_eq!(s.default_out_dir(), Path::new("out/studies").join(s.name()));
+        }
+        assert_eq!(Study::from_name("list"), None);
+    }
+}
