@@ -1,21 +1,16 @@
-//! The `linpd` command line: solve scenes, validate them, benchmark the operators.
+//! The `linpd` command line: parses the arguments, calls the library crates, prints the
+//! results. The studies are in `linpd-studies`, the benchmarks in `linpd-bench`; this crate
+//! only adds the solution plots of `solve` and `run` (module `plots`).
 //!
 //! The binary itself (`src/main.rs` of the facade package) only calls [`main`].
 #![deny(missing_docs)]
 
-mod bench;
-mod bench_coarsen;
-mod bench_dynamics;
-mod bench_lps;
 mod plots;
-mod study_blend;
-mod study_coarsen;
-mod study_dynamics;
-mod study_lps;
-mod study_md_pd;
 
-use clap::{Parser, Subcommand};
+use clap::builder::{PossibleValue, PossibleValuesParser};
+use clap::{Parser, Subcommand, ValueEnum};
 use linpd_problem::{Problem, Scene};
+use linpd_studies::{Study, StudyOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -74,18 +69,20 @@ enum Command {
         scene: PathBuf,
     },
     /// Benchmark assembly, factorization, matvec and CG on standard cases; write JSON.
-    Bench(bench::BenchArgs),
+    Bench(linpd_bench::BenchArgs),
     /// Reproduce a paper study: writes data.json, PNG and SVG plots, prints a table.
     ///
     /// Studies: blend-patch, blend-point-load, blend-pd-size, blend-bridge-size,
     /// blend-load-location, blend-speedup, blend-speed-vs-error (Seleson, Beneddine &
-    /// Prudhomme 2013, Figs. 7-14); lps-tension-bar; dispersion, stability (Seleson, Parks,
-    /// Gunzburger & Lehoucq 2009, section 4); coarsen-tent, coarsen-composite, coarsen-defect,
-    /// coarsen-speed-vs-error (Silling 2010, Figs. 3, 5, 7, and a 2D speed-vs-error map).
+    /// Prudhomme 2013, Figs. 7-14); lps-tension-bar; dispersion, stability, md-pd (Seleson,
+    /// Parks, Gunzburger & Lehoucq 2009, section 4); coarsen-tent, coarsen-composite,
+    /// coarsen-defect, coarsen-speed-vs-error (Silling 2010, Figs. 3, 5, 7, and a 2D
+    /// speed-vs-error map).
     Study {
         /// The study name (e.g. blend-point-load); `list` prints them all.
+        #[arg(value_parser = study_names())]
         name: String,
-        /// Output directory (default docs/studies/<name>).
+        /// Output directory (default out/studies/<name>).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Skip the dense-solver timings of blend-speedup (they take about a minute).
@@ -94,12 +91,12 @@ enum Command {
     },
 }
 
-/// The rows and columns of `a` at free DOFs.
-pub(crate) fn bench_lps_reduce(
-    a: &faer::sparse::SparseColMat<usize, f64>,
-    dofs: &linpd_core::DofMap,
-) -> faer::sparse::SparseColMat<usize, f64> {
-    linpd_problem::reduce_to_free(a, dofs)
+/// The accepted study names: `list`, then every [`Study`] (with its description for `--help`).
+fn study_names() -> PossibleValuesParser {
+    let list = PossibleValue::new("list").help("print every study with a one-line description");
+    PossibleValuesParser::new(
+        std::iter::once(list).chain(Study::value_variants().iter().filter_map(ValueEnum::to_possible_value)),
+    )
 }
 
 /// Parses the command line, runs the command, prints errors to stderr.
@@ -259,37 +256,23 @@ fn run(cli: Cli) -> Result<(), String> {
             println!("wrote {}", dir.display());
             Ok(())
         }
-        Command::Bench(args) => bench::run(args),
+        Command::Bench(args) => {
+            let doc = linpd_bench::run(&args)?;
+            linpd_bench::print_table(&doc);
+            println!("wrote {}", args.out.display());
+            Ok(())
+        }
         Command::Study { name, out, no_dense } => {
             if name == "list" {
-                for (n, d) in study_blend::STUDIES {
-                    println!("{n:<22} {d}");
-                }
-                println!(
-                    "{:<22} LPS tension bar vs classical elasticity, with and without surface correction",
-                    "lps-tension-bar"
-                );
-                for (n, d) in study_dynamics::STUDIES {
-                    println!("{n:<22} {d}");
-                }
-                println!("{:<22} {}", study_md_pd::NAME, study_md_pd::DESCRIPTION);
-                for (n, d) in study_coarsen::STUDIES {
-                    println!("{n:<22} {d}");
+                for s in Study::all() {
+                    println!("{:<22} {}", s.name(), s.description());
                 }
                 return Ok(());
             }
-            let dir = out.unwrap_or_else(|| PathBuf::from("docs/studies").join(&name));
-            if name == "lps-tension-bar" {
-                study_lps::run(&dir)?;
-            } else if name == study_md_pd::NAME {
-                study_md_pd::run(&dir)?;
-            } else if study_coarsen::STUDIES.iter().any(|(n, _)| *n == name) {
-                study_coarsen::run(&name, &dir)?;
-            } else if study_dynamics::STUDIES.iter().any(|(n, _)| *n == name) {
-                study_dynamics::run(&name, &dir)?;
-            } else {
-                study_blend::run(&name, &dir, !no_dense)?;
-            }
+            // clap accepted the name, so it is `list` or a study.
+            let study = Study::from_name(&name).ok_or_else(|| format!("unknown study `{name}`"))?;
+            let dir = out.unwrap_or_else(|| study.default_out_dir());
+            study.run(&dir, &StudyOptions { dense: !no_dense })?;
             println!("wrote {}", dir.display());
             Ok(())
         }

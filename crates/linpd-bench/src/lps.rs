@@ -108,7 +108,7 @@ pub fn run(quick: bool) -> Value {
                     json!({"time": t_fd, "ratio_to_analytic": t_fd / t_asm, "max_rel_difference": diff / scale});
             }
             let (dofs, f) = clamped_cube(&grid, nodes);
-            let ar = crate::bench_lps_reduce(&a, &dofs);
+            let ar = linpd_problem::reduce_to_free(&a, &dofs);
             drop(a);
             let fr = dofs.gather(&f);
             let mut u = vec![0.0; fr.len()];

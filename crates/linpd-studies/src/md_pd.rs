@@ -22,12 +22,8 @@ use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
-/// Study name.
-pub const NAME: &str = "md-pd";
-/// One line for `study list`.
-pub const DESCRIPTION: &str =
-    "Seleson et al. 2009 sec. 4.4 (Figs. 4.3-4.6, Table 4.1): MD vs fine/coarse PD vs CCM, smooth and square pulses";
-
+/// Study name (in `data.json`).
+const NAME: &str = "md-pd";
 const L: f64 = 1000.0;
 const K1: f64 = 1.0;
 const RHO: f64 = 1.0;
@@ -186,7 +182,7 @@ fn density_map(m: &Model, r: &Run, dir: &Path, what: &str) -> Result<(), String>
 }
 
 /// Runs the study into `dir`.
-pub fn run(dir: &Path) -> Result<(), String> {
+pub(crate) fn run(dir: &Path) -> Result<(), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let total = Instant::now();
 

@@ -7,6 +7,7 @@
 //! (`Matching::TotalForce`, the crate's default; a body-force density `b` gives `f = b v^0`).
 //! The same examples are tests in `crates/linpd-coarsen/tests/examples.rs` (with the tolerances).
 
+use crate::fixtures::cell_modulus;
 use linpd_bond::{assemble, BondOperator};
 use linpd_coarsen::paper::{composite, defect, tent, R0};
 use linpd_coarsen::{coarsen, every_kth, retain_every, Coarsened, LevelModel, StepReport};
@@ -15,14 +16,6 @@ use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
 use serde_json::{json, Value};
 use std::path::Path;
 use std::time::Instant;
-
-/// The studies, with one line each for `study list`.
-pub const STUDIES: &[(&str, &str)] = &[
-    ("coarsen-tent", "Silling 2010 Fig. 3: C^0, C^1, C^2 vs bond distance at the centre (tent kernel)"),
-    ("coarsen-composite", "Silling 2010 Fig. 5: striped composite, u per level, global stretch vs F/E_eff"),
-    ("coarsen-defect", "Silling 2010 Fig. 7: bar with a defect, u near it per level, jumps vs radius"),
-    ("coarsen-speed-vs-error", "2D bond-based plate: (coarsening + coarse solve) / fine solve time vs error"),
-];
 
 const H: f64 = 0.005;
 const N: usize = 201;
@@ -62,20 +55,6 @@ fn radius_label(r: f64) -> String {
         "whole body".into()
     } else {
         format!("{r}")
-    }
-}
-
-/// Runs study `name` into `dir`.
-pub fn run(name: &str, dir: &Path) -> Result<(), String> {
-    match name {
-        "coarsen-tent" => tent_study(dir),
-        "coarsen-composite" => composite_study(dir),
-        "coarsen-defect" => defect_study(dir),
-        "coarsen-speed-vs-error" => speed_vs_error(dir),
-        other => Err(format!(
-            "unknown study `{other}`; available: {}",
-            STUDIES.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
-        )),
     }
 }
 
@@ -125,7 +104,7 @@ fn row(m: &LevelModel, p: usize) -> (Vec<f64>, Vec<f64>) {
 // coarsen-tent (Fig. 3)
 // ----------------------------------------------------------------------------------------------
 
-fn tent_study(dir: &Path) -> Result<(), String> {
+pub(crate) fn tent_study(dir: &Path) -> Result<(), String> {
     let m0 = level0(tent)?;
     // x = 0.5 (node 100) is a level-1 node; level 2 (every 8th node) has none there: its row is
     // taken at 0.48 (node 96), the level-2 node nearest the centre.
@@ -181,63 +160,7 @@ fn tent_study(dir: &Path) -> Result<(), String> {
 // coarsen-composite (Fig. 5)
 // ----------------------------------------------------------------------------------------------
 
-/// Dense Gaussian elimination with partial pivoting (the 20-node cell).
-#[allow(clippy::needless_range_loop)]
-fn gauss(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
-    let n = b.len();
-    for k in 0..n {
-        let p = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())).unwrap();
-        a.swap(k, p);
-        b.swap(k, p);
-        for i in k + 1..n {
-            let f = a[i][k] / a[k][k];
-            for j in k..n {
-                a[i][j] -= f * a[k][j];
-            }
-            b[i] -= f * b[k];
-        }
-    }
-    let mut x = vec![0.0; n];
-    for k in (0..n).rev() {
-        let s: f64 = (k + 1..n).map(|j| a[k][j] * x[j]).sum();
-        x[k] = (b[k] - s) / a[k][k];
-    }
-    x
-}
-
-/// Effective bar modulus of the periodic cell of `n` nodes (independent of the coarsening):
-/// `u = eps x + w`, `w` periodic (`w_0 = 0`) in equilibrium, `E = 2 <W> / eps^2` with the node
-/// energy density `W_i = 1/4 sum_b C_b (u_q - u_i)^2 v` over the bonds to the cell's images.
-fn cell_modulus(n: usize, c: fn(f64, f64) -> f64) -> f64 {
-    let (period, eps) = (n as f64 * H, 1e-3);
-    let y: Vec<f64> = (0..n).map(|i| i as f64 * H).collect();
-    let mut bonds = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            for s in -2i32..=2 {
-                let q = y[j] + s as f64 * period;
-                let cij = c(y[i], q);
-                if cij != 0.0 {
-                    bonds.push((i, j, q - y[i], cij));
-                }
-            }
-        }
-    }
-    let (mut a, mut b) = (vec![vec![0.0; n]; n], vec![0.0; n]);
-    for &(i, j, d, cij) in &bonds {
-        a[i][j] += cij * H;
-        a[i][i] -= cij * H;
-        b[i] -= eps * cij * d * H;
-    }
-    a[0] = vec![0.0; n];
-    a[0][0] = 1.0;
-    b[0] = 0.0;
-    let w = gauss(a, b);
-    let energy: f64 = bonds.iter().map(|&(i, j, d, cij)| 0.25 * cij * (eps * d + w[j] - w[i]).powi(2) * H).sum();
-    2.0 * (energy / n as f64) / (eps * eps)
-}
-
-fn composite_study(dir: &Path) -> Result<(), String> {
+pub(crate) fn composite_study(dir: &Path) -> Result<(), String> {
     let m0 = level0(composite)?;
     let e_eff = cell_modulus(20, composite);
     // leftmost three level-2 nodes fixed, rightmost three loaded with b v^0, b = 0.001
@@ -298,7 +221,7 @@ fn composite_study(dir: &Path) -> Result<(), String> {
 // coarsen-defect (Fig. 7)
 // ----------------------------------------------------------------------------------------------
 
-fn defect_study(dir: &Path) -> Result<(), String> {
+pub(crate) fn defect_study(dir: &Path) -> Result<(), String> {
     let m0 = level0(defect)?;
     // u = x on the three leftmost and rightmost level-2 nodes (every 9th level-0 node)
     let fixed: Vec<(usize, f64)> = [0, 9, 18, 180, 189, 198].iter().map(|&p| (p, p as f64 * H)).collect();
@@ -450,7 +373,7 @@ fn report_json(r: &StepReport) -> Value {
     json!(r)
 }
 
-fn speed_vs_error(dir: &Path) -> Result<(), String> {
+pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
     let t = Instant::now();
     let m0 = plate_level0()?;
     let t_build = t.elapsed().as_secs_f64();

@@ -10,17 +10,6 @@ use serde_json::{json, Value};
 use std::path::Path;
 use std::time::Instant;
 
-/// The studies, with one line each for `--help`.
-pub const STUDIES: &[(&str, &str)] = &[
-    ("blend-patch", "Figs. 7-8: patch test (Table 2), strain spread (30) for CE, PD and blended models"),
-    ("blend-point-load", "Figs. 9-10: point load (Table 3), profiles and error profiles per blending"),
-    ("blend-pd-size", "Fig. 11: error vs PD-region size for eps = 0.05 and 0.025"),
-    ("blend-bridge-size", "Fig. 12: error vs bridge size for eps = 0.05 and 0.025"),
-    ("blend-load-location", "Fig. 13: error vs point-load location"),
-    ("blend-speedup", "Fig. 14: weighted error (35) and speedup vs CE mesh ratio 1..512 (dx = 1e-4)"),
-    ("blend-speed-vs-error", "wall time vs relative error: PD, CE, blended x blending x CE mesh ratio"),
-];
-
 fn blendings() -> Vec<(&'static str, Blending)> {
     vec![("constant", Blending::Constant { value: 0.5 }), ("linear", Blending::Linear), ("cubic", Blending::Cubic)]
 }
@@ -80,24 +69,7 @@ fn positive(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
     x.iter().zip(y).filter(|(_, v)| **v > 0.0).map(|(a, b)| (*a, *b)).unzip()
 }
 
-/// Runs study `name` into `dir`.
-pub fn run(name: &str, dir: &Path, dense: bool) -> Result<(), String> {
-    match name {
-        "blend-patch" => patch(dir),
-        "blend-point-load" => point_load(dir),
-        "blend-pd-size" => pd_size(dir),
-        "blend-bridge-size" => bridge_size(dir),
-        "blend-load-location" => load_location(dir),
-        "blend-speedup" => speedup(dir, dense),
-        "blend-speed-vs-error" => speed_vs_error(dir),
-        other => Err(format!(
-            "unknown study `{other}`; available: {}",
-            STUDIES.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
-        )),
-    }
-}
-
-fn patch(dir: &Path) -> Result<(), String> {
+pub(crate) fn patch(dir: &Path) -> Result<(), String> {
     // Table 2 with dx = 0.0125: the paper's dx = 0.02 gives eps/dx = 2.5, not an integer N.
     let mut p = BlendParams::table3(Blending::Cubic);
     p.regions = Regions { l1: 0.35, l2: 0.4, l3: 0.6, l4: 0.65 };
@@ -128,7 +100,7 @@ fn patch(dir: &Path) -> Result<(), String> {
     plot(dir, "fig8_strain_fluctuation", "Strain fluctuation du/dx - 1", "x", "du/dx - 1", fluct, false)
 }
 
-fn point_load(dir: &Path) -> Result<(), String> {
+pub(crate) fn point_load(dir: &Path) -> Result<(), String> {
     let p = BlendParams::table3(Blending::Cubic);
     let load = [Load::Point { x: 0.5, force: 1.0 }];
     let pd = solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load, BlendSolver::Auto).map_err(err)?;
@@ -239,7 +211,7 @@ fn sweep(
     write(dir, &json!({"study": study, "sweeps": data}))
 }
 
-fn pd_size(dir: &Path) -> Result<(), String> {
+pub(crate) fn pd_size(dir: &Path) -> Result<(), String> {
     // Section 5.2.1: bridges of 0.1 each, PD region centred at the load, size varied (the paper
     // steps by 2 dx; we step by 20 dx to keep the run short).
     sweep(
@@ -266,7 +238,7 @@ fn pd_size(dir: &Path) -> Result<(), String> {
     )
 }
 
-fn bridge_size(dir: &Path) -> Result<(), String> {
+pub(crate) fn bridge_size(dir: &Path) -> Result<(), String> {
     // Section 5.2.2: |Omega_PD| = 2 eps - 6 dx, bridge half-size |Omega_b|/2 varied (the paper
     // steps by dx; we step by 10 dx).
     sweep(
@@ -294,7 +266,7 @@ fn bridge_size(dir: &Path) -> Result<(), String> {
     )
 }
 
-fn load_location(dir: &Path) -> Result<(), String> {
+pub(crate) fn load_location(dir: &Path) -> Result<(), String> {
     // Section 5.2.3: eps = 0.05, dx = 0.005, bridges eps, |Omega_PD| = 6 eps centred.
     let mut p = BlendParams::table3(Blending::Cubic);
     p.dx = 0.005;
@@ -349,7 +321,7 @@ fn timed(p: &BlendParams, kind: ModelKind, load: &[Load], solver: BlendSolver) -
     Ok((s, t.elapsed().as_secs_f64()))
 }
 
-fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
+pub(crate) fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
     let load = [Load::Point { x: 0.5, force: 1.0 }];
     let p = fig14_params(Blending::Cubic);
     let (pd, t_pd) = timed(&p, ModelKind::PurePd, &load, BlendSolver::Auto)?;
@@ -441,7 +413,7 @@ fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
     loglog(dir, "fig14d_speedup_vs_ratio", "Speedup t_PD / t_blended vs CE mesh ratio", "dx_CE / dx", "speedup", sp)
 }
 
-fn speed_vs_error(dir: &Path) -> Result<(), String> {
+pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
     let load = [Load::Point { x: 0.5, force: 1.0 }];
     let p = fig14_params(Blending::Cubic);
     let (pd, t_pd) = timed(&p, ModelKind::PurePd, &load, BlendSolver::Auto)?;

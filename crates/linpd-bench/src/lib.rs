@@ -11,6 +11,28 @@
 //! Every case: inverse-distance kernel with discrete normalization (K = 1); 1D bars clamped on
 //! `m` nodes at each end and loaded by a uniform body force; 3D cubes clamped on their three
 //! bottom planes and loaded by a downward body force on the top plane.
+//!
+//! Optional sections (flags of [`BenchArgs`]): `--lps` (module `lps`), `--dynamics` (module
+//! `dynamics`), `--coarsen` (module `coarsen`). The Python peers live in `benches/peers/` at the
+//! repository root; [`run`] drives them with `--peers`.
+//!
+//! ```no_run
+//! use clap::Parser;
+//! #[derive(Parser)]
+//! struct Cli {
+//!     #[command(flatten)]
+//!     bench: linpd_bench::BenchArgs,
+//! }
+//! let cli = Cli::parse_from(["bench", "--quick", "--out", "/tmp/bench.json"]);
+//! let doc = linpd_bench::run(&cli.bench)?;
+//! linpd_bench::print_table(&doc);
+//! # Ok::<(), String>(())
+//! ```
+#![deny(missing_docs)]
+
+mod coarsen;
+mod dynamics;
+mod lps;
 
 use clap::Args;
 use linpd_bond::{nested_dissection, BondOperator, Pattern, StencilOperator};
@@ -24,42 +46,42 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Options of `linpd bench`.
-#[derive(Args)]
+/// Options of `linpd bench` (a clap [`Args`] group: flatten it into a parser, or fill it in).
+#[derive(Args, Clone, Debug)]
 pub struct BenchArgs {
     /// Small sizes (seconds in total): checks the pipeline, not the performance.
     #[arg(long)]
-    quick: bool,
+    pub quick: bool,
     /// Only run cases whose name contains this string.
     #[arg(long)]
-    case: Option<String>,
+    pub case: Option<String>,
     /// Where to write the JSON results.
     #[arg(long, default_value = "out/bench/bench.json")]
-    out: PathBuf,
+    pub out: PathBuf,
     /// Also run the Python peers (benches/peers/peer_bench.py) on the same matrices and report
     /// ratios. Install them first with `bash benches/peers/install.sh`.
     #[arg(long)]
-    peers: bool,
+    pub peers: bool,
     /// Python interpreter for the peers.
     #[arg(long, default_value = "python3")]
-    python: String,
+    pub python: String,
     /// Largest number of assembly triplets exported to the peers (24 bytes each: a 30^3 cube
     /// has 59M triplets, 1.4 GB, and scipy needs several times that in memory).
     #[arg(long, default_value_t = 40_000_000)]
-    peers_max_triplets: usize,
+    pub peers_max_triplets: usize,
     /// Also run the LPS tangent cases (3D cubes 10^3-40^3, delta = 3h).
     #[arg(long)]
-    lps: bool,
+    pub lps: bool,
     /// Also run the velocity-Verlet throughput cases (1D 10^5 nodes m = 20, 3D 40^3 delta = 3h)
     /// with the assembled, per-bond and stencil operators.
     #[arg(long)]
-    dynamics: bool,
+    pub dynamics: bool,
     /// Also run the coarsening cases (1D 10^5-10^6 nodes two levels, 2D 200 x 200 one level).
     #[arg(long)]
-    coarsen: bool,
+    pub coarsen: bool,
     /// Run sparse Cholesky on 3D cases up to this many unknowns (AMD fill grows fast in 3D).
     #[arg(long, default_value_t = 30_000)]
-    direct_max_3d: usize,
+    pub direct_max_3d: usize,
 }
 
 struct Case {
@@ -338,8 +360,9 @@ fn ratio(a: Option<f64>, b: Option<f64>) -> Value {
     }
 }
 
-/// Runs the benchmark.
-pub fn run(args: BenchArgs) -> Result<(), String> {
+/// Runs the benchmark: writes the JSON document to `args.out` (and, with `--peers`, the
+/// exported matrices and `peers.json` beside it) and returns it. Progress goes to stderr.
+pub fn run(args: &BenchArgs) -> Result<Value, String> {
     eprintln!("[bench] measuring copy bandwidth");
     let bw = copy_bandwidth();
     let export_dir = args.peers.then(|| args.out.with_file_name("matrices"));
@@ -348,7 +371,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         if args.case.as_ref().is_some_and(|c| !case.name.contains(c.as_str())) {
             continue;
         }
-        let r = run_case(&case, &args, bw, export_dir.as_deref());
+        let r = run_case(&case, args, bw, export_dir.as_deref());
         results.insert(case.name.clone(), r);
     }
     let mut doc = json!({
@@ -357,13 +380,13 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         "cases": Value::Object(results),
     });
     if args.lps {
-        doc["lps"] = crate::bench_lps::run(args.quick);
+        doc["lps"] = crate::lps::run(args.quick);
     }
     if args.coarsen {
-        doc["coarsen"] = crate::bench_coarsen::run(args.quick)?;
+        doc["coarsen"] = crate::coarsen::run(args.quick)?;
     }
     if args.dynamics {
-        doc["dynamics"] = crate::bench_dynamics::run(args.quick, bw)?;
+        doc["dynamics"] = crate::dynamics::run(args.quick, bw)?;
     }
     if let Some(dir) = &export_dir {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../benches/peers/peer_bench.py");
@@ -410,12 +433,12 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     }
     std::fs::write(&args.out, serde_json::to_string_pretty(&doc).unwrap())
         .map_err(|e| format!("{}: {e}", args.out.display()))?;
-    print_table(&doc);
-    println!("wrote {}", args.out.display());
-    Ok(())
+    Ok(doc)
 }
 
-fn print_table(doc: &Value) {
+/// Prints the table of a document returned by [`run`] on stdout (one row per standard case,
+/// then the ratios against the peers if they ran).
+pub fn print_table(doc: &Value) {
     let g = |v: &Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
     println!(
         "copy bandwidth {:.2} GB/s, {} threads",

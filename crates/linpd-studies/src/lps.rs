@@ -8,7 +8,7 @@ use serde_json::json;
 use std::path::Path;
 
 /// Runs the study into `dir`.
-pub fn run(dir: &Path) -> Result<(), String> {
+pub(crate) fn run(dir: &Path) -> Result<(), String> {
     let mut rows = Vec::new();
     let mut series = Vec::new();
     println!(

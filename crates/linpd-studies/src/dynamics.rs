@@ -23,12 +23,6 @@ use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
-/// The studies, with one line each for `study list`.
-pub const STUDIES: &[(&str, &str)] = &[
-    ("dispersion", "Seleson et al. 2009 sec. 4.2: omega(k) lattice vs continuum vs (4.8)/(4.9) vs measured (Verlet), N = 1, 5, 20; 2D/3D Bloch dispersion of bond/LPS"),
-    ("stability", "Seleson et al. 2009 Fig. 4.2: (4.12) vs exact limit vs measured square-pulse blow-up over dx"),
-];
-
 const DELTA: f64 = 5.0;
 const K1: f64 = 1.0;
 const RHO: f64 = 1.0;
@@ -37,14 +31,16 @@ fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
 }
 
-/// Runs study `name` into `dir`.
-pub fn run(name: &str, dir: &Path) -> Result<(), String> {
+/// Runs `dispersion` into `dir`.
+pub(crate) fn run_dispersion(dir: &Path) -> Result<(), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    match name {
-        "dispersion" => dispersion(dir),
-        "stability" => stability(dir),
-        _ => Err(format!("unknown study `{name}`")),
-    }
+    dispersion(dir)
+}
+
+/// Runs `stability` into `dir`.
+pub(crate) fn run_stability(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    stability(dir)
 }
 
 fn write_data(dir: &Path, data: &serde_json::Value) -> Result<(), String> {

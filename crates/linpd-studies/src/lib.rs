@@ -1,0 +1,175 @@
+//! The paper studies of linpd: `linpd study NAME` reproduces a figure or table of a paper
+//! (data in `data.json`, PNG and SVG plots, a table on stdout).
+//!
+//! * `blend-*`: Seleson, Beneddine & Prudhomme (2013), section 5, Figs. 7-14, and a
+//!   speed-versus-error map (module `blend`);
+//! * `lps-tension-bar`: a 3D LPS tension bar against classical elasticity (module `lps`);
+//! * `dispersion`, `stability`: Seleson, Parks, Gunzburger & Lehoucq (2009), sections 4.2-4.3,
+//!   Fig. 4.2 (module `dynamics`);
+//! * `md-pd`: the same paper, section 4.4, Figs. 4.3-4.6, Table 4.1 (module `md_pd`);
+//! * `coarsen-*`: Silling (2010), section 5, Figs. 3, 5 and 7, and a 2D speed-versus-error map
+//!   (module `coarsen`).
+//!
+//! [`Study`] is the registry: one variant per study, parsed by clap ([`clap::ValueEnum`]) so
+//! that `linpd study --help` and the error for an unknown name list every study. Paper
+//! fixtures shared with the tests are in [`fixtures`].
+//!
+//! ```no_run
+//! use linpd_studies::{Study, StudyOptions};
+//! Study::CoarsenTent.run(std::path::Path::new("out/studies/coarsen-tent"), &StudyOptions::default())?;
+//! # Ok::<(), String>(())
+//! ```
+#![deny(missing_docs)]
+
+mod blend;
+mod coarsen;
+mod dynamics;
+pub mod fixtures;
+mod lps;
+mod md_pd;
+
+use clap::ValueEnum;
+use std::path::{Path, PathBuf};
+
+/// Every study, in the order of `linpd study list`. The clap names are the kebab-case variant
+/// names (`BlendPatch` is `blend-patch`); each doc comment is the study's one-line description.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, ValueEnum)]
+pub enum Study {
+    /// Figs. 7-8: patch test (Table 2), strain spread (30) for CE, PD and blended models
+    BlendPatch,
+    /// Figs. 9-10: point load (Table 3), profiles and error profiles per blending
+    BlendPointLoad,
+    /// Fig. 11: error vs PD-region size for eps = 0.05 and 0.025
+    BlendPdSize,
+    /// Fig. 12: error vs bridge size for eps = 0.05 and 0.025
+    BlendBridgeSize,
+    /// Fig. 13: error vs point-load location
+    BlendLoadLocation,
+    /// Fig. 14: weighted error (35) and speedup vs CE mesh ratio 1..512 (dx = 1e-4)
+    BlendSpeedup,
+    /// wall time vs relative error: PD, CE, blended x blending x CE mesh ratio
+    BlendSpeedVsError,
+    /// LPS tension bar vs classical elasticity, with and without surface correction
+    LpsTensionBar,
+    /// Seleson et al. 2009 sec. 4.2: omega(k) lattice vs continuum vs (4.8)/(4.9) vs measured (Verlet), N = 1, 5, 20; 2D/3D Bloch dispersion of bond/LPS
+    Dispersion,
+    /// Seleson et al. 2009 Fig. 4.2: (4.12) vs exact limit vs measured square-pulse blow-up over dx
+    Stability,
+    /// Seleson et al. 2009 sec. 4.4 (Figs. 4.3-4.6, Table 4.1): MD vs fine/coarse PD vs CCM, smooth and square pulses
+    MdPd,
+    /// Silling 2010 Fig. 3: C^0, C^1, C^2 vs bond distance at the centre (tent kernel)
+    CoarsenTent,
+    /// Silling 2010 Fig. 5: striped composite, u per level, global stretch vs F/E_eff
+    CoarsenComposite,
+    /// Silling 2010 Fig. 7: bar with a defect, u near it per level, jumps vs radius
+    CoarsenDefect,
+    /// 2D bond-based plate: (coarsening + coarse solve) / fine solve time vs error
+    CoarsenSpeedVsError,
+}
+
+/// Options of [`Study::run`] that only some studies read.
+#[derive(Clone, Debug)]
+pub struct StudyOptions {
+    /// Time the dense solvers in `blend-speedup` (about a minute; `linpd study --no-dense`
+    /// turns it off).
+    pub dense: bool,
+}
+
+impl Default for StudyOptions {
+    fn default() -> Self {
+        Self { dense: true }
+    }
+}
+
+impl Study {
+    /// Every study, in registry order.
+    pub fn all() -> &'static [Study] {
+        Self::value_variants()
+    }
+
+    /// The study's name on the command line (e.g. `blend-patch`).
+    pub fn name(&self) -> String {
+        self.possible_value().get_name().to_string()
+    }
+
+    /// One line saying what the study reproduces (the variant's doc comment).
+    pub fn description(&self) -> String {
+        self.possible_value().get_help().map(ToString::to_string).unwrap_or_default()
+    }
+
+    /// The study named `name` (its kebab-case name), if any.
+    pub fn from_name(name: &str) -> Option<Study> {
+        Self::all().iter().copied().find(|s| s.name() == name)
+    }
+
+    /// The default output directory: `out/studies/<name>` (relative to the working directory).
+    pub fn default_out_dir(&self) -> PathBuf {
+        Path::new("out/studies").join(self.name())
+    }
+
+    /// Runs the study: writes `data.json` and the PNG/SVG figures into `out_dir` (created if
+    /// needed) and prints its table on stdout.
+    pub fn run(&self, out_dir: &Path, options: &StudyOptions) -> Result<(), String> {
+        let dir = out_dir;
+        match self {
+            Study::BlendPatch => blend::patch(dir),
+            Study::BlendPointLoad => blend::point_load(dir),
+            Study::BlendPdSize => blend::pd_size(dir),
+            Study::BlendBridgeSize => blend::bridge_size(dir),
+            Study::BlendLoadLocation => blend::load_location(dir),
+            Study::BlendSpeedup => blend::speedup(dir, options.dense),
+            Study::BlendSpeedVsError => blend::speed_vs_error(dir),
+            Study::LpsTensionBar => lps::run(dir),
+            Study::Dispersion => dynamics::run_dispersion(dir),
+            Study::Stability => dynamics::run_stability(dir),
+            Study::MdPd => md_pd::run(dir),
+            Study::CoarsenTent => coarsen::tent_study(dir),
+            Study::CoarsenComposite => coarsen::composite_study(dir),
+            Study::CoarsenDefect => coarsen::defect_study(dir),
+            Study::CoarsenSpeedVsError => coarsen::speed_vs_error(dir),
+        }
+    }
+
+    fn possible_value(&self) -> clap::builder::PossibleValue {
+        // Every variant has a name: none is `#[value(skip)]`.
+        self.to_possible_value().expect("no study is skipped")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The names are the ones `linpd study` accepted before the registry (docs/studies/README.md
+    /// and the committed outputs under docs/studies/ use them), in `linpd study list` order.
+    #[test]
+    fn registry_names_are_the_cli_names() {
+        let names: Vec<String> = Study::all().iter().map(Study::name).collect();
+        assert_eq!(
+            names,
+            [
+                "blend-patch",
+                "blend-point-load",
+                "blend-pd-size",
+                "blend-bridge-size",
+                "blend-load-location",
+                "blend-speedup",
+                "blend-speed-vs-error",
+                "lps-tension-bar",
+                "dispersion",
+                "stability",
+                "md-pd",
+                "coarsen-tent",
+                "coarsen-composite",
+                "coarsen-defect",
+                "coarsen-speed-vs-error",
+            ]
+        );
+        for s in Study::all() {
+            assert_eq!(Study::from_name(&s.name()), Some(*s));
+            assert!(!s.description().is_empty(), "{s:?} has no description");
+            assert_eq!(s.default_out_dir(), Path::new("out/studies").join(s.name()));
+        }
+        assert_eq!(Study::from_name("list"), None);
+    }
+}
