@@ -9,7 +9,7 @@ mod plots;
 
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Parser, Subcommand, ValueEnum};
-use linpd_problem::{Problem, Scene};
+use linpd_problem::{Problem, ProblemError, Scene};
 use linpd_studies::{Study, StudyOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -99,6 +99,41 @@ fn study_names() -> PossibleValuesParser {
     )
 }
 
+/// Why a command failed. Each message names its file once: the scene or pipeline file for what
+/// is wrong in it (read, validation and solve errors alike), the output file for a failed write.
+#[derive(Debug, thiserror::Error)]
+enum CliError {
+    /// A scene or pipeline file: invalid, or its solve failed.
+    #[error("{}", in_file(file, source))]
+    Input {
+        /// The file given on the command line.
+        file: PathBuf,
+        /// What went wrong.
+        source: ProblemError,
+    },
+    /// Writing the results (the error names the output file).
+    #[error("{0}")]
+    Output(ProblemError),
+    /// Drawing a plot.
+    #[error("plot: {0}")]
+    Plot(#[from] linpd_plot::PlotError),
+    /// A benchmark or a study.
+    #[error("{0}")]
+    Tool(String),
+}
+
+/// `file: error`, unless the error already starts with the file (a read error names it).
+fn in_file(file: &std::path::Path, e: &ProblemError) -> String {
+    match e {
+        ProblemError::Io { .. } => e.to_string(),
+        _ => format!("{}: {e}", file.display()),
+    }
+}
+
+fn input(file: &std::path::Path) -> impl Fn(ProblemError) -> CliError + '_ {
+    move |source| CliError::Input { file: file.to_path_buf(), source }
+}
+
 /// Parses the command line, runs the command, prints errors to stderr.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -111,26 +146,26 @@ pub fn main() -> ExitCode {
     }
 }
 
-fn run(cli: Cli) -> Result<(), String> {
+fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Solve { scene, out, quiet } => {
-            let problem = Scene::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+            let problem = Scene::from_path(&scene).map_err(input(&scene))?;
             let progress = |m: &str| {
                 if !quiet {
                     eprintln!("[linpd] {m}");
                 }
             };
-            let solution = problem.solve(&progress).map_err(|e| e.to_string())?;
+            let solution = problem.solve(&progress).map_err(input(&scene))?;
             let dir = out.unwrap_or_else(|| PathBuf::from(problem.output_dir()));
-            let mut files = solution.write(&dir).map_err(|e| e.to_string())?;
+            let mut files = solution.write(&dir).map_err(CliError::Output)?;
             match &problem {
                 Scene::Grid(p) if p.plot => {
-                    files.extend(plots::solution_plots(p, &solution, &dir).map_err(|e| format!("plot: {e}"))?);
+                    files.extend(plots::solution_plots(p, &solution, &dir)?);
                 }
                 // Coarsened levels have no lattice: 1D gets the displacement profile; the 2D/3D
                 // maps need a grid (scattered nodes are not plotted yet).
                 Scene::Coarsened(c) if c.plot && c.dim == 1 => {
-                    files.extend(plots::profile_1d(&solution, &dir).map_err(|e| format!("plot: {e}"))?);
+                    files.extend(plots::profile_1d(&solution, &dir)?);
                 }
                 _ => {}
             }
@@ -152,17 +187,17 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Run { scene, out, quiet } => {
-            let problem = Problem::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))?;
+            let problem = Problem::from_path(&scene).map_err(input(&scene))?;
             let progress = |m: &str| {
                 if !quiet {
                     eprintln!("[linpd] {m}");
                 }
             };
-            let run = problem.run_dynamics(&progress).map_err(|e| format!("{}: {e}", scene.display()))?;
+            let run = problem.run_dynamics(&progress).map_err(input(&scene))?;
             let dir = out.unwrap_or_else(|| PathBuf::from(&problem.output_dir));
-            let mut files = run.write(&dir).map_err(|e| e.to_string())?;
+            let mut files = run.write(&dir).map_err(CliError::Output)?;
             if problem.plot {
-                files.extend(plots::dynamics_plots(&run, &dir).map_err(|e| format!("plot: {e}"))?);
+                files.extend(plots::dynamics_plots(&run, &dir)?);
             }
             println!(
                 "{}: {} steps of dt = {:.4e} ({:.4} of dt_max = {:.4e}), {} DOFs ({} held), {} bonds; {:.3} s: {:.3e} steps/s, {:.3e} bond updates/s; energy drift max |E/E0 - 1| = {:.2e}, shadow {:.2e}",
@@ -191,7 +226,7 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Validate { scene } => {
-            let p = match Scene::from_path(&scene).map_err(|e| format!("{}: {e}", scene.display()))? {
+            let p = match Scene::from_path(&scene).map_err(input(&scene))? {
                 Scene::Grid(p) => p,
                 Scene::Coarsened(c) => {
                     let (mask, _) = c.constrained();
@@ -223,15 +258,14 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Coarsen { pipeline, out, quiet } => {
-            let p =
-                linpd_problem::Pipeline::from_path(&pipeline).map_err(|e| format!("{}: {e}", pipeline.display()))?;
+            let p = linpd_problem::Pipeline::from_path(&pipeline).map_err(input(&pipeline))?;
             let progress = |m: &str| {
                 if !quiet {
                     eprintln!("[linpd] {m}");
                 }
             };
             let dir = out.unwrap_or_else(|| p.output_dir.clone());
-            let r = p.run(&dir, &progress).map_err(|e| format!("{}: {e}", pipeline.display()))?;
+            let r = p.run(&dir, &progress).map_err(input(&pipeline))?;
             println!("{}: {} levels coarsened in {:.3} s", r.name, r.levels.len() - 1, r.seconds_coarsening);
             println!(
                 "{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}",
@@ -257,7 +291,7 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Bench(args) => {
-            let doc = linpd_bench::run(&args)?;
+            let doc = linpd_bench::run(&args).map_err(CliError::Tool)?;
             linpd_bench::print_table(&doc);
             println!("wrote {}", args.out.display());
             Ok(())
@@ -270,9 +304,9 @@ fn run(cli: Cli) -> Result<(), String> {
                 return Ok(());
             }
             // clap accepted the name, so it is `list` or a study.
-            let study = Study::from_name(&name).ok_or_else(|| format!("unknown study `{name}`"))?;
+            let study = Study::from_name(&name).ok_or_else(|| CliError::Tool(format!("unknown study `{name}`")))?;
             let dir = out.unwrap_or_else(|| study.default_out_dir());
-            study.run(&dir, &StudyOptions { dense: !no_dense })?;
+            study.run(&dir, &StudyOptions { dense: !no_dense }).map_err(CliError::Tool)?;
             println!("wrote {}", dir.display());
             Ok(())
         }

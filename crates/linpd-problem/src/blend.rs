@@ -209,7 +209,7 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Fn(&str)) -> Resu
     ));
     let s = solve_model(&b.params, b.kind, b.u_left, b.u_right, &b.loads, b.solver).map_err(|e| match e {
         linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
-        other => ProblemError::Solve(other.to_string()),
+        other => ProblemError::Blend(other),
     })?;
     progress(&format!(
         "done: {} unknowns, solver {}, relative residual {:.2e}",

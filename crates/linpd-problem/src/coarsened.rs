@@ -271,9 +271,8 @@ impl CoarsenedScene {
         let t0 = Instant::now();
         let (mask, ubar) = self.constrained();
         let bc = Dirichlet::new(self.dim, &mask, ubar);
-        let context = format!("; coarsened level from {}", self.moduli_path.display());
-        let solved = solve_model(&self.model, &bc, &self.load_vector(), &self.solver, progress)
-            .map_err(|e| static_error(e, &context))?;
+        let solved =
+            solve_model(&self.model, &bc, &self.load_vector(), &self.solver, progress).map_err(static_error)?;
         let mut report = solved.report;
         report.timings.assemble += self.build_seconds;
         progress(&format!(

@@ -34,10 +34,25 @@ pub enum ProblemError {
         /// What is wrong and, where possible, what to change.
         reason: String,
     },
-    /// The constraints leave part of the body free to move.
+    /// The constraints leave part of the body free to move (a
+    /// [`linpd_solve::StaticError::Unsupported`]).
     #[error("constraints: {0}")]
-    Unsupported(String),
-    /// The solver failed (singular system, no convergence).
+    Unsupported(linpd_solve::StaticError),
+    /// The static solve failed (singular system, no convergence, ...).
+    #[error("solver: {0}")]
+    Static(linpd_solve::StaticError),
+    /// The 1D blended / CE solve failed.
+    #[error("solver: {0}")]
+    Blend(linpd_blend::BlendError),
+    /// The boundary-value solve on a coarsening level failed.
+    #[error("solver: level {level}: {source}")]
+    Level {
+        /// The level (0 = the scene's model).
+        level: usize,
+        /// Why.
+        source: linpd_coarsen::CoarsenError,
+    },
+    /// The explicit dynamics failed (diverged, ...).
     #[error("solver: {0}")]
     Solve(String),
 }

@@ -21,8 +21,7 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) ->
     let model = LpsModel::new(&p.grid, params).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
     let t_build = t0.elapsed().as_secs_f64();
     progress("the LPS tangent couples nodes up to 2 horizons apart");
-    let solved =
-        solve_model(&model, &p.dirichlet(), &p.load_vector(), &p.solver, progress).map_err(|e| static_error(e, ""))?;
+    let solved = solve_model(&model, &p.dirichlet(), &p.load_vector(), &p.solver, progress).map_err(static_error)?;
     let mut report = solved.report;
     report.timings.assemble += t_build;
     progress(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));

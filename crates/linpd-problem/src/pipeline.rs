@@ -346,7 +346,7 @@ impl Pipeline {
                 }
                 let t = Instant::now();
                 let u =
-                    model.solve_dirichlet(&f, &fixed).map_err(|e| ProblemError::Solve(format!("level {lvl}: {e}")))?;
+                    model.solve_dirichlet(&f, &fixed).map_err(|source| ProblemError::Level { level: lvl, source })?;
                 let secs = t.elapsed().as_secs_f64();
                 let us: Vec<f64> =
                     shared0.iter().flat_map(|p| (0..d).map(move |a| (p, a))).map(|(p, a)| u[d * at[p] + a]).collect();

@@ -163,6 +163,12 @@ pub(crate) fn check_model_keys(model: &RawModel) -> Result<(), ProblemError> {
 
 /// Parses scene text into the serde mirror; syntax and shape errors carry line, column and path.
 pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, ProblemError> {
+    if is_pipeline(text) {
+        return Err(ProblemError::invalid(
+            ".",
+            "this is a coarsening pipeline (it has \"scene\" and \"levels\"), not a scene: run it with `linpd coarsen FILE`",
+        ));
+    }
     let de = &mut serde_json::Deserializer::from_str(text);
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
@@ -530,6 +536,17 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
             SolverSpec::Cg { params: cg, preconditioner: PreconditionerKind::Jacobi, matrix_free: raw.matrix_free }
         }
     })
+}
+
+/// A JSON object with the top-level keys of a pipeline file (`scene` and `levels`) and none of
+/// a scene's (`model`).
+fn is_pipeline(text: &str) -> bool {
+    match serde_json::from_str::<serde_json::Value>(text) {
+        Ok(serde_json::Value::Object(m)) => {
+            m.contains_key("scene") && m.contains_key("levels") && !m.contains_key("model")
+        }
+        _ => false,
+    }
 }
 
 /// serde_path_to_error writes `?` for a key it has not read yet (a syntax error between two

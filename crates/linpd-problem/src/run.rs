@@ -100,7 +100,7 @@ impl Problem {
         let model = self.lattice_model()?;
         let t_build = t0.elapsed().as_secs_f64();
         let solved = solve_model(&model, &self.dirichlet(), &self.load_vector(), &self.solver, progress)
-            .map_err(|e| static_error(e, ""))?;
+            .map_err(static_error)?;
         let mut report = solved.report;
         report.timings.assemble += t_build;
         progress(&format!(
@@ -120,13 +120,12 @@ impl Problem {
     }
 }
 
-/// A failed static solve as a scene error; `context` is appended to rigid-motion messages
-/// (e.g. the coarsened level's file).
-pub(crate) fn static_error(e: StaticError, context: &str) -> ProblemError {
+/// A failed static solve as a scene error.
+pub(crate) fn static_error(e: StaticError) -> ProblemError {
     match e {
         StaticError::NothingFree => ProblemError::invalid("constraints", "every DOF is constrained: nothing to solve"),
-        e @ StaticError::Unsupported { .. } => ProblemError::Unsupported(format!("{e}{context}")),
+        e @ StaticError::Unsupported { .. } => ProblemError::Unsupported(e),
         e @ StaticError::MatrixFreeUnavailable { .. } => ProblemError::invalid("solver.matrix_free", e.to_string()),
-        other => ProblemError::Solve(other.to_string()),
+        other => ProblemError::Static(other),
     }
 }
