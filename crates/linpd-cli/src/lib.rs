@@ -109,11 +109,11 @@ enum CliError {
         /// The file given on the command line.
         file: PathBuf,
         /// What went wrong.
-        source: ProblemError,
+        source: Box<ProblemError>,
     },
     /// Writing the results (the error names the output file).
     #[error("{0}")]
-    Output(ProblemError),
+    Output(Box<ProblemError>),
     /// Drawing a plot.
     #[error("plot: {0}")]
     Plot(#[from] linpd_plot::PlotError),
@@ -131,7 +131,7 @@ fn in_file(file: &std::path::Path, e: &ProblemError) -> String {
 }
 
 fn input(file: &std::path::Path) -> impl Fn(ProblemError) -> CliError + '_ {
-    move |source| CliError::Input { file: file.to_path_buf(), source }
+    move |source| CliError::Input { file: file.to_path_buf(), source: Box::new(source) }
 }
 
 /// Parses the command line, runs the command, prints errors to stderr.
@@ -157,7 +157,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             };
             let solution = problem.solve(&progress).map_err(input(&scene))?;
             let dir = out.unwrap_or_else(|| PathBuf::from(problem.output_dir()));
-            let mut files = solution.write(&dir).map_err(CliError::Output)?;
+            let mut files = solution.write(&dir).map_err(|e| CliError::Output(Box::new(e)))?;
             match &problem {
                 Scene::Grid(p) if p.plot => {
                     files.extend(plots::solution_plots(p, &solution, &dir)?);
@@ -195,7 +195,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             };
             let run = problem.run_dynamics(&progress).map_err(input(&scene))?;
             let dir = out.unwrap_or_else(|| PathBuf::from(&problem.output_dir));
-            let mut files = run.write(&dir).map_err(CliError::Output)?;
+            let mut files = run.write(&dir).map_err(|e| CliError::Output(Box::new(e)))?;
             if problem.plot {
                 files.extend(plots::dynamics_plots(&run, &dir)?);
             }
