@@ -630,7 +630,7 @@ fn cases() -> Vec<Case> {
                 v["model"] = json!({"type": "lps", "horizon": 0.1, "plane": "strain", "bulk_modulus": 2.0, "shear_modulus": 1.0});
             }),
             "model.horizon",
-            "below the spacing",
+            "gives no bonds (the horizon must be at least one spacing)",
         ),
         parse(
             "bulk modulus on a bond model",
@@ -716,6 +716,18 @@ fn cases() -> Vec<Case> {
             }),
             "solver.type",
             "unsymmetric",
+        ),
+        parse(
+            "preconditioner on a direct solver",
+            e1(set("", "solver", json!({"type": "cholesky", "preconditioner": "jacobi"}))),
+            "solver.preconditioner",
+            "only the cg solver takes a preconditioner",
+        ),
+        parse(
+            "unknown preconditioner",
+            e1(set("", "solver", json!({"type": "cg", "preconditioner": "amg"}))),
+            "solver.preconditioner",
+            "unknown variant `amg`",
         ),
         // --- one key table (RawModelKind::keys): a key of another model type is an error ---
         parse(

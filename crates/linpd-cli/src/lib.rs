@@ -251,7 +251,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
                 p.name,
                 p.dim(),
                 p.grid.len(),
-                p.model.horizon / p.grid.spacing(),
+                p.model.horizon() / p.grid.spacing(),
                 mask.iter().filter(|&&c| c).count(),
                 p.loads.len()
             );

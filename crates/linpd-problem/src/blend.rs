@@ -18,12 +18,14 @@ pub(crate) fn scene(
     kind: RawModelKind,
     raw: &RawProblem,
     grid: &Grid,
+    horizon: f64,
     constraints: &[Constraint],
     loads: &[Load],
 ) -> Result<BlendScene, ProblemError> {
     let m = &raw.model;
-    let grid_raw = raw.grid.as_ref().expect("Problem::from_raw requires a grid for blend and ce models");
-    let horizon = m.horizon.expect("Problem::from_raw requires a horizon for blend and ce models");
+    let Some(grid_raw) = raw.grid.as_ref() else {
+        return Err(ProblemError::invalid("grid", "required for blend and ce models"));
+    };
     let name = if kind == RawModelKind::Ce { "ce" } else { "blend" };
     let mm = m
         .micromodulus

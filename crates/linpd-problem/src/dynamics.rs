@@ -488,8 +488,12 @@ impl Problem {
 
     fn limit_of(&self, op: &linpd_bond::BondOperator, dynamics: &Dynamics) -> Result<StabilityLimit, ProblemError> {
         let rho = dynamics.density;
-        if self.dim() == 1 && self.model.material.is_homogeneous() {
-            let chain = Chain::new(self.grid.spacing(), self.model.horizon, &self.model.micromodulus)
+        let bond = self
+            .model
+            .bond()
+            .ok_or_else(|| ProblemError::invalid("dynamics", "only bond models have explicit dynamics"))?;
+        if self.dim() == 1 && bond.material.is_homogeneous() {
+            let chain = Chain::new(self.grid.spacing(), bond.horizon, &bond.micromodulus)
                 .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
             let l = lattice_limit(&chain, rho);
             return Ok(StabilityLimit {
@@ -511,7 +515,7 @@ impl Problem {
     /// Runs the `dynamics` section. `progress` receives one line per phase.
     pub fn run_dynamics(&self, progress: &dyn Fn(&str)) -> Result<DynamicsRun, ProblemError> {
         let dynamics = self.dynamics_section()?;
-        if self.blend.is_some() || self.lps.is_some() {
+        if self.model.bond().is_none() {
             return Err(ProblemError::invalid("dynamics", "only bond models have explicit dynamics"));
         }
         let t0 = Instant::now();
@@ -519,7 +523,7 @@ impl Problem {
         let n_nodes = self.grid.len();
         progress(&format!(
             "building bonds: {n_nodes} nodes, horizon/spacing = {:.3}",
-            self.model.horizon / self.grid.spacing()
+            self.model.horizon() / self.grid.spacing()
         ));
         let op = self.operator()?;
         let limit = self.limit_of(&op, dynamics)?;

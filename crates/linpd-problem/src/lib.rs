@@ -24,5 +24,5 @@ pub use dynamics::{Dynamics, DynamicsRun, Initial, TimeStep};
 pub use error::ProblemError;
 pub use linpd_core::sparse::restrict_to_free as reduce_to_free;
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
-pub use problem::{BlendScene, BondModel, Constraint, Load, Problem};
+pub use problem::{BlendScene, BondModel, Constraint, Load, ModelSpec, Problem};
 pub use run::Solution;

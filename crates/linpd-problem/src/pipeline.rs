@@ -149,7 +149,7 @@ impl Pipeline {
         let scene_path = base.join(&raw.scene);
         let scene =
             Problem::from_path(&scene_path).map_err(|e| inv("scene", format!("{}: {e}", scene_path.display())))?;
-        if scene.blend.is_some() {
+        if matches!(scene.model, crate::ModelSpec::Blend(_)) {
             return Err(inv("scene", "coarsening supports bond and lps models, not blend/ce"));
         }
         let mut levels = Vec::new();
@@ -221,7 +221,7 @@ impl Pipeline {
 pub fn level0_model(p: &Problem) -> Result<LevelModel, ProblemError> {
     let d = p.dim();
     let n = p.grid.len();
-    let k = if let Some(params) = &p.lps {
+    let k = if let crate::ModelSpec::Lps(params) = &p.model {
         let m = linpd_lps::LpsModel::new(&p.grid, params).map_err(|e| inv("model", e.to_string()))?;
         linpd_lps::assemble_tangent(&m)
     } else {

@@ -59,6 +59,47 @@ pub struct BondModel {
     pub material: Material,
 }
 
+/// The validated model of a lattice scene: one variant per `model.type`, each holding only
+/// what that model reads (its keys are [`RawModelKind::keys`]).
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)]
+pub enum ModelSpec {
+    /// `"type": "bond"`: bond-based linear PD ([`linpd_bond::LatticeBondModel`]).
+    Bond(BondModel),
+    /// `"type": "lps"`: the linearized LPS solid ([`linpd_lps::LpsModel`]).
+    Lps(linpd_lps::LpsParams),
+    /// `"type": "blend"` and `"type": "ce"`: the 1D blended PD/CE model; `constraints` and
+    /// `loads` have been translated into it.
+    Blend(BlendScene),
+}
+
+impl ModelSpec {
+    /// The horizon `delta`.
+    pub fn horizon(&self) -> f64 {
+        match self {
+            ModelSpec::Bond(b) => b.horizon,
+            ModelSpec::Lps(l) => l.horizon,
+            ModelSpec::Blend(b) => b.params.horizon,
+        }
+    }
+    /// The bond model, if this is one.
+    pub fn bond(&self) -> Option<&BondModel> {
+        match self {
+            ModelSpec::Bond(b) => Some(b),
+            _ => None,
+        }
+    }
+    /// The scene-file name of the model type.
+    pub fn name(&self) -> &'static str {
+        match self {
+            ModelSpec::Bond(_) => "bond",
+            ModelSpec::Lps(_) => "lps",
+            ModelSpec::Blend(b) if b.kind == linpd_blend::ModelKind::PureCe => "ce",
+            ModelSpec::Blend(_) => "blend",
+        }
+    }
+}
+
 /// A validated scene.
 #[derive(Debug, Clone)]
 pub struct Problem {
@@ -66,8 +107,8 @@ pub struct Problem {
     pub name: String,
     /// The lattice.
     pub grid: Grid,
-    /// The model.
-    pub model: BondModel,
+    /// The model (one variant per model type).
+    pub model: ModelSpec,
     /// Volume constraints.
     pub constraints: Vec<Constraint>,
     /// Loads.
@@ -78,11 +119,6 @@ pub struct Problem {
     pub output_dir: String,
     /// Write plots.
     pub plot: bool,
-    /// For `lps` models: the LPS parameters (then `model` holds only the horizon).
-    pub lps: Option<linpd_lps::LpsParams>,
-    /// For `blend` and `ce` models: the 1D blended-model problem (then `model` holds only the
-    /// horizon and micromodulus, and `constraints`/`loads` have been translated into it).
-    pub blend: Option<BlendScene>,
     /// The `dynamics` section (explicit time stepping with `linpd run`), if any.
     pub dynamics: Option<crate::dynamics::Dynamics>,
 }
@@ -249,37 +285,6 @@ impl Problem {
             let name = if model_kind == RawModelKind::Ce { "ce" } else { "blend" };
             return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {dim}")));
         }
-        let lps = if model_kind == RawModelKind::Lps {
-            Some(lps_params(
-                dim,
-                horizon,
-                grid.spacing(),
-                partial_volume,
-                plane,
-                bulk_modulus,
-                shear_modulus,
-                influence,
-                &material,
-            )?)
-        } else {
-            None
-        };
-        // Bond, blend and ce models need a micromodulus; for lps a placeholder is kept (unused).
-        let mm = match (mm, model_kind) {
-            (Some(m), _) => m,
-            (None, RawModelKind::Lps) => RawMicromodulus {
-                kernel: RawKernel::InverseDistance,
-                length: None,
-                table: None,
-                modulus: None,
-                normalize: RawNormalize::None,
-                amplitude: Some(1.0),
-            },
-            (None, _) => {
-                return Err(ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization"))
-            }
-        };
-        let plane = if model_kind == RawModelKind::Lps && dim == 2 { None } else { plane };
         if !(horizon.is_finite() && horizon > 0.0) {
             return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon}")));
         }
@@ -319,44 +324,64 @@ impl Problem {
                 ),
             ));
         }
-        let plane = match (dim, plane) {
-            (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
-            (2, Some(RawPlane::Strain)) => Some(PlaneModel::Strain),
-            (2, None) if mm.normalize != RawNormalize::None => {
-                return Err(ProblemError::invalid("model.plane", "2D scenes need \"plane\": \"stress\" or \"strain\""))
-            }
-            (2, None) => None,
-            (_, Some(_)) => {
-                return Err(ProblemError::invalid("model.plane", format!("only meaningful in 2D (dimension is {dim})")))
-            }
-            (_, None) => None,
-        };
-        let micromodulus = micromodulus(&mm, horizon, plane, partial_volume)?;
-        micromodulus.validate(dim).map_err(|e| core("model.micromodulus", e))?;
-        let material = self::material(&material, dim)?;
-        let model = BondModel { horizon, micromodulus, material };
-
         let (constraints, loads) = constraints_and_loads(&raw, dim, &grid)?;
         let solver = solver_spec(&raw.solver)?;
-        let blend = match model_kind {
-            RawModelKind::Blend | RawModelKind::Ce => {
-                Some(crate::blend::scene(model_kind, &raw, &grid, &constraints, &loads)?)
+        let model = if model_kind == RawModelKind::Lps {
+            if raw.solver.matrix_free {
+                return Err(ProblemError::invalid(
+                    "solver.matrix_free",
+                    "not available for lps models yet (the Jacobi diagonal needs the assembled tangent)",
+                ));
             }
-            RawModelKind::Bond | RawModelKind::Lps | RawModelKind::Coarsened => None,
+            ModelSpec::Lps(lps_params(
+                dim,
+                horizon,
+                grid.spacing(),
+                partial_volume,
+                plane,
+                bulk_modulus,
+                shear_modulus,
+                influence,
+                &material,
+            )?)
+        } else {
+            // Bond, blend and ce models: a micromodulus.
+            let mm = mm.ok_or_else(|| {
+                ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization")
+            })?;
+            let plane = match (dim, plane) {
+                (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
+                (2, Some(RawPlane::Strain)) => Some(PlaneModel::Strain),
+                (2, None) if mm.normalize != RawNormalize::None => {
+                    return Err(ProblemError::invalid(
+                        "model.plane",
+                        "2D scenes need \"plane\": \"stress\" or \"strain\"",
+                    ))
+                }
+                (2, None) => None,
+                (_, Some(_)) => {
+                    return Err(ProblemError::invalid(
+                        "model.plane",
+                        format!("only meaningful in 2D (dimension is {dim})"),
+                    ))
+                }
+                (_, None) => None,
+            };
+            let micromodulus = micromodulus(&mm, horizon, plane, partial_volume)?;
+            micromodulus.validate(dim).map_err(|e| core("model.micromodulus", e))?;
+            let material = self::material(&material, dim)?;
+            match model_kind {
+                RawModelKind::Blend | RawModelKind::Ce => {
+                    ModelSpec::Blend(crate::blend::scene(model_kind, &raw, &grid, horizon, &constraints, &loads)?)
+                }
+                _ => ModelSpec::Bond(BondModel { horizon, micromodulus, material }),
+            }
         };
-        if lps.is_some() && raw.solver.matrix_free {
-            return Err(ProblemError::invalid(
-                "solver.matrix_free",
-                "not available for lps models yet (the Jacobi diagonal needs the assembled tangent)",
-            ));
-        }
         let dynamics = match &raw.dynamics {
             None => None,
             Some(d) => Some(crate::dynamics::validate(d, dim, grid.len(), model_kind)?),
         };
         Ok(Problem {
-            lps,
-            blend,
             dynamics,
             output_dir: raw.output.dir.clone().unwrap_or_else(|| format!("out/{}", raw.name)),
             plot: raw.output.plot.unwrap_or(true),
@@ -527,13 +552,19 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
     if (raw.rtol.is_some() || raw.max_iter.is_some()) && !(is_cg || raw.kind == RawSolverKind::Auto) {
         return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg solver only"));
     }
+    let preconditioner = match raw.preconditioner {
+        None | Some(RawPreconditioner::Jacobi) => PreconditionerKind::Jacobi,
+    };
+    if raw.preconditioner.is_some() && !is_cg {
+        return Err(ProblemError::invalid("solver.preconditioner", "only the cg solver takes a preconditioner"));
+    }
     Ok(match raw.kind {
         RawSolverKind::Auto => SolverSpec::Auto(cg),
         RawSolverKind::Cholesky => SolverSpec::Cholesky,
         RawSolverKind::Lu => SolverSpec::Lu,
         RawSolverKind::Dense => SolverSpec::Dense,
         RawSolverKind::Cg => {
-            SolverSpec::Cg { params: cg, preconditioner: PreconditionerKind::Jacobi, matrix_free: raw.matrix_free }
+            SolverSpec::Cg { params: cg, preconditioner, matrix_free: raw.matrix_free }
         }
     })
 }

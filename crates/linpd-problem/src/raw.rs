@@ -568,6 +568,17 @@ pub struct RawSolver {
     /// CG without an assembled matrix.
     #[serde(default)]
     pub matrix_free: bool,
+    /// CG preconditioner (default `jacobi`).
+    #[serde(default)]
+    pub preconditioner: Option<RawPreconditioner>,
+}
+
+/// `solver.preconditioner`: one name per [`linpd_solve::PreconditionerKind`].
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawPreconditioner {
+    /// `M = diag(A)`.
+    Jacobi,
 }
 
 /// `solver.type`.

@@ -2,7 +2,7 @@
 //! of linpd-solve ([`linpd_solve::solve_model`]: support check, Dirichlet elimination
 //! `A_ff u_f = f_f - (A u_bar)_f`, assembled or matrix-free solve, report).
 
-use crate::{Load, Problem, ProblemError};
+use crate::{Load, ModelSpec, Problem, ProblemError};
 use linpd_bond::{BondOperator, LatticeBondModel};
 use linpd_core::Point;
 use linpd_solve::{solve_model, Dirichlet, SolveReport, StaticError};
@@ -28,9 +28,17 @@ pub struct Solution {
 }
 
 impl Problem {
-    /// Builds the bond operator of the scene.
+    /// The bond model of the scene, or an error naming the scene's model type.
+    fn bond_model(&self) -> Result<&crate::BondModel, ProblemError> {
+        self.model.bond().ok_or_else(|| {
+            ProblemError::invalid("model.type", format!("a bond model is needed here, the scene has {}", self.model.name()))
+        })
+    }
+
+    /// Builds the bond operator of the scene (bond models only).
     pub fn operator(&self) -> Result<BondOperator, ProblemError> {
-        BondOperator::on_grid(&self.grid, self.model.horizon, &self.model.micromodulus, &self.model.material)
+        let b = self.bond_model()?;
+        BondOperator::on_grid(&self.grid, b.horizon, &b.micromodulus, &b.material)
             .map_err(|e| ProblemError::invalid("model", e.to_string()))
     }
 
@@ -78,24 +86,25 @@ impl Problem {
 
     /// The bond model of the scene on its lattice.
     pub fn lattice_model(&self) -> Result<LatticeBondModel, ProblemError> {
+        let b = self.bond_model()?;
         let op = self.operator()?;
-        let homogeneous = self.model.material.is_homogeneous().then(|| self.model.micromodulus.clone());
-        Ok(LatticeBondModel::new(op, self.grid.clone(), self.model.horizon, homogeneous))
+        let homogeneous = b.material.is_homogeneous().then(|| b.micromodulus.clone());
+        Ok(LatticeBondModel::new(op, self.grid.clone(), b.horizon, homogeneous))
     }
 
     /// Solves the static problem. `progress` receives one line per phase.
     pub fn solve(&self, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
-        if let Some(b) = &self.blend {
-            return crate::blend::solve(&self.name, b, progress);
-        }
-        if let Some(params) = &self.lps {
-            return crate::lps::solve(self, params, progress);
+        // One arm per model type: a new model adds its variant here.
+        match &self.model {
+            ModelSpec::Blend(b) => return crate::blend::solve(&self.name, b, progress),
+            ModelSpec::Lps(params) => return crate::lps::solve(self, params, progress),
+            ModelSpec::Bond(_) => {}
         }
         let t0 = Instant::now();
         progress(&format!(
             "building bonds: {} nodes, horizon/spacing = {:.3}",
             self.grid.len(),
-            self.model.horizon / self.grid.spacing()
+            self.model.horizon() / self.grid.spacing()
         ));
         let model = self.lattice_model()?;
         let t_build = t0.elapsed().as_secs_f64();
