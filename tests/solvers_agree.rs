@@ -23,7 +23,7 @@ fn every_solver_gives_the_same_displacements() {
         |matrix_free| SolverSpec::Cg { params: cg.clone(), preconditioner: PreconditionerKind::Jacobi, matrix_free };
     for spec in [SolverSpec::Cholesky, SolverSpec::Lu, SolverSpec::Dense, cg_spec(false), cg_spec(true)] {
         let mut p = base.clone();
-        p.solver = spec;
+        p.set_solver(spec);
         let s = p.solve(&|_| {}).unwrap();
         assert!(s.report.rel_residual < 1e-11, "{}: residual {:e}", s.report.solver, s.report.rel_residual);
         solutions.push((s.report.solver, s.u));
@@ -47,8 +47,8 @@ fn second_material_reuses_pattern_and_symbolic_factorization() {
     let mut material = Material::default();
     material.phases.push((Region::Box { min: vec![0.3, 0.1], max: vec![0.6, 0.4] }, 5.0));
     material.rule = BondRule::Min;
-    let bond = p.model.bond().expect("plate-tension-2d is a bond scene");
-    let op2 = BondOperator::on_grid(&p.grid, bond.horizon, &bond.micromodulus, &material).unwrap();
+    let bond = p.model().bond().expect("plate-tension-2d is a bond scene");
+    let op2 = BondOperator::on_grid(p.grid(), bond.horizon, &bond.micromodulus, &material).unwrap();
     assert_eq!(op1.family(), op2.family());
 
     let pattern = Pattern::new(&op1, &dofs);
@@ -80,7 +80,7 @@ fn auto_uses_the_scenes_cg_parameters_when_it_picks_cg() {
     // The 3D cube has 28k unknowns: auto picks CG. With max_iter = 1 it must fail to converge,
     // proving the scene's parameters reach the solver (they used to be ignored under auto).
     let mut p = scene("cube-compression-3d.json");
-    p.solver = SolverSpec::Auto(CgParams { max_iter: 1, ..CgParams::default() });
+    p.set_solver(SolverSpec::Auto(CgParams { max_iter: 1, ..CgParams::default() }));
     match p.solve(&|_| {}) {
         Err(e) => assert!(e.to_string().contains("did not converge in 1 iterations"), "{e}"),
         Ok(s) => panic!("converged in {:?} iterations with max_iter = 1", s.report.iterations),

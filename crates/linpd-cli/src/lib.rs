@@ -159,7 +159,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let dir = out.unwrap_or_else(|| PathBuf::from(problem.output_dir()));
             let mut files = solution.write(&dir).map_err(|e| CliError::Output(Box::new(e)))?;
             match &problem {
-                Scene::Grid(p) if p.plot => {
+                Scene::Grid(p) if p.plot() => {
                     files.extend(plots::solution_plots(p, &solution, &dir)?);
                 }
                 // Coarsened levels have no lattice: 1D gets the displacement profile; the 2D/3D
@@ -194,9 +194,9 @@ fn run(cli: Cli) -> Result<(), CliError> {
                 }
             };
             let run = problem.run_dynamics(&progress).map_err(input(&scene))?;
-            let dir = out.unwrap_or_else(|| PathBuf::from(&problem.output_dir));
+            let dir = out.unwrap_or_else(|| PathBuf::from(&problem.output_dir()));
             let mut files = run.write(&dir).map_err(|e| CliError::Output(Box::new(e)))?;
-            if problem.plot {
+            if problem.plot() {
                 files.extend(plots::dynamics_plots(&run, &dir)?);
             }
             println!(
@@ -248,12 +248,12 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let (mask, _) = p.constrained();
             println!(
                 "{}: valid; dimension {}, {} nodes, horizon/spacing = {:.4}, {} constrained DOFs, {} loads",
-                p.name,
+                p.name(),
                 p.dim(),
-                p.grid.len(),
-                p.model.horizon() / p.grid.spacing(),
+                p.grid().len(),
+                p.model().horizon() / p.grid().spacing(),
                 mask.iter().filter(|&&c| c).count(),
-                p.loads.len()
+                p.loads().len()
             );
             Ok(())
         }

@@ -195,7 +195,7 @@ fn initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, Proble
         RawInitialKind::SquarePulse => ("square_pulse", &["from", "to", "amplitude"]),
         RawInitialKind::SmoothPulse => ("smooth_pulse", &["center", "width", "amplitude"]),
         RawInitialKind::Mode => ("mode", &["wavenumber", "amplitude"]),
-        RawInitialKind::Data => unreachable!("handled above"),
+        RawInitialKind::Data => return data_initial(i, dim, n_nodes),
     };
     if let Some((key, _)) = keys.iter().find(|(k, v)| v.is_some() && !allowed.contains(k)) {
         return Err(ProblemError::invalid(format!("{p}.{key}"), format!("not a key of a {name} initial condition")));
@@ -236,7 +236,7 @@ fn initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, Proble
             amplitude,
         },
         RawInitialKind::Mode => Initial::Mode { wavenumber: need("wavenumber", i.wavenumber)?, amplitude },
-        RawInitialKind::Data => unreachable!("handled above"),
+        RawInitialKind::Data => return data_initial(i, dim, n_nodes),
     })
 }
 

@@ -100,27 +100,28 @@ impl ModelSpec {
     }
 }
 
-/// A validated scene.
+/// A validated scene. Its fields are private: every value in it has passed validation, and
+/// only the solver may be changed afterwards ([`Problem::set_solver`]).
 #[derive(Debug, Clone)]
 pub struct Problem {
     /// Name.
-    pub name: String,
+    pub(crate) name: String,
     /// The lattice.
-    pub grid: Grid,
+    pub(crate) grid: Grid,
     /// The model (one variant per model type).
-    pub model: ModelSpec,
+    pub(crate) model: ModelSpec,
     /// Volume constraints.
-    pub constraints: Vec<Constraint>,
+    pub(crate) constraints: Vec<Constraint>,
     /// Loads.
-    pub loads: Vec<Load>,
+    pub(crate) loads: Vec<Load>,
     /// Solver.
-    pub solver: SolverSpec,
+    pub(crate) solver: SolverSpec,
     /// Output directory.
-    pub output_dir: String,
+    pub(crate) output_dir: String,
     /// Write plots.
-    pub plot: bool,
+    pub(crate) plot: bool,
     /// The `dynamics` section (explicit time stepping with `linpd run`), if any.
-    pub dynamics: Option<crate::dynamics::Dynamics>,
+    pub(crate) dynamics: Option<crate::dynamics::Dynamics>,
 }
 
 /// A 1D blended (or pure CE) problem: Seleson, Beneddine & Prudhomme (2013).
@@ -398,6 +399,47 @@ impl Problem {
     pub fn dim(&self) -> usize {
         self.grid.dim()
     }
+    /// The scene's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    /// The lattice.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+    /// The model.
+    pub fn model(&self) -> &ModelSpec {
+        &self.model
+    }
+    /// Volume constraints.
+    pub fn constraints(&self) -> &[Constraint] {
+        &self.constraints
+    }
+    /// Loads.
+    pub fn loads(&self) -> &[Load] {
+        &self.loads
+    }
+    /// The solver.
+    pub fn solver(&self) -> &SolverSpec {
+        &self.solver
+    }
+    /// Replaces the solver (every [`SolverSpec`] is valid for every model: one a model cannot
+    /// run, e.g. matrix-free LPS, fails at solve time with a typed error).
+    pub fn set_solver(&mut self, solver: SolverSpec) {
+        self.solver = solver;
+    }
+    /// Output directory (`output.dir`, else `out/<name>`).
+    pub fn output_dir(&self) -> &str {
+        &self.output_dir
+    }
+    /// Whether to write plots.
+    pub fn plot(&self) -> bool {
+        self.plot
+    }
+    /// The `dynamics` section, if any.
+    pub fn dynamics(&self) -> Option<&crate::dynamics::Dynamics> {
+        self.dynamics.as_ref()
+    }
 }
 
 /// The nodes a scene's regions and point loads refer to: a lattice, or the nodes of a
@@ -563,9 +605,7 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
         RawSolverKind::Cholesky => SolverSpec::Cholesky,
         RawSolverKind::Lu => SolverSpec::Lu,
         RawSolverKind::Dense => SolverSpec::Dense,
-        RawSolverKind::Cg => {
-            SolverSpec::Cg { params: cg, preconditioner, matrix_free: raw.matrix_free }
-        }
+        RawSolverKind::Cg => SolverSpec::Cg { params: cg, preconditioner, matrix_free: raw.matrix_free },
     })
 }
 

@@ -31,7 +31,10 @@ impl Problem {
     /// The bond model of the scene, or an error naming the scene's model type.
     fn bond_model(&self) -> Result<&crate::BondModel, ProblemError> {
         self.model.bond().ok_or_else(|| {
-            ProblemError::invalid("model.type", format!("a bond model is needed here, the scene has {}", self.model.name()))
+            ProblemError::invalid(
+                "model.type",
+                format!("a bond model is needed here, the scene has {}", self.model.name()),
+            )
         })
     }
 
