@@ -39,7 +39,7 @@ fn lattice_counts(dim: usize, nodes: usize, m: usize) -> (usize, usize, usize) {
         }
     }
     let (mut n_free, mut bonds, mut blocks) = (0, 0, 0);
-    let total = (nodes as usize).pow(dim as u32);
+    let total = nodes.pow(dim as u32);
     for idx in 0..total {
         let mut k = [0i64; 3];
         let mut rest = idx;

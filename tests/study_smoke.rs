@@ -33,6 +33,9 @@ fn num(v: &Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
 }
 
+/// A study's name, the figure stems it must write and the check of its `data.json`.
+type StudyCheck = (&'static str, Vec<&'static str>, fn(&Value));
+
 /// `blend-patch` (Fig. 7-8): the five models of the patch test, `u = x` at every node and the
 /// strain spread (30) at round-off. Direct solves of ~80 unknowns: the paper's Fig. 7 reports
 /// 2.8e-14 (CE), 1.2e-12 (PD), 3-4e-14 (blended); 1e-12 is the crate's own bound for the same
@@ -178,7 +181,7 @@ fn check_coarsen_defect(d: &Value) {
 #[test]
 fn fast_studies_write_data_and_plots() {
     let root = std::env::temp_dir().join(format!("linpd-study-smoke-{}", std::process::id()));
-    let checks: [(&str, Vec<&str>, fn(&Value)); 7] = [
+    let checks: [StudyCheck; 7] = [
         ("blend-patch", vec!["fig7_profiles", "fig8_strain_fluctuation"], check_blend_patch),
         (
             "blend-point-load",
