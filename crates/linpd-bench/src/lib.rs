@@ -318,7 +318,7 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
         let t_cg = secs(t);
         out["cg"] = match info {
             Ok(i) => {
-                json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual, "rtol": params.rtol})
+                json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual, "rtol": params.rtol, "max_iter": params.max_iter})
             }
             Err(e) => json!({"error": e.to_string(), "time": t_cg}),
         };
@@ -332,7 +332,7 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
         let t_cg = secs(t);
         out["cg_matrix_free"] = match info {
             Ok(i) => {
-                json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual, "apply_time": t_st})
+                json!({"time": t_cg, "iterations": i.iterations, "rel_residual": i.rel_residual, "rtol": params.rtol, "max_iter": params.max_iter, "apply_time": t_st})
             }
             Err(e) => json!({"error": e.to_string(), "time": t_cg}),
         };

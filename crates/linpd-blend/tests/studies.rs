@@ -31,15 +31,13 @@ fn table3_point_load_errors_are_ordered_cubic_linear_constant() {
         errs.push(e2(&pd, &solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load(), BlendSolver::Auto).unwrap()));
     }
     let ce = e2(&pd, &solve_model(&p, ModelKind::PureCe, 0.0, 0.0, &load(), BlendSolver::Auto).unwrap());
-    // Measured here: constant 3.3e-8, linear 3.5e-9, cubic 6.3e-11, CE 2.1e-2 (the paper gives
-    // its values only in the captions of Fig. 10, not in the text). The order is the paper's
-    // finding; each magnitude is held to a factor 3 of the measured value, and every blended
-    // model is at least 10^5 times closer to PD than CE is.
+    // The paper gives these errors only in the captions of Fig. 10, which the text does not
+    // reproduce, so no value is pinned. What it states: "the cubic blending function performs
+    // better than the linear one, which gives itself lower errors than the constant one", and
+    // the blended models reproduce the PD solution where CE does not (Fig. 9): every blended
+    // error is below the CE one.
     assert!(errs[2] < errs[1] && errs[1] < errs[0], "order cubic < linear < constant violated: {errs:?}");
-    for (e, m) in errs.iter().zip([3.3e-8, 3.5e-9, 6.3e-11]) {
-        assert!(*e > m / 3.0 && *e < m * 3.0, "error {e:e} not within a factor 3 of {m:e}");
-        assert!(e * 1e5 < ce);
-    }
+    assert!(errs.iter().all(|e| *e < ce), "a blended model is no closer to PD than CE ({ce:e}): {errs:?}");
 }
 
 /// PD at eps = 0.05, dx = 0.001 (N = 50), load at the centre.
@@ -51,11 +49,18 @@ fn fine() -> BlendParams {
 
 #[test]
 fn error_falls_as_the_pd_region_grows() {
-    // Fig. 11 trend (bridges of 0.1): errors oscillate with |Omega_PD| but fall overall.
+    // Fig. 11 (bridges of 0.1): "the error has a decreasing tendency with the size of the PD
+    // region, although oscillations in the error are present". The oscillations have the
+    // period of the PD-CE difference near the load (a few eps, Fig. 11 b); sizes 0.02, 0.2 and
+    // 0.6 (0.4 eps, 4 eps, 12 eps) are far enough apart for the tendency to dominate, so the
+    // errors must fall strictly, for every blending. (The order of Fig. 10 between blendings is
+    // not a claim of Fig. 11 and does not hold at every size: with dx = 0.001 linear blending
+    // beats cubic at |Omega_PD| = 0.02 and 0.2.)
     let p = fine();
     let pd = solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load(), BlendSolver::Auto).unwrap();
+    let sizes = [0.02, 0.2, 0.6];
     for b in [Blending::Constant { value: 0.5 }, Blending::Linear, Blending::Cubic] {
-        let errs: Vec<f64> = [0.02, 0.2, 0.6]
+        let errs: Vec<f64> = sizes
             .iter()
             .map(|&s| {
                 let mut q = p.clone();
@@ -64,7 +69,7 @@ fn error_falls_as_the_pd_region_grows() {
                 e2(&pd, &solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load(), BlendSolver::Auto).unwrap())
             })
             .collect();
-        assert!(errs[0] > 10.0 * errs[1] && errs[1] > 10.0 * errs[2], "{b:?}: {errs:?}");
+        assert!(errs.windows(2).all(|w| w[1] < w[0]), "{b:?}: error does not fall with |Omega_PD| {sizes:?}: {errs:?}");
     }
 }
 
@@ -86,8 +91,15 @@ fn error_falls_with_bridge_size_for_linear_and_cubic_only() {
         let (e1, e2_, e3) = (at(b.clone(), 0.075), at(b.clone(), 0.15), at(b.clone(), 0.3));
         assert!(e1 > e2_ && e2_ > e3, "{b:?}: {e1:e} {e2_:e} {e3:e}");
     }
-    let (c1, c3) = (at(Blending::Constant { value: 0.5 }, 0.075), at(Blending::Constant { value: 0.5 }, 0.3));
-    assert!(c1 / c3 < 3.0 && c3 / c1 < 3.0, "constant blending should be insensitive: {c1:e} vs {c3:e}");
+    // "For a constant blending function the error does not appear to be sensitive to the bridge
+    // size": compared with the other two, i.e. quadrupling the bridge changes constant
+    // blending's error by a smaller factor than it changes linear's or cubic's.
+    let change = |b: Blending| {
+        let (e1, e3) = (at(b.clone(), 0.075), at(b, 0.3));
+        (e1 / e3).ln().abs()
+    };
+    let (c, l, q) = (change(Blending::Constant { value: 0.5 }), change(Blending::Linear), change(Blending::Cubic));
+    assert!(c < l && c < q, "|ln(e(0.075) / e(0.3))|: constant {c:.3} not below linear {l:.3} and cubic {q:.3}");
 }
 
 #[test]

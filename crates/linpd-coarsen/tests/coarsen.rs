@@ -2,6 +2,9 @@
 //! condensation, plus Example 5.1 of Silling (2010).
 #![allow(clippy::needless_range_loop)]
 
+// Example 5.1's level 0 (spacing = volume H = v, r0 = 10 v, tent C^0) and the dense Gaussian
+// elimination are the single copy in `linpd_coarsen::paper`.
+use linpd_coarsen::paper::{gauss, tent, H, R0};
 use linpd_coarsen::{coarsen, coarsen_with, every_kth, local_resolvent, CoarsenError, LevelModel, Matching, Options};
 
 fn opts(radius: f64, matching: Matching) -> Options {
@@ -13,18 +16,7 @@ fn xs(m: &LevelModel) -> Vec<f64> {
     m.positions().iter().map(|p| p[0]).collect()
 }
 
-const H: f64 = 0.005; // spacing = level-0 volume v (Example 5.1)
-const R0: f64 = 0.05; // level-0 interaction distance, r0 = 10 v
 const N: usize = 201; // bar [0, 1]
-
-fn tent(x: f64, q: f64) -> f64 {
-    let d = (q - x).abs();
-    if d > 0.0 && d < R0 {
-        1.0 - d / R0
-    } else {
-        0.0
-    }
-}
 
 fn level0() -> LevelModel {
     bar(N)
@@ -44,29 +36,6 @@ fn lcg(n: usize, seed: u64) -> Vec<f64> {
             ((s >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
         })
         .collect()
-}
-
-/// Plain Gaussian elimination with partial pivoting (independent of faer).
-fn gauss(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
-    let n = b.len();
-    for k in 0..n {
-        let p = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())).unwrap();
-        a.swap(k, p);
-        b.swap(k, p);
-        for i in k + 1..n {
-            let f = a[i][k] / a[k][k];
-            for j in k..n {
-                a[i][j] -= f * a[k][j];
-            }
-            b[i] -= f * b[k];
-        }
-    }
-    let mut x = vec![0.0; n];
-    for k in (0..n).rev() {
-        let s: f64 = (k + 1..n).map(|j| a[k][j] * x[j]).sum();
-        x[k] = (b[k] - s) / a[k][k];
-    }
-    x
 }
 
 /// Checks property (9) for every retained node: with the excluded nodes of N_x in equilibrium

@@ -9,10 +9,11 @@
 //! tolerance says what it was set from.
 #![allow(clippy::needless_range_loop)]
 
-use linpd_coarsen::paper::{composite, defect, inside, tent, R0};
+// The level-0 micromoduli and the dense reference (Gaussian elimination, periodic-cell
+// modulus) are the single copy in `linpd_coarsen::paper`, shared with the coarsen studies.
+use linpd_coarsen::paper::{cell_modulus, composite, defect, inside, tent, H, R0};
 use linpd_coarsen::{coarsen, every_kth, Coarsened, LevelModel};
 
-const H: f64 = 0.005; // spacing = level-0 volume v
 const N: usize = 201; // bar [0, 1]
 /// Larger than the bar: every N_x is the whole body (exact static condensation).
 const WHOLE: f64 = 10.0;
@@ -49,70 +50,6 @@ fn solve(m: &LevelModel, fixed: &[(usize, f64)], loads: &[(usize, f64)]) -> Vec<
         out[p] = u[k];
     }
     out
-}
-
-/// Plain Gaussian elimination with partial pivoting (independent of faer and of the crate).
-fn gauss(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
-    let n = b.len();
-    for k in 0..n {
-        let p = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())).unwrap();
-        a.swap(k, p);
-        b.swap(k, p);
-        for i in k + 1..n {
-            let f = a[i][k] / a[k][k];
-            for j in k..n {
-                a[i][j] -= f * a[k][j];
-            }
-            b[i] -= f * b[k];
-        }
-    }
-    let mut x = vec![0.0; n];
-    for k in (0..n).rev() {
-        let s: f64 = (k + 1..n).map(|j| a[k][j] * x[j]).sum();
-        x[k] = (b[k] - s) / a[k][k];
-    }
-    x
-}
-
-/// Effective modulus of a periodic 1D cell of `n` nodes (spacing = volume `H`, period `n H`)
-/// with micromodulus `c` evaluated on the cell positions and their periodic images.
-/// `u = eps x + w`, `w` periodic with `w_0 = 0`; cell equilibrium
-/// `sum_b C_b (eps d_b + w_j - w_i) v = 0` at every node; node energy density
-/// `W_i = 1/4 sum_b C_b (eps d_b + w_j - w_i)^2 v`; `E = 2 <W> / eps^2` (energy per unit
-/// length = `<W>` since every node has volume `H` and the cell length is `n H`).
-fn cell_modulus(n: usize, c: impl Fn(f64, f64) -> f64) -> f64 {
-    let period = n as f64 * H;
-    let eps = 1e-3;
-    let y: Vec<f64> = (0..n).map(|i| i as f64 * H).collect();
-    // bonds (i, j, d, C) over the images s = -2..=2 (the period exceeds r0, so +-1 suffice)
-    let mut bonds = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            for s in -2i32..=2 {
-                let q = y[j] + s as f64 * period;
-                let cij = c(y[i], q);
-                if cij != 0.0 {
-                    bonds.push((i, j, q - y[i], cij));
-                }
-            }
-        }
-    }
-    let mut a = vec![vec![0.0; n]; n];
-    let mut b = vec![0.0; n];
-    for &(i, j, d, cij) in &bonds {
-        a[i][j] += cij * H;
-        a[i][i] -= cij * H;
-        b[i] -= eps * cij * d * H;
-    }
-    a[0] = vec![0.0; n];
-    a[0][0] = 1.0;
-    b[0] = 0.0;
-    let w = gauss(a, b);
-    let mut energy = vec![0.0; n];
-    for &(i, j, d, cij) in &bonds {
-        energy[i] += 0.25 * cij * (eps * d + w[j] - w[i]).powi(2) * H;
-    }
-    2.0 * (energy.iter().sum::<f64>() / n as f64) / (eps * eps)
 }
 
 /// Bar modulus of a homogeneous material, `(1/2) sum_j C (x_j - x_i)^2 v`.

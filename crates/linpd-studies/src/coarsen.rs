@@ -7,9 +7,8 @@
 //! (`Matching::TotalForce`, the crate's default; a body-force density `b` gives `f = b v^0`).
 //! The same examples are tests in `crates/linpd-coarsen/tests/examples.rs` (with the tolerances).
 
-use crate::fixtures::cell_modulus;
 use linpd_bond::{assemble, BondOperator};
-use linpd_coarsen::paper::{composite, defect, tent, R0};
+use linpd_coarsen::paper::{cell_modulus, composite, defect, tent, H, R0};
 use linpd_coarsen::{coarsen, every_kth, retain_every, Coarsened, LevelModel, StepReport};
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
@@ -17,7 +16,6 @@ use serde_json::{json, Value};
 use std::path::Path;
 use std::time::Instant;
 
-const H: f64 = 0.005;
 const N: usize = 201;
 /// Larger than the bar: every neighbourhood is the whole body (exact static condensation).
 const WHOLE: f64 = 10.0;

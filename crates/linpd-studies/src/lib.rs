@@ -11,8 +11,8 @@
 //!   (module `coarsen`).
 //!
 //! [`Study`] is the registry: one variant per study, parsed by clap ([`clap::ValueEnum`]) so
-//! that `linpd study --help` and the error for an unknown name list every study. Paper
-//! fixtures shared with the tests are in [`fixtures`].
+//! that `linpd study --help` and the error for an unknown name list every study. The paper
+//! fixtures shared with the tests live in [`linpd_coarsen::paper`], re-exported as [`fixtures`].
 //!
 //! ```no_run
 //! use linpd_studies::{Study, StudyOptions};
