@@ -5,7 +5,8 @@
 //! distance kernel with discrete normalization, rho = 1, at rest from a smooth displacement.
 //!
 //! Operators (same matrix `A`, all DOFs):
-//! * `assembled`: full CSC storage, parallel [`sym_matvec`] wrapped as a closure;
+//! * `assembled`: full CSC storage, parallel [`sym_matvec`] wrapped as a closure in a
+//!   [`FnOperator`];
 //! * `per_bond`: matrix-free [`BondOperator::apply`] (per-bond weights and neighbour lists);
 //! * `stencil`: matrix-free [`StencilOperator::apply`] (one stencil for the whole lattice).
 //!
@@ -26,9 +27,9 @@
 //! The bound is bytes / copy bandwidth (read + write counted), the ratio is time / bound.
 
 use linpd_bond::{assemble, BondOperator, StencilOperator};
-use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement};
+use linpd_core::{DofMap, FnOperator, Grid, Kernel, LinearOperator, Material, Micromodulus, Normalization, Placement};
 use linpd_dynamics::stability::{gershgorin, verlet_limit};
-use linpd_dynamics::{DtLimit, LumpedMass, State, Stiffness, Verlet, VerletParams};
+use linpd_dynamics::{DtLimit, LumpedMass, State, Verlet, VerletParams};
 use linpd_solve::{peak_rss_bytes, sym_matvec};
 use serde_json::{json, Value};
 use std::ops::ControlFlow;
@@ -39,7 +40,7 @@ fn reset_peak_rss() {
 }
 
 /// Best wall time of `reps` runs of `steps` steps from `u0` at rest; returns it and the final `u`.
-fn time_run<A: Stiffness + ?Sized>(
+fn time_run<A: LinearOperator + ?Sized>(
     op: &A,
     mass: &LumpedMass,
     u0: &[f64],
@@ -136,7 +137,7 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, String> {
         let t_asm = t.elapsed().as_secs_f64();
         drop(op);
         let nnz = a.val().len();
-        let apply = |x: &[f64], y: &mut [f64]| sym_matvec(&a, x, y);
+        let apply = FnOperator { n, apply: |x: &[f64], y: &mut [f64]| sym_matvec(&a, x, y) };
         eprintln!("[bench] dynamics {name}: assembled, {steps} steps x {reps}");
         let (t_as, u_as) = time_run(&apply, &mass, &u0, dt, limit, steps, reps)?;
         entry(

@@ -15,6 +15,33 @@ impl LinearOperator for BondOperator {
     fn apply(&self, x: &[f64], y: &mut [f64]) {
         BondOperator::apply(self, x, y)
     }
+
+    /// Block row of node `i`: `A_ii = sum_j w_ij e (x) e`, `A_ij = -w_ij e (x) e`.
+    fn abs_row_sums(&self, keep: &[bool], r: &mut [f64]) -> bool {
+        let d = self.dim();
+        for i in 0..self.n_nodes() {
+            let mut diag = [[0.0f64; 3]; 3];
+            let mut off = [0.0f64; 3];
+            for (&j, &w) in self.family().neighbors(i).iter().zip(self.weights(i)) {
+                let j = j as usize;
+                let e = self.unit(i, j);
+                for a in 0..d {
+                    for b in 0..d {
+                        let v = w * e[a] * e[b];
+                        diag[a][b] += v;
+                        if keep[d * j + b] {
+                            off[a] += v.abs();
+                        }
+                    }
+                }
+            }
+            for a in 0..d {
+                let own: f64 = (0..d).filter(|&b| keep[d * i + b]).map(|b| diag[a][b].abs()).sum();
+                r[d * i + a] = own + off[a];
+            }
+        }
+        true
+    }
 }
 
 impl LinearOperator for StencilOperator {

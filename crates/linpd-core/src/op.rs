@@ -10,6 +10,18 @@ pub trait LinearOperator: Sync {
     fn n(&self) -> usize;
     /// `y = A x`; `y` is overwritten.
     fn apply(&self, x: &[f64], y: &mut [f64]);
+
+    /// Absolute row sums over kept columns, for Gershgorin bounds of the explicit dynamics
+    /// (`linpd_dynamics::gershgorin`, `DtLimit::Gershgorin`).
+    ///
+    /// Writes `r_i = sum_{j : keep[j]} |A_ij|` for every row `i` (`keep` and `r` have length
+    /// [`n`](LinearOperator::n); rows with `keep[i] = false` may hold anything) and returns
+    /// `true`; returns `false` when the operator does not know its entries (the default, e.g.
+    /// for [`FnOperator`]), in which case `r` is left unspecified.
+    fn abs_row_sums(&self, keep: &[bool], r: &mut [f64]) -> bool {
+        let _ = (keep, r);
+        false
+    }
 }
 
 impl<T: LinearOperator + ?Sized> LinearOperator for &T {
@@ -18,6 +30,9 @@ impl<T: LinearOperator + ?Sized> LinearOperator for &T {
     }
     fn apply(&self, x: &[f64], y: &mut [f64]) {
         (**self).apply(x, y)
+    }
+    fn abs_row_sums(&self, keep: &[bool], r: &mut [f64]) -> bool {
+        (**self).abs_row_sums(keep, r)
     }
 }
 

@@ -39,9 +39,10 @@
 //! `nx > 2 N` is required.
 
 use crate::error::{positive, DynamicsError};
-use crate::verlet::{LumpedMass, Stiffness};
+use crate::verlet::LumpedMass;
 use linpd_core::family::lattice_stencil;
 use linpd_core::kernel::partial_volume;
+use linpd_core::LinearOperator;
 use linpd_core::Micromodulus;
 
 /// `K(N) = 2 K_1 / (N (N + 1))`, the spring constant of Appendix A.1 that makes a chain with
@@ -229,7 +230,11 @@ impl Ring {
     }
 }
 
-impl Stiffness for Ring {
+impl LinearOperator for Ring {
+    fn n(&self) -> usize {
+        self.nx
+    }
+
     fn apply(&self, u: &[f64], y: &mut [f64]) {
         let n = self.nx;
         assert_eq!(u.len(), n, "u has one entry per ring node");
@@ -244,10 +249,6 @@ impl Stiffness for Ring {
             }
             y[i] = s;
         }
-    }
-
-    fn n_dofs(&self) -> Option<usize> {
-        Some(self.nx)
     }
 
     fn abs_row_sums(&self, keep: &[bool], r: &mut [f64]) -> bool {

@@ -7,8 +7,10 @@
 //! force form (the convention of `linpd-bond`: `F = -A u`, node volume `V = h^d`) and the lumped
 //! mass `M_i = rho V_i`.
 //!
-//! * [`verlet`]: velocity Verlet over any [`Stiffness`] (closures, `linpd-bond` operators, the
-//!   ring, trait objects), fixed DOFs, external force, energies, output callback, and a
+//! * [`verlet`]: velocity Verlet over any [`linpd_core::LinearOperator`] (re-exported here as
+//!   [`LinearOperator`]: `linpd-bond`'s operators, the ring, closures wrapped in
+//!   [`FnOperator`], trait objects `&dyn LinearOperator`; operators that know their entries
+//!   provide [`LinearOperator::abs_row_sums`] for Gershgorin bounds), fixed DOFs, external force, energies, output callback, and a
 //!   stability check that refuses `dt > 2/sqrt(lambda_max(M^-1 A))`;
 //! * [`chain`]: the 1D nonlocal-spring lattice (4.1)/(A.2), any `linpd-core` kernel, and its
 //!   periodic operator [`Ring`];
@@ -44,8 +46,9 @@
 //! let amplitude = (w * info.t).cos();
 //! assert!(state.u.iter().zip(&u0).all(|(u, p)| (u - amplitude * p).abs() < 1e-10));
 //!
-//! // Any closure y = A u is an operator too (here a single spring, k = 4, m = 1).
-//! let spring = |u: &[f64], y: &mut [f64]| y[0] = 4.0 * u[0];
+//! // Any closure y = A u is an operator too, wrapped with its size in a
+//! // `linpd_core::FnOperator` (here a single spring, k = 4, m = 1).
+//! let spring = linpd_dynamics::FnOperator { n: 1, apply: |u: &[f64], y: &mut [f64]| y[0] = 4.0 * u[0] };
 //! let single = Verlet::new(&spring, linpd_dynamics::LumpedMass::new(1.0, &[1.0])?);
 //! let mut s = State::at_rest(vec![1.0]);
 //! single.run(&mut s, &VerletParams::new(0.01, 10), None, |_| ControlFlow::Continue(()))?;
@@ -63,4 +66,5 @@ pub mod verlet;
 
 pub use chain::{spring_constant, Chain, Ring};
 pub use error::{DynamicsError, LimitMethod};
-pub use verlet::{DtLimit, Energy, Force, LumpedMass, Snapshot, State, Stiffness, Verlet, VerletInfo, VerletParams};
+pub use linpd_core::{FnOperator, LinearOperator};
+pub use verlet::{DtLimit, Energy, Force, LumpedMass, Snapshot, State, Verlet, VerletInfo, VerletParams};

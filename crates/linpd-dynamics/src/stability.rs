@@ -61,7 +61,8 @@
 
 use crate::chain::{spring_constant, Chain};
 use crate::error::DynamicsError;
-use crate::verlet::{check_size, LumpedMass, Stiffness};
+use crate::verlet::{check_size, LumpedMass};
+use linpd_core::LinearOperator;
 
 /// Harmonic number `H_N = sum_{q=1}^N 1/q`.
 pub fn harmonic_number(n: usize) -> f64 {
@@ -166,7 +167,11 @@ fn free_mask(n: usize, fixed: &[usize]) -> Result<Vec<bool>, DynamicsError> {
 /// Gershgorin bound `lambda_max(M_f^-1 A_ff) <= max_{i free} sum_{j free} |A_ij| / M_i`.
 ///
 /// Errors with [`DynamicsError::NoGershgorin`] when the operator does not report its entries.
-pub fn gershgorin<A: Stiffness + ?Sized>(op: &A, mass: &LumpedMass, fixed: &[usize]) -> Result<f64, DynamicsError> {
+pub fn gershgorin<A: LinearOperator + ?Sized>(
+    op: &A,
+    mass: &LumpedMass,
+    fixed: &[usize],
+) -> Result<f64, DynamicsError> {
     let n = mass.len();
     check_size(op, n)?;
     let keep = free_mask(n, fixed)?;
@@ -209,7 +214,7 @@ pub struct PowerInfo {
 }
 
 /// Power iteration for `lambda_max(M_f^-1 A_ff)` on the symmetric form `M^-1/2 A M^-1/2`.
-pub fn power_iteration<A: Stiffness + ?Sized>(
+pub fn power_iteration<A: LinearOperator + ?Sized>(
     op: &A,
     mass: &LumpedMass,
     fixed: &[usize],

@@ -54,92 +54,16 @@
 
 use crate::error::{DynamicsError, LimitMethod};
 use crate::stability::{gershgorin, power_iteration, verlet_limit, PowerParams};
-use linpd_bond::{BondOperator, StencilOperator};
+use linpd_core::LinearOperator;
 use std::ops::ControlFlow;
 
-/// An operator `y = A u` (force form: the force is `-A u`).
-///
-/// Implemented for closures `Fn(&[f64], &mut [f64])`, for `linpd-bond`'s [`BondOperator`] and
-/// [`StencilOperator`], and for the periodic [`crate::chain::Ring`]; `dyn Stiffness` works as a
-/// trait object.
-pub trait Stiffness {
-    /// `y = A u` (every entry of `y` is overwritten).
-    fn apply(&self, u: &[f64], y: &mut [f64]);
-
-    /// Writes `r_i = sum_{j : keep[j]} |A_ij|` for every row `i` (rows with `keep[i] = false`
-    /// may hold anything) and returns `true`; returns `false` when the operator does not know
-    /// its entries (the default, e.g. for closures). Used by Gershgorin bounds.
-    fn abs_row_sums(&self, keep: &[bool], r: &mut [f64]) -> bool {
-        let _ = (keep, r);
-        false
+/// `Ok` when `op` has `n` DOFs (one mass per operator DOF).
+pub(crate) fn check_size<A: LinearOperator + ?Sized>(op: &A, n: usize) -> Result<(), DynamicsError> {
+    let m = op.n();
+    if m != n {
+        return Err(DynamicsError::Length { what: "masses (one per operator DOF)", expected: m, got: n });
     }
-
-    /// Number of DOFs when the operator knows it (`None`, the default, for closures); the
-    /// integrator and the limit estimates then check it against the masses.
-    fn n_dofs(&self) -> Option<usize> {
-        None
-    }
-}
-
-/// `Ok` when `op` does not know its size or has `n` DOFs.
-pub(crate) fn check_size<A: Stiffness + ?Sized>(op: &A, n: usize) -> Result<(), DynamicsError> {
-    match op.n_dofs() {
-        Some(m) if m != n => Err(DynamicsError::Length { what: "masses (one per operator DOF)", expected: m, got: n }),
-        _ => Ok(()),
-    }
-}
-
-impl<F: Fn(&[f64], &mut [f64])> Stiffness for F {
-    fn apply(&self, u: &[f64], y: &mut [f64]) {
-        self(u, y)
-    }
-}
-
-impl Stiffness for BondOperator {
-    fn apply(&self, u: &[f64], y: &mut [f64]) {
-        BondOperator::apply(self, u, y)
-    }
-
-    fn n_dofs(&self) -> Option<usize> {
-        Some(BondOperator::n_dofs(self))
-    }
-
-    /// Block row of node `i`: `A_ii = sum_j w_ij e (x) e`, `A_ij = -w_ij e (x) e`.
-    fn abs_row_sums(&self, keep: &[bool], r: &mut [f64]) -> bool {
-        let d = self.dim();
-        for i in 0..self.n_nodes() {
-            let mut diag = [[0.0f64; 3]; 3];
-            let mut off = [0.0f64; 3];
-            for (&j, &w) in self.family().neighbors(i).iter().zip(self.weights(i)) {
-                let j = j as usize;
-                let e = self.unit(i, j);
-                for a in 0..d {
-                    for b in 0..d {
-                        let v = w * e[a] * e[b];
-                        diag[a][b] += v;
-                        if keep[d * j + b] {
-                            off[a] += v.abs();
-                        }
-                    }
-                }
-            }
-            for a in 0..d {
-                let own: f64 = (0..d).filter(|&b| keep[d * i + b]).map(|b| diag[a][b].abs()).sum();
-                r[d * i + a] = own + off[a];
-            }
-        }
-        true
-    }
-}
-
-impl Stiffness for StencilOperator {
-    fn apply(&self, u: &[f64], y: &mut [f64]) {
-        StencilOperator::apply(self, u, y)
-    }
-
-    fn n_dofs(&self) -> Option<usize> {
-        Some(StencilOperator::n_dofs(self))
-    }
+    Ok(())
 }
 
 /// An external force `f(t)`: called as `force(t, f)` with `f` zeroed, it writes the force
@@ -261,7 +185,7 @@ pub enum DtLimit {
     /// so the limit it gives is slightly *above* the true one (by its convergence error).
     PowerIteration(PowerParams),
     /// Gershgorin discs: conservative (never above the true limit), needs
-    /// [`Stiffness::abs_row_sums`].
+    /// [`LinearOperator::abs_row_sums`].
     Gershgorin,
     /// A limit computed by the caller (e.g. [`crate::chain::Ring::dt_limit`]).
     Given(f64),
@@ -322,7 +246,7 @@ pub struct Verlet<'a, A: ?Sized> {
     fixed: Vec<(usize, f64)>,
 }
 
-impl<'a, A: Stiffness + ?Sized> Verlet<'a, A> {
+impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
     /// The system `M u'' = -A u + f` with every DOF free.
     pub fn new(operator: &'a A, mass: LumpedMass) -> Self {
         let inv_m = mass.m.iter().map(|m| 1.0 / m).collect();

@@ -2,7 +2,7 @@
 
 use linpd_dynamics::dispersion::{measure_omega, ModalFit, ModeRun};
 use linpd_dynamics::stability::gershgorin;
-use linpd_dynamics::{Chain, DtLimit, DynamicsError, LimitMethod, LumpedMass, State, Verlet, VerletParams};
+use linpd_dynamics::{Chain, DtLimit, DynamicsError, FnOperator, LimitMethod, LumpedMass, State, Verlet, VerletParams};
 use std::ops::ControlFlow;
 
 fn ring() -> linpd_dynamics::Ring {
@@ -95,7 +95,7 @@ fn shape_and_configuration_errors() {
         Err(DynamicsError::FixedDof { dof: 3, .. })
     ));
     // A closure does not know its entries.
-    let op = |u: &[f64], y: &mut [f64]| y.copy_from_slice(u);
+    let op = FnOperator { n: 3, apply: |u: &[f64], y: &mut [f64]| y.copy_from_slice(u) };
     assert_eq!(
         gershgorin(&op, &LumpedMass::uniform(1.0, 1.0, 3).unwrap(), &[]).unwrap_err(),
         DynamicsError::NoGershgorin

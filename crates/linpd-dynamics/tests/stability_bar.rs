@@ -13,7 +13,7 @@ use linpd_dynamics::initial::square_pulse;
 use linpd_dynamics::stability::{
     chain_bound, gershgorin, lattice_limit, paper_bound, power_iteration, verlet_limit, PowerParams,
 };
-use linpd_dynamics::{spring_constant, Chain, LumpedMass, State, Stiffness, Verlet, VerletParams};
+use linpd_dynamics::{spring_constant, Chain, LinearOperator, LumpedMass, State, Verlet, VerletParams};
 use std::ops::ControlFlow;
 
 fn springs(k1: f64) -> Micromodulus {
@@ -74,7 +74,7 @@ fn gershgorin_and_power_iteration_bracket_the_dense_eigenvalue() {
     let (mut e, mut y) = (vec![0.0; n], vec![0.0; n]);
     for (c, &j) in free.iter().enumerate() {
         e[j] = 1.0;
-        Stiffness::apply(&op, &e, &mut y);
+        LinearOperator::apply(&op, &e, &mut y);
         e[j] = 0.0;
         for (r, &i) in free.iter().enumerate() {
             a[(r, c)] = y[i] / mass.masses()[i]; // M^-1 A with uniform M: symmetric

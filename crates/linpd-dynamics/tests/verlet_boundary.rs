@@ -2,7 +2,7 @@
 
 use linpd_bond::BondOperator;
 use linpd_core::{Grid, Kernel, Material, Micromodulus, Normalization, Placement};
-use linpd_dynamics::{Chain, DtLimit, LumpedMass, State, Stiffness, Verlet, VerletParams};
+use linpd_dynamics::{Chain, DtLimit, FnOperator, LinearOperator, LumpedMass, State, Verlet, VerletParams};
 use std::ops::ControlFlow;
 
 fn bar(fixed_layers: bool) -> (Grid, BondOperator) {
@@ -78,8 +78,8 @@ fn forced_oscillator_through_a_closure_is_second_order() {
     // Global error of velocity Verlet: O(dt^2); halving dt divides it by 4 (within 5%).
     let (m, k, force_amp, big_w) = (2.0f64, 8.0f64, 1.5f64, 1.3f64);
     let w = (k / m).sqrt();
-    let op = move |u: &[f64], y: &mut [f64]| y[0] = k * u[0];
-    let dyn_op: &dyn Stiffness = &op;
+    let op = FnOperator { n: 1, apply: move |u: &[f64], y: &mut [f64]| y[0] = k * u[0] };
+    let dyn_op: &dyn LinearOperator = &op;
     let verlet = Verlet::new(dyn_op, LumpedMass::new(m, &[1.0]).unwrap());
     let t_end = 10.0;
     let exact = force_amp / (m * (w * w - big_w * big_w)) * ((big_w * t_end).cos() - (w * t_end).cos());
@@ -105,7 +105,7 @@ fn outputs_trait_objects_and_early_stop() {
     let u0 = pseudo_random(30, 3);
     let dt = 0.5 * ring.dt_limit(1.0);
     let direct = Verlet::new(&ring, ring.mass(1.0).unwrap());
-    let object: &dyn Stiffness = &ring;
+    let object: &dyn LinearOperator = &ring;
     let boxed = Verlet::new(object, ring.mass(1.0).unwrap());
     let mut seen = Vec::new();
     let params =
