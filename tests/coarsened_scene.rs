@@ -10,7 +10,7 @@
 //! catches any wrong volume factor or sign (those change `u` by O(1)). The 6x6 plate (60 free
 //! DOFs) is as well conditioned; the same bound applies.
 
-use linpd::problem::{ModuliFile, Scene};
+use linpd::problem::{ModelSpec, ModuliFile, Problem};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -153,10 +153,11 @@ fn bar_1d_cli_and_library_match_a_dense_solve() {
     assert!(reference[40] > 0.0);
 
     // Library (the relative moduli path resolves against the scene's directory).
-    let Scene::Coarsened(c) = Scene::from_path(&scene).unwrap() else { panic!("expected a coarsened scene") };
-    assert_eq!((c.dim, c.level, c.n_nodes()), (1, 1, 41));
+    let p = Problem::from_path(&scene).unwrap();
+    let ModelSpec::Coarsened(c) = p.model() else { panic!("expected a coarsened scene") };
+    assert_eq!((p.dim(), c.level, p.nodes().len()), (1, 1, 41));
     assert!(c.is_symmetric());
-    let s = c.solve(&|_| {}).unwrap();
+    let s = p.solve(&|_| {}).unwrap();
     assert_eq!(s.report.solver.to_string(), "cholesky-amd");
     assert!(s.report.rel_residual < 1e-12, "{}", s.report.rel_residual);
     assert_eq!(s.n_bonds, 2 * (38 + 39 + 40)); // pairs at distance 1, 2, 3, both directions
@@ -198,7 +199,7 @@ fn bar_1d_body_load_uses_node_volumes() {
     let mut scene = bar_scene(&dir.join("out"));
     scene["loads"] = json!([{"type": "body", "region": "all", "density": [2.0]}]);
     let path = write_scene(&dir, "scene", &scene);
-    let s = Scene::from_path(&path).unwrap().solve(&|_| {}).unwrap();
+    let s = Problem::from_path(&path).unwrap().solve(&|_| {}).unwrap();
     let f: Vec<f64> = m.volumes.iter().map(|v| 2.0 * v).collect();
     let mut fixed = vec![false; 41];
     fixed[0] = true;
@@ -228,7 +229,7 @@ fn plate_2d_cholesky_lu_and_dense_agree() {
     m.write(&dir.join("level-2")).unwrap();
     let solve = |solver: &str| {
         let p = write_scene(&dir, solver, &plate_scene(solver));
-        Scene::from_path(&p).unwrap().solve(&|_| {}).unwrap()
+        Problem::from_path(&p).unwrap().solve(&|_| {}).unwrap()
     };
     let chol = solve("cholesky");
     let auto = solve("auto");
@@ -265,9 +266,10 @@ fn unsymmetric_moduli_take_the_lu_path() {
     assert!(m.asymmetry() > 1e-3, "entry ({r}, {c})");
     m.write(&dir.join("level-2")).unwrap();
     let p = write_scene(&dir, "auto", &plate_scene("auto"));
-    let Scene::Coarsened(c) = Scene::from_path(&p).unwrap() else { panic!() };
+    let problem = Problem::from_path(&p).unwrap();
+    let ModelSpec::Coarsened(c) = problem.model() else { panic!() };
     assert!(!c.is_symmetric());
-    let s = c.solve(&|_| {}).unwrap();
+    let s = problem.solve(&|_| {}).unwrap();
     assert_eq!(s.report.solver, linpd::solve::SolverId::Lu);
     let note = s.report.note.as_deref().unwrap_or_default();
     assert!(note.contains("A is unsymmetric (relative asymmetry"), "{note}");

@@ -7,7 +7,7 @@
 //!
 //! Set `LINPD_PRINT_ERRORS=1` to print every message (useful when reviewing the wording).
 
-use linpd::problem::{ModuliFile, Problem, ProblemError, Scene};
+use linpd::problem::{ModelSpec, ModuliFile, Problem, ProblemError};
 use serde_json::{json, Value};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -100,9 +100,9 @@ fn ec(edit: impl FnOnce(&mut Value)) -> String {
 /// Where the error is expected.
 #[derive(Clone, Copy, PartialEq, Debug)]
 enum Stage {
-    /// `Scene::from_json` (= `Problem::from_json` for lattice models) fails.
+    /// `Problem::from_json_in` fails.
     Parse,
-    /// `Scene::from_json` succeeds and `solve` fails with `ProblemError::Unsupported`.
+    /// `Problem::from_json_in` succeeds and `solve` fails with `ProblemError::Unsupported`.
     Solve,
 }
 
@@ -894,7 +894,7 @@ fn cases() -> Vec<Case> {
 /// Runs one case; `Err` describes how it failed.
 fn run(case: &Case) -> Result<String, String> {
     let outcome = catch_unwind(AssertUnwindSafe(|| -> Result<ProblemError, String> {
-        match (Scene::from_json(&case.text, std::path::Path::new(".")), case.stage) {
+        match (Problem::from_json_in(&case.text, std::path::Path::new(".")), case.stage) {
             (Err(e), Stage::Parse) => Ok(e),
             (Err(e), Stage::Solve) => Err(format!("expected to parse, got: {e}")),
             (Ok(_), Stage::Parse) => Err("the scene was accepted".into()),
@@ -934,7 +934,7 @@ fn run(case: &Case) -> Result<String, String> {
 #[test]
 fn base_scenes_are_valid_and_solve() {
     for (name, base) in [("1D", base_1d as fn() -> Value), ("2D", base_2d), ("coarsened", base_coarsened)] {
-        let p = Scene::from_json(&base().to_string(), std::path::Path::new("."))
+        let p = Problem::from_json_in(&base().to_string(), std::path::Path::new("."))
             .unwrap_or_else(|e| panic!("{name} base scene: {e}"));
         let s = p.solve(&|_| {}).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
         assert!(s.report.rel_residual < 1e-10, "{name}: residual {}", s.report.rel_residual);
@@ -942,9 +942,14 @@ fn base_scenes_are_valid_and_solve() {
 }
 
 #[test]
-fn problem_refers_coarsened_scenes_to_scene() {
-    let e = Problem::from_json(&base_coarsened().to_string()).unwrap_err().to_string();
-    assert!(e.starts_with("model.type: a coarsened scene has no grid"), "{e}");
+fn coarsened_scenes_are_problems_without_a_lattice() {
+    let p = Problem::from_json(&base_coarsened().to_string()).unwrap();
+    assert!(matches!(p.model(), ModelSpec::Coarsened(_)));
+    assert!(p.grid().is_none());
+    assert_eq!(p.model().name(), "coarsened");
+    // Lattice-only operations say why they cannot run.
+    let e = p.operator().unwrap_err().to_string();
+    assert!(e.starts_with("model.type: a bond model is needed here, the scene has coarsened"), "{e}");
 }
 
 #[test]

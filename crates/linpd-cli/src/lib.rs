@@ -9,7 +9,7 @@ mod plots;
 
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Parser, Subcommand, ValueEnum};
-use linpd_problem::{Problem, ProblemError, Scene};
+use linpd_problem::{ModelSpec, Problem, ProblemError};
 use linpd_studies::{Study, StudyOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -149,7 +149,7 @@ pub fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Solve { scene, out, quiet } => {
-            let problem = Scene::from_path(&scene).map_err(input(&scene))?;
+            let problem = Problem::from_path(&scene).map_err(input(&scene))?;
             let progress = |m: &str| {
                 if !quiet {
                     eprintln!("[linpd] {m}");
@@ -158,13 +158,13 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let solution = problem.solve(&progress).map_err(input(&scene))?;
             let dir = out.unwrap_or_else(|| PathBuf::from(problem.output_dir()));
             let mut files = solution.write(&dir).map_err(|e| CliError::Output(Box::new(e)))?;
-            match &problem {
-                Scene::Grid(p) if p.plot() => {
-                    files.extend(plots::solution_plots(p, &solution, &dir)?);
+            match problem.grid() {
+                Some(grid) if problem.plot() => {
+                    files.extend(plots::solution_plots(grid, &solution, &dir)?);
                 }
                 // Coarsened levels have no lattice: 1D gets the displacement profile; the 2D/3D
                 // maps need a grid (scattered nodes are not plotted yet).
-                Scene::Coarsened(c) if c.plot && c.dim == 1 => {
+                None if problem.plot() && problem.dim() == 1 => {
                     files.extend(plots::profile_1d(&solution, &dir)?);
                 }
                 _ => {}
@@ -226,35 +226,33 @@ fn run(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Validate { scene } => {
-            let p = match Scene::from_path(&scene).map_err(input(&scene))? {
-                Scene::Grid(p) => p,
-                Scene::Coarsened(c) => {
-                    let (mask, _) = c.constrained();
-                    println!(
-                        "{}: valid; coarsened level {} from {}, dimension {}, {} nodes, {} bonded pairs, K {}, {} constrained DOFs, {} loads",
-                        c.name,
-                        c.level,
-                        c.moduli_path.display(),
-                        c.dim,
-                        c.n_nodes(),
-                        c.n_bonds,
-                        if c.is_symmetric() { "symmetric".to_string() } else { format!("unsymmetric (relative asymmetry {:.2e})", c.asymmetry) },
-                        mask.iter().filter(|&&m| m).count(),
-                        c.loads.len()
-                    );
-                    return Ok(());
-                }
-            };
+            let p = Problem::from_path(&scene).map_err(input(&scene))?;
             let (mask, _) = p.constrained();
-            println!(
-                "{}: valid; dimension {}, {} nodes, horizon/spacing = {:.4}, {} constrained DOFs, {} loads",
-                p.name(),
-                p.dim(),
-                p.grid().len(),
-                p.model().horizon() / p.grid().spacing(),
-                mask.iter().filter(|&&c| c).count(),
-                p.loads().len()
-            );
+            let constrained = mask.iter().filter(|&&m| m).count();
+            match (p.model(), p.grid()) {
+                (ModelSpec::Coarsened(c), _) => println!(
+                    "{}: valid; coarsened level {} from {}, dimension {}, {} nodes, {} bonded pairs, K {}, {} constrained DOFs, {} loads",
+                    p.name(),
+                    c.level,
+                    c.moduli_path.display(),
+                    p.dim(),
+                    p.nodes().len(),
+                    c.n_bonds,
+                    if c.is_symmetric() { "symmetric".to_string() } else { format!("unsymmetric (relative asymmetry {:.2e})", c.asymmetry) },
+                    constrained,
+                    p.loads().len()
+                ),
+                (model, grid) => println!(
+                    "{}: valid; {} model, dimension {}, {} nodes, horizon/spacing = {:.4}, {} constrained DOFs, {} loads",
+                    p.name(),
+                    model.name(),
+                    p.dim(),
+                    p.nodes().len(),
+                    model.horizon().unwrap_or(f64::NAN) / grid.map_or(f64::NAN, |g| g.spacing()),
+                    constrained,
+                    p.loads().len()
+                ),
+            }
             Ok(())
         }
         Command::Coarsen { pipeline, out, quiet } => {

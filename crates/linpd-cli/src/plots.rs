@@ -1,13 +1,14 @@
 //! Plots of a solution: 1D displacement profile; 2D displacement-magnitude map; 3D the
 //! magnitude on the mid-plane z = const.
 
+use linpd_core::Grid;
 use linpd_plot::{line_plot, scalar_map, LinePlot, PlotError, ScalarMap, Series, SeriesStyle};
-use linpd_problem::{DynamicsRun, Problem, Solution};
+use linpd_problem::{DynamicsRun, Solution};
 use std::path::{Path, PathBuf};
 
-pub fn solution_plots(p: &Problem, s: &Solution, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+pub fn solution_plots(grid: &Grid, s: &Solution, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     let d = s.dim;
-    let counts = p.grid().counts();
+    let counts = grid.counts();
     match d {
         1 => profile_1d(s, dir),
         _ => {
@@ -17,7 +18,7 @@ pub fn solution_plots(p: &Problem, s: &Solution, dir: &Path) -> Result<Vec<PathB
             let values: Vec<f64> = (0..nx * ny).map(|q| mag(q + nx * ny * k0)).collect();
             let first = s.x[nx * ny * k0];
             let last = s.x[nx * ny * k0 + nx * ny - 1];
-            let h = p.grid().spacing();
+            let h = grid.spacing();
             let title =
                 if d == 3 { format!("{}: |u| on z = {:.4}", s.name, first[2]) } else { format!("{}: |u|", s.name) };
             let map = ScalarMap {

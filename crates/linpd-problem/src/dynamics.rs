@@ -477,7 +477,8 @@ impl Problem {
     }
 
     fn mass(&self, rho: f64) -> Result<LumpedMass, ProblemError> {
-        LumpedMass::uniform(rho, self.grid.volume(), self.dim() * self.grid.len())
+        let grid = self.lattice()?;
+        LumpedMass::uniform(rho, grid.volume(), self.dim() * grid.len())
             .map_err(|e| ProblemError::invalid("dynamics.density", e.to_string()))
     }
 
@@ -493,7 +494,7 @@ impl Problem {
             .bond()
             .ok_or_else(|| ProblemError::invalid("dynamics", "only bond models have explicit dynamics"))?;
         if self.dim() == 1 && bond.material.is_homogeneous() {
-            let chain = Chain::new(self.grid.spacing(), bond.horizon, &bond.micromodulus)
+            let chain = Chain::new(self.lattice()?.spacing(), bond.horizon, &bond.micromodulus)
                 .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
             let l = lattice_limit(&chain, rho);
             return Ok(StabilityLimit {
@@ -520,10 +521,11 @@ impl Problem {
         }
         let t0 = Instant::now();
         let d = self.dim();
-        let n_nodes = self.grid.len();
+        let grid = self.lattice()?;
+        let n_nodes = grid.len();
         progress(&format!(
             "building bonds: {n_nodes} nodes, horizon/spacing = {:.3}",
-            self.model.horizon() / self.grid.spacing()
+            self.model.horizon().unwrap_or(f64::NAN) / grid.spacing()
         ));
         let op = self.operator()?;
         let limit = self.limit_of(&op, dynamics)?;
@@ -588,7 +590,7 @@ impl Problem {
             name: self.name.clone(),
             dim: d,
             x: positions,
-            is_layer: (0..n_nodes).map(|k| self.grid.is_layer(k)).collect(),
+            is_layer: (0..n_nodes).map(|k| grid.is_layer(k)).collect(),
             dt,
             limit,
             steps: info.steps,

@@ -2,8 +2,8 @@
 //! typed [`Problem`] whose errors name the JSON path (`model.horizon: must be > 0`), then built
 //! into an operator and solved ([`run`]), and written out ([`output`]).
 //!
-//! Coarsened levels (`"model": {"type": "coarsened", "moduli": ...}`) have no grid: they are
-//! read by [`Scene`] into a [`CoarsenedScene`] ([`coarsened`]).
+//! Coarsened levels (`"model": {"type": "coarsened", "moduli": ...}`) have no grid: their
+//! nodes are [`Nodes::Level`] and their model [`ModelSpec::Coarsened`] ([`coarsened`]).
 //!
 //! The key reference is `docs/problem-format.md`.
 #![deny(missing_docs)]
@@ -19,10 +19,10 @@ pub mod problem;
 pub mod raw;
 pub mod run;
 
-pub use coarsened::{CoarsenedScene, ModuliFile, Scene};
+pub use coarsened::{CoarsenedModel, ModuliFile};
 pub use dynamics::{Dynamics, DynamicsRun, Initial, TimeStep};
 pub use error::ProblemError;
 pub use linpd_core::sparse::restrict_to_free as reduce_to_free;
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
-pub use problem::{BlendScene, BondModel, Constraint, Load, ModelSpec, Problem};
+pub use problem::{BlendScene, BondModel, Constraint, LevelNodes, Load, ModelSpec, Nodes, Problem};
 pub use run::Solution;

@@ -13,12 +13,13 @@ use std::time::Instant;
 /// Solves an lps scene.
 pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
     let t0 = Instant::now();
+    let grid = p.lattice()?;
     progress(&format!(
         "building the LPS model: {} nodes, horizon/spacing = {:.3}",
-        p.grid.len(),
-        params.horizon / p.grid.spacing()
+        grid.len(),
+        params.horizon / grid.spacing()
     ));
-    let model = LpsModel::new(&p.grid, params).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
+    let model = LpsModel::new(grid, params).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
     let t_build = t0.elapsed().as_secs_f64();
     progress("the LPS tangent couples nodes up to 2 horizons apart");
     let solved = solve_model(&model, &p.dirichlet(), &p.load_vector(), &p.solver, progress).map_err(static_error)?;
@@ -30,7 +31,7 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) ->
         dim: p.dim(),
         x: model.positions(),
         u: solved.u,
-        is_layer: (0..p.grid.len()).map(|n| p.grid.is_layer(n)).collect(),
+        is_layer: (0..grid.len()).map(|n| grid.is_layer(n)).collect(),
         n_bonds: model.family().n_bonds(),
         report,
     })

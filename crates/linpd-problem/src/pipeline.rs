@@ -220,16 +220,16 @@ impl Pipeline {
 /// The level-0 model of a scene: the assembled bond operator or LPS tangent.
 pub fn level0_model(p: &Problem) -> Result<LevelModel, ProblemError> {
     let d = p.dim();
-    let n = p.grid.len();
+    let grid = p.lattice()?;
+    let n = grid.len();
     let k = if let crate::ModelSpec::Lps(params) = &p.model {
-        let m = linpd_lps::LpsModel::new(&p.grid, params).map_err(|e| inv("model", e.to_string()))?;
+        let m = linpd_lps::LpsModel::new(grid, params).map_err(|e| inv("model", e.to_string()))?;
         linpd_lps::assemble_tangent(&m)
     } else {
         let op: BondOperator = p.operator()?;
         assemble(&op, &DofMap::all_free(n, d))
     };
-    LevelModel::from_stiffness(d, p.grid.positions(), vec![p.grid.volume(); n], &k)
-        .map_err(|e| inv("model", e.to_string()))
+    LevelModel::from_stiffness(d, grid.positions(), vec![grid.volume(); n], &k).map_err(|e| inv("model", e.to_string()))
 }
 
 /// One level's outcome.
@@ -391,7 +391,8 @@ impl Pipeline {
         let p = &self.scene;
         let d = p.dim();
         let (mask, ubar) = p.constrained();
-        let mut is_shared = vec![false; p.grid.len()];
+        let grid = p.lattice()?;
+        let mut is_shared = vec![false; grid.len()];
         shared0.iter().for_each(|&i| is_shared[i] = true);
         let mut fixed = Vec::new();
         for &i in shared0 {
@@ -409,7 +410,7 @@ impl Pipeline {
             match l {
                 Load::Point { node, force } => {
                     if !is_shared[*node] {
-                        let x = p.grid.position(*node);
+                        let x = grid.position(*node);
                         return Err(inv(
                             format!("loads[{li}]"),
                             format!("the point load's node {node} (x = {:?}) is not kept at the coarsest level; in a pipeline, loads must sit on nodes shared by every level", &x[..d]),
@@ -418,8 +419,8 @@ impl Pipeline {
                     (0..d).for_each(|a| f.push((*node, a, force[a])));
                 }
                 Load::Body { region, density } => {
-                    let v = p.grid.volume();
-                    let nodes: Vec<usize> = region.nodes(&p.grid).into_iter().filter(|&i| is_shared[i]).collect();
+                    let v = grid.volume();
+                    let nodes: Vec<usize> = region.nodes(grid).into_iter().filter(|&i| is_shared[i]).collect();
                     if nodes.is_empty() {
                         return Err(inv(
                             format!("loads[{li}]"),

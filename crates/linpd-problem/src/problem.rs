@@ -7,6 +7,7 @@ use linpd_core::{
     Region,
 };
 use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
+use std::path::Path;
 
 /// An affine displacement `u = value + gradient x` on some components of a node set.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,15 +72,19 @@ pub enum ModelSpec {
     /// `"type": "blend"` and `"type": "ce"`: the 1D blended PD/CE model; `constraints` and
     /// `loads` have been translated into it.
     Blend(BlendScene),
+    /// `"type": "coarsened"`: a level written by `linpd coarsen`, read from its moduli file
+    /// ([`crate::coarsened`]); its nodes are [`Nodes::Level`].
+    Coarsened(crate::coarsened::CoarsenedModel),
 }
 
 impl ModelSpec {
-    /// The horizon `delta`.
-    pub fn horizon(&self) -> f64 {
+    /// The horizon `delta` (a coarsened level has none: its reach varies per node).
+    pub fn horizon(&self) -> Option<f64> {
         match self {
-            ModelSpec::Bond(b) => b.horizon,
-            ModelSpec::Lps(l) => l.horizon,
-            ModelSpec::Blend(b) => b.params.horizon,
+            ModelSpec::Bond(b) => Some(b.horizon),
+            ModelSpec::Lps(l) => Some(l.horizon),
+            ModelSpec::Blend(b) => Some(b.params.horizon),
+            ModelSpec::Coarsened(_) => None,
         }
     }
     /// The bond model, if this is one.
@@ -96,6 +101,7 @@ impl ModelSpec {
             ModelSpec::Lps(_) => "lps",
             ModelSpec::Blend(b) if b.kind == linpd_blend::ModelKind::PureCe => "ce",
             ModelSpec::Blend(_) => "blend",
+            ModelSpec::Coarsened(_) => "coarsened",
         }
     }
 }
@@ -106,8 +112,8 @@ impl ModelSpec {
 pub struct Problem {
     /// Name.
     pub(crate) name: String,
-    /// The lattice.
-    pub(crate) grid: Grid,
+    /// The nodes: a lattice, or a coarsened level's nodes.
+    pub(crate) nodes: Nodes,
     /// The model (one variant per model type).
     pub(crate) model: ModelSpec,
     /// Volume constraints.
@@ -225,15 +231,27 @@ impl Problem {
         Self::from_raw(parse_raw(text)?)
     }
 
-    /// Reads and validates a scene file.
-    pub fn from_path(path: &std::path::Path) -> Result<Self, ProblemError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
-        Self::from_json(&text)
+    /// Parses and validates scene text whose relative file names (a coarsened model's
+    /// `moduli`) start at `base_dir`.
+    pub fn from_json_in(text: &str, base_dir: &Path) -> Result<Self, ProblemError> {
+        Self::from_raw_in(parse_raw(text)?, base_dir)
     }
 
-    /// Validates the serde mirror.
+    /// Reads and validates a scene file (relative file names in it start at its directory).
+    pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
+        Self::from_json_in(&text, path.parent().unwrap_or(Path::new("")))
+    }
+
+    /// Validates the serde mirror (relative file names start at the working directory).
     pub fn from_raw(raw: RawProblem) -> Result<Self, ProblemError> {
+        Self::from_raw_in(raw, Path::new("."))
+    }
+
+    /// Validates the serde mirror; relative file names in it (a coarsened model's `moduli`)
+    /// start at `base_dir`, the scene file's directory.
+    pub fn from_raw_in(raw: RawProblem, base_dir: &Path) -> Result<Self, ProblemError> {
         let dim = raw.dimension;
         if !(1..=3).contains(&dim) {
             return Err(ProblemError::invalid("dimension", format!("must be 1, 2 or 3, got {dim}")));
@@ -244,10 +262,7 @@ impl Problem {
         let model_kind = raw.model.kind;
         check_model_keys(&raw.model)?;
         if model_kind == RawModelKind::Coarsened {
-            return Err(ProblemError::invalid(
-                "model.type",
-                "a coarsened scene has no grid: read it with linpd_problem::Scene (`linpd solve` and `linpd validate` do); `linpd run` needs a lattice model",
-            ));
+            return crate::coarsened::from_raw(raw, base_dir);
         }
         let Some(raw_grid) = &raw.grid else {
             return Err(ProblemError::invalid("grid", format!("required for model type {}", model_kind.name())));
@@ -387,7 +402,7 @@ impl Problem {
             output_dir: raw.output.dir.clone().unwrap_or_else(|| format!("out/{}", raw.name)),
             plot: raw.output.plot.unwrap_or(true),
             name: raw.name,
-            grid,
+            nodes: Nodes::Lattice(grid),
             model,
             constraints,
             loads,
@@ -397,15 +412,25 @@ impl Problem {
 
     /// Spatial dimension.
     pub fn dim(&self) -> usize {
-        self.grid.dim()
+        self.nodes.dim()
     }
     /// The scene's name.
     pub fn name(&self) -> &str {
         &self.name
     }
-    /// The lattice.
-    pub fn grid(&self) -> &Grid {
-        &self.grid
+    /// The lattice (`None` for a coarsened level).
+    pub fn grid(&self) -> Option<&Grid> {
+        self.nodes.lattice()
+    }
+    /// The nodes.
+    pub fn nodes(&self) -> &Nodes {
+        &self.nodes
+    }
+    /// The lattice, or an error for models without one.
+    pub(crate) fn lattice(&self) -> Result<&Grid, ProblemError> {
+        self.nodes.lattice().ok_or_else(|| {
+            ProblemError::invalid("model.type", format!("{} models have no lattice here", self.model.name()))
+        })
     }
     /// The model.
     pub fn model(&self) -> &ModelSpec {
@@ -439,6 +464,140 @@ impl Problem {
     /// The `dynamics` section, if any.
     pub fn dynamics(&self) -> Option<&crate::dynamics::Dynamics> {
         self.dynamics.as_ref()
+    }
+}
+
+/// The nodes of a scene.
+#[derive(Debug, Clone)]
+pub enum Nodes {
+    /// A lattice (bond, lps, blend and ce models).
+    Lattice(Grid),
+    /// The nodes of a coarsened level (positions and volumes from its nodes file).
+    Level(LevelNodes),
+}
+
+/// The nodes of a coarsened level.
+#[derive(Debug, Clone)]
+pub struct LevelNodes {
+    pub(crate) dim: usize,
+    pub(crate) positions: Vec<Point>,
+    pub(crate) volumes: Vec<f64>,
+    /// `min_i v_i^(1/d)`: the smallest node spacing, the scale of the geometric tolerances.
+    pub(crate) h: f64,
+}
+
+impl LevelNodes {
+    /// Nodes at `positions` with `volumes` in dimension `dim`.
+    pub fn new(dim: usize, positions: Vec<Point>, volumes: Vec<f64>) -> Self {
+        let h = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
+        LevelNodes { dim, positions, volumes, h: if h.is_finite() { h } else { 1.0 } }
+    }
+}
+
+impl Nodes {
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        match self {
+            Nodes::Lattice(g) => g.len(),
+            Nodes::Level(l) => l.positions.len(),
+        }
+    }
+    /// True when there is no node.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Spatial dimension.
+    pub fn dim(&self) -> usize {
+        match self {
+            Nodes::Lattice(g) => g.dim(),
+            Nodes::Level(l) => l.dim,
+        }
+    }
+    /// Position of node `n` (unused coordinates 0).
+    pub fn position(&self, n: usize) -> Point {
+        match self {
+            Nodes::Lattice(g) => g.position(n),
+            Nodes::Level(l) => l.positions[n],
+        }
+    }
+    /// All positions.
+    pub fn positions(&self) -> Vec<Point> {
+        (0..self.len()).map(|n| self.position(n)).collect()
+    }
+    /// Volume of node `n`.
+    pub fn volume(&self, n: usize) -> f64 {
+        match self {
+            Nodes::Lattice(g) => g.volume(),
+            Nodes::Level(l) => l.volumes[n],
+        }
+    }
+    /// True for nodes of the lattice's outer layer (never for a level's nodes).
+    pub fn is_layer(&self, n: usize) -> bool {
+        match self {
+            Nodes::Lattice(g) => g.is_layer(n),
+            Nodes::Level(_) => false,
+        }
+    }
+    /// The lattice, if the nodes are one.
+    pub fn lattice(&self) -> Option<&Grid> {
+        match self {
+            Nodes::Lattice(g) => Some(g),
+            Nodes::Level(_) => None,
+        }
+    }
+}
+
+impl NodeSet for Nodes {
+    fn what(&self) -> &'static str {
+        match self {
+            Nodes::Lattice(g) => g.what(),
+            Nodes::Level(l) => l.what(),
+        }
+    }
+    fn spacing(&self) -> f64 {
+        match self {
+            Nodes::Lattice(g) => NodeSet::spacing(g),
+            Nodes::Level(l) => l.spacing(),
+        }
+    }
+    fn position(&self, n: usize) -> Point {
+        Nodes::position(self, n)
+    }
+    fn nearest(&self, x: &[f64]) -> (usize, f64) {
+        match self {
+            Nodes::Lattice(g) => g.nearest(x),
+            Nodes::Level(l) => l.nearest(x),
+        }
+    }
+    fn select(&self, r: &Region) -> Vec<usize> {
+        match self {
+            Nodes::Lattice(g) => g.select(r),
+            Nodes::Level(l) => l.select(r),
+        }
+    }
+}
+
+impl NodeSet for LevelNodes {
+    fn what(&self) -> &'static str {
+        "the coarsened level"
+    }
+    fn spacing(&self) -> f64 {
+        self.h
+    }
+    fn position(&self, n: usize) -> Point {
+        self.positions[n]
+    }
+    fn nearest(&self, x: &[f64]) -> (usize, f64) {
+        let d = self.dim;
+        self.positions
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k, (0..d).map(|a| (p[a] - x[a]).powi(2)).sum::<f64>().sqrt()))
+            .fold((0, f64::INFINITY), |best, c| if c.1 < best.1 { c } else { best })
+    }
+    fn select(&self, r: &Region) -> Vec<usize> {
+        let tol = linpd_core::GEOMETRY_RTOL * self.h;
+        (0..self.positions.len()).filter(|&n| r.contains(&self.positions[n], self.dim, tol)).collect()
     }
 }
 

@@ -2,6 +2,7 @@
 //! of linpd-solve ([`linpd_solve::solve_model`]: support check, Dirichlet elimination
 //! `A_ff u_f = f_f - (A u_bar)_f`, assembled or matrix-free solve, report).
 
+use crate::problem::NodeSet;
 use crate::{Load, ModelSpec, Problem, ProblemError};
 use linpd_bond::{BondOperator, LatticeBondModel};
 use linpd_core::Point;
@@ -41,19 +42,19 @@ impl Problem {
     /// Builds the bond operator of the scene (bond models only).
     pub fn operator(&self) -> Result<BondOperator, ProblemError> {
         let b = self.bond_model()?;
-        BondOperator::on_grid(&self.grid, b.horizon, &b.micromodulus, &b.material)
+        BondOperator::on_grid(self.lattice()?, b.horizon, &b.micromodulus, &b.material)
             .map_err(|e| ProblemError::invalid("model", e.to_string()))
     }
 
     /// Constrained-DOF mask and the prescribed full displacement `u_bar`.
     pub fn constrained(&self) -> (Vec<bool>, Vec<f64>) {
         let d = self.dim();
-        let n = self.grid.len();
+        let n = self.nodes.len();
         let mut mask = vec![false; d * n];
         let mut ubar = vec![0.0; d * n];
         for c in &self.constraints {
-            for node in c.region.nodes(&self.grid) {
-                let x = self.grid.position(node);
+            for node in self.nodes.select(&c.region) {
+                let x = self.nodes.position(node);
                 for &a in &c.components {
                     mask[d * node + a] = true;
                     ubar[d * node + a] = c.displacement(&x[..d], a);
@@ -66,13 +67,13 @@ impl Problem {
     /// External force per full DOF (point forces plus density times node volume).
     pub fn load_vector(&self) -> Vec<f64> {
         let d = self.dim();
-        let mut f = vec![0.0; d * self.grid.len()];
+        let mut f = vec![0.0; d * self.nodes.len()];
         for l in &self.loads {
             match l {
                 Load::Point { node, force } => (0..d).for_each(|a| f[d * node + a] += force[a]),
                 Load::Body { region, density } => {
-                    let v = self.grid.volume();
-                    for node in region.nodes(&self.grid) {
+                    for node in self.nodes.select(region) {
+                        let v = self.nodes.volume(node);
                         (0..d).for_each(|a| f[d * node + a] += density[a] * v);
                     }
                 }
@@ -92,7 +93,7 @@ impl Problem {
         let b = self.bond_model()?;
         let op = self.operator()?;
         let homogeneous = b.material.is_homogeneous().then(|| b.micromodulus.clone());
-        Ok(LatticeBondModel::new(op, self.grid.clone(), b.horizon, homogeneous))
+        Ok(LatticeBondModel::new(op, self.lattice()?.clone(), b.horizon, homogeneous))
     }
 
     /// Solves the static problem. `progress` receives one line per phase.
@@ -101,13 +102,14 @@ impl Problem {
         match &self.model {
             ModelSpec::Blend(b) => return crate::blend::solve(&self.name, b, progress),
             ModelSpec::Lps(params) => return crate::lps::solve(self, params, progress),
+            ModelSpec::Coarsened(c) => return crate::coarsened::solve(self, c, progress),
             ModelSpec::Bond(_) => {}
         }
         let t0 = Instant::now();
         progress(&format!(
             "building bonds: {} nodes, horizon/spacing = {:.3}",
-            self.grid.len(),
-            self.model.horizon() / self.grid.spacing()
+            self.nodes.len(),
+            self.model.horizon().unwrap_or(f64::NAN) / self.lattice()?.spacing()
         ));
         let model = self.lattice_model()?;
         let t_build = t0.elapsed().as_secs_f64();
@@ -125,7 +127,7 @@ impl Problem {
             dim: self.dim(),
             x: model.operator().positions().to_vec(),
             u: solved.u,
-            is_layer: (0..self.grid.len()).map(|n| self.grid.is_layer(n)).collect(),
+            is_layer: (0..self.nodes.len()).map(|n| self.nodes.is_layer(n)).collect(),
             n_bonds: model.operator().family().n_bonds(),
             report,
         })
