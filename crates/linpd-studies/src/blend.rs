@@ -2,20 +2,17 @@
 //! (2013), section 5, Figs. 7-14, plus a speed-versus-error map. Each study writes `data.json`,
 //! PNG and SVG plots into its directory and prints a table.
 
+use crate::out::{err, plot, write};
 use linpd_blend::{
     ce_exact_point_load, solve_model, BlendParams, BlendSolution, BlendSolver, Blending, Load, ModelKind, Regions,
 };
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
-use serde_json::{json, Value};
+use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
 
 fn blendings() -> Vec<(&'static str, Blending)> {
     vec![("constant", Blending::Constant { value: 0.5 }), ("linear", Blending::Linear), ("cubic", Blending::Cubic)]
-}
-
-fn err(e: impl std::fmt::Display) -> String {
-    e.to_string()
 }
 
 /// Relative errors (33), (34) and the weighted (35) of `u` against `pd`, over interior nodes
@@ -35,24 +32,6 @@ fn errors(pd: &BlendSolution, s: &BlendSolution) -> (f64, f64, f64) {
         uw += r * r * w;
     }
     (einf / uinf, (e2 / u2).sqrt(), (ew / uw).sqrt())
-}
-
-fn write(dir: &Path, data: &Value) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(err)?;
-    std::fs::write(dir.join("data.json"), serde_json::to_string_pretty(data).unwrap()).map_err(err)
-}
-
-fn plot(
-    dir: &Path,
-    name: &str,
-    title: &str,
-    xl: &str,
-    yl: &str,
-    series: Vec<Series>,
-    log_y: bool,
-) -> Result<(), String> {
-    let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: false, log_y };
-    line_plot(&p, &dir.join(name)).map(|_| ()).map_err(err)
 }
 
 fn loglog(dir: &Path, name: &str, title: &str, xl: &str, yl: &str, series: Vec<Series>) -> Result<(), String> {

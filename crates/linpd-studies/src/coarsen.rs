@@ -7,6 +7,7 @@
 //! (`Matching::TotalForce`, the crate's default; a body-force density `b` gives `f = b v^0`).
 //! The same examples are tests in `crates/linpd-coarsen/tests/examples.rs` (with the tolerances).
 
+use crate::out::{err, plot, write};
 use linpd_bond::{assemble, BondOperator};
 use linpd_coarsen::paper::{cell_modulus, composite, defect, tent, H, R0};
 use linpd_coarsen::{coarsen, every_kth, retain_every, Coarsened, LevelModel, StepReport};
@@ -21,28 +22,6 @@ const N: usize = 201;
 const WHOLE: f64 = 10.0;
 /// Radius pairs (r^1, r^2): the paper's (2 r0, 2 r^1), larger ones, the whole body.
 const RADII: [(f64, f64); 4] = [(0.1, 0.2), (0.2, 0.4), (0.3, 0.6), (WHOLE, WHOLE)];
-
-fn err(e: impl std::fmt::Display) -> String {
-    e.to_string()
-}
-
-fn write(dir: &Path, data: &Value) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(err)?;
-    std::fs::write(dir.join("data.json"), serde_json::to_string_pretty(data).unwrap()).map_err(err)
-}
-
-fn plot(
-    dir: &Path,
-    name: &str,
-    title: &str,
-    xl: &str,
-    yl: &str,
-    series: Vec<Series>,
-    log_y: bool,
-) -> Result<(), String> {
-    let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: false, log_y };
-    line_plot(&p, &dir.join(name)).map(|_| ()).map_err(err)
-}
 
 fn series(label: &str, x: Vec<f64>, y: Vec<f64>, style: SeriesStyle) -> Series {
     Series { label: label.into(), x, y, style }

@@ -9,6 +9,7 @@
 //!   the square pulse (4.14) on the bar `[0, 1000]` (fixed layers of width `delta`) over `dx`
 //!   (Fig. 4.2).
 
+use crate::out::err;
 use linpd_bond::BondOperator;
 use linpd_core::{Grid, Kernel, Material, Micromodulus, Normalization, Placement};
 use linpd_dynamics::dispersion::{
@@ -26,10 +27,6 @@ use std::time::Instant;
 const DELTA: f64 = 5.0;
 const K1: f64 = 1.0;
 const RHO: f64 = 1.0;
-
-fn err(e: impl std::fmt::Display) -> String {
-    e.to_string()
-}
 
 /// Runs `dispersion` into `dir`.
 pub(crate) fn run_dispersion(dir: &Path) -> Result<(), String> {

@@ -27,6 +27,7 @@ mod dynamics;
 pub mod fixtures;
 mod lps;
 mod md_pd;
+mod out;
 
 use clap::ValueEnum;
 use std::path::{Path, PathBuf};

@@ -13,6 +13,7 @@
 //! of steps ends at `t = 150.05` (Fig. 4.4). Square pulse (4.14): `dt = 0.0649` for all models
 //! (Fig. 4.6), snapshots at `t ~ 50` and `t ~ 150`.
 
+use crate::out::err;
 use linpd_dynamics::initial::{smooth_pulse, square_pulse};
 use linpd_dynamics::stability::refinement_dt;
 use linpd_dynamics::{Chain, DtLimit, Ring, State, Verlet, VerletParams};
@@ -52,10 +53,6 @@ const MODELS: &[Model] = &[
     Model { key: "ccm", label: "CCM (dx = 0.1, N = 1)", dx: 0.1, n: 1 },
     Model { key: "md_local", label: "local MD (a = 1, N = 1)", dx: 1.0, n: 1 },
 ];
-
-fn err(e: impl std::fmt::Display) -> String {
-    e.to_string()
-}
 
 struct Run {
     nx: usize,
