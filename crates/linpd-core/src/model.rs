@@ -150,12 +150,6 @@ impl AssembledModel {
         }
     }
 
-    /// Sets the relative asymmetry when the caller knows it already.
-    pub fn with_asymmetry(self, asymmetry: f64) -> Self {
-        let _ = self.asymmetry.set(asymmetry);
-        self
-    }
-
     /// Names every node in messages also by `label` (e.g. `"level-0 node"`) and its number.
     pub fn with_labels(mut self, label: &'static str, numbers: Vec<usize>) -> Self {
         assert_eq!(numbers.len(), self.positions.len(), "one number per node");

@@ -74,8 +74,6 @@ fn nodes_file(mtx: &Path) -> PathBuf {
     }
 }
 
-pub use linpd_core::sparse::relative_asymmetry;
-
 /// Validates a parsed scene whose `model.type` is `coarsened`; relative moduli paths start at
 /// `base_dir` (the scene file's directory).
 pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, ProblemError> {

@@ -352,7 +352,6 @@ impl Problem {
             ModelSpec::Lps(lps_params(
                 dim,
                 horizon,
-                grid.spacing(),
                 partial_volume,
                 plane,
                 bulk_modulus,
@@ -825,7 +824,6 @@ impl Problem {
 fn lps_params(
     dim: usize,
     horizon: f64,
-    spacing: f64,
     partial_volume: bool,
     plane: Option<RawPlane>,
     bulk: Option<f64>,
@@ -852,12 +850,6 @@ fn lps_params(
         return Err(ProblemError::invalid(
             "model.shear_modulus",
             format!("Poisson ratio (3K - 2G)/(2(3K + G)) = {nu} is outside (-1, 1/2)"),
-        ));
-    }
-    if horizon < spacing * (1.0 - linpd_core::GEOMETRY_RTOL) {
-        return Err(ProblemError::invalid(
-            "model.horizon",
-            format!("horizon {horizon} is below the spacing {spacing}"),
         ));
     }
     let plane = match (dim, plane) {

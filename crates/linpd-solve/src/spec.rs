@@ -91,11 +91,6 @@ impl SolverSpec {
             other => other.clone(),
         }
     }
-
-    /// True for matrix-free CG.
-    pub fn is_matrix_free(&self) -> bool {
-        matches!(self, SolverSpec::Cg { matrix_free: true, .. })
-    }
 }
 
 impl fmt::Display for SolverSpec {

@@ -67,14 +67,18 @@ pub fn solve_assembled(
     let t0 = Instant::now();
     let (u, mut report) = match &spec {
         SolverSpec::Cholesky | SolverSpec::Auto(_) => {
+            let natural: Vec<usize>;
             let (perm, label) = match &hints.ordering {
                 Ordering::Amd => (None, CholeskyOrdering::Amd),
-                Ordering::Natural => (Some((0..n).collect::<Vec<_>>()), CholeskyOrdering::Natural),
-                Ordering::NestedDissection(p) => (Some(p.clone()), CholeskyOrdering::NestedDissection),
+                Ordering::Natural => {
+                    natural = (0..n).collect();
+                    (Some(natural.as_slice()), CholeskyOrdering::Natural)
+                }
+                Ordering::NestedDissection(p) => (Some(p.as_slice()), CholeskyOrdering::NestedDissection),
             };
             let mut report = SolveReport::new(SolverId::Cholesky(label), n, a.val().len());
             let t = Instant::now();
-            let chol = Cholesky::analyze_with_ordering(a, perm.as_deref())?;
+            let chol = Cholesky::analyze_with_ordering(a, perm)?;
             report.timings.symbolic = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let factor = chol.factor(a)?;
