@@ -2,7 +2,7 @@
 
 /// What is wrong with a blended-model description or solve.
 #[non_exhaustive]
-#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[derive(Debug, thiserror::Error)]
 pub enum BlendError {
     /// A parameter is invalid; `name` is the scene key it comes from.
     #[error("{name}: {reason}")]
@@ -14,7 +14,7 @@ pub enum BlendError {
     },
     /// The linear solve failed.
     #[error("solver: {0}")]
-    Solve(String),
+    Solve(#[from] linpd_solve::StaticError),
 }
 
 impl BlendError {

@@ -42,6 +42,7 @@ pub mod error;
 pub mod mesh;
 pub mod model;
 pub mod solve;
+mod static_model;
 
 pub use blending::{Blending, Regions};
 pub use error::BlendError;

@@ -7,7 +7,7 @@
 //!   blended model; the strain spread (30) is at round-off.
 //! * The asymmetry of `A` is confined to transition rows.
 
-use linpd_blend::{solve_model, BlendOperator, BlendParams, BlendSolver, Blending, ModelKind, Regions};
+use linpd_blend::{solve_model, BlendOperator, BlendParams, BlendSolver, Blending, Load, ModelKind, Regions};
 use linpd_core::Kernel;
 
 fn blendings() -> Vec<Blending> {
@@ -180,5 +180,45 @@ fn asymmetry_is_confined_to_transition_rows() {
             }
         }
         assert!(asym_rows > 0, "the blended operator should not be symmetric");
+    }
+}
+
+/// The three solvers of the 1D models go through linpd-solve's one static solve and agree:
+/// `auto` on the blended operator is GMRES preconditioned by the Cholesky factor of the
+/// divergence form in a few iterations; with HOG the symmetric part `(A + A^T)/2` is indefinite
+/// (the 5-point fourth-derivative terms), so `auto` falls back to band LU and says why in the
+/// report's note; sparse LU and dense LU / Cholesky give the same displacements. Tolerance: kappa ~ (L/dx)^2 = 1e5 at dx = 1/300, so
+/// backward-stable solves agree to ~kappa eps = 2e-11; 1e-9 leaves a margin for GMRES's
+/// backward-error stop. Residuals of the direct solves: `<= n eps kappa ~ 7e-9` for a
+/// backward-stable solve (measured up to 1.8e-12, band LU on the blended operator); 1e-9.
+#[test]
+fn solver_paths_agree_and_auto_is_preconditioned_gmres() {
+    let load = [Load::Point { x: 0.5, force: 1.0 }];
+    let mut hog = BlendParams::table3(Blending::Linear);
+    hog.hog = true;
+    let cases = [
+        (BlendParams::table3(Blending::Linear), ModelKind::Blended, "cholesky(divergence form)+gmres"),
+        (BlendParams::table3(Blending::Cubic), ModelKind::Blended, "cholesky(divergence form)+gmres"),
+        (hog, ModelKind::Blended, "lu-band"),
+        (BlendParams::table3(Blending::Cubic), ModelKind::PureCe, "cholesky-band"),
+        (BlendParams::table3(Blending::Cubic), ModelKind::PurePd, "cholesky-band"),
+    ];
+    for (p, kind, auto_name) in cases {
+        let auto = solve_model(&p, kind, 0.0, 0.0, &load, BlendSolver::Auto).unwrap();
+        assert_eq!(auto.report.solver.to_string(), auto_name, "{kind:?} hog={}: {:?}", p.hog, auto.report.note);
+        if auto_name == "lu-band" {
+            let note = auto.report.note.as_deref().unwrap_or_default();
+            assert!(note.contains("not positive definite"), "HOG fallback note: {note:?}");
+        } else if kind == ModelKind::Blended {
+            let it = auto.report.iterations.unwrap();
+            assert!(it <= 12, "{kind:?} hog={}: {it} GMRES iterations", p.hog);
+        }
+        let scale = auto.u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for solver in [BlendSolver::Lu, BlendSolver::Dense] {
+            let s = solve_model(&p, kind, 0.0, 0.0, &load, solver).unwrap();
+            let diff = s.u.iter().zip(&auto.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(diff <= 1e-9 * scale, "{kind:?} {solver:?}: max |u - u_auto| = {diff:e} (scale {scale:e})");
+            assert!(s.report.rel_residual <= 1e-9, "{kind:?} {solver:?}: residual {:e}", s.report.rel_residual);
+        }
     }
 }

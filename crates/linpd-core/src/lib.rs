@@ -40,7 +40,7 @@ pub use family::BondFamily;
 pub use grid::{Grid, Placement};
 pub use kernel::{Kernel, Micromodulus, Normalization, PlaneModel};
 pub use material::{BondRule, Defect, Material};
-pub use model::{AssembledModel, FastApply, Model, ModelOperator, Ordering};
+pub use model::{AssembledModel, FastApply, Model, ModelOperator, Ordering, SpdApproximation, SpdApproximationKind};
 pub use op::{FnOperator, LinearOperator};
 pub use ordering::nested_dissection;
 pub use region::Region;

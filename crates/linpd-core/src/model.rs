@@ -26,11 +26,33 @@ use crate::{DofMap, Point};
 pub enum Ordering {
     /// faer's approximate minimum degree.
     Amd,
-    /// The natural order (already fill-optimal for a 1D band).
+    /// The natural order (already fill-optimal for a 1D lattice).
     Natural,
+    /// The natural order of a banded `A` (1D models): Cholesky and LU both keep the band (the
+    /// LU analysis is told not to reorder columns).
+    Band,
     /// A model-specific permutation `perm[new] = old` of the free DOFs (e.g. nested dissection
     /// on the lattice).
     NestedDissection(Vec<usize>),
+}
+
+/// Which SPD approximation of an unsymmetric `A` a model offers (for reports).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpdApproximationKind {
+    /// A model-specific SPD rewrite (e.g. the blended model's local part in divergence form).
+    DivergenceForm,
+    /// The symmetric part `(A_ff + A_ff^T) / 2`.
+    SymmetricPart,
+}
+
+/// An SPD matrix `M_ff` close to an unsymmetric `A_ff`: GMRES preconditioned with its
+/// Cholesky factor needs a handful of iterations where `A - M` is small.
+#[derive(Debug, Clone)]
+pub struct SpdApproximation {
+    /// `M_ff` on the free DOFs (both triangles).
+    pub matrix: Csc,
+    /// What it is.
+    pub kind: SpdApproximationKind,
 }
 
 /// A cheaper way to apply `A` over all DOFs than [`Model::apply`], with a label for reports.
@@ -62,9 +84,10 @@ pub trait Model: Sync {
     /// `A_ff`: the rows and columns of the free DOFs of `dofs`, assembled (both triangles,
     /// sorted rows in each column).
     fn assemble_free(&self, dofs: &DofMap) -> Csc;
-    /// `max |A - A^T| / max |A|`; the solvers treat `A` as symmetric when it is at most
-    /// [`crate::sparse::SYMMETRY_RTOL`].
-    fn asymmetry(&self) -> f64 {
+    /// `max |A_ff - A_ff^T| / max |A_ff|` over the free DOFs of `dofs` (a model may return a
+    /// bound, e.g. that of the full `A`); the solvers treat `A_ff` as symmetric when it is at
+    /// most [`crate::sparse::SYMMETRY_RTOL`].
+    fn asymmetry(&self, _dofs: &DofMap) -> f64 {
         0.0
     }
     /// A fill-reducing ordering of the free DOFs for a sparse Cholesky.
@@ -73,6 +96,11 @@ pub trait Model: Sync {
     }
     /// A cheaper matrix-free apply than [`Model::apply`], if the model has one.
     fn fast_apply(&self) -> Option<FastApply<'_>> {
+        None
+    }
+    /// For an unsymmetric `A`: an SPD approximation of `A_ff` whose Cholesky factor
+    /// preconditions GMRES under `auto` (`None`: `auto` uses sparse LU).
+    fn spd_approximation(&self, _dofs: &DofMap) -> Option<SpdApproximation> {
         None
     }
     /// Why the model cannot run matrix-free (`None`: it can).
@@ -162,6 +190,11 @@ impl AssembledModel {
         &self.k
     }
 
+    /// `max |K - K^T| / max |K|` over all DOFs (computed once).
+    pub fn stiffness_asymmetry(&self) -> f64 {
+        *self.asymmetry.get_or_init(|| crate::sparse::relative_asymmetry(&self.k))
+    }
+
     /// The interaction graph (nonzero off-diagonal blocks, both directions).
     pub fn partners(&self) -> &crate::BondFamily {
         &self.partners
@@ -193,8 +226,9 @@ impl Model for AssembledModel {
     fn assemble_free(&self, dofs: &DofMap) -> Csc {
         crate::sparse::restrict_to_free(&self.k, dofs)
     }
-    fn asymmetry(&self) -> f64 {
-        *self.asymmetry.get_or_init(|| crate::sparse::relative_asymmetry(&self.k))
+    /// That of the full `K`: a bound for `A_ff`, computed once whatever the constraints.
+    fn asymmetry(&self, _dofs: &DofMap) -> f64 {
+        self.stiffness_asymmetry()
     }
     fn matrix_free_unavailable(&self) -> Option<&'static str> {
         Some("K is read assembled")

@@ -89,6 +89,65 @@ pub fn restrict_to_free(a: &Csc, dofs: &DofMap) -> Csc {
     SparseColMat::new(SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows), vals)
 }
 
+/// The CSC matrix of `n x n` CSR arrays `(row_ptr, col, val)` (a counting-sort transpose;
+/// columns come out sorted in each CSC column's rows when `col` is sorted in each row).
+pub fn csr_to_csc(n: usize, row_ptr: &[usize], col: &[usize], val: &[f64]) -> Csc {
+    let mut col_ptr = vec![0usize; n + 1];
+    for &c in col {
+        col_ptr[c + 1] += 1;
+    }
+    for i in 0..n {
+        col_ptr[i + 1] += col_ptr[i];
+    }
+    let mut next = col_ptr.clone();
+    let (mut rows, mut vals) = (vec![0usize; col.len()], vec![0.0; col.len()]);
+    for i in 0..n {
+        for p in row_ptr[i]..row_ptr[i + 1] {
+            let q = next[col[p]];
+            rows[q] = i;
+            vals[q] = val[p];
+            next[col[p]] += 1;
+        }
+    }
+    SparseColMat::new(SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows), vals)
+}
+
+/// `(A + A^T) / 2` of a square CSC matrix with sorted row indices in each column.
+pub fn symmetric_part(a: &Csc) -> Csc {
+    let n = a.ncols();
+    let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
+    // The CSC arrays of A^T are the CSR arrays of A: transpose once, then merge column by column.
+    let t = csr_to_csc(n, cp, ri, v);
+    let (tp, ti, tv) = (t.symbolic().col_ptr(), t.symbolic().row_idx(), t.val());
+    let (mut col_ptr, mut rows, mut vals) = (vec![0usize], Vec::new(), Vec::new());
+    for j in 0..n {
+        let (mut p, mut q) = (cp[j], tp[j]);
+        while p < cp[j + 1] || q < tp[j + 1] {
+            let rp = if p < cp[j + 1] { ri[p] } else { usize::MAX };
+            let rq = if q < tp[j + 1] { ti[q] } else { usize::MAX };
+            let (r, x) = match rp.cmp(&rq) {
+                std::cmp::Ordering::Equal => {
+                    p += 1;
+                    q += 1;
+                    (rp, 0.5 * (v[p - 1] + tv[q - 1]))
+                }
+                std::cmp::Ordering::Less => {
+                    p += 1;
+                    (rp, 0.5 * v[p - 1])
+                }
+                std::cmp::Ordering::Greater => {
+                    q += 1;
+                    (rq, 0.5 * tv[q - 1])
+                }
+            };
+            rows.push(r);
+            vals.push(x);
+        }
+        col_ptr.push(rows.len());
+    }
+    SparseColMat::new(SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows), vals)
+}
+
 /// `max |A - A^T| / max |A|` of a square CSC matrix, duplicates summed (0 when `A = 0`).
 pub fn relative_asymmetry(a: &Csc) -> f64 {
     let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());

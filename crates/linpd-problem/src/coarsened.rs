@@ -22,7 +22,7 @@ use crate::problem::{constraints_and_loads, solver_spec, LevelNodes, Nodes};
 use crate::raw::{RawModelKind, RawProblem};
 use crate::run::static_error;
 use crate::{ModelSpec, Problem, ProblemError, Solution};
-use linpd_core::{AssembledModel, Model};
+use linpd_core::AssembledModel;
 use linpd_solve::{solve_model, Dirichlet};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -141,7 +141,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
     let solver = solver_spec(&raw.solver)?;
     let model = AssembledModel::new("coarsened", dim, file.positions.clone(), file.stiffness())
         .with_labels("level-0 node", file.level0.clone());
-    let asymmetry = model.asymmetry();
+    let asymmetry = model.stiffness_asymmetry();
     let mut pairs: Vec<(usize, usize)> =
         file.entries.iter().filter(|e| e.2 != 0.0).map(|e| (e.0 / dim, e.1 / dim)).collect();
     pairs.sort_unstable();

@@ -21,7 +21,7 @@ pub mod spec;
 pub mod statics;
 
 pub use bc::{Dirichlet, ReducedOperator};
-pub use direct::{dense_solve, Cholesky, CholeskyFactor, Lu, LuFactor, LuOrdering, DENSE_LIMIT};
+pub use direct::{dense_lu_solve, dense_solve, Cholesky, CholeskyFactor, Lu, LuFactor, LuOrdering, DENSE_LIMIT};
 pub use krylov::cg::{pcg, CgError, CgInfo, CgParams};
 pub use krylov::gmres::{gmres, GmresError, GmresInfo, GmresParams};
 pub use linpd_core::sparse::{diagonal, matvec, relative_residual, sym_matvec, GeneralCsc, SymCsc};

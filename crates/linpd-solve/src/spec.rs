@@ -46,9 +46,9 @@ pub enum SolverSpec {
     Auto(CgParams),
     /// Sparse Cholesky (the model's ordering, else AMD).
     Cholesky,
-    /// Sparse LU (COLAMD).
+    /// Sparse LU (COLAMD; keeping the band of a banded model).
     Lu,
-    /// Dense Cholesky (tiny systems).
+    /// Dense Cholesky, or dense LU with partial pivoting for an unsymmetric `A` (small systems).
     Dense,
     /// Preconditioned CG.
     Cg {
@@ -136,14 +136,9 @@ pub enum MatrixFree {
     Fast(&'static str),
 }
 
-/// The Cholesky factor preconditioning GMRES in linpd-blend.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum GmresPreconditioner {
-    /// The divergence-form part of the blended operator.
-    DivergenceForm,
-    /// The symmetric part `(A + A^T)/2`.
-    SymmetricPart,
-}
+/// The SPD matrix whose Cholesky factor preconditions GMRES (a model's
+/// [`linpd_core::SpdApproximation`]).
+pub use linpd_core::SpdApproximationKind as GmresPreconditioner;
 
 /// The solver that ran. Displayed (and serialized) as the short names of the reports:
 /// `cholesky-nd`, `cholesky-amd`, `lu`, `cg-jacobi-matrix-free-stencil`, ...

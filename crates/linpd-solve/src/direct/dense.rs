@@ -1,4 +1,4 @@
-//! Dense Cholesky for tiny systems (and as an independent reference in tests).
+//! Dense Cholesky and LU for small systems (and as an independent reference in tests).
 
 use crate::SolveError;
 use faer::linalg::cholesky::llt::factor::LltError as DenseLltError;
@@ -8,8 +8,8 @@ use faer::{Conj, Mat, MatMut, Side};
 /// Largest system the dense solver accepts (8 * n^2 bytes = 800 MB at the limit).
 pub const DENSE_LIMIT: usize = 10_000;
 
-/// Dense Cholesky of a (small) SPD matrix given in CSC form.
-pub fn dense_solve(a: &SparseColMat<usize, f64>, b: &[f64]) -> Result<Vec<f64>, SolveError> {
+/// The dense copy of a small CSC matrix (duplicates summed), refused above [`DENSE_LIMIT`].
+fn densify(a: &SparseColMat<usize, f64>) -> Result<Mat<f64>, SolveError> {
     let n = a.nrows();
     if n > DENSE_LIMIT {
         return Err(SolveError::TooLargeForDense { n, limit: DENSE_LIMIT });
@@ -22,6 +22,24 @@ pub fn dense_solve(a: &SparseColMat<usize, f64>, b: &[f64]) -> Result<Vec<f64>, 
             m[(ri[p], j)] += a.val()[p];
         }
     }
+    Ok(m)
+}
+
+/// Dense LU with partial pivoting of a (small, possibly unsymmetric) matrix in CSC form.
+/// A zero or non-finite solution is reported by the caller's residual check: faer's partial
+/// pivoting LU does not fail on singular matrices.
+pub fn dense_lu_solve(a: &SparseColMat<usize, f64>, b: &[f64]) -> Result<Vec<f64>, SolveError> {
+    use faer::prelude::Solve;
+    let n = a.nrows();
+    let lu = densify(a)?.partial_piv_lu();
+    let x = lu.solve(Mat::<f64>::from_fn(n, 1, |i, _| b[i]));
+    Ok((0..n).map(|i| x[(i, 0)]).collect())
+}
+
+/// Dense Cholesky of a (small) SPD matrix given in CSC form.
+pub fn dense_solve(a: &SparseColMat<usize, f64>, b: &[f64]) -> Result<Vec<f64>, SolveError> {
+    let n = a.nrows();
+    let m = densify(a)?;
     let llt = m.llt(Side::Lower).map_err(|e| match e {
         DenseLltError::NonPositivePivot { index } => SolveError::NotPositiveDefinite { dof: index },
     })?;

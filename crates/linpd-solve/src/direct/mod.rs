@@ -6,5 +6,5 @@ mod dense;
 mod lu;
 
 pub use cholesky::{Cholesky, CholeskyFactor};
-pub use dense::{dense_solve, DENSE_LIMIT};
+pub use dense::{dense_lu_solve, dense_solve, DENSE_LIMIT};
 pub use lu::{Lu, LuFactor, LuOrdering};
