@@ -155,7 +155,7 @@ fn bar_1d_cli_and_library_match_a_dense_solve() {
     // Library (the relative moduli path resolves against the scene's directory).
     let p = Problem::from_path(&scene).unwrap();
     let ModelSpec::Coarsened(c) = p.model() else { panic!("expected a coarsened scene") };
-    assert_eq!((p.dim(), c.level, p.nodes().len()), (1, 1, 41));
+    assert_eq!((p.dim(), c.level(), p.nodes().len()), (1, 1, 41));
     assert!(c.is_symmetric());
     let s = p.solve(&|_| {}).unwrap();
     assert_eq!(s.report.solver.to_string(), "cholesky-amd");

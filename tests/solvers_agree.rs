@@ -48,8 +48,8 @@ fn second_material_reuses_pattern_and_symbolic_factorization() {
     material.phases.push((Region::Box { min: vec![0.3, 0.1], max: vec![0.6, 0.4] }, 5.0));
     material.rule = BondRule::Min;
     let bond = p.model().bond().expect("plate-tension-2d is a bond scene");
-    let op2 =
-        BondOperator::on_grid(p.grid().expect("a lattice scene"), bond.horizon, &bond.micromodulus, &material).unwrap();
+    let op2 = BondOperator::on_grid(p.grid().expect("a lattice scene"), bond.horizon(), bond.micromodulus(), &material)
+        .unwrap();
     assert_eq!(op1.family(), op2.family());
 
     let pattern = Pattern::new(&op1, &dofs);

@@ -233,12 +233,12 @@ fn run(cli: Cli) -> Result<(), CliError> {
                 (ModelSpec::Coarsened(c), _) => println!(
                     "{}: valid; coarsened level {} from {}, dimension {}, {} nodes, {} bonded pairs, K {}, {} constrained DOFs, {} loads",
                     p.name(),
-                    c.level,
-                    c.moduli_path.display(),
+                    c.level(),
+                    c.moduli_path().display(),
                     p.dim(),
                     p.nodes().len(),
-                    c.n_bonds,
-                    if c.is_symmetric() { "symmetric".to_string() } else { format!("unsymmetric (relative asymmetry {:.2e})", c.asymmetry) },
+                    c.n_bonds(),
+                    if c.is_symmetric() { "symmetric".to_string() } else { format!("unsymmetric (relative asymmetry {:.2e})", c.asymmetry()) },
                     constrained,
                     p.loads().len()
                 ),

@@ -35,20 +35,51 @@ pub use linpd_core::sparse::SYMMETRY_RTOL;
 #[derive(Debug, Clone)]
 pub struct CoarsenedModel {
     /// Coarsening level of the file.
-    pub level: usize,
+    pub(crate) level: usize,
     /// The moduli file (resolved against the scene's directory).
-    pub moduli_path: PathBuf,
+    pub(crate) moduli_path: PathBuf,
     /// Index of each node in the level-0 model.
-    pub level0: Vec<usize>,
+    pub(crate) level0: Vec<usize>,
     /// The level as a model: its nodal stiffness `K` (`dim * n` square, CSC).
-    pub model: AssembledModel,
+    pub(crate) model: AssembledModel,
     /// Bonded pairs: nonzero off-diagonal blocks of `K` (each pair counted from both ends when
     /// both directions are stored).
-    pub n_bonds: usize,
+    pub(crate) n_bonds: usize,
     /// `max |K - K^T| / max |K|`.
-    pub asymmetry: f64,
+    pub(crate) asymmetry: f64,
     /// Seconds spent reading the files and building `K`.
-    pub build_seconds: f64,
+    pub(crate) build_seconds: f64,
+}
+
+impl CoarsenedModel {
+    /// Coarsening level of the file.
+    pub fn level(&self) -> usize {
+        self.level
+    }
+    /// The moduli file (resolved against the scene's directory).
+    pub fn moduli_path(&self) -> &std::path::Path {
+        &self.moduli_path
+    }
+    /// Index of each node in the level-0 model.
+    pub fn level0(&self) -> &[usize] {
+        &self.level0
+    }
+    /// The level as a model (its stiffness `K`).
+    pub fn model(&self) -> &AssembledModel {
+        &self.model
+    }
+    /// Bonded pairs: nonzero off-diagonal blocks of `K`.
+    pub fn n_bonds(&self) -> usize {
+        self.n_bonds
+    }
+    /// `max |K - K^T| / max |K|`.
+    pub fn asymmetry(&self) -> f64 {
+        self.asymmetry
+    }
+    /// Seconds spent reading the files and building `K`.
+    pub fn build_seconds(&self) -> f64 {
+        self.build_seconds
+    }
 }
 
 impl CoarsenedModel {

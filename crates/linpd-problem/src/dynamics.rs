@@ -110,17 +110,44 @@ impl Initial {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dynamics {
     /// The time step.
-    pub step: TimeStep,
+    pub(crate) step: TimeStep,
     /// Number of steps.
-    pub steps: usize,
+    pub(crate) steps: usize,
     /// Snapshot interval (steps).
-    pub output_every: usize,
+    pub(crate) output_every: usize,
     /// Mass density.
-    pub density: f64,
+    pub(crate) density: f64,
     /// Initial displacement.
-    pub initial: Initial,
+    pub(crate) initial: Initial,
     /// Run above the stability limit.
-    pub allow_unstable: bool,
+    pub(crate) allow_unstable: bool,
+}
+
+impl Dynamics {
+    /// The time step.
+    pub fn step(&self) -> &TimeStep {
+        &self.step
+    }
+    /// Number of steps.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+    /// Snapshot interval (steps).
+    pub fn output_every(&self) -> usize {
+        self.output_every
+    }
+    /// Mass density.
+    pub fn density(&self) -> f64 {
+        self.density
+    }
+    /// Initial displacement.
+    pub fn initial(&self) -> &Initial {
+        &self.initial
+    }
+    /// Run above the stability limit.
+    pub fn allow_unstable(&self) -> bool {
+        self.allow_unstable
+    }
 }
 
 fn positive(path: &str, x: f64) -> Result<f64, ProblemError> {

@@ -13,13 +13,32 @@ use std::path::Path;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Constraint {
     /// Where.
-    pub region: Region,
+    pub(crate) region: Region,
     /// Constant part.
-    pub value: Vec<f64>,
+    pub(crate) value: Vec<f64>,
     /// Gradient `H` (row-major `dim x dim`).
-    pub gradient: Vec<f64>,
+    pub(crate) gradient: Vec<f64>,
     /// Constrained components.
-    pub components: Vec<usize>,
+    pub(crate) components: Vec<usize>,
+}
+
+impl Constraint {
+    /// Where.
+    pub fn region(&self) -> &Region {
+        &self.region
+    }
+    /// Constant part.
+    pub fn value(&self) -> &[f64] {
+        &self.value
+    }
+    /// Gradient `H` (row-major `dim x dim`).
+    pub fn gradient(&self) -> &[f64] {
+        &self.gradient
+    }
+    /// Constrained components.
+    pub fn components(&self) -> &[usize] {
+        &self.components
+    }
 }
 
 impl Constraint {
@@ -53,11 +72,26 @@ pub enum Load {
 #[derive(Debug, Clone, PartialEq)]
 pub struct BondModel {
     /// Horizon.
-    pub horizon: f64,
+    pub(crate) horizon: f64,
     /// Micromodulus.
-    pub micromodulus: Micromodulus,
+    pub(crate) micromodulus: Micromodulus,
     /// Material.
-    pub material: Material,
+    pub(crate) material: Material,
+}
+
+impl BondModel {
+    /// Horizon.
+    pub fn horizon(&self) -> f64 {
+        self.horizon
+    }
+    /// Micromodulus.
+    pub fn micromodulus(&self) -> &Micromodulus {
+        &self.micromodulus
+    }
+    /// Material.
+    pub fn material(&self) -> &Material {
+        &self.material
+    }
 }
 
 /// The validated model of a lattice scene: one variant per `model.type`, each holding only
@@ -134,17 +168,44 @@ pub struct Problem {
 #[derive(Debug, Clone)]
 pub struct BlendScene {
     /// Operator parameters.
-    pub params: linpd_blend::BlendParams,
+    pub(crate) params: linpd_blend::BlendParams,
     /// Blended or pure CE.
-    pub kind: linpd_blend::ModelKind,
+    pub(crate) kind: linpd_blend::ModelKind,
     /// `u(0)`.
-    pub u_left: f64,
+    pub(crate) u_left: f64,
     /// `u(L)`.
-    pub u_right: f64,
+    pub(crate) u_right: f64,
     /// Loads.
-    pub loads: Vec<linpd_blend::Load>,
+    pub(crate) loads: Vec<linpd_blend::Load>,
     /// Solver.
-    pub solver: linpd_blend::BlendSolver,
+    pub(crate) solver: linpd_blend::BlendSolver,
+}
+
+impl BlendScene {
+    /// Operator parameters.
+    pub fn params(&self) -> &linpd_blend::BlendParams {
+        &self.params
+    }
+    /// Blended or pure CE.
+    pub fn kind(&self) -> linpd_blend::ModelKind {
+        self.kind
+    }
+    /// `u(0)`.
+    pub fn u_left(&self) -> f64 {
+        self.u_left
+    }
+    /// `u(L)`.
+    pub fn u_right(&self) -> f64 {
+        self.u_right
+    }
+    /// Loads.
+    pub fn loads(&self) -> &[linpd_blend::Load] {
+        &self.loads
+    }
+    /// Solver.
+    pub fn solver(&self) -> linpd_blend::BlendSolver {
+        self.solver
+    }
 }
 
 /// Largest estimated operator memory a scene may ask for (the machines are 24 GiB).
