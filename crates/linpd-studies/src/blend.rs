@@ -309,7 +309,7 @@ pub(crate) fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
         "PD: {} unknowns, {t_pd:.3} s ({}){}",
         pd.report.n,
         pd.report.solver,
-        t_pd_dense.map_or(String::new(), |t| format!(", dense LU {t:.1} s"))
+        t_pd_dense.map_or(String::new(), |t| format!(", dense {t:.1} s"))
     );
     println!(
         "{:>6} {:>8} {:>12} {:>10} {:>9} {:>12} {:>22}",
@@ -387,7 +387,7 @@ pub(crate) fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
     )?;
     let mut sp = vec![series("sparse, best solvers", rs.clone(), sps, SeriesStyle::LineMarkers)];
     if dsps.len() == rs.len() {
-        sp.push(series("dense LU (MATLAB-like)", rs.clone(), dsps, SeriesStyle::LineMarkers));
+        sp.push(series("dense (MATLAB-like: Cholesky for PD, LU blended)", rs.clone(), dsps, SeriesStyle::LineMarkers));
     }
     loglog(dir, "fig14d_speedup_vs_ratio", "Speedup t_PD / t_blended vs CE mesh ratio", "dx_CE / dx", "speedup", sp)
 }
