@@ -87,3 +87,34 @@ fn lu_solves_unsymmetric_systems_and_reuses_its_analysis() {
         assert!(worst <= 1e-12 * u.iter().fold(0.0f64, |m, v| m.max(v.abs())), "{ordering:?}: {worst:e}");
     }
 }
+
+/// The flop count of the symbolic analysis matches the closed forms: a tridiagonal matrix
+/// (simplicial: `c_j = 2` but the last column, `4 (n - 1) + 1`) and a dense one (supernodal:
+/// `c_j = n - j`, `sum = n (n + 1) (2n + 1) / 6`). Exact integers in f64.
+#[test]
+fn cholesky_flops_follow_the_column_counts() {
+    let n = 50;
+    let mut t = Vec::new();
+    for i in 0..n {
+        t.push(Triplet::new(i, i, 4.0));
+        if i + 1 < n {
+            t.push(Triplet::new(i, i + 1, -1.0));
+            t.push(Triplet::new(i + 1, i, -1.0));
+        }
+    }
+    let tri = SparseColMat::try_new_from_triplets(n, n, &t).unwrap();
+    let natural: Vec<usize> = (0..n).collect();
+    let chol = Cholesky::analyze_with_ordering(&tri, Some(&natural)).unwrap();
+    assert_eq!(chol.flops(), (4 * (n - 1) + 1) as f64);
+    let n = 300;
+    let mut t = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            t.push(Triplet::new(i, j, if i == j { n as f64 } else { 1.0 }));
+        }
+    }
+    let dense = SparseColMat::try_new_from_triplets(n, n, &t).unwrap();
+    let natural: Vec<usize> = (0..n).collect();
+    let chol = Cholesky::analyze_with_ordering(&dense, Some(&natural)).unwrap();
+    assert_eq!(chol.flops(), (n * (n + 1) * (2 * n + 1) / 6) as f64);
+}

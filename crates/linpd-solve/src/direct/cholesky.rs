@@ -63,6 +63,28 @@ impl Cholesky {
         self.symbolic.len_val()
     }
 
+    /// Floating-point operations of the numeric factorization, `sum_j c_j^2` with `c_j` the
+    /// entries of column `j` of `L` (diagonal included): the standard count of a left-looking
+    /// or multifrontal `L L^T` (George & Liu 1981), known from the symbolic analysis alone.
+    pub fn flops(&self) -> f64 {
+        let sq = |c: usize| (c as f64) * (c as f64);
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Simplicial(s) => s.col_ptr().windows(2).map(|w| sq(w[1] - w[0])).sum(),
+            SymbolicCholeskyRaw::Supernodal(s) => {
+                // Supernode k: columns begin..end share the rows below the diagonal block, so
+                // its i-th column holds (width - i) diagonal-block entries plus those rows.
+                let (begin, end, rows) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_row_idx());
+                (0..s.n_supernodes())
+                    .map(|k| {
+                        let width = end[k] - begin[k];
+                        let below = rows[k + 1] - rows[k];
+                        (0..width).map(|i| sq(width - i + below)).sum::<f64>()
+                    })
+                    .sum()
+            }
+        }
+    }
+
     /// How many [`Cholesky`] handles share this analysis (tests use it to prove reuse).
     pub fn share_count(&self) -> usize {
         Arc::strong_count(&self.symbolic)
