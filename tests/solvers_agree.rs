@@ -87,3 +87,16 @@ fn auto_uses_the_scenes_cg_parameters_when_it_picks_cg() {
         Ok(s) => panic!("converged in {:?} iterations with max_iter = 1", s.report.iterations),
     }
 }
+
+/// `auto` decides by the cost model and says how: on the 2D plate sparse Cholesky is estimated
+/// cheaper than Jacobi-PCG (a 2D factor is nearly linear in n), on the 3D cube Jacobi-PCG (the
+/// 3D factor's fill); both estimates are in the report.
+#[test]
+fn auto_picks_by_estimated_cost_and_reports_the_estimates() {
+    for (file, expect) in [("plate-tension-2d.json", "cholesky-nd"), ("cube-compression-3d.json", "cg-jacobi")] {
+        let s = scene(file).solve(&|_| {}).unwrap();
+        assert_eq!(s.report.solver.to_string(), expect, "{file}: {:?}", s.report.auto);
+        let line = s.report.auto.clone().unwrap_or_default();
+        assert!(line.contains("cholesky-nd est.") && line.contains("cg-jacobi est."), "{file}: {line}");
+    }
+}

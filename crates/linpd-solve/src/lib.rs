@@ -13,6 +13,7 @@
 #![deny(missing_docs)]
 
 pub mod bc;
+pub mod cost;
 pub mod direct;
 pub mod krylov;
 pub mod precond;

@@ -26,12 +26,19 @@ pub struct SolveReport {
     /// Why this solver ran when the scene asked for another (e.g. `K` unsymmetric).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
+    /// How `auto` chose: each candidate's estimated time and what it rests on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto: Option<String>,
     /// Unknowns (free DOFs).
     pub n: usize,
     /// Stored entries of the reduced stiffness (both triangles; 0 when matrix-free).
     pub nnz_a: usize,
     /// Stored entries of the factor (direct solvers).
     pub nnz_factor: Option<usize>,
+    /// Floating-point operations of the factorization (sparse Cholesky: from its symbolic
+    /// analysis, [`crate::Cholesky::flops`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub factor_flops: Option<f64>,
     /// Krylov iterations (iterative solvers).
     pub iterations: Option<usize>,
     /// `||A u - f|| / ||f||` recomputed after the solve.
@@ -48,9 +55,11 @@ impl SolveReport {
         SolveReport {
             solver,
             note: None,
+            auto: None,
             n,
             nnz_a,
             nnz_factor: None,
+            factor_flops: None,
             iterations: None,
             rel_residual: f64::NAN,
             timings: Timings::default(),

@@ -73,21 +73,13 @@ impl SolverSpec {
         SolverSpec::Cg { params, preconditioner: PreconditionerKind::Jacobi, matrix_free: false }
     }
 
-    /// The solver `auto` stands for with `n` unknowns in dimension `dim` (other specs are
-    /// returned unchanged).
-    ///
-    /// 1D operators are banded and badly conditioned (kappa ~ (N/m)^2): always direct. 2D up to
-    /// 200k unknowns: direct. 3D: direct only up to 3000 unknowns. With faer's AMD ordering the
-    /// 3D fill is large: a 23^3-node cube with delta = 3h (28k unknowns) took 10.6 s and 1.1 GiB
-    /// by Cholesky against 0.44 s by Jacobi-PCG on this 2-core machine.
-    pub fn resolve(&self, dim: usize, n: usize) -> SolverSpec {
+    /// The solver `auto` stands for before looking at the matrix (other specs are returned
+    /// unchanged): in 1D always sparse Cholesky (banded operators, badly conditioned:
+    /// kappa ~ (N/m)^2); in 2D and 3D `auto` itself, decided on the assembled matrix by the
+    /// cost model of [`crate::cost`].
+    pub fn resolve(&self, dim: usize, _n: usize) -> SolverSpec {
         match self {
-            SolverSpec::Auto(cg) => match dim {
-                1 => SolverSpec::Cholesky,
-                2 if n <= 200_000 => SolverSpec::Cholesky,
-                3 if n <= 3_000 => SolverSpec::Cholesky,
-                _ => SolverSpec::cg(cg.clone()),
-            },
+            SolverSpec::Auto(_) if dim == 1 => SolverSpec::Cholesky,
             other => other.clone(),
         }
     }

@@ -10,12 +10,14 @@
 //! 4. `u = u_bar + u_f`, checked finite.
 
 use crate::bc::{Dirichlet, ReducedOperator};
+use crate::cost;
 use crate::direct::{dense_lu_solve, dense_solve, Cholesky, Lu, LuOrdering};
 use crate::krylov::cg::pcg;
 use crate::krylov::gmres::{gmres, GmresParams};
 use crate::precond::FactorPreconditioner;
 use crate::report::peak_rss_bytes;
-use crate::spec::{CholeskyOrdering, MatrixFree, SolverId, SolverSpec};
+use crate::spec::{CholeskyOrdering, MatrixFree, PreconditionerKind, SolverId, SolverSpec};
+use crate::CgParams;
 use crate::{SolveError, SolveReport};
 use linpd_core::sparse::{diagonal, relative_residual, Csc, GeneralCsc, SymCsc, SYMMETRY_RTOL};
 use linpd_core::{check_support, LinearOperator, Model, ModelOperator, Ordering, SpdApproximation, Unsupported};
@@ -39,12 +41,15 @@ pub struct MatrixHints {
     /// For an unsymmetric `A`: an SPD approximation whose Cholesky factor preconditions GMRES
     /// under `auto`.
     pub spd: Option<SpdApproximation>,
+    /// Nodes along the body's longest side ([`crate::cost::nodes_along_longest_side`]), for
+    /// `auto`'s iteration estimates (`None`: `(n / dim)^(1/dim)`, a cube).
+    pub n_side: Option<f64>,
 }
 
 impl MatrixHints {
     /// A symmetric matrix in dimension `dim`, AMD ordering.
     pub fn symmetric(dim: usize) -> Self {
-        MatrixHints { dim, asymmetry: 0.0, ordering: Ordering::Amd, spd: None }
+        MatrixHints { dim, asymmetry: 0.0, ordering: Ordering::Amd, spd: None, n_side: None }
     }
 }
 
@@ -69,7 +74,8 @@ pub fn solve_assembled(
     let t0 = Instant::now();
     let (u, mut report) = if symmetric {
         match &resolved {
-            SolverSpec::Cholesky | SolverSpec::Auto(_) => cholesky(a, f, &hints.ordering)?,
+            SolverSpec::Auto(params) => auto(a, f, params, hints)?,
+            SolverSpec::Cholesky => cholesky(a, f, analyze_cholesky(a, &hints.ordering)?)?,
             SolverSpec::Lu => lu(a, f, &hints.ordering)?,
             SolverSpec::Dense => {
                 let mut report = SolveReport::new(SolverId::Dense, n, a.val().len());
@@ -79,17 +85,7 @@ pub fn solve_assembled(
                 report.nnz_factor = Some(n * (n + 1) / 2);
                 (u, report)
             }
-            SolverSpec::Cg { params, preconditioner, matrix_free: _ } => {
-                let id = SolverId::Cg { preconditioner: *preconditioner, matrix_free: MatrixFree::No };
-                let mut report = SolveReport::new(id, n, a.val().len());
-                let t = Instant::now();
-                let m_inv = preconditioner.build(&diagonal(a))?;
-                let mut u = vec![0.0; n];
-                let info = pcg(&SymCsc(a), &m_inv, f, &mut u, params)?;
-                report.timings.solve = t.elapsed().as_secs_f64();
-                report.iterations = Some(info.iterations);
-                (u, report)
-            }
+            SolverSpec::Cg { params, preconditioner, matrix_free: _ } => assembled_cg(a, f, params, *preconditioner)?,
         }
     } else {
         match (&resolved, &hints.spd) {
@@ -132,8 +128,8 @@ pub fn solve_assembled(
     Ok((u, report))
 }
 
-/// Sparse Cholesky in the model's ordering.
-fn cholesky(a: &Csc, f: &[f64], ordering: &Ordering) -> Result<(Vec<f64>, SolveReport), SolveError> {
+/// The symbolic analysis of a sparse Cholesky in the model's ordering, timed.
+fn analyze_cholesky(a: &Csc, ordering: &Ordering) -> Result<(Cholesky, CholeskyOrdering, f64), SolveError> {
     let n = a.nrows();
     let natural: Vec<usize>;
     let (perm, label) = match ordering {
@@ -145,17 +141,83 @@ fn cholesky(a: &Csc, f: &[f64], ordering: &Ordering) -> Result<(Vec<f64>, SolveR
         }
         Ordering::NestedDissection(p) => (Some(p.as_slice()), CholeskyOrdering::NestedDissection),
     };
-    let mut report = SolveReport::new(SolverId::Cholesky(label), n, a.val().len());
     let t = Instant::now();
     let chol = Cholesky::analyze_with_ordering(a, perm)?;
-    report.timings.symbolic = t.elapsed().as_secs_f64();
+    Ok((chol, label, t.elapsed().as_secs_f64()))
+}
+
+/// Sparse Cholesky from its symbolic analysis ([`analyze_cholesky`]).
+fn cholesky(
+    a: &Csc,
+    f: &[f64],
+    (chol, label, t_symbolic): (Cholesky, CholeskyOrdering, f64),
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    let mut report = SolveReport::new(SolverId::Cholesky(label), a.nrows(), a.val().len());
+    report.timings.symbolic = t_symbolic;
     let t = Instant::now();
     let factor = chol.factor(a)?;
     report.timings.numeric = t.elapsed().as_secs_f64();
     report.nnz_factor = Some(chol.nnz_factor());
+    report.factor_flops = Some(chol.flops());
     let t = Instant::now();
     let u = factor.solve(f);
     report.timings.solve = t.elapsed().as_secs_f64();
+    Ok((u, report))
+}
+
+/// Preconditioned CG on the assembled `A`.
+fn assembled_cg(
+    a: &Csc,
+    f: &[f64],
+    params: &CgParams,
+    preconditioner: PreconditionerKind,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    let id = SolverId::Cg { preconditioner, matrix_free: MatrixFree::No };
+    let mut report = SolveReport::new(id, a.nrows(), a.val().len());
+    let t = Instant::now();
+    let m_inv = preconditioner.build(&diagonal(a))?;
+    let mut u = vec![0.0; a.nrows()];
+    let info = pcg(&SymCsc(a), &m_inv, f, &mut u, params)?;
+    report.timings.solve = t.elapsed().as_secs_f64();
+    report.iterations = Some(info.iterations);
+    Ok((u, report))
+}
+
+/// Above this many unknowns in 3D, `auto` does not even run the Cholesky symbolic analysis:
+/// the fill of nested dissection grows as `n^(4/3)` and at 100k unknowns with `delta = 3h`
+/// (a 32^3 cube) it is already ~1e9 entries, past [`cost::CHOLESKY_MEMORY_LIMIT`].
+pub const AUTO_3D_CHOLESKY_LIMIT: usize = 100_000;
+
+/// `auto` on a symmetric `A` in 2D/3D: the cheapest candidate by [`crate::cost`]; the report's
+/// `auto` field lists the estimates.
+fn auto(a: &Csc, f: &[f64], params: &CgParams, hints: &MatrixHints) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    let (n, dim) = (a.nrows(), hints.dim);
+    let n_side = hints.n_side.unwrap_or_else(|| (n as f64 / dim as f64).powf(1.0 / dim as f64));
+    let cg = cost::jacobi_cg(dim, a.val().len(), n_side, params);
+    let mut analyzed = None;
+    let chol = if dim == 3 && n > AUTO_3D_CHOLESKY_LIMIT {
+        cost::Estimate {
+            solver: "cholesky".into(),
+            seconds: None,
+            why: format!("3D with {n} > {AUTO_3D_CHOLESKY_LIMIT} unknowns"),
+        }
+    } else {
+        let (c, label, t) = analyze_cholesky(a, &hints.ordering)?;
+        let e = cost::cholesky(&c, SolverId::Cholesky(label).to_string());
+        analyzed = Some((c, label, t));
+        e
+    };
+    let take_cholesky = match (chol.seconds, cg.seconds) {
+        (Some(c), Some(g)) => c <= g,
+        (Some(_), None) => true,
+        _ => false,
+    };
+    let line = format!("{chol}; {cg}");
+    let (u, mut report) = match (take_cholesky, analyzed) {
+        (true, Some(analysis)) => cholesky(a, f, analysis)?,
+        _ => assembled_cg(a, f, params, PreconditionerKind::Jacobi)?,
+    };
+    report.auto = Some(line);
     Ok((u, report))
 }
 
@@ -370,7 +432,17 @@ pub fn solve_model(
                 SolverSpec::Auto(_) if asymmetry > SYMMETRY_RTOL => model.spd_approximation(dofs),
                 _ => None,
             };
-            let hints = MatrixHints { dim: d, asymmetry, ordering: model.ordering(dofs), spd };
+            let n_side = match spec {
+                // The free body's extent: nodes with at least one free DOF.
+                SolverSpec::Auto(_) if d >= 2 => Some(cost::nodes_along_longest_side(
+                    d,
+                    (0..model.n_nodes())
+                        .filter(|&i| (0..d).any(|c| !dofs.is_constrained(d * i + c)))
+                        .map(|i| model.position(i)),
+                )),
+                _ => None,
+            };
+            let hints = MatrixHints { dim: d, asymmetry, ordering: model.ordering(dofs), spd, n_side };
             progress(&format!(
                 "solving: {} unknowns, {} stored entries, solver {}",
                 a.nrows(),
