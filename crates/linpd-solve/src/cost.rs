@@ -85,6 +85,38 @@ pub fn jacobi_cg(dim: usize, nnz_a: usize, n_side: f64, params: &CgParams) -> Es
     }
 }
 
+/// Nodes along the longest side of the bounding box of `positions` (`dim` coordinates each),
+/// taking the spacing as the edge of the cube of the box's volume per node: exact for a full
+/// box lattice, an estimate for other bodies.
+pub fn nodes_along_longest_side(dim: usize, positions: impl Iterator<Item = [f64; 3]>) -> f64 {
+    let (mut lo, mut hi, mut n) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0usize);
+    for p in positions {
+        for a in 0..dim {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+        n += 1;
+    }
+    if n < 2 {
+        return n as f64;
+    }
+    let sides: Vec<f64> = (0..dim).map(|a| (hi[a] - lo[a]).max(0.0)).collect();
+    let longest = sides.iter().cloned().fold(0.0, f64::max);
+    // Nodes per side of a box lattice with `n` nodes: prod (L_a / h + 1) = n, solved for h by
+    // bisection (monotone in h).
+    let count = |h: f64| sides.iter().map(|l| l / h + 1.0).product::<f64>();
+    let (mut a, mut b) = (longest * 1e-9, longest.max(f64::MIN_POSITIVE));
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if count(m) > n as f64 {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    longest / b + 1.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -116,36 +148,4 @@ mod tests {
         assert!((t(40.0, &p8) / t(20.0, &p8) - 2.0).abs() < 1e-12);
         assert!((t(20.0, &p16) / t(20.0, &p8) - 2.0).abs() < 1e-12);
     }
-}
-
-/// Nodes along the longest side of the bounding box of `positions` (`dim` coordinates each),
-/// taking the spacing as the edge of the cube of the box's volume per node: exact for a full
-/// box lattice, an estimate for other bodies.
-pub fn nodes_along_longest_side(dim: usize, positions: impl Iterator<Item = [f64; 3]>) -> f64 {
-    let (mut lo, mut hi, mut n) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0usize);
-    for p in positions {
-        for a in 0..dim {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-        n += 1;
-    }
-    if n < 2 {
-        return n as f64;
-    }
-    let sides: Vec<f64> = (0..dim).map(|a| (hi[a] - lo[a]).max(0.0)).collect();
-    let longest = sides.iter().cloned().fold(0.0, f64::max);
-    // Nodes per side of a box lattice with `n` nodes: prod (L_a / h + 1) = n, solved for h by
-    // bisection (monotone in h).
-    let count = |h: f64| sides.iter().map(|l| l / h + 1.0).product::<f64>();
-    let (mut a, mut b) = (longest * 1e-9, longest.max(f64::MIN_POSITIVE));
-    for _ in 0..200 {
-        let m = 0.5 * (a + b);
-        if count(m) > n as f64 {
-            a = m;
-        } else {
-            b = m;
-        }
-    }
-    longest / b + 1.0
 }
