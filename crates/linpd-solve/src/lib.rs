@@ -29,7 +29,10 @@ pub use linpd_core::sparse::{diagonal, matvec, relative_residual, sym_matvec, Ge
 pub use linpd_core::LinearOperator;
 pub use precond::{FactorPreconditioner, Identity, Jacobi, Preconditioner};
 pub use report::{peak_rss_bytes, SolveReport, Timings};
-pub use spec::{CholeskyOrdering, GmresPreconditioner, MatrixFree, PreconditionerKind, SolverId, SolverSpec};
+pub use spec::{
+    CholeskyOrdering, DofGeometry, GmresPreconditioner, MatrixFree, PreconditionerInput, PreconditionerKind, SolverId,
+    SolverSpec,
+};
 pub use statics::{solve_assembled, solve_model, MatrixHints, StaticError, StaticSolution};
 
 /// A failed solve.

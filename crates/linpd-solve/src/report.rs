@@ -12,9 +12,11 @@ pub struct Timings {
     pub symbolic: f64,
     /// Numeric factorization.
     pub numeric: f64,
+    /// Preconditioner setup (Krylov solvers: e.g. the multigrid hierarchy).
+    pub setup: f64,
     /// Triangular solves or Krylov iterations.
     pub solve: f64,
-    /// Solver total (symbolic + numeric + solve, and dispatch overhead).
+    /// Solver total (symbolic + numeric + setup + solve, and dispatch overhead).
     pub total: f64,
 }
 

@@ -2,8 +2,10 @@
 //! ran ([`SolverId`], in every [`crate::SolveReport`]).
 
 use crate::precond::{Jacobi, Preconditioner};
-use crate::CgError;
 use crate::CgParams;
+use crate::SolveError;
+use linpd_core::sparse::Csc;
+use linpd_core::{DofMap, Model, Point};
 use serde::{Serialize, Serializer};
 use std::fmt;
 
@@ -23,10 +25,46 @@ impl PreconditionerKind {
         }
     }
 
-    /// Builds the preconditioner from what the operator offers (its diagonal).
-    pub fn build(self, diagonal: &[f64]) -> Result<Box<dyn Preconditioner>, CgError> {
+    /// Builds the preconditioner from what the reduced operator offers.
+    pub fn build(self, input: &PreconditionerInput<'_>) -> Result<Box<dyn Preconditioner>, SolveError> {
         match self {
-            PreconditionerKind::Jacobi => Ok(Box::new(Jacobi::new(diagonal)?)),
+            PreconditionerKind::Jacobi => Ok(Box::new(Jacobi::new(input.diagonal)?)),
+        }
+    }
+}
+
+/// What a preconditioner may be built from: the reduced operator `A_ff`'s diagonal, its
+/// assembled matrix when the solve assembled it, and where its unknowns sit.
+#[derive(Debug, Clone, Copy)]
+pub struct PreconditionerInput<'a> {
+    /// `diag(A_ff)`.
+    pub diagonal: &'a [f64],
+    /// `A_ff` (both triangles), `None` when the solve runs matrix-free.
+    pub matrix: Option<&'a Csc>,
+    /// Node and component of every unknown and the node positions (`None`: a bare matrix).
+    pub geometry: Option<&'a DofGeometry>,
+}
+
+/// Where the unknowns of a reduced system sit: for a multilevel preconditioner's near-null
+/// space (rigid-body modes) and aggregation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DofGeometry {
+    /// Spatial dimension.
+    pub dim: usize,
+    /// `(node, component)` of every free DOF, in the free numbering.
+    pub rows: Vec<(usize, usize)>,
+    /// Position of every node of the model.
+    pub positions: Vec<Point>,
+}
+
+impl DofGeometry {
+    /// The free DOFs of `dofs` on the nodes of `model`.
+    pub fn of(model: &dyn Model, dofs: &DofMap) -> Self {
+        let d = model.dim();
+        DofGeometry {
+            dim: d,
+            rows: dofs.free_dofs().into_iter().map(|f| (f / d, f % d)).collect(),
+            positions: (0..model.n_nodes()).map(|i| model.position(i)).collect(),
         }
     }
 }

@@ -16,7 +16,9 @@ use crate::krylov::cg::pcg;
 use crate::krylov::gmres::{gmres, GmresParams};
 use crate::precond::FactorPreconditioner;
 use crate::report::peak_rss_bytes;
-use crate::spec::{CholeskyOrdering, MatrixFree, PreconditionerKind, SolverId, SolverSpec};
+use crate::spec::{
+    CholeskyOrdering, DofGeometry, MatrixFree, PreconditionerInput, PreconditionerKind, SolverId, SolverSpec,
+};
 use crate::CgParams;
 use crate::{SolveError, SolveReport};
 use linpd_core::sparse::{diagonal, relative_residual, Csc, GeneralCsc, SymCsc, SYMMETRY_RTOL};
@@ -41,6 +43,8 @@ pub struct MatrixHints {
     /// For an unsymmetric `A`: an SPD approximation whose Cholesky factor preconditions GMRES
     /// under `auto`.
     pub spd: Option<SpdApproximation>,
+    /// Where the unknowns sit (for multilevel preconditioners; `None`: a bare matrix).
+    pub geometry: Option<DofGeometry>,
     /// Nodes along the body's longest side ([`crate::cost::nodes_along_longest_side`]), for
     /// `auto`'s iteration estimates (`None`: `(n / dim)^(1/dim)`, a cube).
     pub n_side: Option<f64>,
@@ -49,7 +53,7 @@ pub struct MatrixHints {
 impl MatrixHints {
     /// A symmetric matrix in dimension `dim`, AMD ordering.
     pub fn symmetric(dim: usize) -> Self {
-        MatrixHints { dim, asymmetry: 0.0, ordering: Ordering::Amd, spd: None, n_side: None }
+        MatrixHints { dim, asymmetry: 0.0, ordering: Ordering::Amd, spd: None, geometry: None, n_side: None }
     }
 }
 
@@ -85,7 +89,9 @@ pub fn solve_assembled(
                 report.nnz_factor = Some(n * (n + 1) / 2);
                 (u, report)
             }
-            SolverSpec::Cg { params, preconditioner, matrix_free: _ } => assembled_cg(a, f, params, *preconditioner)?,
+            SolverSpec::Cg { params, preconditioner, matrix_free: _ } => {
+                assembled_cg(a, f, params, *preconditioner, hints.geometry.as_ref())?
+            }
         }
     } else {
         match (&resolved, &hints.spd) {
@@ -171,11 +177,15 @@ fn assembled_cg(
     f: &[f64],
     params: &CgParams,
     preconditioner: PreconditionerKind,
+    geometry: Option<&DofGeometry>,
 ) -> Result<(Vec<f64>, SolveReport), SolveError> {
     let id = SolverId::Cg { preconditioner, matrix_free: MatrixFree::No };
     let mut report = SolveReport::new(id, a.nrows(), a.val().len());
     let t = Instant::now();
-    let m_inv = preconditioner.build(&diagonal(a))?;
+    let diag = diagonal(a);
+    let m_inv = preconditioner.build(&PreconditionerInput { diagonal: &diag, matrix: Some(a), geometry })?;
+    report.timings.setup = t.elapsed().as_secs_f64();
+    let t = Instant::now();
     let mut u = vec![0.0; a.nrows()];
     let info = pcg(&SymCsc(a), &m_inv, f, &mut u, params)?;
     report.timings.solve = t.elapsed().as_secs_f64();
@@ -215,7 +225,7 @@ fn auto(a: &Csc, f: &[f64], params: &CgParams, hints: &MatrixHints) -> Result<(V
     let line = format!("{chol}; {cg}");
     let (u, mut report) = match (take_cholesky, analyzed) {
         (true, Some(analysis)) => cholesky(a, f, analysis)?,
-        _ => assembled_cg(a, f, params, PreconditionerKind::Jacobi)?,
+        _ => assembled_cg(a, f, params, PreconditionerKind::Jacobi, hints.geometry.as_ref())?,
     };
     report.auto = Some(line);
     Ok((u, report))
@@ -410,7 +420,10 @@ pub fn solve_model(
                 Some(fa) => (&*fa.op, MatrixFree::Fast(fa.label)),
                 None => (&model_op, MatrixFree::Model),
             };
-            let m_inv = preconditioner.build(&diag).map_err(|e| at_dof(e.into()))?;
+            let geometry = (*preconditioner != PreconditionerKind::Jacobi).then(|| DofGeometry::of(model, dofs));
+            let input = PreconditionerInput { diagonal: &diag, matrix: None, geometry: geometry.as_ref() };
+            let m_inv = preconditioner.build(&input).map_err(at_dof)?;
+            let t_setup = t.elapsed().as_secs_f64();
             let mut u = vec![0.0; dofs.n_free()];
             let info =
                 pcg(&ReducedOperator::new(full, dofs), &m_inv, &rhs, &mut u, params).map_err(|e| at_dof(e.into()))?;
@@ -418,8 +431,9 @@ pub fn solve_model(
             let mut report = SolveReport::new(id, dofs.n_free(), 0);
             report.iterations = Some(info.iterations);
             report.rel_residual = info.rel_residual;
-            report.timings.solve = t.elapsed().as_secs_f64();
-            report.timings.total = report.timings.solve;
+            report.timings.setup = t_setup;
+            report.timings.total = t.elapsed().as_secs_f64();
+            report.timings.solve = report.timings.total - t_setup;
             report.peak_rss_bytes = peak_rss_bytes();
             (u, report)
         }
@@ -442,7 +456,14 @@ pub fn solve_model(
                 )),
                 _ => None,
             };
-            let hints = MatrixHints { dim: d, asymmetry, ordering: model.ordering(dofs), spd, n_side };
+            // Only multilevel preconditioners read the geometry: build it when one may run.
+            let geometry = match spec {
+                SolverSpec::Cg { preconditioner, .. } if *preconditioner != PreconditionerKind::Jacobi => {
+                    Some(DofGeometry::of(model, dofs))
+                }
+                _ => None,
+            };
+            let hints = MatrixHints { dim: d, asymmetry, ordering: model.ordering(dofs), spd, geometry, n_side };
             progress(&format!(
                 "solving: {} unknowns, {} stored entries, solver {}",
                 a.nrows(),
