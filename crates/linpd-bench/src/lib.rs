@@ -33,6 +33,7 @@
 mod coarsen;
 mod dynamics;
 mod lps;
+mod statics;
 
 use clap::Args;
 use linpd_bond::{nested_dissection, BondOperator, Pattern, StencilOperator};
@@ -79,6 +80,10 @@ pub struct BenchArgs {
     /// Also run the coarsening cases (1D 10^5-10^6 nodes two levels, 2D 200 x 200 one level).
     #[arg(long)]
     pub coarsen: bool,
+    /// Also run whole static solves (assembly + setup + solve) of the 3D cantilevers 20^3..70^3
+    /// and the 2D plates 101^2..801^2 with Jacobi-PCG, multigrid-PCG, Cholesky and `auto`.
+    #[arg(long)]
+    pub statics: bool,
     /// Run sparse Cholesky on 3D cases up to this many unknowns (AMD fill grows fast in 3D).
     #[arg(long, default_value_t = 30_000)]
     pub direct_max_3d: usize,
@@ -112,6 +117,11 @@ fn cases(quick: bool) -> Vec<Case> {
             c("3d-40", 3, 40, 3),
         ]
     }
+}
+
+/// The multigrid-PCG solver of the statics section, when linpd-solve offers one.
+fn multigrid_solver(_params: &CgParams, _matrix_free: bool) -> Option<(&'static str, linpd_solve::SolverSpec)> {
+    None
 }
 
 /// Resets the kernel's peak-RSS counter (`VmHWM`) so each case reports its own peak.
@@ -382,6 +392,9 @@ pub fn run(args: &BenchArgs) -> Result<Value, String> {
     if args.lps {
         doc["lps"] = crate::lps::run(args.quick);
     }
+    if args.statics {
+        doc["statics"] = crate::statics::run(args.quick, args.case.as_deref(), args.direct_max_3d);
+    }
     if args.coarsen {
         doc["coarsen"] = crate::coarsen::run(args.quick)?;
     }
@@ -467,6 +480,10 @@ pub fn print_table(doc: &Value) {
             g(&c["cg_matrix_free"]["time"]),
             c["peak_rss_bytes"].as_f64().map_or("-".into(), |b| format!("{:.2}", b / 1073741824.0)),
         );
+    }
+    if let Some(st) = doc.get("statics") {
+        println!("whole static solves (rtol 1e-8; vs jac: Jacobi-PCG total / this total, same run):");
+        crate::statics::print(st);
     }
     if let Some(r) = doc.get("ratios") {
         println!("ratios against the peers (same run): {}", serde_json::to_string_pretty(r).unwrap());
