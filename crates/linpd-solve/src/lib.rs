@@ -28,6 +28,7 @@ pub use krylov::gmres::{gmres, GmresError, GmresInfo, GmresParams};
 pub use linpd_core::sparse::{diagonal, matvec, relative_residual, sym_matvec, GeneralCsc, SymCsc};
 pub use linpd_core::LinearOperator;
 pub use precond::{FactorPreconditioner, Identity, Jacobi, Preconditioner};
+pub use precond::amg::{free_rows, rigid_body_modes, Amg, AmgError, AmgParams, AmgSmoother, AmgStats};
 pub use report::{peak_rss_bytes, SolveReport, Timings};
 pub use spec::{
     CholeskyOrdering, DofGeometry, GmresPreconditioner, MatrixFree, PreconditionerInput, PreconditionerKind, SolverId,
@@ -73,6 +74,9 @@ pub enum SolveError {
     /// The factorization ran out of memory or failed for a non-numerical reason.
     #[error("factorization failed: {0}")]
     Factorization(String),
+    /// The AMG preconditioner could not be set up.
+    #[error(transparent)]
+    Amg(#[from] AmgError),
     /// The solution is not finite (overflow): never returned as a result.
     #[error("the solution contains non-finite values")]
     NonFinite,

@@ -6,12 +6,15 @@
 //!
 //! * [`Identity`]: `M = I`;
 //! * [`Jacobi`]: `M = diag(A)`;
+//! * [`Amg`]: smoothed-aggregation algebraic multigrid, one symmetric V-cycle;
 //! * [`FactorPreconditioner`]: an exact factorization of an SPD `M` (e.g. the divergence-form
 //!   or symmetric part of the blended operator of linpd-blend).
 
+pub mod amg;
 mod factor;
 mod jacobi;
 
+pub use amg::{Amg, AmgError, AmgParams, AmgSmoother, AmgStats};
 pub use factor::FactorPreconditioner;
 pub use jacobi::Jacobi;
 

@@ -1,0 +1,412 @@
+//! Smoothed-aggregation algebraic multigrid (SA-AMG): a symmetric V-cycle preconditioner for
+//! the reduced SPD stiffness `A = A_ff` of linear PD (and elasticity-like) operators, for CG
+//! ([`crate::pcg`]) and GMRES.
+//!
+//! # Algorithm
+//!
+//! Vanek, Mandel & Brezina, *Algebraic multigrid by smoothed aggregation for second and fourth
+//! order elliptic problems*, Computing 56 (1996) 179-196; the defaults follow pyamg's
+//! `smoothed_aggregation_solver` (5.x) where they fit a bond lattice, and say where not.
+//!
+//! Level `l` has the matrix `A_l` (`A_0 = A`) in blocks: on level 0 the free components of one
+//! node, on a coarse level the unknowns of one aggregate. The setup repeats, until `A_l` has at
+//! most [`AmgParams::max_coarse`] rows:
+//!
+//! 1. **Strength.** Nodes `I != J` are strongly connected when
+//!    `||A_IJ||_F >= theta sqrt(||A_II||_F ||A_JJ||_F)` (pyamg's `symmetric` strength on the
+//!    amalgamated block matrix; default `theta = 0`, pyamg's, measured best below).
+//! 2. **Aggregation** of the strength graph ([`aggregate`]'s three passes, VMB96 section 3).
+//! 3. **Tentative prolongator.** The near-null space `B_l` (`B_0`: the rigid-body modes,
+//!    [`rigid_body_modes`], 1/3/6 in 1D/2D/3D) restricted to each aggregate is factored
+//!    `B_a = Q_a R_a`; `T` is block diagonal with the orthonormal `Q_a` (dependent columns
+//!    dropped), and `B_{l+1}` stacks the `R_a`, so `T B_{l+1} = B_l`: the coarse space
+//!    reproduces the rigid motions exactly.
+//! 4. **Prolongator smoothing.** `P = (I - omega D^{-1} A) T` with `D = diag(A)` and
+//!    `omega = (4/3) / rho(D^{-1} A)`, `rho` from 20 Lanczos steps: one Jacobi step damps the
+//!    energy of the coarse basis functions (VMB96 eq. (3.6)).
+//! 5. **Galerkin coarse operator** `A_{l+1} = P^T A P`, computed as `R (A P)` with the
+//!    explicit transpose `R = P^T`, both sparse block products (rayon over block rows).
+//!
+//! The coarsest matrix is factored by the sparse Cholesky of [`crate::Cholesky`].
+//!
+//! One application `z = M^{-1} r` is the V-cycle `z = V_0(r)`, with `V_l(b)`:
+//!
+//! ```text
+//! x = S_l(0, b)                     pre-smoothing from x = 0
+//! x = x + P V_{l+1}(R (b - A x))    coarse correction (V_L = A_L^{-1}, exact)
+//! x = S_l(x, b)                     post-smoothing, the same smoother
+//! ```
+//!
+//! The default smoother `S_l` is the Chebyshev polynomial in `D^{-1} A` of degree 2 on
+//! `[rho/30, 1.1 rho]`. Its error propagator `I - p(D^{-1}A) D^{-1} A` is self-adjoint in the
+//! `A` inner product with norm below 1, so the V-cycle is symmetric positive definite
+//! (required by CG) and fixed (no inner tolerance).
+//!
+//! # Measured choices (see the report of issue #12)
+//!
+//! * `theta = 0` as pyamg: with `delta = 3h` every partner is strong, aggregates are a node
+//!   and its ~122 partners, and the coarsening is fast (ratio ~20 in rows).
+//! * Chebyshev degree 2 per side: fewer products than degree 3 for about the same iteration
+//!   count on the lattices measured.
+//!
+//! # Inputs
+//!
+//! The rows of `A` are described by `(node, component)` pairs; the rows of one node must be
+//! consecutive (as in linpd's node-major numbering, whatever components the Dirichlet
+//! elimination left free: see [`free_rows`]). Node positions give the rigid-body modes; any
+//! other near-null space can be given with [`Amg::with_near_null_space`].
+
+mod aggregate;
+mod prolongator;
+mod smoother;
+mod vbr;
+
+pub use prolongator::rigid_body_modes;
+pub use smoother::AmgSmoother;
+
+use super::Preconditioner;
+use crate::direct::{Cholesky, CholeskyFactor};
+use crate::SolveError;
+use linpd_core::sparse::Csc;
+use linpd_core::{DofMap, Point};
+use serde::Serialize;
+use std::time::Instant;
+use vbr::Vbr;
+
+/// Setup parameters of [`Amg`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AmgParams {
+    /// Strength threshold `theta` (0: every nonzero block is strong).
+    pub strength_theta: f64,
+    /// The smoother of every level but the coarsest.
+    pub smoother: AmgSmoother,
+    /// Stop coarsening at this many rows (the coarsest level is factored).
+    pub max_coarse: usize,
+    /// At most this many levels (the last one is factored whatever its size).
+    pub max_levels: usize,
+    /// `omega rho(D^{-1} A)` of the prolongator smoothing (pyamg: 4/3).
+    pub prolongation_omega: f64,
+    /// Lanczos steps of the `rho(D^{-1} A)` estimate.
+    pub lanczos_steps: usize,
+}
+
+impl Default for AmgParams {
+    fn default() -> Self {
+        AmgParams {
+            strength_theta: 0.0,
+            smoother: AmgSmoother::default(),
+            max_coarse: 2000,
+            max_levels: 10,
+            prolongation_omega: 4.0 / 3.0,
+            lanczos_steps: 20,
+        }
+    }
+}
+
+/// One level of the hierarchy.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AmgLevelStats {
+    /// Rows (unknowns).
+    pub rows: usize,
+    /// Stored entries of the level's matrix.
+    pub nnz: usize,
+    /// Row blocks: nodes on level 0, aggregates on coarse levels.
+    pub blocks: usize,
+    /// `rho(D^{-1} A)` estimate (not computed on the coarsest level).
+    pub rho: Option<f64>,
+    /// Stored entries of the prolongator to the next level.
+    pub prolongator_nnz: Option<usize>,
+}
+
+/// Where the setup time went, in seconds.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct AmgSetupTimes {
+    /// Copying `A` into blocks.
+    pub convert: f64,
+    /// Strength and aggregation.
+    pub aggregate: f64,
+    /// Tentative prolongators.
+    pub tentative: f64,
+    /// Lanczos estimates.
+    pub spectral: f64,
+    /// Prolongator smoothing `A T`.
+    pub smooth: f64,
+    /// Galerkin products `R (A P)` and transposes.
+    pub galerkin: f64,
+    /// Symbolic and numeric Cholesky of the coarsest level.
+    pub coarse_factor: f64,
+}
+
+/// What the setup built and what it cost.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AmgStats {
+    /// Levels, finest first; the last is factored.
+    pub levels: Vec<AmgLevelStats>,
+    /// `sum_l nnz(A_l) / nnz(A_0)`.
+    pub operator_complexity: f64,
+    /// `sum_l rows(A_l) / rows(A_0)`.
+    pub grid_complexity: f64,
+    /// Stored entries of the coarsest Cholesky factor.
+    pub coarse_factor_nnz: usize,
+    /// Total setup time (seconds).
+    pub setup_seconds: f64,
+    /// Setup time by phase.
+    pub times: AmgSetupTimes,
+}
+
+/// An AMG setup failure.
+#[non_exhaustive]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AmgError {
+    /// The row description does not fit the matrix.
+    #[error("AMG input: {0}")]
+    Input(String),
+    /// A diagonal entry is not positive: `e_i . A e_i <= 0`, so the level is not SPD.
+    #[error("AMG level {level}: diagonal entry {value:e} of row {row} is not positive: the matrix is not positive definite")]
+    NonPositiveDiagonal {
+        /// Level (0: the input matrix).
+        level: usize,
+        /// Row on that level.
+        row: usize,
+        /// The entry.
+        value: f64,
+    },
+    /// A level's matrix has a non-finite entry.
+    #[error("AMG level {level}: the matrix has non-finite entries")]
+    NonFinite {
+        /// Level.
+        level: usize,
+    },
+    /// The `rho(D^{-1} A)` estimate is not positive or not finite.
+    #[error("AMG level {level}: spectral radius estimate {value:e} of D^-1 A is not positive: the matrix is not positive definite")]
+    BadSpectrum {
+        /// Level.
+        level: usize,
+        /// The estimate.
+        value: f64,
+    },
+    /// The Cholesky factorization of the coarsest level met a non-positive pivot.
+    #[error("AMG level {level} (coarsest, {rows} rows): the coarse matrix is not positive definite (pivot at coarse row {row}); the input matrix is singular or indefinite")]
+    CoarseNotPositiveDefinite {
+        /// Level.
+        level: usize,
+        /// Its rows.
+        rows: usize,
+        /// The row of the failed pivot.
+        row: usize,
+    },
+    /// The coarse factorization failed for another reason.
+    #[error("AMG level {level}: coarse factorization failed: {reason}")]
+    CoarseFactorization {
+        /// Level.
+        level: usize,
+        /// faer's message.
+        reason: String,
+    },
+}
+
+#[derive(Debug)]
+struct Level {
+    a: Vbr,
+    p: Vbr,
+    r: Vbr,
+    smoother: smoother::Smoother,
+}
+
+/// The SA-AMG V-cycle preconditioner (see the module docs).
+#[derive(Debug)]
+pub struct Amg {
+    levels: Vec<Level>,
+    coarse: CholeskyFactor,
+    stats: AmgStats,
+}
+
+/// The `(node, component)` of every free DOF of `dofs`, in the free numbering: the row
+/// description [`Amg::new`] takes for a reduced system of linpd.
+pub fn free_rows(dofs: &DofMap) -> Vec<(usize, usize)> {
+    let d = dofs.dim();
+    dofs.free_dofs().into_iter().map(|f| (f / d, f % d)).collect()
+}
+
+impl Amg {
+    /// Sets up the hierarchy for the symmetric positive definite `a` (both triangles stored)
+    /// whose row `i` is component `rows[i].1` of node `rows[i].0`, with node positions
+    /// `positions[node]` in dimension `dim` (1, 2, 3); the near-null space is the rigid-body
+    /// modes ([`rigid_body_modes`]).
+    pub fn new(
+        a: &Csc,
+        dim: usize,
+        rows: &[(usize, usize)],
+        positions: &[Point],
+        params: &AmgParams,
+    ) -> Result<Self, AmgError> {
+        if !(1..=3).contains(&dim) {
+            return Err(AmgError::Input(format!("dimension {dim} (need 1, 2 or 3)")));
+        }
+        if let Some((i, &(node, c))) = rows.iter().enumerate().find(|(_, &(n, c))| c >= dim || n >= positions.len()) {
+            return Err(AmgError::Input(format!(
+                "row {i} is component {c} of node {node}: need a component < {dim} and a node < {}",
+                positions.len()
+            )));
+        }
+        let modes = rigid_body_modes(dim, rows, positions);
+        let nodes: Vec<usize> = rows.iter().map(|r| r.0).collect();
+        Self::with_near_null_space(a, &nodes, &modes, params)
+    }
+
+    /// Sets up the hierarchy with a caller's near-null space: `modes[m][i]` is mode `m` at
+    /// row `i`, and `row_node[i]` the node of row `i` (rows of a node consecutive).
+    pub fn with_near_null_space(
+        a: &Csc,
+        row_node: &[usize],
+        modes: &[Vec<f64>],
+        params: &AmgParams,
+    ) -> Result<Self, AmgError> {
+        let t0 = Instant::now();
+        let n = a.nrows();
+        if a.ncols() != n || row_node.len() != n || n == 0 {
+            return Err(AmgError::Input(format!(
+                "A is {} x {} with {} row descriptions (need square, nonempty, one per row)",
+                a.nrows(),
+                a.ncols(),
+                row_node.len()
+            )));
+        }
+        if modes.is_empty() || modes.iter().any(|m| m.len() != n) {
+            return Err(AmgError::Input(format!("need at least one near-null-space mode of length {n}")));
+        }
+        // Blocks: runs of equal node numbers, each node in one run.
+        let mut rptr = vec![0usize];
+        let mut seen = std::collections::HashSet::new();
+        for i in 0..n {
+            if i > 0 && row_node[i] != row_node[i - 1] {
+                rptr.push(i);
+            }
+            if (i == 0 || row_node[i] != row_node[i - 1]) && !seen.insert(row_node[i]) {
+                return Err(AmgError::Input(format!(
+                    "the rows of node {} are not consecutive (row {i} again)",
+                    row_node[i]
+                )));
+            }
+        }
+        rptr.push(n);
+        if a.val().iter().any(|v| !v.is_finite()) {
+            return Err(AmgError::NonFinite { level: 0 });
+        }
+        let k = modes.len();
+        let mut b: Vec<f64> = (0..n * k).map(|p| modes[p % k][p / k]).collect();
+        let mut times = AmgSetupTimes::default();
+        let t = Instant::now();
+        let mut amat = Vbr::from_symmetric_csc(a, &rptr);
+        times.convert = t.elapsed().as_secs_f64();
+        let mut levels = Vec::new();
+        let mut level_stats = Vec::new();
+        loop {
+            let l = levels.len();
+            let rows = amat.nrows();
+            level_stats.push(AmgLevelStats {
+                rows,
+                nnz: amat.nnz(),
+                blocks: amat.n_row_blocks(),
+                rho: None,
+                prolongator_nnz: None,
+            });
+            if rows <= params.max_coarse || l + 1 >= params.max_levels {
+                break;
+            }
+            let diag = amat.diagonal();
+            if let Some((row, &value)) = diag.iter().enumerate().find(|(_, &d)| !(d > 0.0)) {
+                return Err(AmgError::NonPositiveDiagonal { level: l, row, value });
+            }
+            let dinv: Vec<f64> = diag.iter().map(|d| 1.0 / d).collect();
+            let t = Instant::now();
+            let (sp, si) = aggregate::strong_neighbours(&amat, params.strength_theta);
+            let (agg, n_agg) = aggregate::standard_aggregation(&sp, &si);
+            times.aggregate += t.elapsed().as_secs_f64();
+            if n_agg == amat.n_row_blocks() {
+                // No node has a strong neighbour: coarsening stalled; factor this level.
+                break;
+            }
+            let t = Instant::now();
+            let (tent, bc) = prolongator::tentative(&amat, &agg, n_agg, &b, k);
+            times.tentative += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let rho = smoother::spectral_radius(&amat, &dinv, params.lanczos_steps);
+            times.spectral += t.elapsed().as_secs_f64();
+            if !(rho > 0.0 && rho.is_finite()) {
+                return Err(AmgError::BadSpectrum { level: l, value: rho });
+            }
+            let t = Instant::now();
+            let p = prolongator::smooth(&amat, &tent, &dinv, params.prolongation_omega / rho);
+            times.smooth += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let r = p.transpose();
+            let ap = amat.mul(&p);
+            let ac = r.mul(&ap);
+            drop(ap);
+            times.galerkin += t.elapsed().as_secs_f64();
+            if ac.val.iter().any(|v| !v.is_finite()) {
+                return Err(AmgError::NonFinite { level: l + 1 });
+            }
+            let s = level_stats.last_mut().unwrap();
+            s.rho = Some(rho);
+            s.prolongator_nnz = Some(p.nnz());
+            levels.push(Level { a: amat, p, r, smoother: smoother::Smoother::new(params.smoother, dinv, rho) });
+            amat = ac;
+            b = bc;
+        }
+        let t = Instant::now();
+        let l = levels.len();
+        let rows = amat.nrows();
+        let csc = amat.to_symmetric_csc();
+        drop(amat);
+        let map = |e: SolveError| match e {
+            SolveError::NotPositiveDefinite { dof } => AmgError::CoarseNotPositiveDefinite { level: l, rows, row: dof },
+            other => AmgError::CoarseFactorization { level: l, reason: other.to_string() },
+        };
+        let chol = Cholesky::analyze(&csc).map_err(map)?;
+        let coarse = chol.factor(&csc).map_err(map)?;
+        times.coarse_factor = t.elapsed().as_secs_f64();
+        let nnz0 = level_stats[0].nnz as f64;
+        let rows0 = level_stats[0].rows as f64;
+        let stats = AmgStats {
+            operator_complexity: level_stats.iter().map(|s| s.nnz as f64).sum::<f64>() / nnz0,
+            grid_complexity: level_stats.iter().map(|s| s.rows as f64).sum::<f64>() / rows0,
+            levels: level_stats,
+            coarse_factor_nnz: chol.nnz_factor(),
+            setup_seconds: t0.elapsed().as_secs_f64(),
+            times,
+        };
+        Ok(Amg { levels, coarse, stats })
+    }
+
+    /// What the setup built and what it cost.
+    pub fn stats(&self) -> &AmgStats {
+        &self.stats
+    }
+
+    /// `x = V_l(b)` (see the module docs).
+    fn cycle(&self, l: usize, b: &[f64], x: &mut [f64]) {
+        let Some(level) = self.levels.get(l) else {
+            x.copy_from_slice(&self.coarse.solve(b));
+            return;
+        };
+        let n = b.len();
+        let mut r = vec![0.0; n];
+        let mut d = vec![0.0; n];
+        level.smoother.smooth(&level.a, b, x, &mut r, &mut d, true, true);
+        let nc = level.r.nrows();
+        let mut bc = vec![0.0; nc];
+        level.r.matvec(&r, &mut bc);
+        let mut xc = vec![0.0; nc];
+        self.cycle(l + 1, &bc, &mut xc);
+        level.p.matvec_add(&xc, x);
+        level.smoother.smooth(&level.a, b, x, &mut r, &mut d, false, false);
+    }
+}
+
+impl Preconditioner for Amg {
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        self.cycle(0, r, z);
+    }
+}

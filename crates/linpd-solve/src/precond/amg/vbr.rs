@@ -1,0 +1,498 @@
+//! Variable-block-row (VBR) sparse matrices: the storage of every AMG level.
+//!
+//! Rows are cut into row blocks (level 0: the free components of one node, 1..d rows; coarse
+//! levels: the `k_a <= k` coarse unknowns of one aggregate) and columns into column blocks;
+//! each stored block is a dense row-major `r_I x c_J` array. One index per block instead of
+//! one per entry, and products as small dense kernels: the Galerkin product `P^T A P` of a
+//! 3D lattice with 123 partners is `~4e9` multiply-adds, and the dense 3x3 times 3x6 block
+//! products run them without a column index per scalar.
+
+use rayon::prelude::*;
+
+/// Split matrices into groups of row blocks holding about this many stored values each: a
+/// rayon task per group (smaller groups cost more in scheduling than they gain on 2 cores).
+const GROUP_VALUES: usize = 1 << 15;
+
+/// A sparse matrix of dense blocks (see the module docs).
+#[derive(Debug, Clone)]
+pub(crate) struct Vbr {
+    /// Scalar row offset of each row block (`n_row_blocks + 1`).
+    pub rptr: Vec<usize>,
+    /// Scalar column offset of each column block (`n_col_blocks + 1`).
+    pub cptr: Vec<usize>,
+    /// Block-row pointer into `bidx` / `voff`.
+    pub bptr: Vec<usize>,
+    /// Column block of each stored block, ascending within a block row.
+    pub bidx: Vec<u32>,
+    /// Offset of each stored block in `val` (`n_blocks + 1`).
+    pub voff: Vec<usize>,
+    /// Block values, each row-major.
+    pub val: Vec<f64>,
+    /// Row-block boundaries of the parallel groups.
+    groups: Vec<usize>,
+}
+
+fn make_groups(bptr: &[usize], voff: &[usize]) -> Vec<usize> {
+    let nb = bptr.len() - 1;
+    let mut g = vec![0];
+    let mut start = 0;
+    for i in 0..nb {
+        if voff[bptr[i + 1]] - voff[bptr[start]] >= GROUP_VALUES {
+            g.push(i + 1);
+            start = i + 1;
+        }
+    }
+    if *g.last().unwrap() != nb {
+        g.push(nb);
+    }
+    g
+}
+
+/// Splits `y` at the scalar rows `bounds[k]` (ascending, `bounds[0] = 0`, last = `y.len()`).
+fn split_at_bounds<'a>(mut y: &'a mut [f64], bounds: impl Iterator<Item = usize>) -> Vec<&'a mut [f64]> {
+    let mut out = Vec::new();
+    let mut at = 0;
+    for b in bounds.skip(1) {
+        let (head, tail) = std::mem::take(&mut y).split_at_mut(b - at);
+        out.push(head);
+        y = tail;
+        at = b;
+    }
+    out
+}
+
+/// One block row of a product, built in a row-local accumulator.
+struct RowAcc {
+    /// `marker[K]`: index in `cols` of column block `K`, or `usize::MAX`.
+    marker: Vec<usize>,
+    cols: Vec<u32>,
+    offs: Vec<usize>,
+    buf: Vec<f64>,
+}
+
+/// Output of a group of block rows of a product (concatenated afterwards).
+#[derive(Default)]
+struct Part {
+    blocks_per_row: Vec<usize>,
+    bidx: Vec<u32>,
+    sizes: Vec<usize>,
+    val: Vec<f64>,
+}
+
+impl Vbr {
+    /// From the parts; computes the parallel groups.
+    pub fn new(
+        rptr: Vec<usize>,
+        cptr: Vec<usize>,
+        bptr: Vec<usize>,
+        bidx: Vec<u32>,
+        voff: Vec<usize>,
+        val: Vec<f64>,
+    ) -> Self {
+        debug_assert_eq!(bptr.len(), rptr.len());
+        debug_assert_eq!(voff.len(), bidx.len() + 1);
+        let groups = make_groups(&bptr, &voff);
+        Vbr { rptr, cptr, bptr, bidx, voff, val, groups }
+    }
+
+    /// Scalar rows.
+    pub fn nrows(&self) -> usize {
+        *self.rptr.last().unwrap()
+    }
+    /// Scalar columns.
+    pub fn ncols(&self) -> usize {
+        *self.cptr.last().unwrap()
+    }
+    /// Row blocks.
+    pub fn n_row_blocks(&self) -> usize {
+        self.rptr.len() - 1
+    }
+    /// Column blocks.
+    pub fn n_col_blocks(&self) -> usize {
+        self.cptr.len() - 1
+    }
+    /// Stored scalar entries.
+    pub fn nnz(&self) -> usize {
+        self.val.len()
+    }
+
+    /// The square symmetric CSC matrix `a` (both triangles) in blocks of the consecutive rows
+    /// `rptr` (the same blocks for rows and columns). Column `i` of a symmetric matrix is its
+    /// row `i`, so each block row is read from the CSC columns of its rows.
+    pub fn from_symmetric_csc(a: &linpd_core::sparse::Csc, rptr: &[usize]) -> Self {
+        let n = a.nrows();
+        let nb = rptr.len() - 1;
+        let mut block_of = vec![0u32; n];
+        for b in 0..nb {
+            block_of[rptr[b]..rptr[b + 1]].iter_mut().for_each(|v| *v = b as u32);
+        }
+        let cp = a.symbolic().col_ptr();
+        let ri = a.symbolic().row_idx();
+        let av = a.val();
+        // Pattern per block row, in parallel chunks of block rows.
+        let chunk = 512;
+        let parts: Vec<(Vec<usize>, Vec<u32>)> = (0..nb.div_ceil(chunk))
+            .into_par_iter()
+            .map(|c| {
+                let mut marker = vec![u32::MAX; 0];
+                let mut counts = Vec::new();
+                let mut cols = Vec::new();
+                let mut touched: Vec<u32> = Vec::new();
+                for bi in c * chunk..((c + 1) * chunk).min(nb) {
+                    if marker.is_empty() {
+                        marker = vec![u32::MAX; nb];
+                    }
+                    touched.clear();
+                    for i in rptr[bi]..rptr[bi + 1] {
+                        for &k in &ri[cp[i]..cp[i + 1]] {
+                            let bj = block_of[k];
+                            if marker[bj as usize] != bi as u32 {
+                                marker[bj as usize] = bi as u32;
+                                touched.push(bj);
+                            }
+                        }
+                    }
+                    touched.sort_unstable();
+                    counts.push(touched.len());
+                    cols.extend_from_slice(&touched);
+                }
+                (counts, cols)
+            })
+            .collect();
+        let mut bptr = vec![0usize];
+        let mut bidx = Vec::new();
+        for (counts, cols) in parts {
+            for c in counts {
+                bptr.push(bptr.last().unwrap() + c);
+            }
+            bidx.extend(cols);
+        }
+        let mut voff = Vec::with_capacity(bidx.len() + 1);
+        voff.push(0);
+        for bi in 0..nb {
+            let r = rptr[bi + 1] - rptr[bi];
+            for &bj in &bidx[bptr[bi]..bptr[bi + 1]] {
+                let c = rptr[bj as usize + 1] - rptr[bj as usize];
+                voff.push(voff.last().unwrap() + r * c);
+            }
+        }
+        let mut val = vec![0.0; *voff.last().unwrap()];
+        // Fill: split val at block-row boundaries, one task per block row chunk.
+        let row_bounds = (0..=nb).map(|b| voff[bptr[b]]);
+        let mut rows: Vec<&mut [f64]> = split_at_bounds(&mut val, row_bounds);
+        rows.par_iter_mut().enumerate().with_min_len(256).for_each(|(bi, vals)| {
+            let base = voff[bptr[bi]];
+            let r0 = rptr[bi];
+            let blocks = &bidx[bptr[bi]..bptr[bi + 1]];
+            for i in rptr[bi]..rptr[bi + 1] {
+                let mut pos = 0;
+                for p in cp[i]..cp[i + 1] {
+                    let k = ri[p];
+                    let bj = block_of[k];
+                    // Rows of a CSC column are sorted, so the blocks come in ascending order.
+                    while blocks[pos] != bj {
+                        pos += 1;
+                    }
+                    let b = bptr[bi] + pos;
+                    let c0 = rptr[bj as usize];
+                    let cw = rptr[bj as usize + 1] - c0;
+                    vals[voff[b] - base + (i - r0) * cw + (k - c0)] += av[p];
+                }
+            }
+        });
+        Vbr::new(rptr.to_vec(), rptr.to_vec(), bptr, bidx, voff, val)
+    }
+
+    /// The matrix as a CSC with `usize` indices, assuming it is symmetric: column `j` is
+    /// written from row `j`, which keeps the rows of each column sorted.
+    pub fn to_symmetric_csc(&self) -> linpd_core::sparse::Csc {
+        let n = self.nrows();
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        col_ptr.push(0usize);
+        let mut rows = Vec::with_capacity(self.nnz());
+        let mut vals = Vec::with_capacity(self.nnz());
+        for bi in 0..self.n_row_blocks() {
+            let (r0, r1) = (self.rptr[bi], self.rptr[bi + 1]);
+            for i in 0..r1 - r0 {
+                for b in self.bptr[bi]..self.bptr[bi + 1] {
+                    let bj = self.bidx[b] as usize;
+                    let (c0, c1) = (self.cptr[bj], self.cptr[bj + 1]);
+                    let cw = c1 - c0;
+                    let v = &self.val[self.voff[b] + i * cw..self.voff[b] + (i + 1) * cw];
+                    for (t, &x) in v.iter().enumerate() {
+                        rows.push(c0 + t);
+                        vals.push(x);
+                    }
+                }
+                col_ptr.push(rows.len());
+            }
+        }
+        faer::sparse::SparseColMat::new(
+            faer::sparse::SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows),
+            vals,
+        )
+    }
+
+    /// The scalar diagonal (square matrices with equal row and column blocks).
+    pub fn diagonal(&self) -> Vec<f64> {
+        let mut d = vec![0.0; self.nrows()];
+        for bi in 0..self.n_row_blocks() {
+            let r0 = self.rptr[bi];
+            let r = self.rptr[bi + 1] - r0;
+            if let Some(b) = self.find(bi, bi) {
+                for i in 0..r {
+                    d[r0 + i] = self.val[self.voff[b] + i * r + i];
+                }
+            }
+        }
+        d
+    }
+
+    /// Index of the stored block `(bi, bj)`.
+    pub fn find(&self, bi: usize, bj: usize) -> Option<usize> {
+        let s = &self.bidx[self.bptr[bi]..self.bptr[bi + 1]];
+        s.binary_search(&(bj as u32)).ok().map(|p| self.bptr[bi] + p)
+    }
+
+    fn par_rows<F>(&self, y: &mut [f64], f: F)
+    where
+        F: Fn(usize, &mut [f64]) + Sync,
+    {
+        debug_assert_eq!(y.len(), self.nrows());
+        let g = &self.groups;
+        if g.len() <= 2 {
+            for bi in 0..self.n_row_blocks() {
+                f(bi, &mut y[self.rptr[bi]..self.rptr[bi + 1]]);
+            }
+            return;
+        }
+        let mut parts = split_at_bounds(y, g.iter().map(|&b| self.rptr[b]));
+        parts.par_iter_mut().enumerate().for_each(|(k, ys)| {
+            let base = self.rptr[g[k]];
+            for bi in g[k]..g[k + 1] {
+                f(bi, &mut ys[self.rptr[bi] - base..self.rptr[bi + 1] - base]);
+            }
+        });
+    }
+
+    /// `y_I = sum_J A_IJ x_J` for block row `bi`, added to `y` with sign `s`.
+    #[inline]
+    fn row_apply(&self, bi: usize, x: &[f64], yi: &mut [f64], s: f64) {
+        let r = yi.len();
+        for b in self.bptr[bi]..self.bptr[bi + 1] {
+            let bj = self.bidx[b] as usize;
+            let (c0, c1) = (self.cptr[bj], self.cptr[bj + 1]);
+            let xs = &x[c0..c1];
+            let v = &self.val[self.voff[b]..self.voff[b + 1]];
+            match (r, xs.len()) {
+                // The level-0 blocks of 3D and 2D lattices: fixed sizes let the compiler unroll.
+                (3, 3) => block_apply::<3, 3>(v, xs, yi, s),
+                (2, 2) => block_apply::<2, 2>(v, xs, yi, s),
+                (6, 6) => block_apply::<6, 6>(v, xs, yi, s),
+                (3, 6) => block_apply::<3, 6>(v, xs, yi, s),
+                (6, 3) => block_apply::<6, 3>(v, xs, yi, s),
+                _ => {
+                    for (i, row) in v.chunks_exact(xs.len()).enumerate() {
+                        yi[i] += s * row.iter().zip(xs).map(|(a, b)| a * b).sum::<f64>();
+                    }
+                }
+            }
+        }
+    }
+
+    /// `y = A x`.
+    pub fn matvec(&self, x: &[f64], y: &mut [f64]) {
+        debug_assert_eq!(x.len(), self.ncols());
+        self.par_rows(y, |bi, yi| {
+            yi.iter_mut().for_each(|v| *v = 0.0);
+            self.row_apply(bi, x, yi, 1.0);
+        });
+    }
+
+    /// `y += A x`.
+    pub fn matvec_add(&self, x: &[f64], y: &mut [f64]) {
+        self.par_rows(y, |bi, yi| self.row_apply(bi, x, yi, 1.0));
+    }
+
+    /// `y -= A x`.
+    pub fn matvec_sub(&self, x: &[f64], y: &mut [f64]) {
+        self.par_rows(y, |bi, yi| self.row_apply(bi, x, yi, -1.0));
+    }
+
+    /// `A^T`, blocks transposed.
+    pub fn transpose(&self) -> Vbr {
+        let nbr = self.n_row_blocks();
+        let nbc = self.n_col_blocks();
+        let mut count = vec![0usize; nbc + 1];
+        for &bj in &self.bidx {
+            count[bj as usize + 1] += 1;
+        }
+        for j in 0..nbc {
+            count[j + 1] += count[j];
+        }
+        let bptr = count.clone();
+        let mut next = count;
+        let mut bidx = vec![0u32; self.bidx.len()];
+        let mut src = vec![0usize; self.bidx.len()];
+        for bi in 0..nbr {
+            for b in self.bptr[bi]..self.bptr[bi + 1] {
+                let bj = self.bidx[b] as usize;
+                bidx[next[bj]] = bi as u32;
+                src[next[bj]] = b;
+                next[bj] += 1;
+            }
+        }
+        let mut voff = Vec::with_capacity(bidx.len() + 1);
+        voff.push(0);
+        for &b in &src {
+            voff.push(voff.last().unwrap() + (self.voff[b + 1] - self.voff[b]));
+        }
+        let mut val = vec![0.0; self.val.len()];
+        let mut blocks: Vec<&mut [f64]> = split_at_bounds(&mut val, voff.iter().copied());
+        let rptr = &self.rptr;
+        blocks.par_iter_mut().with_min_len(1024).enumerate().for_each(|(t, out)| {
+            let b = src[t];
+            let bi = bidx[t] as usize;
+            let r = rptr[bi + 1] - rptr[bi];
+            let c = out.len() / r.max(1);
+            let v = &self.val[self.voff[b]..self.voff[b + 1]];
+            // v is r x c row-major; out is c x r row-major.
+            for i in 0..r {
+                for j in 0..c {
+                    out[j * r + i] = v[i * c + j];
+                }
+            }
+        });
+        Vbr::new(self.cptr.clone(), self.rptr.clone(), bptr, bidx, voff, val)
+    }
+
+    /// `C = A B` (the column blocks of `A` are the row blocks of `B`), row by row with a
+    /// dense block accumulator per touched column block (Gustavson's algorithm on blocks).
+    pub fn mul(&self, bm: &Vbr) -> Vbr {
+        debug_assert_eq!(self.cptr, bm.rptr);
+        let nbc = bm.n_col_blocks();
+        let g = &self.groups;
+        let parts: Vec<Part> = (0..g.len() - 1)
+            .into_par_iter()
+            .map_init(
+                || RowAcc { marker: vec![usize::MAX; nbc], cols: Vec::new(), offs: Vec::new(), buf: Vec::new() },
+                |acc, k| {
+                    let mut part = Part::default();
+                    for bi in g[k]..g[k + 1] {
+                        self.mul_row(bm, bi, acc, &mut part);
+                    }
+                    part
+                },
+            )
+            .collect();
+        let nbr = self.n_row_blocks();
+        let total_blocks: usize = parts.iter().map(|p| p.bidx.len()).sum();
+        let total_vals: usize = parts.iter().map(|p| p.val.len()).sum();
+        let mut bptr = Vec::with_capacity(nbr + 1);
+        bptr.push(0);
+        let mut bidx = Vec::with_capacity(total_blocks);
+        let mut voff = Vec::with_capacity(total_blocks + 1);
+        voff.push(0);
+        let mut val = Vec::with_capacity(total_vals);
+        for p in parts {
+            for c in p.blocks_per_row {
+                bptr.push(bptr.last().unwrap() + c);
+            }
+            bidx.extend_from_slice(&p.bidx);
+            for s in p.sizes {
+                voff.push(voff.last().unwrap() + s);
+            }
+            val.extend_from_slice(&p.val);
+        }
+        Vbr::new(self.rptr.clone(), bm.cptr.clone(), bptr, bidx, voff, val)
+    }
+
+    fn mul_row(&self, bm: &Vbr, bi: usize, acc: &mut RowAcc, part: &mut Part) {
+        let r = self.rptr[bi + 1] - self.rptr[bi];
+        acc.cols.clear();
+        acc.offs.clear();
+        acc.buf.clear();
+        for a in self.bptr[bi]..self.bptr[bi + 1] {
+            let bj = self.bidx[a] as usize;
+            let cj = self.cptr[bj + 1] - self.cptr[bj];
+            let av = &self.val[self.voff[a]..self.voff[a + 1]];
+            for b in bm.bptr[bj]..bm.bptr[bj + 1] {
+                let bk = bm.bidx[b] as usize;
+                let ck = bm.cptr[bk + 1] - bm.cptr[bk];
+                let slot = if acc.marker[bk] == usize::MAX {
+                    acc.marker[bk] = acc.cols.len();
+                    acc.cols.push(bk as u32);
+                    acc.offs.push(acc.buf.len());
+                    acc.buf.resize(acc.buf.len() + r * ck, 0.0);
+                    acc.cols.len() - 1
+                } else {
+                    acc.marker[bk]
+                };
+                let o = acc.offs[slot];
+                let out = &mut acc.buf[o..o + r * ck];
+                let bv = &bm.val[bm.voff[b]..bm.voff[b + 1]];
+                match (r, cj, ck) {
+                    (3, 3, 6) => block_mul::<3, 3, 6>(av, bv, out),
+                    (3, 3, 3) => block_mul::<3, 3, 3>(av, bv, out),
+                    (2, 2, 3) => block_mul::<2, 2, 3>(av, bv, out),
+                    (6, 3, 6) => block_mul::<6, 3, 6>(av, bv, out),
+                    (6, 6, 6) => block_mul::<6, 6, 6>(av, bv, out),
+                    (3, 2, 3) => block_mul::<3, 2, 3>(av, bv, out),
+                    _ => {
+                        for i in 0..r {
+                            for s in 0..cj {
+                                let x = av[i * cj + s];
+                                let brow = &bv[s * ck..(s + 1) * ck];
+                                for (o, &y) in out[i * ck..(i + 1) * ck].iter_mut().zip(brow) {
+                                    *o += x * y;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Emit the blocks in ascending column-block order.
+        let mut order: Vec<usize> = (0..acc.cols.len()).collect();
+        order.sort_unstable_by_key(|&s| acc.cols[s]);
+        part.blocks_per_row.push(order.len());
+        for s in order {
+            let bk = acc.cols[s] as usize;
+            let ck = bm.cptr[bk + 1] - bm.cptr[bk];
+            part.bidx.push(bk as u32);
+            part.sizes.push(r * ck);
+            part.val.extend_from_slice(&acc.buf[acc.offs[s]..acc.offs[s] + r * ck]);
+            acc.marker[bk] = usize::MAX;
+        }
+    }
+}
+
+/// `y += s * V x` for a row-major `R x C` block `V`.
+#[inline(always)]
+fn block_apply<const R: usize, const C: usize>(v: &[f64], x: &[f64], y: &mut [f64], s: f64) {
+    let v: &[f64] = &v[..R * C];
+    let x: &[f64] = &x[..C];
+    for i in 0..R {
+        let mut t = 0.0;
+        for j in 0..C {
+            t += v[i * C + j] * x[j];
+        }
+        y[i] += s * t;
+    }
+}
+
+/// `out += A B` for row-major `R x S` `A` and `S x K` `B`.
+#[inline(always)]
+fn block_mul<const R: usize, const S: usize, const K: usize>(a: &[f64], b: &[f64], out: &mut [f64]) {
+    let a: &[f64] = &a[..R * S];
+    let b: &[f64] = &b[..S * K];
+    let out: &mut [f64] = &mut out[..R * K];
+    for i in 0..R {
+        for s in 0..S {
+            let x = a[i * S + s];
+            for k in 0..K {
+                out[i * K + k] += x * b[s * K + k];
+            }
+        }
+    }
+}
