@@ -16,7 +16,9 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let dim: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(3);
     let nodes: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(20);
-    let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse::<f64>().ok());
+    let flag = |name: &str| {
+        args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse::<f64>().ok())
+    };
     let jacobi = args.iter().any(|a| a == "--jacobi");
     let mut params = AmgParams::default();
     if let Some(t) = flag("--theta") {
@@ -26,7 +28,8 @@ fn main() {
         params.max_coarse = c as usize;
     }
     if let Some(k) = flag("--degree") {
-        params.smoother = AmgSmoother::Chebyshev { degree: k as usize, lower: flag("--lower").unwrap_or(1.0 / 30.0), upper: 1.1 };
+        params.smoother =
+            AmgSmoother::Chebyshev { degree: k as usize, lower: flag("--lower").unwrap_or(1.0 / 30.0), upper: 1.1 };
     }
     if let Some(s) = flag("--jacobi-sweeps") {
         params.smoother = AmgSmoother::Jacobi { omega: 4.0 / 3.0, sweeps: s as usize };
@@ -55,7 +58,12 @@ fn main() {
     let a = assemble(&op, &dofs);
     let b = dofs.gather(&f);
     let rows = free_rows(&dofs);
-    println!("{dim}D {nodes}^{dim}: {} unknowns, {} stored entries, built in {:.2} s", a.nrows(), a.val().len(), t.elapsed().as_secs_f64());
+    println!(
+        "{dim}D {nodes}^{dim}: {} unknowns, {} stored entries, built in {:.2} s",
+        a.nrows(),
+        a.val().len(),
+        t.elapsed().as_secs_f64()
+    );
     let cg = CgParams { rtol: 1e-8, max_iter: 20_000 };
     let t = Instant::now();
     let amg = Amg::new(&a, dim, &rows, &grid.positions(), &params).unwrap();
@@ -64,10 +72,17 @@ fn main() {
     for (l, lv) in s.levels.iter().enumerate() {
         println!(
             "  level {l}: {} rows, {} blocks, {} nnz, rho {:?}, P nnz {:?}",
-            lv.rows, lv.blocks, lv.nnz, lv.rho.map(|r| (r * 1e3).round() / 1e3), lv.prolongator_nnz
+            lv.rows,
+            lv.blocks,
+            lv.nnz,
+            lv.rho.map(|r| (r * 1e3).round() / 1e3),
+            lv.prolongator_nnz
         );
     }
-    println!("  operator complexity {:.3}, grid complexity {:.3}, coarse factor nnz {}", s.operator_complexity, s.grid_complexity, s.coarse_factor_nnz);
+    println!(
+        "  operator complexity {:.3}, grid complexity {:.3}, coarse factor nnz {}",
+        s.operator_complexity, s.grid_complexity, s.coarse_factor_nnz
+    );
     println!("  setup times {:?}", s.times);
     let mut x = vec![0.0; a.nrows()];
     let t = Instant::now();
@@ -85,6 +100,11 @@ fn main() {
         let t = Instant::now();
         let jac = Jacobi::new(&linpd_solve::diagonal(&a)).unwrap();
         let info = pcg(&SymCsc(&a), &jac, &b, &mut x, &cg).unwrap();
-        println!("Jacobi-PCG: {} iterations, solve {:.3} s, residual {:.1e}", info.iterations, t.elapsed().as_secs_f64(), info.rel_residual);
+        println!(
+            "Jacobi-PCG: {} iterations, solve {:.3} s, residual {:.1e}",
+            info.iterations,
+            t.elapsed().as_secs_f64(),
+            info.rel_residual
+        );
     }
 }

@@ -162,7 +162,9 @@ pub enum AmgError {
     #[error("AMG input: {0}")]
     Input(String),
     /// A diagonal entry is not positive: `e_i . A e_i <= 0`, so the level is not SPD.
-    #[error("AMG level {level}: diagonal entry {value:e} of row {row} is not positive: the matrix is not positive definite")]
+    #[error(
+        "AMG level {level}: diagonal entry {value:e} of row {row} is not positive: the matrix is not positive definite"
+    )]
     NonPositiveDiagonal {
         /// Level (0: the input matrix).
         level: usize,

@@ -1,7 +1,7 @@
 //! The near-null space (rigid-body modes), the tentative prolongator `T` and its Jacobi
 //! smoothing `P = (I - omega D^{-1} A) T`.
 
-use super::vbr::Vbr;
+use super::vbr::{split_at_bounds, Vbr};
 use linpd_core::Point;
 use rayon::prelude::*;
 
@@ -76,8 +76,7 @@ pub(crate) fn tentative(a: &Vbr, agg: &[u32], n_agg: usize, b: &[f64], k: usize)
     let qr: Vec<(Vec<f64>, Vec<f64>, usize)> = (0..n_agg)
         .into_par_iter()
         .map(|g| {
-            let rows: Vec<usize> =
-                nodes[aptr[g]..aptr[g + 1]].iter().flat_map(|&i| rptr[i]..rptr[i + 1]).collect();
+            let rows: Vec<usize> = nodes[aptr[g]..aptr[g + 1]].iter().flat_map(|&i| rptr[i]..rptr[i + 1]).collect();
             let m = rows.len();
             // Columns of B_a.
             let cols: Vec<Vec<f64>> = (0..k).map(|c| rows.iter().map(|&r| b[r * k + c]).collect()).collect();
@@ -155,7 +154,7 @@ pub(crate) fn smooth(a: &Vbr, t: &Vbr, dinv: &[f64], omega: f64) -> Vbr {
     let cptr = w.cptr.clone();
     let (bptr, bidx, voff) = (&w.bptr, &w.bidx, &w.voff);
     let bounds: Vec<usize> = bptr.iter().map(|&b| voff[b]).collect();
-    let mut rows: Vec<&mut [f64]> = split_rows(&mut w.val, &bounds);
+    let mut rows: Vec<&mut [f64]> = split_at_bounds(&mut w.val, bounds.into_iter());
     rows.par_iter_mut().with_min_len(64).enumerate().for_each(|(i, vals)| {
         let base = voff[bptr[i]];
         let r0 = rptr[i];
@@ -177,14 +176,4 @@ pub(crate) fn smooth(a: &Vbr, t: &Vbr, dinv: &[f64], omega: f64) -> Vbr {
         vals[voff[b] - base..voff[b + 1] - base].iter_mut().zip(tv).for_each(|(x, y)| *x += y);
     });
     w
-}
-
-fn split_rows<'a>(mut v: &'a mut [f64], bounds: &[usize]) -> Vec<&'a mut [f64]> {
-    let mut out = Vec::with_capacity(bounds.len());
-    for k in 1..bounds.len() {
-        let (head, tail) = std::mem::take(&mut v).split_at_mut(bounds[k] - bounds[k - 1]);
-        out.push(head);
-        v = tail;
-    }
-    out
 }
