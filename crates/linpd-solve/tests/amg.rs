@@ -278,3 +278,26 @@ fn bad_row_descriptions_are_errors() {
     let e = Amg::new(&case.a, 3, &case.rows[1..], &case.positions, &AmgParams::default()).unwrap_err();
     assert!(matches!(e, AmgError::Input(_)), "{e}");
 }
+
+/// [`Amg::operator`] is `A`: its product agrees with the CSC one to round-off (the same
+/// terms summed in another order: `<= c eps sum_j |A_ij| |x_j|`, c the row length), on a
+/// uniform-block lattice (clamped) and a mixed one (rollers: 1-3 rows per node).
+#[test]
+fn operator_is_the_input_matrix() {
+    let fixed = |k: [i64; 3], c: usize| k[c] < 3;
+    for case in
+        [clamped(3, 8, 3, &Material::default()), lattice(3, 8, 3.0, [0.0; 3], &Material::default(), fixed, [0.0; 3])]
+    {
+        let m = amg(&case, &AmgParams::default());
+        let n = case.a.nrows();
+        let x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5).collect();
+        let (mut y1, mut y2) = (vec![0.0; n], vec![0.0; n]);
+        linpd_solve::sym_matvec(&case.a, &x, &mut y1);
+        linpd_solve::LinearOperator::apply(&m.operator(), &x, &mut y2);
+        let scale = (0..n).map(|j| case.a.val_of_col(j).iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max);
+        let c = (0..n).map(|j| case.a.row_idx_of_col(j).len()).max().unwrap() as f64;
+        for i in 0..n {
+            assert!((y1[i] - y2[i]).abs() <= c * f64::EPSILON * scale * 0.5, "row {i}: {} vs {}", y1[i], y2[i]);
+        }
+    }
+}

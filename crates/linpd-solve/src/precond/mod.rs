@@ -14,7 +14,7 @@ pub mod amg;
 mod factor;
 mod jacobi;
 
-pub use amg::{Amg, AmgError, AmgParams, AmgSmoother, AmgStats};
+pub use amg::{Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
 pub use factor::FactorPreconditioner;
 pub use jacobi::Jacobi;
 
