@@ -24,6 +24,9 @@ fn main() {
     if let Some(t) = flag("--theta") {
         params.strength_theta = t;
     }
+    if let Some(t) = flag("--coarse-theta") {
+        params.coarse_strength_theta = t;
+    }
     if let Some(s) = flag("--lanczos") {
         params.lanczos_steps = s as usize;
     }

@@ -103,6 +103,7 @@ fn assert_agrees(case: &Case, what: &str) {
     let xc = cholesky(case);
     let (x, its, _) = amg_pcg(case, &multilevel(), 1e-12);
     let err = norm(&x.iter().zip(&xc).map(|(p, q)| p - q).collect::<Vec<_>>()) / norm(&xc);
+    eprintln!("{what}: {its} iterations, difference {err:.1e}");
     assert!(err <= 1e-8, "{what}: AMG-PCG differs from Cholesky by {err:e} ({its} iterations)");
 }
 

@@ -76,8 +76,10 @@ use vbr::Vbr;
 /// Setup parameters of [`Amg`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AmgParams {
-    /// Strength threshold `theta` (0: every nonzero block is strong).
+    /// Strength threshold `theta` on level 0 (0: every nonzero block is strong).
     pub strength_theta: f64,
+    /// Strength threshold on the coarse levels (aggregates of aggregates).
+    pub coarse_strength_theta: f64,
     /// The smoother of every level but the coarsest.
     pub smoother: AmgSmoother,
     /// Stop coarsening at this many rows (the coarsest level is factored).
@@ -94,6 +96,7 @@ impl Default for AmgParams {
     fn default() -> Self {
         AmgParams {
             strength_theta: 0.0,
+            coarse_strength_theta: 0.05,
             smoother: AmgSmoother::default(),
             max_coarse: 2000,
             max_levels: 10,
@@ -325,7 +328,8 @@ impl Amg {
             }
             let dinv: Vec<f64> = diag.iter().map(|d| 1.0 / d).collect();
             let t = Instant::now();
-            let (sp, si) = aggregate::strong_neighbours(&amat, params.strength_theta);
+            let theta = if l == 0 { params.strength_theta } else { params.coarse_strength_theta };
+            let (sp, si) = aggregate::strong_neighbours(&amat, theta);
             let (agg, n_agg) = aggregate::standard_aggregation(&sp, &si);
             times.aggregate += t.elapsed().as_secs_f64();
             if n_agg == amat.n_row_blocks() {

@@ -101,7 +101,7 @@ pub enum AmgSmoother {
 
 impl Default for AmgSmoother {
     fn default() -> Self {
-        AmgSmoother::Chebyshev { degree: 2, lower: 1.0 / 30.0, upper: 1.1 }
+        AmgSmoother::Chebyshev { degree: 1, lower: 1.0 / 30.0, upper: 1.1 }
     }
 }
 

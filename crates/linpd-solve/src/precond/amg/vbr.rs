@@ -140,31 +140,38 @@ impl Vbr {
         let chunk = 512;
         let parts: Vec<(Vec<usize>, Vec<u32>)> = (0..nb.div_ceil(chunk))
             .into_par_iter()
-            .map(|c| {
-                let mut marker = vec![u32::MAX; 0];
-                let mut counts = Vec::new();
-                let mut cols = Vec::new();
-                let mut touched: Vec<u32> = Vec::new();
-                for bi in c * chunk..((c + 1) * chunk).min(nb) {
-                    if marker.is_empty() {
-                        marker = vec![u32::MAX; nb];
-                    }
-                    touched.clear();
-                    for i in rptr[bi]..rptr[bi + 1] {
-                        for &k in &ri[cp[i]..cp[i + 1]] {
-                            let bj = block_of[k];
-                            if marker[bj as usize] != bi as u32 {
-                                marker[bj as usize] = bi as u32;
-                                touched.push(bj);
+            .map_init(
+                // One marker per thread (stamped with the block row), not per chunk.
+                || vec![u32::MAX; nb],
+                |marker, c| {
+                    let mut counts = Vec::new();
+                    let mut cols = Vec::new();
+                    let mut touched: Vec<u32> = Vec::new();
+                    for bi in c * chunk..((c + 1) * chunk).min(nb) {
+                        touched.clear();
+                        for i in rptr[bi]..rptr[bi + 1] {
+                            // Rows are sorted in a column and blocks are runs of rows: look
+                            // up the block once per run, not once per entry.
+                            let (mut p, end) = (cp[i], cp[i + 1]);
+                            while p < end {
+                                let bj = block_of[ri[p]];
+                                if marker[bj as usize] != bi as u32 {
+                                    marker[bj as usize] = bi as u32;
+                                    touched.push(bj);
+                                }
+                                let stop = rptr[bj as usize + 1];
+                                while p < end && ri[p] < stop {
+                                    p += 1;
+                                }
                             }
                         }
+                        touched.sort_unstable();
+                        counts.push(touched.len());
+                        cols.extend_from_slice(&touched);
                     }
-                    touched.sort_unstable();
-                    counts.push(touched.len());
-                    cols.extend_from_slice(&touched);
-                }
-                (counts, cols)
-            })
+                    (counts, cols)
+                },
+            )
             .collect();
         let mut bptr = vec![0usize];
         let mut bidx = Vec::new();
@@ -193,17 +200,22 @@ impl Vbr {
             let blocks = &bidx[bptr[bi]..bptr[bi + 1]];
             for i in rptr[bi]..rptr[bi + 1] {
                 let mut pos = 0;
-                for p in cp[i]..cp[i + 1] {
-                    let k = ri[p];
-                    let bj = block_of[k];
-                    // Rows of a CSC column are sorted, so the blocks come in ascending order.
+                let (mut p, end) = (cp[i], cp[i + 1]);
+                while p < end {
+                    let bj = block_of[ri[p]];
+                    // Blocks come in ascending order along the sorted rows.
                     while blocks[pos] != bj {
                         pos += 1;
                     }
                     let b = bptr[bi] + pos;
                     let c0 = rptr[bj as usize];
                     let cw = rptr[bj as usize + 1] - c0;
-                    vals[voff[b] - base + (i - r0) * cw + (k - c0)] += av[p];
+                    let o = voff[b] - base + (i - r0) * cw;
+                    let dst = &mut vals[o..o + cw];
+                    while p < end && ri[p] < c0 + cw {
+                        dst[ri[p] - c0] += av[p];
+                        p += 1;
+                    }
                 }
             }
         });
