@@ -78,7 +78,8 @@ fn norm(a: &[f64]) -> f64 {
 /// Which smoother the V-cycle runs on each level before and after the coarse correction.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub enum AmgSmoother {
-    /// The Chebyshev polynomial of `degree` in `D^{-1} A` that is smallest on
+    /// (Default: degree 1, `[rho/30, 1.1 rho]`.) The Chebyshev polynomial of `degree` in
+    /// `D^{-1} A` that is smallest on
     /// `[lower rho, upper rho]`, `rho` the Lanczos estimate of `rho(D^{-1} A)` (Adams, Brezina,
     /// Hu & Tuminaro 2003; MueLu/Ifpack2 defaults: eigenvalue ratio 30, boost 1.1).
     Chebyshev {
