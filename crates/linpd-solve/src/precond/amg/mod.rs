@@ -25,8 +25,8 @@
 //!    dropped), and `B_{l+1}` stacks the `R_a`, so `T B_{l+1} = B_l`: the coarse space
 //!    reproduces the rigid motions exactly.
 //! 4. **Prolongator smoothing.** `P = (I - omega D^{-1} A) T` with `D = diag(A)` and
-//!    `omega = (4/3) / rho(D^{-1} A)`, `rho` from 20 Lanczos steps (10 steps underestimate it
-//!    by 3% on a 2D plate, 20 and 40 agree to 4 digits): one Jacobi step lowers the energy of
+//!    `omega = (4/3) / rho(D^{-1} A)`, `rho` from 20 Lanczos steps (10-12 steps underestimate it
+//!    by 3-5% on 2D plates; 20 and 40 agree to 3 digits): one Jacobi step lowers the energy of
 //!    the coarse basis functions (VMB96 eq. (3.6)).
 //! 5. **Galerkin coarse operator** `A_{l+1} = P^T A P`, computed as `R (A P)` with the
 //!    explicit transpose `R = P^T`, both sparse products of dense blocks (rayon over block
@@ -49,9 +49,9 @@
 //! default, which is Jacobi with weight `2 / (1.1 rho + rho/30) = 1.77 / rho`. Its error
 //! propagator `I - p(D^{-1}A) D^{-1} A` is self-adjoint in the `A` inner product with norm
 //! below 1, so the V-cycle is symmetric positive definite (required by CG) and fixed (no
-//! inner tolerance). pyamg smooths with symmetric block Gauss-Seidel, which reaches 8-9
-//! iterations where this reaches 15-18, but is sequential; Chebyshev is two parallel
-//! products per level per degree.
+//! inner tolerance). pyamg (symmetric block Gauss-Seidel smoothing by default) reaches 8-9
+//! iterations on these lattices (issue #12) where this cycle takes 15-18; Gauss-Seidel is
+//! sequential, a Chebyshev degree is one parallel product per smoothing step.
 //!
 //! # Measured choices
 //!
@@ -221,6 +221,15 @@ pub enum AmgError {
         /// The row of the failed pivot.
         row: usize,
     },
+    /// The coarsest factor solves its own matrix badly: a positive but round-off-sized pivot,
+    /// i.e. the coarse matrix (and so the input) is numerically singular.
+    #[error("AMG level {level} (coarsest): the coarse matrix is numerically singular (relative residual {rel_residual:.2e} of a test solve); the input matrix is singular")]
+    CoarseSingular {
+        /// Level.
+        level: usize,
+        /// `||A_c x - b|| / ||b||` for `b = A_c v`, `v` pseudo-random.
+        rel_residual: f64,
+    },
     /// The coarse factorization failed for another reason.
     #[error("AMG level {level}: coarse factorization failed: {reason}")]
     CoarseFactorization {
@@ -240,13 +249,19 @@ struct Level {
 }
 
 /// The SA-AMG V-cycle preconditioner (see the module docs).
-#[derive(Debug)]
 pub struct Amg {
     /// `A_l` of every smoothed level (the input matrix alone when it is factored directly).
     mats: Vec<Vbr>,
     levels: Vec<Level>,
     coarse: CholeskyFactor,
     stats: AmgStats,
+}
+
+impl std::fmt::Debug for Amg {
+    /// The statistics only: the level matrices hold millions of entries.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Amg").field("stats", &self.stats).finish_non_exhaustive()
+    }
 }
 
 /// The `(node, component)` of every free DOF of `dofs`, in the free numbering: the row
@@ -399,6 +414,16 @@ impl Amg {
         };
         let chol = Cholesky::analyze(&csc).map_err(map)?;
         let coarse = chol.factor(&csc).map_err(map)?;
+        // A singular coarse matrix can factor with round-off pivots instead of failing: a test
+        // solve catches it (the limit of the direct solvers, `kappa` beyond ~1e10).
+        let v: Vec<f64> = (0..rows).map(|i| 1.0 + ((i * 7919) % 113) as f64 / 113.0).collect();
+        let mut bc = vec![0.0; rows];
+        linpd_core::sparse::sym_matvec(&csc, &v, &mut bc);
+        let xc = coarse.solve(&bc);
+        let rel_residual = linpd_core::sparse::relative_residual(&csc, true, &xc, &bc);
+        if !(rel_residual <= crate::statics::DIRECT_RESIDUAL_LIMIT) {
+            return Err(AmgError::CoarseSingular { level: l, rel_residual });
+        }
         times.coarse_factor = t.elapsed().as_secs_f64();
         let nnz0 = level_stats[0].nnz as f64;
         let rows0 = level_stats[0].rows as f64;
