@@ -9,7 +9,7 @@
 
 use linpd_bond::{assemble, BondOperator};
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
-use linpd_solve::{free_rows, pcg, Amg, AmgParams, AmgSmoother, CgParams, Jacobi, LinearOperator, SymCsc};
+use linpd_solve::{pcg, Amg, AmgParams, AmgSmoother, CgParams, DofGeometry, Jacobi, LinearOperator, SymCsc};
 use std::time::Instant;
 
 fn main() {
@@ -63,7 +63,7 @@ fn main() {
     let dofs = DofMap::new(dim, &mask);
     let a = assemble(&op, &dofs);
     let b = dofs.gather(&f);
-    let rows = free_rows(&dofs);
+    let geometry = DofGeometry::of(&op, &dofs);
     println!(
         "{dim}D {nodes}^{dim}: {} unknowns, {} stored entries, built in {:.2} s",
         a.nrows(),
@@ -72,7 +72,7 @@ fn main() {
     );
     let cg = CgParams { rtol: 1e-8, max_iter: 20_000 };
     let t = Instant::now();
-    let amg = Amg::new(&a, dim, &rows, &grid.positions(), &params).unwrap();
+    let amg = Amg::from_geometry(&a, &geometry, &params).unwrap();
     let setup = t.elapsed().as_secs_f64();
     let s = amg.stats();
     for (l, lv) in s.levels.iter().enumerate() {

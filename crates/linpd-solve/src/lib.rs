@@ -27,7 +27,7 @@ pub use krylov::cg::{pcg, CgError, CgInfo, CgParams};
 pub use krylov::gmres::{gmres, GmresError, GmresInfo, GmresParams};
 pub use linpd_core::sparse::{diagonal, matvec, relative_residual, sym_matvec, GeneralCsc, SymCsc};
 pub use linpd_core::LinearOperator;
-pub use precond::amg::{free_rows, rigid_body_modes, Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
+pub use precond::amg::{rigid_body_modes, Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
 pub use precond::{FactorPreconditioner, Identity, Jacobi, Preconditioner};
 pub use report::{peak_rss_bytes, SolveReport, Timings};
 pub use spec::{

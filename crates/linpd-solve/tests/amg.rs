@@ -9,7 +9,7 @@ use linpd_core::{
     BondRule, DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point, Region,
 };
 use linpd_solve::{
-    free_rows, gmres, pcg, rigid_body_modes, Amg, AmgError, AmgParams, AmgSmoother, CgParams, Cholesky, GmresParams,
+    gmres, pcg, rigid_body_modes, Amg, AmgError, AmgParams, AmgSmoother, CgParams, Cholesky, DofGeometry, GmresParams,
     Preconditioner, SymCsc,
 };
 
@@ -56,7 +56,8 @@ fn lattice(
         }
     }
     let dofs = DofMap::new(dim, &mask);
-    Case { a: assemble(&op, &dofs), dim, rows: free_rows(&dofs), positions: grid.positions(), b: dofs.gather(&f) }
+    let g = DofGeometry::of(&op, &dofs);
+    Case { a: assemble(&op, &dofs), dim, rows: g.rows, positions: g.positions, b: dofs.gather(&f) }
 }
 
 /// Clamped on the planes `x < m` (every component), body force along the last axis.

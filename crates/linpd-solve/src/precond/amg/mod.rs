@@ -74,7 +74,7 @@
 //!
 //! The rows of `A` are described by `(node, component)` pairs; the rows of one node must be
 //! consecutive (as in linpd's node-major numbering, whatever components the Dirichlet
-//! elimination left free: see [`free_rows`]). Node positions give the rigid-body modes; any
+//! elimination left free: see [`DofGeometry::of`]). Node positions give the rigid-body modes; any
 //! other near-null space can be given with [`Amg::with_near_null_space`].
 
 mod aggregate;
@@ -87,9 +87,10 @@ pub use smoother::AmgSmoother;
 
 use super::Preconditioner;
 use crate::direct::{Cholesky, CholeskyFactor};
+use crate::spec::DofGeometry;
 use crate::SolveError;
 use linpd_core::sparse::Csc;
-use linpd_core::{DofMap, Point};
+use linpd_core::Point;
 use serde::Serialize;
 use std::time::Instant;
 use vbr::Vbr;
@@ -264,13 +265,6 @@ impl std::fmt::Debug for Amg {
     }
 }
 
-/// The `(node, component)` of every free DOF of `dofs`, in the free numbering: the row
-/// description [`Amg::new`] takes for a reduced system of linpd.
-pub fn free_rows(dofs: &DofMap) -> Vec<(usize, usize)> {
-    let d = dofs.dim();
-    dofs.free_dofs().into_iter().map(|f| (f / d, f % d)).collect()
-}
-
 impl Amg {
     /// Sets up the hierarchy for the symmetric positive definite `a` (both triangles stored)
     /// whose row `i` is component `rows[i].1` of node `rows[i].0`, with node positions
@@ -295,6 +289,12 @@ impl Amg {
         let modes = rigid_body_modes(dim, rows, positions);
         let nodes: Vec<usize> = rows.iter().map(|r| r.0).collect();
         Self::with_near_null_space(a, &nodes, &modes, params)
+    }
+
+    /// [`Amg::new`] from the [`DofGeometry`] of a reduced system (what a
+    /// [`crate::PreconditionerInput`] carries).
+    pub fn from_geometry(a: &Csc, geometry: &DofGeometry, params: &AmgParams) -> Result<Self, AmgError> {
+        Self::new(a, geometry.dim, &geometry.rows, &geometry.positions, params)
     }
 
     /// Sets up the hierarchy with a caller's near-null space: `modes[m][i]` is mode `m` at
