@@ -1,7 +1,7 @@
 //! AMG-PCG against Jacobi-PCG on a clamped bond lattice (the measurements of issue #12).
 //!
-//! `cargo run --release -p linpd-solve --example amg_lattice -- DIM NODES [--jacobi] [--theta T]
-//! [--degree K] [--coarse N]`: a `NODES^DIM` lattice, `h = 1`, inverse-distance kernel with
+//! `cargo run --release -p linpd-solve --example amg_lattice -- DIM NODES [--cantilever] [--jacobi]
+//! [--theta T] [--coarse-theta T] [--degree K] [--jacobi-sweeps S] [--coarse N] [--lanczos S]`: a `NODES^DIM` lattice, `h = 1`, inverse-distance kernel with
 //! discrete normalization (K = 1), `delta = 3h` in 3D and `2h` in 2D (plane stress), clamped on
 //! the `delta/h` planes `x < delta`, loaded by a uniform body force along the last axis. Prints
 //! the hierarchy, the setup time and the iterations and time of each PCG to rtol 1e-8, and
@@ -49,16 +49,26 @@ fn main() {
         plane: (dim == 2).then_some(PlaneModel::Stress),
         partial_volume: false,
     };
-    let last = (nodes - 1) as f64;
+    // `--cantilever`: the cases of `linpd bench --statics` (issue #12): the body has `nodes`
+    // per side plus a layer of `m` nodes outside every face; the layer at x <= 0 is clamped
+    // and the layer at x >= 1 carries the load. Otherwise: the `m` planes x < m h are clamped
+    // and every node is loaded.
+    let cantilever = args.iter().any(|a| a == "--cantilever");
+    let side = if cantilever { nodes + 2 * m } else { nodes };
+    let last = (side - 1) as f64;
     let grid = Grid::new(&vec![0.0; dim], &vec![last; dim], 1.0, 0.0, Placement::Vertex).unwrap();
     let op = BondOperator::on_grid(&grid, m as f64, &mm, &Material::default()).unwrap();
     let mut mask = vec![false; dim * grid.len()];
     let mut f = vec![0.0; dim * grid.len()];
     for n in 0..grid.len() {
-        if grid.lattice_index(n)[0] < m as i64 {
+        let kx = grid.lattice_index(n)[0] as usize;
+        let (clamped, loaded) = if cantilever { (kx <= m, kx >= nodes - 1 + m) } else { (kx < m, true) };
+        if clamped {
             mask[dim * n..dim * n + dim].iter_mut().for_each(|c| *c = true);
         }
-        f[dim * n + dim - 1] = -1e-3;
+        if loaded {
+            f[dim * n + dim - 1] = -1e-3;
+        }
     }
     let dofs = DofMap::new(dim, &mask);
     let a = assemble(&op, &dofs);
