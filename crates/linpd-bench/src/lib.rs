@@ -120,8 +120,16 @@ fn cases(quick: bool) -> Vec<Case> {
 }
 
 /// The multigrid-PCG solver of the statics section, when linpd-solve offers one.
-fn multigrid_solver(_params: &CgParams, _matrix_free: bool) -> Option<(&'static str, linpd_solve::SolverSpec)> {
-    None
+fn multigrid_solver(params: &CgParams, matrix_free: bool) -> Option<(&'static str, linpd_solve::SolverSpec)> {
+    // The hierarchy is built from the assembled matrix (no matrix-free finest level yet).
+    (!matrix_free).then(|| {
+        let spec = linpd_solve::SolverSpec::Cg {
+            params: params.clone(),
+            preconditioner: linpd_solve::PreconditionerKind::Multigrid,
+            matrix_free: false,
+        };
+        ("cg-multigrid", spec)
+    })
 }
 
 /// Resets the kernel's peak-RSS counter (`VmHWM`) so each case reports its own peak.

@@ -579,6 +579,8 @@ pub struct RawSolver {
 pub enum RawPreconditioner {
     /// `M = diag(A)`.
     Jacobi,
+    /// Smoothed-aggregation AMG (one V-cycle).
+    Multigrid,
 }
 
 /// `solver.type`.

@@ -31,6 +31,9 @@ pub struct SolveReport {
     /// How `auto` chose: each candidate's estimated time and what it rests on.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto: Option<String>,
+    /// What the preconditioner built (e.g. the multigrid levels), when it says.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub preconditioner: Option<String>,
     /// Unknowns (free DOFs).
     pub n: usize,
     /// Stored entries of the reduced stiffness (both triangles; 0 when matrix-free).
@@ -58,6 +61,7 @@ impl SolveReport {
             solver,
             note: None,
             auto: None,
+            preconditioner: None,
             n,
             nnz_a,
             nnz_factor: None,

@@ -1,7 +1,7 @@
 //! What to solve with ([`SolverSpec`], validated from a scene's `solver` section) and what
 //! ran ([`SolverId`], in every [`crate::SolveReport`]).
 
-use crate::precond::{Jacobi, Preconditioner};
+use crate::precond::{Amg, AmgError, AmgParams, Jacobi, Preconditioner};
 use crate::CgParams;
 use crate::SolveError;
 use linpd_core::sparse::Csc;
@@ -15,6 +15,9 @@ pub enum PreconditionerKind {
     /// `M = diag(A)` ([`Jacobi`]).
     #[default]
     Jacobi,
+    /// One V-cycle of smoothed-aggregation AMG with the rigid-body modes as near-null space
+    /// ([`Amg`]); needs the assembled `A_ff`.
+    Multigrid,
 }
 
 impl PreconditionerKind {
@@ -22,6 +25,7 @@ impl PreconditionerKind {
     pub fn name(self) -> &'static str {
         match self {
             PreconditionerKind::Jacobi => "jacobi",
+            PreconditionerKind::Multigrid => "multigrid",
         }
     }
 
@@ -29,6 +33,20 @@ impl PreconditionerKind {
     pub fn build(self, input: &PreconditionerInput<'_>) -> Result<Box<dyn Preconditioner>, SolveError> {
         match self {
             PreconditionerKind::Jacobi => Ok(Box::new(Jacobi::new(input.diagonal)?)),
+            PreconditionerKind::Multigrid => {
+                let a = input.matrix.ok_or_else(|| {
+                    AmgError::Input("multigrid needs the assembled matrix: matrix_free is not available with it".into())
+                })?;
+                let amg = match input.geometry {
+                    Some(g) => Amg::from_geometry(a, g, &AmgParams::default())?,
+                    // A bare matrix: one unknown per node, constants as near-null space.
+                    None => {
+                        let rows: Vec<usize> = (0..a.nrows()).collect();
+                        Amg::with_near_null_space(a, &rows, &[vec![1.0; a.nrows()]], &AmgParams::default())?
+                    }
+                };
+                Ok(Box::new(amg))
+            }
         }
     }
 }
@@ -72,6 +90,9 @@ impl DofGeometry {
 impl Preconditioner for Box<dyn Preconditioner> {
     fn apply(&self, r: &[f64], z: &mut [f64]) {
         (**self).apply(r, z)
+    }
+    fn summary(&self) -> Option<String> {
+        (**self).summary()
     }
 }
 

@@ -185,6 +185,7 @@ fn assembled_cg(
     let diag = diagonal(a);
     let m_inv = preconditioner.build(&PreconditionerInput { diagonal: &diag, matrix: Some(a), geometry })?;
     report.timings.setup = t.elapsed().as_secs_f64();
+    report.preconditioner = m_inv.summary();
     let t = Instant::now();
     let mut u = vec![0.0; a.nrows()];
     let info = pcg(&SymCsc(a), &m_inv, f, &mut u, params)?;

@@ -22,6 +22,10 @@ pub use jacobi::Jacobi;
 pub trait Preconditioner: Sync {
     /// Sets `z = M^{-1} r` (`z` is overwritten).
     fn apply(&self, r: &[f64], z: &mut [f64]);
+    /// What was built, for the solve report (e.g. a multigrid hierarchy's levels).
+    fn summary(&self) -> Option<String> {
+        None
+    }
 }
 
 /// No preconditioning: `z = r`.

@@ -475,6 +475,17 @@ impl Preconditioner for Amg {
     fn apply(&self, r: &[f64], z: &mut [f64]) {
         self.cycle(0, r, z);
     }
+    fn summary(&self) -> Option<String> {
+        let s = &self.stats;
+        let rows: Vec<String> = s.levels.iter().map(|l| l.rows.to_string()).collect();
+        Some(format!(
+            "SA-AMG: {} levels ({} rows), operator complexity {:.2}, setup {:.2} s",
+            s.levels.len(),
+            rows.join(" > "),
+            s.operator_complexity,
+            s.setup_seconds
+        ))
+    }
 }
 
 /// The input matrix `A` as a [`linpd_core::LinearOperator`], from [`Amg::operator`].
