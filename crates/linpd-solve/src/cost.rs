@@ -9,6 +9,13 @@
 //! * **Jacobi-PCG**: `k` iterations of one product with `A` (`nnz(A) t_A` each) and a few
 //!   vector updates. Jacobi leaves `kappa ~ (L/h)^2`, so `k ~ sqrt(kappa) ~ c_d n_side`, with
 //!   `n_side` the nodes along the body's longest side; scaled by `log(rtol) / log(1e-8)`.
+//! * **Multigrid-PCG** (SA-AMG, [`crate::Amg`]): a setup of `S` matrix-entry costs per stored
+//!   entry of `A` (aggregation, prolongator smoothing, Galerkin products) and `k` iterations of
+//!   `c` entry costs each (the V-cycle's smoothing and residuals on all levels, plus CG's
+//!   product), with `k` nearly independent of the size: `S = 65`, `c = 4`, `k = 17` at rtol
+//!   1e-8 (measured with `linpd bench --statics`: setup 1.7-3.4e-7 s per entry and one
+//!   iteration 3.4-4x a Jacobi-PCG iteration, 14-17 iterations on 2D plates 101^2..401^2 and
+//!   3D cantilevers 20^3..40^3).
 //!
 //! The rates were fitted on the 2-core reference machine (measured 2026-11-23, bond-based
 //! lattices, 2D plates 101^2 and 201^2 with `delta = 2h`, 3D cubes 12^3..20^3 with
@@ -28,6 +35,12 @@ const CHOLESKY_FLOP_RATE: f64 = 12e9;
 const CHOLESKY_ENTRY_SECONDS: f64 = 37e-9;
 /// Seconds per stored entry of `A` per CG iteration (module docs).
 const MATVEC_ENTRY_SECONDS: f64 = 2.0e-9;
+/// Multigrid setup cost, in products-with-`A` entry costs per stored entry (module docs).
+const MULTIGRID_SETUP_ENTRIES: f64 = 65.0;
+/// Multigrid-PCG iteration cost, in entry costs per stored entry (module docs).
+const MULTIGRID_ITERATION_ENTRIES: f64 = 4.0;
+/// Multigrid-PCG iterations at rtol 1e-8 (module docs).
+const MULTIGRID_ITERATIONS: f64 = 17.0;
 /// Jacobi-PCG iterations per node along the longest side at rtol 1e-8, by dimension.
 const JACOBI_ITERATIONS_PER_SIDE: [f64; 4] = [0.0, 4.5, 4.5, 4.0];
 
@@ -76,13 +89,28 @@ pub fn cholesky(chol: &Cholesky, name: String) -> Estimate {
 /// The estimate of Jacobi-PCG on `nnz_a` stored entries, `n_side` nodes along the longest side
 /// in dimension `dim`.
 pub fn jacobi_cg(dim: usize, nnz_a: usize, n_side: f64, params: &CgParams) -> Estimate {
-    let scale = (params.rtol.max(1e-16).ln() / 1e-8f64.ln()).max(0.1);
-    let k = (JACOBI_ITERATIONS_PER_SIDE[dim.min(3)] * n_side * scale).max(1.0);
+    let k = (JACOBI_ITERATIONS_PER_SIDE[dim.min(3)] * n_side * tolerance_scale(params.rtol)).max(1.0);
     Estimate {
         solver: "cg-jacobi".into(),
         seconds: Some(k * nnz_a as f64 * MATVEC_ENTRY_SECONDS),
         why: format!("~{k:.0} iterations"),
     }
+}
+
+/// The estimate of multigrid-PCG on `nnz_a` stored entries.
+pub fn multigrid_cg(nnz_a: usize, params: &CgParams) -> Estimate {
+    let k = (MULTIGRID_ITERATIONS * tolerance_scale(params.rtol)).max(1.0);
+    let entries = nnz_a as f64 * (MULTIGRID_SETUP_ENTRIES + k * MULTIGRID_ITERATION_ENTRIES);
+    Estimate {
+        solver: "cg-multigrid".into(),
+        seconds: Some(entries * MATVEC_ENTRY_SECONDS),
+        why: format!("setup + ~{k:.0} iterations"),
+    }
+}
+
+/// Iterations to `rtol` relative to iterations to 1e-8: CG's error contracts geometrically.
+fn tolerance_scale(rtol: f64) -> f64 {
+    (rtol.max(1e-16).ln() / 1e-8f64.ln()).max(0.1)
 }
 
 /// Nodes along the longest side of the bounding box of `positions` (`dim` coordinates each),

@@ -199,8 +199,9 @@ fn assembled_cg(
 /// (a 32^3 cube) it is already ~1e9 entries, past [`cost::CHOLESKY_MEMORY_LIMIT`].
 pub const AUTO_3D_CHOLESKY_LIMIT: usize = 100_000;
 
-/// `auto` on a symmetric `A` in 2D/3D: the cheapest candidate by [`crate::cost`]; the report's
-/// `auto` field lists the estimates.
+/// `auto` on a symmetric `A` in 2D/3D: the cheapest of sparse Cholesky, Jacobi-PCG and (when
+/// the DOF geometry is known) multigrid-PCG by [`crate::cost`]; the report's `auto` field lists
+/// the estimates.
 fn auto(a: &Csc, f: &[f64], params: &CgParams, hints: &MatrixHints) -> Result<(Vec<f64>, SolveReport), SolveError> {
     let (n, dim) = (a.nrows(), hints.dim);
     let n_side = hints.n_side.unwrap_or_else(|| (n as f64 / dim as f64).powf(1.0 / dim as f64));
@@ -218,15 +219,20 @@ fn auto(a: &Csc, f: &[f64], params: &CgParams, hints: &MatrixHints) -> Result<(V
         analyzed = Some((c, label, t));
         e
     };
-    let take_cholesky = match (chol.seconds, cg.seconds) {
-        (Some(c), Some(g)) => c <= g,
-        (Some(_), None) => true,
-        _ => false,
-    };
-    let line = format!("{chol}; {cg}");
-    let (u, mut report) = match (take_cholesky, analyzed) {
-        (true, Some(analysis)) => cholesky(a, f, analysis)?,
-        _ => assembled_cg(a, f, params, PreconditionerKind::Jacobi, hints.geometry.as_ref())?,
+    // Multigrid needs the DOF geometry for its rigid-body modes: offered only with it.
+    let mg = hints.geometry.as_ref().map(|_| cost::multigrid_cg(a.val().len(), params));
+    let mut candidates = vec![(&chol, None), (&cg, Some(PreconditionerKind::Jacobi))];
+    candidates.extend(mg.as_ref().map(|e| (e, Some(PreconditionerKind::Multigrid))));
+    let line = candidates.iter().map(|(e, _)| e.to_string()).collect::<Vec<_>>().join("; ");
+    // The cheapest estimate: `None` is the Cholesky, `Some(p)` PCG with `p`.
+    let best = candidates
+        .iter()
+        .filter_map(|(e, choice)| e.seconds.map(|s| (s, *choice)))
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .map_or(Some(PreconditionerKind::Jacobi), |(_, choice)| choice);
+    let (u, mut report) = match (best, analyzed) {
+        (None, Some(analysis)) => cholesky(a, f, analysis)?,
+        (p, _) => assembled_cg(a, f, params, p.unwrap_or_default(), hints.geometry.as_ref())?,
     };
     report.auto = Some(line);
     Ok((u, report))
@@ -462,6 +468,7 @@ pub fn solve_model(
                 SolverSpec::Cg { preconditioner, .. } if *preconditioner != PreconditionerKind::Jacobi => {
                     Some(DofGeometry::of(model, dofs))
                 }
+                SolverSpec::Auto(_) if d >= 2 => Some(DofGeometry::of(model, dofs)),
                 _ => None,
             };
             let hints = MatrixHints { dim: d, asymmetry, ordering: model.ordering(dofs), spd, geometry, n_side };
