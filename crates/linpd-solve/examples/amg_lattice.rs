@@ -1,11 +1,17 @@
-//! AMG-PCG against Jacobi-PCG on a clamped bond lattice (the measurements of issue #12).
+//! AMG-PCG against Jacobi-PCG on clamped bond lattices (the measurements of issue #12).
 //!
-//! `cargo run --release -p linpd-solve --example amg_lattice -- DIM NODES [--cantilever] [--jacobi]
-//! [--theta T] [--coarse-theta T] [--degree K] [--jacobi-sweeps S] [--coarse N] [--lanczos S]`: a `NODES^DIM` lattice, `h = 1`, inverse-distance kernel with
-//! discrete normalization (K = 1), `delta = 3h` in 3D and `2h` in 2D (plane stress), clamped on
-//! the `delta/h` planes `x < delta`, loaded by a uniform body force along the last axis. Prints
-//! the hierarchy, the setup time and the iterations and time of each PCG to rtol 1e-8, and
-//! asserts that both reach it.
+//! ```text
+//! cargo run --release -p linpd-solve --example amg_lattice -- DIM NODES [--cantilever]
+//!     [--jacobi] [--theta T] [--coarse-theta T] [--degree K] [--jacobi-sweeps S]
+//!     [--coarse N] [--lanczos S]
+//! ```
+//!
+//! A `NODES^DIM` lattice, `h = 1`, inverse-distance kernel with discrete normalization
+//! (K = 1), `delta = 3h` in 3D and `2h` in 2D (plane stress), clamped on the planes `x < delta`
+//! and loaded by a uniform body force along the last axis; with `--cantilever`, the cases of
+//! `linpd bench --statics` (see below). Prints the hierarchy, the setup time, the iterations
+//! and time of AMG-PCG to rtol 1e-8 (with CG's product through the CSC and through the AMG's
+//! block copy) and, with `--jacobi`, of Jacobi-PCG; asserts that each reaches the target.
 
 use linpd_bond::{assemble, BondOperator};
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
