@@ -174,6 +174,9 @@ pub struct AmgStats {
     pub grid_complexity: f64,
     /// Stored entries of the coarsest Cholesky factor.
     pub coarse_factor_nnz: usize,
+    /// Bytes the hierarchy holds: the block copies of `A_l`, `P`, `R = P^T`, the smoothers'
+    /// `D^{-1}` and the coarse factor's values (the caller's `A` not counted).
+    pub memory_bytes: usize,
     /// Total setup time (seconds).
     pub setup_seconds: f64,
     /// Setup time by phase.
@@ -433,6 +436,9 @@ impl Amg {
             grid_complexity: level_stats.iter().map(|s| s.rows as f64).sum::<f64>() / rows0,
             levels: level_stats,
             coarse_factor_nnz: chol.nnz_factor(),
+            memory_bytes: mats.iter().map(Vbr::bytes).sum::<usize>()
+                + levels.iter().map(|lv| lv.p.bytes() + lv.r.bytes() + 8 * lv.p.nrows()).sum::<usize>()
+                + 8 * chol.nnz_factor(),
             setup_seconds: t0.elapsed().as_secs_f64(),
             times,
         };
