@@ -129,6 +129,41 @@ impl Default for AmgParams {
     }
 }
 
+impl AmgParams {
+    /// Rejects parameters that would make the cycle singular or not SPD: no smoothing, an
+    /// empty or inverted Chebyshev interval, a negative threshold, no coarsening at all.
+    pub fn validate(&self) -> Result<(), AmgError> {
+        let bad = |what: String| Err(AmgError::Input(format!("AMG parameters: {what}")));
+        match self.smoother {
+            AmgSmoother::Chebyshev { degree, lower, upper } => {
+                if degree == 0 || !(lower > 0.0 && lower < upper && upper.is_finite()) {
+                    return bad(format!(
+                        "Chebyshev degree {degree} on [{lower}, {upper}] rho (need degree >= 1, 0 < lower < upper)"
+                    ));
+                }
+            }
+            AmgSmoother::Jacobi { omega, sweeps } => {
+                if sweeps == 0 || !(omega > 0.0 && omega < 2.0) {
+                    return bad(format!("Jacobi omega {omega} x {sweeps} sweeps (need 0 < omega < 2, sweeps >= 1)"));
+                }
+            }
+        }
+        if !(self.strength_theta >= 0.0 && self.coarse_strength_theta >= 0.0) {
+            return bad(format!(
+                "strength thresholds {} / {} (need >= 0)",
+                self.strength_theta, self.coarse_strength_theta
+            ));
+        }
+        if !(self.prolongation_omega > 0.0 && self.prolongation_omega < 2.0) {
+            return bad(format!("prolongation omega {} (need 0 < omega < 2)", self.prolongation_omega));
+        }
+        if self.max_levels == 0 {
+            return bad("max_levels 0 (need >= 1)".into());
+        }
+        Ok(())
+    }
+}
+
 /// One level of the hierarchy.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AmgLevelStats {
@@ -310,6 +345,7 @@ impl Amg {
         params: &AmgParams,
     ) -> Result<Self, AmgError> {
         let t0 = Instant::now();
+        params.validate()?;
         let n = a.nrows();
         if a.ncols() != n || row_node.len() != n || n == 0 {
             return Err(AmgError::Input(format!(
