@@ -284,6 +284,10 @@ fn bad_row_descriptions_are_errors() {
     assert!(matches!(e, AmgError::Input(_)), "{e}");
     let e = Amg::new(&case.a, 3, &case.rows[1..], &case.positions, &AmgParams::default()).unwrap_err();
     assert!(matches!(e, AmgError::Input(_)), "{e}");
+    // No smoothing would make the cycle singular.
+    let params = AmgParams { smoother: AmgSmoother::Jacobi { omega: 1.0, sweeps: 0 }, ..AmgParams::default() };
+    let e = Amg::new(&case.a, 2, &case.rows, &case.positions, &params).unwrap_err();
+    assert!(matches!(e, AmgError::Input(_)), "{e}");
 }
 
 /// [`Amg::operator`] is `A`: its product agrees with the CSC one to round-off (the same

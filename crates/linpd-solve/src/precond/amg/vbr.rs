@@ -123,6 +123,12 @@ impl Vbr {
         self.val.len()
     }
 
+    /// Bytes held (values, block indices and offsets, pointers).
+    pub fn bytes(&self) -> usize {
+        8 * (self.val.len() + self.voff.len() + self.bptr.len() + self.rptr.len() + self.cptr.len() + self.groups.len())
+            + 4 * self.bidx.len()
+    }
+
     /// The square symmetric CSC matrix `a` (both triangles) in blocks of the consecutive rows
     /// `rptr` (the same blocks for rows and columns). Column `i` of a symmetric matrix is its
     /// row `i`, so each block row is read from the CSC columns of its rows.
