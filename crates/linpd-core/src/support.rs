@@ -11,7 +11,7 @@
 
 use crate::model::Model;
 use crate::DofMap;
-use nalgebra::{DMatrix, SymmetricEigen};
+use faer::{Mat, Side};
 
 /// A part of the body that constraints do not hold.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,13 +48,14 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
     i
 }
 
-fn rank(g: &DMatrix<f64>) -> usize {
-    let eig = SymmetricEigen::new(g.clone());
-    let max = eig.eigenvalues.iter().cloned().fold(0.0f64, f64::max);
+fn rank(g: &Mat<f64>) -> usize {
+    // Symmetric by construction (each entry accumulates the same products as its transpose).
+    let ev = g.self_adjoint_eigenvalues(Side::Lower).expect("symmetric eigenvalues of a Gram matrix of at most 6x6");
+    let max = ev.iter().cloned().fold(0.0f64, f64::max);
     if max <= 0.0 {
         return 0;
     }
-    eig.eigenvalues.iter().filter(|&&v| v > 1e-10 * max).count()
+    ev.iter().filter(|&&v| v > 1e-10 * max).count()
 }
 
 /// Checks every connected piece of the model's interaction graph; returns the first
@@ -111,8 +112,8 @@ pub fn check_support(model: &dyn Model, dofs: &DofMap) -> Result<(), Unsupported
             let cr = [om[1] * r[2] - om[2] * r[1], om[2] * r[0] - om[0] * r[2], om[0] * r[1] - om[1] * r[0]];
             cr[k]
         };
-        let mut gm = DMatrix::<f64>::zeros(modes, modes);
-        let mut gr = DMatrix::<f64>::zeros(modes, modes);
+        let mut gm = Mat::<f64>::zeros(modes, modes);
+        let mut gr = Mat::<f64>::zeros(modes, modes);
         for &i in nodes {
             for k in 0..d {
                 let v: Vec<f64> = (0..modes).map(|m| mode(m, i, k)).collect();

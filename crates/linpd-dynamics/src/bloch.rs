@@ -34,7 +34,7 @@
 
 use crate::error::DynamicsError;
 use faer::sparse::SparseColMat;
-use nalgebra::{DMatrix, SymmetricEigen};
+use faer::{Mat, Side};
 
 /// The block row of the centre node of an assembled lattice operator.
 #[derive(Debug, Clone, PartialEq)]
@@ -163,11 +163,11 @@ impl BlochStencil {
     }
 
     /// The symbol `D(k)` (`d x d`, symmetrized), `k` with `dim` components.
-    pub fn symbol(&self, k: &[f64]) -> DMatrix<f64> {
+    pub fn symbol(&self, k: &[f64]) -> Mat<f64> {
         assert_eq!(k.len(), self.dim, "one wave-vector component per axis");
         let d = self.dim;
-        let mut sum = DMatrix::zeros(d, d);
-        let mut osc = DMatrix::zeros(d, d);
+        let mut sum = Mat::<f64>::zeros(d, d);
+        let mut osc = Mat::<f64>::zeros(d, d);
         for (o, b) in &self.entries {
             let s = (0.5 * self.dot(k, o)).sin();
             let f = 2.0 * s * s;
@@ -178,16 +178,16 @@ impl BlochStencil {
                 }
             }
         }
-        let m = sum - osc;
-        (&m + m.transpose()) * 0.5
+        let m = Mat::from_fn(d, d, |i, j| sum[(i, j)] - osc[(i, j)]);
+        symmetrized(&m)
     }
 
     /// `Q(n) = -(1/2) sum_j A_{c,j} (n . o_j h)^2`, `D(k n) = k^2 Q(n) + O(k^4)` (`n` unit).
-    pub fn long_wave_tensor(&self, n: &[f64]) -> DMatrix<f64> {
+    pub fn long_wave_tensor(&self, n: &[f64]) -> Mat<f64> {
         assert_eq!(n.len(), self.dim, "one direction component per axis");
         let norm = n.iter().map(|v| v * v).sum::<f64>().sqrt();
         let d = self.dim;
-        let mut q = DMatrix::zeros(d, d);
+        let mut q = Mat::<f64>::zeros(d, d);
         for (o, b) in &self.entries {
             let t = self.dot(n, o) / norm;
             for i in 0..d {
@@ -196,19 +196,21 @@ impl BlochStencil {
                 }
             }
         }
-        (&q + q.transpose()) * 0.5
+        symmetrized(&q)
     }
 
-    fn branches_of(&self, m: DMatrix<f64>, scale: f64) -> Vec<Branch> {
-        let eig = SymmetricEigen::new(m);
+    fn branches_of(&self, m: Mat<f64>, scale: f64) -> Vec<Branch> {
+        // `m` is exactly symmetric (`symmetrized`); a d x d (d <= 3) QR iteration converges.
+        let eig = m.self_adjoint_eigen(Side::Lower).expect("symmetric eigendecomposition of a d x d symbol");
+        let (u, s) = (eig.U(), eig.S().column_vector());
         let mut out: Vec<Branch> = (0..self.dim)
             .map(|n| {
                 let mut p = [0.0; 3];
                 for (a, pa) in p.iter_mut().enumerate().take(self.dim) {
-                    *pa = eig.eigenvectors[(a, n)];
+                    *pa = u[(a, n)];
                 }
                 // Negative round-off on the acoustic branches at k = 0 clamps to 0.
-                Branch { value: (eig.eigenvalues[n].max(0.0) / scale).sqrt(), polarization: p }
+                Branch { value: (s[n].max(0.0) / scale).sqrt(), polarization: p }
             })
             .collect();
         out.sort_by(|a, b| a.value.total_cmp(&b.value));
@@ -239,6 +241,11 @@ impl BlochStencil {
         let il = (0..b.len()).max_by(|&i, &j| b[i].longitudinality(n).total_cmp(&b[j].longitudinality(n))).unwrap();
         (b[il].value, b.iter().enumerate().filter(|(i, _)| *i != il).map(|(_, x)| x.value).collect())
     }
+}
+
+/// `(m + m^T) / 2`, entry by entry.
+fn symmetrized(m: &Mat<f64>) -> Mat<f64> {
+    Mat::from_fn(m.nrows(), m.ncols(), |i, j| (m[(i, j)] + m[(j, i)]) * 0.5)
 }
 
 /// `floor(delta/h)` with the geometric tolerance of `linpd-core`: the bond-based reach in
