@@ -8,6 +8,7 @@
 //! * [`kernel`]: micromodulus shapes and their normalization to an elastic modulus;
 //! * [`material`]: heterogeneous moduli, bond rules and defects that degrade bonds;
 //! * [`par`]: the parallel per-node slice fill used by the assemblers;
+//! * [`eigen`]: eigen-decomposition of small dense symmetric matrices (cyclic Jacobi);
 //! * [`dof`]: DOF numbering and the free/constrained split;
 //! * [`op`]: the one operator trait ([`LinearOperator`]) of solvers and dynamics;
 //! * [`sparse`]: CSC products, diagonal, restriction to free DOFs, asymmetry;
@@ -21,6 +22,7 @@
 #![deny(missing_docs)]
 
 pub mod dof;
+pub mod eigen;
 pub mod error;
 pub mod family;
 pub mod grid;

@@ -9,9 +9,9 @@
 //! matrices. This catches floating pieces before a factorization can return garbage (a
 //! rotation mode of a pinned 2D body gives a tiny positive pivot, not a zero one).
 
+use crate::eigen::symmetric_eigen;
 use crate::model::Model;
 use crate::DofMap;
-use nalgebra::{DMatrix, SymmetricEigen};
 
 /// A part of the body that constraints do not hold.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,13 +48,14 @@ fn find(parent: &mut [usize], mut i: usize) -> usize {
     i
 }
 
-fn rank(g: &DMatrix<f64>) -> usize {
-    let eig = SymmetricEigen::new(g.clone());
-    let max = eig.eigenvalues.iter().cloned().fold(0.0f64, f64::max);
+/// Numerical rank of the symmetric `n x n` (row-major) Gram matrix `g`.
+fn rank(g: &[f64], n: usize) -> usize {
+    let ev = symmetric_eigen(g, n).values;
+    let max = ev.iter().cloned().fold(0.0f64, f64::max);
     if max <= 0.0 {
         return 0;
     }
-    eig.eigenvalues.iter().filter(|&&v| v > 1e-10 * max).count()
+    ev.iter().filter(|&&v| v > 1e-10 * max).count()
 }
 
 /// Checks every connected piece of the model's interaction graph; returns the first
@@ -111,23 +112,23 @@ pub fn check_support(model: &dyn Model, dofs: &DofMap) -> Result<(), Unsupported
             let cr = [om[1] * r[2] - om[2] * r[1], om[2] * r[0] - om[0] * r[2], om[0] * r[1] - om[1] * r[0]];
             cr[k]
         };
-        let mut gm = DMatrix::<f64>::zeros(modes, modes);
-        let mut gr = DMatrix::<f64>::zeros(modes, modes);
+        let mut gm = vec![0.0; modes * modes];
+        let mut gr = vec![0.0; modes * modes];
         for &i in nodes {
             for k in 0..d {
                 let v: Vec<f64> = (0..modes).map(|m| mode(m, i, k)).collect();
                 let constrained = dofs.is_constrained(d * i + k);
                 for a in 0..modes {
                     for b in 0..modes {
-                        gm[(a, b)] += v[a] * v[b];
+                        gm[a * modes + b] += v[a] * v[b];
                         if constrained {
-                            gr[(a, b)] += v[a] * v[b];
+                            gr[a * modes + b] += v[a] * v[b];
                         }
                     }
                 }
             }
         }
-        let free = rank(&gm).saturating_sub(rank(&gr));
+        let free = rank(&gm, modes).saturating_sub(rank(&gr, modes));
         let all_constrained = nodes.iter().all(|&i| (0..d).all(|k| dofs.is_constrained(d * i + k)));
         if free > 0 && !all_constrained {
             return Err(Unsupported {

@@ -34,7 +34,7 @@
 
 use crate::error::DynamicsError;
 use faer::sparse::SparseColMat;
-use nalgebra::{DMatrix, SymmetricEigen};
+use linpd_core::eigen::symmetric_eigen;
 
 /// The block row of the centre node of an assembled lattice operator.
 #[derive(Debug, Clone, PartialEq)]
@@ -162,53 +162,61 @@ impl BlochStencil {
         (0..self.dim).map(|a| k[a] * o[a] as f64 * self.h).sum()
     }
 
-    /// The symbol `D(k)` (`d x d`, symmetrized), `k` with `dim` components.
-    pub fn symbol(&self, k: &[f64]) -> DMatrix<f64> {
+    /// The symbol `D(k)` (`d x d` in the leading block of a 3 x 3 array, symmetrized), `k`
+    /// with `dim` components.
+    pub fn symbol(&self, k: &[f64]) -> [[f64; 3]; 3] {
         assert_eq!(k.len(), self.dim, "one wave-vector component per axis");
         let d = self.dim;
-        let mut sum = DMatrix::zeros(d, d);
-        let mut osc = DMatrix::zeros(d, d);
+        let mut sum = [[0.0; 3]; 3];
+        let mut osc = [[0.0; 3]; 3];
         for (o, b) in &self.entries {
             let s = (0.5 * self.dot(k, o)).sin();
             let f = 2.0 * s * s;
             for i in 0..d {
                 for j in 0..d {
-                    sum[(i, j)] += b[i][j];
-                    osc[(i, j)] += f * b[i][j];
+                    sum[i][j] += b[i][j];
+                    osc[i][j] += f * b[i][j];
                 }
             }
         }
-        let m = sum - osc;
-        (&m + m.transpose()) * 0.5
+        let mut m = [[0.0; 3]; 3];
+        for i in 0..d {
+            for j in 0..d {
+                m[i][j] = sum[i][j] - osc[i][j];
+            }
+        }
+        symmetrized(&m, d)
     }
 
-    /// `Q(n) = -(1/2) sum_j A_{c,j} (n . o_j h)^2`, `D(k n) = k^2 Q(n) + O(k^4)` (`n` unit).
-    pub fn long_wave_tensor(&self, n: &[f64]) -> DMatrix<f64> {
+    /// `Q(n) = -(1/2) sum_j A_{c,j} (n . o_j h)^2`, `D(k n) = k^2 Q(n) + O(k^4)` (`n` unit;
+    /// `d x d` in the leading block of a 3 x 3 array).
+    pub fn long_wave_tensor(&self, n: &[f64]) -> [[f64; 3]; 3] {
         assert_eq!(n.len(), self.dim, "one direction component per axis");
         let norm = n.iter().map(|v| v * v).sum::<f64>().sqrt();
         let d = self.dim;
-        let mut q = DMatrix::zeros(d, d);
+        let mut q = [[0.0; 3]; 3];
         for (o, b) in &self.entries {
             let t = self.dot(n, o) / norm;
             for i in 0..d {
                 for j in 0..d {
-                    q[(i, j)] -= 0.5 * t * t * b[i][j];
+                    q[i][j] -= 0.5 * t * t * b[i][j];
                 }
             }
         }
-        (&q + q.transpose()) * 0.5
+        symmetrized(&q, d)
     }
 
-    fn branches_of(&self, m: DMatrix<f64>, scale: f64) -> Vec<Branch> {
-        let eig = SymmetricEigen::new(m);
+    fn branches_of(&self, m: [[f64; 3]; 3], scale: f64) -> Vec<Branch> {
+        let d = self.dim;
+        let eig = symmetric_eigen(&(0..d * d).map(|ij| m[ij / d][ij % d]).collect::<Vec<_>>(), d);
         let mut out: Vec<Branch> = (0..self.dim)
             .map(|n| {
                 let mut p = [0.0; 3];
                 for (a, pa) in p.iter_mut().enumerate().take(self.dim) {
-                    *pa = eig.eigenvectors[(a, n)];
+                    *pa = eig.vector(a, n);
                 }
                 // Negative round-off on the acoustic branches at k = 0 clamps to 0.
-                Branch { value: (eig.eigenvalues[n].max(0.0) / scale).sqrt(), polarization: p }
+                Branch { value: (eig.values[n].max(0.0) / scale).sqrt(), polarization: p }
             })
             .collect();
         out.sort_by(|a, b| a.value.total_cmp(&b.value));
@@ -239,6 +247,17 @@ impl BlochStencil {
         let il = (0..b.len()).max_by(|&i, &j| b[i].longitudinality(n).total_cmp(&b[j].longitudinality(n))).unwrap();
         (b[il].value, b.iter().enumerate().filter(|(i, _)| *i != il).map(|(_, x)| x.value).collect())
     }
+}
+
+/// `(m + m^T) / 2` of the leading `d x d` block, entry by entry.
+fn symmetrized(m: &[[f64; 3]; 3], d: usize) -> [[f64; 3]; 3] {
+    let mut s = [[0.0; 3]; 3];
+    for i in 0..d {
+        for j in 0..d {
+            s[i][j] = (m[i][j] + m[j][i]) * 0.5;
+        }
+    }
+    s
 }
 
 /// `floor(delta/h)` with the geometric tolerance of `linpd-core`: the bond-based reach in

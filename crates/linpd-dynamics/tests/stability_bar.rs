@@ -70,7 +70,7 @@ fn gershgorin_and_power_iteration_bracket_the_dense_eigenvalue() {
     let (g, op, fixed, mass) = bar(50.0, 0.5, 5.0);
     let n = g.len();
     let free: Vec<usize> = (0..n).filter(|i| !fixed.contains(i)).collect();
-    let mut a = nalgebra::DMatrix::<f64>::zeros(free.len(), free.len());
+    let mut a = faer::Mat::<f64>::zeros(free.len(), free.len());
     let (mut e, mut y) = (vec![0.0; n], vec![0.0; n]);
     for (c, &j) in free.iter().enumerate() {
         e[j] = 1.0;
@@ -80,7 +80,7 @@ fn gershgorin_and_power_iteration_bracket_the_dense_eigenvalue() {
             a[(r, c)] = y[i] / mass.masses()[i]; // M^-1 A with uniform M: symmetric
         }
     }
-    let exact = a.symmetric_eigen().eigenvalues.max();
+    let exact = a.self_adjoint_eigenvalues(faer::Side::Lower).unwrap().into_iter().fold(f64::NEG_INFINITY, f64::max);
     let lg = gershgorin(&op, &mass, &fixed).unwrap();
     let p = power_iteration(&op, &mass, &fixed, &PowerParams { max_iter: 20_000, rtol: 1e-14, ..Default::default() })
         .unwrap();
