@@ -13,7 +13,8 @@
 //! bottom planes and loaded by a downward body force on the top plane.
 //!
 //! Optional sections (flags of [`BenchArgs`]): `--lps` (module `lps`), `--dynamics` (module
-//! `dynamics`), `--coarsen` (module `coarsen`). The Python peers live in `benches/peers/` at the
+//! `dynamics`), `--coarsen` (module `coarsen`), `--orderings` (module `orderings`: Cholesky
+//! orderings on 2D/3D bond and LPS lattices, against CHOLMOD with `--peers`). The Python peers live in `benches/peers/` at the
 //! repository root; [`run`] drives them with `--peers`.
 //!
 //! ```no_run
@@ -33,10 +34,12 @@
 mod coarsen;
 mod dynamics;
 mod lps;
+mod orderings;
 mod statics;
 
 use clap::Args;
 use linpd_bond::{nested_dissection, BondOperator, Pattern, StencilOperator};
+use linpd_core::family::lattice_stencil;
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement};
 use linpd_solve::{
     pcg, peak_rss_bytes, relative_residual, sym_matvec, CgParams, Cholesky, Jacobi, LinearOperator, ReducedOperator,
@@ -84,6 +87,11 @@ pub struct BenchArgs {
     /// and the 2D plates 101^2..801^2 with Jacobi-PCG, multigrid-PCG, Cholesky and `auto`.
     #[arg(long)]
     pub statics: bool,
+    /// Also run the Cholesky orderings cases (nested dissection, its planar first version, AMD,
+    /// and METIS when built with the `metis` feature) on 2D/3D bond and 3D LPS lattices; with
+    /// `--peers`, CHOLMOD runs on the same matrices.
+    #[arg(long)]
+    pub orderings: bool,
     /// Run sparse Cholesky on 3D cases up to this many unknowns (AMD fill grows fast in 3D).
     #[arg(long, default_value_t = 30_000)]
     pub direct_max_3d: usize,
@@ -297,12 +305,14 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
     if direct_ok {
         // 1D: the natural order is the band (and AMD for reference). 3D: nested dissection on
         // the lattice (and AMD for reference).
-        let orderings: Vec<(&str, Option<Vec<usize>>)> = if case.dim == 1 {
-            vec![("cholesky", Some((0..n).collect())), ("cholesky_amd", None)]
+        let t = Instant::now();
+        let first = if case.dim == 1 {
+            (0..n).collect()
         } else {
-            vec![("cholesky", Some(nested_dissection(&b.grid, case.m, &b.dofs))), ("cholesky_amd", None)]
+            nested_dissection(&b.grid, &lattice_stencil(case.dim, case.m as f64), &b.dofs)
         };
-        for (key, perm) in orderings {
+        let t_ord = secs(t);
+        for (key, perm, t_ord) in [("cholesky", Some(first), t_ord), ("cholesky_amd", None, 0.0)] {
             eprintln!("[bench] {}: sparse Cholesky ({key}) on {n} unknowns", case.name);
             let t = Instant::now();
             let chol = Cholesky::analyze_with_ordering(&a, perm.as_deref()).expect("analysis");
@@ -318,7 +328,7 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
                 (Some(_), 1) => "natural",
                 (Some(_), _) => "nested-dissection",
             };
-            out[key] = json!({"ordering": ordering,
+            out[key] = json!({"ordering": ordering, "time_ordering": t_ord,
                 "time_symbolic": t_sym, "time_numeric": t_num, "time_solve": t_sol,
                 "nnz_l": chol.nnz_factor(), "rel_residual": relative_residual(&a, true, &u, &b.f)});
         }
@@ -403,6 +413,9 @@ pub fn run(args: &BenchArgs) -> Result<Value, String> {
     if args.statics {
         doc["statics"] = crate::statics::run(args.quick, args.case.as_deref(), args.direct_max_3d);
     }
+    if args.orderings {
+        doc["orderings"] = crate::orderings::run(args.quick, export_dir.as_deref());
+    }
     if args.coarsen {
         doc["coarsen"] = crate::coarsen::run(args.quick)?;
     }
@@ -429,10 +442,11 @@ pub fn run(args: &BenchArgs) -> Result<Value, String> {
         for (name, ours) in doc["cases"].as_object().unwrap().clone() {
             let Some(p) = peers["cases"].get(&name) else { continue };
             let f = |v: &Value| v.as_f64();
+            // Ordering + symbolic + numeric (the ordering is timed apart from the analysis).
             let chol_ours = ours["cholesky"]["time_symbolic"]
                 .as_f64()
                 .zip(ours["cholesky"]["time_numeric"].as_f64())
-                .map(|(a, b)| a + b);
+                .map(|(a, b)| a + b + ours["cholesky"]["time_ordering"].as_f64().unwrap_or(0.0));
             let chol_peer = f(&p["cholesky_analyze"])
                 .zip(f(&p["cholesky_factor"]).or(f(&p["cholmod_factor"])))
                 .map(|(a, b)| a + b)
@@ -445,6 +459,9 @@ pub fn run(args: &BenchArgs) -> Result<Value, String> {
                 "matvec_ratio_to_scipy": ratio(f(&ours["matvec"]["time"]), f(&p["matvec"])),
                 "cg_ratio_to_scipy": ratio(f(&ours["cg"]["time"]), f(&p["cg"])),
             }));
+        }
+        if args.orderings {
+            ratios.insert("orderings".into(), crate::orderings::ratios(&doc["orderings"], &peers));
         }
         doc["peers"] = peers;
         doc["ratios"] = Value::Object(ratios);

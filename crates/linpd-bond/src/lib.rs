@@ -30,7 +30,7 @@ pub mod operator;
 pub mod stencil;
 
 pub use assemble::{assemble, Pattern};
-pub use linpd_core::nested_dissection;
+pub use linpd_core::{nested_dissection, planar_nested_dissection};
 pub use model::LatticeBondModel;
 pub use operator::{pmb_force, BondOperator};
 pub use stencil::StencilOperator;

@@ -3,10 +3,9 @@
 //! fill-reducing ordering and, for a homogeneous material, the stencil apply for matrix-free CG.
 
 use crate::{BondOperator, Pattern, StencilOperator};
+use linpd_core::family::lattice_stencil;
 use linpd_core::sparse::Csc;
-use linpd_core::{
-    nested_dissection, DofMap, FastApply, Grid, LinearOperator, Micromodulus, Model, Ordering, Point, GEOMETRY_RTOL,
-};
+use linpd_core::{nested_dissection, DofMap, FastApply, Grid, LinearOperator, Micromodulus, Model, Ordering, Point};
 
 impl LinearOperator for BondOperator {
     fn n(&self) -> usize {
@@ -162,13 +161,14 @@ impl Model for LatticeBondModel {
         self.op.assemble_free(dofs)
     }
     /// 1D: the natural order is a band, already fill-optimal (AMD's analysis of a 10^5-node
-    /// band costs ~1 s for nothing). 2D/3D: nested dissection on the lattice beats AMD.
+    /// band costs ~1 s for nothing). 2D/3D: nested dissection on the lattice over the bond
+    /// stencil beats AMD and METIS (docs/solvers.md).
     fn ordering(&self, dofs: &DofMap) -> Ordering {
         if self.op.dim() == 1 {
             return Ordering::Natural;
         }
-        let reach = (self.horizon / self.grid.spacing() * (1.0 + GEOMETRY_RTOL)).floor() as usize;
-        Ordering::NestedDissection(nested_dissection(&self.grid, reach, dofs))
+        let stencil = lattice_stencil(self.op.dim(), self.horizon / self.grid.spacing());
+        Ordering::NestedDissection(nested_dissection(&self.grid, &stencil, dofs))
     }
     fn fast_apply(&self) -> Option<FastApply<'_>> {
         let mm = self.homogeneous.as_ref()?;

@@ -44,7 +44,7 @@ pub use kernel::{Kernel, Micromodulus, Normalization, PlaneModel};
 pub use material::{BondRule, Defect, Material};
 pub use model::{AssembledModel, FastApply, Model, ModelOperator, Ordering, SpdApproximation, SpdApproximationKind};
 pub use op::{FnOperator, LinearOperator};
-pub use ordering::nested_dissection;
+pub use ordering::{nested_dissection, planar_nested_dissection, two_hop_stencil};
 pub use region::Region;
 pub use sparse::Csc;
 pub use support::{check_support, Unsupported};

@@ -1,13 +1,15 @@
 //! The linearized LPS solid as a [`Model`]: the tangent `A` of [`crate::tangent`] at `u = 0`.
 //!
-//! The tangent couples nodes up to two horizons apart (the dilatation of a neighbour), so the
-//! nested-dissection separators are `2 delta / h` planes thick. The interaction graph for the
+//! The tangent couples nodes up to two horizons apart (the dilatation of a neighbour): the
+//! nested dissection runs over the two-hop stencil of the bond family
+//! ([`linpd_core::two_hop_stencil`]), whose separators are `2 floor(delta / h)` planes thick. The interaction graph for the
 //! rigid-motion check is the bond family: two nodes two horizons apart are coupled only
 //! through a common neighbour, so the connected pieces are the same.
 
 use crate::{assemble_tangent, LpsModel};
+use linpd_core::family::lattice_stencil;
 use linpd_core::sparse::{diagonal, restrict_to_free, Csc};
-use linpd_core::{nested_dissection, DofMap, Model, Ordering, Point, GEOMETRY_RTOL};
+use linpd_core::{nested_dissection, two_hop_stencil, DofMap, Model, Ordering, Point};
 
 impl Model for LpsModel {
     fn kind(&self) -> &'static str {
@@ -36,8 +38,8 @@ impl Model for LpsModel {
         restrict_to_free(&assemble_tangent(self), dofs)
     }
     fn ordering(&self, dofs: &DofMap) -> Ordering {
-        let reach = (2.0 * self.params().horizon / self.grid().spacing() * (1.0 + GEOMETRY_RTOL)).floor() as usize;
-        Ordering::NestedDissection(nested_dissection(self.grid(), reach, dofs))
+        let stencil = two_hop_stencil(&lattice_stencil(self.dim(), self.params().horizon / self.grid().spacing()));
+        Ordering::NestedDissection(nested_dissection(self.grid(), &stencil, dofs))
     }
     fn matrix_free_unavailable(&self) -> Option<&'static str> {
         Some("the Jacobi diagonal needs the assembled tangent")
