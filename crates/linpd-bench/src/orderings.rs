@@ -17,8 +17,8 @@
 
 use linpd_bond::{nested_dissection, planar_nested_dissection, BondOperator, Pattern};
 use linpd_core::family::lattice_stencil;
-use linpd_core::{two_hop_stencil, DofMap, Grid, Kernel, Material, Micromodulus, Model, Normalization, Placement};
 use linpd_core::PlaneModel;
+use linpd_core::{two_hop_stencil, DofMap, Grid, Kernel, Material, Micromodulus, Model, Normalization, Placement};
 use linpd_lps::{Influence, LpsModel, LpsParams};
 use linpd_solve::{relative_residual, Cholesky};
 use serde_json::{json, Value};

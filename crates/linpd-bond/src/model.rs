@@ -3,8 +3,8 @@
 //! fill-reducing ordering and, for a homogeneous material, the stencil apply for matrix-free CG.
 
 use crate::{BondOperator, Pattern, StencilOperator};
-use linpd_core::sparse::Csc;
 use linpd_core::family::lattice_stencil;
+use linpd_core::sparse::Csc;
 use linpd_core::{nested_dissection, DofMap, FastApply, Grid, LinearOperator, Micromodulus, Model, Ordering, Point};
 
 impl LinearOperator for BondOperator {

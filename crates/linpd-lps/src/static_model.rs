@@ -7,8 +7,8 @@
 //! through a common neighbour, so the connected pieces are the same.
 
 use crate::{assemble_tangent, LpsModel};
-use linpd_core::sparse::{diagonal, restrict_to_free, Csc};
 use linpd_core::family::lattice_stencil;
+use linpd_core::sparse::{diagonal, restrict_to_free, Csc};
 use linpd_core::{nested_dissection, two_hop_stencil, DofMap, Model, Ordering, Point};
 
 impl Model for LpsModel {
