@@ -143,9 +143,10 @@ fn fill_on_the_3d_cube_beats_the_planar_version_amd_and_metis() {
 
 /// The benchmark plate (`ord-2d-201`): 201^2 nodes, `delta = 3h`, bottom 3 rows clamped,
 /// 79,596 DOFs. METIS's non-planar separators leave narrower waists for the next level, so in
-/// 2D it keeps the lead: recorded exact counts METIS 30,052,834, the new ordering 33,189,266
-/// (1.104x). Bound: 1.15x METIS (the measured 1.10x plus a margin for a change of the cut rule
-/// that is not a regression), and at most the planar version (33,657,422).
+/// 2D it keeps the lead (docs/solvers.md): recorded exact counts METIS 30,052,834, the new
+/// ordering 32,899,758 (1.095x). Bound: 1.15x METIS (the measured 1.095x plus a margin for a
+/// change of the cut rule that is not a regression), and at most the planar version
+/// (33,657,422).
 #[test]
 fn fill_on_the_2d_plate_is_within_15_percent_of_metis() {
     let g = grid(2, 201);
