@@ -311,8 +311,7 @@ fn run_case(case: &Case, args: &BenchArgs, bw: f64, export_dir: Option<&Path>) -
         for (key, perm, t_ord) in [("cholesky", Some(first), t_ord), ("cholesky_amd", None, 0.0)] {
             eprintln!("[bench] {}: sparse Cholesky ({key}) on {n} unknowns", case.name);
             // Best of 3, as the peers time CHOLMOD (peer_bench.py --repeat 3).
-            let (t_sym, chol) =
-                best_of(3, || Cholesky::analyze_with_ordering(&a, perm.as_deref()).expect("analysis"));
+            let (t_sym, chol) = best_of(3, || Cholesky::analyze_with_ordering(&a, perm.as_deref()).expect("analysis"));
             let (t_num, fac) = best_of(3, || chol.factor(&a).expect("SPD"));
             let t = Instant::now();
             let u = fac.solve(&b.f);
