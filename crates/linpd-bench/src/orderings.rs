@@ -24,7 +24,6 @@ use linpd_solve::{relative_residual, Cholesky};
 use serde_json::{json, Value};
 use std::io::Write;
 use std::path::Path;
-use std::time::Instant;
 
 /// Timings are the best of this many runs (the machine is shared; the minimum is the least
 /// disturbed run).
@@ -170,20 +169,8 @@ fn exact_nnz_l(a: &Csc, perm: Option<&[usize]>) -> usize {
     factorize_symbolic_cholesky(a.symbolic(), faer::Side::Lower, ordering, params).expect("symbolic").len_val()
 }
 
-fn secs(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64()
-}
-
-fn best<T>(mut f: impl FnMut() -> T) -> (f64, T) {
-    let mut best = f64::MAX;
-    let mut out = None;
-    for _ in 0..REPEAT {
-        drop(out.take()); // free the previous result before the next run
-        let t = Instant::now();
-        out = Some(f());
-        best = best.min(secs(t));
-    }
-    (best, out.expect("REPEAT >= 1"))
+fn best<T>(f: impl FnMut() -> T) -> (f64, T) {
+    crate::best_of(REPEAT, f)
 }
 
 fn run_ordering(case: &Case, b: &[f64], name: &str, order: &dyn Fn() -> Option<Vec<usize>>) -> Value {
