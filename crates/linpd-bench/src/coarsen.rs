@@ -7,6 +7,7 @@
 //!   axis), `r = 2 delta`, with and without the neighbourhood cache. Target: < 60 s. Baseline
 //!   in the same run: the sparse Cholesky solve of the level-0 plate (clamped edge).
 
+use crate::BenchError;
 use linpd_bond::{assemble, BondOperator};
 use linpd_coarsen::{coarsen, coarsen_with, every_kth, retain_every, LevelModel, Options};
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
@@ -19,12 +20,12 @@ fn tent_bar(n: usize) -> LevelModel {
     LevelModel::from_kernel(x, vec![h; n], linpd_coarsen::paper::R0, linpd_coarsen::paper::tent).expect("a valid bar")
 }
 
-fn case_1d(n: usize) -> Result<Value, String> {
+fn case_1d(n: usize) -> Result<Value, BenchError> {
     let t = Instant::now();
     let m0 = tent_bar(n);
     let t_build = t.elapsed().as_secs_f64();
-    let c1 = coarsen(&m0, &every_kth(n, 4), 2.0 * m0.horizon()).map_err(|e| e.to_string())?;
-    let c2 = coarsen(&c1.model, &every_kth(c1.model.len(), 2), 2.0 * c1.model.horizon()).map_err(|e| e.to_string())?;
+    let c1 = coarsen(&m0, &every_kth(n, 4), 2.0 * m0.horizon())?;
+    let c2 = coarsen(&c1.model, &every_kth(c1.model.len(), 2), 2.0 * c1.model.horizon())?;
     let total = t.elapsed().as_secs_f64();
     println!(
         "coarsen 1D {n:>8} nodes: level 0 build {t_build:.2} s, level 1 {:.2} s (hit rate {:.4}), level 2 {:.2} s (hit rate {:.4}); total {total:.2} s = {:.2} us/node",
@@ -38,9 +39,9 @@ fn case_1d(n: usize) -> Result<Value, String> {
               "seconds_total": total, "us_per_node": 1e6 * total / n as f64}))
 }
 
-fn case_2d(n: usize) -> Result<Value, String> {
+fn case_2d(n: usize) -> Result<Value, BenchError> {
     let h = 1.0 / (n - 1) as f64;
-    let g = Grid::new(&[0.0, 0.0], &[1.0, 1.0], h, 0.0, Placement::Vertex).map_err(|e| e.to_string())?;
+    let g = Grid::new(&[0.0, 0.0], &[1.0, 1.0], h, 0.0, Placement::Vertex)?;
     let mm = Micromodulus {
         kernel: Kernel::InverseDistance,
         normalization: Normalization::Continuum,
@@ -49,9 +50,9 @@ fn case_2d(n: usize) -> Result<Value, String> {
         partial_volume: false,
     };
     let t = Instant::now();
-    let op = BondOperator::on_grid(&g, 3.0 * h, &mm, &Material::default()).map_err(|e| e.to_string())?;
+    let op = BondOperator::on_grid(&g, 3.0 * h, &mm, &Material::default())?;
     let k = assemble(&op, &DofMap::all_free(g.len(), 2));
-    let m0 = LevelModel::from_stiffness(2, g.positions(), vec![g.volume(); g.len()], &k).map_err(|e| e.to_string())?;
+    let m0 = LevelModel::from_stiffness(2, g.positions(), vec![g.volume(); g.len()], &k)?;
     let t_build = t.elapsed().as_secs_f64();
     // baseline: the level-0 static solve (left edge clamped, pull on the right edge)
     let mut fixed = Vec::new();
@@ -65,12 +66,12 @@ fn case_2d(n: usize) -> Result<Value, String> {
         }
     }
     let t = Instant::now();
-    m0.solve_dirichlet(&f, &fixed).map_err(|e| e.to_string())?;
+    m0.solve_dirichlet(&f, &fixed)?;
     let t_solve = t.elapsed().as_secs_f64();
-    let ret = retain_every(&m0, 2).map_err(|e| e.to_string())?;
+    let ret = retain_every(&m0, 2)?;
     let r = 2.0 * m0.horizon();
-    let cached = coarsen_with(&m0, &ret, &Options::fixed(r)).map_err(|e| e.to_string())?;
-    let plain = coarsen_with(&m0, &ret, &Options { cache: false, ..Options::fixed(r) }).map_err(|e| e.to_string())?;
+    let cached = coarsen_with(&m0, &ret, &Options::fixed(r))?;
+    let plain = coarsen_with(&m0, &ret, &Options { cache: false, ..Options::fixed(r) })?;
     let (tc, tp) = (cached.report.seconds_total, plain.report.seconds_total);
     println!(
         "coarsen 2D {n}x{n} delta = 3h, r = 2 delta: cached {tc:.2} s ({} classes, hit rate {:.4}), uncached {tp:.2} s; level-0 build {t_build:.2} s, level-0 Cholesky solve {t_solve:.2} s; ratios cached/solve {:.2}, uncached/solve {:.2}, cached/uncached {:.3}",
@@ -86,7 +87,7 @@ fn case_2d(n: usize) -> Result<Value, String> {
 }
 
 /// Runs the cases; `quick` uses small sizes (checks the code path only).
-pub fn run(quick: bool) -> Result<Value, String> {
+pub fn run(quick: bool) -> Result<Value, BenchError> {
     let sizes_1d: &[usize] = if quick { &[20_000, 60_000] } else { &[100_000, 300_000, 1_000_000] };
     let mut one = Vec::new();
     for &n in sizes_1d {

@@ -26,6 +26,7 @@
 //!
 //! The bound is bytes / copy bandwidth (read + write counted), the ratio is time / bound.
 
+use crate::BenchError;
 use linpd_bond::{assemble, BondOperator, StencilOperator};
 use linpd_core::{DofMap, FnOperator, Grid, Kernel, LinearOperator, Material, Micromodulus, Normalization, Placement};
 use linpd_dynamics::stability::{gershgorin, verlet_limit};
@@ -48,7 +49,7 @@ fn time_run<A: LinearOperator + ?Sized>(
     limit: f64,
     steps: usize,
     reps: usize,
-) -> Result<(f64, Vec<f64>), String> {
+) -> Result<(f64, Vec<f64>), BenchError> {
     let verlet = Verlet::new(op, mass.clone());
     let params = VerletParams { dt, steps, output_every: 0, limit: DtLimit::Given(limit), allow_unstable: false };
     let mut best = f64::MAX;
@@ -56,7 +57,7 @@ fn time_run<A: LinearOperator + ?Sized>(
     for _ in 0..reps {
         let mut state = State::at_rest(u0.to_vec());
         let t = Instant::now();
-        verlet.run(&mut state, &params, None, |_| ControlFlow::Continue(())).map_err(|e| e.to_string())?;
+        verlet.run(&mut state, &params, None, |_| ControlFlow::Continue(()))?;
         best = best.min(t.elapsed().as_secs_f64());
         last = state.u;
     }
@@ -69,7 +70,7 @@ fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Runs the dynamics cases and prints a table; `bw` is the copy bandwidth (bytes/s).
-pub fn run(quick: bool, bw: f64) -> Result<Value, String> {
+pub fn run(quick: bool, bw: f64) -> Result<Value, BenchError> {
     // (name, dim, nodes per axis, horizon / h)
     let cases: [(&str, usize, usize, usize); 2] = if quick {
         [("1d-n1e5-m20", 1, 2_000, 5), ("3d-40-d3", 3, 8, 3)]
@@ -91,10 +92,10 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, String> {
         };
         let horizon = m as f64 * h;
         let last = (nodes - 1) as f64 * h;
-        let grid = Grid::new(&vec![0.0; d], &vec![last; d], h, 0.0, Placement::Vertex).map_err(|e| e.to_string())?;
+        let grid = Grid::new(&vec![0.0; d], &vec![last; d], h, 0.0, Placement::Vertex)?;
         let n_nodes = grid.len();
         let n = d * n_nodes;
-        let mass = LumpedMass::uniform(1.0, grid.volume(), n).map_err(|e| e.to_string())?;
+        let mass = LumpedMass::uniform(1.0, grid.volume(), n)?;
         let u0: Vec<f64> = (0..n).map(|k| 1e-3 * (k as f64 * 0.013).sin()).collect();
         let vec_bytes = 13.0 * 8.0 * n as f64;
         let mut ops = serde_json::Map::new();
@@ -120,9 +121,9 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, String> {
 
         // Matrix-free per bond (also gives the bond count and the Gershgorin limit).
         reset_peak_rss();
-        let op = BondOperator::on_grid(&grid, horizon, &mm, &Material::default()).map_err(|e| e.to_string())?;
+        let op = BondOperator::on_grid(&grid, horizon, &mm, &Material::default())?;
         let bonds = op.family().n_bonds();
-        let lambda = gershgorin(&op, &mass, &[]).map_err(|e| e.to_string())?;
+        let lambda = gershgorin(&op, &mass, &[])?;
         let limit = verlet_limit(lambda);
         let dt = 0.5 * limit;
         eprintln!("[bench] dynamics {name}: per-bond, {steps} steps x {reps}");
@@ -152,7 +153,7 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, String> {
 
         // Matrix-free stencil.
         reset_peak_rss();
-        let st = StencilOperator::new(&grid, horizon, &mm).map_err(|e| e.to_string())?;
+        let st = StencilOperator::new(&grid, horizon, &mm)?;
         eprintln!("[bench] dynamics {name}: stencil, {steps} steps x {reps}");
         let (t_st, u_st) = time_run(&st, &mass, &u0, dt, limit, steps, reps)?;
         entry("stencil", t_st, vec_bytes, bonds, peak_rss_bytes(), Some(max_rel_diff(&u_st, &u_ref)));

@@ -27,7 +27,7 @@
 //! let cli = Cli::parse_from(["bench", "--quick", "--out", "/tmp/bench.json"]);
 //! let doc = linpd_bench::run(&cli.bench)?;
 //! linpd_bench::print_table(&doc);
-//! # Ok::<(), String>(())
+//! # Ok::<(), linpd_bench::BenchError>(())
 //! ```
 #![deny(missing_docs)]
 
@@ -399,9 +399,56 @@ fn ratio(a: Option<f64>, b: Option<f64>) -> Value {
     }
 }
 
+/// Why a benchmark run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// Building a grid, micromodulus or operator.
+    #[error(transparent)]
+    Core(#[from] linpd_core::CoreError),
+    /// A coarsening case.
+    #[error(transparent)]
+    Coarsen(#[from] linpd_coarsen::CoarsenError),
+    /// A dynamics case.
+    #[error(transparent)]
+    Dynamics(#[from] linpd_dynamics::DynamicsError),
+    /// The Python peers could not be started.
+    #[error("could not run {python} {}: {source}", script.display())]
+    PeersStart {
+        /// The interpreter (`--python`).
+        python: String,
+        /// The peers' driver script.
+        script: PathBuf,
+        /// Why it did not start.
+        source: std::io::Error,
+    },
+    /// The Python peers ran and failed.
+    #[error("the peers failed ({0}); install them with `bash benches/peers/install.sh`")]
+    PeersFailed(std::process::ExitStatus),
+    /// The peers' `peers.json` is not JSON.
+    #[error("{}: {source}", path.display())]
+    PeersOutput {
+        /// The file.
+        path: PathBuf,
+        /// The parse error.
+        source: serde_json::Error,
+    },
+    /// Reading or writing a file.
+    #[error("{}: {source}", path.display())]
+    File {
+        /// The file or directory.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+}
+
+fn file_error(path: &Path, source: std::io::Error) -> BenchError {
+    BenchError::File { path: path.to_path_buf(), source }
+}
+
 /// Runs the benchmark: writes the JSON document to `args.out` (and, with `--peers`, the
 /// exported matrices and `peers.json` beside it) and returns it. Progress goes to stderr.
-pub fn run(args: &BenchArgs) -> Result<Value, String> {
+pub fn run(args: &BenchArgs) -> Result<Value, BenchError> {
     eprintln!("[bench] measuring copy bandwidth");
     let bw = copy_bandwidth();
     let export_dir = args.peers.then(|| args.out.with_file_name("matrices"));
@@ -443,12 +490,13 @@ pub fn run(args: &BenchArgs) -> Result<Value, String> {
             .arg("--out")
             .arg(&peers_out)
             .status()
-            .map_err(|e| format!("could not run {} {}: {e}", args.python, script.display()))?;
+            .map_err(|source| BenchError::PeersStart { python: args.python.clone(), script: script.clone(), source })?;
         if !status.success() {
-            return Err(format!("the peers failed (exit {status}); install them with `bash benches/peers/install.sh`"));
+            return Err(BenchError::PeersFailed(status));
         }
-        let peers: Value = serde_json::from_str(&std::fs::read_to_string(&peers_out).map_err(|e| e.to_string())?)
-            .map_err(|e| format!("{}: {e}", peers_out.display()))?;
+        let text = std::fs::read_to_string(&peers_out).map_err(|source| file_error(&peers_out, source))?;
+        let peers: Value = serde_json::from_str(&text)
+            .map_err(|source| BenchError::PeersOutput { path: peers_out.clone(), source })?;
         let mut ratios = serde_json::Map::new();
         for (name, ours) in doc["cases"].as_object().unwrap().clone() {
             let Some(p) = peers["cases"].get(&name) else { continue };
@@ -478,10 +526,10 @@ pub fn run(args: &BenchArgs) -> Result<Value, String> {
         doc["ratios"] = Value::Object(ratios);
     }
     if let Some(parent) = args.out.parent() {
-        std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+        std::fs::create_dir_all(parent).map_err(|source| file_error(parent, source))?;
     }
-    std::fs::write(&args.out, serde_json::to_string_pretty(&doc).unwrap())
-        .map_err(|e| format!("{}: {e}", args.out.display()))?;
+    // `Value`'s alternate Display is its pretty JSON and cannot fail.
+    std::fs::write(&args.out, format!("{doc:#}")).map_err(|source| file_error(&args.out, source))?;
     Ok(doc)
 }
 

@@ -5,8 +5,6 @@
 //! The binary itself (`src/main.rs` of the facade package) only calls [`main`].
 #![deny(missing_docs)]
 
-mod plots;
-
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Parser, Subcommand, ValueEnum};
 use linpd_problem::{ModelSpec, Problem, ProblemError};
@@ -117,9 +115,20 @@ enum CliError {
     /// Drawing a plot.
     #[error("plot: {0}")]
     Plot(#[from] linpd_plot::PlotError),
-    /// A benchmark or a study.
-    #[error("{0}")]
-    Tool(String),
+    /// A study.
+    #[error("study {name}: {source}")]
+    Study {
+        /// The study's name.
+        name: String,
+        /// What went wrong.
+        source: linpd_studies::StudyError,
+    },
+    /// `linpd study NAME` with a name clap let through but the registry does not know.
+    #[error("unknown study `{0}`")]
+    UnknownStudy(String),
+    /// A benchmark.
+    #[error("bench: {0}")]
+    Bench(#[from] linpd_bench::BenchError),
 }
 
 /// `file: error`, unless the error already starts with the file (a read error names it).
@@ -160,12 +169,12 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let mut files = solution.write(&dir).map_err(|e| CliError::Output(Box::new(e)))?;
             match problem.grid() {
                 Some(grid) if problem.plot() => {
-                    files.extend(plots::solution_plots(grid, &solution, &dir)?);
+                    files.extend(linpd_plot::solution::solution_plots(grid, &solution, &dir)?);
                 }
                 // Coarsened levels have no lattice: 1D gets the displacement profile; the 2D/3D
                 // maps need a grid (scattered nodes are not plotted yet).
                 None if problem.plot() && problem.dim() == 1 => {
-                    files.extend(plots::profile_1d(&solution, &dir)?);
+                    files.extend(linpd_plot::solution::profile_1d(&solution, &dir)?);
                 }
                 _ => {}
             }
@@ -197,7 +206,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let dir = out.unwrap_or_else(|| PathBuf::from(&problem.output_dir()));
             let mut files = run.write(&dir).map_err(|e| CliError::Output(Box::new(e)))?;
             if problem.plot() {
-                files.extend(plots::dynamics_plots(&run, &dir)?);
+                files.extend(linpd_plot::solution::dynamics_plots(&run, &dir)?);
             }
             println!(
                 "{}: {} steps of dt = {:.4e} ({:.4} of dt_max = {:.4e}), {} DOFs ({} held), {} bonds; {:.3} s: {:.3e} steps/s, {:.3e} bond updates/s; energy drift max |E/E0 - 1| = {:.2e}, shadow {:.2e}",
@@ -289,7 +298,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Bench(args) => {
-            let doc = linpd_bench::run(&args).map_err(CliError::Tool)?;
+            let doc = linpd_bench::run(&args)?;
             linpd_bench::print_table(&doc);
             println!("wrote {}", args.out.display());
             Ok(())
@@ -302,9 +311,11 @@ fn run(cli: Cli) -> Result<(), CliError> {
                 return Ok(());
             }
             // clap accepted the name, so it is `list` or a study.
-            let study = Study::from_name(&name).ok_or_else(|| CliError::Tool(format!("unknown study `{name}`")))?;
+            let study = Study::from_name(&name).ok_or_else(|| CliError::UnknownStudy(name.clone()))?;
             let dir = out.unwrap_or_else(|| study.default_out_dir());
-            study.run(&dir, &StudyOptions { dense: !no_dense }).map_err(CliError::Tool)?;
+            study
+                .run(&dir, &StudyOptions { dense: !no_dense }, &mut std::io::stdout().lock())
+                .map_err(|source| CliError::Study { name, source })?;
             println!("wrote {}", dir.display());
             Ok(())
         }

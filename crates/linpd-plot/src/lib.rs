@@ -31,6 +31,7 @@
 //! assert_eq!(files.len(), 2);
 //! ```
 #![deny(missing_docs)]
+pub mod solution;
 
 use std::ffi::OsString;
 use std::ops::Range;

@@ -2,12 +2,14 @@
 //! (2013), section 5, Figs. 7-14, plus a speed-versus-error map. Each study writes `data.json`,
 //! PNG and SVG plots into its directory and prints a table.
 
-use crate::out::{err, plot, write};
+use crate::out::{plot, write};
+use crate::StudyError;
 use linpd_blend::{
     ce_exact_point_load, solve_model, BlendParams, BlendSolution, BlendSolver, Blending, Load, ModelKind, Regions,
 };
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
 use serde_json::json;
+use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
@@ -34,9 +36,9 @@ fn errors(pd: &BlendSolution, s: &BlendSolution) -> (f64, f64, f64) {
     (einf / uinf, (e2 / u2).sqrt(), (ew / uw).sqrt())
 }
 
-fn loglog(dir: &Path, name: &str, title: &str, xl: &str, yl: &str, series: Vec<Series>) -> Result<(), String> {
+fn loglog(dir: &Path, name: &str, title: &str, xl: &str, yl: &str, series: Vec<Series>) -> Result<(), StudyError> {
     let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: true, log_y: true };
-    line_plot(&p, &dir.join(name)).map(|_| ()).map_err(err)
+    line_plot(&p, &dir.join(name)).map(|_| ()).map_err(StudyError::from)
 }
 
 fn series(label: &str, x: Vec<f64>, y: Vec<f64>, style: SeriesStyle) -> Series {
@@ -48,7 +50,7 @@ fn positive(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
     x.iter().zip(y).filter(|(_, v)| **v > 0.0).map(|(a, b)| (*a, *b)).unzip()
 }
 
-pub(crate) fn patch(dir: &Path) -> Result<(), String> {
+pub(crate) fn patch(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     // Table 2 with dx = 0.0125: the paper's dx = 0.02 gives eps/dx = 2.5, not an integer N.
     let mut p = BlendParams::table3(Blending::Cubic);
     p.regions = Regions { l1: 0.35, l2: 0.4, l3: 0.6, l4: 0.65 };
@@ -57,10 +59,10 @@ pub(crate) fn patch(dir: &Path) -> Result<(), String> {
         vec![("CE".into(), ModelKind::PureCe, Blending::Cubic), ("PD".into(), ModelKind::PurePd, Blending::Cubic)];
     cases.extend(blendings().into_iter().map(|(n, b)| (format!("blended {n}"), ModelKind::Blended, b)));
     let (mut rows, mut prof, mut fluct) = (Vec::new(), Vec::new(), Vec::new());
-    println!("{:<18} {:>12} {:>12}", "model", "spread (30)", "solver");
+    writeln!(report, "{:<18} {:>12} {:>12}", "model", "spread (30)", "solver")?;
     for (label, kind, b) in cases {
         p.blending = b;
-        let s = solve_model(&p, kind, 0.0, 1.0, &[], BlendSolver::Lu).map_err(err)?;
+        let s = solve_model(&p, kind, 0.0, 1.0, &[], BlendSolver::Lu)?;
         let (xs, strain): (Vec<f64>, Vec<f64>) =
             s.x.windows(2)
                 .zip(s.u.windows(2))
@@ -69,7 +71,7 @@ pub(crate) fn patch(dir: &Path) -> Result<(), String> {
                 .unzip();
         let mx = strain.iter().fold(f64::MIN, |a, v| a.max(v.abs()));
         let mn = strain.iter().fold(f64::MAX, |a, v| a.min(v.abs()));
-        println!("{label:<18} {:>12.3e} {:>12}", mx - mn, s.report.solver);
+        writeln!(report, "{label:<18} {:>12.3e} {:>12}", mx - mn, s.report.solver)?;
         rows.push(json!({"model": label, "strain_spread": mx - mn, "x": s.x, "u": s.u}));
         prof.push(series(&label, s.x.clone(), s.u.clone(), SeriesStyle::LineMarkers));
         fluct.push(series(&label, xs, strain.iter().map(|e| e - 1.0).collect(), SeriesStyle::LineMarkers));
@@ -79,11 +81,11 @@ pub(crate) fn patch(dir: &Path) -> Result<(), String> {
     plot(dir, "fig8_strain_fluctuation", "Strain fluctuation du/dx - 1", "x", "du/dx - 1", fluct, false)
 }
 
-pub(crate) fn point_load(dir: &Path) -> Result<(), String> {
+pub(crate) fn point_load(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     let p = BlendParams::table3(Blending::Cubic);
     let load = [Load::Point { x: 0.5, force: 1.0 }];
-    let pd = solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load, BlendSolver::Auto).map_err(err)?;
-    let ce = solve_model(&p, ModelKind::PureCe, 0.0, 0.0, &load, BlendSolver::Auto).map_err(err)?;
+    let pd = solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load, BlendSolver::Auto)?;
+    let ce = solve_model(&p, ModelKind::PureCe, 0.0, 0.0, &load, BlendSolver::Auto)?;
     let xs: Vec<f64> = ce.x.clone();
     let exact: Vec<f64> = xs.iter().map(|&x| ce_exact_point_load(x, 0.0, 1.0, 0.0, 0.0, 0.5, 1.0, 1.0)).collect();
     let pd_on: Vec<f64> = xs.iter().map(|&x| pd.at(x)).collect();
@@ -95,15 +97,15 @@ pub(crate) fn point_load(dir: &Path) -> Result<(), String> {
     ];
     let mut errs = Vec::new();
     let (ei, e2, _) = errors(&pd, &ce);
-    println!("{:<10} {:>12} {:>12}", "model", "e_r,inf (33)", "e_r,2 (34)");
-    println!("{:<10} {:>12.3e} {:>12.3e}", "CE", ei, e2);
+    writeln!(report, "{:<10} {:>12} {:>12}", "model", "e_r,inf (33)", "e_r,2 (34)")?;
+    writeln!(report, "{:<10} {:>12.3e} {:>12.3e}", "CE", ei, e2)?;
     out.push(json!({"model": "CE", "e_inf": ei, "e_2": e2}));
     for (name, b) in blendings() {
         let mut q = p.clone();
         q.blending = b;
-        let s = solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load, BlendSolver::Auto).map_err(err)?;
+        let s = solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load, BlendSolver::Auto)?;
         let (ei, e2, _) = errors(&pd, &s);
-        println!("{name:<10} {ei:>12.3e} {e2:>12.3e}");
+        writeln!(report, "{name:<10} {ei:>12.3e} {e2:>12.3e}")?;
         out.push(json!({"model": name, "e_inf": ei, "e_2": e2, "u": s.u, "solver": s.report.solver}));
         prof.push(series(&format!("blended {name}"), s.x.clone(), s.u.clone(), SeriesStyle::Line));
         let (x, y) = positive(&s.x, &s.x.iter().zip(&s.u).map(|(x, u)| (pd.at(*x) - u).abs()).collect::<Vec<_>>());
@@ -128,19 +130,20 @@ pub(crate) fn point_load(dir: &Path) -> Result<(), String> {
 /// geometry in `geometries(eps, dx)`; record e_r,2.
 fn sweep(
     dir: &Path,
+    report: &mut dyn Write,
     study: &str,
     xlabel: &str,
     geometries: impl Fn(f64, f64) -> Vec<(f64, Regions)>,
     load_at: f64,
-) -> Result<(), String> {
+) -> Result<(), StudyError> {
     let mut data = Vec::new();
     for (eps, dx) in [(0.05, 0.0005), (0.025, 0.00025)] {
         let mut p = BlendParams::table3(Blending::Cubic);
         p.horizon = eps;
         p.dx = dx;
         let load = [Load::Point { x: load_at, force: 1.0 }];
-        let pd = solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load, BlendSolver::Auto).map_err(err)?;
-        let ce = solve_model(&p, ModelKind::PureCe, 0.0, 0.0, &load, BlendSolver::Auto).map_err(err)?;
+        let pd = solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load, BlendSolver::Auto)?;
+        let ce = solve_model(&p, ModelKind::PureCe, 0.0, 0.0, &load, BlendSolver::Auto)?;
         let geos = geometries(eps, dx);
         let mut all = Vec::new();
         let mut plots = Vec::new();
@@ -150,17 +153,18 @@ fn sweep(
                 let mut q = p.clone();
                 q.blending = b.clone();
                 q.regions = *r;
-                let s = solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load, BlendSolver::Auto).map_err(err)?;
+                let s = solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load, BlendSolver::Auto)?;
                 xs.push(*param);
                 es.push(errors(&pd, &s).1);
             }
-            println!(
+            writeln!(
+                report,
                 "eps = {eps}: {name:<9} e_r,2 from {:.3e} (at {:.4}) to {:.3e} (at {:.4})",
                 es[0],
                 xs[0],
                 es[es.len() - 1],
                 xs[xs.len() - 1]
-            );
+            )?;
             all.push(json!({"blending": name, "param": xs, "e_2": es}));
             let (x, y) = positive(&xs, &es);
             plots.push(series(name, x, y, SeriesStyle::LineMarkers));
@@ -190,11 +194,12 @@ fn sweep(
     write(dir, &json!({"study": study, "sweeps": data}))
 }
 
-pub(crate) fn pd_size(dir: &Path) -> Result<(), String> {
+pub(crate) fn pd_size(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     // Section 5.2.1: bridges of 0.1 each, PD region centred at the load, size varied (the paper
     // steps by 2 dx; we step by 20 dx to keep the run short).
     sweep(
         dir,
+        report,
         "blend-pd-size",
         "|Omega_PD|",
         |_eps, dx| {
@@ -217,11 +222,12 @@ pub(crate) fn pd_size(dir: &Path) -> Result<(), String> {
     )
 }
 
-pub(crate) fn bridge_size(dir: &Path) -> Result<(), String> {
+pub(crate) fn bridge_size(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     // Section 5.2.2: |Omega_PD| = 2 eps - 6 dx, bridge half-size |Omega_b|/2 varied (the paper
     // steps by dx; we step by 10 dx).
     sweep(
         dir,
+        report,
         "blend-bridge-size",
         "|Omega_b|/2",
         |eps, dx| {
@@ -245,7 +251,7 @@ pub(crate) fn bridge_size(dir: &Path) -> Result<(), String> {
     )
 }
 
-pub(crate) fn load_location(dir: &Path) -> Result<(), String> {
+pub(crate) fn load_location(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     // Section 5.2.3: eps = 0.05, dx = 0.005, bridges eps, |Omega_PD| = 6 eps centred.
     let mut p = BlendParams::table3(Blending::Cubic);
     p.dx = 0.005;
@@ -256,7 +262,7 @@ pub(crate) fn load_location(dir: &Path) -> Result<(), String> {
     let mut pds = Vec::new();
     for &xp in &locations {
         let load = [Load::Point { x: xp, force: 1.0 }];
-        pds.push(solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load, BlendSolver::Auto).map_err(err)?);
+        pds.push(solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load, BlendSolver::Auto)?);
     }
     for (name, b) in blendings() {
         let mut q = p.clone();
@@ -264,12 +270,12 @@ pub(crate) fn load_location(dir: &Path) -> Result<(), String> {
         let mut es = Vec::new();
         for (k, &xp) in locations.iter().enumerate() {
             let load = [Load::Point { x: xp, force: 1.0 }];
-            let s = solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load, BlendSolver::Auto).map_err(err)?;
+            let s = solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load, BlendSolver::Auto)?;
             es.push(errors(&pds[k], &s).1);
         }
         let centre = es[locations.iter().position(|&x| (x - 0.5).abs() < 1e-9).unwrap()];
         let worst = es.iter().cloned().fold(0.0, f64::max);
-        println!("{name:<9} e_r,2 at the centre {centre:.3e}, worst {worst:.3e}");
+        writeln!(report, "{name:<9} e_r,2 at the centre {centre:.3e}, worst {worst:.3e}")?;
         let (x, y) = positive(&locations, &es);
         plots.push(series(name, x, y, SeriesStyle::LineMarkers));
         curves.push(json!({"blending": name, "x_p": locations, "e_2": es}));
@@ -294,27 +300,34 @@ fn fig14_params(blending: Blending) -> BlendParams {
     p
 }
 
-fn timed(p: &BlendParams, kind: ModelKind, load: &[Load], solver: BlendSolver) -> Result<(BlendSolution, f64), String> {
+fn timed(
+    p: &BlendParams,
+    kind: ModelKind,
+    load: &[Load],
+    solver: BlendSolver,
+) -> Result<(BlendSolution, f64), StudyError> {
     let t = Instant::now();
-    let s = solve_model(p, kind, 0.0, 0.0, load, solver).map_err(err)?;
+    let s = solve_model(p, kind, 0.0, 0.0, load, solver)?;
     Ok((s, t.elapsed().as_secs_f64()))
 }
 
-pub(crate) fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
+pub(crate) fn speedup(dir: &Path, dense: bool, report: &mut dyn Write) -> Result<(), StudyError> {
     let load = [Load::Point { x: 0.5, force: 1.0 }];
     let p = fig14_params(Blending::Cubic);
     let (pd, t_pd) = timed(&p, ModelKind::PurePd, &load, BlendSolver::Auto)?;
     let t_pd_dense = if dense { Some(timed(&p, ModelKind::PurePd, &load, BlendSolver::Dense)?.1) } else { None };
-    println!(
+    writeln!(
+        report,
         "PD: {} unknowns, {t_pd:.3} s ({}){}",
         pd.report.n,
         pd.report.solver,
         t_pd_dense.map_or(String::new(), |t| format!(", dense {t:.1} s"))
-    );
-    println!(
+    )?;
+    writeln!(
+        report,
         "{:>6} {:>8} {:>12} {:>10} {:>9} {:>12} {:>22}",
         "ratio", "nodes", "e_w (35)", "time s", "speedup", "dense speedup", "solver"
-    );
+    )?;
     let (mut rows, mut rs, mut ews, mut sps, mut dsps) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut blended_solution = None;
     for k in 0..=9 {
@@ -325,13 +338,14 @@ pub(crate) fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
         let ew = errors(&pd, &s).2;
         let td = if dense { Some(timed(&q, ModelKind::Blended, &load, BlendSolver::Dense)?.1) } else { None };
         let dsp = t_pd_dense.zip(td).map(|(a, b)| a / b);
-        println!(
+        writeln!(
+            report,
             "{ratio:>6} {:>8} {ew:>12.3e} {t:>10.3} {:>9.2} {:>12} {:>22}",
             s.x.len(),
             t_pd / t,
             dsp.map_or("-".into(), |v| format!("{v:.2}")),
             s.report.solver
-        );
+        )?;
         rows.push(json!({"ratio": ratio, "nodes": s.x.len(), "e_w": ew, "time": t, "speedup": t_pd / t, "time_dense": td, "speedup_dense": dsp, "solver": s.report.solver, "timings": s.report.timings}));
         rs.push(ratio);
         ews.push(ew);
@@ -392,7 +406,7 @@ pub(crate) fn speedup(dir: &Path, dense: bool) -> Result<(), String> {
     loglog(dir, "fig14d_speedup_vs_ratio", "Speedup t_PD / t_blended vs CE mesh ratio", "dx_CE / dx", "speedup", sp)
 }
 
-pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
+pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     let load = [Load::Point { x: 0.5, force: 1.0 }];
     let p = fig14_params(Blending::Cubic);
     let (pd, t_pd) = timed(&p, ModelKind::PurePd, &load, BlendSolver::Auto)?;
@@ -403,7 +417,7 @@ pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
         json!({"model": "PD", "time": t_pd, "e_2": 0.0, "solver": pd.report.solver}),
         json!({"model": "CE", "time": t_ce, "e_2": e_ce, "solver": ce.report.solver}),
     ];
-    println!("PD {t_pd:.3} s ({}); CE {t_ce:.4} s, e_r,2 = {e_ce:.3e}", pd.report.solver);
+    writeln!(report, "PD {t_pd:.3} s ({}); CE {t_ce:.4} s, e_r,2 = {e_ce:.3e}", pd.report.solver)?;
     let mut ymin = e_ce;
     for (name, b) in blendings() {
         let (mut ts, mut es) = (Vec::new(), Vec::new());
@@ -417,13 +431,14 @@ pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
             ts.push(t);
             es.push(e);
         }
-        println!(
+        writeln!(
+            report,
             "blended {name:<9}: time {:.3}..{:.3} s, e_r,2 {:.3e}..{:.3e}",
             ts.iter().cloned().fold(f64::MAX, f64::min),
             ts.iter().cloned().fold(0.0, f64::max),
             es.iter().cloned().fold(f64::MAX, f64::min),
             es.iter().cloned().fold(0.0, f64::max)
-        );
+        )?;
         plots.push(series(&format!("blended {name} (ratios 1..512)"), ts, es, SeriesStyle::LineMarkers));
     }
     plots.push(series("pure CE", vec![t_ce], vec![e_ce], SeriesStyle::Markers));

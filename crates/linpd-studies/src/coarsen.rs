@@ -7,13 +7,15 @@
 //! (`Matching::TotalForce`, the crate's default; a body-force density `b` gives `f = b v^0`).
 //! The same examples are tests in `crates/linpd-coarsen/tests/examples.rs` (with the tolerances).
 
-use crate::out::{err, plot, write};
+use crate::out::{plot, write};
+use crate::StudyError;
 use linpd_bond::{assemble, BondOperator};
 use linpd_coarsen::paper::{cell_modulus, composite, defect, tent, H, R0};
 use linpd_coarsen::{coarsen, every_kth, retain_every, Coarsened, LevelModel, StepReport};
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
 use serde_json::{json, Value};
+use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
@@ -39,13 +41,13 @@ fn radius_label(r: f64) -> String {
 // 1D level-0 models (Examples 5.1-5.3)
 // ----------------------------------------------------------------------------------------------
 
-fn level0(c: fn(f64, f64) -> f64) -> Result<LevelModel, String> {
-    LevelModel::from_kernel((0..N).map(|i| i as f64 * H).collect(), vec![H; N], R0, c).map_err(err)
+fn level0(c: fn(f64, f64) -> f64) -> Result<LevelModel, StudyError> {
+    LevelModel::from_kernel((0..N).map(|i| i as f64 * H).collect(), vec![H; N], R0, c).map_err(StudyError::from)
 }
 
-fn chain(m0: &LevelModel, k1: usize, k2: usize, r1: f64, r2: f64) -> Result<(Coarsened, Coarsened), String> {
-    let c1 = coarsen(m0, &every_kth(m0.len(), k1), r1).map_err(err)?;
-    let c2 = coarsen(&c1.model, &every_kth(c1.model.len(), k2), r2).map_err(err)?;
+fn chain(m0: &LevelModel, k1: usize, k2: usize, r1: f64, r2: f64) -> Result<(Coarsened, Coarsened), StudyError> {
+    let c1 = coarsen(m0, &every_kth(m0.len(), k1), r1)?;
+    let c2 = coarsen(&c1.model, &every_kth(c1.model.len(), k2), r2)?;
     Ok((c1, c2))
 }
 
@@ -54,15 +56,19 @@ fn chain(m0: &LevelModel, k1: usize, k2: usize, r1: f64, r2: f64) -> Result<(Coa
 /// `(x, u, u by level-0 index)` of a 1D level.
 type Fields = (Vec<f64>, Vec<f64>, Vec<f64>);
 
-fn solve(m: &LevelModel, fixed: &[(usize, f64)], loads: &[(usize, f64)]) -> Result<Fields, String> {
-    let local =
-        |p: usize| m.level0().iter().position(|&q| q == p).ok_or(format!("level-0 node {p} is not in the level"));
+fn solve(m: &LevelModel, fixed: &[(usize, f64)], loads: &[(usize, f64)]) -> Result<Fields, StudyError> {
+    let local = |p: usize| {
+        m.level0()
+            .iter()
+            .position(|&q| q == p)
+            .ok_or(StudyError::Check(format!("level-0 node {p} is not in the level")))
+    };
     let mut f = vec![0.0; m.len()];
     for &(p, v) in loads {
         f[local(p)?] += v;
     }
-    let fixed = fixed.iter().map(|&(p, g)| Ok((local(p)?, g))).collect::<Result<Vec<_>, String>>()?;
-    let u = m.solve_dirichlet(&f, &fixed).map_err(err)?;
+    let fixed = fixed.iter().map(|&(p, g)| Ok((local(p)?, g))).collect::<Result<Vec<_>, StudyError>>()?;
+    let u = m.solve_dirichlet(&f, &fixed)?;
     let mut by0 = vec![f64::NAN; N];
     for (k, &p) in m.level0().iter().enumerate() {
         by0[p] = u[k];
@@ -81,17 +87,18 @@ fn row(m: &LevelModel, p: usize) -> (Vec<f64>, Vec<f64>) {
 // coarsen-tent (Fig. 3)
 // ----------------------------------------------------------------------------------------------
 
-pub(crate) fn tent_study(dir: &Path) -> Result<(), String> {
+pub(crate) fn tent_study(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     let m0 = level0(tent)?;
     // x = 0.5 (node 100) is a level-1 node; level 2 (every 8th node) has none there: its row is
     // taken at 0.48 (node 96), the level-2 node nearest the centre.
     let (s0, c0) = row(&m0, 100);
     let mut out = vec![json!({"level": 0, "x": 0.5, "radius": R0, "offset": s0, "c": c0})];
     let mut plots = vec![series("C^0 (x = 0.5)", s0, c0, SeriesStyle::LineMarkers)];
-    println!(
+    writeln!(
+        report,
         "{:>6} {:>11} {:>6} {:>12} {:>12} {:>10} {:>10}",
         "level", "radius", "x", "C(x, x+h_m)", "M/M^0 - 1", "tail", "bonds"
-    );
+    )?;
     let m_ref = m0.second_moment(100);
     for (r1, r2) in [RADII[0], RADII[3]] {
         let (c1, c2) = chain(&m0, 4, 2, r1, r2)?;
@@ -100,12 +107,13 @@ pub(crate) fn tent_study(dir: &Path) -> Result<(), String> {
             let i = c.model.level0().iter().position(|&q| q == p).unwrap();
             let moment = c.model.second_moment(i) / m_ref - 1.0;
             let near = s.iter().zip(&v).find(|(o, _)| **o > 0.0).map_or(0.0, |t| *t.1);
-            println!(
+            writeln!(
+                report,
                 "{lvl:>6} {:>11} {x:>6} {near:>12.4e} {moment:>+12.3e} {:>10.2e} {:>10}",
                 radius_label(r),
                 c.report.tail,
                 s.len()
-            );
+            )?;
             out.push(json!({"level": lvl, "x": x, "radius": r, "offset": s.clone(), "c": v.clone(), "moment_rel_error": moment, "report": c.report}));
             // the plot stops at |q - x| = 0.25 (the whole-body rows are < 1e-2 of their peak beyond)
             let (ps, pv): (Vec<f64>, Vec<f64>) =
@@ -137,7 +145,7 @@ pub(crate) fn tent_study(dir: &Path) -> Result<(), String> {
 // coarsen-composite (Fig. 5)
 // ----------------------------------------------------------------------------------------------
 
-pub(crate) fn composite_study(dir: &Path) -> Result<(), String> {
+pub(crate) fn composite_study(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     let m0 = level0(composite)?;
     let e_eff = cell_modulus(20, composite);
     // leftmost three level-2 nodes fixed, rightmost three loaded with b v^0, b = 0.001
@@ -149,9 +157,13 @@ pub(crate) fn composite_study(dir: &Path) -> Result<(), String> {
     let stretch = |u: &[f64]| (u[160] - u[40]) / 0.6;
     let (x0, u0, by0) = solve(&m0, &fixed, &loads)?;
     let s0 = stretch(&by0);
-    println!("E_eff (periodic cell) = {e_eff:.6e}, F = {force:.3e}, F/E_eff = {target:.6e}");
-    println!("{:>6} {:>11} {:>11} {:>14} {:>14} {:>10}", "level", "r^1", "r^2", "stretch", "vs F/E_eff", "vs level 0");
-    println!("{:>6} {:>11} {:>11} {s0:>14.6e} {:>+14.3e} {:>10}", 0, "-", "-", s0 / target - 1.0, "-");
+    writeln!(report, "E_eff (periodic cell) = {e_eff:.6e}, F = {force:.3e}, F/E_eff = {target:.6e}")?;
+    writeln!(
+        report,
+        "{:>6} {:>11} {:>11} {:>14} {:>14} {:>10}",
+        "level", "r^1", "r^2", "stretch", "vs F/E_eff", "vs level 0"
+    )?;
+    writeln!(report, "{:>6} {:>11} {:>11} {s0:>14.6e} {:>+14.3e} {:>10}", 0, "-", "-", s0 / target - 1.0, "-")?;
     let mut table = vec![json!({"level": 0, "stretch": s0, "rel_to_target": s0 / target - 1.0})];
     let mut plots = vec![series("level 0", x0.clone(), u0.clone(), SeriesStyle::Line)];
     let mut fields = vec![json!({"level": 0, "x": x0, "u": u0})];
@@ -160,13 +172,14 @@ pub(crate) fn composite_study(dir: &Path) -> Result<(), String> {
         for (lvl, c, r) in [(1, &c1, r1), (2, &c2, r2)] {
             let (x, u, by) = solve(&c.model, &fixed, &loads)?;
             let s = stretch(&by);
-            println!(
+            writeln!(
+                report,
                 "{lvl:>6} {:>11} {:>11} {s:>14.6e} {:>+14.3e} {:>+10.3e}",
                 radius_label(r1),
                 radius_label(r2),
                 s / target - 1.0,
                 s / s0 - 1.0
-            );
+            )?;
             table.push(json!({"level": lvl, "r1": r1, "r2": r2, "radius": r, "stretch": s, "rel_to_target": s / target - 1.0, "rel_to_level0": s / s0 - 1.0, "tail": c.report.tail}));
             if r1 == RADII[0].0 {
                 plots.push(series(
@@ -198,7 +211,7 @@ pub(crate) fn composite_study(dir: &Path) -> Result<(), String> {
 // coarsen-defect (Fig. 7)
 // ----------------------------------------------------------------------------------------------
 
-pub(crate) fn defect_study(dir: &Path) -> Result<(), String> {
+pub(crate) fn defect_study(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     let m0 = level0(defect)?;
     // u = x on the three leftmost and rightmost level-2 nodes (every 9th level-0 node)
     let fixed: Vec<(usize, f64)> = [0, 9, 18, 180, 189, 198].iter().map(|&p| (p, p as f64 * H)).collect();
@@ -209,11 +222,13 @@ pub(crate) fn defect_study(dir: &Path) -> Result<(), String> {
     let jump_shared = |u: &[f64]| u[108] - u[99];
     let adjacent = [(99, 101), (99, 102), (99, 108)];
     let j0 = jump_shared(&by0);
-    println!(
+    writeln!(
+        report,
         "{:>6} {:>11} {:>11} {:>16} {:>11} {:>22} {:>14}",
         "level", "r^1", "r^2", "u(.54)-u(.495)", "vs level 0", "adjacent-pair jump", "shared err"
-    );
-    println!(
+    )?;
+    writeln!(
+        report,
         "{:>6} {:>11} {:>11} {j0:>16.6e} {:>11} {:>22} {:>14}",
         0,
         "-",
@@ -221,7 +236,7 @@ pub(crate) fn defect_study(dir: &Path) -> Result<(), String> {
         "-",
         format!("{:.5e} (.495-.505)", by0[101] - by0[99]),
         "-"
-    );
+    )?;
     let mut table =
         vec![json!({"level": 0, "jump_shared": j0, "jump_adjacent": by0[101] - by0[99], "adjacent": [0.495, 0.505]})];
     let window = |x: &[f64], u: &[f64]| -> (Vec<f64>, Vec<f64>) {
@@ -238,13 +253,14 @@ pub(crate) fn defect_study(dir: &Path) -> Result<(), String> {
             let (a, b) = adjacent[lvl];
             let ja = by[b] - by[a];
             let e = shared.iter().map(|&p| (by[p] - by0[p]).abs()).fold(0.0, f64::max) / umax;
-            println!(
+            writeln!(
+                report,
                 "{lvl:>6} {:>11} {:>11} {j:>16.6e} {:>+11.3e} {:>22} {e:>14.3e}",
                 radius_label(r1),
                 radius_label(r2),
                 j / j0 - 1.0,
                 format!("{ja:.5e} ({:.3}-{:.3})", a as f64 * H, b as f64 * H)
-            );
+            )?;
             table.push(json!({"level": lvl, "r1": r1, "r2": r2, "radius": r, "jump_shared": j, "jump_rel_error": j / j0 - 1.0,
                 "jump_adjacent": ja, "adjacent": [a as f64 * H, b as f64 * H], "shared_rel_error": e, "tail": c.report.tail}));
             if r1 == RADII[0].0 {
@@ -283,9 +299,9 @@ const PLATE_N: usize = 121;
 const PLATE_H: f64 = 0.1;
 const PLATE_M: f64 = 3.0;
 
-fn plate_level0() -> Result<LevelModel, String> {
+fn plate_level0() -> Result<LevelModel, StudyError> {
     let side = (PLATE_N - 1) as f64 * PLATE_H;
-    let g = Grid::new(&[0.0, 0.0], &[side, side], PLATE_H, 0.0, Placement::Vertex).map_err(err)?;
+    let g = Grid::new(&[0.0, 0.0], &[side, side], PLATE_H, 0.0, Placement::Vertex)?;
     let mm = Micromodulus {
         kernel: Kernel::InverseDistance,
         normalization: Normalization::Continuum,
@@ -293,9 +309,9 @@ fn plate_level0() -> Result<LevelModel, String> {
         plane: Some(PlaneModel::Stress),
         partial_volume: false,
     };
-    let op = BondOperator::on_grid(&g, PLATE_M * PLATE_H, &mm, &Material::default()).map_err(err)?;
+    let op = BondOperator::on_grid(&g, PLATE_M * PLATE_H, &mm, &Material::default())?;
     let k = assemble(&op, &DofMap::all_free(g.len(), 2));
-    LevelModel::from_stiffness(2, g.positions(), vec![g.volume(); g.len()], &k).map_err(err)
+    LevelModel::from_stiffness(2, g.positions(), vec![g.volume(); g.len()], &k).map_err(StudyError::from)
 }
 
 /// Fixed DOFs and nodal forces of the plate BVP at level `m`: every DOF of the shared (level-2,
@@ -313,7 +329,7 @@ fn plate_bvp(m0: &LevelModel) -> (Vec<usize>, Vec<(usize, f64)>) {
 
 /// Solves level `m` with the plate BVP; returns `u` by level-0 node (2 per node, NaN if absent)
 /// and the solve time.
-fn plate_solve(m: &LevelModel, held: &[usize], loads: &[(usize, f64)]) -> Result<(Vec<f64>, f64), String> {
+fn plate_solve(m: &LevelModel, held: &[usize], loads: &[(usize, f64)]) -> Result<(Vec<f64>, f64), StudyError> {
     let n0 = PLATE_N * PLATE_N;
     let mut local = vec![usize::MAX; n0];
     for (k, &p) in m.level0().iter().enumerate() {
@@ -325,7 +341,7 @@ fn plate_solve(m: &LevelModel, held: &[usize], loads: &[(usize, f64)]) -> Result
         f[2 * local[dof0 / 2] + dof0 % 2] += v;
     }
     let fixed: Vec<(usize, f64)> = held.iter().flat_map(|&p| [(2 * local[p], 0.0), (2 * local[p] + 1, 0.0)]).collect();
-    let u = m.solve_dirichlet(&f, &fixed).map_err(err)?;
+    let u = m.solve_dirichlet(&f, &fixed)?;
     let secs = t.elapsed().as_secs_f64();
     let mut by0 = vec![f64::NAN; 2 * n0];
     for (k, &p) in m.level0().iter().enumerate() {
@@ -350,23 +366,27 @@ fn report_json(r: &StepReport) -> Value {
     json!(r)
 }
 
-pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
+pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     let t = Instant::now();
     let m0 = plate_level0()?;
     let t_build = t.elapsed().as_secs_f64();
     let (held, loads) = plate_bvp(&m0);
     let (u0, t_fine) = plate_solve(&m0, &held, &loads)?;
     let d0 = m0.horizon();
-    println!(
+    writeln!(report,
         "level 0: {} nodes ({PLATE_N}^2, h = {PLATE_H}, delta = {PLATE_M}h, inverse-distance, plane stress), {} DOFs, built in {t_build:.2} s, fine solve {t_fine:.3} s",
         m0.len(),
         2 * m0.len()
-    );
-    println!("(level 2: 'coarsen s' includes its level-1 step; time ratio = (coarsen s + solve s) / fine solve)");
-    println!(
+    )?;
+    writeln!(
+        report,
+        "(level 2: 'coarsen s' includes its level-1 step; time ratio = (coarsen s + solve s) / fine solve)"
+    )?;
+    writeln!(
+        report,
         "{:>6} {:>7} {:>8} {:>8} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10}",
         "level", "r/delta", "radius", "nodes", "tail", "coarsen s", "solve s", "time ratio", "rel. error", "hit rate"
-    );
+    )?;
     let mut rows = Vec::new();
     let mut pts: [(Vec<f64>, Vec<f64>); 2] = [(vec![], vec![]), (vec![], vec![])];
     // Level 2 is built on the level 1 of the same k with the paper's rule r^2 = 2 delta^1
@@ -376,12 +396,13 @@ pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
     let mut level1 = Vec::new();
     for k in [2.0, 3.0, 4.0, 6.0] {
         let t = Instant::now();
-        let c1 = coarsen(&m0, &retain_every(&m0, 2).map_err(err)?, k * d0).map_err(err)?;
+        let c1 = coarsen(&m0, &retain_every(&m0, 2)?, k * d0)?;
         let t_c1 = t.elapsed().as_secs_f64();
         let (u1, t_s1) = plate_solve(&c1.model, &held, &loads)?;
         let e1 = shared_error(&u1, &u0);
         let ratio = (t_c1 + t_s1) / t_fine;
-        println!(
+        writeln!(
+            report,
             "{:>6} {:>7} {:>8.3} {:>8} {:>10.2e} {t_c1:>10.3} {t_s1:>10.3} {ratio:>10.2} {e1:>11.3e} {:>10.3}",
             1,
             format!("{k}"),
@@ -389,7 +410,7 @@ pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
             c1.model.len(),
             c1.report.tail,
             c1.report.hit_rate
-        );
+        )?;
         rows.push(json!({"level": 1, "radius_over_horizon": k, "radius": k * d0, "coarsen_seconds": t_c1, "solve_seconds": t_s1, "time_ratio": ratio, "rel_error": e1, "report": report_json(&c1.report)}));
         pts[0].0.push(ratio);
         pts[0].1.push(e1);
@@ -400,12 +421,13 @@ pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
     for (k, c1, t_c1) in level1 {
         let d1 = c1.model.horizon();
         let t = Instant::now();
-        let c2 = coarsen(&c1.model, &retain_every(&c1.model, 2).map_err(err)?, 2.0 * d1).map_err(err)?;
+        let c2 = coarsen(&c1.model, &retain_every(&c1.model, 2)?, 2.0 * d1)?;
         let t_c2 = t.elapsed().as_secs_f64() + t_c1;
         let (u2, t_s2) = plate_solve(&c2.model, &held, &loads)?;
         let e2 = shared_error(&u2, &u0);
         let ratio = (t_c2 + t_s2) / t_fine;
-        println!(
+        writeln!(
+            report,
             "{:>6} {:>7} {:>8.3} {:>8} {:>10.2e} {t_c2:>10.3} {t_s2:>10.3} {ratio:>10.2} {e2:>11.3e} {:>10.3}",
             2,
             format!("{k}, 2"),
@@ -413,7 +435,7 @@ pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
             c2.model.len(),
             c2.report.tail,
             c2.report.hit_rate
-        );
+        )?;
         rows.push(json!({"level": 2, "level1_radius_over_horizon": k, "radius_over_horizon": 2.0, "radius": 2.0 * d1, "level1_radius": k * d0,
             "coarsen_seconds": t_c2, "solve_seconds": t_s2, "time_ratio": ratio, "rel_error": e2, "report": report_json(&c2.report)}));
         pts[1].0.push(ratio);
@@ -435,5 +457,5 @@ pub(crate) fn speed_vs_error(dir: &Path) -> Result<(), String> {
         log_x: false,
         log_y: true,
     };
-    line_plot(&p, &dir.join("speed_vs_error")).map(|_| ()).map_err(err)
+    line_plot(&p, &dir.join("speed_vs_error")).map(|_| ()).map_err(StudyError::from)
 }

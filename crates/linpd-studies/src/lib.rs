@@ -16,8 +16,9 @@
 //!
 //! ```no_run
 //! use linpd_studies::{Study, StudyOptions};
-//! Study::CoarsenTent.run(std::path::Path::new("out/studies/coarsen-tent"), &StudyOptions::default())?;
-//! # Ok::<(), String>(())
+//! let dir = std::path::Path::new("out/studies/coarsen-tent");
+//! Study::CoarsenTent.run(dir, &StudyOptions::default(), &mut std::io::stdout())?;
+//! # Ok::<(), linpd_studies::StudyError>(())
 //! ```
 #![deny(missing_docs)]
 
@@ -30,7 +31,50 @@ mod md_pd;
 mod out;
 
 use clap::ValueEnum;
+use std::io::Write;
 use std::path::{Path, PathBuf};
+
+/// Why a study failed: the model or solver error of the case it was running, a plot, a file
+/// it could not write (named), or the table stream (e.g. a closed pipe).
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    /// A blended/CE/PD model or its solve (`blend-*`).
+    #[error(transparent)]
+    Blend(#[from] linpd_blend::BlendError),
+    /// A coarsening step or a level's solve (`coarsen-*`).
+    #[error(transparent)]
+    Coarsen(#[from] linpd_coarsen::CoarsenError),
+    /// A grid, micromodulus or operator of linpd-core.
+    #[error(transparent)]
+    Core(#[from] linpd_core::CoreError),
+    /// An LPS model (`dispersion`'s lattice cases).
+    #[error(transparent)]
+    Lps(#[from] linpd_lps::LpsError),
+    /// The LPS tension bar (`lps-tension-bar`).
+    #[error(transparent)]
+    TensionBar(#[from] linpd_lps::TensionError),
+    /// A dynamics run (`dispersion`, `stability`, `md-pd`).
+    #[error(transparent)]
+    Dynamics(#[from] linpd_dynamics::DynamicsError),
+    /// Drawing a figure.
+    #[error("plot: {0}")]
+    Plot(#[from] linpd_plot::PlotError),
+    /// Writing a file of the study.
+    #[error("{}: {source}", path.display())]
+    File {
+        /// The file or directory.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// A result the study checks (a paper's claim it reproduces, an invariant of its setup)
+    /// came out wrong.
+    #[error("check failed: {0}")]
+    Check(String),
+    /// Writing the table to the output stream.
+    #[error("writing the table: {0}")]
+    Table(#[from] std::io::Error),
+}
 
 /// Every study, in the order of `linpd study list`. The clap names are the kebab-case variant
 /// names (`BlendPatch` is `blend-patch`); each doc comment is the study's one-line description.
@@ -109,25 +153,25 @@ impl Study {
     }
 
     /// Runs the study: writes `data.json` and the PNG/SVG figures into `out_dir` (created if
-    /// needed) and prints its table on stdout.
-    pub fn run(&self, out_dir: &Path, options: &StudyOptions) -> Result<(), String> {
+    /// needed) and its table to `out` (the CLI passes stdout).
+    pub fn run(&self, out_dir: &Path, options: &StudyOptions, report: &mut dyn Write) -> Result<(), StudyError> {
         let dir = out_dir;
         match self {
-            Study::BlendPatch => blend::patch(dir),
-            Study::BlendPointLoad => blend::point_load(dir),
-            Study::BlendPdSize => blend::pd_size(dir),
-            Study::BlendBridgeSize => blend::bridge_size(dir),
-            Study::BlendLoadLocation => blend::load_location(dir),
-            Study::BlendSpeedup => blend::speedup(dir, options.dense),
-            Study::BlendSpeedVsError => blend::speed_vs_error(dir),
-            Study::LpsTensionBar => lps::run(dir),
-            Study::Dispersion => dynamics::run_dispersion(dir),
-            Study::Stability => dynamics::run_stability(dir),
-            Study::MdPd => md_pd::run(dir),
-            Study::CoarsenTent => coarsen::tent_study(dir),
-            Study::CoarsenComposite => coarsen::composite_study(dir),
-            Study::CoarsenDefect => coarsen::defect_study(dir),
-            Study::CoarsenSpeedVsError => coarsen::speed_vs_error(dir),
+            Study::BlendPatch => blend::patch(dir, report),
+            Study::BlendPointLoad => blend::point_load(dir, report),
+            Study::BlendPdSize => blend::pd_size(dir, report),
+            Study::BlendBridgeSize => blend::bridge_size(dir, report),
+            Study::BlendLoadLocation => blend::load_location(dir, report),
+            Study::BlendSpeedup => blend::speedup(dir, options.dense, report),
+            Study::BlendSpeedVsError => blend::speed_vs_error(dir, report),
+            Study::LpsTensionBar => lps::run(dir, report),
+            Study::Dispersion => dynamics::run_dispersion(dir, report),
+            Study::Stability => dynamics::run_stability(dir, report),
+            Study::MdPd => md_pd::run(dir, report),
+            Study::CoarsenTent => coarsen::tent_study(dir, report),
+            Study::CoarsenComposite => coarsen::composite_study(dir, report),
+            Study::CoarsenDefect => coarsen::defect_study(dir, report),
+            Study::CoarsenSpeedVsError => coarsen::speed_vs_error(dir, report),
         }
     }
 

@@ -2,19 +2,23 @@
 //! (E = 9KG/(3K + G), nu = (3K - 2G)/(2(3K + G))): elongation and lateral contraction versus
 //! grid refinement and delta/h, with and without the bulk-weighted-volume surface correction.
 
+use crate::out::write;
+use crate::StudyError;
 use linpd_lps::{tension_bar, Influence, SurfaceCorrection, TensionBar};
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
 use serde_json::json;
+use std::io::Write;
 use std::path::Path;
 
 /// Runs the study into `dir`.
-pub(crate) fn run(dir: &Path) -> Result<(), String> {
+pub(crate) fn run(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     let mut rows = Vec::new();
     let mut series = Vec::new();
-    println!(
+    writeln!(
+        report,
         "{:>7} {:>6} {:>12} {:>10} {:>12} {:>10} {:>9}",
         "h", "d/h", "correction", "unknowns", "elong. err", "nu_eff", "time s"
-    );
+    )?;
     for (ratio, surface, label) in [
         (2.0, SurfaceCorrection::None, "delta = 2h"),
         (3.0, SurfaceCorrection::None, "delta = 3h"),
@@ -33,16 +37,17 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
                 influence: Influence::InverseDistance,
                 surface,
             };
-            let r = tension_bar(&bar).map_err(|e| e.to_string())?;
+            let r = tension_bar(&bar)?;
             let err = r.elongation / r.elongation_classical - 1.0;
-            println!(
+            writeln!(
+                report,
                 "{h:>7.4} {ratio:>6} {:>12} {:>10} {:>11.2}% {:>10.3} {:>9.2}",
                 if surface == SurfaceCorrection::None { "none" } else { "bulk m0" },
                 r.unknowns,
                 100.0 * err,
                 r.poisson_effective,
                 r.solve_seconds
-            );
+            )?;
             rows.push(json!({"h": h, "horizon_ratio": ratio, "correction": format!("{surface:?}"), "unknowns": r.unknowns,
                 "elongation": r.elongation, "elongation_classical": r.elongation_classical, "relative_error": err,
                 "poisson_effective": r.poisson_effective, "poisson_classical": r.poisson_classical, "solve_seconds": r.solve_seconds}));
@@ -51,12 +56,7 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
         }
         series.push(Series { label: label.into(), x: xs, y: ys, style: SeriesStyle::LineMarkers });
     }
-    std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
-    std::fs::write(
-        dir.join("data.json"),
-        serde_json::to_string_pretty(&json!({"study": "lps-tension-bar", "rows": rows})).unwrap(),
-    )
-    .map_err(|e| e.to_string())?;
+    write(dir, &json!({"study": "lps-tension-bar", "rows": rows}))?;
     let plot = LinePlot {
         title: "LPS tension bar (L = 1, W = 0.5, K = 2, G = 1): elongation error vs classical".into(),
         x_label: "spacing h".into(),
@@ -65,5 +65,5 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
         log_x: false,
         log_y: false,
     };
-    line_plot(&plot, &dir.join("elongation_error")).map(|_| ()).map_err(|e| e.to_string())
+    line_plot(&plot, &dir.join("elongation_error")).map(|_| ()).map_err(StudyError::from)
 }

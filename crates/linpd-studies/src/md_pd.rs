@@ -13,12 +13,14 @@
 //! of steps ends at `t = 150.05` (Fig. 4.4). Square pulse (4.14): `dt = 0.0649` for all models
 //! (Fig. 4.6), snapshots at `t ~ 50` and `t ~ 150`.
 
-use crate::out::err;
+use crate::out::{create_dir, write};
+use crate::StudyError;
 use linpd_dynamics::initial::{smooth_pulse, square_pulse};
 use linpd_dynamics::stability::refinement_dt;
 use linpd_dynamics::{Chain, DtLimit, Ring, State, Verlet, VerletParams};
 use linpd_plot::{line_plot, scalar_map, LinePlot, ScalarMap, Series};
 use serde_json::json;
+use std::io::Write;
 use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
@@ -89,12 +91,12 @@ fn simulate(
     steps: usize,
     snap_steps: &[usize],
     with_map: bool,
-) -> Result<Run, String> {
+) -> Result<Run, StudyError> {
     let start = Instant::now();
     let nx = (L / m.dx).round() as usize;
-    let ring: Ring = Chain::springs(K1, m.n, m.dx).map_err(err)?.ring(nx).map_err(err)?;
+    let ring: Ring = Chain::springs(K1, m.n, m.dx)?.ring(nx)?;
     let limit = ring.dt_limit(RHO);
-    let verlet = Verlet::new(&ring, ring.mass(RHO).map_err(err)?);
+    let verlet = Verlet::new(&ring, ring.mass(RHO)?);
     let params = VerletParams { output_every: 1, limit: DtLimit::Given(limit), ..VerletParams::new(dt, steps) };
     let mut state = State::at_rest((0..nx).map(|i| u0(ring.position(i))).collect());
     let (lo, hi) = window(m, nx);
@@ -103,28 +105,26 @@ fn simulate(
     let two_dx = 2.0 * m.dx;
     let (mut snaps, mut map, mut map_t) = (Vec::new(), Vec::new(), Vec::new());
     let (mut e0, mut s0, mut drift_total, mut drift_shadow) = (0.0, 0.0, 0.0f64, 0.0f64);
-    verlet
-        .run(&mut state, &params, None, |s| {
-            if s.step == 0 {
-                e0 = s.energy.total();
-                s0 = s.energy.shadow;
-            }
-            drift_total = drift_total.max(((s.energy.total() - e0) / e0).abs());
-            drift_shadow = drift_shadow.max(((s.energy.shadow - s0) / s0).abs());
-            if snap_steps.contains(&s.step) {
-                snaps.push((s.t, s.u.to_vec()));
-            }
-            if with_map && s.step % row_stride == 0 {
-                let row = (lo..=hi)
-                    .step_by(col_stride)
-                    .map(|j| two_dx / (two_dx + s.u[(j + 1) % nx] - s.u[(j + nx - 1) % nx]))
-                    .collect();
-                map.push(row);
-                map_t.push(s.t);
-            }
-            ControlFlow::Continue(())
-        })
-        .map_err(err)?;
+    verlet.run(&mut state, &params, None, |s| {
+        if s.step == 0 {
+            e0 = s.energy.total();
+            s0 = s.energy.shadow;
+        }
+        drift_total = drift_total.max(((s.energy.total() - e0) / e0).abs());
+        drift_shadow = drift_shadow.max(((s.energy.shadow - s0) / s0).abs());
+        if snap_steps.contains(&s.step) {
+            snaps.push((s.t, s.u.to_vec()));
+        }
+        if with_map && s.step % row_stride == 0 {
+            let row = (lo..=hi)
+                .step_by(col_stride)
+                .map(|j| two_dx / (two_dx + s.u[(j + 1) % nx] - s.u[(j + nx - 1) % nx]))
+                .collect();
+            map.push(row);
+            map_t.push(s.t);
+        }
+        ControlFlow::Continue(())
+    })?;
     Ok(Run {
         nx,
         dt,
@@ -150,7 +150,7 @@ fn thin(v: Vec<f64>) -> Vec<f64> {
     v.into_iter().step_by(stride).collect()
 }
 
-fn density_map(m: &Model, r: &Run, dir: &Path, what: &str) -> Result<(), String> {
+fn density_map(m: &Model, r: &Run, dir: &Path, what: &str) -> Result<(), StudyError> {
     let (lo, _) = window(m, r.nx);
     let ncol = r.map[0].len();
     let h = m.dx * r.map_stride.0 as f64;
@@ -170,34 +170,37 @@ fn density_map(m: &Model, r: &Run, dir: &Path, what: &str) -> Result<(), String>
         value_label: "density".into(),
     };
     // Keep the PNG only: the SVG of a cell map is megabytes.
-    for f in scalar_map(&map, &dir.join(format!("density_{}", m.key))).map_err(err)? {
+    for f in scalar_map(&map, &dir.join(format!("density_{}", m.key)))? {
         if f.extension().is_some_and(|e| e == "svg") {
-            std::fs::remove_file(&f).map_err(err)?;
+            std::fs::remove_file(&f).map_err(|source| StudyError::File { path: f.clone(), source })?;
         }
     }
     Ok(())
 }
 
 /// Runs the study into `dir`.
-pub(crate) fn run(dir: &Path) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+pub(crate) fn run(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+    create_dir(dir)?;
     let total = Instant::now();
 
     // ---- Smooth pulse (Figs. 4.3-4.5, Table 4.1) ----
-    println!(
+    writeln!(
+        report,
         "smooth pulse p(x) at 500 on the ring [0, 1000), K_1 = rho = 1, dt by (4.13) with dt_0 = {DT0}, t = {T_SMOOTH}"
-    );
-    println!(
+    )?;
+    writeln!(
+        report,
         "{:<30} {:>6} {:>3} {:>9} {:>9} {:>6} {:>12} {:>10} {:>10} {:>7}",
         "model", "Nx", "N", "dt (4.13)", "dt used", "Nt", "Nx N Nt", "dE/E", "dE~/E~", "wall s"
-    );
+    )?;
     let mut smooth = Vec::new();
     for m in MODELS {
         let dt_rule = refinement_dt(DT0, RHO, K1, m.n, m.dx);
         let steps = (T_SMOOTH / dt_rule).ceil() as usize;
         let dt = T_SMOOTH / steps as f64;
         let r = simulate(m, smooth_pulse, dt, steps, &[steps], true)?;
-        println!(
+        writeln!(
+            report,
             "{:<30} {:>6} {:>3} {:>9.5} {:>9.5} {:>6} {:>12.4e} {:>10.2e} {:>10.2e} {:>7.2}",
             m.label,
             r.nx,
@@ -209,7 +212,7 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
             r.drift_total,
             r.drift_shadow,
             r.wall
-        );
+        )?;
         smooth.push((m, dt_rule, r));
     }
     let get = |key: &str| smooth.iter().find(|(m, _, _)| m.key == key).unwrap();
@@ -218,7 +221,7 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
         density_map(m, r, dir, "smooth pulse")?;
     }
     // Fig. 4.4: displacement at the final time, all models; and a zoom on the left-going pulse.
-    let fig44 = |keys: &[&str], a: f64, b: f64, title: &str, stem: &str| -> Result<(), String> {
+    let fig44 = |keys: &[&str], a: f64, b: f64, title: &str, stem: &str| -> Result<(), StudyError> {
         let series = keys
             .iter()
             .map(|k| {
@@ -235,7 +238,7 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
             log_x: false,
             log_y: false,
         };
-        line_plot(&plot, &dir.join(stem)).map(|_| ()).map_err(err)
+        line_plot(&plot, &dir.join(stem)).map(|_| ()).map_err(StudyError::from)
     };
     let all = ["ccm", "pd_fine", "md", "pd_coarse", "pd_coarser"];
     fig44(&all, WIN.0, WIN.1, &format!("smooth pulse, displacement at t = {T_SMOOTH}"), "snapshot")?;
@@ -266,23 +269,24 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
         let (_, u) = cut(m, &r.snaps[0].1, WIN.0, 500.0);
         u.iter().fold(0.0f64, |a, v| a.max(*v))
     };
-    println!(
+    writeln!(
+        report,
         "smooth pulse at t = {T_SMOOTH}: left-going peak (d'Alembert 0.5) and trailing ripple max|u| on [365, 420]:"
-    );
+    )?;
     let mut shape = Vec::new();
     for k in all.iter().chain(&["md_local"]) {
-        println!("  {:<30} peak {:.4}  ripple {:.3e}", get(k).0.label, peak(k), tail(k));
+        writeln!(report, "  {:<30} peak {:.4}  ripple {:.3e}", get(k).0.label, peak(k), tail(k))?;
         shape.push(json!({"model": k, "peak": peak(k), "ripple_365_420": tail(k)}));
     }
 
     // Table 4.1: relative cost.
     let cost_md = get("md").2.bond_updates(5);
     let paper_ratio = (2001.0 * 10.0 * 162.0) / (4001.0 * 20.0 * 184.0);
-    println!("Table 4.1 (cost = Nx N Nt, relative to MD): paper 0.22 ({paper_ratio:.4} from its Nx, N, Nt)");
+    writeln!(report, "Table 4.1 (cost = Nx N Nt, relative to MD): paper 0.22 ({paper_ratio:.4} from its Nx, N, Nt)")?;
     let mut costs = Vec::new();
     for (m, _, r) in &smooth {
         let rel = r.bond_updates(m.n) / cost_md;
-        println!("  {:<30} Nx {:>6} N {:>3} Nt {:>5} relative cost {:.3}", m.label, r.nx, m.n, r.steps, rel);
+        writeln!(report, "  {:<30} Nx {:>6} N {:>3} Nt {:>5} relative cost {:.3}", m.label, r.nx, m.n, r.steps, rel)?;
         costs.push(
             json!({"model": m.key, "Nx": r.nx, "N": m.n, "Nt": r.steps, "cost": r.bond_updates(m.n), "relative": rel}),
         );
@@ -291,15 +295,16 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
     // ---- Square pulse (Fig. 4.6): dt = 0.0649 for all ----
     let snap_steps: Vec<usize> = T_SQUARE.iter().map(|t| (t / DT_SQUARE).round() as usize).collect();
     let steps = *snap_steps.last().unwrap();
-    println!(
+    writeln!(report,
         "square pulse (4.14), dt = {DT_SQUARE} for all, snapshots at t = {:.4}, {:.4}; d'Alembert: two pulses of height 0.5",
         snap_steps[0] as f64 * DT_SQUARE,
         snap_steps[1] as f64 * DT_SQUARE
-    );
-    println!(
+    )?;
+    writeln!(
+        report,
         "{:<30} {:>10} {:>10} {:>8} {:>10} {:>10} {:>8} {:>9} {:>9} {:>7}",
         "model", "over t1", "under t1", "TV t1", "over t2", "under t2", "TV t2", "dE/E", "dE~/E~", "wall s"
-    );
+    )?;
     let mut square = Vec::new();
     let mut sq_runs = Vec::new();
     let mut fronts = Vec::new();
@@ -329,7 +334,8 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
         // Total variation over the ring (d'Alembert: 4 jumps of 0.5 = 2): counts every wiggle.
         let tv: Vec<f64> =
             r.snaps.iter().map(|(_, u)| (0..u.len()).map(|i| (u[(i + 1) % u.len()] - u[i]).abs()).sum()).collect();
-        println!(
+        writeln!(
+            report,
             "{:<30} {:>10.4} {:>10.4} {:>8.2} {:>10.4} {:>10.4} {:>8.2} {:>9.2e} {:>9.2e} {:>7.2}",
             m.label,
             stats[0].0,
@@ -341,7 +347,7 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
             r.drift_total,
             r.drift_shadow,
             r.wall
-        );
+        )?;
         fronts.push(format!(
             "  {:<30} over {:.4} under {:.4} | over {:.4} under {:.4}",
             m.label, front[0].0, front[0].1, front[1].0, front[1].1
@@ -358,9 +364,9 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
         }));
         sq_runs.push((m, r));
     }
-    println!("square pulse near the travelling fronts ([480, 520] -+ t), t1 | t2:");
+    writeln!(report, "square pulse near the travelling fronts ([480, 520] -+ t), t1 | t2:")?;
     for f in &fronts {
-        println!("{f}");
+        writeln!(report, "{f}")?;
     }
     for (i, t) in T_SQUARE.iter().enumerate() {
         for (ccm, stem) in [(false, "md_pd"), (true, "ccm")] {
@@ -386,12 +392,12 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
                 log_x: false,
                 log_y: false,
             };
-            line_plot(&plot, &dir.join(format!("square_{stem}_t{}", *t as usize))).map_err(err)?;
+            line_plot(&plot, &dir.join(format!("square_{stem}_t{}", *t as usize)))?;
         }
     }
 
     let wall = total.elapsed().as_secs_f64();
-    println!("total wall {wall:.1} s");
+    writeln!(report, "total wall {wall:.1} s")?;
     let smooth_json: Vec<_> = smooth
         .iter()
         .map(|(m, dt_rule, r)| {
@@ -410,7 +416,7 @@ pub(crate) fn run(dir: &Path) -> Result<(), String> {
         "square": {"dt": DT_SQUARE, "t_requested": T_SQUARE, "runs": square},
         "wall_seconds": wall,
     });
-    std::fs::write(dir.join("data.json"), serde_json::to_string_pretty(&data).unwrap()).map_err(err)
+    write(dir, &data)
 }
 
 fn r_t(runs: &[(&Model, Run)], i: usize) -> f64 {

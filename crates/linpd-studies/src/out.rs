@@ -1,21 +1,27 @@
-//! What every study writes: `data.json` and line plots (PNG + SVG), with errors as strings for
-//! the CLI.
+//! What every study writes: `data.json`, tables and line plots (PNG + SVG), with file errors
+//! that name the file.
 
+use crate::StudyError;
 use linpd_plot::{line_plot, LinePlot, Series};
 use serde_json::Value;
 use std::path::Path;
 
-/// An error as the message the CLI prints.
-pub(crate) fn err(e: impl std::fmt::Display) -> String {
-    e.to_string()
+/// Creates `dir` and its parents.
+pub(crate) fn create_dir(dir: &Path) -> Result<(), StudyError> {
+    std::fs::create_dir_all(dir).map_err(|source| StudyError::File { path: dir.to_path_buf(), source })
+}
+
+/// Writes `text` to `path`.
+pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), StudyError> {
+    std::fs::write(path, text).map_err(|source| StudyError::File { path: path.to_path_buf(), source })
 }
 
 /// Writes `dir/data.json` (creating `dir`).
-pub(crate) fn write(dir: &Path, data: &Value) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(err)?;
-    // A serde_json Value always serializes (its map keys are strings).
-    let text = serde_json::to_string_pretty(data).map_err(err)?;
-    std::fs::write(dir.join("data.json"), text).map_err(err)
+pub(crate) fn write(dir: &Path, data: &Value) -> Result<(), StudyError> {
+    create_dir(dir)?;
+    // A serde_json Value always serializes (its map keys are strings): `Value`'s Display is
+    // infallible, unlike `to_string_pretty`'s signature suggests.
+    write_text(&dir.join("data.json"), &format!("{data:#}"))
 }
 
 /// A line plot `dir/name.{png,svg}` with a linear x axis.
@@ -27,7 +33,8 @@ pub(crate) fn plot(
     yl: &str,
     series: Vec<Series>,
     log_y: bool,
-) -> Result<(), String> {
+) -> Result<(), StudyError> {
     let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: false, log_y };
-    line_plot(&p, &dir.join(name)).map(|_| ()).map_err(err)
+    line_plot(&p, &dir.join(name))?;
+    Ok(())
 }

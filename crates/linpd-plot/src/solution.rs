@@ -1,11 +1,13 @@
-//! Plots of a solution: 1D displacement profile; 2D displacement-magnitude map; 3D the
-//! magnitude on the mid-plane z = const.
+//! The figures `linpd solve` and `linpd run` write beside their results: the 1D displacement
+//! profile; in 2D the displacement-magnitude map, in 3D the magnitude on the mid-plane
+//! z = const; the energies of a dynamics run and, in 1D, its space-time map.
 
+use crate::{line_plot, scalar_map, LinePlot, PlotError, ScalarMap, Series, SeriesStyle};
 use linpd_core::Grid;
-use linpd_plot::{line_plot, scalar_map, LinePlot, PlotError, ScalarMap, Series, SeriesStyle};
 use linpd_problem::{DynamicsRun, Solution};
 use std::path::{Path, PathBuf};
 
+/// The plots of a static solution on the lattice `grid`.
 pub fn solution_plots(grid: &Grid, s: &Solution, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     let d = s.dim;
     let counts = grid.counts();
