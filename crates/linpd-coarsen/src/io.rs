@@ -140,8 +140,78 @@ fn with_suffix(stem: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// Reads a whole file; devices and pipes (`/dev/urandom`) are refused before reading, since
+/// they may never end.
 fn read_text(path: &Path) -> Result<String, IoError> {
-    std::fs::read_to_string(path).map_err(|source| IoError::Read { path: show(path), source })
+    let read = |source| IoError::Read { path: show(path), source };
+    let meta = std::fs::metadata(path).map_err(read)?;
+    if !meta.is_file() {
+        return Err(read(std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file")));
+    }
+    std::fs::read_to_string(path).map_err(read)
+}
+
+/// Longest excerpt of a file's text an error message quotes.
+pub const EXCERPT_CHARS: usize = 60;
+
+/// At most [`EXCERPT_CHARS`] characters of `text` for an error message, control characters
+/// escaped (`\t`, `\u{1b}`) so that a binary file cannot drive the terminal, `...` when cut.
+pub fn excerpt(text: &str) -> String {
+    let mut out = String::new();
+    for (k, c) in text.chars().enumerate() {
+        if k == EXCERPT_CHARS {
+            out.push_str("...");
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Shortest entry line, `1 2 3\n`: a file of `b` bytes has room for at most `b / 6` entries,
+/// whatever its size line declares (so the declared count never sizes an allocation).
+const MIN_ENTRY_BYTES: usize = 6;
+
+/// The nodes file named by a `% nodes <name>` comment: only a bare file name beside the
+/// matrix is followed (no directories, no `..`), so a data file cannot make linpd read, and
+/// quote, a file elsewhere (`% nodes /etc/passwd`). `Err`: why the name is refused.
+fn companion(dir: &Path, name: &str) -> Result<PathBuf, String> {
+    let bare = !name.contains(['/', '\\']) && name != "." && name != ".." && !Path::new(name).has_root();
+    if bare {
+        Ok(dir.join(name))
+    } else {
+        Err(format!(
+            "`% nodes` must name a file beside the matrix (a bare file name, no directories), got `{}`",
+            excerpt(name)
+        ))
+    }
+}
+
+/// `<stem>.nodes.csv` for `<stem>.mtx`.
+fn default_nodes_path(mtx_path: &Path) -> PathBuf {
+    let s = mtx_path.as_os_str().to_string_lossy();
+    PathBuf::from(format!("{}.nodes.csv", s.strip_suffix(".mtx").unwrap_or(&s)))
+}
+
+/// The nodes file [`ModuliFile::read`] uses for `mtx_path`: the `% nodes` file beside the
+/// matrix when it exists, else `<stem>.nodes.csv` (for messages: an unreadable matrix or a
+/// refused name gives the default).
+pub fn nodes_path(mtx_path: &Path) -> PathBuf {
+    let default = default_nodes_path(mtx_path);
+    let dir = mtx_path.parent().unwrap_or(Path::new(""));
+    let named = read_text(mtx_path).ok().and_then(|t| {
+        t.lines().take_while(|l| l.starts_with('%') || l.trim().is_empty()).find_map(|l| {
+            l.strip_prefix('%').map(str::trim).and_then(|c| c.strip_prefix("nodes ")).map(|n| n.trim().to_string())
+        })
+    });
+    match named.and_then(|n| companion(dir, &n).ok()) {
+        Some(p) if p.is_file() || !default.is_file() => p,
+        _ => default,
+    }
 }
 
 impl ModuliFile {
@@ -236,7 +306,7 @@ impl ModuliFile {
             path: path.clone(),
             line,
             expected: expected.into(),
-            found: found.chars().take(80).collect(),
+            found: excerpt(found),
         };
         let invalid = |line: usize, reason: String| IoError::Invalid { path: path.clone(), line, reason };
         let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l.trim()));
@@ -249,7 +319,7 @@ impl ModuliFile {
         }
 
         // Comments (level, dim, nodes), then the size line.
-        let (mut level, mut dim, mut nodes_name) = (0usize, None::<(usize, usize)>, None::<String>);
+        let (mut level, mut dim, mut nodes_name) = (0usize, None::<(usize, usize)>, None::<(String, usize)>);
         let (size_ln, size_line) = loop {
             let Some((ln, l)) = lines.next() else {
                 return Err(syntax(0, "a size line `rows cols entries`", "end of file"));
@@ -275,7 +345,7 @@ impl ModuliFile {
                 Some("nodes") => {
                     let v = c.trim_start().strip_prefix("nodes").unwrap_or("").trim();
                     if !v.is_empty() {
-                        nodes_name = Some(v.to_string());
+                        nodes_name = Some((v.to_string(), ln));
                     }
                 }
                 _ => {}
@@ -293,16 +363,28 @@ impl ModuliFile {
         if rows != cols {
             return Err(invalid(size_ln, format!("the matrix must be square, got {rows} rows and {cols} columns")));
         }
+        let room = text.len() / MIN_ENTRY_BYTES;
+        if nnz > room {
+            return Err(invalid(
+                size_ln,
+                format!(
+                    "the size line declares {nnz} entries but the file ({} bytes) has room for at most {room} \
+                     (an entry line takes at least {MIN_ENTRY_BYTES} bytes)",
+                    text.len()
+                ),
+            ));
+        }
 
         // Nodes file.
         let dir = mtx_path.parent().unwrap_or(Path::new(""));
-        let default_csv = {
-            let s = mtx_path.as_os_str().to_string_lossy();
-            PathBuf::from(format!("{}.nodes.csv", s.strip_suffix(".mtx").unwrap_or(&s)))
-        };
+        let default_csv = default_nodes_path(mtx_path);
         let csv_path = match &nodes_name {
-            Some(name) if dir.join(name).is_file() || !default_csv.is_file() => dir.join(name),
-            _ => default_csv,
+            Some((name, ln)) => match companion(dir, name) {
+                Ok(p) if p.is_file() || !default_csv.is_file() => p,
+                Ok(_) => default_csv,
+                Err(why) => return Err(invalid(*ln, why)),
+            },
+            None => default_csv,
         };
         let (positions, volumes, level0) = read_nodes(&csv_path)?;
         let n = volumes.len();
@@ -317,7 +399,7 @@ impl ModuliFile {
             ));
         }
 
-        // Entries.
+        // Entries (`nnz <= room`: the allocation is bounded by the file's size).
         let mut entries = Vec::with_capacity(nnz);
         for (ln, l) in lines {
             if l.is_empty() || l.starts_with('%') {
@@ -348,7 +430,10 @@ impl ModuliFile {
                 ));
             }
             if !v.is_finite() {
-                return Err(invalid(ln, format!("entry ({}, {}) has the non-finite value {}", r + 1, c + 1, t[2])));
+                return Err(invalid(
+                    ln,
+                    format!("entry ({}, {}) has the non-finite value {}", r + 1, c + 1, excerpt(t[2])),
+                ));
             }
             entries.push((r, c, v));
         }
@@ -402,7 +487,7 @@ fn read_nodes(path: &Path) -> Result<Nodes, IoError> {
             path: p,
             line: 1,
             expected: format!("the header `{NODES_HEADER}`"),
-            found: header.chars().take(80).collect(),
+            found: excerpt(header),
         });
     }
     let (mut x, mut v, mut l0) = (Vec::new(), Vec::new(), Vec::new());
@@ -419,7 +504,7 @@ fn read_nodes(path: &Path) -> Result<Nodes, IoError> {
                 path: p,
                 line: ln,
                 expected: "a row `x,y,z,volume,level0` (four reals and a non-negative integer)".into(),
-                found: l.chars().take(80).collect(),
+                found: excerpt(l),
             });
         };
         let node = v.len();
@@ -434,7 +519,7 @@ fn read_nodes(path: &Path) -> Result<Nodes, IoError> {
             return Err(IoError::Invalid {
                 path: p,
                 line: ln,
-                reason: format!("node {node}: the volume must be finite and > 0, got {}", f[3]),
+                reason: format!("node {node}: the volume must be finite and > 0, got {}", excerpt(f[3])),
             });
         }
         x.push([nums[0], nums[1], nums[2]]);
@@ -729,6 +814,50 @@ mod tests {
         check(&e, &["line 2", "node 0", "got -2"]);
         let e = bad("vol-nan", &format!("{HEAD}3 3 0\n"), Some("x,y,z,volume,level0\n0,0,0,NaN,0\n"));
         check(&e, &["line 2", "got NaN"]);
+    }
+
+    /// A size line declaring more entries than the file can hold is an error naming the file
+    /// and line, not a capacity-overflow panic or an allocation abort.
+    #[test]
+    fn mtx_huge_count_is_an_error() {
+        for nnz in ["18446744073709551615", "1000000000000000"] {
+            let e = bad("huge", &format!("{HEAD}3 3 {nnz}\n1 2 1.0\n"), None);
+            check(&e, &["m.mtx", "line 4", &format!("declares {nnz} entries"), "room for at most"]);
+        }
+    }
+
+    /// `% nodes` follows a bare file name beside the matrix only: absolute paths and `..` are
+    /// refused before anything is read, and nothing of the named file is quoted.
+    #[test]
+    fn mtx_no_path_following() {
+        let dir = temp_dir("no-follow");
+        let secret = dir.join("secret.csv");
+        std::fs::write(&secret, "TOP-SECRET first line\n").unwrap();
+        let sub = dir.join("sub");
+        std::fs::create_dir_all(&sub).unwrap();
+        for name in [secret.display().to_string(), "../secret.csv".into(), "/etc/passwd".into(), "..".into()] {
+            std::fs::write(sub.join("m.mtx"), format!("{HEAD}% nodes {name}\n3 3 0\n")).unwrap();
+            let e = ModuliFile::read(&sub.join("m.mtx")).unwrap_err().to_string();
+            check(&e, &["m.mtx", "line 4", "`% nodes` must name a file beside the matrix"]);
+            assert!(!e.contains("TOP-SECRET") && !e.contains("root:"), "{e}");
+        }
+        // The message helper agrees: a refused name falls back to `<stem>.nodes.csv`.
+        assert_eq!(nodes_path(&sub.join("m.mtx")), sub.join("m.nodes.csv"));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Quoted file text is short and escaped: a binary line cannot reach the terminal raw.
+    #[test]
+    fn mtx_excerpts_are_short_and_escaped() {
+        let line = format!("\u{1b}[2J\u{7}{}", "x".repeat(500));
+        let e = bad("escape", &format!("{HEAD}3 3 1\n{line}\n"), None);
+        check(&e, &["line 5", "\\u{1b}[2J\\u{7}", "..."]);
+        assert!(!e.chars().any(|c| c.is_control()), "{e:?}");
+        assert!(e.len() < 300, "{} chars: {e}", e.len());
+        if Path::new("/dev/zero").exists() {
+            let e = ModuliFile::read(Path::new("/dev/zero")).unwrap_err().to_string();
+            check(&e, &["/dev/zero", "not a regular file"]);
+        }
     }
 
     #[test]

@@ -89,22 +89,6 @@ impl CoarsenedModel {
     }
 }
 
-/// The nodes file a moduli file uses: the `% nodes` name when that file exists, else
-/// `<stem>.nodes.csv` (for messages only; [`ModuliFile::read`] does the real lookup).
-fn nodes_file(mtx: &Path) -> PathBuf {
-    let s = mtx.as_os_str().to_string_lossy();
-    let default = PathBuf::from(format!("{}.nodes.csv", s.strip_suffix(".mtx").unwrap_or(&s)));
-    let named = std::fs::read_to_string(mtx).ok().and_then(|t| {
-        t.lines().take_while(|l| l.starts_with('%') || l.trim().is_empty()).find_map(|l| {
-            l.strip_prefix('%').map(str::trim).and_then(|c| c.strip_prefix("nodes ")).map(|n| n.trim().to_string())
-        })
-    });
-    match named.map(|n| mtx.parent().unwrap_or(Path::new("")).join(n)) {
-        Some(p) if p.is_file() || !default.is_file() => p,
-        _ => default,
-    }
-}
-
 /// Validates a parsed scene whose `model.type` is `coarsened`; relative moduli paths start at
 /// `base_dir` (the scene file's directory).
 pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, ProblemError> {
@@ -134,7 +118,10 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
     if raw.grid.is_some() {
         return Err(ProblemError::invalid(
             "grid",
-            format!("not used by a coarsened model (its nodes come from {})", nodes_file(&moduli_path).display()),
+            format!(
+                "not used by a coarsened model (its nodes come from {})",
+                linpd_coarsen::io::nodes_path(&moduli_path).display()
+            ),
         ));
     }
     if raw.dynamics.is_some() {
