@@ -77,7 +77,14 @@ pub enum SolveError {
     /// The AMG preconditioner could not be set up.
     #[error(transparent)]
     Amg(#[from] AmgError),
-    /// The solution is not finite (overflow): never returned as a result.
-    #[error("the solution contains non-finite values")]
-    NonFinite,
+    /// NaN or infinite values in the stiffness, the load vector, the solution or its residual:
+    /// an overflow of the moduli, volumes, loads or prescribed displacements, caught where it
+    /// appears (a factorization would call it "not positive definite", a residual NaN).
+    #[error("{what} has non-finite values ({at}): an overflow; use smaller units for the moduli, loads or prescribed displacements")]
+    NonFinite {
+        /// `"the stiffness"`, `"the load vector"`, `"the solution"`, ...
+        what: &'static str,
+        /// Where (`"first at entry (i, j) = inf"`, `"||f||^2 = inf"`).
+        at: String,
+    },
 }

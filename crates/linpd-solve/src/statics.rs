@@ -71,6 +71,8 @@ pub fn solve_assembled(
     spec: &SolverSpec,
     hints: &MatrixHints,
 ) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    finite_matrix(a)?;
+    finite_vector("the load vector", f)?;
     let n = a.nrows();
     let symmetric = hints.asymmetry <= SYMMETRY_RTOL;
     let resolved = spec.resolve(hints.dim, n);
@@ -120,12 +122,14 @@ pub fn solve_assembled(
             }
         }
     };
-    if u.iter().any(|v| !v.is_finite()) {
-        return Err(SolveError::NonFinite);
-    }
+    finite_vector("the solution", &u)?;
     report.note = note;
     report.timings.total = t0.elapsed().as_secs_f64();
     report.rel_residual = relative_residual(a, symmetric, &u, f);
+    if !report.rel_residual.is_finite() {
+        let at = format!("||A u - f|| / ||f|| = {:e}", report.rel_residual);
+        return Err(SolveError::NonFinite { what: "the residual of the solution", at });
+    }
     report.peak_rss_bytes = peak_rss_bytes();
     let direct = !matches!(report.solver, SolverId::Cg { .. });
     if direct && !(report.rel_residual <= DIRECT_RESIDUAL_LIMIT) {
@@ -133,6 +137,36 @@ pub fn solve_assembled(
     }
     Ok((u, report))
 }
+
+/// `Err` naming the stiffness and its first NaN or infinite stored entry (an overflow of the
+/// moduli or volumes: a factorization would call it "not positive definite").
+pub fn finite_matrix(a: &Csc) -> Result<(), SolveError> {
+    let Some(k) = a.val().iter().position(|v| !v.is_finite()) else { return Ok(()) };
+    let col = a.symbolic().col_ptr().partition_point(|&p| p <= k) - 1;
+    let row = a.symbolic().row_idx()[k];
+    Err(SolveError::NonFinite {
+        what: "the stiffness",
+        at: format!("first at entry ({row}, {col}) = {:e}", a.val()[k]),
+    })
+}
+
+/// `Err` naming `what` when an entry is NaN or infinite, or when its squared 2-norm overflows
+/// (entries near 1e308: every residual norm would then be `inf / inf = NaN`).
+pub fn finite_vector(what: &'static str, v: &[f64]) -> Result<(), SolveError> {
+    if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+        return Err(SolveError::NonFinite { what, at: format!("first at DOF {k} = {:e}", v[k]) });
+    }
+    let sq: f64 = v.iter().map(|x| x * x).sum();
+    if !sq.is_finite() {
+        let max = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        return Err(SolveError::NonFinite { what, at: format!("its squared norm overflows, entries up to {max:e}") });
+    }
+    Ok(())
+}
+
+/// What the reduced right-hand side is called in messages: finite loads can still overflow
+/// in `f_f - (A u_bar)_f` (prescribed displacements of 1e300).
+const REDUCED_LOAD: &str = "the load vector f - A u_bar (loads and prescribed displacements)";
 
 /// The symbolic analysis of a sparse Cholesky in the model's ordering, timed.
 fn analyze_cholesky(a: &Csc, ordering: &Ordering) -> Result<(Cholesky, CholeskyOrdering, f64), SolveError> {
@@ -395,7 +429,9 @@ pub fn solve_model(
         positions: source.nodes.iter().take(3).map(|&i| model.position(i)[..d].to_vec()).collect(),
         source,
     })?;
+    finite_vector("the load vector", f)?;
     let t0 = Instant::now();
+    // Checked once the operator is known to be finite (an infinite A makes it NaN too).
     let rhs = bc.reduced_rhs(&ModelOperator(model), f);
     let asymmetry = model.asymmetry(dofs);
     let at_dof = |e: SolveError| -> StaticError {
@@ -420,6 +456,8 @@ pub fn solve_model(
             }
             progress(&format!("solving matrix-free with {spec}: {} unknowns", dofs.n_free()));
             let diag = dofs.gather(&model.diagonal());
+            finite_vector("the stiffness (its diagonal over the free DOFs)", &diag)?;
+            finite_vector(REDUCED_LOAD, &rhs)?;
             let t = Instant::now();
             let fast = model.fast_apply();
             let model_op = ModelOperator(model);
@@ -449,6 +487,8 @@ pub fn solve_model(
             let t = Instant::now();
             let a = model.assemble_free(dofs);
             let t_asm = t.elapsed().as_secs_f64();
+            finite_matrix(&a)?;
+            finite_vector(REDUCED_LOAD, &rhs)?;
             let spd = match spec {
                 SolverSpec::Auto(_) if asymmetry > SYMMETRY_RTOL => model.spd_approximation(dofs),
                 _ => None,
@@ -486,8 +526,6 @@ pub fn solve_model(
     // Everything outside the solver proper: the right-hand side, the assembly, the diagonal.
     report.timings.assemble = t0.elapsed().as_secs_f64() - report.timings.total;
     let u = bc.expand(&u_free);
-    if u.iter().any(|v| !v.is_finite()) {
-        return Err(StaticError::Solve(SolveError::NonFinite));
-    }
+    finite_vector("the solution", &u)?;
     Ok(StaticSolution { u, report })
 }

@@ -9,8 +9,8 @@ use linpd_core::{
     BondRule, DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point, Region,
 };
 use linpd_solve::{
-    gmres, pcg, rigid_body_modes, Amg, AmgError, AmgParams, AmgSmoother, CgParams, Cholesky, DofGeometry, GmresParams,
-    Preconditioner, SymCsc,
+    gmres, pcg, rigid_body_modes, Amg, AmgError, AmgParams, AmgSmoother, CgError, CgParams, Cholesky, DofGeometry,
+    GmresParams, Preconditioner, SymCsc,
 };
 
 /// A reduced lattice system: `A_ff`, its rows, the node positions and a load.
@@ -75,13 +75,17 @@ fn amg(case: &Case, params: &AmgParams) -> Amg {
     Amg::new(&case.a, case.dim, &case.rows, &case.positions, params).unwrap()
 }
 
-/// AMG-PCG to `rtol` (on the recursive residual): the solution, the iterations and the true
-/// relative residual.
+/// AMG-PCG to `rtol`: the solution, the iterations and the true relative residual. A true
+/// residual that rounding keeps above `rtol` ([`CgError::ResidualAboveTarget`]) still leaves
+/// CG's best `x` in place: the comparisons below use it.
 fn amg_pcg(case: &Case, params: &AmgParams, rtol: f64) -> (Vec<f64>, usize, f64) {
     let m = amg(case, params);
     let mut x = vec![0.0; case.a.nrows()];
-    let info = pcg(&SymCsc(&case.a), &m, &case.b, &mut x, &CgParams { rtol, max_iter: 500 }).unwrap();
-    (x, info.iterations, info.rel_residual)
+    match pcg(&SymCsc(&case.a), &m, &case.b, &mut x, &CgParams { rtol, max_iter: 500 }) {
+        Ok(info) => (x, info.iterations, info.rel_residual),
+        Err(CgError::ResidualAboveTarget { iterations, rel_residual, .. }) => (x, iterations, rel_residual),
+        Err(e) => panic!("AMG-PCG: {e}"),
+    }
 }
 
 fn cholesky(case: &Case) -> Vec<f64> {
@@ -95,8 +99,8 @@ fn multilevel() -> AmgParams {
     AmgParams { max_coarse: 100, ..AmgParams::default() }
 }
 
-/// Relative difference to the Cholesky solution, AMG-PCG run to a recursive residual of
-/// `1e-12`. The solutions are compared, not the true residual: that one cannot go below
+/// Relative difference to the Cholesky solution, AMG-PCG run to `rtol = 1e-12` (or as close as
+/// rounding allows). The solutions are compared, not the true residual: that one cannot go below
 /// `~eps ||A|| ||x|| / ||b||` for any floating-point `x` (4.6e-9 on the two-phase plate, whose
 /// stiff phase makes `||A||` large), Cholesky's included. Measured differences: 2e-14 (1D:
 /// 5e-12, two-phase: 2e-11, both with `kappa` ~ 1e7), so 1e-8 fails only for a wrong solve.

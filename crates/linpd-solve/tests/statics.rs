@@ -95,3 +95,37 @@ fn unsymmetric_dispatch() {
     assert!(note.contains("not positive definite") && note.contains("sparse LU used"), "{note}");
     assert!(ul.iter().zip(&u).all(|(p, q)| (p - q).abs() <= 1e-12 * scale), "band LU vs LU");
 }
+
+/// NaN or infinity in the load, the stiffness or the result is an error naming its source,
+/// never a "not positive definite" pivot or a NaN residual with success.
+#[test]
+fn nan_load_is_an_error() {
+    let a = spd(10);
+    let n = a.nrows();
+    let b = vec![1.0; n];
+    let cg = SolverSpec::cg(CgParams::default());
+    for spec in [SolverSpec::Cholesky, cg.clone(), SolverSpec::Lu] {
+        let mut bad = b.clone();
+        bad[3] = f64::NAN;
+        let e = solve(&a, &bad, &spec).unwrap_err().to_string();
+        assert!(e.contains("the load vector has non-finite values (first at DOF 3 = NaN)"), "{spec}: {e}");
+        // Finite entries whose squared norm overflows: every residual would be inf / inf.
+        let e = solve(&a, &vec![1e300; n], &spec).unwrap_err().to_string();
+        assert!(e.contains("the load vector") && e.contains("squared norm overflows"), "{spec}: {e}");
+    }
+    // An overflowed stiffness (modulus 1e308 times the geometry) is named, not "not positive
+    // definite".
+    let inf = faer::sparse::SparseColMat::new(
+        a.symbolic().to_owned().unwrap(),
+        a.val().iter().map(|v| v * 1e308 * 10.0).collect(),
+    );
+    for spec in [SolverSpec::Cholesky, cg] {
+        let e = solve(&inf, &b, &spec).unwrap_err().to_string();
+        assert!(e.contains("the stiffness has non-finite values (first at entry") && e.contains("overflow"), "{e}");
+    }
+    // Finite inputs whose solution overflows: named too.
+    let tiny =
+        faer::sparse::SparseColMat::new(a.symbolic().to_owned().unwrap(), a.val().iter().map(|v| v * 1e-300).collect());
+    let e = solve(&tiny, &vec![1e10; n], &SolverSpec::Cholesky).unwrap_err().to_string();
+    assert!(e.contains("the solution has non-finite values"), "{e}");
+}

@@ -82,7 +82,8 @@ pub fn gmres(
         if beta <= params.rtol * bnorm {
             return Ok(GmresInfo { iterations: it, rel_residual: beta / bnorm });
         }
-        if it >= params.max_iter {
+        // A non-finite residual (overflow) never recovers: stop rather than iterate on NaN.
+        if it >= params.max_iter || !beta.is_finite() {
             return Err(GmresError { iterations: it, rel_residual: beta / bnorm, rtol: params.rtol });
         }
         let mut v: Vec<Vec<f64>> = vec![r.iter().map(|ri| ri / beta).collect()];
@@ -124,6 +125,10 @@ pub fn gmres(
                 break;
             }
             v.push(w.iter().map(|wi| wi / hn).collect());
+        }
+        if k == 0 {
+            // No direction made progress: restarting would repeat this cycle forever.
+            return Err(GmresError { iterations: it, rel_residual: beta / bnorm, rtol: params.rtol });
         }
         // y = H^{-1} g (upper triangular k x k); x += M^{-1} V y.
         let mut y = vec![0.0; k];
