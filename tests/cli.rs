@@ -136,7 +136,7 @@ fn malformed_scene_fails_with_the_path_and_writes_nothing() {
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "{cmd}: a malformed scene exited 0");
         assert!(stderr.contains("error:"), "{cmd} stderr: {stderr}");
-        assert!(stderr.contains("model.horizon: must be > 0, got -1"), "{cmd} stderr: {stderr}");
+        assert!(stderr.contains("model.horizon: must be > 0, got -1e0"), "{cmd} stderr: {stderr}");
         assert!(stderr.contains("bad.json"), "{cmd}: stderr does not name the file: {stderr}");
     }
     assert!(!out.join("result.json").exists(), "result.json written for a malformed scene");

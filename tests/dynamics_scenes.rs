@@ -78,10 +78,10 @@ fn malformed_dynamics_sections_name_the_path() {
         v
     };
     let cases: Vec<(&str, Value, Vec<String>)> = vec![
-        ("dt = 0", with_dt(0.0), vec!["dynamics.dt: must be > 0, got 0".into()]),
-        ("dt < 0", with_dt(-1.0), vec!["dynamics.dt: must be > 0, got -1".into()]),
+        ("dt = 0", with_dt(0.0), vec!["dynamics.dt: must be > 0, got 0e0".into()]),
+        ("dt < 0", with_dt(-1.0), vec!["dynamics.dt: must be > 0, got -1e0".into()]),
         ("steps = 0", set("steps", json!(0)), vec!["dynamics.steps: must be >= 1, got 0".into()]),
-        ("density = 0", set("density", json!(0.0)), vec!["dynamics.density: must be > 0, got 0".into()]),
+        ("density = 0", set("density", json!(0.0)), vec!["dynamics.density: must be > 0, got 0e0".into()]),
         ("output_every = 0", set("output_every", json!(0)), vec!["dynamics.output_every: must be >= 1, got 0".into()]),
         (
             "dt above the limit",

@@ -299,7 +299,7 @@ fn cases() -> Vec<Case> {
             "spacing <= 0",
             e1(set("grid", "spacing", json!(0.0))),
             "grid.spacing",
-            "must be a positive number, got 0",
+            "must be a positive number, got 0e0",
         ),
         parse(
             "(max - min)/spacing not an integer",
@@ -307,7 +307,7 @@ fn cases() -> Vec<Case> {
             "grid.spacing",
             "is not a positive integer",
         ),
-        parse("negative layer", e1(set("grid", "layer", json!(-0.1))), "grid.layer", "must be >= 0, got -0.1"),
+        parse("negative layer", e1(set("grid", "layer", json!(-0.1))), "grid.layer", "must be >= 0, got -1e-1"),
         parse(
             "unknown placement",
             e1(set("grid", "placement", json!("corner"))),
@@ -315,7 +315,7 @@ fn cases() -> Vec<Case> {
             "unknown variant `corner`",
         ),
         // --- horizon and plane ---
-        parse("horizon <= 0", e1(set("model", "horizon", json!(-1.0))), "model.horizon", "must be > 0, got -1"),
+        parse("horizon <= 0", e1(set("model", "horizon", json!(-1.0))), "model.horizon", "must be > 0, got -1e0"),
         parse("horizon < spacing", e1(set("model", "horizon", json!(0.05))), "model.horizon", "gives no bonds"),
         parse("2D without plane", e2(remove("model", "plane")), "model.plane", "2D scenes need \"plane\""),
         parse(
@@ -359,7 +359,7 @@ fn cases() -> Vec<Case> {
                 set(mm, "length", json!(-0.1))(v);
             }),
             "model.micromodulus.length",
-            "must be > 0, got -0.1",
+            "must be > 0, got -1e-1",
         ),
         parse(
             "length for a non-gaussian kernel",
@@ -402,7 +402,12 @@ fn cases() -> Vec<Case> {
             "must be > 0, got 0",
         ),
         parse("modulus missing", e1(remove(mm, "modulus")), "model.micromodulus.modulus", "missing: the modulus"),
-        parse("modulus <= 0", e1(set(mm, "modulus", json!(-2.0))), "model.micromodulus.modulus", "must be > 0, got -2"),
+        parse(
+            "modulus <= 0",
+            e1(set(mm, "modulus", json!(-2.0))),
+            "model.micromodulus.modulus",
+            "must be > 0, got -2e0",
+        ),
         // --- material ---
         parse(
             "phase modulus <= 0",
@@ -418,7 +423,7 @@ fn cases() -> Vec<Case> {
                 json!({"phases": [{"region": {"union": ["all", {"box": {"min": [0.6], "max": [0.4]}}]}, "modulus": 2.0}]}),
             )),
             "model.material.phases[0].region.union[1].box",
-            "min[0] = 0.6 is greater than max[0] = 0.4",
+            "min[0] = 6e-1 is greater than max[0] = 4e-1",
         ),
         parse(
             "defect with two shapes",
@@ -530,7 +535,7 @@ fn cases() -> Vec<Case> {
             "solver rtol out of range",
             e1(set("", "solver", json!({"type": "cg", "rtol": 1.5}))),
             "solver.rtol",
-            "must be in (0, 1), got 1.5",
+            "must be in (0, 1), got 1.5e0",
         ),
         parse(
             "solver max_iter 0",

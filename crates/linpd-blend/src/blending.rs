@@ -55,7 +55,7 @@ impl Blending {
     pub fn validate(&self) -> Result<(), BlendError> {
         match self {
             Blending::Constant { value } if !(0.0..=1.0).contains(value) => {
-                Err(BlendError::param("blending.value", format!("must be in [0, 1], got {value}")))
+                Err(BlendError::param("blending.value", format!("must be in [0, 1], got {value:e}")))
             }
             Blending::Piecewise { s, beta } => {
                 if s.len() < 2 || s.len() != beta.len() {

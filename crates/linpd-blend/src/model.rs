@@ -63,7 +63,9 @@ impl BlendParams {
         if !(r.is_finite()) || n < 1.0 || (r - n).abs() > 1e-6 * r.max(1.0) {
             return Err(BlendError::param(
                 "horizon",
-                format!("horizon/dx = {r} must be a positive integer N (the paper's N = eps/dx); adjust horizon or dx"),
+                format!(
+                    "horizon/dx = {r:e} must be a positive integer N (the paper's N = eps/dx); adjust horizon or dx"
+                ),
             ));
         }
         Ok(n as usize)
@@ -75,7 +77,7 @@ impl BlendParams {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(BlendError::param(n, format!("must be > 0, got {v}")))
+                Err(BlendError::param(n, format!("must be > 0, got {v:e}")))
             }
         };
         p("length", self.length)?;
@@ -84,7 +86,7 @@ impl BlendParams {
         p("modulus", self.modulus)?;
         let cells = self.length / self.dx;
         if (cells - cells.round()).abs() > 1e-6 * cells || cells.round() < 2.0 {
-            return Err(BlendError::param("dx", format!("length/dx = {cells} must be an integer >= 2")));
+            return Err(BlendError::param("dx", format!("length/dx = {cells:e} must be an integer >= 2")));
         }
         self.n_side()?;
         let r = &self.regions;
@@ -98,7 +100,10 @@ impl BlendParams {
         for (k, w) in [r.l2 - r.l1, r.l3 - r.l2, r.l4 - r.l3].iter().enumerate() {
             if *w < self.dx * (1.0 - 1e-9) {
                 let name = ["left bridge L2 - L1", "PD region L3 - L2", "right bridge L4 - L3"][k];
-                return Err(BlendError::param("regions", format!("{name} = {w} is narrower than dx = {}", self.dx)));
+                return Err(BlendError::param(
+                    "regions",
+                    format!("{name} = {w:e} is narrower than dx = {:e}", self.dx),
+                ));
             }
         }
         self.blending.validate()?;
@@ -109,7 +114,7 @@ impl BlendParams {
             if !(ratio.is_finite() && ratio >= 1.0) || (ratio - 2f64.powi(k as i32)).abs() > 1e-9 * ratio {
                 return Err(BlendError::param(
                     "ce_spacing",
-                    format!("must be dx times a power of two (1, 2, 4, ...), got {ratio} dx"),
+                    format!("must be dx times a power of two (1, 2, 4, ...), got {ratio:e} dx"),
                 ));
             }
             if self.hog && ratio > 1.0 {

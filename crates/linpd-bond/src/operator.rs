@@ -33,17 +33,17 @@ impl BondOperator {
         let dim = grid.dim();
         let h = grid.spacing();
         if !(horizon.is_finite() && horizon > 0.0) {
-            return Err(CoreError::param("horizon", format!("must be > 0, got {horizon}")));
+            return Err(CoreError::param("horizon", format!("must be > 0, got {horizon:e}")));
         }
         let ratio = horizon / h;
         if ratio < 1.0 - GEOMETRY_RTOL {
-            return Err(CoreError::param("horizon", format!("horizon/spacing = {ratio} gives no bonds (need >= 1)")));
+            return Err(CoreError::param("horizon", format!("horizon/spacing = {ratio:e} gives no bonds (need >= 1)")));
         }
         if dim > 1 && ratio < std::f64::consts::SQRT_2 * (1.0 - GEOMETRY_RTOL) {
             return Err(CoreError::param(
                 "horizon",
                 format!(
-                    "horizon/spacing = {ratio} bonds only along the axes: the bond-based operator \
+                    "horizon/spacing = {ratio:e} bonds only along the axes: the bond-based operator \
                      then has zero-energy shear modes (need >= sqrt(2))"
                 ),
             ));

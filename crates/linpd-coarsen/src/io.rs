@@ -236,7 +236,7 @@ impl ModuliFile {
             )));
         }
         if let Some(i) = self.volumes.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
-            return Err(IoError::Model(format!("node {i}: volume must be finite and > 0, got {}", self.volumes[i])));
+            return Err(IoError::Model(format!("node {i}: volume must be finite and > 0, got {:e}", self.volumes[i])));
         }
         if let Some(i) = self.positions.iter().position(|x| x.iter().any(|c| !c.is_finite())) {
             return Err(IoError::Model(format!("node {i}: position {:?} is not finite", self.positions[i])));
@@ -249,7 +249,7 @@ impl ModuliFile {
                 return Err(IoError::Model(format!("entry ({r}, {c}) lies in the diagonal block of node {}", r / d)));
             }
             if !v.is_finite() {
-                return Err(IoError::Model(format!("entry ({r}, {c}) = {v} is not finite")));
+                return Err(IoError::Model(format!("entry ({r}, {c}) = {v:e} is not finite")));
             }
         }
         Ok(())

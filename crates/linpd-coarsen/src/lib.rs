@@ -154,7 +154,7 @@ pub enum CoarsenError {
     },
     /// The radius rule did not reach its tolerance.
     #[error(
-        "the tail of C^m is still {tail:.3e} (> tol {tol:.1e}) at the largest radius tried, r^m = {radius}; \
+        "the tail of C^m is still {tail:.3e} (> tol {tol:.1e}) at the largest radius tried, r^m = {radius:e}; \
          raise the maximum radius or the tolerance (tried: {tried:?})"
     )]
     TailNotReached {
@@ -172,7 +172,7 @@ pub enum CoarsenError {
     SingularGlobal(String),
     /// The local problem (13) of a retained node is singular.
     #[error(
-        "singular local problem (13) for retained node {retained} (x = {x_retained:?}, r = {radius}): \
+        "singular local problem (13) for retained node {retained} (x = {x_retained:?}, r = {radius:e}): \
          excluded node {excluded} (x = {x_excluded:?}) {reason}; increase the coarsening radius r^m, \
          retain node {excluded} in B^m, or give it bonds"
     )]

@@ -141,7 +141,7 @@ pub fn coarsen_with(fine: &LevelModel, retained: &[usize], opts: &Options) -> Re
     let diameter = diameter(fine);
     let check_radius = |r: f64| -> Result<(), CoarsenError> {
         if !r.is_finite() || r <= 0.0 {
-            return Err(CoarsenError::InvalidInput(format!("coarsening radius must be finite and > 0, got {r}")));
+            return Err(CoarsenError::InvalidInput(format!("coarsening radius must be finite and > 0, got {r:e}")));
         }
         if r < delta * (1.0 - 1e-9) {
             return Err(CoarsenError::RadiusBelowHorizon { radius: r, horizon: delta });

@@ -53,12 +53,23 @@ impl Grid {
             return Err(CoreError::Components { expected: dim, got: max.len() });
         }
         if !(h.is_finite() && h > 0.0) {
-            return Err(CoreError::param("spacing", format!("must be a positive number, got {h}")));
+            return Err(CoreError::param("spacing", format!("must be a positive number, got {h:e}")));
         }
         if !(layer.is_finite() && layer >= 0.0) {
-            return Err(CoreError::param("layer", format!("must be >= 0, got {layer}")));
+            return Err(CoreError::param("layer", format!("must be >= 0, got {layer:e}")));
         }
-        let nl = (layer / h * (1.0 + GEOMETRY_RTOL)).floor() as i64;
+        // Node counts in checked integer arithmetic: a float count beyond `i64` would saturate
+        // in `as i64` and `last + 2 nl + 1` would wrap (`layer: 1e300` gave "99 nodes" at
+        // x = -9.2e18). `MAX_AXIS` keeps every sum below `i64::MAX`.
+        const MAX_AXIS: f64 = (1u64 << 52) as f64;
+        let layer_nodes = (layer / h * (1.0 + GEOMETRY_RTOL)).floor();
+        if layer_nodes > MAX_AXIS {
+            return Err(CoreError::param(
+                "layer",
+                format!("layer {layer:e} with spacing {h:e} gives more than usize::MAX nodes"),
+            ));
+        }
+        let nl = layer_nodes as i64;
         let mut g = Grid {
             dim,
             h,
@@ -74,15 +85,21 @@ impl Grid {
             if !(min[a].is_finite() && max[a].is_finite()) || max[a] <= min[a] {
                 return Err(CoreError::param(
                     "max",
-                    format!("axis {a}: max ({}) must be greater than min ({})", max[a], min[a]),
+                    format!("axis {a}: max ({:e}) must be greater than min ({:e})", max[a], min[a]),
                 ));
             }
             let cells = (max[a] - min[a]) / h;
+            if !(cells <= MAX_AXIS) {
+                return Err(CoreError::param(
+                    "spacing",
+                    format!("axis {a}: (max - min) / spacing = {cells:e} gives more than usize::MAX nodes"),
+                ));
+            }
             let n = cells.round();
             if (cells - n).abs() > 1e-6 * cells.max(1.0) || n < 1.0 {
                 return Err(CoreError::param(
                     "spacing",
-                    format!("axis {a}: (max - min) / spacing = {cells} is not a positive integer"),
+                    format!("axis {a}: (max - min) / spacing = {cells:e} is not a positive integer"),
                 ));
             }
             let n = n as i64;
@@ -90,18 +107,25 @@ impl Grid {
                 Placement::Vertex => n,
                 Placement::Cell => n - 1,
             };
+            let count = nl.checked_mul(2).and_then(|x| x.checked_add(last + 1)).and_then(|c| usize::try_from(c).ok());
+            let Some(count) = count else {
+                return Err(CoreError::param(
+                    "layer",
+                    format!("layer {layer:e} with spacing {h:e} gives more than usize::MAX nodes"),
+                ));
+            };
             g.min[a] = min[a];
             g.max[a] = max[a];
             g.body_lo[a] = 0;
             g.body_hi[a] = last;
             g.lo[a] = -nl;
-            g.counts[a] = (last + 2 * nl + 1) as usize;
+            g.counts[a] = count;
         }
         let total: u128 = g.counts.iter().map(|&c| c as u128).product();
         if total > u32::MAX as u128 {
             return Err(CoreError::param(
                 "spacing",
-                format!("the grid would have {total} nodes; at most 2^32 - 1 are supported"),
+                format!("the grid would have {total:.3e} nodes; at most 2^32 - 1 are supported", total = total as f64),
             ));
         }
         Ok(g)
@@ -246,5 +270,19 @@ mod tests {
         assert!(Grid::new(&[0.0], &[1.0], -0.1, 0.0, Placement::Vertex).is_err());
         assert!(Grid::new(&[1.0], &[0.0], 0.1, 0.0, Placement::Vertex).is_err());
         assert!(Grid::new(&[0.0, 0.0], &[1.0], 0.1, 0.0, Placement::Vertex).is_err());
+    }
+
+    /// Node counts are checked integers: a huge layer or box is an error, never a wrapped count.
+    #[test]
+    fn grid_layer_overflow_is_an_error() {
+        let e = Grid::new(&[0.0], &[1.0], 0.1, 1e300, Placement::Vertex).unwrap_err().to_string();
+        assert!(e.contains("layer 1e300 with spacing 1e-1 gives more than usize::MAX nodes"), "{e}");
+        // Just below the float limit of the check, the integer sum still must not wrap.
+        let e = Grid::new(&[0.0], &[1.0], 1.0, 4.5e15, Placement::Vertex).unwrap_err().to_string();
+        assert!(e.contains("nodes"), "{e}");
+        let e = Grid::new(&[0.0], &[1e300], 1e-10, 0.0, Placement::Vertex).unwrap_err().to_string();
+        assert!(e.contains("= inf gives more than usize::MAX nodes"), "{e}");
+        let e = Grid::new(&[-1e308], &[1e308], 1.0, 0.0, Placement::Vertex).unwrap_err().to_string();
+        assert!(e.contains("more than usize::MAX nodes"), "{e}");
     }
 }

@@ -76,7 +76,7 @@ impl Kernel {
     pub fn validate(&self) -> Result<(), CoreError> {
         match self {
             Kernel::Gaussian { length } if !(length.is_finite() && *length > 0.0) => {
-                Err(CoreError::param("length", format!("must be > 0, got {length}")))
+                Err(CoreError::param("length", format!("must be > 0, got {length:e}")))
             }
             Kernel::Tabulated { s, g } => {
                 if s.len() < 2 || s.len() != g.len() {
@@ -213,11 +213,11 @@ impl Micromodulus {
         self.kernel.validate()?;
         match self.normalization {
             Normalization::Amplitude(c) if !(c.is_finite() && c > 0.0) => {
-                return Err(CoreError::param("amplitude", format!("must be > 0, got {c}")))
+                return Err(CoreError::param("amplitude", format!("must be > 0, got {c:e}")))
             }
             Normalization::Amplitude(_) => {}
             _ if !(self.modulus.is_finite() && self.modulus > 0.0) => {
-                return Err(CoreError::param("modulus", format!("must be > 0, got {}", self.modulus)))
+                return Err(CoreError::param("modulus", format!("must be > 0, got {:e}", self.modulus)))
             }
             _ => {}
         }
@@ -270,10 +270,21 @@ impl Micromodulus {
         if !(moment.is_finite() && moment > 0.0) {
             return Err(CoreError::param(
                 "micromodulus",
-                format!("the kernel's moment over the horizon is {moment}: it cannot be normalized to a modulus"),
+                format!("the kernel's moment over the horizon is {moment:e}: it cannot be normalized to a modulus"),
             ));
         }
-        Ok(target / moment)
+        let c = target / moment;
+        if !c.is_finite() {
+            return Err(CoreError::param(
+                "micromodulus",
+                format!(
+                    "modulus {:e} overflows: the amplitude 2 d^2 K / moment = {target:e} / {moment:e} is not finite; \
+                     use smaller units for the modulus",
+                    self.modulus
+                ),
+            ));
+        }
+        Ok(c)
     }
 }
 

@@ -85,7 +85,7 @@ impl Defect {
     pub fn validate(&self, dim: usize) -> Result<(), CoreError> {
         let f = self.factor();
         if !(f.is_finite() && f >= 0.0) {
-            return Err(CoreError::param("factor", format!("must be >= 0, got {f}")));
+            return Err(CoreError::param("factor", format!("must be >= 0, got {f:e}")));
         }
         let needed = match self {
             Defect::Point { .. } => 1,
@@ -187,7 +187,7 @@ impl Material {
         for (region, k) in &self.phases {
             region.validate(dim)?;
             if !(k.is_finite() && *k > 0.0) {
-                return Err(CoreError::param("modulus", format!("must be > 0, got {k}")));
+                return Err(CoreError::param("modulus", format!("must be > 0, got {k:e}")));
             }
         }
         self.defects.iter().try_for_each(|d| d.validate(dim))

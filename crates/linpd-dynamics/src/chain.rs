@@ -74,7 +74,7 @@ impl Chain {
         if offsets.is_empty() {
             return Err(DynamicsError::param(
                 "horizon",
-                format!("horizon/dx = {} gives no bonds (need >= 1)", horizon / dx),
+                format!("horizon/dx = {:e} gives no bonds (need >= 1)", horizon / dx),
             ));
         }
         let micromoduli = offsets

@@ -31,16 +31,16 @@ impl std::fmt::Display for LimitMethod {
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum DynamicsError {
     /// The time step is not a finite positive number.
-    #[error("time step dt: must be finite and > 0, got {0}")]
+    #[error("time step dt: must be finite and > 0, got {0:e}")]
     TimeStep(f64),
     /// Zero time steps were requested.
     #[error("steps: must be >= 1, got 0")]
     NoSteps,
     /// The mass density is not a finite positive number.
-    #[error("density rho: must be finite and > 0, got {0}")]
+    #[error("density rho: must be finite and > 0, got {0:e}")]
     Density(f64),
     /// A node volume is not a finite positive number.
-    #[error("volume of DOF {dof}: must be finite and > 0, got {value}")]
+    #[error("volume of DOF {dof}: must be finite and > 0, got {value:e}")]
     Volume {
         /// DOF whose volume is wrong.
         dof: usize,
@@ -49,8 +49,8 @@ pub enum DynamicsError {
     },
     /// The time step exceeds the velocity-Verlet stability limit `2 / sqrt(lambda_max(M^-1 A))`.
     #[error(
-        "time step dt = {dt} exceeds the stability limit dt_max = {limit} = 2/sqrt(lambda_max(M^-1 A)) \
-         ({method}); use dt <= {limit} or set allow_unstable"
+        "time step dt = {dt:e} exceeds the stability limit dt_max = {limit:e} = 2/sqrt(lambda_max(M^-1 A)) \
+         ({method}); use dt <= {limit:e} or set allow_unstable"
     )]
     Unstable {
         /// The time step requested.
@@ -71,7 +71,7 @@ pub enum DynamicsError {
         got: usize,
     },
     /// A fixed DOF is out of range or its prescribed value is not finite.
-    #[error("fixed DOF {dof} (value {value}): the system has {n} DOFs and values must be finite")]
+    #[error("fixed DOF {dof} (value {value:e}): the system has {n} DOFs and values must be finite")]
     FixedDof {
         /// The DOF.
         dof: usize,
@@ -81,7 +81,7 @@ pub enum DynamicsError {
         n: usize,
     },
     /// The state (energy) became non-finite: the run blew up.
-    #[error("the state became non-finite at step {step} (t = {t}): the run diverged")]
+    #[error("the state became non-finite at step {step} (t = {t:e}): the run diverged")]
     Diverged {
         /// Step at which it was detected.
         step: usize,
@@ -121,6 +121,6 @@ pub(crate) fn positive(name: &'static str, x: f64) -> Result<(), DynamicsError> 
     if x.is_finite() && x > 0.0 {
         Ok(())
     } else {
-        Err(DynamicsError::param(name, format!("must be finite and > 0, got {x}")))
+        Err(DynamicsError::param(name, format!("must be finite and > 0, got {x:e}")))
     }
 }

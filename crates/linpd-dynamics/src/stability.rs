@@ -224,7 +224,7 @@ pub fn power_iteration<A: LinearOperator + ?Sized>(
         return Err(DynamicsError::param("max_iter", "must be >= 1, got 0"));
     }
     if !(params.rtol.is_finite() && params.rtol >= 0.0) {
-        return Err(DynamicsError::param("rtol", format!("must be finite and >= 0, got {}", params.rtol)));
+        return Err(DynamicsError::param("rtol", format!("must be finite and >= 0, got {:e}", params.rtol)));
     }
     let n = mass.len();
     check_size(op, n)?;

@@ -292,7 +292,7 @@ impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
             }
             DtLimit::Given(l) => {
                 if !(l.is_finite() && *l > 0.0) && *l != f64::INFINITY {
-                    return Err(DynamicsError::param("limit", format!("a given limit must be > 0, got {l}")));
+                    return Err(DynamicsError::param("limit", format!("a given limit must be > 0, got {l:e}")));
                 }
                 (*l, LimitMethod::Given)
             }
@@ -379,7 +379,7 @@ impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
             }
         }
         if !state.t.is_finite() {
-            return Err(DynamicsError::param("t", format!("initial time must be finite, got {}", state.t)));
+            return Err(DynamicsError::param("t", format!("initial time must be finite, got {:e}", state.t)));
         }
         let dt_limit = if params.allow_unstable { None } else { Some(self.dt_limit(&params.limit)?) };
         if let Some((limit, method)) = dt_limit {

@@ -7,16 +7,16 @@ use thiserror::Error;
 #[non_exhaustive]
 pub enum LpsError {
     /// `K` is not a positive finite number.
-    #[error("bulk modulus K must be a positive finite number, got {0}")]
+    #[error("bulk modulus K must be a positive finite number, got {0:e}")]
     BulkModulus(f64),
     /// `G` is not a positive finite number.
-    #[error("shear modulus G must be a positive finite number, got {0}")]
+    #[error("shear modulus G must be a positive finite number, got {0:e}")]
     ShearModulus(f64),
     /// `nu = (3K - 2G) / (2 (3K + G))` is not in the open interval `(-1, 1/2)`.
     ///
     /// For positive finite `K`, `G` this only happens when one modulus is so small relative
     /// to the other that `nu` rounds to a bound.
-    #[error("Poisson ratio nu = (3K - 2G) / (2 (3K + G)) = {nu} is outside (-1, 1/2) (K = {bulk}, G = {shear})")]
+    #[error("Poisson ratio nu = (3K - 2G) / (2 (3K + G)) = {nu} is outside (-1, 1/2) (K = {bulk:e}, G = {shear:e})")]
     PoissonRatio {
         /// The computed Poisson ratio.
         nu: f64,
@@ -25,8 +25,20 @@ pub enum LpsError {
         /// `G`.
         shear: f64,
     },
+    /// A derived constant overflows although `K` and `G` are finite.
+    #[error("K = {bulk:e} and G = {shear:e} overflow: the derived constant {what} = {value:e}; use smaller units for the moduli")]
+    Overflow {
+        /// The formula of the constant.
+        what: &'static str,
+        /// Its (non-finite) value.
+        value: f64,
+        /// `K`.
+        bulk: f64,
+        /// `G`.
+        shear: f64,
+    },
     /// The horizon is smaller than the lattice spacing (or not a positive finite number).
-    #[error("horizon delta = {horizon} must be >= the lattice spacing h = {spacing}")]
+    #[error("horizon delta = {horizon:e} must be >= the lattice spacing h = {spacing:e}")]
     Horizon {
         /// `delta`.
         horizon: f64,

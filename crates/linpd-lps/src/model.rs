@@ -117,6 +117,21 @@ impl LpsParams {
         }
     }
 
+    /// The first derived constant that overflows for finite `K`, `G` (`K = 2`, `G = 1e308`
+    /// makes `3K + G` infinite and the Poisson ratio NaN): its formula and value.
+    pub fn overflow(&self, dim: usize) -> Option<(&'static str, f64)> {
+        let (k, g) = (self.K, self.G);
+        [
+            ("2 (3K + G)", 2.0 * (3.0 * k + g)),
+            ("3K - 2G", 3.0 * k - 2.0 * g),
+            ("kappa", self.kappa(dim)),
+            ("a G", Self::deviatoric_factor(dim) * g),
+            ("kappa - a G / d^2", self.kappa(dim) - Self::deviatoric_factor(dim) * g / (dim * dim) as f64),
+        ]
+        .into_iter()
+        .find(|(_, v)| !v.is_finite())
+    }
+
     fn validate(&self, dim: usize, h: f64) -> Result<(), LpsError> {
         if !(2..=3).contains(&dim) {
             return Err(LpsError::Dimension(dim));
@@ -129,6 +144,9 @@ impl LpsParams {
         }
         if !(self.G.is_finite() && self.G > 0.0) {
             return Err(LpsError::ShearModulus(self.G));
+        }
+        if let Some((what, value)) = self.overflow(dim) {
+            return Err(LpsError::Overflow { what, value, bulk: self.K, shear: self.G });
         }
         let nu = self.poisson_ratio();
         if !(nu > -1.0 && nu < 0.5) {

@@ -130,10 +130,10 @@ pub fn tension_bar(params: &TensionBar) -> Result<TensionResult, TensionError> {
         )));
     }
     if !p.sigma.is_finite() {
-        return Err(TensionError::Params(format!("sigma must be finite, got {}", p.sigma)));
+        return Err(TensionError::Params(format!("sigma must be finite, got {:e}", p.sigma)));
     }
     if !(p.horizon_ratio.is_finite() && p.horizon_ratio >= 1.0) {
-        return Err(TensionError::Params(format!("horizon_ratio must be >= 1, got {}", p.horizon_ratio)));
+        return Err(TensionError::Params(format!("horizon_ratio must be >= 1, got {:e}", p.horizon_ratio)));
     }
     let h = p.spacing;
     let nl = (p.horizon_ratio * (1.0 + linpd_core::GEOMETRY_RTOL)).floor() as i64;

@@ -234,7 +234,7 @@ fn line_plot_ranges(plot: &LinePlot) -> Result<(Range<f64>, Range<f64>), PlotErr
         }
         for (axis, data, log) in [("x", &s.x, plot.log_x), ("y", &s.y, plot.log_y)] {
             if let Some(k) = data.iter().position(|v| !v.is_finite()) {
-                return Err(invalid(format!("{name}: {axis}[{k}] = {} is not finite", data[k])));
+                return Err(invalid(format!("{name}: {axis}[{k}] = {:e} is not finite", data[k])));
             }
             if log {
                 if let Some(k) = data.iter().position(|&v| v <= 0.0) {
@@ -325,7 +325,7 @@ fn scalar_map_value_range(map: &ScalarMap) -> Result<(f64, f64), PlotError> {
     }
     if let Some(k) = map.values.iter().position(|v| !v.is_finite()) {
         let (ix, iy) = (k % map.nx, k / map.nx);
-        return Err(invalid(format!("values[{k}] (ix = {ix}, iy = {iy}) = {} is not finite", map.values[k])));
+        return Err(invalid(format!("values[{k}] (ix = {ix}, iy = {iy}) = {:e} is not finite", map.values[k])));
     }
     let lo = map.values.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = map.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);

@@ -154,7 +154,7 @@ fn positive(path: &str, x: f64) -> Result<f64, ProblemError> {
     if x.is_finite() && x > 0.0 {
         Ok(x)
     } else {
-        Err(ProblemError::invalid(path, format!("must be > 0, got {x}")))
+        Err(ProblemError::invalid(path, format!("must be > 0, got {x:e}")))
     }
 }
 
@@ -237,7 +237,7 @@ fn initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, Proble
         let v =
             v.ok_or_else(|| ProblemError::invalid(format!("{p}.{key}"), format!("missing (required by {name})")))?;
         if !v.is_finite() {
-            return Err(ProblemError::invalid(format!("{p}.{key}"), format!("must be finite, got {v}")));
+            return Err(ProblemError::invalid(format!("{p}.{key}"), format!("must be finite, got {v:e}")));
         }
         Ok(v)
     };
@@ -252,7 +252,7 @@ fn initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, Proble
             if from > to {
                 return Err(ProblemError::invalid(
                     format!("{p}.from"),
-                    format!("from = {from} is greater than to = {to}"),
+                    format!("from = {from:e} is greater than to = {to:e}"),
                 ));
             }
             Initial::SquarePulse { from, to, amplitude }
@@ -296,7 +296,10 @@ fn data_initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, P
             ));
         }
         if let Some(k) = values.iter().position(|x| !x.is_finite()) {
-            return Err(ProblemError::invalid(format!("{p}.{key}[{k}]"), format!("must be finite, got {}", values[k])));
+            return Err(ProblemError::invalid(
+                format!("{p}.{key}[{k}]"),
+                format!("must be finite, got {:e}", values[k]),
+            ));
         }
         Ok(())
     };
@@ -568,7 +571,7 @@ impl Problem {
             return Err(ProblemError::invalid(
                 path,
                 format!(
-                    "dt = {dt} exceeds the velocity-Verlet stability limit dt_max = {} ({}); use dt <= {}, dt_safety <= 1, or set \"allow_unstable\": true",
+                    "dt = {dt:e} exceeds the velocity-Verlet stability limit dt_max = {:e} ({}); use dt <= {:e}, dt_safety <= 1, or set \"allow_unstable\": true",
                     limit.dt, limit.method, limit.dt
                 ),
             ));

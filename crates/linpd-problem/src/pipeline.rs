@@ -175,22 +175,22 @@ impl Pipeline {
                         return Err(inv(format!("levels[{i}]"), "radius_start/radius_growth/radius_max belong to the radius rule (`tolerance`), not to a fixed `radius`"));
                     }
                     if !(r.is_finite() && r > 0.0) {
-                        return Err(inv(p("radius"), format!("must be > 0, got {r}")));
+                        return Err(inv(p("radius"), format!("must be > 0, got {r:e}")));
                     }
                     Radius::Fixed(r)
                 }
                 (None, Some(tol)) => {
                     if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
-                        return Err(inv(p("tolerance"), format!("must be in (0, 1), got {tol}")));
+                        return Err(inv(p("tolerance"), format!("must be in (0, 1), got {tol:e}")));
                     }
                     let growth = l.radius_growth.unwrap_or(1.25);
                     if !(growth.is_finite() && growth > 1.0) {
-                        return Err(inv(p("radius_growth"), format!("must be > 1, got {growth}")));
+                        return Err(inv(p("radius_growth"), format!("must be > 1, got {growth:e}")));
                     }
                     for (k, v) in [("radius_start", l.radius_start), ("radius_max", l.radius_max)] {
                         if let Some(v) = v {
                             if !(v.is_finite() && v > 0.0) {
-                                return Err(inv(p(k), format!("must be > 0, got {v}")));
+                                return Err(inv(p(k), format!("must be > 0, got {v:e}")));
                             }
                         }
                     }

@@ -240,7 +240,7 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
             if let Some(a) = (0..dim).find(|&a| min[a] > max[a]) {
                 return Err(ProblemError::invalid(
                     format!("{path}.box"),
-                    format!("min[{a}] = {} is greater than max[{a}] = {}", min[a], max[a]),
+                    format!("min[{a}] = {:e} is greater than max[{a}] = {:e}", min[a], max[a]),
                 ));
             }
             Region::Box { min: min.clone(), max: max.clone() }
@@ -363,19 +363,19 @@ impl Problem {
             return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {dim}")));
         }
         if !(horizon.is_finite() && horizon > 0.0) {
-            return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon}")));
+            return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));
         }
         let ratio = horizon / grid.spacing();
         if ratio < 1.0 - linpd_core::GEOMETRY_RTOL {
             return Err(ProblemError::invalid(
                 "model.horizon",
-                format!("horizon/spacing = {ratio} gives no bonds (the horizon must be at least one spacing)"),
+                format!("horizon/spacing = {ratio:e} gives no bonds (the horizon must be at least one spacing)"),
             ));
         }
         if dim > 1 && ratio < std::f64::consts::SQRT_2 * (1.0 - linpd_core::GEOMETRY_RTOL) {
             return Err(ProblemError::invalid(
                 "model.horizon",
-                format!("horizon/spacing = {ratio} bonds only along the axes, which leaves zero-energy shear modes; use horizon >= sqrt(2) * spacing"),
+                format!("horizon/spacing = {ratio:e} bonds only along the axes, which leaves zero-energy shear modes; use horizon >= sqrt(2) * spacing"),
             ));
         }
         // Refuse operators that cannot fit: bonds ~ nodes x (ball volume in lattice units), 12
@@ -542,14 +542,29 @@ pub struct LevelNodes {
     pub(crate) dim: usize,
     pub(crate) positions: Vec<Point>,
     pub(crate) volumes: Vec<f64>,
-    /// `min_i v_i^(1/d)`: the smallest node spacing, the scale of the geometric tolerances.
+    /// The scale of the geometric tolerances: `min_i v_i^(1/d)`, the smallest node spacing,
+    /// capped by the nodes' extent (see [`LevelNodes::new`]).
     pub(crate) h: f64,
 }
 
 impl LevelNodes {
     /// Nodes at `positions` with `volumes` in dimension `dim`.
+    ///
+    /// The tolerance scale `min_i v_i^(1/d)` is capped by the largest side of the nodes'
+    /// bounding box: volumes are read from a file and need not match the positions, and
+    /// volumes of 1e300 would otherwise give a region tolerance (`1e-9 h`) that swallows every
+    /// node ("every DOF is constrained") instead of the overflow they cause.
     pub fn new(dim: usize, positions: Vec<Point>, volumes: Vec<f64>) -> Self {
         let h = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
+        let extent = (0..dim)
+            .map(|a| {
+                let (lo, hi) = positions
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x[a]), hi.max(x[a])));
+                hi - lo
+            })
+            .fold(0.0f64, f64::max);
+        let h = if extent.is_finite() && extent > 0.0 { h.min(extent) } else { h };
         LevelNodes { dim, positions, volumes, h: if h.is_finite() { h } else { 1.0 } }
     }
 }
@@ -798,7 +813,7 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
         max_iter: raw.max_iter.unwrap_or(CgParams::default().max_iter),
     };
     if !(cg.rtol.is_finite() && cg.rtol > 0.0 && cg.rtol < 1.0) {
-        return Err(ProblemError::invalid("solver.rtol", format!("must be in (0, 1), got {}", cg.rtol)));
+        return Err(ProblemError::invalid("solver.rtol", format!("must be in (0, 1), got {:e}", cg.rtol)));
     }
     if cg.max_iter == 0 {
         return Err(ProblemError::invalid("solver.max_iter", "must be >= 1"));
@@ -908,17 +923,10 @@ fn lps_params(
     let k = bulk.ok_or_else(|| ProblemError::invalid("model.bulk_modulus", "missing"))?;
     let g = shear.ok_or_else(|| ProblemError::invalid("model.shear_modulus", "missing"))?;
     if !(k.is_finite() && k > 0.0) {
-        return Err(ProblemError::invalid("model.bulk_modulus", format!("must be > 0, got {k}")));
+        return Err(ProblemError::invalid("model.bulk_modulus", format!("must be > 0, got {k:e}")));
     }
     if !(g.is_finite() && g > 0.0) {
-        return Err(ProblemError::invalid("model.shear_modulus", format!("must be > 0, got {g}")));
-    }
-    let nu = (3.0 * k - 2.0 * g) / (2.0 * (3.0 * k + g));
-    if !(nu > -1.0 && nu < 0.5) {
-        return Err(ProblemError::invalid(
-            "model.shear_modulus",
-            format!("Poisson ratio (3K - 2G)/(2(3K + G)) = {nu} is outside (-1, 1/2)"),
-        ));
+        return Err(ProblemError::invalid("model.shear_modulus", format!("must be > 0, got {g:e}")));
     }
     let plane = match (dim, plane) {
         (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
@@ -933,7 +941,23 @@ fn lps_params(
         None | Some(RawInfluence::InverseDistance) => linpd_lps::Influence::InverseDistance,
         Some(RawInfluence::Constant) => linpd_lps::Influence::Constant,
     };
-    Ok(linpd_lps::LpsParams { K: k, G: g, horizon, influence, partial_volume, plane })
+    let params = linpd_lps::LpsParams { K: k, G: g, horizon, influence, partial_volume, plane };
+    // Overflow first: `G = 1e308` would otherwise read as "Poisson ratio = NaN".
+    if let Some((what, value)) = params.overflow(dim) {
+        let key = if g >= k { "model.shear_modulus" } else { "model.bulk_modulus" };
+        return Err(ProblemError::invalid(
+            key,
+            format!("K = {k:e} and G = {g:e} overflow: the derived constant {what} = {value:e}; use smaller units for the moduli"),
+        ));
+    }
+    let nu = params.poisson_ratio();
+    if !(nu > -1.0 && nu < 0.5) {
+        return Err(ProblemError::invalid(
+            "model.shear_modulus",
+            format!("Poisson ratio (3K - 2G)/(2(3K + G)) = {nu} is outside (-1, 1/2)"),
+        ));
+    }
+    Ok(params)
 }
 
 fn micromodulus(
@@ -990,7 +1014,7 @@ fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
         if !(ph.modulus.is_finite() && ph.modulus > 0.0) {
             return Err(ProblemError::invalid(
                 format!("{p}.phases[{k}].modulus"),
-                format!("must be > 0, got {}", ph.modulus),
+                format!("must be > 0, got {:e}", ph.modulus),
             ));
         }
         phases.push((r, ph.modulus));

@@ -24,7 +24,7 @@ pub struct Dirichlet {
 
 /// A prescribed DOF out of range or not finite.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("prescribed DOF {dof} = {value} is out of range (the model has {n_dofs} DOFs) or not finite")]
+#[error("prescribed DOF {dof} = {value:e} is out of range (the model has {n_dofs} DOFs) or not finite")]
 pub struct BadPrescribed {
     /// The DOF.
     pub dof: usize,
