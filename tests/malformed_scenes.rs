@@ -814,7 +814,7 @@ fn cases() -> Vec<Case> {
                 v["loads"] = json!([]);
             }),
             "model.horizon",
-            "over the 16 GiB limit",
+            "GiB available",
         ),
         // --- grid and horizon are optional in the mirror, required by lattice models ---
         parse("bond model without a grid", e1(remove("", "grid")), "grid", "required for model type bond"),

@@ -12,6 +12,7 @@
 //! * [`dof`]: DOF numbering and the free/constrained split;
 //! * [`op`]: the one operator trait ([`LinearOperator`]) of solvers and dynamics;
 //! * [`sparse`]: CSC products, diagonal, restriction to free DOFs, asymmetry;
+//! * [`memory`]: the available memory and the guard that compares an estimate with it;
 //! * [`model`]: the [`Model`] interface every static model implements;
 //! * [`ordering`]: nested dissection on the lattice, a fill-reducing ordering for Cholesky;
 //! * [`support`]: do the constraints remove every rigid motion of a model?
@@ -28,6 +29,7 @@ pub mod family;
 pub mod grid;
 pub mod kernel;
 pub mod material;
+pub mod memory;
 pub mod model;
 pub mod op;
 pub mod ordering;

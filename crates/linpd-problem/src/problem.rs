@@ -208,8 +208,15 @@ impl BlendScene {
     }
 }
 
-/// Largest estimated operator memory a scene may ask for (the machines are 24 GiB).
-pub const MEMORY_LIMIT_BYTES: f64 = 16.0 * 1073741824.0;
+/// The allocation path of a lattice scene for the memory guard ([`crate::memory`]).
+fn memory_path(kind: RawModelKind, matrix_free: bool, dynamics: bool) -> crate::memory::Path {
+    use crate::memory::Path;
+    match kind {
+        RawModelKind::Lps => Path::LpsAssembled,
+        _ if matrix_free || dynamics => Path::BondMatrixFree,
+        _ => Path::BondAssembled,
+    }
+}
 
 fn core(path: &str, e: CoreError) -> ProblemError {
     match e {
@@ -378,29 +385,9 @@ impl Problem {
                 format!("horizon/spacing = {ratio:e} bonds only along the axes, which leaves zero-energy shear modes; use horizon >= sqrt(2) * spacing"),
             ));
         }
-        // Refuse operators that cannot fit: bonds ~ nodes x (ball volume in lattice units), 12
-        // bytes each (neighbour + weight), plus 16 bytes per assembled entry unless matrix-free.
-        let ball = match dim {
-            1 => 2.0 * ratio,
-            2 => std::f64::consts::PI * ratio * ratio,
-            _ => 4.0 / 3.0 * std::f64::consts::PI * ratio.powi(3),
-        };
-        let nodes = grid.len() as f64;
-        let entries = if raw.solver.matrix_free { 0.0 } else { nodes * (ball + 1.0) * (dim * dim) as f64 };
-        let bytes = nodes * ball * 12.0 + entries * 16.0;
-        if bytes > MEMORY_LIMIT_BYTES {
-            return Err(ProblemError::invalid(
-                "model.horizon",
-                format!(
-                    "{} nodes with horizon/spacing = {ratio:.3} (~{:.0} bonds each) need ~{:.1} GiB, over the {:.0} GiB limit; \
-                     use a coarser spacing, a smaller horizon or the matrix-free cg solver",
-                    grid.len(),
-                    ball,
-                    bytes / 1073741824.0,
-                    MEMORY_LIMIT_BYTES / 1073741824.0
-                ),
-            ));
-        }
+        // Refuse scenes that cannot fit before anything per node is allocated (the regions
+        // below already walk every node).
+        crate::memory::check(memory_path(model_kind, raw.solver.matrix_free, raw.dynamics.is_some()), &grid, horizon)?;
         let (constraints, loads) = constraints_and_loads(&raw, dim, &grid)?;
         let solver = solver_spec(&raw.solver)?;
         let model = if model_kind == RawModelKind::Lps {
@@ -450,7 +437,12 @@ impl Problem {
                 RawModelKind::Blend | RawModelKind::Ce => {
                     ModelSpec::Blend(crate::blend::scene(model_kind, &raw, &grid, horizon, &constraints, &loads)?)
                 }
-                _ => ModelSpec::Bond(BondModel { horizon, micromodulus, material }),
+                _ => {
+                    // The amplitude now, not at the first solve: a modulus that overflows it
+                    // (1e308) is a validation error naming the overflow.
+                    micromodulus.amplitude(dim, horizon, grid.spacing()).map_err(|e| core("model", e))?;
+                    ModelSpec::Bond(BondModel { horizon, micromodulus, material })
+                }
             }
         };
         let dynamics = match &raw.dynamics {

@@ -105,6 +105,12 @@ impl Problem {
             ModelSpec::Coarsened(c) => return crate::coarsened::solve(self, c, progress),
             ModelSpec::Bond(_) => {}
         }
+        // Checked again here: the solver may have changed since validation (`set_solver`).
+        let path = match self.solver {
+            linpd_solve::SolverSpec::Cg { matrix_free: true, .. } => crate::memory::Path::BondMatrixFree,
+            _ => crate::memory::Path::BondAssembled,
+        };
+        crate::memory::check(path, self.lattice()?, self.bond_model()?.horizon)?;
         let t0 = Instant::now();
         progress(&format!(
             "building bonds: {} nodes, horizon/spacing = {:.3}",

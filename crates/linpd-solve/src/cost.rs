@@ -68,17 +68,20 @@ impl fmt::Display for Estimate {
     }
 }
 
-/// The estimate of a sparse Cholesky from its symbolic analysis.
+/// The estimate of a sparse Cholesky from its symbolic analysis: excluded when the factor's
+/// values exceed [`CHOLESKY_MEMORY_LIMIT`] or the machine's available memory, whichever is
+/// smaller.
 pub fn cholesky(chol: &Cholesky, name: String) -> Estimate {
     let nnz_l = chol.nnz_factor() as f64;
-    if nnz_l * 8.0 > CHOLESKY_MEMORY_LIMIT {
+    let limit = CHOLESKY_MEMORY_LIMIT.min(linpd_core::memory::available_bytes().0);
+    if nnz_l * 8.0 > limit {
         return Estimate {
             solver: name,
             seconds: None,
             why: format!(
-                "nnz(L) {nnz_l:.2e}: {:.1} GiB > {:.0} GiB",
+                "nnz(L) {nnz_l:.2e}: {:.1} GiB > {:.1} GiB",
                 nnz_l * 8.0 / (1u64 << 30) as f64,
-                CHOLESKY_MEMORY_LIMIT / (1u64 << 30) as f64
+                limit / (1u64 << 30) as f64
             ),
         };
     }

@@ -74,6 +74,10 @@ pub enum SolveError {
     /// The factorization ran out of memory or failed for a non-numerical reason.
     #[error("factorization failed: {0}")]
     Factorization(String),
+    /// The estimated memory of a step (the factor of a sparse Cholesky) exceeds what the
+    /// machine has available.
+    #[error(transparent)]
+    Memory(#[from] linpd_core::memory::OutOfMemory),
     /// The AMG preconditioner could not be set up.
     #[error(transparent)]
     Amg(#[from] AmgError),

@@ -91,13 +91,23 @@ impl Cholesky {
     }
 
     /// Numeric factorization of `a`, which must have the analysed pattern.
+    ///
+    /// The factor's fill is known from the symbolic analysis: its values and the numeric
+    /// workspace are checked against the available memory before they are allocated
+    /// ([`SolveError::Memory`]), so a too-large factor is an error, not an abort.
     pub fn factor(&self, a: &SparseColMat<usize, f64>) -> Result<CholeskyFactor, SolveError> {
+        let req = self.symbolic.factorize_numeric_llt_scratch::<f64>(par(), Default::default());
+        let len = self.symbolic.len_val();
+        linpd_core::memory::check(
+            format!("the Cholesky factor ({len:.3e} entries of L and the factorization's workspace)", len = len as f64),
+            len as f64 * 8.0 + req.size_bytes() as f64,
+            "use the cg solver (\"type\": \"cg\") or a coarser model",
+        )?;
         let mut l_values = Vec::new();
         l_values.try_reserve_exact(self.symbolic.len_val()).map_err(|_| {
             SolveError::Factorization(format!("out of memory for {} factor entries", self.symbolic.len_val()))
         })?;
         l_values.resize(self.symbolic.len_val(), 0.0);
-        let req = self.symbolic.factorize_numeric_llt_scratch::<f64>(par(), Default::default());
         let mut mem = MemBuffer::try_new(req).map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
         let result = self.symbolic.factorize_numeric_llt::<f64>(
             &mut l_values,

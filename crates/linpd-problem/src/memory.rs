@@ -1,0 +1,150 @@
+//! The memory estimate of a lattice scene: one estimate per model and solver path, checked
+//! against the machine's available memory ([`linpd_core::memory`]) when the scene is
+//! validated and again before it is solved, i.e. before anything large is allocated.
+//!
+//! Bytes per item, from the allocations of each path (peak resident memory measured against
+//! these numbers in docs/solvers.md, "Memory guard"):
+//!
+//! * every node: positions, lattice index, family offsets and the per-node lists the family
+//!   is built from, layer flags: [`NODE_BYTES`];
+//! * bond building: 4 bytes per neighbour (u32), twice while the per-node lists are
+//!   flattened, plus the bond weights (8 bytes): [`BOND_BYTES`]; LPS keeps `omega nu V` and
+//!   `|xi|` per bond instead (also 16);
+//! * assembled bond stiffness: `n (|F| + 1) d^2` entries of 8 bytes of value and 8 of row
+//!   index, plus a copy of the pattern while the matrix is made ([`ENTRY_BYTES`] = 24);
+//! * LPS tangent: its reach is **2 delta** (`g_k g_k^T` couples the family of a node with
+//!   itself), so a column node has `|O - O|` row nodes, `O` the family offsets with 0: 8.5x
+//!   the bond neighbourhood at delta = 2h in 3D. The full tangent (16 bytes per entry) and its
+//!   restriction to the free DOFs (16 more) coexist, with the 8-byte row lists of the pattern:
+//!   [`TANGENT_ENTRY_BYTES`] per entry plus 8 per `(node, row node)`;
+//! * solver vectors per DOF: [`ASSEMBLED_DOF_BYTES`] (right-hand side, prescribed values, DOF
+//!   maps, CG's four vectors, preconditioner, solution, outputs), [`MATRIX_FREE_DOF_BYTES`]
+//!   for matrix-free CG (the same plus the full diagonal and the operator's two scratch
+//!   vectors).
+//!
+//! The factor of a sparse Cholesky is not in here: its fill is only known after the symbolic
+//! analysis, where linpd-solve checks it ([`linpd_solve::Cholesky::factor`]).
+
+use crate::ProblemError;
+use linpd_core::family::lattice_stencil;
+use linpd_core::memory::{self, OutOfMemory};
+use linpd_core::Grid;
+use std::collections::HashSet;
+
+/// Per node (see the module docs).
+pub const NODE_BYTES: f64 = 96.0;
+/// Per bond while the family and its weights are built (measured: 12.5 with the per-node
+/// bytes, 3D matrix-free at delta = 3h).
+pub const BOND_BYTES: f64 = 16.0;
+/// Per stored entry of the assembled bond stiffness.
+pub const ENTRY_BYTES: f64 = 24.0;
+/// Per stored entry of the LPS tangent (the full tangent and its free-DOF copy).
+pub const TANGENT_ENTRY_BYTES: f64 = 32.0;
+/// Per DOF, assembled solve.
+pub const ASSEMBLED_DOF_BYTES: f64 = 128.0;
+/// Per DOF, matrix-free CG.
+pub const MATRIX_FREE_DOF_BYTES: f64 = 176.0;
+
+/// The largest stencil enumerated exactly; beyond it the ball's volume in lattice units is
+/// used (enumerating a 3D stencil of ratio 1e4 would itself never end).
+const EXACT_STENCIL: f64 = 2000.0;
+
+/// `pi^(d/2) / Gamma(d/2 + 1) r^d`: lattice points per unit ball of radius `r` spacings.
+fn ball(dim: usize, r: f64) -> f64 {
+    match dim {
+        1 => 2.0 * r,
+        2 => std::f64::consts::PI * r * r,
+        _ => 4.0 / 3.0 * std::f64::consts::PI * r.powi(3),
+    }
+}
+
+/// Lattice neighbours within `ratio` spacings (self excluded).
+pub fn neighbours(dim: usize, ratio: f64) -> f64 {
+    if ball(dim, ratio) > EXACT_STENCIL {
+        return ball(dim, ratio);
+    }
+    lattice_stencil(dim, ratio).len() as f64
+}
+
+/// Row nodes of a column of the LPS tangent: the distinct offsets `O - O` of the stencil `O`
+/// with 0, i.e. the lattice points within the 2-delta reach that two family members span.
+pub fn tangent_rows(dim: usize, ratio: f64) -> f64 {
+    if ball(dim, ratio) > EXACT_STENCIL {
+        return ball(dim, 2.0 * ratio);
+    }
+    let mut o = lattice_stencil(dim, ratio);
+    o.push([0, 0, 0]);
+    let set: HashSet<[i64; 3]> =
+        o.iter().flat_map(|s| o.iter().map(move |t| [s[0] - t[0], s[1] - t[1], s[2] - t[2]])).collect();
+    set.len() as f64
+}
+
+/// The model and solver path of a lattice scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Path {
+    /// Bond-based (and blend/ce) operator, assembled.
+    BondAssembled,
+    /// Bond-based operator applied matrix-free (CG or explicit dynamics).
+    BondMatrixFree,
+    /// The LPS tangent, assembled.
+    LpsAssembled,
+}
+
+/// The estimated peak bytes of `path` on `grid` with `horizon`, and a description of it.
+pub fn estimate(path: Path, grid: &Grid, horizon: f64) -> (String, f64) {
+    let dim = grid.dim();
+    let ratio = horizon / grid.spacing();
+    let nodes = grid.len();
+    let n = nodes as f64;
+    let dofs = n * dim as f64;
+    let dd = (dim * dim) as f64;
+    let nb = neighbours(dim, ratio);
+    let base = n * (NODE_BYTES + nb * BOND_BYTES);
+    match path {
+        Path::BondAssembled => (
+            format!("the assembled stiffness of {nodes} nodes with ~{nb:.0} bonds each"),
+            base + n * (nb + 1.0) * dd * ENTRY_BYTES + dofs * ASSEMBLED_DOF_BYTES,
+        ),
+        Path::BondMatrixFree => (
+            format!("the matrix-free operator and CG vectors of {nodes} nodes with ~{nb:.0} bonds each"),
+            base + dofs * MATRIX_FREE_DOF_BYTES,
+        ),
+        Path::LpsAssembled => {
+            let rows = tangent_rows(dim, ratio);
+            (
+                format!(
+                    "the LPS tangent of {nodes} nodes (reach 2 delta: ~{rows:.0} coupled nodes per node, \
+                     ~{nb:.0} bonds)"
+                ),
+                base + n * rows * (dd * TANGENT_ENTRY_BYTES + 8.0) + dofs * ASSEMBLED_DOF_BYTES,
+            )
+        }
+    }
+}
+
+/// `Err` (at `model.horizon`) when `path` would not fit in the available memory.
+pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<(), ProblemError> {
+    let (what, bytes) = estimate(path, grid, horizon);
+    let hint = match path {
+        Path::BondAssembled => "use a coarser spacing, a smaller horizon or the matrix-free cg solver",
+        _ => "use a coarser spacing or a smaller horizon",
+    };
+    memory::check(what, bytes, hint).map_err(|e: OutOfMemory| ProblemError::invalid("model.horizon", e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_match_the_lattice() {
+        assert_eq!(neighbours(3, 2.0), 32.0);
+        assert_eq!(neighbours(3, 3.0), 122.0);
+        // The tangent's column pattern: O - O with |O| = 33 at delta = 2h in 3D.
+        assert_eq!(tangent_rows(3, 2.0), 185.0);
+        assert_eq!(tangent_rows(2, 3.0), 105.0);
+        // Large ratios fall back to volumes without enumerating.
+        assert!(neighbours(3, 1e4) > 4e12);
+        assert_eq!(tangent_rows(3, 1e4), 8.0 * neighbours(3, 1e4));
+    }
+}
