@@ -77,7 +77,7 @@ pub enum SolveError {
     /// The estimated memory of a step (the factor of a sparse Cholesky) exceeds what the
     /// machine has available.
     #[error(transparent)]
-    Memory(#[from] linpd_core::memory::OutOfMemory),
+    Memory(Box<linpd_core::memory::OutOfMemory>),
     /// The AMG preconditioner could not be set up.
     #[error(transparent)]
     Amg(#[from] AmgError),
@@ -91,4 +91,10 @@ pub enum SolveError {
         /// Where (`"first at entry (i, j) = inf"`, `"||f||^2 = inf"`).
         at: String,
     },
+}
+
+impl From<linpd_core::memory::OutOfMemory> for SolveError {
+    fn from(e: linpd_core::memory::OutOfMemory) -> Self {
+        SolveError::Memory(Box::new(e))
+    }
 }
