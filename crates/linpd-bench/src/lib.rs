@@ -469,7 +469,7 @@ pub fn run(args: &BenchArgs) -> Result<Value, BenchError> {
         doc["lps"] = crate::lps::run(args.quick);
     }
     if args.statics {
-        doc["statics"] = crate::statics::run(args.quick, args.case.as_deref(), args.direct_max_3d);
+        doc["statics"] = crate::statics::run(args.quick, args.case.as_deref(), args.direct_max_3d, export_dir.as_deref());
     }
     if args.orderings {
         doc["orderings"] = crate::orderings::run(args.quick, export_dir.as_deref());
@@ -521,6 +521,9 @@ pub fn run(args: &BenchArgs) -> Result<Value, BenchError> {
         }
         if args.orderings {
             ratios.insert("orderings".into(), crate::orderings::ratios(&doc["orderings"], &peers));
+        }
+        if args.statics {
+            ratios.insert("statics".into(), crate::statics::ratios(&doc["statics"], &peers));
         }
         doc["peers"] = peers;
         doc["ratios"] = Value::Object(ratios);
