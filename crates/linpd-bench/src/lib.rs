@@ -469,7 +469,8 @@ pub fn run(args: &BenchArgs) -> Result<Value, BenchError> {
         doc["lps"] = crate::lps::run(args.quick);
     }
     if args.statics {
-        doc["statics"] = crate::statics::run(args.quick, args.case.as_deref(), args.direct_max_3d, export_dir.as_deref());
+        doc["statics"] =
+            crate::statics::run(args.quick, args.case.as_deref(), args.direct_max_3d, export_dir.as_deref());
     }
     if args.orderings {
         doc["orderings"] = crate::orderings::run(args.quick, export_dir.as_deref());
