@@ -94,6 +94,9 @@ impl Preconditioner for Box<dyn Preconditioner> {
     fn summary(&self) -> Option<String> {
         (**self).summary()
     }
+    fn operator_copy(&self) -> Option<&dyn linpd_core::LinearOperator> {
+        (**self).operator_copy()
+    }
 }
 
 /// Which solver a static solve uses. Validated: a combination that cannot run (matrix-free

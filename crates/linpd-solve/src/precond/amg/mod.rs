@@ -529,11 +529,23 @@ impl Preconditioner for Amg {
             s.setup_seconds
         ))
     }
+    fn operator_copy(&self) -> Option<&dyn linpd_core::LinearOperator> {
+        Some(&self.mats[0])
+    }
 }
 
 /// The input matrix `A` as a [`linpd_core::LinearOperator`], from [`Amg::operator`].
 #[derive(Debug, Clone, Copy)]
 pub struct AmgOperator<'a>(&'a Vbr);
+
+impl linpd_core::LinearOperator for Vbr {
+    fn n(&self) -> usize {
+        self.nrows()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        self.matvec(x, y)
+    }
+}
 
 impl linpd_core::LinearOperator for AmgOperator<'_> {
     fn n(&self) -> usize {
