@@ -167,5 +167,21 @@ fn multigrid_cg_agrees_with_cholesky_on_bond_lps_and_heterogeneous_scenes() {
             max_abs(&chol.u)
         );
         assert!(mg.report.preconditioner.as_deref().unwrap_or_default().contains("SA-AMG"), "{name}");
+        // Bond scenes also run with a matrix-free finest level: the same hierarchy, so the
+        // same iterations and the same tolerance against the direct solve.
+        if name.starts_with("lps") {
+            continue;
+        }
+        let params = CgParams { rtol: 1e-12, max_iter: 200 };
+        let mf = solve(SolverSpec::Cg { params, preconditioner: PreconditionerKind::Multigrid, matrix_free: true });
+        assert!(mf.report.solver.to_string().starts_with("cg-multigrid-matrix-free"), "{name}: {}", mf.report.solver);
+        assert_eq!(mf.report.iterations, Some(it), "{name}: matrix-free multigrid");
+        let diff: Vec<f64> = mf.u.iter().zip(&chol.u).map(|(a, b)| a - b).collect();
+        assert!(
+            max_abs(&diff) <= 1e-8 * max_abs(&chol.u),
+            "{name}: matrix-free multigrid differs by {:e}",
+            max_abs(&diff)
+        );
+        assert!(mf.report.preconditioner.as_deref().unwrap_or_default().contains("finest level matrix-free"), "{name}");
     }
 }

@@ -129,15 +129,13 @@ fn cases(quick: bool) -> Vec<Case> {
 
 /// The multigrid-PCG solver of the statics section, when linpd-solve offers one.
 fn multigrid_solver(params: &CgParams, matrix_free: bool) -> Option<(&'static str, linpd_solve::SolverSpec)> {
-    // The hierarchy is built from the assembled matrix (no matrix-free finest level yet).
-    (!matrix_free).then(|| {
-        let spec = linpd_solve::SolverSpec::Cg {
-            params: params.clone(),
-            preconditioner: linpd_solve::PreconditionerKind::Multigrid,
-            matrix_free: false,
-        };
-        ("cg-multigrid", spec)
-    })
+    // Matrix-free: the finest level's blocks are computed on demand, never stored.
+    let spec = linpd_solve::SolverSpec::Cg {
+        params: params.clone(),
+        preconditioner: linpd_solve::PreconditionerKind::Multigrid,
+        matrix_free,
+    };
+    Some(("cg-multigrid", spec))
 }
 
 /// Resets the kernel's peak-RSS counter (`VmHWM`) so each case reports its own peak.

@@ -817,12 +817,6 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
         None | Some(RawPreconditioner::Jacobi) => PreconditionerKind::Jacobi,
         Some(RawPreconditioner::Multigrid) => PreconditionerKind::Multigrid,
     };
-    if preconditioner == PreconditionerKind::Multigrid && raw.matrix_free {
-        return Err(ProblemError::invalid(
-            "solver.matrix_free",
-            "the multigrid preconditioner builds its hierarchy from the assembled matrix: remove matrix_free or use \"preconditioner\": \"jacobi\"",
-        ));
-    }
     if raw.preconditioner.is_some() && !is_cg {
         return Err(ProblemError::invalid("solver.preconditioner", "only the cg solver takes a preconditioner"));
     }

@@ -30,13 +30,16 @@ impl PreconditionerKind {
     }
 
     /// Builds the preconditioner from what the reduced operator offers.
-    pub fn build(self, input: &PreconditionerInput<'_>) -> Result<Box<dyn Preconditioner>, SolveError> {
+    pub fn build<'a>(self, input: &PreconditionerInput<'a>) -> Result<Box<dyn Preconditioner + 'a>, SolveError> {
         match self {
             PreconditionerKind::Jacobi => Ok(Box::new(Jacobi::new(input.diagonal)?)),
             PreconditionerKind::Multigrid => {
-                let a = input.matrix.ok_or_else(|| {
-                    AmgError::Input("multigrid needs the assembled matrix: matrix_free is not available with it".into())
-                })?;
+                let Some(a) = input.matrix else {
+                    let m = input.model.ok_or_else(|| {
+                        AmgError::Input("multigrid needs the assembled matrix or the model's blocks".into())
+                    })?;
+                    return Ok(Box::new(Amg::matrix_free(m.model, m.dofs, m.full, &AmgParams::default())?));
+                };
                 let amg = match input.geometry {
                     Some(g) => Amg::from_geometry(a, g, &AmgParams::default())?,
                     // A bare matrix: one unknown per node, constants as near-null space.
@@ -61,6 +64,27 @@ pub struct PreconditionerInput<'a> {
     pub matrix: Option<&'a Csc>,
     /// Node and component of every unknown and the node positions (`None`: a bare matrix).
     pub geometry: Option<&'a DofGeometry>,
+    /// The model itself, for a preconditioner that reads it on demand instead of the
+    /// assembled matrix (matrix-free multigrid).
+    pub model: Option<ModelInput<'a>>,
+}
+
+/// A model's `A_ff` without assembling it: the model, its free DOFs and its apply over all DOFs
+/// (e.g. the fast stencil).
+#[derive(Clone, Copy)]
+pub struct ModelInput<'a> {
+    /// The model.
+    pub model: &'a dyn Model,
+    /// Its free DOFs.
+    pub dofs: &'a DofMap,
+    /// `y = A x` over all DOFs.
+    pub full: &'a dyn linpd_core::LinearOperator,
+}
+
+impl fmt::Debug for ModelInput<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "ModelInput({} model, {} free DOFs)", self.model.kind(), self.dofs.n_free())
+    }
 }
 
 /// Where the unknowns of a reduced system sit: for a multilevel preconditioner's near-null
@@ -87,7 +111,7 @@ impl DofGeometry {
     }
 }
 
-impl Preconditioner for Box<dyn Preconditioner> {
+impl Preconditioner for Box<dyn Preconditioner + '_> {
     fn apply(&self, r: &[f64], z: &mut [f64]) {
         (**self).apply(r, z)
     }
