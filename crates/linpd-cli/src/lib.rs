@@ -38,7 +38,8 @@ enum Command {
     Solve {
         /// The scene file (JSON).
         scene: PathBuf,
-        /// Output directory (default: the scene's output.dir, else out/<name>).
+        /// Output directory (default: the scene's output.dir, else out/<name>); replaced as a
+        /// whole, only when the run succeeds.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print no progress messages.
@@ -50,7 +51,8 @@ enum Command {
     Run {
         /// The scene file (JSON) with a "dynamics" section.
         scene: PathBuf,
-        /// Output directory (default: the scene's output.dir, else out/<name>).
+        /// Output directory (default: the scene's output.dir, else out/<name>); replaced as a
+        /// whole, only when the run succeeds.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print no progress messages.
@@ -63,7 +65,8 @@ enum Command {
     Coarsen {
         /// The pipeline file (JSON).
         pipeline: PathBuf,
-        /// Output directory (default: the pipeline's output.dir, else out/<name>).
+        /// Output directory (default: the pipeline's output.dir, else out/<name>); replaced as a
+        /// whole, only when the run succeeds.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print no progress messages.

@@ -280,8 +280,8 @@ fn listed_files(main: &Path) -> Option<Vec<FileEntry>> {
     struct Run {
         files: Vec<FileEntry>,
     }
-    let f = File::open(main).ok()?;
-    serde_json::from_reader::<_, Doc>(std::io::BufReader::new(f)).ok().map(|d| d.run.files)
+    // from_slice: several times faster than from_reader on a large result.json
+    serde_json::from_slice::<Doc>(&fs::read(main).ok()?).ok().map(|d| d.run.files)
 }
 
 /// `Ok` if `dir` is missing, empty, or a linpd output directory (a main document listing every
