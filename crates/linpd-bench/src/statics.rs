@@ -180,7 +180,7 @@ pub fn run(quick: bool, filter: Option<&str>, direct_max_3d: usize, export_dir: 
                         "assemble": r.timings.assemble, "setup": r.timings.setup + r.timings.symbolic + r.timings.numeric,
                         "solve": r.timings.solve, "total": wall,
                         "speedup_vs_jacobi": jacobi_total.map(|j| j / wall),
-                        "nnz_factor": r.nnz_factor, "auto": r.auto,
+                        "nnz_factor": r.nnz_factor, "auto": r.auto, "preconditioner": r.preconditioner,
                         "peak_rss_gib": r.peak_rss_bytes.map(|b| b as f64 / (1u64 << 30) as f64),
                     })
                 }

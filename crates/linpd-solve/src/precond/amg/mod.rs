@@ -496,6 +496,8 @@ impl<'a> Amg<'a> {
             let t = Instant::now();
             let theta = if l == 0 { params.strength_theta } else { params.coarse_strength_theta };
             let (sp, si) = amat.strong_neighbours(theta);
+            // A matrix-free level counts its entries in that pass.
+            level_stats[l].nnz = amat.nnz();
             let (agg, n_agg) = aggregate::standard_aggregation(&sp, &si);
             times.aggregate += t.elapsed().as_secs_f64();
             if n_agg == amat.n_row_blocks() {
@@ -536,7 +538,11 @@ impl<'a> Amg<'a> {
         // The coarsest matrix is only factored: take it out of the smoothed levels.
         let coarsest = match (l, &fine) {
             (0, Fine::Assembled(a)) => a.to_symmetric_csc(),
-            (0, Fine::Streamed(s)) => s.assemble().to_symmetric_csc(),
+            (0, Fine::Streamed(s)) => {
+                let a = s.assemble();
+                level_stats[0].nnz = a.nnz();
+                a.to_symmetric_csc()
+            }
             _ => mats.pop().expect("a coarse level per smoothed level").to_symmetric_csc(),
         };
         let rows = coarsest.nrows();

@@ -12,9 +12,6 @@ use crate::bc::ReducedOperator;
 use linpd_core::{DofMap, LinearOperator, Model};
 use rayon::prelude::*;
 
-/// Row blocks per parallel task of the products.
-const GROUP_BLOCKS: usize = 256;
-
 /// `A_ff` of a model, computed on demand (see the module docs).
 pub(crate) struct Streamed<'a> {
     model: &'a dyn Model,
@@ -29,7 +26,8 @@ pub(crate) struct Streamed<'a> {
     /// Free components of each row block's node (ascending), when not all `d` are free.
     partial: Vec<Option<Vec<usize>>>,
     groups: Vec<usize>,
-    nnz: usize,
+    /// Entries of `A_ff`, counted by the first pass over all blocks (the strength graph).
+    nnz: std::sync::OnceLock<usize>,
 }
 
 impl<'a> Streamed<'a> {
@@ -62,20 +60,13 @@ impl<'a> Streamed<'a> {
             block_node,
             node_block,
             partial,
-            groups: (0..nb).step_by(GROUP_BLOCKS).chain(std::iter::once(nb)).collect(),
-            nnz: 0,
+            groups: Vec::new(),
+            nnz: std::sync::OnceLock::new(),
         };
-        // One pass: whether the model has blocks at all, and how many entries A_ff has.
-        let counts: Option<Vec<usize>> = (0..nb)
-            .into_par_iter()
-            .map(|bi| {
-                let r = streamed.rptr[bi + 1] - streamed.rptr[bi];
-                let mut entries = 0;
-                streamed.for_each_block(bi, &mut |bj, _| entries += r * (streamed.rptr[bj + 1] - streamed.rptr[bj]))?;
-                Some(entries)
-            })
-            .collect();
-        streamed.nnz = counts?.iter().sum();
+        // Whether the model has blocks at all (it has them for every node or for none).
+        if nb > 0 {
+            streamed.for_each_block(0, &mut |_, _| {})?;
+        }
         // The groups by stored-size estimate, like an assembled level's.
         let bptr: Vec<usize> = (0..=nb).collect();
         let voff: Vec<usize> = std::iter::once(0)
@@ -130,8 +121,9 @@ impl LevelMatrix for Streamed<'_> {
     fn rptr(&self) -> &[usize] {
         &self.rptr
     }
+    /// Counted by [`LevelMatrix::strong_neighbours`] (0 before it ran).
     fn nnz(&self) -> usize {
-        self.nnz
+        self.nnz.get().copied().unwrap_or(0)
     }
     fn bytes(&self) -> usize {
         8 * (self.diag.len() + self.rptr.len() + self.block_node.len()) + 4 * self.node_block.len()
@@ -147,44 +139,54 @@ impl LevelMatrix for Streamed<'_> {
         self.op.apply(x, &mut t);
         y.par_iter_mut().zip(&t).for_each(|(y, t)| *y -= t);
     }
-    /// As [`super::aggregate::strong_neighbours`], from two passes over the blocks.
+    /// As [`super::aggregate::strong_neighbours`], from one pass over the blocks (two when
+    /// `theta > 0`: the diagonal blocks' norms first); counts the entries of `A_ff`.
     fn strong_neighbours(&self, theta: f64) -> (Vec<usize>, Vec<u32>) {
         let nb = self.n_row_blocks();
         let norm = |b: &[f64]| b.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let diag: Vec<f64> = (0..nb)
-            .into_par_iter()
-            .map(|bi| {
-                let mut s = 0.0;
-                self.for_each_block(bi, &mut |bj, b| {
-                    if bj == bi {
-                        s = norm(b);
-                    }
-                });
-                s
-            })
-            .collect();
-        let lists: Vec<Vec<u32>> = (0..nb)
+        let diag: Vec<f64> = if theta > 0.0 {
+            (0..nb)
+                .into_par_iter()
+                .map(|bi| {
+                    let mut s = 0.0;
+                    self.for_each_block(bi, &mut |bj, b| {
+                        if bj == bi {
+                            s = norm(b);
+                        }
+                    });
+                    s
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let lists: Vec<(Vec<u32>, usize)> = (0..nb)
             .into_par_iter()
             .map(|bi| {
                 let mut strong = Vec::new();
+                let mut entries = 0;
                 self.for_each_block(bi, &mut |bj, b| {
+                    entries += b.len();
                     let s = norm(b);
-                    if bj != bi && s > 0.0 && s >= theta * (diag[bi] * diag[bj]).sqrt() {
+                    if bj != bi && s > 0.0 && (theta == 0.0 || s >= theta * (diag[bi] * diag[bj]).sqrt()) {
                         strong.push(bj as u32);
                     }
                 });
                 // Ascending, as the stored blocks of an assembled level are.
                 strong.sort_unstable();
-                strong
+                (strong, entries)
             })
             .collect();
         let mut ptr = Vec::with_capacity(nb + 1);
         ptr.push(0);
         let mut idx = Vec::new();
-        for l in lists {
+        let mut nnz = 0;
+        for (l, entries) in lists {
             idx.extend_from_slice(&l);
             ptr.push(idx.len());
+            nnz += entries;
         }
+        let _ = self.nnz.set(nnz);
         (ptr, idx)
     }
     fn mul(&self, b: &Vbr) -> Vbr {
