@@ -332,6 +332,8 @@ fn operator_is_the_input_matrix() {
 /// blocks are summed in another order: the cycle's outputs agree to 1e-9 relative, i.e.
 /// `kappa(A_c) ~ 1e4` times a few eps per product), on a clamped cube, a cube on rollers
 /// (nodes with 1-3 free components) and a two-phase plate; PCG takes the same iterations.
+/// Both aggregate the finest level on the model's bonds ([`DofGeometry::partners`]; on
+/// rollers the matrix graph lacks the bonds whose free-component block is zero).
 #[test]
 fn matrix_free_hierarchy_is_the_assembled_one() {
     let fixed = |k: [i64; 3], c: usize| k[c] < 3;
@@ -355,7 +357,7 @@ fn matrix_free_hierarchy_is_the_assembled_one() {
         let g = DofGeometry::of(&op, &dofs);
         let a = assemble(&op, &dofs);
         let params = AmgParams { max_coarse: 100, ..AmgParams::default() };
-        let assembled = Amg::new(&a, dim, &g.rows, &g.positions, &params).unwrap();
+        let assembled = Amg::from_geometry(&a, &g, &params).unwrap();
         let full = linpd_core::ModelOperator(&op);
         let free = Amg::matrix_free(&op, &dofs, &full, &params).unwrap();
         assert!(free.is_matrix_free() && !assembled.is_matrix_free());

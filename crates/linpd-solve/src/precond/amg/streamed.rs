@@ -26,7 +26,7 @@ pub(crate) struct Streamed<'a> {
     /// Free components of each row block's node (ascending), when not all `d` are free.
     partial: Vec<Option<Vec<usize>>>,
     groups: Vec<usize>,
-    /// Entries of `A_ff`, counted by the first pass over all blocks (the strength graph).
+    /// Entries of `A_ff`, counted by the first pass over all blocks.
     nnz: std::sync::OnceLock<usize>,
 }
 
@@ -121,7 +121,8 @@ impl LevelMatrix for Streamed<'_> {
     fn rptr(&self) -> &[usize] {
         &self.rptr
     }
-    /// Counted by [`LevelMatrix::strong_neighbours`] (0 before it ran).
+    /// Counted by the first pass over the blocks ([`LevelMatrix::strong_neighbours`] or
+    /// [`LevelMatrix::mul`]; 0 before).
     fn nnz(&self) -> usize {
         self.nnz.get().copied().unwrap_or(0)
     }
@@ -189,11 +190,20 @@ impl LevelMatrix for Streamed<'_> {
         let _ = self.nnz.set(nnz);
         (ptr, idx)
     }
+    /// Also counts the entries of `A_ff` the first time (when the strength pass did not).
     fn mul(&self, b: &Vbr) -> Vbr {
+        let entries = std::sync::atomic::AtomicUsize::new(0);
         let row = |bi: usize, f: &mut dyn FnMut(usize, &[f64])| {
+            let mut count = 0;
             // `new` checked that the model has blocks.
-            let _ = self.for_each_block(bi, f);
+            let _ = self.for_each_block(bi, &mut |bj, block| {
+                count += block.len();
+                f(bj, block)
+            });
+            entries.fetch_add(count, std::sync::atomic::Ordering::Relaxed);
         };
-        mul_rows(&self.rptr, &self.groups, &row, b)
+        let c = mul_rows(&self.rptr, &self.groups, &row, b);
+        let _ = self.nnz.set(entries.into_inner());
+        c
     }
 }
