@@ -734,12 +734,6 @@ fn cases() -> Vec<Case> {
             "solver.preconditioner",
             "unknown variant `amg`",
         ),
-        parse(
-            "multigrid matrix-free",
-            e1(set("", "solver", json!({"type": "cg", "preconditioner": "multigrid", "matrix_free": true}))),
-            "solver.matrix_free",
-            "builds its hierarchy from the assembled matrix",
-        ),
         // --- one key table (RawModelKind::keys): a key of another model type is an error ---
         parse(
             "lps with a blend key (hog)",

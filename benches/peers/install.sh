@@ -18,7 +18,7 @@ set -euo pipefail
 PYTHON="${PYTHON:-python3}"
 
 check() {
-    "$PYTHON" -c "import numpy, scipy, sksparse.cholmod" 2>/dev/null
+    "$PYTHON" -c "import numpy, scipy, sksparse.cholmod, pyamg" 2>/dev/null
 }
 
 if check; then
@@ -32,7 +32,7 @@ else
     export DEBIAN_FRONTEND=noninteractive
     $SUDO apt-get update
     $SUDO apt-get install -y libsuitesparse-dev libopenblas0-pthread
-    "$PYTHON" -m pip install numpy scipy "scikit-sparse<0.5"
+    "$PYTHON" -m pip install numpy scipy "scikit-sparse<0.5" "pyamg>=5.3"
     if ! check; then
         echo "error: peers still not importable after install" >&2
         exit 1
@@ -42,6 +42,6 @@ fi
 
 "$PYTHON" - <<'EOF'
 import importlib.metadata as md
-for pkg in ("numpy", "scipy", "scikit-sparse"):
+for pkg in ("numpy", "scipy", "scikit-sparse", "pyamg"):
     print(f"  {pkg} {md.version(pkg)}")
 EOF

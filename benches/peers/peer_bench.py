@@ -13,7 +13,13 @@
     u64 n, then n f64: the right-hand side of the reduced system.
 ``NAME.json``
     ``{"name", "n", "nnz", "cg_rtol", "cg_maxiter"}``; ``nnz`` counts the
-    entries after summing duplicates.
+    entries after summing duplicates.  Optional keys: ``"peers"``, the list
+    of peers to run (default ``["cholmod", "matvec", "cg"]``; ``"pyamg"``
+    is run only when listed), and ``"near_null_space"``, the file of the
+    near-null space for pyamg.
+``NAME.B.bin`` (``linpd bench --statics --peers``)
+    u64 n, u64 k, then n rows of k f64: the rigid-body modes of the free
+    DOFs, the near-null space linpd's multigrid uses.
 
 For each case this script times (best of ``--repeat`` runs, wall clock via
 ``time.perf_counter``, in seconds):
@@ -27,6 +33,12 @@ For each case this script times (best of ``--repeat`` runs, wall clock via
 * ``matvec``: mean time of ``A @ x`` over enough products to last >= 0.2 s;
 * ``cg``: ``scipy.sparse.linalg.cg`` with a Jacobi preconditioner, plus its
   iteration count and final relative residual;
+* ``pyamg_setup``, ``pyamg_solve``: pyamg's ``smoothed_aggregation_solver``
+  with the case's near-null space ``B`` (defaults otherwise: symmetric
+  strength, standard aggregation, symmetric block Gauss-Seidel smoothing)
+  and its ``solve(..., accel="cg")`` to ``cg_rtol``; iterations, relative
+  residual, levels and operator complexity (one run each: the setup alone
+  takes seconds on the 3D cases);
 
 and the peak resident set size.  By default each case runs in a fresh
 subprocess so that ``peak_rss_bytes`` belongs to that case alone.
@@ -56,6 +68,13 @@ import numpy as np
 import scipy
 import scipy.sparse
 import scipy.sparse.linalg
+
+try:
+    import pyamg
+    PYAMG_IMPORT_ERROR = None
+except ImportError as exc:  # pragma: no cover - depends on the machine
+    pyamg = None
+    PYAMG_IMPORT_ERROR = f"pyamg not importable: {exc}"
 
 try:
     import sksparse.cholmod as cholmod
@@ -107,6 +126,17 @@ def load_triplets(path):
         raise ValueError(f"{path}: index out of range for shape "
                          f"({nrows}, {ncols})")
     return (nrows, ncols), rows, cols, vals
+
+
+def load_modes(path):
+    """Load ``NAME.B.bin``; return the ``(n, k)`` f64 array."""
+    path = pathlib.Path(path)
+    with open(path, "rb") as fh:
+        n, k = (int(v) for v in _read_exact(fh, U64, 2, path))
+        if path.stat().st_size != 16 + 8 * n * k:
+            raise ValueError(f"{path}: size {path.stat().st_size} != "
+                             f"expected {16 + 8 * n * k} for n={n}, k={k}")
+        return _read_exact(fh, F64, n * k, path).reshape(n, k)
 
 
 def load_rhs(path):
@@ -252,6 +282,30 @@ def bench_cg(a_csr, b, rtol, maxiter, repeat):
     }
 
 
+def bench_pyamg(a_csr, b, modes, rtol, maxiter):
+    """pyamg smoothed aggregation with near-null space ``modes``, as a CG
+    preconditioner: setup and solve timed once each."""
+    if pyamg is None:
+        return {"pyamg_skip_reason": PYAMG_IMPORT_ERROR}
+    t0 = time.perf_counter()
+    ml = pyamg.smoothed_aggregation_solver(a_csr, B=modes)
+    setup = time.perf_counter() - t0
+    residuals = []
+    t0 = time.perf_counter()
+    x = ml.solve(b, tol=rtol, maxiter=maxiter, accel="cg",
+                 residuals=residuals)
+    solve = time.perf_counter() - t0
+    return {
+        "pyamg_setup": setup,
+        "pyamg_solve": solve,
+        # ``residuals`` holds the initial residual and one per iteration.
+        "pyamg_iterations": len(residuals) - 1,
+        "pyamg_rel_residual": rel_residual(a_csr, x, b),
+        "pyamg_levels": len(ml.levels),
+        "pyamg_operator_complexity": float(ml.operator_complexity()),
+    }
+
+
 def run_case(meta_path, repeat, probe_ordering):
     """Benchmark one case; return its result dict (errors are recorded)."""
     meta_path = pathlib.Path(meta_path)
@@ -277,8 +331,20 @@ def run_case(meta_path, repeat, probe_ordering):
             raise ValueError(f"summed nnz {a_csr.nnz} != nnz {meta['nnz']} "
                              f"in {meta_path}")
         del rows, cols, vals
+        peers = meta.get("peers", ["cholmod", "matvec", "cg"])
 
-        if cholmod is None:
+        if "pyamg" in peers:
+            modes = load_modes(meta_path.parent / meta["near_null_space"])
+            if modes.shape[0] != n:
+                raise ValueError(f"{meta['near_null_space']}: {modes.shape[0]}"
+                                 f" rows, need {n}")
+            result.update(bench_pyamg(a_csr, b, modes,
+                                      float(meta.get("cg_rtol", 1e-8)),
+                                      int(meta.get("cg_maxiter", 10 * n))))
+
+        if "cholmod" not in peers:
+            pass
+        elif cholmod is None:
             result.update(cholmod_analyze=None, cholmod_factor=None,
                           cholmod_solve=None, cholmod_nnz_l=None,
                           cholmod_ordering=None, cholmod_rel_residual=None,
@@ -293,12 +359,16 @@ def run_case(meta_path, repeat, probe_ordering):
                                                  for w in caught})
             del a_csc
 
-        x = np.ones(n)
-        result["matvec"], result["matvec_calls"] = mean_over(
-            MATVEC_MIN_SECONDS, lambda: a_csr @ x)
+        if "matvec" in peers:
+            x = np.ones(n)
+            result["matvec"], result["matvec_calls"] = mean_over(
+                MATVEC_MIN_SECONDS, lambda: a_csr @ x)
 
-        result.update(bench_cg(a_csr, b, float(meta.get("cg_rtol", 1e-8)),
-                               int(meta.get("cg_maxiter", 10 * n)), repeat))
+        if "cg" in peers:
+            result.update(bench_cg(a_csr, b,
+                                   float(meta.get("cg_rtol", 1e-8)),
+                                   int(meta.get("cg_maxiter", 10 * n)),
+                                   repeat))
     except Exception as exc:
         result["error"] = f"{type(exc).__name__}: {exc}"
         result["traceback"] = traceback.format_exc()
@@ -313,7 +383,8 @@ def run_case(meta_path, repeat, probe_ordering):
 def versions():
     """Versions of the peers (None when not installed)."""
     out = {"python": platform.python_version(), "numpy": np.__version__,
-           "scipy": scipy.__version__}
+           "scipy": scipy.__version__,
+           "pyamg": None if pyamg is None else pyamg.__version__}
     try:
         out["sksparse"] = importlib.metadata.version("scikit-sparse")
     except importlib.metadata.PackageNotFoundError:
@@ -411,7 +482,8 @@ def main(argv=None):
                 print(f"{name}: " + ", ".join(
                     f"{k}={res[k]:.3g}" for k in
                     ("coo_to_csr", "cholmod_factor", "cholmod_solve",
-                     "matvec", "cg") if res.get(k) is not None),
+                     "matvec", "cg", "pyamg_setup", "pyamg_solve")
+                    if res.get(k) is not None),
                     file=sys.stderr)
     finally:
         if pool is not None:

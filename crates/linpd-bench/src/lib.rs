@@ -129,15 +129,13 @@ fn cases(quick: bool) -> Vec<Case> {
 
 /// The multigrid-PCG solver of the statics section, when linpd-solve offers one.
 fn multigrid_solver(params: &CgParams, matrix_free: bool) -> Option<(&'static str, linpd_solve::SolverSpec)> {
-    // The hierarchy is built from the assembled matrix (no matrix-free finest level yet).
-    (!matrix_free).then(|| {
-        let spec = linpd_solve::SolverSpec::Cg {
-            params: params.clone(),
-            preconditioner: linpd_solve::PreconditionerKind::Multigrid,
-            matrix_free: false,
-        };
-        ("cg-multigrid", spec)
-    })
+    // Matrix-free: the finest level's blocks are computed on demand, never stored.
+    let spec = linpd_solve::SolverSpec::Cg {
+        params: params.clone(),
+        preconditioner: linpd_solve::PreconditionerKind::Multigrid,
+        matrix_free,
+    };
+    Some(("cg-multigrid", spec))
 }
 
 /// Resets the kernel's peak-RSS counter (`VmHWM`) so each case reports its own peak.
@@ -469,7 +467,8 @@ pub fn run(args: &BenchArgs) -> Result<Value, BenchError> {
         doc["lps"] = crate::lps::run(args.quick);
     }
     if args.statics {
-        doc["statics"] = crate::statics::run(args.quick, args.case.as_deref(), args.direct_max_3d);
+        doc["statics"] =
+            crate::statics::run(args.quick, args.case.as_deref(), args.direct_max_3d, export_dir.as_deref());
     }
     if args.orderings {
         doc["orderings"] = crate::orderings::run(args.quick, export_dir.as_deref());
@@ -521,6 +520,9 @@ pub fn run(args: &BenchArgs) -> Result<Value, BenchError> {
         }
         if args.orderings {
             ratios.insert("orderings".into(), crate::orderings::ratios(&doc["orderings"], &peers));
+        }
+        if args.statics {
+            ratios.insert("statics".into(), crate::statics::ratios(&doc["statics"], &peers));
         }
         doc["peers"] = peers;
         doc["ratios"] = Value::Object(ratios);

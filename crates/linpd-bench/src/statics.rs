@@ -13,10 +13,18 @@
 //! factor fits (2D all sizes; 3D up to `--direct-max-3d` unknowns), and `auto`. Every run
 //! reports iterations, the relative residual and the setup / solve split; times are ratios
 //! against Jacobi-PCG measured in the same run.
+//!
+//! With `--peers`, every case that fits assembled also writes its reduced system `A_ff`,
+//! `f_f` and the rigid-body modes of its free DOFs (the near-null space linpd's multigrid
+//! uses) beside the other exported cases, and the Python driver runs pyamg's smoothed
+//! aggregation (+ CG) on them: the `pyamg` rows of the table, same machine, same run.
 
+use linpd_core::{Model, ModelOperator};
 use linpd_problem::Problem;
-use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
+use linpd_solve::{rigid_body_modes, CgParams, DofGeometry, PreconditionerKind, SolverSpec};
 use serde_json::{json, Value};
+use std::io::Write;
+use std::path::Path;
 use std::time::Instant;
 
 /// Unknowns above which Jacobi-PCG runs matrix-free (assembled `A` ~ 1100 entries per 3D row).
@@ -70,6 +78,13 @@ fn solvers(dim: usize, n: usize, direct_max_3d: usize) -> Vec<(&'static str, Sol
         SolverSpec::Cg { params: params.clone(), preconditioner: PreconditionerKind::Jacobi, matrix_free: mf },
     )];
     v.extend(crate::multigrid_solver(&params, mf));
+    if dim == 3 && !mf {
+        // The matrix-free finest level beside the assembled one: same iterations, the memory
+        // and time of not storing A.
+        let spec =
+            SolverSpec::Cg { params: params.clone(), preconditioner: PreconditionerKind::Multigrid, matrix_free: true };
+        v.push(("cg-multigrid-mf", spec));
+    }
     if dim == 2 || n <= direct_max_3d {
         v.push(("cholesky", SolverSpec::Cholesky));
     }
@@ -79,8 +94,65 @@ fn solvers(dim: usize, n: usize, direct_max_3d: usize) -> Vec<(&'static str, Sol
     v
 }
 
-/// Runs every case (names containing `filter`, if given) and returns the JSON section.
-pub fn run(quick: bool, filter: Option<&str>, direct_max_3d: usize) -> Value {
+/// Writes the reduced system of case `name` for the Python peers: `A_ff` as triplets
+/// (`name.coo.bin`), `f_f` (`name.rhs.bin`), the rigid-body modes of the free DOFs
+/// (`name.B.bin`: `n`, `k`, then `k` values per row, little-endian) and `name.json` (asking
+/// for pyamg only: CHOLMOD on the 3D cases would not fit).
+fn export(dir: &Path, name: &str, p: &Problem) -> std::io::Result<()> {
+    let io = |e: linpd_problem::ProblemError| std::io::Error::other(e.to_string());
+    let model = p.lattice_model().map_err(io)?;
+    let dirichlet = p.dirichlet();
+    let dofs = dirichlet.dofs();
+    let a = model.assemble_free(dofs);
+    let f = dirichlet.reduced_rhs(&ModelOperator(&model), &p.load_vector());
+    let geometry = DofGeometry::of(&model, dofs);
+    let modes = rigid_body_modes(model.dim(), &geometry.rows, &geometry.positions);
+    let n = a.nrows();
+    std::fs::create_dir_all(dir)?;
+    let file = |ext: &str| -> std::io::Result<std::io::BufWriter<std::fs::File>> {
+        Ok(std::io::BufWriter::new(std::fs::File::create(dir.join(format!("{name}.{ext}")))?))
+    };
+    let (col_ptr, row_idx, val) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
+    let mut w = file("coo.bin")?;
+    for v in [n, n, val.len()] {
+        w.write_all(&(v as u64).to_le_bytes())?;
+    }
+    for &r in row_idx {
+        w.write_all(&(r as u64).to_le_bytes())?;
+    }
+    for j in 0..n {
+        for _ in col_ptr[j]..col_ptr[j + 1] {
+            w.write_all(&(j as u64).to_le_bytes())?;
+        }
+    }
+    for v in val {
+        w.write_all(&v.to_le_bytes())?;
+    }
+    w.flush()?;
+    let mut w = file("rhs.bin")?;
+    w.write_all(&(n as u64).to_le_bytes())?;
+    for v in &f {
+        w.write_all(&v.to_le_bytes())?;
+    }
+    w.flush()?;
+    let mut w = file("B.bin")?;
+    for v in [n, modes.len()] {
+        w.write_all(&(v as u64).to_le_bytes())?;
+    }
+    for i in 0..n {
+        for m in &modes {
+            w.write_all(&m[i].to_le_bytes())?;
+        }
+    }
+    w.flush()?;
+    let desc = json!({"name": name, "n": n, "nnz": val.len(), "cg_rtol": 1e-8, "cg_maxiter": 20_000,
+        "peers": ["pyamg"], "near_null_space": format!("{name}.B.bin")});
+    std::fs::write(dir.join(format!("{name}.json")), desc.to_string())
+}
+
+/// Runs every case (names containing `filter`, if given) and returns the JSON section; with
+/// `export_dir`, also writes each assembled case's reduced system for the peers ([`export`]).
+pub fn run(quick: bool, filter: Option<&str>, direct_max_3d: usize, export_dir: Option<&Path>) -> Value {
     let mut out = serde_json::Map::new();
     for (name, dim, nodes, m) in cases(quick) {
         if filter.is_some_and(|f| !name.contains(f)) {
@@ -108,7 +180,7 @@ pub fn run(quick: bool, filter: Option<&str>, direct_max_3d: usize) -> Value {
                         "assemble": r.timings.assemble, "setup": r.timings.setup + r.timings.symbolic + r.timings.numeric,
                         "solve": r.timings.solve, "total": wall,
                         "speedup_vs_jacobi": jacobi_total.map(|j| j / wall),
-                        "nnz_factor": r.nnz_factor, "auto": r.auto,
+                        "nnz_factor": r.nnz_factor, "auto": r.auto, "preconditioner": r.preconditioner,
                         "peak_rss_gib": r.peak_rss_bytes.map(|b| b as f64 / (1u64 << 30) as f64),
                     })
                 }
@@ -116,7 +188,45 @@ pub fn run(quick: bool, filter: Option<&str>, direct_max_3d: usize) -> Value {
             };
             rows.push(row);
         }
+        if let Some(dir) = export_dir.filter(|_| n_free < MATRIX_FREE_FROM) {
+            eprintln!("[bench] statics {name}: exporting the reduced system for the peers");
+            if let Err(e) = export(dir, &name, &p) {
+                rows.push(json!({"solver": "export", "error": e.to_string()}));
+            }
+        }
         out.insert(name, Value::Array(rows));
+    }
+    Value::Object(out)
+}
+
+/// Our multigrid-PCG against pyamg's on the exported cases: iterations of both and the time
+/// ratios (setup, solve, setup + solve; ours / pyamg's, so below 1 is faster), from the
+/// `peers.json` of the same run.
+pub fn ratios(ours: &Value, peers: &Value) -> Value {
+    let mut out = serde_json::Map::new();
+    let Some(cases) = ours.as_object() else { return Value::Null };
+    for (name, rows) in cases {
+        let p = &peers["cases"][name];
+        if p["pyamg_setup"].is_null() {
+            continue;
+        }
+        let Some(mg) = rows.as_array().into_iter().flatten().find(|r| r["solver"] == "cg-multigrid") else {
+            continue;
+        };
+        let f = |v: &Value| v.as_f64();
+        let ratio = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| a / b);
+        let sum = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| a + b);
+        out.insert(
+            name.clone(),
+            json!({
+                "iterations": mg["iterations"], "pyamg_iterations": p["pyamg_iterations"],
+                "setup_ratio_to_pyamg": ratio(f(&mg["setup"]), f(&p["pyamg_setup"])),
+                "solve_ratio_to_pyamg": ratio(f(&mg["solve"]), f(&p["pyamg_solve"])),
+                "setup_solve_ratio_to_pyamg": ratio(sum(f(&mg["setup"]), f(&mg["solve"])),
+                    sum(f(&p["pyamg_setup"]), f(&p["pyamg_solve"]))),
+                "pyamg_rel_residual": p["pyamg_rel_residual"],
+            }),
+        );
     }
     Value::Object(out)
 }

@@ -7,10 +7,19 @@
 
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Parser, Subcommand, ValueEnum};
-use linpd_problem::{ModelSpec, Problem, ProblemError};
+use linpd_problem::{ModelSpec, OutputDir, Problem, ProblemError, RunIdentity};
 use linpd_studies::{Study, StudyOptions};
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+
+/// `println!` that returns an error instead of panicking when stdout is closed
+/// (`linpd solve scene.json | head -1`); [`main`] exits quietly on a broken pipe.
+macro_rules! say {
+    ($($arg:tt)*) => {
+        writeln!(std::io::stdout().lock(), $($arg)*).map_err(CliError::Stdout)
+    };
+}
 
 /// Linear peridynamics: sparse operators and static solves from JSON scenes.
 ///
@@ -29,7 +38,8 @@ enum Command {
     Solve {
         /// The scene file (JSON).
         scene: PathBuf,
-        /// Output directory (default: the scene's output.dir, else out/<name>).
+        /// Output directory (default: the scene's output.dir, else out/<name>); replaced as a
+        /// whole, only when the run succeeds.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print no progress messages.
@@ -41,7 +51,8 @@ enum Command {
     Run {
         /// The scene file (JSON) with a "dynamics" section.
         scene: PathBuf,
-        /// Output directory (default: the scene's output.dir, else out/<name>).
+        /// Output directory (default: the scene's output.dir, else out/<name>); replaced as a
+        /// whole, only when the run succeeds.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print no progress messages.
@@ -54,7 +65,8 @@ enum Command {
     Coarsen {
         /// The pipeline file (JSON).
         pipeline: PathBuf,
-        /// Output directory (default: the pipeline's output.dir, else out/<name>).
+        /// Output directory (default: the pipeline's output.dir, else out/<name>); replaced as a
+        /// whole, only when the run succeeds.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print no progress messages.
@@ -129,6 +141,21 @@ enum CliError {
     /// A benchmark.
     #[error("bench: {0}")]
     Bench(#[from] linpd_bench::BenchError),
+    /// Writing to standard output.
+    #[error("stdout: {0}")]
+    Stdout(std::io::Error),
+}
+
+impl CliError {
+    /// Standard output was closed by its reader (`| head`): not worth an error message.
+    fn is_broken_pipe(&self) -> bool {
+        match self {
+            CliError::Stdout(e) | CliError::Study { source: linpd_studies::StudyError::Table(e), .. } => {
+                e.kind() == std::io::ErrorKind::BrokenPipe
+            }
+            _ => false,
+        }
+    }
 }
 
 /// `file: error`, unless the error already starts with the file (a read error names it).
@@ -143,11 +170,26 @@ fn input(file: &std::path::Path) -> impl Fn(ProblemError) -> CliError + '_ {
     move |source| CliError::Input { file: file.to_path_buf(), source: Box::new(source) }
 }
 
+fn output(e: ProblemError) -> CliError {
+    CliError::Output(Box::new(e))
+}
+
+/// The identity of a run of `scene`: its bytes' hash and, for a coarsened level, the moduli
+/// file's (see [`RunIdentity`]).
+fn scene_identity(problem: &Problem, scene: &Path) -> Result<RunIdentity, CliError> {
+    let mut inputs = vec![scene];
+    if let ModelSpec::Coarsened(c) = problem.model() {
+        inputs.push(c.moduli_path());
+    }
+    RunIdentity::of_inputs(&inputs).map_err(input(scene))
+}
+
 /// Parses the command line, runs the command, prints errors to stderr.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is_broken_pipe() => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
@@ -164,22 +206,28 @@ fn run(cli: Cli) -> Result<(), CliError> {
                     eprintln!("[linpd] {m}");
                 }
             };
+            let identity = scene_identity(&problem, &scene)?;
+            // Locked (and checked) before the solve: a second run into the directory fails now,
+            // not after its solve. Everything is written into `staged.path()`.
+            let staged =
+                OutputDir::begin(&out.unwrap_or_else(|| PathBuf::from(problem.output_dir()))).map_err(output)?;
             let solution = problem.solve(&progress).map_err(input(&scene))?;
-            let dir = out.unwrap_or_else(|| PathBuf::from(problem.output_dir()));
-            let mut files = solution.write(&dir).map_err(|e| CliError::Output(Box::new(e)))?;
+            let dir = staged.path();
+            solution.write(dir).map_err(output)?;
             match problem.grid() {
                 Some(grid) if problem.plot() => {
-                    files.extend(linpd_plot::solution::solution_plots(grid, &solution, &dir)?);
+                    linpd_plot::solution::solution_plots(grid, &solution, dir)?;
                 }
                 // Coarsened levels have no lattice: 1D gets the displacement profile; the 2D/3D
                 // maps need a grid (scattered nodes are not plotted yet).
                 None if problem.plot() && problem.dim() == 1 => {
-                    files.extend(linpd_plot::solution::profile_1d(&solution, &dir)?);
+                    linpd_plot::solution::profile_1d(&solution, dir)?;
                 }
                 _ => {}
             }
+            let files = staged.commit("result.json", solution.to_json(), &identity).map_err(output)?;
             let r = &solution.report;
-            println!(
+            say!(
                 "{}: {} nodes, {} unknowns, solver {}, relative residual {:.3e}, {:.3} s (assemble {:.3} s), peak memory {}",
                 problem.name(),
                 solution.x.len(),
@@ -189,9 +237,9 @@ fn run(cli: Cli) -> Result<(), CliError> {
                 r.timings.assemble + r.timings.total,
                 r.timings.assemble,
                 r.peak_rss_bytes.map_or("n/a".into(), |b| format!("{:.1} MiB", b as f64 / 1048576.0)),
-            );
+            )?;
             for f in files {
-                println!("wrote {}", f.display());
+                say!("wrote {}", f.display())?;
             }
             Ok(())
         }
@@ -202,13 +250,17 @@ fn run(cli: Cli) -> Result<(), CliError> {
                     eprintln!("[linpd] {m}");
                 }
             };
+            let identity = scene_identity(&problem, &scene)?;
+            let staged =
+                OutputDir::begin(&out.unwrap_or_else(|| PathBuf::from(problem.output_dir()))).map_err(output)?;
             let run = problem.run_dynamics(&progress).map_err(input(&scene))?;
-            let dir = out.unwrap_or_else(|| PathBuf::from(&problem.output_dir()));
-            let mut files = run.write(&dir).map_err(|e| CliError::Output(Box::new(e)))?;
+            run.write(staged.path()).map_err(output)?;
             if problem.plot() {
-                files.extend(linpd_plot::solution::dynamics_plots(&run, &dir)?);
+                linpd_plot::solution::dynamics_plots(&run, staged.path())?;
             }
-            println!(
+            let dir = staged.target().to_path_buf();
+            let files = staged.commit("history.json", run.history_json(), &identity).map_err(output)?;
+            say!(
                 "{}: {} steps of dt = {:.4e} ({:.4} of dt_max = {:.4e}), {} DOFs ({} held), {} bonds; {:.3} s: {:.3e} steps/s, {:.3e} bond updates/s; energy drift max |E/E0 - 1| = {:.2e}, shadow {:.2e}",
                 run.name,
                 run.steps,
@@ -223,14 +275,14 @@ fn run(cli: Cli) -> Result<(), CliError> {
                 run.bond_updates_per_second(),
                 run.max_total_drift(),
                 run.max_shadow_drift(),
-            );
+            )?;
             if !quiet {
-                println!(
+                say!(
                     "wrote {} files into {} (history.json, {} snapshots)",
                     files.len(),
                     dir.display(),
                     run.snapshots.len()
-                );
+                )?;
             }
             Ok(())
         }
@@ -239,7 +291,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let (mask, _) = p.constrained();
             let constrained = mask.iter().filter(|&&m| m).count();
             match (p.model(), p.grid()) {
-                (ModelSpec::Coarsened(c), _) => println!(
+                (ModelSpec::Coarsened(c), _) => say!(
                     "{}: valid; coarsened level {} from {}, dimension {}, {} nodes, {} bonded pairs, K {}, {} constrained DOFs, {} loads",
                     p.name(),
                     c.level(),
@@ -250,8 +302,8 @@ fn run(cli: Cli) -> Result<(), CliError> {
                     if c.is_symmetric() { "symmetric".to_string() } else { format!("unsymmetric (relative asymmetry {:.2e})", c.asymmetry()) },
                     constrained,
                     p.loads().len()
-                ),
-                (model, grid) => println!(
+                )?,
+                (model, grid) => say!(
                     "{}: valid; {} model, dimension {}, {} nodes, horizon/spacing = {:.4}, {} constrained DOFs, {} loads",
                     p.name(),
                     model.name(),
@@ -260,7 +312,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
                     model.horizon().unwrap_or(f64::NAN) / grid.map_or(f64::NAN, |g| g.spacing()),
                     constrained,
                     p.loads().len()
-                ),
+                )?,
             }
             Ok(())
         }
@@ -271,13 +323,23 @@ fn run(cli: Cli) -> Result<(), CliError> {
                     eprintln!("[linpd] {m}");
                 }
             };
-            let dir = out.unwrap_or_else(|| p.output_dir.clone());
-            let r = p.run(&dir, &progress).map_err(input(&pipeline))?;
-            println!("{}: {} levels coarsened in {:.3} s", r.name, r.levels.len() - 1, r.seconds_coarsening);
-            println!(
+            let identity = RunIdentity::of_inputs(&[&pipeline, &p.scene_path]).map_err(input(&pipeline))?;
+            let staged = OutputDir::begin(&out.unwrap_or_else(|| p.output_dir.clone())).map_err(output)?;
+            let r = p.run(staged.path(), &progress).map_err(input(&pipeline))?;
+            let dir = staged.target().to_path_buf();
+            staged.commit("summary.json", r.summary_json(), &identity).map_err(output)?;
+            say!("{}: {} levels coarsened in {:.3} s", r.name, r.levels.len() - 1, r.seconds_coarsening)?;
+            say!(
                 "{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}",
-                "level", "nodes", "bonds", "radius", "tail", "classes", "hit rate", "err shared"
-            );
+                "level",
+                "nodes",
+                "bonds",
+                "radius",
+                "tail",
+                "classes",
+                "hit rate",
+                "err shared"
+            )?;
             for l in &r.levels {
                 let (radius, tail, classes, hit) =
                     l.step.as_ref().map_or(("-".into(), "-".into(), "-".into(), "-".into()), |s| {
@@ -289,24 +351,31 @@ fn run(cli: Cli) -> Result<(), CliError> {
                         )
                     });
                 let err = l.error_shared.map_or("-".into(), |e| format!("{e:.3e}"));
-                println!(
+                say!(
                     "{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}",
-                    l.level, l.nodes, l.bonds, radius, tail, classes, hit, err
-                );
+                    l.level,
+                    l.nodes,
+                    l.bonds,
+                    radius,
+                    tail,
+                    classes,
+                    hit,
+                    err
+                )?;
             }
-            println!("wrote {}", dir.display());
+            say!("wrote {}", dir.display())?;
             Ok(())
         }
         Command::Bench(args) => {
             let doc = linpd_bench::run(&args)?;
             linpd_bench::print_table(&doc);
-            println!("wrote {}", args.out.display());
+            say!("wrote {}", args.out.display())?;
             Ok(())
         }
         Command::Study { name, out, no_dense } => {
             if name == "list" {
                 for s in Study::all() {
-                    println!("{:<22} {}", s.name(), s.description());
+                    say!("{:<22} {}", s.name(), s.description())?;
                 }
                 return Ok(());
             }
@@ -316,7 +385,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             study
                 .run(&dir, &StudyOptions { dense: !no_dense }, &mut std::io::stdout().lock())
                 .map_err(|source| CliError::Study { name, source })?;
-            println!("wrote {}", dir.display());
+            say!("wrote {}", dir.display())?;
             Ok(())
         }
     }

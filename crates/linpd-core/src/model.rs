@@ -103,6 +103,14 @@ pub trait Model: Sync {
     fn spd_approximation(&self, _dofs: &DofMap) -> Option<SpdApproximation> {
         None
     }
+    /// The nonzero `d x d` blocks of block row `i` of `A` over all DOFs, computed on demand:
+    /// `f(j, A_ij)` (row-major) for every coupled node `j`, `j = i` included, each `j` once,
+    /// in any order. Multigrid builds its hierarchy from them without storing the finest
+    /// matrix (`"matrix_free": true`). Returns `false` when the model cannot (the default; `f`
+    /// is then not called).
+    fn for_each_block(&self, _i: usize, _f: &mut dyn FnMut(usize, &[f64])) -> bool {
+        false
+    }
     /// Why the model cannot run matrix-free (`None`: it can).
     fn matrix_free_unavailable(&self) -> Option<&'static str> {
         None

@@ -174,7 +174,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         build_seconds: t0.elapsed().as_secs_f64(),
     };
     Ok(Problem {
-        output_dir: raw.output.dir.clone().unwrap_or_else(|| format!("out/{}", raw.name)),
+        output_dir: crate::problem::output_dir(raw.output.dir.as_deref(), &raw.name)?,
         plot: raw.output.plot.unwrap_or(true),
         name: raw.name,
         nodes: Nodes::Level(nodes),

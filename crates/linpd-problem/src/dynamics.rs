@@ -417,18 +417,16 @@ impl DynamicsRun {
         })
     }
 
-    /// Writes `history.json` and `u_<step>.csv` (step zero-padded) into `dir` (created if
-    /// missing), and in 2D/3D also `u_<step>.vtk` ([`DynamicsRun::vtk`]); returns the paths.
+    /// Writes `u_<step>.csv` (step zero-padded) into `dir` (created if missing), and in 2D/3D
+    /// also `u_<step>.vtk` ([`DynamicsRun::vtk`]); returns the paths. `history.json`
+    /// ([`DynamicsRun::history_json`]) is written by [`crate::OutputDir::commit`].
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, ProblemError> {
         let io = |path: &Path| {
             let path = path.display().to_string();
             move |source| ProblemError::Io { path, source }
         };
         std::fs::create_dir_all(dir).map_err(io(dir))?;
-        let hist = dir.join("history.json");
-        std::fs::write(&hist, serde_json::to_string_pretty(&self.history_json()).expect("serializes"))
-            .map_err(io(&hist))?;
-        let mut files = vec![hist];
+        let mut files = Vec::new();
         let width = self.steps.to_string().len();
         let d = self.dim;
         let header = ["x,u,layer", "x,y,u,v,layer", "x,y,z,u,v,w,layer"][d - 1];

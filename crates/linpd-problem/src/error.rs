@@ -26,6 +26,15 @@ pub enum ProblemError {
         /// 1-based column.
         column: usize,
     },
+    /// An output directory that may not be written now (locked by another run) or replaced
+    /// (not a linpd output directory); see [`crate::atomic`].
+    #[error("{dir}: {reason}")]
+    Output {
+        /// The output directory.
+        dir: String,
+        /// Why, and what to do.
+        reason: String,
+    },
     /// Well-formed JSON whose values are inconsistent.
     #[error("{path}: {reason}")]
     Invalid {

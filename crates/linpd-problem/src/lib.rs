@@ -1,6 +1,7 @@
 //! The JSON scene: a plain serde mirror ([`raw`]) with unknown keys rejected, validated into a
 //! typed [`Problem`] whose errors name the JSON path (`model.horizon: must be > 0`), then built
-//! into an operator and solved ([`run`]), and written out ([`output`]).
+//! into an operator and solved ([`run`]), and written out ([`output`]) through an [`OutputDir`]
+//! ([`atomic`]): all files of a run or none.
 //!
 //! Coarsened levels (`"model": {"type": "coarsened", "moduli": ...}`) have no grid: their
 //! nodes are [`Nodes::Level`] and their model [`ModelSpec::Coarsened`] ([`coarsened`]).
@@ -8,6 +9,7 @@
 //! The key reference is `docs/problem-format.md`.
 #![deny(missing_docs)]
 
+pub mod atomic;
 pub(crate) mod blend;
 pub mod coarsened;
 pub mod dynamics;
@@ -20,6 +22,7 @@ pub mod problem;
 pub mod raw;
 pub mod run;
 
+pub use atomic::{OutputDir, RunIdentity};
 pub use coarsened::{CoarsenedModel, ModuliFile};
 pub use dynamics::{Dynamics, DynamicsRun, Initial, TimeStep};
 pub use error::ProblemError;

@@ -1,4 +1,6 @@
-//! Writing a [`Solution`]: `result.json` and `u.csv`.
+//! Writing a [`Solution`]: `u.csv` ([`Solution::write`]) and the `result.json` document
+//! ([`Solution::to_json`]), which [`crate::OutputDir::commit`] writes last with the run's
+//! identity and the list of the files written.
 
 use crate::{ProblemError, Solution};
 use serde_json::json;
@@ -42,12 +44,10 @@ impl Solution {
         })
     }
 
-    /// Writes `result.json` and `u.csv` into `dir` (created if missing); returns the paths.
+    /// Writes `u.csv` into `dir` (created if missing); returns its path. `result.json`
+    /// ([`Solution::to_json`]) is written by [`crate::OutputDir::commit`].
     pub fn write(&self, dir: &Path) -> Result<Vec<std::path::PathBuf>, ProblemError> {
         std::fs::create_dir_all(dir).map_err(io(dir))?;
-        let json_path = dir.join("result.json");
-        let text = serde_json::to_string_pretty(&self.to_json()).expect("a solution serializes");
-        std::fs::write(&json_path, text).map_err(io(&json_path))?;
         let csv_path = dir.join("u.csv");
         let mut w = std::io::BufWriter::new(std::fs::File::create(&csv_path).map_err(io(&csv_path))?);
         let d = self.dim;
@@ -62,6 +62,6 @@ impl Solution {
             writeln!(w, "{}", row.join(",")).map_err(io(&csv_path))?;
         }
         w.flush().map_err(io(&csv_path))?;
-        Ok(vec![json_path, csv_path])
+        Ok(vec![csv_path])
     }
 }

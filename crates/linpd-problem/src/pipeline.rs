@@ -126,14 +126,7 @@ impl Pipeline {
     pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
         let text = std::fs::read_to_string(path)
             .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
-        let de = &mut serde_json::Deserializer::from_str(&text);
-        let raw: RawPipeline = serde_path_to_error::deserialize(de).map_err(|e| {
-            let p = e.path().to_string();
-            let inner = e.into_inner();
-            let msg = inner.to_string();
-            let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
-            ProblemError::Parse { path: p, message: msg, line: inner.line(), column: inner.column() }
-        })?;
+        let raw: RawPipeline = crate::problem::parse_json(&text)?;
         let base = path.parent().unwrap_or(Path::new("."));
         Self::from_raw(raw, base)
     }
@@ -203,7 +196,8 @@ impl Pipeline {
             };
             levels.push(LevelSpec { retain, radius });
         }
-        let output_dir = PathBuf::from(raw.output.map(|o| o.dir).unwrap_or_else(|| format!("out/{}", raw.name)));
+        let output_dir =
+            PathBuf::from(crate::problem::output_dir(raw.output.as_ref().map(|o| o.dir.as_str()), &raw.name)?);
         Ok(Self {
             name: raw.name,
             scene,
@@ -243,7 +237,7 @@ pub struct LevelResult {
     pub bonds: usize,
     /// The coarsening step's report (absent for level 0).
     pub step: Option<StepReport>,
-    /// Files written.
+    /// Files written (names inside the output directory).
     pub files: Vec<String>,
     /// BVP: max |u^m - u^0| / max |u^0| at the shared nodes.
     pub error_shared: Option<f64>,
@@ -270,7 +264,9 @@ pub struct PipelineResult {
 }
 
 impl Pipeline {
-    /// Runs every step, writes the levels into `dir`, and (if asked) solves and compares.
+    /// Runs every step, writes the levels into `dir` ([`PipelineResult::write`]), and (if asked)
+    /// solves and compares. `summary.json` ([`PipelineResult::summary_json`]) is written by
+    /// [`crate::OutputDir::commit`].
     pub fn run(&self, dir: &Path, progress: &dyn Fn(&str)) -> Result<PipelineResult, ProblemError> {
         let d = self.scene.dim();
         let t = Instant::now();
@@ -437,7 +433,7 @@ impl Pipeline {
     }
 }
 
-/// Writes `level-<m>.mtx` and `level-<m>.nodes.csv`.
+/// Writes `level-<m>.mtx` and `level-<m>.nodes.csv`; returns their names.
 fn write_level(model: &LevelModel, m: usize, dir: &Path) -> Result<Vec<String>, ProblemError> {
     let d = model.dim();
     let (offsets, cols, c) = model.csr();
@@ -465,12 +461,17 @@ fn write_level(model: &LevelModel, m: usize, dir: &Path) -> Result<Vec<String>, 
     };
     let stem = dir.join(format!("level-{m}"));
     let files = file.write(&stem).map_err(|e| inv("output", e.to_string()))?;
-    Ok(files.iter().map(|f| f.display().to_string()).collect())
+    Ok(files.iter().filter_map(|f| f.file_name()).map(|n| n.to_string_lossy().into_owned()).collect())
 }
 
 impl PipelineResult {
-    /// Writes `summary.json` (all levels) and `level-<m>.json` (one per coarsened level), plus
-    /// `shared.csv` with the BVP displacements at the shared nodes per level when solved.
+    /// The `summary.json` document: all levels.
+    pub fn summary_json(&self) -> serde_json::Value {
+        json!(self)
+    }
+
+    /// Writes `level-<m>.json` (one per coarsened level), plus `shared.csv` with the BVP
+    /// displacements at the shared nodes per level when solved.
     pub fn write(&self, dir: &Path) -> Result<(), ProblemError> {
         let io = |p: &Path| {
             let p = p.display().to_string();
@@ -480,8 +481,6 @@ impl PipelineResult {
             let path = dir.join(format!("level-{}.json", l.level));
             std::fs::write(&path, serde_json::to_string_pretty(l).expect("serializes")).map_err(io(&path))?;
         }
-        let path = dir.join("summary.json");
-        std::fs::write(&path, serde_json::to_string_pretty(&json!(self)).expect("serializes")).map_err(io(&path))?;
         if self.levels[0].solve_seconds.is_some() {
             let d = self.dimension;
             let mut s = String::new();

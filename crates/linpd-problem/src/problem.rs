@@ -280,8 +280,14 @@ pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, ProblemError> {
             "this is a coarsening pipeline (it has \"scene\" and \"levels\"), not a scene: run it with `linpd coarsen FILE`",
         ));
     }
+    parse_json(text)
+}
+
+/// Parses one JSON document (scene or pipeline) into `T`; syntax and shape errors carry line,
+/// column and path, and text after the document is an error (not silently ignored).
+pub(crate) fn parse_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, ProblemError> {
     let de = &mut serde_json::Deserializer::from_str(text);
-    serde_path_to_error::deserialize(de).map_err(|e| {
+    let value = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner();
         ProblemError::Parse {
@@ -290,7 +296,34 @@ pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, ProblemError> {
             line: inner.line(),
             column: inner.column(),
         }
-    })
+    })?;
+    de.end().map_err(|e| ProblemError::Parse {
+        path: ".".into(),
+        message: "trailing text after the JSON document".into(),
+        line: e.line(),
+        column: e.column(),
+    })?;
+    Ok(value)
+}
+
+/// The output directory: `output.dir` as given, else `out/<name>`. The name must then be a
+/// plain directory name: a name like `../../x` must not write outside `out/`.
+pub(crate) fn output_dir(dir: Option<&str>, name: &str) -> Result<String, ProblemError> {
+    match dir {
+        Some(d) if d.trim().is_empty() => {
+            Err(ProblemError::invalid("output.dir", "must not be empty (omit `output.dir` for out/<name>)"))
+        }
+        Some(d) if d.contains('\0') => Err(ProblemError::invalid("output.dir", "must not contain a NUL character")),
+        Some(d) => Ok(d.to_string()),
+        None if name.contains(['/', '\\', '\0']) || name == "." || name == ".." => Err(ProblemError::invalid(
+            "name",
+            format!(
+                "{name:?} cannot name the default output directory out/<name> (no '/', '\\', NUL, `.` or `..`): \
+                 rename the scene or set `output.dir`"
+            ),
+        )),
+        None => Ok(format!("out/{name}")),
+    }
 }
 
 impl Problem {
@@ -451,7 +484,7 @@ impl Problem {
         };
         Ok(Problem {
             dynamics,
-            output_dir: raw.output.dir.clone().unwrap_or_else(|| format!("out/{}", raw.name)),
+            output_dir: output_dir(raw.output.dir.as_deref(), &raw.name)?,
             plot: raw.output.plot.unwrap_or(true),
             name: raw.name,
             nodes: Nodes::Lattice(grid),
@@ -824,12 +857,6 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
         None | Some(RawPreconditioner::Jacobi) => PreconditionerKind::Jacobi,
         Some(RawPreconditioner::Multigrid) => PreconditionerKind::Multigrid,
     };
-    if preconditioner == PreconditionerKind::Multigrid && raw.matrix_free {
-        return Err(ProblemError::invalid(
-            "solver.matrix_free",
-            "the multigrid preconditioner builds its hierarchy from the assembled matrix: remove matrix_free or use \"preconditioner\": \"jacobi\"",
-        ));
-    }
     if raw.preconditioner.is_some() && !is_cg {
         return Err(ProblemError::invalid("solver.preconditioner", "only the cg solver takes a preconditioner"));
     }

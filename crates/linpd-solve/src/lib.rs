@@ -31,8 +31,8 @@ pub use precond::amg::{rigid_body_modes, Amg, AmgError, AmgOperator, AmgParams, 
 pub use precond::{FactorPreconditioner, Identity, Jacobi, Preconditioner};
 pub use report::{peak_rss_bytes, SolveReport, Timings};
 pub use spec::{
-    CholeskyOrdering, DofGeometry, GmresPreconditioner, MatrixFree, PreconditionerInput, PreconditionerKind, SolverId,
-    SolverSpec,
+    CholeskyOrdering, DofGeometry, GmresPreconditioner, MatrixFree, ModelInput, PreconditionerInput,
+    PreconditionerKind, SolverId, SolverSpec,
 };
 pub use statics::{solve_assembled, solve_model, MatrixHints, StaticError, StaticSolution};
 

@@ -6,6 +6,7 @@ use crate::CgParams;
 use crate::SolveError;
 use linpd_core::sparse::Csc;
 use linpd_core::{DofMap, Model, Point};
+use rayon::prelude::*;
 use serde::{Serialize, Serializer};
 use std::fmt;
 
@@ -30,13 +31,16 @@ impl PreconditionerKind {
     }
 
     /// Builds the preconditioner from what the reduced operator offers.
-    pub fn build(self, input: &PreconditionerInput<'_>) -> Result<Box<dyn Preconditioner>, SolveError> {
+    pub fn build<'a>(self, input: &PreconditionerInput<'a>) -> Result<Box<dyn Preconditioner + 'a>, SolveError> {
         match self {
             PreconditionerKind::Jacobi => Ok(Box::new(Jacobi::new(input.diagonal)?)),
             PreconditionerKind::Multigrid => {
-                let a = input.matrix.ok_or_else(|| {
-                    AmgError::Input("multigrid needs the assembled matrix: matrix_free is not available with it".into())
-                })?;
+                let Some(a) = input.matrix else {
+                    let m = input.model.ok_or_else(|| {
+                        AmgError::Input("multigrid needs the assembled matrix or the model's blocks".into())
+                    })?;
+                    return Ok(Box::new(Amg::matrix_free(m.model, m.dofs, m.full, &AmgParams::default())?));
+                };
                 let amg = match input.geometry {
                     Some(g) => Amg::from_geometry(a, g, &AmgParams::default())?,
                     // A bare matrix: one unknown per node, constants as near-null space.
@@ -61,6 +65,27 @@ pub struct PreconditionerInput<'a> {
     pub matrix: Option<&'a Csc>,
     /// Node and component of every unknown and the node positions (`None`: a bare matrix).
     pub geometry: Option<&'a DofGeometry>,
+    /// The model itself, for a preconditioner that reads it on demand instead of the
+    /// assembled matrix (matrix-free multigrid).
+    pub model: Option<ModelInput<'a>>,
+}
+
+/// A model's `A_ff` without assembling it: the model, its free DOFs and its apply over all DOFs
+/// (e.g. the fast stencil).
+#[derive(Clone, Copy)]
+pub struct ModelInput<'a> {
+    /// The model.
+    pub model: &'a dyn Model,
+    /// Its free DOFs.
+    pub dofs: &'a DofMap,
+    /// `y = A x` over all DOFs.
+    pub full: &'a dyn linpd_core::LinearOperator,
+}
+
+impl fmt::Debug for ModelInput<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "ModelInput({} model, {} free DOFs)", self.model.kind(), self.dofs.n_free())
+    }
 }
 
 /// Where the unknowns of a reduced system sit: for a multilevel preconditioner's near-null
@@ -73,26 +98,66 @@ pub struct DofGeometry {
     pub rows: Vec<(usize, usize)>,
     /// Position of every node of the model.
     pub positions: Vec<Point>,
+    /// The model's interaction graph ([`Model::for_each_partner`]: bonds) between the nodes
+    /// with free DOFs, numbered in their order in `rows`, as CSR `(ptr, idx)` with sorted rows;
+    /// `None` for a bare matrix. Multigrid aggregates its finest level on it: for bond models
+    /// it is the graph of `A`'s nonzero blocks, for LPS the one-horizon bonds, not the tangent's
+    /// two-horizon couplings, whose aggregates would be eight times too large in 3D.
+    pub partners: Option<(Vec<usize>, Vec<u32>)>,
 }
 
 impl DofGeometry {
     /// The free DOFs of `dofs` on the nodes of `model`.
     pub fn of(model: &dyn Model, dofs: &DofMap) -> Self {
         let d = model.dim();
+        let rows: Vec<(usize, usize)> = dofs.free_dofs().into_iter().map(|f| (f / d, f % d)).collect();
+        let mut block_of = vec![u32::MAX; model.n_nodes()];
+        let mut nodes = Vec::new();
+        for &(node, _) in &rows {
+            if block_of[node] == u32::MAX {
+                block_of[node] = nodes.len() as u32;
+                nodes.push(node);
+            }
+        }
+        let lists: Vec<Vec<u32>> = nodes
+            .par_iter()
+            .map(|&i| {
+                let mut l = Vec::new();
+                model.for_each_partner(i, &mut |j| {
+                    if block_of[j] != u32::MAX && j != i {
+                        l.push(block_of[j]);
+                    }
+                });
+                l.sort_unstable();
+                l.dedup();
+                l
+            })
+            .collect();
+        let mut ptr = Vec::with_capacity(nodes.len() + 1);
+        ptr.push(0);
+        let mut idx = Vec::with_capacity(lists.iter().map(Vec::len).sum());
+        for l in lists {
+            idx.extend_from_slice(&l);
+            ptr.push(idx.len());
+        }
         DofGeometry {
             dim: d,
-            rows: dofs.free_dofs().into_iter().map(|f| (f / d, f % d)).collect(),
+            rows,
             positions: (0..model.n_nodes()).map(|i| model.position(i)).collect(),
+            partners: Some((ptr, idx)),
         }
     }
 }
 
-impl Preconditioner for Box<dyn Preconditioner> {
+impl Preconditioner for Box<dyn Preconditioner + '_> {
     fn apply(&self, r: &[f64], z: &mut [f64]) {
         (**self).apply(r, z)
     }
     fn summary(&self) -> Option<String> {
         (**self).summary()
+    }
+    fn operator_copy(&self) -> Option<&dyn linpd_core::LinearOperator> {
+        (**self).operator_copy()
     }
 }
 

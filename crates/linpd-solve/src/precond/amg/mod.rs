@@ -15,7 +15,12 @@
 //! 1. **Strength.** Nodes `I != J` are strongly connected when
 //!    `||A_IJ||_F >= theta sqrt(||A_II||_F ||A_JJ||_F)` (pyamg's `symmetric` strength on the
 //!    amalgamated block matrix); `theta = 0` on level 0 (pyamg's default), 0.05 on coarse
-//!    levels (measured, below).
+//!    levels (measured, below). When the DOF geometry carries the model's interaction graph
+//!    ([`DofGeometry::partners`], from a model's `for_each_partner`: its bonds), level 0 is
+//!    aggregated on that graph instead: for bond models it is the graph of `A`'s nonzero
+//!    blocks (plus, on rollers, bonds whose free-component block vanishes), for LPS the
+//!    one-horizon bonds rather than the tangent's two-horizon couplings, which gave aggregates
+//!    8x larger in 3D and 31 / 49 iterations on the bundled LPS scenes instead of 18 / 29.
 //! 2. **Aggregation** of the strength graph (`aggregate`'s three passes, VMB96 section 3):
 //!    a node whose neighbours are all free seeds an aggregate with them; leftovers join a
 //!    neighbouring aggregate or form their own.
@@ -77,10 +82,23 @@
 //! consecutive (as in linpd's node-major numbering, whatever components the Dirichlet
 //! elimination left free: see [`DofGeometry::of`]). Node positions give the rigid-body modes; any
 //! other near-null space can be given with [`Amg::with_near_null_space`].
+//!
+//! # Matrix-free finest level
+//!
+//! [`Amg::matrix_free`] takes the model instead of its assembled `A_ff`: the setup reads the
+//! finest level's blocks from [`Model::for_each_block`] when it needs them (the strength
+//! graph, `A T` and `A P`: each block computed three times, a few multiply-adds each), and the
+//! cycle's products on that level run the model's matrix-free apply (the lattice stencil of a
+//! homogeneous bond model). The hierarchy is the assembled one (same levels, same `rho`, same
+//! iterations: tested), without the finest matrix, which on a 3D lattice with 123 partners
+//! is ~4/5 of what the assembled hierarchy holds. Stored: `P`, `R = P^T`, the coarse levels,
+//! the smoothers' `D^{-1}`.
 
 mod aggregate;
+mod level;
 mod prolongator;
 mod smoother;
+mod streamed;
 mod vbr;
 
 pub use prolongator::rigid_body_modes;
@@ -90,10 +108,12 @@ use super::Preconditioner;
 use crate::direct::{Cholesky, CholeskyFactor};
 use crate::spec::DofGeometry;
 use crate::SolveError;
+use level::LevelMatrix;
 use linpd_core::sparse::Csc;
-use linpd_core::Point;
+use linpd_core::{DofMap, LinearOperator, Model, Point};
 use serde::Serialize;
 use std::time::Instant;
+use streamed::Streamed;
 use vbr::Vbr;
 
 /// Setup parameters of [`Amg`].
@@ -288,23 +308,42 @@ struct Level {
     smoother: smoother::Smoother,
 }
 
-/// The SA-AMG V-cycle preconditioner (see the module docs).
-pub struct Amg {
-    /// `A_l` of every smoothed level (the input matrix alone when it is factored directly).
+/// The finest level's matrix: the input matrix in blocks, or a model's `A_ff` computed on
+/// demand ([`Amg::matrix_free`]).
+enum Fine<'a> {
+    Assembled(Vbr),
+    Streamed(Streamed<'a>),
+}
+
+impl Fine<'_> {
+    fn matrix(&self) -> &dyn LevelMatrix {
+        match self {
+            Fine::Assembled(a) => a,
+            Fine::Streamed(s) => s,
+        }
+    }
+}
+
+/// The SA-AMG V-cycle preconditioner (see the module docs). `'a`: the model a matrix-free
+/// finest level reads ([`Amg::matrix_free`]); `'static` for an assembled input.
+pub struct Amg<'a> {
+    /// `A_0`.
+    fine: Fine<'a>,
+    /// `A_l` of the smoothed coarse levels `l = 1 .. L - 1` (the coarsest is only factored).
     mats: Vec<Vbr>,
     levels: Vec<Level>,
     coarse: CholeskyFactor,
     stats: AmgStats,
 }
 
-impl std::fmt::Debug for Amg {
+impl std::fmt::Debug for Amg<'_> {
     /// The statistics only: the level matrices hold millions of entries.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Amg").field("stats", &self.stats).finish_non_exhaustive()
     }
 }
 
-impl Amg {
+impl Amg<'static> {
     /// Sets up the hierarchy for the symmetric positive definite `a` (both triangles stored)
     /// whose row `i` is component `rows[i].1` of node `rows[i].0`, with node positions
     /// `positions[node]` in dimension `dim` (1, 2, 3); the near-null space is the rigid-body
@@ -316,9 +355,19 @@ impl Amg {
         positions: &[Point],
         params: &AmgParams,
     ) -> Result<Self, AmgError> {
+        let geometry = DofGeometry { dim, rows: rows.to_vec(), positions: positions.to_vec(), partners: None };
+        Self::from_geometry(a, &geometry, params)
+    }
+
+    /// [`Amg::new`] from the [`DofGeometry`] of a reduced system (what a
+    /// [`crate::PreconditionerInput`] carries); the finest level is aggregated on
+    /// `geometry.partners` (the model's bonds) when given.
+    pub fn from_geometry(a: &Csc, geometry: &DofGeometry, params: &AmgParams) -> Result<Self, AmgError> {
+        let dim = geometry.dim;
         if !(1..=3).contains(&dim) {
             return Err(AmgError::Input(format!("dimension {dim} (need 1, 2 or 3)")));
         }
+        let (rows, positions) = (&geometry.rows, &geometry.positions);
         if let Some((i, &(node, c))) = rows.iter().enumerate().find(|(_, &(n, c))| c >= dim || n >= positions.len()) {
             return Err(AmgError::Input(format!(
                 "row {i} is component {c} of node {node}: need a component < {dim} and a node < {}",
@@ -327,13 +376,7 @@ impl Amg {
         }
         let modes = rigid_body_modes(dim, rows, positions);
         let nodes: Vec<usize> = rows.iter().map(|r| r.0).collect();
-        Self::with_near_null_space(a, &nodes, &modes, params)
-    }
-
-    /// [`Amg::new`] from the [`DofGeometry`] of a reduced system (what a
-    /// [`crate::PreconditionerInput`] carries).
-    pub fn from_geometry(a: &Csc, geometry: &DofGeometry, params: &AmgParams) -> Result<Self, AmgError> {
-        Self::new(a, geometry.dim, &geometry.rows, &geometry.positions, params)
+        Self::assembled(a, &nodes, &modes, geometry.partners.as_ref(), params)
     }
 
     /// Sets up the hierarchy with a caller's near-null space: `modes[m][i]` is mode `m` at
@@ -342,6 +385,18 @@ impl Amg {
         a: &Csc,
         row_node: &[usize],
         modes: &[Vec<f64>],
+        params: &AmgParams,
+    ) -> Result<Self, AmgError> {
+        Self::assembled(a, row_node, modes, None, params)
+    }
+
+    /// [`Amg::with_near_null_space`], the finest level aggregated on `graph` (over the row
+    /// blocks) when given, else on the strength graph of `a`.
+    fn assembled(
+        a: &Csc,
+        row_node: &[usize],
+        modes: &[Vec<f64>],
+        graph: Option<&(Vec<usize>, Vec<u32>)>,
         params: &AmgParams,
     ) -> Result<Self, AmgError> {
         let t0 = Instant::now();
@@ -377,16 +432,74 @@ impl Amg {
             return Err(AmgError::NonFinite { level: 0 });
         }
         let k = modes.len();
-        let mut b: Vec<f64> = (0..n * k).map(|p| modes[p % k][p / k]).collect();
+        let b: Vec<f64> = (0..n * k).map(|p| modes[p % k][p / k]).collect();
         let mut times = AmgSetupTimes::default();
         let t = Instant::now();
-        let mut amat = Vbr::from_symmetric_csc(a, &rptr);
+        let amat = Vbr::from_symmetric_csc(a, &rptr);
         times.convert = t.elapsed().as_secs_f64();
+        Amg::build(Fine::Assembled(amat), b, k, graph, params, t0, times)
+    }
+}
+
+impl<'a> Amg<'a> {
+    /// Sets up the hierarchy for `A_ff` of `model` on the free DOFs of `dofs` without storing
+    /// it (the finest level is matrix-free: see the module docs), with the rigid-body modes of
+    /// the free DOFs as near-null space. `full` applies the model's `A` over all DOFs (its
+    /// fast stencil apply where it has one); the cycle's products on the finest level run
+    /// through it. Needs the model's blocks ([`Model::for_each_block`]).
+    pub fn matrix_free(
+        model: &'a dyn Model,
+        dofs: &'a DofMap,
+        full: &'a dyn LinearOperator,
+        params: &AmgParams,
+    ) -> Result<Self, AmgError> {
+        let t0 = Instant::now();
+        params.validate()?;
+        let dim = model.dim();
+        if !(1..=3).contains(&dim) {
+            return Err(AmgError::Input(format!("dimension {dim} (need 1, 2 or 3)")));
+        }
+        if dofs.n_free() == 0 {
+            return Err(AmgError::Input("no free DOF".into()));
+        }
+        let mut times = AmgSetupTimes::default();
+        let t = Instant::now();
+        let fine = Streamed::new(model, dofs, full).ok_or_else(|| {
+            AmgError::Input(format!(
+                "the {} model does not provide its stiffness blocks: matrix-free multigrid is not available for it \
+                 (assemble: \"matrix_free\": false)",
+                model.kind()
+            ))
+        })?;
+        let geometry = DofGeometry::of(model, dofs);
+        let modes = rigid_body_modes(dim, &geometry.rows, &geometry.positions);
+        let (n, k) = (dofs.n_free(), modes.len());
+        let b: Vec<f64> = (0..n * k).map(|p| modes[p % k][p / k]).collect();
+        if fine.diagonal().iter().any(|v| !v.is_finite()) {
+            return Err(AmgError::NonFinite { level: 0 });
+        }
+        times.convert = t.elapsed().as_secs_f64();
+        Amg::build(Fine::Streamed(fine), b, k, geometry.partners.as_ref(), params, t0, times)
+    }
+
+    /// The setup loop (module docs, steps 1-5) from the finest level `fine` and the
+    /// near-null space `b` (row-major `n x k`); the finest level is aggregated on `graph`
+    /// when given (the model's bonds between the row blocks, [`DofGeometry::partners`]).
+    fn build(
+        fine: Fine<'a>,
+        mut b: Vec<f64>,
+        k: usize,
+        graph: Option<&(Vec<usize>, Vec<u32>)>,
+        params: &AmgParams,
+        t0: Instant,
+        mut times: AmgSetupTimes,
+    ) -> Result<Self, AmgError> {
         let mut levels = Vec::new();
-        let mut mats = Vec::new();
+        let mut mats: Vec<Vbr> = Vec::new();
         let mut level_stats = Vec::new();
         loop {
             let l = levels.len();
+            let amat: &dyn LevelMatrix = if l == 0 { fine.matrix() } else { &mats[l - 1] };
             let rows = amat.nrows();
             level_stats.push(AmgLevelStats {
                 rows,
@@ -405,24 +518,41 @@ impl Amg {
             let dinv: Vec<f64> = diag.iter().map(|d| 1.0 / d).collect();
             let t = Instant::now();
             let theta = if l == 0 { params.strength_theta } else { params.coarse_strength_theta };
-            let (sp, si) = aggregate::strong_neighbours(&amat, theta);
-            let (agg, n_agg) = aggregate::standard_aggregation(&sp, &si);
+            let (agg, n_agg) = match graph.filter(|_| l == 0) {
+                Some((ptr, idx)) => {
+                    if ptr.len() != amat.n_row_blocks() + 1 {
+                        return Err(AmgError::Input(format!(
+                            "the interaction graph has {} nodes, the matrix {} row blocks",
+                            ptr.len() - 1,
+                            amat.n_row_blocks()
+                        )));
+                    }
+                    aggregate::standard_aggregation(ptr, idx)
+                }
+                None => {
+                    let (sp, si) = amat.strong_neighbours(theta);
+                    aggregate::standard_aggregation(&sp, &si)
+                }
+            };
             times.aggregate += t.elapsed().as_secs_f64();
             if n_agg == amat.n_row_blocks() {
                 // No node has a strong neighbour: coarsening stalled; factor this level.
                 break;
             }
             let t = Instant::now();
-            let (tent, bc) = prolongator::tentative(&amat, &agg, n_agg, &b, k);
+            let (tent, bc) = prolongator::tentative(amat, &agg, n_agg, &b, k);
             times.tentative += t.elapsed().as_secs_f64();
             let t = Instant::now();
-            let rho = smoother::spectral_radius(&amat, &dinv, params.lanczos_steps);
+            let rho = smoother::spectral_radius(amat, &dinv, params.lanczos_steps);
             times.spectral += t.elapsed().as_secs_f64();
             if !(rho > 0.0 && rho.is_finite()) {
                 return Err(AmgError::BadSpectrum { level: l, value: rho });
             }
             let t = Instant::now();
-            let p = prolongator::smooth(&amat, &tent, &dinv, params.prolongation_omega / rho);
+            let p = prolongator::smooth(amat, &tent, &dinv, params.prolongation_omega / rho);
+            drop(tent);
+            // A matrix-free level counts its entries in its first pass over the blocks.
+            level_stats[l].nnz = amat.nnz();
             times.smooth += t.elapsed().as_secs_f64();
             let t = Instant::now();
             let r = p.transpose();
@@ -437,21 +567,27 @@ impl Amg {
             s.rho = Some(rho);
             s.prolongator_nnz = Some(p.nnz());
             levels.push(Level { p, r, smoother: smoother::Smoother::new(params.smoother, dinv, rho) });
-            mats.push(std::mem::replace(&mut amat, ac));
+            mats.push(ac);
             b = bc;
         }
         let t = Instant::now();
         let l = levels.len();
-        let rows = amat.nrows();
-        let csc = amat.to_symmetric_csc();
-        if mats.is_empty() {
-            // Kept for [`Amg::operator`].
-            mats.push(amat);
-        }
+        // The coarsest matrix is only factored: take it out of the smoothed levels.
+        let coarsest = match (l, &fine) {
+            (0, Fine::Assembled(a)) => a.to_symmetric_csc(),
+            (0, Fine::Streamed(s)) => {
+                let a = s.assemble();
+                level_stats[0].nnz = a.nnz();
+                a.to_symmetric_csc()
+            }
+            _ => mats.pop().expect("a coarse level per smoothed level").to_symmetric_csc(),
+        };
+        let rows = coarsest.nrows();
         let map = |e: SolveError| match e {
             SolveError::NotPositiveDefinite { dof } => AmgError::CoarseNotPositiveDefinite { level: l, rows, row: dof },
             other => AmgError::CoarseFactorization { level: l, reason: other.to_string() },
         };
+        let csc = coarsest;
         let chol = Cholesky::analyze(&csc).map_err(map)?;
         let coarse = chol.factor(&csc).map_err(map)?;
         // A singular coarse matrix can factor with round-off pivots instead of failing: a test
@@ -472,13 +608,14 @@ impl Amg {
             grid_complexity: level_stats.iter().map(|s| s.rows as f64).sum::<f64>() / rows0,
             levels: level_stats,
             coarse_factor_nnz: chol.nnz_factor(),
-            memory_bytes: mats.iter().map(Vbr::bytes).sum::<usize>()
+            memory_bytes: fine.matrix().bytes()
+                + mats.iter().map(Vbr::bytes).sum::<usize>()
                 + levels.iter().map(|lv| lv.p.bytes() + lv.r.bytes() + 8 * lv.p.nrows()).sum::<usize>()
                 + 8 * chol.nnz_factor(),
             setup_seconds: t0.elapsed().as_secs_f64(),
             times,
         };
-        Ok(Amg { mats, levels, coarse, stats })
+        Ok(Amg { fine, mats, levels, coarse, stats })
     }
 
     /// What the setup built and what it cost.
@@ -486,11 +623,26 @@ impl Amg {
         &self.stats
     }
 
-    /// `A` itself, from the block copy the hierarchy holds (the same values): its product
-    /// reads 8 bytes per entry plus one index per block instead of the 16 of a `usize` CSC
-    /// entry, so CG with it runs its own products faster than with [`crate::SymCsc`].
+    /// `A` itself: the block copy the hierarchy holds (the same values; its product reads 8
+    /// bytes per entry plus one index per block instead of the 16 of a `usize` CSC entry, so
+    /// CG with it runs its own products faster than with [`crate::SymCsc`]), or the model's
+    /// apply of a matrix-free finest level.
     pub fn operator(&self) -> AmgOperator<'_> {
-        AmgOperator(&self.mats[0])
+        AmgOperator(self.fine.matrix())
+    }
+
+    /// Whether the finest level is matrix-free ([`Amg::matrix_free`]).
+    pub fn is_matrix_free(&self) -> bool {
+        matches!(self.fine, Fine::Streamed(_))
+    }
+
+    /// The matrix of level `l` (not the coarsest).
+    fn level_matrix(&self, l: usize) -> &dyn LevelMatrix {
+        if l == 0 {
+            self.fine.matrix()
+        } else {
+            &self.mats[l - 1]
+        }
     }
 
     /// `x = V_l(b)` (see the module docs).
@@ -502,7 +654,7 @@ impl Amg {
         let n = b.len();
         let mut r = vec![0.0; n];
         let mut d = vec![0.0; n];
-        let a = &self.mats[l];
+        let a = self.level_matrix(l);
         level.smoother.smooth(a, b, x, &mut r, &mut d, true, true);
         let nc = level.r.nrows();
         let mut bc = vec![0.0; nc];
@@ -514,7 +666,7 @@ impl Amg {
     }
 }
 
-impl Preconditioner for Amg {
+impl Preconditioner for Amg<'_> {
     fn apply(&self, r: &[f64], z: &mut [f64]) {
         self.cycle(0, r, z);
     }
@@ -522,18 +674,42 @@ impl Preconditioner for Amg {
         let s = &self.stats;
         let rows: Vec<String> = s.levels.iter().map(|l| l.rows.to_string()).collect();
         Some(format!(
-            "SA-AMG: {} levels ({} rows), operator complexity {:.2}, setup {:.2} s",
+            "SA-AMG: {} levels ({} rows), operator complexity {:.2}, {}{:.1} MiB, setup {:.2} s",
             s.levels.len(),
             rows.join(" > "),
             s.operator_complexity,
+            if self.is_matrix_free() { "finest level matrix-free, " } else { "" },
+            s.memory_bytes as f64 / 1048576.0,
             s.setup_seconds
         ))
+    }
+    fn operator_copy(&self) -> Option<&dyn linpd_core::LinearOperator> {
+        match &self.fine {
+            Fine::Assembled(a) => Some(a),
+            // The caller's matrix-free operator is the same apply.
+            Fine::Streamed(_) => None,
+        }
     }
 }
 
 /// The input matrix `A` as a [`linpd_core::LinearOperator`], from [`Amg::operator`].
-#[derive(Debug, Clone, Copy)]
-pub struct AmgOperator<'a>(&'a Vbr);
+#[derive(Clone, Copy)]
+pub struct AmgOperator<'a>(&'a dyn LevelMatrix);
+
+impl std::fmt::Debug for AmgOperator<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "AmgOperator({} rows)", self.0.nrows())
+    }
+}
+
+impl linpd_core::LinearOperator for Vbr {
+    fn n(&self) -> usize {
+        self.nrows()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        self.matvec(x, y)
+    }
+}
 
 impl linpd_core::LinearOperator for AmgOperator<'_> {
     fn n(&self) -> usize {

@@ -1,6 +1,7 @@
 //! The near-null space (rigid-body modes), the tentative prolongator `T` and its Jacobi
 //! smoothing `P = (I - omega D^{-1} A) T`.
 
+use super::level::LevelMatrix;
 use super::vbr::{split_at_bounds, Vbr};
 use linpd_core::Point;
 use rayon::prelude::*;
@@ -55,7 +56,7 @@ pub fn rigid_body_modes(dim: usize, rows: &[(usize, usize)], positions: &[Point]
 /// kept span.
 ///
 /// Returns `T` (row blocks: the nodes of `a`; column blocks: the aggregates) and `B_c`.
-pub(crate) fn tentative(a: &Vbr, agg: &[u32], n_agg: usize, b: &[f64], k: usize) -> (Vbr, Vec<f64>) {
+pub(crate) fn tentative(a: &dyn LevelMatrix, agg: &[u32], n_agg: usize, b: &[f64], k: usize) -> (Vbr, Vec<f64>) {
     let nb = a.n_row_blocks();
     // Nodes of each aggregate (counting sort, ascending node order).
     let mut aptr = vec![0usize; n_agg + 1];
@@ -71,7 +72,7 @@ pub(crate) fn tentative(a: &Vbr, agg: &[u32], n_agg: usize, b: &[f64], k: usize)
         nodes[next[g as usize]] = i;
         next[g as usize] += 1;
     }
-    let rptr = &a.rptr;
+    let rptr = a.rptr();
     // Per aggregate: Q (rows of its nodes in order, row-major m x k_a) and R (k_a x k).
     let qr: Vec<(Vec<f64>, Vec<f64>, usize)> = (0..n_agg)
         .into_par_iter()
@@ -141,14 +142,14 @@ pub(crate) fn tentative(a: &Vbr, agg: &[u32], n_agg: usize, b: &[f64], k: usize)
             row += rptr[i + 1] - rptr[i];
         }
     }
-    (Vbr::new(rptr.clone(), cptr, bptr, bidx, voff, val), bc)
+    (Vbr::new(rptr.to_vec(), cptr, bptr, bidx, voff, val), bc)
 }
 
 /// `P = T - omega D^{-1} (A T)` (Vanek, Mandel & Brezina 1996, eq. (3.6) with the diagonal
 /// `D` of `A` in place of their filtered matrix; pyamg's `jacobi_prolongation_smoother`
 /// with `filter = False`). `A T` contains the pattern of `T` (the diagonal blocks of `A` are
 /// stored), so `T` is added into the blocks of the product.
-pub(crate) fn smooth(a: &Vbr, t: &Vbr, dinv: &[f64], omega: f64) -> Vbr {
+pub(crate) fn smooth(a: &dyn LevelMatrix, t: &Vbr, dinv: &[f64], omega: f64) -> Vbr {
     let mut w = a.mul(t);
     let rptr = w.rptr.clone();
     let cptr = w.cptr.clone();

@@ -1,7 +1,7 @@
 //! Smoothers (Jacobi-scaled Chebyshev, damped Jacobi) and the spectral radius estimate
 //! `rho(D^{-1} A)` they and the prolongator smoothing need.
 
-use super::vbr::Vbr;
+use super::level::LevelMatrix;
 use rayon::prelude::*;
 
 /// Vector kernels below this length run sequentially (a rayon task costs more).
@@ -12,7 +12,7 @@ const PAR_MIN: usize = 4096;
 /// bound that converges fastest at the spectrum's ends (Saad, *Numerical Methods for Large
 /// Eigenvalue Problems*, ch. 6). No reorthogonalization: lost orthogonality only duplicates
 /// converged Ritz values, it does not move the largest one.
-pub(crate) fn spectral_radius(a: &Vbr, dinv: &[f64], steps: usize) -> f64 {
+pub(crate) fn spectral_radius(a: &dyn LevelMatrix, dinv: &[f64], steps: usize) -> f64 {
     let n = a.nrows();
     let steps = steps.min(n).max(1);
     let sq: Vec<f64> = dinv.iter().map(|d| d.sqrt()).collect();
@@ -127,7 +127,7 @@ impl Smoother {
     #[allow(clippy::too_many_arguments)]
     pub fn smooth(
         &self,
-        a: &Vbr,
+        a: &dyn LevelMatrix,
         b: &[f64],
         x: &mut [f64],
         r: &mut [f64],

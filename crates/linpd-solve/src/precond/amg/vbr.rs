@@ -36,7 +36,7 @@ pub(crate) struct Vbr {
     uniform: Option<usize>,
 }
 
-fn make_groups(bptr: &[usize], voff: &[usize]) -> Vec<usize> {
+pub(crate) fn make_groups(bptr: &[usize], voff: &[usize]) -> Vec<usize> {
     let nb = bptr.len() - 1;
     let mut g = vec![0];
     let mut start = 0;
@@ -100,6 +100,19 @@ impl Vbr {
         let same = |p: &[usize]| p.windows(2).all(|w| w[1] - w[0] == s);
         let uniform = (s > 0 && same(&rptr) && same(&cptr)).then_some(s);
         Vbr { rptr, cptr, bptr, bidx, voff, val, groups, uniform }
+    }
+
+    /// The identity in row and column blocks `rptr`.
+    pub fn identity(rptr: &[usize]) -> Self {
+        let nb = rptr.len() - 1;
+        let mut voff = vec![0];
+        let mut val = Vec::new();
+        for b in 0..nb {
+            let r = rptr[b + 1] - rptr[b];
+            val.extend((0..r * r).map(|p| if p / r == p % r { 1.0 } else { 0.0 }));
+            voff.push(val.len());
+        }
+        Vbr::new(rptr.to_vec(), rptr.to_vec(), (0..=nb).collect(), (0..nb as u32).collect(), voff, val)
     }
 
     /// Scalar rows.
@@ -423,104 +436,126 @@ impl Vbr {
         Vbr::new(self.cptr.clone(), self.rptr.clone(), bptr, bidx, voff, val)
     }
 
-    /// `C = A B` (the column blocks of `A` are the row blocks of `B`), row by row with a
-    /// dense block accumulator per touched column block (Gustavson's algorithm on blocks).
+    /// `C = A B` (the column blocks of `A` are the row blocks of `B`): [`mul_rows`] over the
+    /// stored block rows.
     pub fn mul(&self, bm: &Vbr) -> Vbr {
         debug_assert_eq!(self.cptr, bm.rptr);
-        let nbc = bm.n_col_blocks();
-        let g = &self.groups;
-        let parts: Vec<Part> = (0..g.len() - 1)
-            .into_par_iter()
-            .map_init(
-                || RowAcc { marker: vec![usize::MAX; nbc], cols: Vec::new(), offs: Vec::new(), buf: Vec::new() },
-                |acc, k| {
-                    let mut part = Part::default();
-                    for bi in g[k]..g[k + 1] {
-                        self.mul_row(bm, bi, acc, &mut part);
-                    }
-                    part
-                },
-            )
-            .collect();
-        let nbr = self.n_row_blocks();
-        let total_blocks: usize = parts.iter().map(|p| p.bidx.len()).sum();
-        let total_vals: usize = parts.iter().map(|p| p.val.len()).sum();
-        let mut bptr = Vec::with_capacity(nbr + 1);
-        bptr.push(0);
-        let mut bidx = Vec::with_capacity(total_blocks);
-        let mut voff = Vec::with_capacity(total_blocks + 1);
-        voff.push(0);
-        let mut val = Vec::with_capacity(total_vals);
-        for p in parts {
-            for c in p.blocks_per_row {
-                bptr.push(bptr.last().unwrap() + c);
+        let row = |bi: usize, f: &mut dyn FnMut(usize, &[f64])| {
+            for a in self.bptr[bi]..self.bptr[bi + 1] {
+                f(self.bidx[a] as usize, &self.val[self.voff[a]..self.voff[a + 1]]);
             }
-            bidx.extend_from_slice(&p.bidx);
-            for s in p.sizes {
-                voff.push(voff.last().unwrap() + s);
-            }
-            val.extend_from_slice(&p.val);
-        }
-        Vbr::new(self.rptr.clone(), bm.cptr.clone(), bptr, bidx, voff, val)
+        };
+        mul_rows(&self.rptr, &self.groups, &row, bm)
     }
+}
 
-    fn mul_row(&self, bm: &Vbr, bi: usize, acc: &mut RowAcc, part: &mut Part) {
-        let r = self.rptr[bi + 1] - self.rptr[bi];
-        acc.cols.clear();
-        acc.offs.clear();
-        acc.buf.clear();
-        for a in self.bptr[bi]..self.bptr[bi + 1] {
-            let bj = self.bidx[a] as usize;
-            let cj = self.cptr[bj + 1] - self.cptr[bj];
-            let av = &self.val[self.voff[a]..self.voff[a + 1]];
-            for b in bm.bptr[bj]..bm.bptr[bj + 1] {
-                let bk = bm.bidx[b] as usize;
-                let ck = bm.cptr[bk + 1] - bm.cptr[bk];
-                let slot = if acc.marker[bk] == usize::MAX {
-                    acc.marker[bk] = acc.cols.len();
-                    acc.cols.push(bk as u32);
-                    acc.offs.push(acc.buf.len());
-                    acc.buf.resize(acc.buf.len() + r * ck, 0.0);
-                    acc.cols.len() - 1
-                } else {
-                    acc.marker[bk]
-                };
-                let o = acc.offs[slot];
-                let out = &mut acc.buf[o..o + r * ck];
-                let bv = &bm.val[bm.voff[b]..bm.voff[b + 1]];
-                match (r, cj, ck) {
-                    (3, 3, 6) => block_mul::<3, 3, 6>(av, bv, out),
-                    (3, 3, 3) => block_mul::<3, 3, 3>(av, bv, out),
-                    (2, 2, 3) => block_mul::<2, 2, 3>(av, bv, out),
-                    (6, 3, 6) => block_mul::<6, 3, 6>(av, bv, out),
-                    (6, 6, 6) => block_mul::<6, 6, 6>(av, bv, out),
-                    (3, 2, 3) => block_mul::<3, 2, 3>(av, bv, out),
-                    _ => {
-                        for i in 0..r {
-                            for s in 0..cj {
-                                let x = av[i * cj + s];
-                                let brow = &bv[s * ck..(s + 1) * ck];
-                                for (o, &y) in out[i * ck..(i + 1) * ck].iter_mut().zip(brow) {
-                                    *o += x * y;
-                                }
+/// `C = A B` row block by row block, with a dense block accumulator per touched column block
+/// (Gustavson's algorithm on blocks). Block row `bi` of `A` (scalar rows `rptr[bi]..rptr[bi +
+/// 1]`) is whatever `row(bi, f)` passes to `f(bj, A_{bi bj})` (row-major blocks, each `bj`
+/// once): stored blocks, or blocks computed on demand for a finest level that is never
+/// stored. The row blocks are split into the parallel `groups` (boundaries).
+pub(crate) fn mul_rows<R>(rptr: &[usize], groups: &[usize], row: &R, bm: &Vbr) -> Vbr
+where
+    R: Fn(usize, &mut dyn FnMut(usize, &[f64])) + Sync,
+{
+    let nbc = bm.n_col_blocks();
+    let g = groups;
+    let parts: Vec<Part> = (0..g.len() - 1)
+        .into_par_iter()
+        .map_init(
+            || RowAcc { marker: vec![usize::MAX; nbc], cols: Vec::new(), offs: Vec::new(), buf: Vec::new() },
+            |acc, k| {
+                let mut part = Part::default();
+                for bi in g[k]..g[k + 1] {
+                    mul_row(rptr[bi + 1] - rptr[bi], |f| row(bi, f), bm, acc, &mut part);
+                }
+                part
+            },
+        )
+        .collect();
+    let nbr = rptr.len() - 1;
+    let total_blocks: usize = parts.iter().map(|p| p.bidx.len()).sum();
+    let total_vals: usize = parts.iter().map(|p| p.val.len()).sum();
+    let mut bptr = Vec::with_capacity(nbr + 1);
+    bptr.push(0);
+    let mut bidx = Vec::with_capacity(total_blocks);
+    let mut voff = Vec::with_capacity(total_blocks + 1);
+    voff.push(0);
+    let mut val = Vec::with_capacity(total_vals);
+    for p in parts {
+        for c in p.blocks_per_row {
+            bptr.push(bptr.last().unwrap() + c);
+        }
+        bidx.extend_from_slice(&p.bidx);
+        for s in p.sizes {
+            voff.push(voff.last().unwrap() + s);
+        }
+        val.extend_from_slice(&p.val);
+    }
+    Vbr::new(rptr.to_vec(), bm.cptr.clone(), bptr, bidx, voff, val)
+}
+
+/// One block row (`r` scalar rows) of `A B`: `for_each_block` passes the blocks of the row
+/// of `A` to its argument.
+fn mul_row(
+    r: usize,
+    for_each_block: impl FnOnce(&mut dyn FnMut(usize, &[f64])),
+    bm: &Vbr,
+    acc: &mut RowAcc,
+    part: &mut Part,
+) {
+    acc.cols.clear();
+    acc.offs.clear();
+    acc.buf.clear();
+    for_each_block(&mut |bj: usize, av: &[f64]| {
+        let cj = bm.rptr[bj + 1] - bm.rptr[bj];
+        for b in bm.bptr[bj]..bm.bptr[bj + 1] {
+            let bk = bm.bidx[b] as usize;
+            let ck = bm.cptr[bk + 1] - bm.cptr[bk];
+            let slot = if acc.marker[bk] == usize::MAX {
+                acc.marker[bk] = acc.cols.len();
+                acc.cols.push(bk as u32);
+                acc.offs.push(acc.buf.len());
+                acc.buf.resize(acc.buf.len() + r * ck, 0.0);
+                acc.cols.len() - 1
+            } else {
+                acc.marker[bk]
+            };
+            let o = acc.offs[slot];
+            let out = &mut acc.buf[o..o + r * ck];
+            let bv = &bm.val[bm.voff[b]..bm.voff[b + 1]];
+            match (r, cj, ck) {
+                (3, 3, 6) => block_mul::<3, 3, 6>(av, bv, out),
+                (3, 3, 3) => block_mul::<3, 3, 3>(av, bv, out),
+                (2, 2, 3) => block_mul::<2, 2, 3>(av, bv, out),
+                (6, 3, 6) => block_mul::<6, 3, 6>(av, bv, out),
+                (6, 6, 6) => block_mul::<6, 6, 6>(av, bv, out),
+                (3, 2, 3) => block_mul::<3, 2, 3>(av, bv, out),
+                _ => {
+                    for i in 0..r {
+                        for s in 0..cj {
+                            let x = av[i * cj + s];
+                            let brow = &bv[s * ck..(s + 1) * ck];
+                            for (o, &y) in out[i * ck..(i + 1) * ck].iter_mut().zip(brow) {
+                                *o += x * y;
                             }
                         }
                     }
                 }
             }
         }
-        // Emit the blocks in ascending column-block order.
-        let mut order: Vec<usize> = (0..acc.cols.len()).collect();
-        order.sort_unstable_by_key(|&s| acc.cols[s]);
-        part.blocks_per_row.push(order.len());
-        for s in order {
-            let bk = acc.cols[s] as usize;
-            let ck = bm.cptr[bk + 1] - bm.cptr[bk];
-            part.bidx.push(bk as u32);
-            part.sizes.push(r * ck);
-            part.val.extend_from_slice(&acc.buf[acc.offs[s]..acc.offs[s] + r * ck]);
-            acc.marker[bk] = usize::MAX;
-        }
+    });
+    // Emit the blocks in ascending column-block order.
+    let mut order: Vec<usize> = (0..acc.cols.len()).collect();
+    order.sort_unstable_by_key(|&s| acc.cols[s]);
+    part.blocks_per_row.push(order.len());
+    for s in order {
+        let bk = acc.cols[s] as usize;
+        let ck = bm.cptr[bk + 1] - bm.cptr[bk];
+        part.bidx.push(bk as u32);
+        part.sizes.push(r * ck);
+        part.val.extend_from_slice(&acc.buf[acc.offs[s]..acc.offs[s] + r * ck]);
+        acc.marker[bk] = usize::MAX;
     }
 }
 
