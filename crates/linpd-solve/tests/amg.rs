@@ -384,7 +384,9 @@ fn matrix_free_hierarchy_is_the_assembled_one() {
         free.apply(&b, &mut zf);
         let diff = za.iter().zip(&zf).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
         assert!(diff <= 1e-9 * norm(&za), "{dim}D cycle differs by {diff:e}");
-        let params = CgParams { rtol: 1e-10, max_iter: 200 };
+        // 1e-8: rounding keeps the true residual of the 3D case at 2.2e-9, and CG (which checks
+        // the true residual) refuses a tolerance below that.
+        let params = CgParams { rtol: 1e-8, max_iter: 200 };
         let (mut ua, mut uf) = (vec![0.0; b.len()], vec![0.0; b.len()]);
         let ia = pcg(&SymCsc(&a), &assembled, &b, &mut ua, &params).unwrap();
         let reduced = linpd_solve::ReducedOperator::new(&full, &dofs);
