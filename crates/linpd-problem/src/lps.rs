@@ -22,7 +22,8 @@ pub const CG_NEAR_INCOMPRESSIBLE_NU: f64 = 0.499;
 pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
     let t0 = Instant::now();
     let grid = p.lattice()?;
-    crate::memory::check(crate::memory::Path::LpsAssembled, grid, params.horizon)?;
+    let multigrid = p.solver.uses_multigrid();
+    crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, params.horizon, multigrid)?;
     progress(&format!(
         "building the LPS model: {} nodes, horizon/spacing = {:.3}",
         grid.len(),

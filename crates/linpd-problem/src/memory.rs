@@ -122,9 +122,30 @@ pub fn estimate(path: Path, grid: &Grid, horizon: f64) -> (String, f64) {
     }
 }
 
+/// Per DOF, the multigrid hierarchy on top of its path: `P`, `R = P^T`, the coarse levels and
+/// the transient `A P` of the setup (measured peaks over Jacobi-PCG's in the same run,
+/// `linpd bench --statics`: 3D `delta = 3h` 2.9-3.4 kB, 2D `delta = 2h` 0.9 kB; 1D: the
+/// 2D figure, an upper bound).
+pub fn multigrid_dof_bytes(dim: usize) -> f64 {
+    if dim == 3 {
+        3500.0
+    } else {
+        1000.0
+    }
+}
+
 /// `Err` (at `model.horizon`) when `path` would not fit in the available memory.
 pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<(), ProblemError> {
-    let (what, bytes) = estimate(path, grid, horizon);
+    check_solver(path, grid, horizon, false)
+}
+
+/// [`check`] with the multigrid hierarchy counted when `multigrid` (the solver is known).
+pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> Result<(), ProblemError> {
+    let (mut what, mut bytes) = estimate(path, grid, horizon);
+    if multigrid {
+        bytes += (grid.len() * grid.dim()) as f64 * multigrid_dof_bytes(grid.dim());
+        what += " and its multigrid hierarchy";
+    }
     let hint = match path {
         Path::BondAssembled => "use a coarser spacing, a smaller horizon or the matrix-free cg solver",
         _ => "use a coarser spacing or a smaller horizon",

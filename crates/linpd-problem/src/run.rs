@@ -110,7 +110,8 @@ impl Problem {
             linpd_solve::SolverSpec::Cg { matrix_free: true, .. } => crate::memory::Path::BondMatrixFree,
             _ => crate::memory::Path::BondAssembled,
         };
-        crate::memory::check(path, self.lattice()?, self.bond_model()?.horizon)?;
+        let multigrid = self.solver.uses_multigrid();
+        crate::memory::check_solver(path, self.lattice()?, self.bond_model()?.horizon, multigrid)?;
         let t0 = Instant::now();
         progress(&format!(
             "building bonds: {} nodes, horizon/spacing = {:.3}",
