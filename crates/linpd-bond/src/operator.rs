@@ -13,6 +13,8 @@ pub struct BondOperator {
     /// exact, instead of `x_j - x_i`, which loses `log10(|x| / |xi|)` digits to the rounding of
     /// the positions (150 eps at x = 0.5 with h = 1/300).
     lattice: Option<(Vec<[i32; 3]>, f64)>,
+    /// Unit bond vectors by lattice offset ([`UnitTable`]), when on a lattice.
+    units: Option<UnitTable>,
     family: BondFamily,
     /// `w_ij = lambda_ij nu_ij V_i V_j`, indexed like the family's neighbour lists.
     weights: Vec<f64>,
@@ -88,7 +90,8 @@ impl BondOperator {
                 })
             })
             .collect();
-        Ok(BondOperator { dim, positions, lattice: Some((lattice, h)), family, weights })
+        let units = UnitTable::new(dim, ratio, h);
+        Ok(BondOperator { dim, positions, lattice: Some((lattice, h)), units, family, weights })
     }
 
     /// Builds an operator from explicit parts (weights indexed like `family`'s bonds and
@@ -96,7 +99,7 @@ impl BondOperator {
     pub fn from_parts(dim: usize, positions: Vec<Point>, family: BondFamily, weights: Vec<f64>) -> Self {
         assert_eq!(family.n_bonds(), weights.len(), "one weight per bond");
         assert_eq!(family.len(), positions.len(), "one position per node");
-        BondOperator { dim, positions, lattice: None, family, weights }
+        BondOperator { dim, positions, lattice: None, units: None, family, weights }
     }
 
     /// Spatial dimension = DOFs per node.
@@ -148,6 +151,9 @@ impl BondOperator {
     /// Unit bond vector `e_ij` (first `dim` entries meaningful).
     #[inline]
     pub fn unit(&self, i: usize, j: usize) -> [f64; 3] {
+        if let (Some((k, _)), Some(t)) = (&self.lattice, &self.units) {
+            return t.get(&k[i], &k[j]);
+        }
         let mut e = self.bond_vector(i, j);
         let r = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
         e.iter_mut().for_each(|v| *v /= r);
@@ -235,4 +241,57 @@ pub fn pmb_force(op: &BondOperator, u: &[f64]) -> Vec<f64> {
         }
     });
     f
+}
+
+/// Unit bond vectors `e = k h / |k h|` of the lattice offsets `k` in `[-r, r]^dim`: a lattice
+/// has a few hundred distinct bond directions, and `unit` runs in every product, assembly and
+/// stiffness block, so they are computed once (with the same arithmetic as per bond: the
+/// results are bitwise identical) instead of a square root and divisions per bond and use.
+#[derive(Debug, Clone)]
+struct UnitTable {
+    dim: usize,
+    r: i32,
+    units: Vec<[f64; 3]>,
+}
+
+impl UnitTable {
+    /// Tables above this many offsets are not built (`unit` then computes per bond).
+    const MAX_OFFSETS: usize = 1 << 20;
+
+    fn new(dim: usize, ratio: f64, h: f64) -> Option<Self> {
+        let r = ratio.ceil() as i64 + 1;
+        let w = (2 * r + 1) as usize;
+        let size = (0..dim).try_fold(1usize, |s, _| s.checked_mul(w))?;
+        if size > Self::MAX_OFFSETS {
+            return None;
+        }
+        let r = r as i32;
+        let units = (0..size)
+            .map(|idx| {
+                let mut e = [0.0; 3];
+                let mut q = idx;
+                for v in e.iter_mut().take(dim) {
+                    *v = ((q % w) as i32 - r) as f64 * h;
+                    q /= w;
+                }
+                let n = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+                if n > 0.0 {
+                    e.iter_mut().for_each(|v| *v /= n);
+                }
+                e
+            })
+            .collect();
+        Some(UnitTable { dim, r, units })
+    }
+
+    /// `e_ij` for the lattice indices `ki`, `kj` (within the table's reach).
+    #[inline]
+    fn get(&self, ki: &[i32; 3], kj: &[i32; 3]) -> [f64; 3] {
+        let w = 2 * self.r + 1;
+        let mut idx = 0;
+        for a in (0..self.dim).rev() {
+            idx = idx * w + (kj[a] - ki[a] + self.r);
+        }
+        self.units[idx as usize]
+    }
 }
