@@ -394,5 +394,20 @@ fn broken_pipe_no_panic() {
     assert!(!e.contains("panicked"), "{e}");
     assert_eq!(o.status.code(), Some(0), "{e}");
     complete_run(&root.join("out")).unwrap();
+    // A study whose table reader is gone still writes all its files.
+    let mut child = bin()
+        .args(["study", "coarsen-tent", "--out", "study"])
+        .current_dir(&root)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{e}");
+    for f in ["data.json", "fig3_micromodulus.png", "fig3_micromodulus.svg"] {
+        assert!(root.join("study").join(f).is_file(), "study: no {f}");
+    }
     let _ = std::fs::remove_dir_all(&root);
 }

@@ -383,10 +383,39 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let study = Study::from_name(&name).ok_or_else(|| CliError::UnknownStudy(name.clone()))?;
             let dir = out.unwrap_or_else(|| study.default_out_dir());
             study
-                .run(&dir, &StudyOptions { dense: !no_dense }, &mut std::io::stdout().lock())
+                .run(&dir, &StudyOptions { dense: !no_dense }, &mut UntilClosed(Some(std::io::stdout().lock())))
                 .map_err(|source| CliError::Study { name, source })?;
             say!("wrote {}", dir.display())?;
             Ok(())
+        }
+    }
+}
+
+/// A study's table stream that stops writing when the reader goes away (`linpd study NAME |
+/// head`): the study still writes all its files, it only loses the rest of its table.
+struct UntilClosed<W>(Option<W>);
+
+impl<W: std::io::Write> std::io::Write for UntilClosed<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let Some(w) = &mut self.0 else { return Ok(buf.len()) };
+        match w.write(buf) {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                self.0 = None;
+                Ok(buf.len())
+            }
+            other => other,
+        }
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        match &mut self.0 {
+            Some(w) => match w.flush() {
+                Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                    self.0 = None;
+                    Ok(())
+                }
+                other => other,
+            },
+            None => Ok(()),
         }
     }
 }
