@@ -386,6 +386,8 @@ fn matrix_free_hierarchy_is_the_assembled_one() {
         assert!(diff <= 1e-9 * norm(&za), "{dim}D cycle differs by {diff:e}");
         // 1e-8: rounding keeps the true residual of the 3D case at 2.2e-9, and CG (which checks
         // the true residual) refuses a tolerance below that.
+        // 1e-8, not tighter: CG now checks the true residual, which stalls at 2.2e-9 on the
+        // 3D case (round-off of `||A|| ||u||`); the iteration counts compared are exact.
         let params = CgParams { rtol: 1e-8, max_iter: 200 };
         let (mut ua, mut uf) = (vec![0.0; b.len()], vec![0.0; b.len()]);
         let ia = pcg(&SymCsc(&a), &assembled, &b, &mut ua, &params).unwrap();
@@ -400,7 +402,6 @@ fn matrix_free_hierarchy_is_the_assembled_one() {
 #[test]
 fn matrix_free_needs_the_model_blocks() {
     let (op, dofs, _) = lattice_model(2, 6, 2.0, [0.0; 3], &Material::default(), |k, _| k[0] < 2, [0.0; 3]);
-    let a = assemble(&op, &dofs);
     let k = linpd_core::AssembledModel::new(
         "coarsened",
         2,
@@ -410,5 +411,4 @@ fn matrix_free_needs_the_model_blocks() {
     let full = linpd_core::ModelOperator(&k);
     let e = Amg::matrix_free(&k, &dofs, &full, &AmgParams::default()).unwrap_err();
     assert!(matches!(&e, AmgError::Input(m) if m.contains("coarsened model does not provide")), "{e}");
-    assert!(a.nrows() > 0);
 }

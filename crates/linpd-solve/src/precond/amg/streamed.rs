@@ -28,6 +28,8 @@ pub(crate) struct Streamed<'a> {
     groups: Vec<usize>,
     /// Entries of `A_ff`, counted by the first pass over all blocks.
     nnz: std::sync::OnceLock<usize>,
+    /// `A x` of [`LevelMatrix::matvec_sub`].
+    scratch: std::sync::Mutex<Vec<f64>>,
 }
 
 impl<'a> Streamed<'a> {
@@ -62,6 +64,7 @@ impl<'a> Streamed<'a> {
             partial,
             groups: Vec::new(),
             nnz: std::sync::OnceLock::new(),
+            scratch: std::sync::Mutex::new(Vec::new()),
         };
         // Whether the model has blocks at all (it has them for every node or for none).
         if nb > 0 {
@@ -135,10 +138,13 @@ impl LevelMatrix for Streamed<'_> {
     fn matvec(&self, x: &[f64], y: &mut [f64]) {
         self.op.apply(x, y)
     }
+    /// Through a scratch vector kept between calls (twice per V-cycle on the finest level;
+    /// the cycle runs on one thread at a time, like CG's products).
     fn matvec_sub(&self, x: &[f64], y: &mut [f64]) {
-        let mut t = vec![0.0; y.len()];
+        let mut t = self.scratch.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        t.resize(y.len(), 0.0);
         self.op.apply(x, &mut t);
-        y.par_iter_mut().zip(&t).for_each(|(y, t)| *y -= t);
+        y.par_iter_mut().zip(t.par_iter()).for_each(|(y, t)| *y -= t);
     }
     /// As [`super::aggregate::strong_neighbours`], from one pass over the blocks (two when
     /// `theta > 0`: the diagonal blocks' norms first); counts the entries of `A_ff`.
