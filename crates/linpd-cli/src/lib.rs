@@ -299,7 +299,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
                     p.dim(),
                     p.nodes().len(),
                     c.n_bonds(),
-                    if c.is_symmetric() { "symmetric".to_string() } else { format!("unsymmetric (relative asymmetry {:.2e})", c.asymmetry()) },
+                    c.symmetry(),
                     constrained,
                     p.loads().len()
                 )?,
