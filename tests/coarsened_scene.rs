@@ -342,7 +342,8 @@ fn item_7_a_level_loaded_back_reproduces_the_pipeline() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 
     // the pipeline's scene, on the coarsest level
-    let mut scene: Value = serde_json::from_str(&std::fs::read_to_string("data/coarsen-plate-2d.json").unwrap()).unwrap();
+    let mut scene: Value =
+        serde_json::from_str(&std::fs::read_to_string("data/coarsen-plate-2d.json").unwrap()).unwrap();
     let obj = scene.as_object_mut().unwrap();
     obj.remove("grid");
     obj.insert("model".into(), json!({"type": "coarsened", "moduli": out.join("level-2.mtx").to_string_lossy()}));

@@ -158,11 +158,61 @@ fn positive(path: &str, x: f64) -> Result<f64, ProblemError> {
     }
 }
 
+/// Most snapshots a run keeps (each is `d n` values in memory until the run ends, for the
+/// plots, and a `u_<step>.csv` plus a `u_<step>.vtk` file): 10,000, a frame per 0.01 % of the
+/// run, more than any plot or animation shows.
+pub const MAX_SNAPSHOTS: usize = 10_000;
+
+/// Most bond updates (`steps x nodes x bonds per node`) a run may ask for: 1e14, i.e. 1.3 to 3.8
+/// days at the 3e8-8.6e8 bond updates per second `linpd bench --dynamics` measures (2 cores,
+/// docs/benchmarks.md). A runaway guard against `"steps": 1e18`-sized typos, not a policy: any
+/// run a session can wait for is far below it.
+pub const MAX_BOND_UPDATES: f64 = 1e14;
+
+/// Refuses runs that cannot finish (see [`MAX_BOND_UPDATES`]) or whose snapshots would not fit
+/// ([`MAX_SNAPSHOTS`], and their bytes against the available memory) before anything runs.
+fn check_run_size(
+    steps: usize,
+    output_every: usize,
+    dim: usize,
+    n_nodes: usize,
+    horizon_ratio: f64,
+) -> Result<(), ProblemError> {
+    let per_step = n_nodes as f64 * crate::memory::neighbours(dim, horizon_ratio).max(1.0);
+    let work = steps as f64 * per_step;
+    if work > MAX_BOND_UPDATES {
+        return Err(ProblemError::invalid(
+            "dynamics.steps",
+            format!(
+                "{steps:e} steps x {per_step:e} bond updates per step = {work:e}, more than {MAX_BOND_UPDATES:e}                  (days at the measured 3e8-8.6e8 bond updates per second): use fewer steps or nodes"
+            ),
+        ));
+    }
+    let snapshots = steps / output_every + 1;
+    if snapshots > MAX_SNAPSHOTS {
+        return Err(ProblemError::invalid(
+            "dynamics.output_every",
+            format!(
+                "{steps} steps every {output_every} gives {snapshots} snapshots (each kept in memory and written as                  two files), more than {MAX_SNAPSHOTS}: use output_every >= {}",
+                steps.div_ceil(MAX_SNAPSHOTS - 1)
+            ),
+        ));
+    }
+    let bytes = snapshots as f64 * (dim * n_nodes) as f64 * 8.0;
+    linpd_core::memory::check(
+        format!("{snapshots} displacement snapshots of {n_nodes} nodes"),
+        bytes,
+        "use a larger output_every",
+    )
+    .map_err(|e| ProblemError::invalid("dynamics.output_every", e.to_string()))
+}
+
 /// Validates `dynamics` (shape was checked by serde).
 pub(crate) fn validate(
     raw: &RawDynamics,
     dim: usize,
     n_nodes: usize,
+    horizon_ratio: f64,
     kind: RawModelKind,
 ) -> Result<Dynamics, ProblemError> {
     if kind != RawModelKind::Bond {
@@ -193,6 +243,7 @@ pub(crate) fn validate(
         Some(k) => k,
         None => (raw.steps / 10).max(1),
     };
+    check_run_size(raw.steps, output_every, dim, n_nodes, horizon_ratio)?;
     let initial = match &raw.initial {
         None => Initial::Rest,
         Some(i) => initial(i, dim, n_nodes)?,

@@ -132,8 +132,7 @@ fn inv(path: impl Into<String>, reason: impl Into<String>) -> ProblemError {
 impl Pipeline {
     /// Reads and validates a pipeline file (and its scene).
     pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
+        let text = crate::problem::read_json_file(path)?;
         let raw: RawPipeline = crate::problem::parse_json(&text)?;
         let base = path.parent().unwrap_or(Path::new("."));
         Self::from_raw(raw, base)
@@ -193,6 +192,11 @@ impl Pipeline {
                             if !(v.is_finite() && v > 0.0) {
                                 return Err(inv(p(k), format!("must be > 0, got {v:e}")));
                             }
+                        }
+                    }
+                    if let (Some(start), Some(max)) = (l.radius_start, l.radius_max) {
+                        if max < start {
+                            return Err(inv(p("radius_max"), format!("{max:e} is below radius_start {start:e}")));
                         }
                     }
                     Radius::Auto { tol, start: l.radius_start, growth, max: l.radius_max }

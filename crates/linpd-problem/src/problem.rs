@@ -273,6 +273,41 @@ pub(crate) fn check_model_keys(model: &RawModel) -> Result<(), ProblemError> {
 }
 
 /// Parses scene text into the serde mirror; syntax and shape errors carry line, column and path.
+/// Largest scene or pipeline file read: 16 MiB. A scene is a few hundred bytes of keys (node
+/// data lives in the files it names), so anything larger is a wrong file, and the limit keeps
+/// `linpd validate /dev/urandom` from reading forever.
+pub const MAX_JSON_BYTES: u64 = 16 << 20;
+
+/// Reads a scene or pipeline file: a regular file (not a device, FIFO or directory) of at most
+/// [`MAX_JSON_BYTES`], in UTF-8.
+pub(crate) fn read_json_file(path: &Path) -> Result<String, ProblemError> {
+    use std::io::Read;
+    let err = |source| ProblemError::Io { path: path.display().to_string(), source };
+    let other = |m: String| err(std::io::Error::new(std::io::ErrorKind::InvalidInput, m));
+    let meta = std::fs::metadata(path).map_err(err)?;
+    if !meta.is_file() {
+        return Err(other("not a regular file (a scene or pipeline is a JSON file)".into()));
+    }
+    if meta.len() > MAX_JSON_BYTES {
+        return Err(other(format!(
+            "{} bytes, more than a scene or pipeline file may hold ({MAX_JSON_BYTES})",
+            meta.len()
+        )));
+    }
+    // `take`: a file that grows while it is read still stops at the limit
+    let mut bytes = Vec::new();
+    std::fs::File::open(path).and_then(|f| f.take(MAX_JSON_BYTES + 1).read_to_end(&mut bytes)).map_err(err)?;
+    if bytes.len() as u64 > MAX_JSON_BYTES {
+        return Err(other(format!("more than {MAX_JSON_BYTES} bytes, more than a scene or pipeline file may hold")));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        other(format!(
+            "not UTF-8 text (invalid byte at offset {}): a scene or pipeline is a JSON file",
+            e.utf8_error().valid_up_to()
+        ))
+    })
+}
+
 pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, ProblemError> {
     if is_pipeline(text) {
         return Err(ProblemError::invalid(
@@ -340,8 +375,7 @@ impl Problem {
 
     /// Reads and validates a scene file (relative file names in it start at its directory).
     pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
+        let text = read_json_file(path)?;
         Self::from_json_in(&text, path.parent().unwrap_or(Path::new("")))
     }
 
@@ -480,7 +514,7 @@ impl Problem {
         };
         let dynamics = match &raw.dynamics {
             None => None,
-            Some(d) => Some(crate::dynamics::validate(d, dim, grid.len(), model_kind)?),
+            Some(d) => Some(crate::dynamics::validate(d, dim, grid.len(), ratio, model_kind)?),
         };
         Ok(Problem {
             dynamics,
@@ -703,6 +737,39 @@ impl NodeSet for LevelNodes {
 
 /// The nodes a scene's regions and point loads refer to: a lattice, or the nodes of a
 /// coarsened level.
+/// Two constraints that prescribe one DOF must prescribe the same value (to `1e-12` relative:
+/// overlapping regions of one affine field written twice agree to rounding); otherwise the later
+/// would silently win. The error names both constraints, the node and the two values.
+fn check_constraints_agree(constraints: &[Constraint], dim: usize, nodes: &dyn NodeSet) -> Result<(), ProblemError> {
+    let mut first: std::collections::HashMap<(usize, usize), (usize, f64)> = Default::default();
+    for (k, c) in constraints.iter().enumerate() {
+        for node in nodes.select(&c.region) {
+            let x = nodes.position(node);
+            for &a in &c.components {
+                let u = c.displacement(&x[..dim], a);
+                match first.entry((node, a)) {
+                    std::collections::hash_map::Entry::Vacant(e) => {
+                        e.insert((k, u));
+                    }
+                    std::collections::hash_map::Entry::Occupied(e) => {
+                        let (j, v) = *e.get();
+                        if (u - v).abs() > 1e-12 * u.abs().max(v.abs()) {
+                            return Err(ProblemError::invalid(
+                                format!("constraints[{k}]"),
+                                format!(
+                                    "prescribes u_{a} = {u:e} at node {node} (x = {:?}), where constraints[{j}] prescribes {v:e}: constraints that share a DOF must agree",
+                                    &x[..dim]
+                                ),
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 pub(crate) trait NodeSet {
     /// `"the grid"`, `"the coarsened level"` (for messages).
     fn what(&self) -> &'static str;
@@ -779,6 +846,7 @@ pub(crate) fn constraints_and_loads(
         }
         constraints.push(cons);
     }
+    check_constraints_agree(&constraints, dim, nodes)?;
 
     let mut loads = Vec::new();
     for (k, l) in raw.loads.iter().enumerate() {
