@@ -261,18 +261,20 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let dir = staged.target().to_path_buf();
             let files = staged.commit("history.json", run.history_json(), &identity).map_err(output)?;
             say!(
-                "{}: {} steps of dt = {:.4e} ({:.4} of dt_max = {:.4e}), {} DOFs ({} held), {} bonds; {:.3} s: {:.3e} steps/s, {:.3e} bond updates/s; energy drift max |E/E0 - 1| = {:.2e}, shadow {:.2e}",
+                "{}: {} steps of dt = {:.4e} ({:.4} of dt_max = {:.4e}, estimated in {:.3} s), {} DOFs ({} held), {} bonds; {:.3} s: {:.3e} steps/s, {:.3e} bond updates/s; relative to E_ref = {:.4e}: E_k + E_p oscillates by {:.2e} (O(dt^2), bounded), shadow energy drift {:.2e}",
                 run.name,
                 run.steps,
                 run.dt,
                 run.dt / run.limit.dt,
                 run.limit.dt,
+                run.limit.seconds,
                 run.n_dofs,
                 run.n_fixed,
                 run.n_bonds,
                 run.wall_seconds,
                 run.steps_per_second(),
                 run.bond_updates_per_second(),
+                run.energy_scale(),
                 run.max_total_drift(),
                 run.max_shadow_drift(),
             )?;

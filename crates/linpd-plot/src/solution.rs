@@ -70,7 +70,9 @@ pub fn dynamics_plots(r: &DynamicsRun, dir: &Path) -> Result<Vec<PathBuf>, PlotE
     let series = vec![
         Series::new("kinetic", t.clone(), r.energies.iter().map(|e| e.kinetic).collect()),
         Series::new("potential", t.clone(), r.energies.iter().map(|e| e.potential).collect()),
-        Series::new("total", t.clone(), r.energies.iter().map(|e| e.total()).collect()),
+        Series::new("total E_k + E_p", t.clone(), r.energies.iter().map(|e| e.total()).collect()),
+        // the energy velocity Verlet conserves exactly (the total oscillates around it)
+        Series::new("shadow (conserved)", t.clone(), r.energies.iter().map(|e| e.shadow).collect()),
     ];
     let plot = LinePlot {
         title: format!("{}: energies", r.name),
