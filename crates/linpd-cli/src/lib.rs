@@ -370,7 +370,9 @@ fn run(cli: Cli) -> Result<(), CliError> {
         }
         Command::Bench(args) => {
             let doc = linpd_bench::run(&args)?;
-            linpd_bench::print_table(&doc);
+            // a closed stdout (`linpd bench | head`) only cuts the table: the document is written
+            linpd_bench::print_table(&doc, &mut UntilClosed(Some(std::io::stdout().lock())))
+                .map_err(CliError::Stdout)?;
             say!("wrote {}", args.out.display())?;
             Ok(())
         }
