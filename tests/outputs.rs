@@ -65,7 +65,7 @@ fn names(dir: &Path) -> Vec<String> {
 /// every other file with its size, and (for `solve`) a u.csv of the nodes in result.json with
 /// the same displacements. Returns the main document.
 fn complete_run(dir: &Path) -> Result<Value, String> {
-    let main = ["result.json", "history.json", "summary.json"]
+    let main = ["result.json", "history.json", "summary.json", "data.json"]
         .into_iter()
         .find(|m| dir.join(m).exists())
         .ok_or_else(|| format!("{}: no main document in {:?}", dir.display(), names(dir)))?;
@@ -409,5 +409,37 @@ fn broken_pipe_no_panic() {
     for f in ["data.json", "fig3_micromodulus.png", "fig3_micromodulus.svg"] {
         assert!(root.join("study").join(f).is_file(), "study: no {f}");
     }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Studies write all of their files or none, like the other commands: `data.json` is the main
+/// document (its `run.files` lists every figure), a second run replaces the first as a whole
+/// (a figure the first run wrote and the second did not does not survive), and a directory
+/// holding a file linpd did not write is refused with nothing written.
+#[test]
+fn study_outputs_atomic() {
+    let root = temp_dir("study-atomic");
+    let o = linpd(&["study", "coarsen-tent", "--out", "s"], &root);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc = complete_run(&root.join("s")).unwrap();
+    assert!(doc["run"]["linpd_version"].is_string());
+    // a stale figure listed as ours (as an earlier run with more figures would have left it)
+    let mut doc = doc;
+    std::fs::write(root.join("s").join("old_figure.png"), b"old").unwrap();
+    doc["run"]["files"].as_array_mut().unwrap().push(serde_json::json!({"name": "old_figure.png", "bytes": 3}));
+    std::fs::write(root.join("s").join("data.json"), doc.to_string()).unwrap();
+    let o = linpd(&["study", "coarsen-tent", "--out", "s"], &root);
+    assert!(o.status.success(), "{}", stderr(&o));
+    complete_run(&root.join("s")).unwrap();
+    assert!(!root.join("s").join("old_figure.png").exists(), "stale figure survived");
+    assert!(leftovers(&root.join("s"), &[]).is_empty(), "{:?}", leftovers(&root.join("s"), &[]));
+    // a foreign file: refused, nothing written or removed
+    std::fs::write(root.join("s").join("notes.txt"), b"mine").unwrap();
+    let before = names(&root.join("s"));
+    let o = linpd(&["study", "coarsen-tent", "--out", "s"], &root);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("notes.txt"), "{}", stderr(&o));
+    assert_eq!(names(&root.join("s")), before);
+    assert!(leftovers(&root.join("s"), &[]).is_empty(), "{:?}", leftovers(&root.join("s"), &[]));
     let _ = std::fs::remove_dir_all(&root);
 }

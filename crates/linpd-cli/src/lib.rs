@@ -386,9 +386,18 @@ fn run(cli: Cli) -> Result<(), CliError> {
             // clap accepted the name, so it is `list` or a study.
             let study = Study::from_name(&name).ok_or_else(|| CliError::UnknownStudy(name.clone()))?;
             let dir = out.unwrap_or_else(|| study.default_out_dir());
+            // all of a study's files or none, as for the other commands: staged, then swapped
+            // into place with data.json as the main document
+            let staged = OutputDir::begin(&dir).map_err(output)?;
             study
-                .run(&dir, &StudyOptions { dense: !no_dense }, &mut UntilClosed(Some(std::io::stdout().lock())))
+                .run(
+                    staged.path(),
+                    &StudyOptions { dense: !no_dense },
+                    &mut UntilClosed(Some(std::io::stdout().lock())),
+                )
                 .map_err(|source| CliError::Study { name, source })?;
+            let identity = RunIdentity::of_inputs(&[]).map_err(output)?;
+            staged.commit_staged("data.json", &identity).map_err(output)?;
             say!("wrote {}", dir.display())?;
             Ok(())
         }
