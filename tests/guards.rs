@@ -74,7 +74,7 @@ fn assert_rejected(what: &str, out: &Output, took: Duration, needles: &[&str]) {
 /// LPS 3D 60^3 with delta = 2h: the tangent's reach is 2 delta (~185 coupled nodes per node,
 /// 11.8 GiB), not the bond neighbourhood (~32, 1.5 GiB, which an 8 GiB machine would accept).
 #[test]
-fn lps_memory_guard_counts_two_delta() {
+fn item_3_lps_memory_guard_counts_two_delta() {
     let h = 1.0 / 60.0;
     let lps = json!({"type": "lps", "horizon": 2.0 * h, "bulk_modulus": 2.0, "shear_modulus": 0.5});
     let (out, took) = linpd("validate", "lps60", &scene(3, h, lps, json!({"type": "cg"})));
@@ -89,7 +89,7 @@ fn lps_memory_guard_counts_two_delta() {
 /// Matrix-free 3D 130^3 (delta = 4h, 256 bonds a node) and a 1D matrix-free bar of 6e8 nodes:
 /// bonds, weights and the CG vectors are counted (the old guard counted 12 bytes a bond).
 #[test]
-fn matrix_free_memory_guard_counts_vectors() {
+fn item_3_matrix_free_memory_guard_counts_vectors() {
     let h = 1.0 / 130.0;
     let mf = json!({"type": "cg", "matrix_free": true});
     let (out, took) = linpd("validate", "mf130", &scene(3, h, bond(4.0 * h, 1.0), mf.clone()));
@@ -104,7 +104,7 @@ fn matrix_free_memory_guard_counts_vectors() {
 /// machine with matrix-free Jacobi-PCG (validation passes) but not with matrix-free multigrid,
 /// which is refused at solve time before the bonds are built.
 #[test]
-fn multigrid_memory_guard_counts_the_hierarchy() {
+fn item_3_multigrid_memory_guard_counts_the_hierarchy() {
     let h = 1.0 / 110.0;
     let mg = json!({"type": "cg", "matrix_free": true, "preconditioner": "multigrid"});
     let s = scene(3, h, bond(3.0 * h, 1.0), mg);
@@ -117,7 +117,7 @@ fn multigrid_memory_guard_counts_the_hierarchy() {
 /// CG whose recursive residual meets rtol but whose true residual cannot (1D bar of 1000
 /// nodes, rtol 1e-13): a named error and a non-zero exit, not success at 1e-10.
 #[test]
-fn cg_true_residual_checked() {
+fn item_4_cg_true_residual_checked() {
     let h = 0.001;
     let cg = json!({"type": "cg", "rtol": 1e-13});
     let (out, _) = linpd("solve", "cg-tight", &scene(1, h, bond(3.0 * h, 1.0), cg));
@@ -133,7 +133,7 @@ fn cg_true_residual_checked() {
 /// A point force of 1e308 with prescribed displacements of 1e300 (and variants): the source of
 /// the non-finite value is named, never a NaN residual with exit 0.
 #[test]
-fn nan_load_is_an_error() {
+fn item_4_nan_load_is_an_error() {
     let base = |modulus: f64, force: f64, prescribed: f64| {
         let mut s = scene(1, 0.1, bond(0.2, modulus), json!({"type": "auto"}));
         s["constraints"][0]["displacement"]["value"] = json!([prescribed]);
@@ -157,7 +157,7 @@ fn nan_load_is_an_error() {
 /// of 1e308 (was "Poisson ratio = NaN"), and a coarsened level with node volumes of 1e300
 /// (was "every DOF is constrained": the region tolerance grew with the volumes).
 #[test]
-fn modulus_overflow_named() {
+fn item_5_modulus_overflow_named() {
     let s = scene(1, 0.1, bond(0.2, 1e308), json!({"type": "auto"}));
     let e = Problem::from_json(&s.to_string()).unwrap_err().to_string();
     assert!(e.contains("model.micromodulus") && e.contains("modulus 1e308 overflows"), "{e}");
@@ -199,7 +199,7 @@ fn modulus_overflow_named() {
 
 /// `grid.layer: 1e300` is an error naming the layer, not a wrapped count of "99 nodes".
 #[test]
-fn grid_layer_overflow_is_an_error() {
+fn item_5_grid_layer_overflow_is_an_error() {
     let mut s = scene(1, 0.1, bond(0.2, 1.0), json!({"type": "auto"}));
     s["grid"]["layer"] = json!(1e300);
     let e = Problem::from_json(&s.to_string()).unwrap_err().to_string();

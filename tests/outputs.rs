@@ -120,7 +120,7 @@ fn spawn_solve(scene: &str, out: &Path) -> Child {
 }
 
 #[test]
-fn outputs_atomic_on_failure() {
+fn item_1_outputs_atomic_on_failure() {
     let root = temp_dir("failure");
     let out = root.join("out");
     let o = linpd(&["solve", &data("bar-point-load.json"), "--out", "out", "-q"], &root);
@@ -168,7 +168,7 @@ fn outputs_atomic_on_failure() {
 }
 
 #[test]
-fn concurrent_runs_do_not_interleave() {
+fn item_1_concurrent_runs_do_not_interleave() {
     let root = temp_dir("concurrent");
     let out = root.join("out");
     let a = write_json(&root.join("a.json"), &bar_scene("a", 100_000, 1.0));
@@ -196,7 +196,7 @@ fn concurrent_runs_do_not_interleave() {
 }
 
 #[test]
-fn killed_run_leaves_old_results() {
+fn item_1_killed_run_leaves_old_results() {
     let root = temp_dir("killed");
     let out = root.join("out");
     let o = linpd(&["solve", &data("bar-point-load.json"), "--out", "out", "-q"], &root);
@@ -229,7 +229,7 @@ fn killed_run_leaves_old_results() {
 }
 
 #[test]
-fn stale_files_removed() {
+fn item_1_stale_files_removed() {
     let root = temp_dir("stale");
     // solve: plots, then none.
     let mut scene: Value =
@@ -289,7 +289,7 @@ fn fnv1a64(bytes: &[u8]) -> u64 {
 }
 
 #[test]
-fn result_json_carries_run_identity() {
+fn item_1_result_json_carries_run_identity() {
     let root = temp_dir("identity");
     let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().as_secs();
     let cases = [
@@ -319,7 +319,7 @@ fn result_json_carries_run_identity() {
 }
 
 #[test]
-fn trailing_garbage_rejected() {
+fn item_6_trailing_garbage_rejected() {
     let root = temp_dir("trailing");
     let scene = std::fs::read_to_string(data("bar-point-load.json")).unwrap();
     let lines = scene.trim_end().lines().count();
@@ -347,7 +347,7 @@ fn trailing_garbage_rejected() {
 }
 
 #[test]
-fn output_name_confined() {
+fn item_6_output_name_confined() {
     let root = temp_dir("confined");
     let work = root.join("a/b/work");
     std::fs::create_dir_all(&work).unwrap();
@@ -417,7 +417,7 @@ fn broken_pipe_no_panic() {
 /// (a figure the first run wrote and the second did not does not survive), and a directory
 /// holding a file linpd did not write is refused with nothing written.
 #[test]
-fn study_outputs_atomic() {
+fn item_1_study_outputs_atomic() {
     let root = temp_dir("study-atomic");
     let o = linpd(&["study", "coarsen-tent", "--out", "s"], &root);
     assert!(o.status.success(), "{}", stderr(&o));
