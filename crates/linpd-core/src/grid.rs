@@ -279,9 +279,23 @@ impl Grid {
         }
     }
 
+    /// The node at site `(i, j, k)` of the lattice box (`0 <= i < counts[0]`, ...; layers
+    /// included), or `None` where a body removed it or outside the box.
+    pub fn node_at_site(&self, site: [usize; 3]) -> Option<usize> {
+        self.node_at([0, 1, 2].map(|a| self.lo[a] + site[a] as i64))
+    }
+
+    /// Position of lattice site `(i, j, k)` (see [`Grid::node_at_site`]), node or not.
+    pub fn site_position(&self, site: [usize; 3]) -> Point {
+        self.position_of_index([0, 1, 2].map(|a| self.lo[a] + site[a] as i64))
+    }
+
     /// Position of node `n`.
     pub fn position(&self, n: usize) -> Point {
-        let idx = self.lattice_index(n);
+        self.position_of_index(self.lattice_index(n))
+    }
+
+    fn position_of_index(&self, idx: [i64; 3]) -> Point {
         let shift = match self.placement {
             Placement::Vertex => 0.0,
             Placement::Cell => 0.5,

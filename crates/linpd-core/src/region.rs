@@ -169,6 +169,11 @@ impl Region {
         }
     }
 
+    /// True for a shape (box, ball, ...), false for `all`, unions and differences.
+    pub fn is_leaf(&self) -> bool {
+        !matches!(self, Region::All | Region::Union(_) | Region::Difference(..))
+    }
+
     /// The nodes of `grid` inside the region, ascending.
     pub fn nodes(&self, grid: &Grid) -> Vec<usize> {
         let tol = crate::GEOMETRY_RTOL * grid.spacing();
@@ -185,7 +190,7 @@ fn components(v: &[f64], dim: usize) -> Result<(), CoreError> {
         return Err(CoreError::Components { expected: dim, got: v.len() });
     }
     if v.iter().any(|x| !x.is_finite()) {
-        return Err(CoreError::param("region", "coordinates must be finite"));
+        return Err(CoreError::param("region", "coordinates must be finite numbers"));
     }
     Ok(())
 }

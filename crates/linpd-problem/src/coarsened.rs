@@ -145,6 +145,12 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         )
     })?;
     let moduli_path = if Path::new(moduli).is_absolute() { PathBuf::from(moduli) } else { base_dir.join(moduli) };
+    if raw.body.is_some() {
+        return Err(ProblemError::invalid(
+            "body",
+            "not used by a coarsened model (its nodes come from its nodes file)",
+        ));
+    }
     if raw.grid.is_some() {
         return Err(ProblemError::invalid(
             "grid",

@@ -443,6 +443,21 @@ impl Pipeline {
                         (0..d).for_each(|a| f.push((i, a, density[a] * v_coarsest[i])));
                     }
                 }
+                Load::Resultant { region, force } => {
+                    // spread over the coarsest nodes of the region by their coarsest volumes,
+                    // as a scene on that level spreads it
+                    let nodes: Vec<usize> = region.nodes(grid).into_iter().filter(|&i| is_shared(i)).collect();
+                    if nodes.is_empty() {
+                        return Err(inv(
+                            format!("loads[{li}]"),
+                            "the resultant load's region contains no node of the coarsest level",
+                        ));
+                    }
+                    let total: f64 = nodes.iter().map(|&i| v_coarsest[i]).sum();
+                    for i in nodes {
+                        (0..d).for_each(|a| f.push((i, a, force[a] * v_coarsest[i] / total)));
+                    }
+                }
             }
         }
         Ok((fixed, f))

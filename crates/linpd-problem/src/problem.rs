@@ -66,6 +66,14 @@ pub enum Load {
         /// Force per unit volume.
         density: Vec<f64>,
     },
+    /// A total force spread over a region's nodes in proportion to their volumes,
+    /// `f_i = F v_i / sum_{j in R} v_j`: the applied total is `F` whatever the spacing.
+    Resultant {
+        /// Where.
+        region: Region,
+        /// The total force `F`.
+        force: Vec<f64>,
+    },
 }
 
 /// The bond-based model.
@@ -252,6 +260,19 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
             }
             Region::Box { min: min.clone(), max: max.clone() }
         }
+        RawRegion::Ball { center, radius } => {
+            check_len(&format!("{path}.ball.center"), center, dim)?;
+            Region::Ball { center: center.clone(), radius: *radius }
+        }
+        RawRegion::Cylinder { center, axis, radius, length } => {
+            Region::Cylinder { center: center.clone(), axis: axis.clone(), radius: *radius, length: *length }
+        }
+        RawRegion::HalfSpace { point, normal } => {
+            check_len(&format!("{path}.half_space.point"), point, dim)?;
+            check_len(&format!("{path}.half_space.normal"), normal, dim)?;
+            Region::HalfSpace { point: point.clone(), normal: normal.clone() }
+        }
+        RawRegion::Polygon { vertices, extrude } => Region::Polygon { vertices: vertices.clone(), extrude: *extrude },
         RawRegion::Union(parts) => Region::Union(
             parts
                 .iter()
@@ -264,6 +285,11 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
             Box::new(region(&format!("{path}.difference[1]"), b, dim)?),
         ),
     };
+    if out.is_leaf() {
+        // the shape's own checks (radius > 0, 3D-only shapes, polygon vertices), named by the
+        // shape's key under `path` (`body.ball.radius: must be > 0, got 0e0`)
+        out.validate(dim).map_err(|e| core(path, e))?;
+    }
     Ok(out)
 }
 
@@ -402,14 +428,29 @@ impl Problem {
         let Some(raw_grid) = &raw.grid else {
             return Err(ProblemError::invalid("grid", format!("required for model type {}", model_kind.name())));
         };
+        if raw.body.is_some() && matches!(model_kind, RawModelKind::Blend | RawModelKind::Ce) {
+            return Err(ProblemError::invalid(
+                "body",
+                format!("{} models live on the whole interval (0, L) of the grid: no body", model_kind.name()),
+            ));
+        }
         check_len("grid.min", &raw_grid.min, dim)?;
         check_len("grid.max", &raw_grid.max, dim)?;
         let placement = match raw_grid.placement {
             RawPlacement::Vertex => Placement::Vertex,
             RawPlacement::Cell => Placement::Cell,
         };
-        let grid = Grid::new(&raw_grid.min, &raw_grid.max, raw_grid.spacing, raw_grid.layer, placement)
+        let layers = raw_grid.layers(dim).map_err(|(path, reason)| ProblemError::invalid(path, reason))?;
+        let grid = Grid::with_layers(&raw_grid.min, &raw_grid.max, raw_grid.spacing, layers, placement)
             .map_err(|e| core("grid", e))?;
+        let grid = match &raw.body {
+            None => grid,
+            Some(b) => {
+                let body = region("body", b, dim)?;
+                let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
+                grid.with_body(|x| body.contains(x, dim, tol)).map_err(|e| core("body", e))?
+            }
+        };
         // Optional in the mirror only because coarsened models have none; the wording matches
         // serde's so that the message reads the same as before.
         let Some(horizon) = raw.model.horizon else {
@@ -881,6 +922,19 @@ pub(crate) fn constraints_and_loads(
                     ));
                 }
                 Load::Point { node, force }
+            }
+            RawLoadKind::Resultant => {
+                only("resultant", &[("at", l.at.is_some()), ("density", l.density.is_some())])?;
+                let force = need("force", &l.force)?;
+                let r = l.region.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.region"), "missing"))?;
+                let region = region(&format!("{p}.region"), r, dim)?;
+                if nodes.select(&region).is_empty() {
+                    return Err(ProblemError::invalid(
+                        format!("{p}.region"),
+                        format!("contains no node of {}: a resultant needs nodes to spread over", nodes.what()),
+                    ));
+                }
+                Load::Resultant { region, force }
             }
             RawLoadKind::Body => {
                 only("body", &[("at", l.at.is_some()), ("force", l.force.is_some())])?;
