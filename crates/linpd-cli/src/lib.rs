@@ -238,6 +238,19 @@ fn run(cli: Cli) -> Result<(), CliError> {
                 r.timings.assemble,
                 r.peak_rss_bytes.map_or("n/a".into(), |b| format!("{:.1} MiB", b as f64 / 1048576.0)),
             )?;
+            if let Some(b) = &solution.balance {
+                let v = |x: &[f64]| x.iter().map(|c| format!("{c:.4e}")).collect::<Vec<_>>().join(", ");
+                let caught = |n: Vec<usize>| n.iter().map(usize::to_string).collect::<Vec<_>>().join("/");
+                say!(
+                    "{}: applied force [{}] (loads on {} nodes), reactions [{}] (constraints on {} nodes), relative imbalance {:.1e}",
+                    problem.name(),
+                    v(&b.applied),
+                    caught(b.loads.iter().map(|l| l.nodes).collect()),
+                    v(&b.reaction),
+                    caught(b.constraints.iter().map(|c| c.nodes).collect()),
+                    b.relative_imbalance
+                )?;
+            }
             for f in files {
                 say!("wrote {}", f.display())?;
             }

@@ -231,5 +231,6 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Fn(&str)) -> Resu
         is_layer: vec![false; s.x.len()],
         n_bonds: 0,
         report: s.report,
+        balance: None,
     })
 }

@@ -242,6 +242,7 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Fn(&str)) ->
         });
     }
     progress(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
+    let balance = p.balance(&c.model, &solved.u);
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),
@@ -249,6 +250,7 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Fn(&str)) ->
         u: solved.u,
         is_layer: vec![false; p.nodes.len()],
         n_bonds: c.n_bonds,
+        balance: Some(balance),
         report,
     })
 }

@@ -10,6 +10,7 @@
 #![deny(missing_docs)]
 
 pub mod atomic;
+mod balance;
 pub(crate) mod blend;
 pub mod coarsened;
 pub mod dynamics;
@@ -23,6 +24,7 @@ pub mod raw;
 pub mod run;
 
 pub use atomic::{OutputDir, RunIdentity};
+pub use balance::{Balance, ConstraintBalance, LoadBalance};
 pub use coarsened::{CoarsenedModel, ModuliFile};
 pub use dynamics::{Dynamics, DynamicsRun, Initial, TimeStep};
 pub use error::ProblemError;

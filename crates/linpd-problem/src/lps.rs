@@ -49,6 +49,7 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) ->
         });
     }
     progress(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
+    let balance = p.balance(&model, &solved.u);
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),
@@ -56,6 +57,7 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) ->
         u: solved.u,
         is_layer: (0..grid.len()).map(|n| grid.is_layer(n)).collect(),
         n_bonds: model.family().n_bonds(),
+        balance: Some(balance),
         report,
     })
 }

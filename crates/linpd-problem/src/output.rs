@@ -35,6 +35,7 @@ impl Solution {
             "x": x,
             "u": u,
             "layer": self.is_layer,
+            "balance": self.balance,
             "stats": {
                 "nodes": n,
                 "bonds": self.n_bonds,

@@ -3,7 +3,7 @@
 //! `A_ff u_f = f_f - (A u_bar)_f`, assembled or matrix-free solve, report).
 
 use crate::problem::NodeSet;
-use crate::{Load, ModelSpec, Problem, ProblemError};
+use crate::{ModelSpec, Problem, ProblemError};
 use linpd_bond::{BondOperator, LatticeBondModel};
 use linpd_core::Point;
 use linpd_solve::{solve_model, Dirichlet, SolveReport, StaticError};
@@ -26,6 +26,9 @@ pub struct Solution {
     pub n_bonds: usize,
     /// Accuracy and cost.
     pub report: SolveReport,
+    /// Loads, constraints, reactions and the force balance (not for blend scenes, whose 1D
+    /// operator is solved by its own path).
+    pub balance: Option<crate::Balance>,
 }
 
 impl Problem {
@@ -66,26 +69,9 @@ impl Problem {
 
     /// External force per full DOF (point forces plus density times node volume).
     pub fn load_vector(&self) -> Vec<f64> {
-        let d = self.dim();
-        let mut f = vec![0.0; d * self.nodes.len()];
+        let mut f = vec![0.0; self.dim() * self.nodes.len()];
         for l in &self.loads {
-            match l {
-                Load::Point { node, force } => (0..d).for_each(|a| f[d * node + a] += force[a]),
-                Load::Body { region, density } => {
-                    for node in self.nodes.select(region) {
-                        let v = self.nodes.volume(node);
-                        (0..d).for_each(|a| f[d * node + a] += density[a] * v);
-                    }
-                }
-                Load::Resultant { region, force } => {
-                    let nodes = self.nodes.select(region);
-                    let total: f64 = nodes.iter().map(|&n| self.nodes.volume(n)).sum();
-                    for node in nodes {
-                        let share = self.nodes.volume(node) / total;
-                        (0..d).for_each(|a| f[d * node + a] += force[a] * share);
-                    }
-                }
-            }
+            self.add_load(l, &mut f);
         }
         f
     }
@@ -137,6 +123,7 @@ impl Problem {
             t0.elapsed().as_secs_f64(),
             report.rel_residual
         ));
+        let balance = self.balance(&model, &solved.u);
         Ok(Solution {
             name: self.name.clone(),
             dim: self.dim(),
@@ -144,6 +131,7 @@ impl Problem {
             u: solved.u,
             is_layer: (0..self.nodes.len()).map(|n| self.nodes.is_layer(n)).collect(),
             n_bonds: model.operator().family().n_bonds(),
+            balance: Some(balance),
             report,
         })
     }

@@ -1,0 +1,142 @@
+//! What the loads and constraints of a solved scene did: per load the nodes it caught and the
+//! total force it applied, per constraint the nodes and DOFs it held and its reaction, and the
+//! global force balance.
+//!
+//! The reaction of a constraint is the force its support exerts, summed over the DOFs it holds,
+//!
+//! ```text
+//! R_c = sum_{k in DOFs(c)} (A u - f)_k        (per component),
+//! ```
+//!
+//! where `f` holds every load's nodal forces (a load on a held DOF goes straight into the
+//! support). A DOF held by two (agreeing) constraints belongs to the first. For an operator with
+//! the translations in its null space and `1^T A = 0` (symmetric bond-based and LPS operators),
+//! `sum_c R_c + sum_l F_l = 1^T A u = 0`: the reactions balance the applied loads. `A u` is one
+//! product of the model's full operator.
+
+use crate::problem::NodeSet;
+use crate::{Load, Problem};
+use linpd_core::Model;
+use serde::Serialize;
+
+/// One load's effect.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoadBalance {
+    /// `point`, `body` or `resultant`.
+    pub kind: &'static str,
+    /// Nodes it put a force on.
+    pub nodes: usize,
+    /// The sum of its nodal forces (per component).
+    pub force: Vec<f64>,
+}
+
+/// One constraint's effect.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ConstraintBalance {
+    /// Nodes in its region.
+    pub nodes: usize,
+    /// DOFs it holds (those another constraint listed earlier holds are not counted).
+    pub dofs: usize,
+    /// Its reaction `R_c` (per component; see the module docs).
+    pub reaction: Vec<f64>,
+}
+
+/// The balance of a solved scene (see the module docs).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Balance {
+    /// Per load, in scene order.
+    pub loads: Vec<LoadBalance>,
+    /// Per constraint, in scene order.
+    pub constraints: Vec<ConstraintBalance>,
+    /// `sum_l F_l`.
+    pub applied: Vec<f64>,
+    /// `sum_c R_c`.
+    pub reaction: Vec<f64>,
+    /// `max_a |applied_a + reaction_a|` relative to the largest load or constraint reaction
+    /// component (0 when there is no force at all): round-off for the bond-based and LPS
+    /// operators.
+    pub relative_imbalance: f64,
+}
+
+impl Problem {
+    /// Adds the nodal forces of `load` to `f` (full DOFs); returns the nodes it loaded.
+    pub(crate) fn add_load(&self, load: &Load, f: &mut [f64]) -> usize {
+        let d = self.dim();
+        match load {
+            Load::Point { node, force } => {
+                (0..d).for_each(|a| f[d * node + a] += force[a]);
+                1
+            }
+            Load::Body { region, density } => {
+                let nodes = self.nodes.select(region);
+                for &node in &nodes {
+                    let v = self.nodes.volume(node);
+                    (0..d).for_each(|a| f[d * node + a] += density[a] * v);
+                }
+                nodes.len()
+            }
+            Load::Resultant { region, force } => {
+                let nodes = self.nodes.select(region);
+                let total: f64 = nodes.iter().map(|&n| self.nodes.volume(n)).sum();
+                for &node in &nodes {
+                    let share = self.nodes.volume(node) / total;
+                    (0..d).for_each(|a| f[d * node + a] += force[a] * share);
+                }
+                nodes.len()
+            }
+        }
+    }
+
+    /// The balance of the solution `u` of this scene on `model` (its full operator).
+    pub(crate) fn balance(&self, model: &dyn Model, u: &[f64]) -> Balance {
+        let d = self.dim();
+        let n = d * self.nodes.len();
+        let mut f = vec![0.0; n];
+        let mut loads = Vec::new();
+        for l in &self.loads {
+            let mut fl = vec![0.0; n];
+            let nodes = self.add_load(l, &mut fl);
+            let force: Vec<f64> = (0..d).map(|a| fl.iter().skip(a).step_by(d).sum()).collect();
+            f.iter_mut().zip(&fl).for_each(|(t, x)| *t += x);
+            let kind = match l {
+                Load::Point { .. } => "point",
+                Load::Body { .. } => "body",
+                Load::Resultant { .. } => "resultant",
+            };
+            loads.push(LoadBalance { kind, nodes, force });
+        }
+        let mut au = vec![0.0; n];
+        model.apply(u, &mut au);
+        let mut owner = vec![usize::MAX; n];
+        let mut constraints = Vec::new();
+        for (k, c) in self.constraints.iter().enumerate() {
+            let nodes = self.nodes.select(&c.region);
+            let mut reaction = vec![0.0; d];
+            let mut dofs = 0;
+            for &node in &nodes {
+                for &a in &c.components {
+                    let dof = d * node + a;
+                    if owner[dof] == usize::MAX {
+                        owner[dof] = k;
+                        dofs += 1;
+                        reaction[a] += au[dof] - f[dof];
+                    }
+                }
+            }
+            constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction });
+        }
+        let applied: Vec<f64> = (0..d).map(|a| loads.iter().map(|l: &LoadBalance| l.force[a]).sum()).collect();
+        let reaction: Vec<f64> =
+            (0..d).map(|a| constraints.iter().map(|c: &ConstraintBalance| c.reaction[a]).sum()).collect();
+        // the largest force in the balance: a scene driven by prescribed displacements alone
+        // has no load, and its constraints' reactions cancel each other
+        let scale = applied
+            .iter()
+            .chain(constraints.iter().flat_map(|c| &c.reaction))
+            .chain(loads.iter().flat_map(|l| &l.force))
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        let worst = (0..d).map(|a| (applied[a] + reaction[a]).abs()).fold(0.0, f64::max);
+        let relative_imbalance = if scale > 0.0 { worst / scale } else { 0.0 };
+        Balance { loads, constraints, applied, reaction, relative_imbalance }
+    }
+}

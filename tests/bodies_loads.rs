@@ -1,0 +1,200 @@
+//! Bodies of any shape, per-side layers, resultant loads and the force balance in result.json
+//! (issue #13, items 1 and 4, and the reactions of item 5), on the bundled scenes
+//! `data/plate-hole-2d.json` (a plate with a circular hole pulled by a resultant force) and
+//! `data/cantilever-3d.json` (a layer at the clamped end only, a resultant tip load).
+
+use linpd::problem::Problem;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name)
+}
+
+fn scene(name: &str) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(data(name)).unwrap()).unwrap()
+}
+
+fn error_of(v: &Value) -> String {
+    match Problem::from_json(&v.to_string()) {
+        Ok(_) => panic!("accepted: {v}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// Lattice points `(i, j)` with `i^2 + j^2 <= r^2` (Gauss's circle problem), by counting.
+fn gauss(r: i64) -> usize {
+    (-r..=r).flat_map(|i| (-r..=r).map(move |j| i * i + j * j)).filter(|s| *s <= r * r).count()
+}
+
+/// The plate with a hole keeps the grid's nodes outside the closed disk: (101 + 2 x 3) x 51
+/// lattice sites (layers at x- and x+ only) less the 317 sites of the disk of radius 10 h
+/// centred on a node (boundary nodes belong to the disk, so they are removed with it).
+#[test]
+fn body_node_count_matches_an_independent_count() {
+    let p = Problem::from_path(&data("plate-hole-2d.json")).unwrap();
+    let sites = (101 + 6) * 51;
+    assert_eq!(gauss(10), 317);
+    assert_eq!(p.nodes().len(), sites - gauss(10));
+    let grid = p.grid().unwrap();
+    assert_eq!(grid.n_sites(), sites);
+    // no node inside the open disk, every node outside it kept
+    for n in 0..p.nodes().len() {
+        let x = p.nodes().position(n);
+        assert!((x[0] - 0.5).hypot(x[1] - 0.25) > 0.1 + 1e-9, "node {n} at {x:?} is in the hole");
+    }
+    // the layer is on the x sides only: 3 columns of 51 at each end
+    let layer = (0..p.nodes().len()).filter(|&n| p.nodes().is_layer(n)).count();
+    assert_eq!(layer, 2 * 3 * 51);
+}
+
+/// The cantilever's layer (0.075 = 3h) is at x- only: 3 planes of 5 x 5 nodes behind x = 0;
+/// the beam keeps its 0.1 x 0.1 section (41 x 5 x 5 nodes).
+#[test]
+fn per_side_layer_only_where_asked() {
+    let p = Problem::from_path(&data("cantilever-3d.json")).unwrap();
+    assert_eq!(p.nodes().len(), 41 * 25 + 3 * 25);
+    for n in 0..p.nodes().len() {
+        let x = p.nodes().position(n);
+        assert_eq!(p.nodes().is_layer(n), x[0] < 0.0, "node {n} at {x:?}");
+        assert!(x[1] >= -1e-12 && x[1] <= 0.1 + 1e-12 && x[2] >= -1e-12 && x[2] <= 0.1 + 1e-12);
+    }
+}
+
+/// A resultant load applies its total whatever the spacing: the plate at h and h/2 (its
+/// load region catches 4 x 51 and 7 x 101 nodes) gets exactly `F` (to `eps` times the number
+/// of nodes summed), where a body load on the same region applies `density x` the caught
+/// volume, which moves with the layer columns the region catches.
+#[test]
+fn resultant_total_is_the_same_at_h_and_h_over_2() {
+    for h in [0.01, 0.005] {
+        let mut s = scene("plate-hole-2d.json");
+        s["grid"]["spacing"] = json!(h);
+        let p = Problem::from_json(&s.to_string()).unwrap();
+        let f = p.load_vector();
+        let (fx, fy): (f64, f64) = (f.iter().step_by(2).sum(), f.iter().skip(1).step_by(2).sum());
+        assert!((fx - 0.5).abs() < 1e-13 && fy == 0.0, "h = {h}: total ({fx}, {fy})");
+        let loaded = f.iter().step_by(2).filter(|v| **v != 0.0).count();
+        // the region x >= 1 catches the body's last column and the layer's 3 (6 at h/2)
+        assert_eq!(loaded, if h == 0.01 { 4 * 51 } else { 7 * 101 }, "h = {h}");
+    }
+}
+
+/// The reactions of the constraints balance the applied loads (`1^T A = 0` for the symmetric
+/// bond-based and LPS operators; the solves stop at a relative residual of ~1e-13, so 1e-10
+/// is a wide bound), in result.json through the binary and in the library for an LPS scene.
+#[test]
+fn reactions_balance_the_applied_loads() {
+    for name in ["plate-hole-2d.json", "cantilever-3d.json"] {
+        let out = std::env::temp_dir().join(format!("linpd-balance-{}-{name}", std::process::id()));
+        let o = Command::new(env!("CARGO_BIN_EXE_linpd"))
+            .args(["solve", data(name).to_str().unwrap(), "-q", "--out", out.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(stdout.contains("applied force") && stdout.contains("reactions"), "{stdout}");
+        let r: Value = serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+        let b = &r["balance"];
+        let v = |x: &Value| x.as_array().unwrap().iter().map(|c| c.as_f64().unwrap()).collect::<Vec<f64>>();
+        let (applied, reaction) = (v(&b["applied"]), v(&b["reaction"]));
+        let scale = applied.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        for a in 0..applied.len() {
+            assert!((applied[a] + reaction[a]).abs() <= 1e-10 * scale, "{name}: {applied:?} vs {reaction:?}");
+        }
+        assert!(b["relative_imbalance"].as_f64().unwrap() <= 1e-10);
+        assert_eq!(b["loads"][0]["kind"], "resultant");
+        let _ = std::fs::remove_dir_all(&out);
+    }
+    let p = Problem::from_path(&data("lps-plate-2d.json")).unwrap();
+    let s = p.solve(&|_| {}).unwrap();
+    let b = s.balance.expect("an lps solve reports its balance");
+    assert!(b.relative_imbalance <= 1e-10, "lps: {b:?}");
+    assert!(b.constraints.iter().all(|c| c.nodes > 0 && c.dofs > 0));
+}
+
+/// With a body the matrix-free solve runs on the per-bond operator (the stencil needs the full
+/// lattice box) and agrees with the direct solve (CG at rtol 1e-12 on a system with
+/// kappa ~ 1e5: 1e-6 relative is the bound).
+#[test]
+fn matrix_free_cg_with_a_body_agrees_with_cholesky() {
+    let mut s = scene("plate-hole-2d.json");
+    s["grid"]["spacing"] = json!(0.025);
+    s["model"]["horizon"] = json!(0.075);
+    s["grid"]["layer"] = json!({"x-": 0.075, "x+": 0.075});
+    let direct = Problem::from_json(&s.to_string()).unwrap().solve(&|_| {}).unwrap();
+    s["solver"] = json!({"type": "cg", "matrix_free": true, "rtol": 1e-12});
+    let cg = Problem::from_json(&s.to_string()).unwrap().solve(&|_| {}).unwrap();
+    let scale = direct.u.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let e = direct.u.iter().zip(&cg.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())) / scale;
+    assert!(e < 1e-6, "matrix-free CG vs Cholesky: {e:e}");
+}
+
+/// Bad bodies, layers and resultants: each an error naming the key.
+#[test]
+fn bad_bodies_layers_and_resultants_are_named() {
+    let base = scene("plate-hole-2d.json");
+    let with = |path: &[&str], v: Value| {
+        let mut s = base.clone();
+        let mut t = &mut s;
+        for k in &path[..path.len() - 1] {
+            t = &mut t[*k];
+        }
+        t[path[path.len() - 1]] = v;
+        s
+    };
+    let cases = [
+        (with(&["body"], json!({"ball": {"center": [5.0, 5.0], "radius": 0.1}})), "body: keeps none of the"),
+        (with(&["body"], json!({"ball": {"center": [0.5, 0.25], "radius": 0.0}})), "body.ball.radius: must be > 0"),
+        (
+            with(&["body"], json!({"polygon": {"vertices": [[0.0, 0.0], [1.0, 0.0]]}})),
+            "body.polygon.vertices: needs at least 3",
+        ),
+        (
+            with(&["body"], json!({"cylinder": {"center": [0.0, 0.0], "axis": [1.0, 0.0], "radius": 1.0}})),
+            "body.cylinder: is a 3D region",
+        ),
+        (with(&["body"], json!({"ball": {"center": [0.5], "radius": 0.1}})), "body.ball.center"),
+        (with(&["grid", "layer"], json!({"w-": 0.03})), "grid.layer.w-: not a side of a 2D grid"),
+        (with(&["grid", "layer"], json!({"z-": 0.03})), "grid.layer.z-: not a side of a 2D grid"),
+        (with(&["grid", "layer"], json!({"x-": -0.03})), "grid.layer.x-: must be >= 0"),
+        (with(&["grid", "layer"], json!("thick")), "grid.layer: expected a number"),
+        (
+            with(
+                &["loads"],
+                json!([{"type": "resultant", "region": {"box": {"min": [5.0, 5.0], "max": [6.0, 6.0]}}, "force": [1.0, 0.0]}]),
+            ),
+            "loads[0].region: contains no node of the grid",
+        ),
+        (
+            with(&["loads"], json!([{"type": "resultant", "region": "all", "density": [1.0, 0.0]}])),
+            "loads[0].density: not a key of a resultant load",
+        ),
+        (with(&["loads"], json!([{"type": "resultant", "region": "all"}])), "loads[0].force: missing"),
+    ];
+    for (s, needle) in cases {
+        let e = error_of(&s);
+        assert!(e.contains(needle), "expected `{needle}` in: {e}");
+    }
+    // a body removes the nodes a point load named: the nearest kept node is named
+    let s = with(&["loads"], json!([{"type": "point", "at": [0.5, 0.25], "force": [1.0, 0.0]}]));
+    assert!(error_of(&s).contains("no node at [0.5, 0.25]"), "{}", error_of(&s));
+    // blend scenes take no body
+    let blend = scene("blend-point-load.json");
+    let mut b = blend.clone();
+    b["body"] = json!({"box": {"min": [0.0], "max": [0.5]}});
+    assert!(error_of(&b).contains("body: blend models live on the whole interval"), "{}", error_of(&b));
+    // through the binary: exit code 1, nothing written
+    let dir = std::env::temp_dir().join(format!("linpd-bad-body-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("scene.json");
+    std::fs::write(&path, with(&["body"], json!({"ball": {"center": [5.0, 5.0], "radius": 0.1}})).to_string()).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_linpd"))
+        .args(["solve", path.to_str().unwrap(), "--out", dir.join("out").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(!dir.join("out").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
