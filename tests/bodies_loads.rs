@@ -198,3 +198,57 @@ fn bad_bodies_layers_and_resultants_are_named() {
     assert!(!dir.join("out").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `result.vtu` opens in a real VTK reader (meshio, installed by `.ci/run`) with the values of
+/// result.json (both written with 17 significant digits: equal to the last bit, compared at
+/// 1e-15 relative for the text round trip of a different parser), and the strain energy
+/// density sums to the stored energy, `sum_i W_i V_i = u.A u / 2` (to 1e-12: one sum of 5140
+/// positive terms against one dot product).
+#[test]
+fn vtu_round_trips_through_meshio_and_energy_density_sums_to_the_energy() {
+    let out = std::env::temp_dir().join(format!("linpd-vtu-{}", std::process::id()));
+    let o = Command::new(env!("CARGO_BIN_EXE_linpd"))
+        .args(["solve", data("plate-hole-2d.json").to_str().unwrap(), "-q", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let script = r#"
+import json, sys, meshio
+m = meshio.read(sys.argv[1])
+assert len(m.cells) == 1 and m.cells[0].type == "vertex", m.cells
+print(json.dumps({"points": m.points.tolist(), "u": m.point_data["u"].tolist(),
+                  "layer": m.point_data["layer"].tolist(), "volume": m.point_data["volume"].tolist(),
+                  "w": m.point_data["strain_energy_density"].tolist()}))
+"#;
+    let py = Command::new("python3").arg("-c").arg(script).arg(out.join("result.vtu")).output().expect("python3 runs");
+    assert!(py.status.success(), "meshio could not read result.vtu: {}", String::from_utf8_lossy(&py.stderr));
+    let vtu: Value = serde_json::from_slice(&py.stdout).unwrap();
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+    let num = |v: &Value| v.as_f64().unwrap();
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-15 * a.abs().max(b.abs());
+    let n = r["x"].as_array().unwrap().len();
+    assert_eq!(vtu["points"].as_array().unwrap().len(), n);
+    for k in 0..n {
+        for a in 0..2 {
+            assert!(close(num(&vtu["points"][k][a]), num(&r["x"][k][a])), "x[{k}][{a}]");
+            assert!(close(num(&vtu["u"][k][a]), num(&r["u"][k][a])), "u[{k}][{a}]");
+        }
+        assert_eq!(num(&vtu["points"][k][2]), 0.0);
+        assert_eq!(num(&vtu["layer"][k]) == 1.0, r["layer"][k].as_bool().unwrap());
+        assert!(close(num(&vtu["w"][k]), num(&r["strain_energy_density"][k])), "W[{k}]");
+    }
+    // sum W_i V_i against u.A u / 2 from the library's operator
+    let p = Problem::from_path(&data("plate-hole-2d.json")).unwrap();
+    let s = p.solve(&|_| {}).unwrap();
+    let model = p.lattice_model().unwrap();
+    let mut au = vec![0.0; s.u.len()];
+    linpd::core::Model::apply(&model, &s.u, &mut au);
+    let energy = 0.5 * s.u.iter().zip(&au).map(|(a, b)| a * b).sum::<f64>();
+    let w = s.strain_energy_density.as_ref().unwrap();
+    let summed: f64 = w.iter().zip(&s.volumes).map(|(w, v)| w * v).sum();
+    assert!(w.iter().all(|x| *x >= 0.0), "bond energy density is >= 0");
+    assert!((summed / energy - 1.0).abs() < 1e-12, "sum W V = {summed:e}, u.Au/2 = {energy:e}");
+    let volumes: Vec<f64> = (0..n).map(|k| num(&vtu["volume"][k])).collect();
+    assert!(volumes.iter().all(|v| close(*v, 1e-4)), "volumes h^2");
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -140,3 +140,39 @@ impl Problem {
         Balance { loads, constraints, applied, reaction, relative_imbalance }
     }
 }
+
+/// The strain energy of node `i`, `W_i V_i`, for a model that exposes its blocks
+/// ([`Model::for_each_block`]; the bond-based models). For a symmetric `A` with zero block-row
+/// sums (`A_ii = -sum_{j != i} A_ij`),
+///
+/// ```text
+/// u.A u / 2 = -(1/4) sum_i sum_{j != i} (u_j - u_i)^T A_ij (u_j - u_i),
+/// ```
+///
+/// and node `i` takes its term of the outer sum: half of the energy of each of its bonds (for
+/// the bond-based model `A_ij = -w_ij e e^T`, so `W_i V_i = (1/4) sum_j w_ij (e . (u_j - u_i))^2
+/// >= 0`, and a rigid motion gives 0). The values sum to `u.A u / 2`. `None` for models
+/// without blocks (LPS and coarsened levels).
+pub fn nodal_energy(model: &dyn Model, u: &[f64]) -> Option<Vec<f64>> {
+    use rayon::prelude::*;
+    let d = model.dim();
+    let energies: Vec<Option<f64>> = (0..model.n_nodes())
+        .into_par_iter()
+        .map(|i| {
+            let mut w = 0.0;
+            let has = model.for_each_block(i, &mut |j, block| {
+                if j == i {
+                    return;
+                }
+                let du: Vec<f64> = (0..d).map(|a| u[d * j + a] - u[d * i + a]).collect();
+                for a in 0..d {
+                    for b in 0..d {
+                        w -= 0.25 * du[a] * block[a * d + b] * du[b];
+                    }
+                }
+            });
+            has.then_some(w)
+        })
+        .collect();
+    energies.into_iter().collect()
+}

@@ -229,8 +229,10 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Fn(&str)) -> Resu
         x: s.x.iter().map(|&x| [x, 0.0, 0.0]).collect(),
         u: s.u.clone(),
         is_layer: vec![false; s.x.len()],
+        volumes: Vec::new(),
         n_bonds: 0,
         report: s.report,
         balance: None,
+        strain_energy_density: None,
     })
 }

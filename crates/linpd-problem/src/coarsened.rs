@@ -249,8 +249,10 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Fn(&str)) ->
         x: p.nodes.positions(),
         u: solved.u,
         is_layer: vec![false; p.nodes.len()],
+        volumes: (0..p.nodes.len()).map(|n| p.nodes.volume(n)).collect(),
         n_bonds: c.n_bonds,
         balance: Some(balance),
+        strain_energy_density: None,
         report,
     })
 }

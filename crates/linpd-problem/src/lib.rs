@@ -10,7 +10,7 @@
 #![deny(missing_docs)]
 
 pub mod atomic;
-mod balance;
+pub mod balance;
 pub(crate) mod blend;
 pub mod coarsened;
 pub mod dynamics;

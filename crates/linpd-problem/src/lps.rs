@@ -56,8 +56,10 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) ->
         x: model.positions(),
         u: solved.u,
         is_layer: (0..grid.len()).map(|n| grid.is_layer(n)).collect(),
+        volumes: vec![grid.volume(); grid.len()],
         n_bonds: model.family().n_bonds(),
         balance: Some(balance),
+        strain_energy_density: None,
         report,
     })
 }

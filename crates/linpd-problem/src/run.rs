@@ -22,6 +22,8 @@ pub struct Solution {
     pub u: Vec<f64>,
     /// True for nodes of the outer layer.
     pub is_layer: Vec<bool>,
+    /// Node volumes `V_i` (empty for blend scenes, whose CE nodes carry none).
+    pub volumes: Vec<f64>,
     /// Number of bonds (each pair counted from both ends).
     pub n_bonds: usize,
     /// Accuracy and cost.
@@ -29,6 +31,9 @@ pub struct Solution {
     /// Loads, constraints, reactions and the force balance (not for blend scenes, whose 1D
     /// operator is solved by its own path).
     pub balance: Option<crate::Balance>,
+    /// Strain energy density `W_i` per node (energy per volume; `sum_i W_i V_i = u.A u / 2`,
+    /// [`crate::balance::nodal_energy`]): bond-based models only.
+    pub strain_energy_density: Option<Vec<f64>>,
 }
 
 impl Problem {
@@ -124,14 +129,18 @@ impl Problem {
             report.rel_residual
         ));
         let balance = self.balance(&model, &solved.u);
+        let strain_energy_density = crate::balance::nodal_energy(&model, &solved.u)
+            .map(|e| e.iter().enumerate().map(|(n, w)| w / self.nodes.volume(n)).collect());
         Ok(Solution {
             name: self.name.clone(),
             dim: self.dim(),
             x: model.operator().positions().to_vec(),
             u: solved.u,
             is_layer: (0..self.nodes.len()).map(|n| self.nodes.is_layer(n)).collect(),
+            volumes: (0..self.nodes.len()).map(|n| self.nodes.volume(n)).collect(),
             n_bonds: model.operator().family().n_bonds(),
             balance: Some(balance),
+            strain_energy_density,
             report,
         })
     }
