@@ -150,9 +150,9 @@ impl Problem {
 /// ```
 ///
 /// and node `i` takes its term of the outer sum: half of the energy of each of its bonds (for
-/// the bond-based model `A_ij = -w_ij e e^T`, so `W_i V_i = (1/4) sum_j w_ij (e . (u_j - u_i))^2
-/// >= 0`, and a rigid motion gives 0). The values sum to `u.A u / 2`. `None` for models
-/// without blocks (LPS and coarsened levels).
+/// the bond-based model `A_ij = -w_ij e e^T`, so `W_i V_i = (1/4) sum_j w_ij (e . (u_j -
+/// u_i))^2`, never negative, and a rigid motion gives 0). The values sum to `u.A u / 2`.
+/// `None` for models without blocks (LPS and coarsened levels).
 pub fn nodal_energy(model: &dyn Model, u: &[f64]) -> Option<Vec<f64>> {
     use rayon::prelude::*;
     let d = model.dim();
