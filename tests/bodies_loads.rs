@@ -252,3 +252,25 @@ print(json.dumps({"points": m.points.tolist(), "u": m.point_data["u"].tolist(),
     assert!(volumes.iter().all(|v| close(*v, 1e-4)), "volumes h^2");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// A pre-crack (a defect segment that cuts the bonds it crosses) outside the body, or inside
+/// its hole, cuts nothing: an error naming the defect; the bundled notched plate's crack cuts.
+#[test]
+fn a_crack_that_cuts_nothing_is_an_error() {
+    let mut s = scene("plate-hole-2d.json");
+    for (segment, ok) in [
+        (json!([[0.3, 0.35], [0.45, 0.35]]), true),
+        (json!([[2.0, 0.2], [2.5, 0.2]]), false),
+        (json!([[0.47, 0.25], [0.53, 0.25]]), false),
+    ] {
+        s["model"]["material"] = json!({"defects": [{"segment": segment, "factor": 0.0}]});
+        match Problem::from_json(&s.to_string()) {
+            Ok(_) => assert!(ok, "{segment} accepted"),
+            Err(e) => {
+                assert!(!ok, "{segment}: {e}");
+                assert!(e.to_string().contains("model.material.defects[0]: crosses no bond"), "{e}");
+            }
+        }
+    }
+    Problem::from_path(&data("plate-crack-2d.json")).expect("the bundled crack cuts bonds");
+}

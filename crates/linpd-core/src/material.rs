@@ -193,6 +193,26 @@ impl Material {
         self.defects.iter().try_for_each(|d| d.validate(dim))
     }
 
+    /// The index of the first defect that crosses no bond of the lattice `grid` with horizon
+    /// `horizon` (it lies outside the body, in a hole, or in a gap no bond spans), or `None`.
+    /// Visits every node's lattice stencil until a crossing bond is found, so a defect that
+    /// does cut costs little and one that does not costs one pass over the bonds, as building
+    /// the operator does.
+    pub fn defect_cutting_nothing(&self, grid: &Grid, horizon: f64) -> Option<usize> {
+        use rayon::prelude::*;
+        let offsets = crate::family::lattice_stencil(grid.dim(), horizon / grid.spacing());
+        let tol = crate::GEOMETRY_RTOL * grid.spacing();
+        self.defects.iter().position(|d| {
+            !(0..grid.len()).into_par_iter().any(|i| {
+                let (k, x) = (grid.lattice_index(i), grid.position(i));
+                offsets.iter().any(|o| {
+                    grid.node_at([k[0] + o[0], k[1] + o[1], k[2] + o[2]])
+                        .is_some_and(|j| d.crosses(&x, &grid.position(j), tol))
+                })
+            })
+        })
+    }
+
     /// Modulus of every node (`reference` outside all phases).
     pub fn node_moduli(&self, grid: &Grid, reference: f64) -> Vec<f64> {
         let tol = crate::GEOMETRY_RTOL * grid.spacing();

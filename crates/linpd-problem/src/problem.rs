@@ -541,6 +541,12 @@ impl Problem {
             let micromodulus = micromodulus(&mm, horizon, plane, partial_volume)?;
             micromodulus.validate(dim).map_err(|e| core("model.micromodulus", e))?;
             let material = self::material(&material, dim)?;
+            if let Some(k) = material.defect_cutting_nothing(&grid, horizon) {
+                return Err(ProblemError::invalid(
+                    format!("model.material.defects[{k}]"),
+                    "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
+                ));
+            }
             match model_kind {
                 RawModelKind::Blend | RawModelKind::Ce => {
                     ModelSpec::Blend(crate::blend::scene(model_kind, &raw, &grid, horizon, &constraints, &loads)?)
