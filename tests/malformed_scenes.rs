@@ -903,7 +903,7 @@ fn run(case: &Case) -> Result<String, String> {
             (Err(e), Stage::Parse) => Ok(e),
             (Err(e), Stage::Solve) => Err(format!("expected to parse, got: {e}")),
             (Ok(_), Stage::Parse) => Err("the scene was accepted".into()),
-            (Ok(p), Stage::Solve) => match p.solve(&|_| {}) {
+            (Ok(p), Stage::Solve) => match p.solve(&linpd::core::NoProgress) {
                 Err(e @ ProblemError::Unsupported(_)) => Ok(e),
                 Err(e) => Err(format!("expected ProblemError::Unsupported, got {e:?}")),
                 Ok(_) => Err("the scene was solved".into()),
@@ -941,7 +941,7 @@ fn base_scenes_are_valid_and_solve() {
     for (name, base) in [("1D", base_1d as fn() -> Value), ("2D", base_2d), ("coarsened", base_coarsened)] {
         let p = Problem::from_json_in(&base().to_string(), std::path::Path::new("."))
             .unwrap_or_else(|e| panic!("{name} base scene: {e}"));
-        let s = p.solve(&|_| {}).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
+        let s = p.solve(&linpd::core::NoProgress).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
         assert!(s.report.rel_residual < 1e-10, "{name}: residual {}", s.report.rel_residual);
     }
 }

@@ -89,6 +89,8 @@ pub struct Task<'a> {
     t0: Instant,
     /// Nanoseconds since `t0` before which [`Task::due`] is false.
     next: AtomicU64,
+    /// Steps counted by [`Task::advance`].
+    count: AtomicU64,
 }
 
 impl<'a> Task<'a> {
@@ -98,7 +100,7 @@ impl<'a> Task<'a> {
         if on {
             progress.start(name, total);
         }
-        Task { progress, on, t0: Instant::now(), next: AtomicU64::new(0) }
+        Task { progress, on, t0: Instant::now(), next: AtomicU64::new(0), count: AtomicU64::new(0) }
     }
 
     /// True when an update should be sent now: on the first call, then at most once per
@@ -123,6 +125,18 @@ impl<'a> Task<'a> {
     pub fn set(&self, done: u64, message: &str) {
         if self.on {
             self.progress.set(done, message);
+        }
+    }
+
+    /// Counts `steps` more steps done (from any thread: parallel loops call it per item or per
+    /// chunk of items) and, when [`Task::due`], reports the count with an empty message.
+    #[inline]
+    pub fn advance(&self, steps: u64) {
+        if self.on {
+            let done = self.count.fetch_add(steps, Ordering::Relaxed) + steps;
+            if self.due() {
+                self.progress.set(done, "");
+            }
         }
     }
 

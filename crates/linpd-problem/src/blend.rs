@@ -8,6 +8,7 @@
 //! end nodes `x = 0` and `x = L`; loads are point loads on nodes (`b_i = delta_ip / dx` is a
 //! unit force) or body-force densities on boxes.
 
+use linpd_core::progress::Progress;
 use crate::raw::{RawBlending, RawModelKind, RawNormalize, RawProblem, RawSolverKind};
 use crate::{BlendScene, Constraint, Load, Problem, ProblemError, Solution};
 use linpd_blend::{solve_model, BlendParams, BlendSolver, Blending, ModelKind, Regions};
@@ -202,8 +203,8 @@ pub(crate) fn scene(
 }
 
 /// Solves a blend scene.
-pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
-    progress(&format!(
+pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Progress) -> Result<Solution, ProblemError> {
+    progress.phase(&format!(
         "assembling the 1D {:?} model: dx = {}, N = {}",
         b.kind,
         b.params.dx,
@@ -213,7 +214,7 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Fn(&str)) -> Resu
         linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
         other => ProblemError::Blend(other),
     })?;
-    progress(&format!(
+    progress.phase(&format!(
         "done: {} unknowns, solver {}, relative residual {:.2e}",
         s.report.n, s.report.solver, s.report.rel_residual
     ));

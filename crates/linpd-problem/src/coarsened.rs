@@ -18,6 +18,7 @@
 //! `C(x, q) = C(q, x)^T`; then the solve is a sparse Cholesky (or the scene's solver), otherwise
 //! a sparse LU, and the report's `solver` says why.
 
+use linpd_core::progress::Progress;
 use crate::problem::{constraints_and_loads, solver_spec, LevelNodes, Nodes};
 use crate::raw::{RawModelKind, RawProblem};
 use crate::run::static_error;
@@ -188,14 +189,14 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
 
 /// Solves `K u = f` with the constraints eliminated ([`linpd_solve::solve_model`]: sparse LU
 /// when `K` is unsymmetric, whatever the scene asked).
-pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
+pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) -> Result<Solution, ProblemError> {
     let t0 = Instant::now();
     let (mask, ubar) = p.constrained();
     let bc = Dirichlet::new(p.dim(), &mask, ubar);
     let solved = solve_model(&c.model, &bc, &p.load_vector(), &p.solver, progress).map_err(static_error)?;
     let mut report = solved.report;
     report.timings.assemble += c.build_seconds;
-    progress(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
+    progress.phase(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),

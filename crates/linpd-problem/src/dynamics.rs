@@ -14,6 +14,7 @@
 //!
 //! Errors name the JSON path: `dynamics.dt: must be > 0, got 0`.
 
+use linpd_core::progress::Progress;
 use crate::raw::{RawDynamics, RawInitial, RawInitialKind, RawModelKind};
 use crate::{Problem, ProblemError};
 use linpd_core::Point;
@@ -542,7 +543,7 @@ impl Problem {
     }
 
     /// Runs the `dynamics` section. `progress` receives one line per phase.
-    pub fn run_dynamics(&self, progress: &dyn Fn(&str)) -> Result<DynamicsRun, ProblemError> {
+    pub fn run_dynamics(&self, progress: &dyn Progress) -> Result<DynamicsRun, ProblemError> {
         let dynamics = self.dynamics_section()?;
         if self.model.bond().is_none() {
             return Err(ProblemError::invalid("dynamics", "only bond models have explicit dynamics"));
@@ -551,7 +552,7 @@ impl Problem {
         let d = self.dim();
         let grid = self.lattice()?;
         let n_nodes = grid.len();
-        progress(&format!(
+        progress.phase(&format!(
             "building bonds: {n_nodes} nodes, horizon/spacing = {:.3}",
             self.model.horizon().unwrap_or(f64::NAN) / grid.spacing()
         ));
@@ -574,7 +575,7 @@ impl Problem {
                 ),
             ));
         }
-        progress(&format!("dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {})", dt / limit.dt, limit.dt, limit.method));
+        progress.phase(&format!("dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {})", dt / limit.dt, limit.dt, limit.method));
         let fixed = self.fixed();
         let mass = self.mass(dynamics.density)?;
         let verlet = Verlet::new(&op, mass)
@@ -594,7 +595,7 @@ impl Problem {
         let (mut output_steps, mut times, mut energies, mut snapshots) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let setup_seconds = t0.elapsed().as_secs_f64();
-        progress(&format!(
+        progress.phase(&format!(
             "running {} steps ({} DOFs, {} held, {} bonds)",
             dynamics.steps,
             d * n_nodes,
@@ -613,7 +614,7 @@ impl Problem {
             })
             .map_err(|e| ProblemError::Solve(format!("dynamics: {e}")))?;
         let wall_seconds = t1.elapsed().as_secs_f64();
-        progress(&format!("done: t = {:.6e} in {wall_seconds:.3} s", info.t));
+        progress.phase(&format!("done: t = {:.6e} in {wall_seconds:.3} s", info.t));
         Ok(DynamicsRun {
             name: self.name.clone(),
             dim: d,
@@ -665,14 +666,14 @@ mod tests {
         let n = 25;
         let u: Vec<f64> = (0..2 * n).map(|k| 1e-3 * (k as f64).sin()).collect();
         let p = Problem::from_json(&scene(json!({"type": "data", "u": u})).to_string()).unwrap();
-        let r = p.run_dynamics(&|_| {}).unwrap();
+        let r = p.run_dynamics(&linpd_core::NoProgress).unwrap();
         // serde_json's default float parsing may be off by an ulp.
         assert!(r.snapshots[0].iter().zip(&u).all(|(a, b)| (a - b).abs() <= 1e-15 * b.abs()), "step 0 is the data");
         assert!(r.energies[0].potential > 0.0);
         // A uniform velocity translates the free body rigidly: u = v t exactly.
         let v: Vec<f64> = (0..2 * n).map(|k| if k % 2 == 0 { 0.5 } else { -0.25 }).collect();
         let p = Problem::from_json(&scene(json!({"type": "data", "u": vec![0.0; 2 * n], "v": v})).to_string()).unwrap();
-        let r = p.run_dynamics(&|_| {}).unwrap();
+        let r = p.run_dynamics(&linpd_core::NoProgress).unwrap();
         let (t, last) = (*r.times.last().unwrap(), r.snapshots.last().unwrap());
         for (k, x) in last.iter().enumerate() {
             assert!((x - v[k] * t).abs() < 1e-12, "dof {k}: {x} vs {}", v[k] * t);
@@ -711,7 +712,7 @@ mod tests {
     fn two_dimensional_runs_write_parseable_vtk() {
         let u: Vec<f64> = (0..50).map(|k| 1e-3 * k as f64).collect();
         let p = Problem::from_json(&scene(json!({"type": "data", "u": u})).to_string()).unwrap();
-        let r = p.run_dynamics(&|_| {}).unwrap();
+        let r = p.run_dynamics(&linpd_core::NoProgress).unwrap();
         let dir = std::env::temp_dir().join(format!("linpd-vtk-test-{}", std::process::id()));
         let files = r.write(&dir).unwrap();
         let vtk: Vec<_> = files.iter().filter(|f| f.extension().is_some_and(|e| e == "vtk")).collect();

@@ -9,6 +9,7 @@
 //! matching of `linpd_coarsen` conserves nodal forces); a point load must sit on such a node.
 //! Loads on excluded nodes would violate the assumption (5) of the coarsening step.
 
+use linpd_core::progress::Progress;
 use crate::{Load, Problem, ProblemError};
 use linpd_bond::{assemble, BondOperator};
 use linpd_coarsen::io::ModuliFile;
@@ -267,11 +268,11 @@ impl Pipeline {
     /// Runs every step, writes the levels into `dir` ([`PipelineResult::write`]), and (if asked)
     /// solves and compares. `summary.json` ([`PipelineResult::summary_json`]) is written by
     /// [`crate::OutputDir::commit`].
-    pub fn run(&self, dir: &Path, progress: &dyn Fn(&str)) -> Result<PipelineResult, ProblemError> {
+    pub fn run(&self, dir: &Path, progress: &dyn Progress) -> Result<PipelineResult, ProblemError> {
         let d = self.scene.dim();
         let t = Instant::now();
         let m0 = level0_model(&self.scene)?;
-        progress(&format!(
+        progress.phase(&format!(
             "level 0: {} nodes, {} bonds, horizon {:.4e} ({:.2} s)",
             m0.len(),
             m0.n_bonds(),
@@ -306,7 +307,7 @@ impl Pipeline {
             let opts = Options { radius: spec.radius, cache: self.cache, ..Options::fixed(1.0) };
             let c = coarsen_with(fine, &retained, &opts).map_err(|e| inv(&path, format!("level {m}: {e}")))?;
             let rep = c.report.clone();
-            progress(&format!(
+            progress.phase(&format!(
                 "level {m}: {} -> {} nodes, r = {:.4e} (horizon {:.4e}), tail {:.2e}, {} classes (hit rate {:.4}), asymmetry {:.1e}, {:.2} s",
                 rep.n_fine, rep.n_coarse, rep.radius, rep.horizon_fine, rep.tail, rep.classes, rep.hit_rate, rep.asymmetry, rep.seconds_total
             ));
@@ -356,7 +357,7 @@ impl Pipeline {
                 r.error_shared = Some(if umax > 0.0 { e / umax } else { e });
             }
             for r in &results {
-                progress(&format!(
+                progress.phase(&format!(
                     "BVP level {}: {} nodes, solve {:.3} s, error at the {} shared nodes {:.3e}",
                     r.level,
                     r.nodes,
