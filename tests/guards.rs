@@ -140,7 +140,9 @@ fn nan_load_is_an_error() {
         s["loads"] = json!([{"type": "point", "at": [0.5], "force": [force]}]);
         s
     };
-    let solve = |s: &Value| Problem::from_json(&s.to_string()).unwrap().solve(&linpd::core::NoProgress).unwrap_err().to_string();
+    let solve = |s: &Value| {
+        Problem::from_json(&s.to_string()).unwrap().solve(&linpd::core::NoProgress).unwrap_err().to_string()
+    };
     // ||f||^2 overflows: every residual would be inf / inf.
     let e = solve(&base(1.0, 1e308, 1e300));
     assert!(e.contains("the load vector has non-finite values") && e.contains("squared norm overflows"), "{e}");

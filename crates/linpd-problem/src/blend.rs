@@ -8,10 +8,10 @@
 //! end nodes `x = 0` and `x = L`; loads are point loads on nodes (`b_i = delta_ip / dx` is a
 //! unit force) or body-force densities on boxes.
 
-use linpd_core::progress::Progress;
 use crate::raw::{RawBlending, RawModelKind, RawNormalize, RawProblem, RawSolverKind};
 use crate::{BlendScene, Constraint, Load, Problem, ProblemError, Solution};
 use linpd_blend::{solve_model, BlendParams, BlendSolver, Blending, ModelKind, Regions};
+use linpd_core::progress::Progress;
 use linpd_core::{Grid, Region};
 
 /// Validates the blend-specific keys and translates constraints and loads.

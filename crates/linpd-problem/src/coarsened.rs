@@ -18,11 +18,11 @@
 //! `C(x, q) = C(q, x)^T`; then the solve is a sparse Cholesky (or the scene's solver), otherwise
 //! a sparse LU, and the report's `solver` says why.
 
-use linpd_core::progress::Progress;
 use crate::problem::{constraints_and_loads, solver_spec, LevelNodes, Nodes};
 use crate::raw::{RawModelKind, RawProblem};
 use crate::run::static_error;
 use crate::{ModelSpec, Problem, ProblemError, Solution};
+use linpd_core::progress::Progress;
 use linpd_core::AssembledModel;
 use linpd_solve::{solve_model, Dirichlet};
 use std::path::{Path, PathBuf};
@@ -196,7 +196,11 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) ->
     let solved = solve_model(&c.model, &bc, &p.load_vector(), &p.solver, progress).map_err(static_error)?;
     let mut report = solved.report;
     report.timings.assemble += c.build_seconds;
-    progress.phase(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
+    progress.phase(&format!(
+        "done in {:.3} s, relative residual {:.2e}",
+        t0.elapsed().as_secs_f64(),
+        report.rel_residual
+    ));
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),

@@ -14,12 +14,12 @@
 //!
 //! Errors name the JSON path: `dynamics.dt: must be > 0, got 0`.
 
-use linpd_core::progress::Progress;
 use crate::raw::{RawDynamics, RawInitial, RawInitialKind, RawModelKind};
 use crate::{Problem, ProblemError};
+use linpd_core::progress::Progress;
 use linpd_core::Point;
 use linpd_dynamics::initial::smooth_pulse;
-use linpd_dynamics::stability::{lattice_limit, power_iteration, verlet_limit, PowerParams};
+use linpd_dynamics::stability::{lattice_limit, power_iteration_with_progress, verlet_limit, PowerParams};
 use linpd_dynamics::{Chain, DtLimit, Energy, LumpedMass, State, Verlet, VerletParams};
 use serde_json::json;
 use std::io::Write;
@@ -502,7 +502,7 @@ impl Problem {
     pub fn stability_limit(&self) -> Result<StabilityLimit, ProblemError> {
         let dynamics = self.dynamics_section()?;
         let op = self.operator()?;
-        self.limit_of(&op, dynamics)
+        self.limit_of(&op, dynamics, &linpd_core::NoProgress)
     }
 
     fn mass(&self, rho: f64) -> Result<LumpedMass, ProblemError> {
@@ -516,7 +516,12 @@ impl Problem {
         mask.iter().enumerate().filter(|(_, m)| **m).map(|(i, _)| (i, ubar[i])).collect()
     }
 
-    fn limit_of(&self, op: &linpd_bond::BondOperator, dynamics: &Dynamics) -> Result<StabilityLimit, ProblemError> {
+    fn limit_of(
+        &self,
+        op: &linpd_bond::BondOperator,
+        dynamics: &Dynamics,
+        progress: &dyn Progress,
+    ) -> Result<StabilityLimit, ProblemError> {
         let rho = dynamics.density;
         let bond = self
             .model
@@ -533,16 +538,22 @@ impl Problem {
         }
         let mass = self.mass(rho)?;
         let fixed: Vec<usize> = self.fixed().iter().map(|p| p.0).collect();
-        let info =
-            power_iteration(op, &mass, &fixed, &PowerParams { max_iter: 5000, rtol: 1e-10, ..Default::default() })
-                .map_err(|e| ProblemError::invalid("dynamics", e.to_string()))?;
+        let info = power_iteration_with_progress(
+            op,
+            &mass,
+            &fixed,
+            &PowerParams { max_iter: 5000, rtol: 1e-10, ..Default::default() },
+            progress,
+        )
+        .map_err(|e| ProblemError::invalid("dynamics", e.to_string()))?;
         Ok(StabilityLimit {
             dt: verlet_limit(info.lambda) * (1.0 - 1e-3),
             method: format!("2/sqrt(lambda_max) by power iteration ({} iterations), less 0.1%", info.iterations),
         })
     }
 
-    /// Runs the `dynamics` section. `progress` receives one line per phase.
+    /// Runs the `dynamics` section. `progress` receives one line per phase and the tasks of the
+    /// stable-time-step estimate (power iteration, 2D/3D) and of the time steps.
     pub fn run_dynamics(&self, progress: &dyn Progress) -> Result<DynamicsRun, ProblemError> {
         let dynamics = self.dynamics_section()?;
         if self.model.bond().is_none() {
@@ -557,7 +568,7 @@ impl Problem {
             self.model.horizon().unwrap_or(f64::NAN) / grid.spacing()
         ));
         let op = self.operator()?;
-        let limit = self.limit_of(&op, dynamics)?;
+        let limit = self.limit_of(&op, dynamics, progress)?;
         let dt = match dynamics.step {
             TimeStep::Dt(dt) => dt,
             TimeStep::Safety(s) => s * limit.dt,
@@ -575,10 +586,16 @@ impl Problem {
                 ),
             ));
         }
-        progress.phase(&format!("dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {})", dt / limit.dt, limit.dt, limit.method));
+        progress.phase(&format!(
+            "dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {})",
+            dt / limit.dt,
+            limit.dt,
+            limit.method
+        ));
         let fixed = self.fixed();
         let mass = self.mass(dynamics.density)?;
         let verlet = Verlet::new(&op, mass)
+            .with_progress(progress)
             .with_fixed(&fixed)
             .map_err(|e| ProblemError::invalid("constraints", e.to_string()))?;
         let positions = op.positions().to_vec();

@@ -4,9 +4,9 @@
 //! The model is [`linpd_lps::LpsModel`] as a [`linpd_core::Model`] (its ordering, reach and
 //! support graph are documented there); the solve is [`linpd_solve::solve_model`].
 
-use linpd_core::progress::Progress;
 use crate::run::static_error;
 use crate::{Problem, ProblemError, Solution};
+use linpd_core::progress::Progress;
 use linpd_lps::{LpsModel, LpsParams};
 use linpd_solve::solve_model;
 use std::time::Instant;
@@ -49,7 +49,11 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
             None => note,
         });
     }
-    progress.phase(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
+    progress.phase(&format!(
+        "done in {:.3} s, relative residual {:.2e}",
+        t0.elapsed().as_secs_f64(),
+        report.rel_residual
+    ));
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),

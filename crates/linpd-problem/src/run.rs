@@ -2,10 +2,10 @@
 //! of linpd-solve ([`linpd_solve::solve_model`]: support check, Dirichlet elimination
 //! `A_ff u_f = f_f - (A u_bar)_f`, assembled or matrix-free solve, report).
 
-use linpd_core::progress::Progress;
 use crate::problem::NodeSet;
 use crate::{Load, ModelSpec, Problem, ProblemError};
 use linpd_bond::{BondOperator, LatticeBondModel};
+use linpd_core::progress::Progress;
 use linpd_core::Point;
 use linpd_solve::{solve_model, Dirichlet, SolveReport, StaticError};
 use std::time::Instant;

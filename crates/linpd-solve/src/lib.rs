@@ -34,7 +34,9 @@ pub use spec::{
     CholeskyOrdering, DofGeometry, GmresPreconditioner, MatrixFree, ModelInput, PreconditionerInput,
     PreconditionerKind, SolverId, SolverSpec,
 };
-pub use statics::{solve_assembled, solve_assembled_with_progress, solve_model, MatrixHints, StaticError, StaticSolution};
+pub use statics::{
+    solve_assembled, solve_assembled_with_progress, solve_model, MatrixHints, StaticError, StaticSolution,
+};
 
 /// A failed solve.
 #[non_exhaustive]

@@ -22,8 +22,8 @@ use crate::spec::{
 };
 use crate::CgParams;
 use crate::{SolveError, SolveReport};
-use linpd_core::sparse::{diagonal, relative_residual, Csc, GeneralCsc, SymCsc, SYMMETRY_RTOL};
 use linpd_core::progress::{NoProgress, Progress, Task};
+use linpd_core::sparse::{diagonal, relative_residual, Csc, GeneralCsc, SymCsc, SYMMETRY_RTOL};
 use linpd_core::{check_support, LinearOperator, Model, ModelOperator, Ordering, SpdApproximation, Unsupported};
 use std::time::Instant;
 
@@ -120,13 +120,15 @@ pub fn solve_assembled_with_progress(
                 (u, report)
             }
             (SolverSpec::Lu, _) => lu(a, f, &hints.ordering, progress)?,
-            (_, Some(spd)) if matches!(spec, SolverSpec::Auto(_)) => match spd_gmres(a, f, spd, &hints.ordering, progress) {
-                Ok(solved) => solved,
-                Err(why) => {
-                    note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
-                    lu(a, f, &hints.ordering, progress)?
+            (_, Some(spd)) if matches!(spec, SolverSpec::Auto(_)) => {
+                match spd_gmres(a, f, spd, &hints.ordering, progress) {
+                    Ok(solved) => solved,
+                    Err(why) => {
+                        note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
+                        lu(a, f, &hints.ordering, progress)?
+                    }
                 }
-            },
+            }
             (s, _) => {
                 note = Some(format!(
                     "{s} asked, sparse LU used: A is unsymmetric (relative asymmetry {:.2e} > {SYMMETRY_RTOL:e})",
@@ -302,12 +304,7 @@ fn auto(
 }
 
 /// Sparse LU with partial pivoting: COLAMD, or the natural order for a banded model.
-fn lu(
-    a: &Csc,
-    f: &[f64],
-    ordering: &Ordering,
-    progress: &dyn Progress,
-) -> Result<(Vec<f64>, SolveReport), SolveError> {
+fn lu(a: &Csc, f: &[f64], ordering: &Ordering, progress: &dyn Progress) -> Result<(Vec<f64>, SolveReport), SolveError> {
     let (how, id) = match ordering {
         Ordering::Band => (LuOrdering::Band, SolverId::LuBand),
         _ => (LuOrdering::Colamd, SolverId::Lu),
@@ -514,9 +511,8 @@ pub fn solve_model(
             let m_inv = preconditioner.build(&input).map_err(at_dof)?;
             let t_setup = t.elapsed().as_secs_f64();
             let mut u = vec![0.0; dofs.n_free()];
-            let info =
-                pcg_with_progress(&ReducedOperator::new(full, dofs), &m_inv, &rhs, &mut u, params, progress)
-                    .map_err(|e| at_dof(e.into()))?;
+            let info = pcg_with_progress(&ReducedOperator::new(full, dofs), &m_inv, &rhs, &mut u, params, progress)
+                .map_err(|e| at_dof(e.into()))?;
             let id = SolverId::Cg { preconditioner: *preconditioner, matrix_free: how };
             let mut report = SolveReport::new(id, dofs.n_free(), 0);
             report.preconditioner = m_inv.summary();
