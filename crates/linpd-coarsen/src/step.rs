@@ -139,7 +139,7 @@ pub fn coarsen_with(fine: &LevelModel, retained: &[usize], opts: &Options) -> Re
     coarsen_with_progress(fine, retained, opts, &NoProgress)
 }
 
-/// [`coarsen_with`] reporting to `progress`: one task `"local solves"` per radius tried (one
+/// [`coarsen_with`] reporting to `progress`: one task `"local solves (r = <r>)"` per radius tried (one
 /// per step with a fixed radius) whose steps are the neighbourhood classes solved.
 pub fn coarsen_with_progress(
     fine: &LevelModel,
@@ -490,7 +490,7 @@ impl<'a> Step<'a> {
         let t_hoods = t1.elapsed().as_secs_f64();
         // 3. one local solve per class
         let t2 = Instant::now();
-        let task = Task::start(self.progress, "local solves", Some(reps.len() as u64));
+        let task = Task::start(self.progress, &format!("local solves (r = {r:.3e})"), Some(reps.len() as u64));
         let solved: Vec<Result<LocalRow, CoarsenError>> = reps
             .par_iter()
             .map_init(Vec::new, |buf, &k| {
