@@ -43,10 +43,13 @@ impl Recorder {
     }
 }
 
+/// The updates `(done, message)` of one task.
+type Updates = Vec<(u64, String)>;
+
 /// The updates of every task named `name` (by prefix), per task, with the task's total; panics
 /// when the starts and finishes do not nest.
-fn updates(events: &[Event], name: &str) -> Vec<(Option<u64>, Vec<(u64, String)>)> {
-    let mut open: Vec<(String, Option<u64>, Vec<(u64, String)>)> = Vec::new();
+fn updates(events: &[Event], name: &str) -> Vec<(Option<u64>, Updates)> {
+    let mut open: Vec<(String, Option<u64>, Updates)> = Vec::new();
     let mut done = Vec::new();
     for e in events {
         match e {
