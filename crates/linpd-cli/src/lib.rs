@@ -439,7 +439,7 @@ impl Progress for Reporter {
                     .progress_chars("=> "),
             ),
             None => ProgressBar::new_spinner().with_style(
-                ProgressStyle::with_template("{spinner} {prefix}: {msg} [{elapsed}]").expect("a valid template"),
+                ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {msg}").expect("a valid template"),
             ),
         };
         let bar = multi.add(bar.with_prefix(task.to_string()));

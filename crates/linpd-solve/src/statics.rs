@@ -237,8 +237,10 @@ fn assembled_cg(
     let mut report = SolveReport::new(id, a.nrows(), a.val().len());
     let t = Instant::now();
     let diag = diagonal(a);
+    let task = Task::start(progress, &format!("{} preconditioner setup", preconditioner.name()), None);
     let m_inv =
         preconditioner.build(&PreconditionerInput { diagonal: &diag, matrix: Some(a), geometry, model: None })?;
+    drop(task);
     report.timings.setup = t.elapsed().as_secs_f64();
     report.preconditioner = m_inv.summary();
     let t = Instant::now();
@@ -279,7 +281,9 @@ fn auto(
             why: format!("3D with {n} > {AUTO_3D_CHOLESKY_LIMIT} unknowns"),
         }
     } else {
+        let task = Task::start(progress, "Cholesky symbolic analysis (auto's estimate)", None);
         let (c, label, t) = analyze_cholesky(a, &hints.ordering)?;
+        drop(task);
         let e = cost::cholesky(&c, SolverId::Cholesky(label).to_string());
         analyzed = Some((c, label, t));
         e
@@ -508,7 +512,9 @@ pub fn solve_model(
                 geometry: geometry.as_ref(),
                 model: Some(ModelInput { model, dofs, full }),
             };
+            let task = Task::start(progress, &format!("{} preconditioner setup", preconditioner.name()), None);
             let m_inv = preconditioner.build(&input).map_err(at_dof)?;
+            drop(task);
             let t_setup = t.elapsed().as_secs_f64();
             let mut u = vec![0.0; dofs.n_free()];
             let info = pcg_with_progress(&ReducedOperator::new(full, dofs), &m_inv, &rhs, &mut u, params, progress)
