@@ -90,12 +90,25 @@ fn cg_converged(c: &Value, rtol: f64, max_iter: u64, what: &str) -> u64 {
 fn quick_bench_is_consistent_with_the_problems_it_solved() {
     let dir = std::env::temp_dir().join(format!("linpd-bench-smoke-{}", std::process::id()));
     let out = dir.join("bench.json");
-    let status = Command::new(env!("CARGO_BIN_EXE_linpd"))
+    let run = Command::new(env!("CARGO_BIN_EXE_linpd"))
         .args(["bench", "--quick", "--lps", "--dynamics", "--out"])
         .arg(&out)
-        .status()
+        .output()
         .expect("run linpd bench");
-    assert!(status.success());
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    // the tables come from the written document: one row per standard case and per dynamics
+    // operator
+    let table = String::from_utf8_lossy(&run.stdout);
+    assert!(table.contains("dynamics: velocity Verlet"), "{table}");
+    for op in ["per_bond", "assembled", "stencil"] {
+        assert!(table.lines().any(|l| l.contains(op) && l.contains("3d")), "{op} row: {table}");
+    }
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp-"))
+        .collect();
+    assert!(leftovers.is_empty(), "staged document left behind: {leftovers:?}");
     let doc: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert_eq!(doc["quick"], true);
     assert_eq!(doc["cases"].as_object().map(|o| o.len()), Some(CASES.len()), "{}", doc["cases"]);
@@ -192,5 +205,29 @@ fn quick_bench_is_consistent_with_the_problems_it_solved() {
             assert!(d <= tol, "{name} {op}: |u - u_per_bond| / |u| = {d:e} > {tol:e}");
         }
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `linpd bench | head -1` (issue #15: no panic on a closed stdout). The read end is closed
+/// before the bench prints anything, so every write of the table meets a closed pipe (reading a
+/// first line instead would let the whole small table fit in the pipe's buffer and test
+/// nothing): the bench still writes its document and exits 0 without a panic message.
+#[test]
+fn bench_into_a_closed_pipe_writes_its_document_and_exits_0() {
+    let dir = std::env::temp_dir().join(format!("linpd-bench-pipe-{}", std::process::id()));
+    let out = dir.join("bench.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_linpd"))
+        .args(["bench", "--quick", "--dynamics", "--out"])
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader is gone
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && !stderr.contains("panicked"), "{:?} {stderr}", o.status);
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert!(doc["dynamics"]["cases"].is_object());
     let _ = std::fs::remove_dir_all(&dir);
 }

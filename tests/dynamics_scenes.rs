@@ -182,3 +182,79 @@ fn linpd_run_writes_history_and_refuses_static_scenes() {
     assert!(!o.status.success());
     assert!(stderr.contains("/dev/null/x"), "the unwritable directory is named: {stderr}");
 }
+
+/// A 1D bar (101 nodes, horizon 3h) clamped at `x <= 0`, started from rest and pulled by a
+/// constant point force at `x = 1`, or a 2D plate (`dim = 2`, 21 x 21) pulled by a body load.
+fn from_rest(dim: usize, out: &Path) -> Value {
+    let (grid, load, hi) = if dim == 1 {
+        (
+            json!({"min": [0.0], "max": [1.0], "spacing": 0.01}),
+            json!({"type": "point", "at": [1.0], "force": [1.0]}),
+            json!([0.0]),
+        )
+    } else {
+        (
+            json!({"min": [0.0, 0.0], "max": [1.0, 1.0], "spacing": 0.05}),
+            json!({"type": "body", "region": {"box": {"min": [0.95, -1.0], "max": [2.0, 2.0]}}, "density": [1.0, 0.0]}),
+            json!([0.0, 2.0]),
+        )
+    };
+    let mut model = json!({"type": "bond", "horizon": 3.0 * if dim == 1 { 0.01 } else { 0.05 },
+                           "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "continuum"}});
+    if dim == 2 {
+        model["plane"] = json!("stress");
+    }
+    json!({
+        "name": "from-rest", "dimension": dim, "grid": grid, "model": model,
+        "constraints": [{"region": {"box": {"min": vec![-1.0; dim], "max": hi}}, "displacement": {"value": vec![0.0; dim]}}],
+        "loads": [load],
+        "dynamics": {"dt_safety": 0.5, "steps": 400, "output_every": 4, "density": 1.0},
+        "output": {"dir": out.to_string_lossy()}
+    })
+}
+
+/// Issue #15 item 8 (dynamics reporting): a run from rest under a constant load has `E_0 = 0`;
+/// the drifts are relative to `E_ref = max(|E_0|, max E_k, max |E_p|)` and finite (until 2026-11:
+/// `inf`, `null` in history.json). Bounds: the shadow energy is an exact invariant, so it moves by
+/// round-off only (`<= 1e-12 E_ref`, observed ~1e-16); `E_k + E_p` oscillates by `O((omega
+/// dt)^2)` of `E_ref`, below 1 at `dt = 0.5 dt_max`. The time-step estimate is timed and
+/// reported (a power iteration in 2D), and the energy plot shows the conserved shadow energy
+/// beside the total.
+#[test]
+fn item_8_dynamics_drift_from_rest_and_timed_dt_estimate() {
+    let out = std::env::temp_dir().join(format!("linpd-run-rest-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let p = Problem::from_json(&from_rest(1, &out).to_string()).unwrap();
+    let r = p.run_dynamics(&linpd::core::NoProgress).unwrap();
+    assert_eq!(r.energies[0].total(), 0.0, "from rest, unloaded start: E_0 = 0");
+    let (scale, total, shadow) = (r.energy_scale(), r.max_total_drift(), r.max_shadow_drift());
+    println!("E_ref = {scale:e}, E_k + E_p oscillation {total:e}, shadow drift {shadow:e}");
+    assert!(scale > 0.0 && scale.is_finite());
+    assert!(total.is_finite() && total > 0.0 && total < 1.0, "E_k + E_p oscillation {total:e}");
+    assert!(shadow <= 1e-12, "shadow drift {shadow:e}");
+
+    // 2D through the binary: history.json has finite drifts and the timed estimate, stderr the
+    // phase before the power iteration, the energy plot both energies
+    let scene = out.with_extension("json");
+    std::fs::write(&scene, from_rest(2, &out).to_string()).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_linpd")).arg("run").arg(&scene).output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "{stderr}");
+    let estimating = stderr.find("estimating the stable time step").expect(&stderr);
+    let estimated = stderr.find("power iteration").expect(&stderr);
+    assert!(estimating < estimated, "the estimate is announced before it runs: {stderr}");
+    assert!(stdout.contains("estimated in") && stdout.contains("shadow energy drift"), "{stdout}");
+    let h: Value = serde_json::from_str(&std::fs::read_to_string(out.join("history.json")).unwrap()).unwrap();
+    let secs = h["dt_limit_seconds"].as_f64().expect("dt_limit_seconds");
+    assert!(secs >= 0.0 && secs <= h["stats"]["setup_seconds"].as_f64().unwrap(), "inside the setup time");
+    assert!(h["dt_limit_method"].as_str().unwrap().contains("power iteration"));
+    for key in ["drift", "shadow_drift"] {
+        let v = h["energies"][key].as_array().unwrap();
+        assert!(v.iter().all(|x| x.as_f64().is_some_and(f64::is_finite)), "{key}: {v:?}");
+    }
+    assert!(h["stats"]["max_total_drift"].as_f64().is_some_and(f64::is_finite));
+    let svg = std::fs::read_to_string(out.join("energy.svg")).unwrap();
+    assert!(svg.contains("shadow (conserved)") && svg.contains("total E_k + E_p"), "legend");
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_file(&scene);
+}

@@ -1,4 +1,4 @@
-//! Guards of issue 15 (items 3-5), each a regression test named after what it guards: memory
+//! Guards of issue 15 (items 3-6), each a regression test named after what it guards: memory
 //! estimates checked before allocating, CG that never reports success above its tolerance,
 //! non-finite values named by their source, overflow named as overflow.
 //!
@@ -74,7 +74,7 @@ fn assert_rejected(what: &str, out: &Output, took: Duration, needles: &[&str]) {
 /// LPS 3D 60^3 with delta = 2h: the tangent's reach is 2 delta (~185 coupled nodes per node,
 /// 11.8 GiB), not the bond neighbourhood (~32, 1.5 GiB, which an 8 GiB machine would accept).
 #[test]
-fn lps_memory_guard_counts_two_delta() {
+fn item_3_lps_memory_guard_counts_two_delta() {
     let h = 1.0 / 60.0;
     let lps = json!({"type": "lps", "horizon": 2.0 * h, "bulk_modulus": 2.0, "shear_modulus": 0.5});
     let (out, took) = linpd("validate", "lps60", &scene(3, h, lps, json!({"type": "cg"})));
@@ -89,7 +89,7 @@ fn lps_memory_guard_counts_two_delta() {
 /// Matrix-free 3D 130^3 (delta = 4h, 256 bonds a node) and a 1D matrix-free bar of 6e8 nodes:
 /// bonds, weights and the CG vectors are counted (the old guard counted 12 bytes a bond).
 #[test]
-fn matrix_free_memory_guard_counts_vectors() {
+fn item_3_matrix_free_memory_guard_counts_vectors() {
     let h = 1.0 / 130.0;
     let mf = json!({"type": "cg", "matrix_free": true});
     let (out, took) = linpd("validate", "mf130", &scene(3, h, bond(4.0 * h, 1.0), mf.clone()));
@@ -104,7 +104,7 @@ fn matrix_free_memory_guard_counts_vectors() {
 /// machine with matrix-free Jacobi-PCG (validation passes) but not with matrix-free multigrid,
 /// which is refused at solve time before the bonds are built.
 #[test]
-fn multigrid_memory_guard_counts_the_hierarchy() {
+fn item_3_multigrid_memory_guard_counts_the_hierarchy() {
     let h = 1.0 / 110.0;
     let mg = json!({"type": "cg", "matrix_free": true, "preconditioner": "multigrid"});
     let s = scene(3, h, bond(3.0 * h, 1.0), mg);
@@ -117,7 +117,7 @@ fn multigrid_memory_guard_counts_the_hierarchy() {
 /// CG whose recursive residual meets rtol but whose true residual cannot (1D bar of 1000
 /// nodes, rtol 1e-13): a named error and a non-zero exit, not success at 1e-10.
 #[test]
-fn cg_true_residual_checked() {
+fn item_4_cg_true_residual_checked() {
     let h = 0.001;
     let cg = json!({"type": "cg", "rtol": 1e-13});
     let (out, _) = linpd("solve", "cg-tight", &scene(1, h, bond(3.0 * h, 1.0), cg));
@@ -133,7 +133,7 @@ fn cg_true_residual_checked() {
 /// A point force of 1e308 with prescribed displacements of 1e300 (and variants): the source of
 /// the non-finite value is named, never a NaN residual with exit 0.
 #[test]
-fn nan_load_is_an_error() {
+fn item_4_nan_load_is_an_error() {
     let base = |modulus: f64, force: f64, prescribed: f64| {
         let mut s = scene(1, 0.1, bond(0.2, modulus), json!({"type": "auto"}));
         s["constraints"][0]["displacement"]["value"] = json!([prescribed]);
@@ -159,7 +159,7 @@ fn nan_load_is_an_error() {
 /// of 1e308 (was "Poisson ratio = NaN"), and a coarsened level with node volumes of 1e300
 /// (was "every DOF is constrained": the region tolerance grew with the volumes).
 #[test]
-fn modulus_overflow_named() {
+fn item_5_modulus_overflow_named() {
     let s = scene(1, 0.1, bond(0.2, 1e308), json!({"type": "auto"}));
     let e = Problem::from_json(&s.to_string()).unwrap_err().to_string();
     assert!(e.contains("model.micromodulus") && e.contains("modulus 1e308 overflows"), "{e}");
@@ -201,7 +201,7 @@ fn modulus_overflow_named() {
 
 /// `grid.layer: 1e300` is an error naming the layer, not a wrapped count of "99 nodes".
 #[test]
-fn grid_layer_overflow_is_an_error() {
+fn item_5_grid_layer_overflow_is_an_error() {
     let mut s = scene(1, 0.1, bond(0.2, 1.0), json!({"type": "auto"}));
     s["grid"]["layer"] = json!(1e300);
     let e = Problem::from_json(&s.to_string()).unwrap_err().to_string();
@@ -209,4 +209,128 @@ fn grid_layer_overflow_is_an_error() {
         e.contains("grid.layer") && e.contains("layer 1e300 with spacing 1e-1 gives more than usize::MAX nodes"),
         "{e}"
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Item 6: runaway loops and contradictions, refused before they start
+// ---------------------------------------------------------------------------------------------
+
+/// A pipeline whose `levels[0]` is `level` (on the bundled 2D plate scene, copied beside it).
+fn pipeline(tag: &str, level: Value) -> (PathBuf, PathBuf) {
+    let dir = temp_dir(tag);
+    std::fs::copy("data/coarsen-plate-2d.json", dir.join("coarsen-plate-2d.json")).unwrap();
+    let p = json!({"name": tag, "scene": "coarsen-plate-2d.json", "levels": [level], "solve": false});
+    let path = dir.join("p.json");
+    std::fs::write(&path, p.to_string()).unwrap();
+    (dir, path)
+}
+
+fn coarsen(dir: &std::path::Path, path: &std::path::Path) -> (Output, Duration) {
+    let t = Instant::now();
+    let out = Command::new(env!("CARGO_BIN_EXE_linpd"))
+        .args(["coarsen", path.to_str().unwrap(), "-q", "--out", "o"])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    (out, t.elapsed())
+}
+
+/// `radius_growth: 1.000000001` would try ~3e9 radii, each a full coarsening step: refused
+/// before the first (until 2026-11 it ran for days). `radius_max < radius_start` is refused by
+/// name (it used to be raised silently to the start).
+#[test]
+fn item_6_radius_growth_and_radius_max_guarded() {
+    let (dir, path) = pipeline("growth", json!({"every": 2, "tolerance": 1e-9, "radius_growth": 1.000000001}));
+    let (out, took) = coarsen(&dir, &path);
+    assert_rejected(
+        "growth 1.000000001",
+        &out,
+        took,
+        &["levels[0]", "radius rule: growth 1.000000001e0", "more than 40", "raise radius_growth"],
+    );
+    assert!(!dir.join("o").exists(), "an error writes nothing");
+    let (dir, path) = pipeline("rmax", json!({"every": 2, "tolerance": 1e-2, "radius_start": 0.3, "radius_max": 0.2}));
+    let (out, took) = coarsen(&dir, &path);
+    assert_rejected(
+        "radius_max < radius_start",
+        &out,
+        took,
+        &["levels[0].radius_max", "2e-1 is below radius_start 3e-1"],
+    );
+    // radius_max below the default start (2 x horizon = 0.125)
+    let (dir, path) = pipeline("rmax-default", json!({"every": 2, "tolerance": 1e-2, "radius_max": 0.1}));
+    let (out, took) = coarsen(&dir, &path);
+    assert_rejected("radius_max < 2 horizon", &out, took, &["radius_max 1e-1 is below the first radius 1.25e-1"]);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A 1D wave scene (401 nodes, horizon 2h) with `steps` and `output_every`.
+fn wave(steps: u64, output_every: u64) -> Value {
+    json!({
+        "name": "wave", "dimension": 1,
+        "grid": {"min": [0.0], "max": [1.0], "spacing": 0.0025},
+        "model": {"type": "bond", "horizon": 0.005,
+                  "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "discrete"}},
+        "constraints": [{"region": {"box": {"min": [-1.0], "max": [0.0]}}, "displacement": {"value": [0.0]}}],
+        "dynamics": {"dt_safety": 0.5, "steps": steps, "output_every": output_every, "density": 1.0,
+                     "initial": {"type": "square_pulse", "from": 0.4, "to": 0.6, "amplitude": 1.0}},
+        "output": {"dir": "out", "plot": false}
+    })
+}
+
+/// `dynamics.steps: 1e18` (1e18 x 401 x 4 bond updates, 1.6e21) is refused before the first
+/// step, naming the work and the limit; `steps: 5e6, output_every: 1` (5e6 snapshots kept in
+/// memory and written as 1e7 files) is refused at `output_every`, naming the smallest interval
+/// that passes, which then runs.
+#[test]
+fn item_6_dynamics_steps_and_snapshots_guarded() {
+    let (out, took) = linpd("run", "steps", &wave(1_000_000_000_000_000_000, 1_000_000_000_000_000));
+    assert_rejected("steps 1e18", &out, took, &["dynamics.steps", "1e18 steps", "more than 1e14"]);
+    let (out, took) = linpd("run", "snapshots", &wave(5_000_000, 1));
+    assert_rejected(
+        "5e6 snapshots",
+        &out,
+        took,
+        &["dynamics.output_every", "5000001 snapshots", "more than 10000", "use output_every >= 501"],
+    );
+    // the limit itself is accepted: 5000 steps every 1 = 5001 snapshots
+    let p = Problem::from_json(&wave(5000, 1).to_string()).unwrap();
+    assert_eq!(p.dynamics().unwrap().output_every(), 1);
+}
+
+/// Two constraints prescribing different values on one DOF: an error naming both (until
+/// 2026-11 the later silently won); the same value twice (overlapping regions of one field) is
+/// fine.
+#[test]
+fn item_6_contradictory_constraints_refused() {
+    let mut s = scene(1, 0.1, bond(0.2, 1.0), json!({"type": "auto"}));
+    let c = |lo: f64, hi: f64, u: f64| json!({"region": {"box": {"min": [lo], "max": [hi]}}, "displacement": {"value": [u]}});
+    s["constraints"] = json!([c(-1.0, 0.0, 0.0), c(-0.05, 0.15, 0.0)]);
+    Problem::from_json(&s.to_string()).expect("agreeing constraints overlap");
+    s["constraints"] = json!([c(-1.0, 0.0, 0.0), c(-0.05, 0.15, 1e-3)]);
+    let e = Problem::from_json(&s.to_string()).unwrap_err().to_string();
+    assert!(
+        e.contains("constraints[1]") && e.contains("u_0 = 1e-3 at node") && e.contains("constraints[0] prescribes 0e0"),
+        "{e}"
+    );
+}
+
+/// `linpd validate /dev/urandom` (an endless device) and a FIFO are refused at once instead of
+/// read forever; an oversized file is refused by its size.
+#[test]
+fn item_6_scene_file_must_be_a_regular_bounded_file() {
+    let (out, took) = {
+        let t = Instant::now();
+        let o = Command::new(env!("CARGO_BIN_EXE_linpd")).args(["validate", "/dev/urandom"]).output().unwrap();
+        (o, t.elapsed())
+    };
+    assert_rejected("/dev/urandom", &out, took, &["/dev/urandom", "not a regular file"]);
+    let dir = temp_dir("big-file");
+    let big = dir.join("big.json");
+    let f = std::fs::File::create(&big).unwrap();
+    f.set_len(linpd::problem::MAX_JSON_BYTES + 1).unwrap();
+    let t = Instant::now();
+    let o = Command::new(env!("CARGO_BIN_EXE_linpd")).args(["validate", big.to_str().unwrap()]).output().unwrap();
+    assert_rejected("17 MiB scene", &o, t.elapsed(), &["big.json", "16777217 bytes, more than"]);
+    let _ = std::fs::remove_dir_all(dir);
 }

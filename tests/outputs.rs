@@ -65,7 +65,7 @@ fn names(dir: &Path) -> Vec<String> {
 /// every other file with its size, and (for `solve`) a u.csv of the nodes in result.json with
 /// the same displacements. Returns the main document.
 fn complete_run(dir: &Path) -> Result<Value, String> {
-    let main = ["result.json", "history.json", "summary.json"]
+    let main = ["result.json", "history.json", "summary.json", "data.json"]
         .into_iter()
         .find(|m| dir.join(m).exists())
         .ok_or_else(|| format!("{}: no main document in {:?}", dir.display(), names(dir)))?;
@@ -120,7 +120,7 @@ fn spawn_solve(scene: &str, out: &Path) -> Child {
 }
 
 #[test]
-fn outputs_atomic_on_failure() {
+fn item_1_outputs_atomic_on_failure() {
     let root = temp_dir("failure");
     let out = root.join("out");
     let o = linpd(&["solve", &data("bar-point-load.json"), "--out", "out", "-q"], &root);
@@ -168,7 +168,7 @@ fn outputs_atomic_on_failure() {
 }
 
 #[test]
-fn concurrent_runs_do_not_interleave() {
+fn item_1_concurrent_runs_do_not_interleave() {
     let root = temp_dir("concurrent");
     let out = root.join("out");
     let a = write_json(&root.join("a.json"), &bar_scene("a", 100_000, 1.0));
@@ -196,7 +196,7 @@ fn concurrent_runs_do_not_interleave() {
 }
 
 #[test]
-fn killed_run_leaves_old_results() {
+fn item_1_killed_run_leaves_old_results() {
     let root = temp_dir("killed");
     let out = root.join("out");
     let o = linpd(&["solve", &data("bar-point-load.json"), "--out", "out", "-q"], &root);
@@ -229,7 +229,7 @@ fn killed_run_leaves_old_results() {
 }
 
 #[test]
-fn stale_files_removed() {
+fn item_1_stale_files_removed() {
     let root = temp_dir("stale");
     // solve: plots, then none.
     let mut scene: Value =
@@ -289,7 +289,7 @@ fn fnv1a64(bytes: &[u8]) -> u64 {
 }
 
 #[test]
-fn result_json_carries_run_identity() {
+fn item_1_result_json_carries_run_identity() {
     let root = temp_dir("identity");
     let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().as_secs();
     let cases = [
@@ -319,7 +319,7 @@ fn result_json_carries_run_identity() {
 }
 
 #[test]
-fn trailing_garbage_rejected() {
+fn item_6_trailing_garbage_rejected() {
     let root = temp_dir("trailing");
     let scene = std::fs::read_to_string(data("bar-point-load.json")).unwrap();
     let lines = scene.trim_end().lines().count();
@@ -347,7 +347,7 @@ fn trailing_garbage_rejected() {
 }
 
 #[test]
-fn output_name_confined() {
+fn item_6_output_name_confined() {
     let root = temp_dir("confined");
     let work = root.join("a/b/work");
     std::fs::create_dir_all(&work).unwrap();
@@ -409,5 +409,37 @@ fn broken_pipe_no_panic() {
     for f in ["data.json", "fig3_micromodulus.png", "fig3_micromodulus.svg"] {
         assert!(root.join("study").join(f).is_file(), "study: no {f}");
     }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Studies write all of their files or none, like the other commands: `data.json` is the main
+/// document (its `run.files` lists every figure), a second run replaces the first as a whole
+/// (a figure the first run wrote and the second did not does not survive), and a directory
+/// holding a file linpd did not write is refused with nothing written.
+#[test]
+fn item_1_study_outputs_atomic() {
+    let root = temp_dir("study-atomic");
+    let o = linpd(&["study", "coarsen-tent", "--out", "s"], &root);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc = complete_run(&root.join("s")).unwrap();
+    assert!(doc["run"]["linpd_version"].is_string());
+    // a stale figure listed as ours (as an earlier run with more figures would have left it)
+    let mut doc = doc;
+    std::fs::write(root.join("s").join("old_figure.png"), b"old").unwrap();
+    doc["run"]["files"].as_array_mut().unwrap().push(serde_json::json!({"name": "old_figure.png", "bytes": 3}));
+    std::fs::write(root.join("s").join("data.json"), doc.to_string()).unwrap();
+    let o = linpd(&["study", "coarsen-tent", "--out", "s"], &root);
+    assert!(o.status.success(), "{}", stderr(&o));
+    complete_run(&root.join("s")).unwrap();
+    assert!(!root.join("s").join("old_figure.png").exists(), "stale figure survived");
+    assert!(leftovers(&root.join("s"), &[]).is_empty(), "{:?}", leftovers(&root.join("s"), &[]));
+    // a foreign file: refused, nothing written or removed
+    std::fs::write(root.join("s").join("notes.txt"), b"mine").unwrap();
+    let before = names(&root.join("s"));
+    let o = linpd(&["study", "coarsen-tent", "--out", "s"], &root);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("notes.txt"), "{}", stderr(&o));
+    assert_eq!(names(&root.join("s")), before);
+    assert!(leftovers(&root.join("s"), &[]).is_empty(), "{:?}", leftovers(&root.join("s"), &[]));
     let _ = std::fs::remove_dir_all(&root);
 }

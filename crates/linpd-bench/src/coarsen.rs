@@ -27,8 +27,8 @@ fn case_1d(n: usize) -> Result<Value, BenchError> {
     let c1 = coarsen(&m0, &every_kth(n, 4), 2.0 * m0.horizon())?;
     let c2 = coarsen(&c1.model, &every_kth(c1.model.len(), 2), 2.0 * c1.model.horizon())?;
     let total = t.elapsed().as_secs_f64();
-    println!(
-        "coarsen 1D {n:>8} nodes: level 0 build {t_build:.2} s, level 1 {:.2} s (hit rate {:.4}), level 2 {:.2} s (hit rate {:.4}); total {total:.2} s = {:.2} us/node",
+    eprintln!(
+        "[bench] coarsen 1D {n:>8} nodes: level 0 build {t_build:.2} s, level 1 {:.2} s (hit rate {:.4}), level 2 {:.2} s (hit rate {:.4}); total {total:.2} s = {:.2} us/node",
         c1.report.seconds_total,
         c1.report.hit_rate,
         c2.report.seconds_total,
@@ -73,8 +73,8 @@ fn case_2d(n: usize) -> Result<Value, BenchError> {
     let cached = coarsen_with(&m0, &ret, &Options::fixed(r))?;
     let plain = coarsen_with(&m0, &ret, &Options { cache: false, ..Options::fixed(r) })?;
     let (tc, tp) = (cached.report.seconds_total, plain.report.seconds_total);
-    println!(
-        "coarsen 2D {n}x{n} delta = 3h, r = 2 delta: cached {tc:.2} s ({} classes, hit rate {:.4}), uncached {tp:.2} s; level-0 build {t_build:.2} s, level-0 Cholesky solve {t_solve:.2} s; ratios cached/solve {:.2}, uncached/solve {:.2}, cached/uncached {:.3}",
+    eprintln!(
+        "[bench] coarsen 2D {n}x{n} delta = 3h, r = 2 delta: cached {tc:.2} s ({} classes, hit rate {:.4}), uncached {tp:.2} s; level-0 build {t_build:.2} s, level-0 Cholesky solve {t_solve:.2} s; ratios cached/solve {:.2}, uncached/solve {:.2}, cached/uncached {:.3}",
         cached.report.classes,
         cached.report.hit_rate,
         tc / t_solve,
@@ -93,11 +93,43 @@ pub fn run(quick: bool) -> Result<Value, BenchError> {
     for &n in sizes_1d {
         one.push(case_1d(n)?);
     }
-    let per_node: Vec<f64> = one.iter().map(|c| c["us_per_node"].as_f64().unwrap_or(f64::NAN)).collect();
-    println!(
-        "coarsen 1D cost per level-0 node relative to the smallest size: {:?} (1.0 = linear)",
-        per_node.iter().map(|p| (p / per_node[0] * 100.0).round() / 100.0).collect::<Vec<_>>()
-    );
     let two = case_2d(if quick { 60 } else { 200 })?;
     Ok(json!({"one_d": one, "two_d": two}))
+}
+
+/// Writes the section returned by [`run`] as a table.
+pub fn print(section: &Value, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    let f = |v: &Value, p: usize| v.as_f64().map_or("-".to_string(), |x| format!("{x:.p$}"));
+    let one = section["one_d"].as_array().cloned().unwrap_or_default();
+    let first = one.first().and_then(|c| c["us_per_node"].as_f64()).unwrap_or(f64::NAN);
+    writeln!(
+        w,
+        "coarsen 1D (tent bar, two levels): nodes, seconds, us/node, relative to the smallest (1.00 = linear)"
+    )?;
+    for c in &one {
+        let rel = c["us_per_node"].as_f64().map_or("-".into(), |u| format!("{:.2}", u / first));
+        writeln!(
+            w,
+            "  {:>9} {:>8} s {:>8} us/node {:>6}  hit rates {} / {}",
+            c["nodes"],
+            f(&c["seconds_total"], 2),
+            f(&c["us_per_node"], 2),
+            rel,
+            f(&c["level1"]["hit_rate"], 4),
+            f(&c["level2"]["hit_rate"], 4)
+        )?;
+    }
+    let two = &section["two_d"];
+    writeln!(
+        w,
+        "coarsen 2D {n}x{n} delta = 3h, r = 2 delta: cached {} s ({} classes, hit rate {}), uncached {} s, level-0 solve {} s; cached/solve {}, uncached/solve {}",
+        f(&two["cached"]["seconds_total"], 2),
+        two["cached"]["classes"],
+        f(&two["cached"]["hit_rate"], 4),
+        f(&two["uncached"]["seconds_total"], 2),
+        f(&two["seconds_fine_solve"], 2),
+        f(&two["ratio_cached_to_fine_solve"], 2),
+        f(&two["ratio_uncached_to_fine_solve"], 2),
+        n = two["nodes_per_axis"]
+    )
 }

@@ -79,7 +79,6 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, BenchError> {
     };
     let (steps, reps) = if quick { (20, 2) } else { (200, 3) };
     let mut out = serde_json::Map::new();
-    let mut rows = Vec::new();
     for (name, d, nodes, m) in cases {
         eprintln!("[bench] dynamics {name}: building");
         let h = 1.0;
@@ -105,17 +104,6 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, BenchError> {
             let v = json!({"time": time, "time_per_step": per_step, "steps_per_s": 1.0 / per_step,
                 "bond_updates_per_s": bonds as f64 / per_step, "bytes_per_step": bytes, "bound_time_per_step": bound,
                 "ratio_to_bound": per_step / bound, "peak_rss_bytes": rss, "max_rel_diff_u_vs_per_bond": diff});
-            rows.push(format!(
-                "{:<12} {:<9} {:>9.3} {:>10.1} {:>11.3e} {:>9.3} {:>8.2} {:>8.3}",
-                name,
-                key,
-                per_step * 1e3,
-                1.0 / per_step,
-                bonds as f64 / per_step,
-                bytes / 1e6,
-                per_step / bound,
-                rss.map_or(f64::NAN, |b| b as f64 / 1073741824.0)
-            ));
             ops.insert(key.to_string(), v);
         };
 
@@ -164,17 +152,43 @@ pub fn run(quick: bool, bw: f64) -> Result<Value, BenchError> {
             "time_assembly": t_asm, "dt": dt, "dt_limit_gershgorin": limit, "operators": Value::Object(ops)}),
         );
     }
-    println!("dynamics: velocity Verlet, {steps} steps (best of {reps}), dt = 0.5 x Gershgorin limit, copy bandwidth {:.2} GB/s", bw / 1e9);
-    println!(
-        "{:<12} {:<9} {:>9} {:>10} {:>11} {:>9} {:>8} {:>8}",
-        "case", "operator", "ms/step", "steps/s", "bond upd/s", "MB/step", "t/bound", "RSS GiB"
-    );
-    for r in &rows {
-        println!("{r}");
-    }
     Ok(
         json!({"steps": steps, "repetitions": reps, "copy_bandwidth_bytes_per_s": bw, "threads": rayon::current_num_threads(),
         "bandwidth_model": "13 vector streams of 8n bytes per step + assembled 16 B/entry + 8 B/column, per-bond 12 B/bond + 20 B/node, stencil vectors only",
         "cases": Value::Object(out)}),
     )
+}
+
+/// Writes the section returned by [`run`] as a table.
+pub fn print(section: &Value, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    let x = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    writeln!(
+        w,
+        "dynamics: velocity Verlet, {} steps (best of {}), dt = 0.5 x Gershgorin limit, copy bandwidth {:.2} GB/s",
+        section["steps"],
+        section["repetitions"],
+        x(&section["copy_bandwidth_bytes_per_s"]) / 1e9
+    )?;
+    writeln!(
+        w,
+        "{:<12} {:<9} {:>9} {:>10} {:>11} {:>9} {:>8} {:>8}",
+        "case", "operator", "ms/step", "steps/s", "bond upd/s", "MB/step", "t/bound", "RSS GiB"
+    )?;
+    for (name, case) in section["cases"].as_object().into_iter().flatten() {
+        for (key, o) in case["operators"].as_object().into_iter().flatten() {
+            writeln!(
+                w,
+                "{:<12} {:<9} {:>9.3} {:>10.1} {:>11.3e} {:>9.3} {:>8.2} {:>8.3}",
+                name,
+                key,
+                x(&o["time_per_step"]) * 1e3,
+                x(&o["steps_per_s"]),
+                x(&o["bond_updates_per_s"]),
+                x(&o["bytes_per_step"]) / 1e6,
+                x(&o["ratio_to_bound"]),
+                x(&o["peak_rss_bytes"]) / 1073741824.0
+            )?;
+        }
+    }
+    Ok(())
 }

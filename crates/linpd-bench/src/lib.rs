@@ -26,7 +26,7 @@
 //! }
 //! let cli = Cli::parse_from(["bench", "--quick", "--out", "/tmp/bench.json"]);
 //! let doc = linpd_bench::run(&cli.bench)?;
-//! linpd_bench::print_table(&doc);
+//! linpd_bench::print_table(&doc, &mut std::io::stdout()).expect("stdout is open");
 //! # Ok::<(), linpd_bench::BenchError>(())
 //! ```
 #![deny(missing_docs)]
@@ -530,29 +530,40 @@ pub fn run(args: &BenchArgs) -> Result<Value, BenchError> {
     if let Some(parent) = args.out.parent() {
         std::fs::create_dir_all(parent).map_err(|source| file_error(parent, source))?;
     }
-    // `Value`'s alternate Display is its pretty JSON and cannot fail.
-    std::fs::write(&args.out, format!("{doc:#}")).map_err(|source| file_error(&args.out, source))?;
+    // Written beside the target and renamed into place: a killed or failed bench never leaves a
+    // cut document where the previous one was. `Value`'s alternate Display is its pretty JSON
+    // and cannot fail.
+    let staged = args.out.with_extension(format!("json.tmp-{}", std::process::id()));
+    std::fs::write(&staged, format!("{doc:#}")).map_err(|source| file_error(&staged, source))?;
+    std::fs::rename(&staged, &args.out).map_err(|source| {
+        let _ = std::fs::remove_file(&staged);
+        file_error(&args.out, source)
+    })?;
     Ok(doc)
 }
 
-/// Prints the table of a document returned by [`run`] on stdout (one row per standard case,
-/// then the ratios against the peers if they ran).
-pub fn print_table(doc: &Value) {
+/// Writes the tables of a document returned by [`run`] to `w` (one row per standard case, then
+/// the sections that ran and the ratios against the peers if they ran). An error of `w` (a
+/// closed pipe: `linpd bench | head`) ends the writing; the document is already written.
+pub fn print_table(doc: &Value, w: &mut dyn std::io::Write) -> std::io::Result<()> {
     let g = |v: &Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.3}"));
-    println!(
+    writeln!(
+        w,
         "copy bandwidth {:.2} GB/s, {} threads",
         doc["machine"]["copy_bandwidth_bytes_per_s"].as_f64().unwrap_or(0.0) / 1e9,
         doc["machine"]["threads"]
-    );
-    println!(
+    )?;
+    writeln!(
+        w,
         "{:<14} {:>9} {:>11} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8} {:>8}",
         "case", "unknowns", "nnz(A)", "asm s", "mv/bnd", "chol s", "nnzL/A", "cg s", "cg iters", "mf-cg s", "RSS GiB"
-    );
-    for (name, c) in doc["cases"].as_object().unwrap() {
+    )?;
+    for (name, c) in doc["cases"].as_object().into_iter().flatten() {
         let chol =
             c["cholesky"]["time_symbolic"].as_f64().zip(c["cholesky"]["time_numeric"].as_f64()).map(|(a, b)| a + b);
         let fill = c["cholesky"]["nnz_l"].as_f64().zip(c["nnz_a"].as_f64()).map(|(l, a)| l / a);
-        println!(
+        writeln!(
+            w,
             "{:<14} {:>9} {:>11} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8} {:>8}",
             name,
             c["unknowns"].to_string(),
@@ -565,13 +576,20 @@ pub fn print_table(doc: &Value) {
             c["cg"]["iterations"].as_u64().map_or("-".into(), |x| x.to_string()),
             g(&c["cg_matrix_free"]["time"]),
             c["peak_rss_bytes"].as_f64().map_or("-".into(), |b| format!("{:.2}", b / 1073741824.0)),
-        );
+        )?;
     }
     if let Some(st) = doc.get("statics") {
-        println!("whole static solves (rtol 1e-8; vs jac: Jacobi-PCG total / this total, same run):");
-        crate::statics::print(st);
+        writeln!(w, "whole static solves (rtol 1e-8; vs jac: Jacobi-PCG total / this total, same run):")?;
+        crate::statics::print(st, w)?;
+    }
+    if let Some(c) = doc.get("coarsen") {
+        crate::coarsen::print(c, w)?;
+    }
+    if let Some(d) = doc.get("dynamics") {
+        crate::dynamics::print(d, w)?;
     }
     if let Some(r) = doc.get("ratios") {
-        println!("ratios against the peers (same run): {}", serde_json::to_string_pretty(r).unwrap());
+        writeln!(w, "ratios against the peers (same run): {r:#}")?;
     }
+    Ok(())
 }

@@ -231,23 +231,25 @@ pub fn ratios(ours: &Value, peers: &Value) -> Value {
     Value::Object(out)
 }
 
-/// Prints the section returned by [`run`].
-pub fn print(section: &Value) {
-    println!(
+/// Writes the section returned by [`run`] as a table.
+pub fn print(section: &Value, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    writeln!(
+        w,
         "{:<20} {:<24} {:>9} {:>6} {:>9} {:>8} {:>8} {:>8} {:>8} {:>7} {:>6}",
         "case", "solver", "unknowns", "iters", "residual", "asm s", "setup s", "solve s", "total s", "vs jac", "GiB"
-    );
-    let Some(cases) = section.as_object() else { return };
+    )?;
+    let Some(cases) = section.as_object() else { return Ok(()) };
     for (name, rows) in cases {
         for r in rows.as_array().into_iter().flatten() {
             if let Some(e) = r["error"].as_str() {
-                println!("{name:<20} {:<24} error: {e}", r["solver"].as_str().unwrap_or("?"));
+                writeln!(w, "{name:<20} {:<24} error: {e}", r["solver"].as_str().unwrap_or("?"))?;
                 continue;
             }
             let f = |k: &str, p: usize| r[k].as_f64().map_or("-".into(), |x| format!("{x:.p$}"));
             let ran = r["ran"].as_str().unwrap_or("?");
             let shown = if r["solver"] == "auto" { format!("auto: {ran}") } else { ran.to_string() };
-            println!(
+            writeln!(
+                w,
                 "{name:<20} {shown:<24} {:>9} {:>6} {:>9} {:>8} {:>8} {:>8} {:>8} {:>7} {:>6}",
                 r["n"],
                 r["iterations"].as_u64().map_or("-".into(), |i| i.to_string()),
@@ -258,7 +260,8 @@ pub fn print(section: &Value) {
                 f("total", 2),
                 f("speedup_vs_jacobi", 2),
                 f("peak_rss_gib", 2),
-            );
+            )?;
         }
     }
+    Ok(())
 }

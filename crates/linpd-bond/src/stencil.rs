@@ -28,6 +28,13 @@ impl StencilOperator {
         let dim = grid.dim();
         let h = grid.spacing();
         micromodulus.validate(dim)?;
+        if !grid.is_full() {
+            // the linear offsets below index every lattice site
+            return Err(CoreError::param(
+                "grid",
+                "the stencil operator needs the full lattice box; a body removed nodes",
+            ));
+        }
         let c = micromodulus.amplitude(dim, horizon, h)?;
         let counts = grid.counts();
         let offsets = lattice_stencil(dim, horizon / h);

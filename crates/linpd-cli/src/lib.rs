@@ -257,18 +257,20 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let dir = staged.target().to_path_buf();
             let files = staged.commit("history.json", run.history_json(), &identity).map_err(output)?;
             say!(
-                "{}: {} steps of dt = {:.4e} ({:.4} of dt_max = {:.4e}), {} DOFs ({} held), {} bonds; {:.3} s: {:.3e} steps/s, {:.3e} bond updates/s; energy drift max |E/E0 - 1| = {:.2e}, shadow {:.2e}",
+                "{}: {} steps of dt = {:.4e} ({:.4} of dt_max = {:.4e}, estimated in {:.3} s), {} DOFs ({} held), {} bonds; {:.3} s: {:.3e} steps/s, {:.3e} bond updates/s; relative to E_ref = {:.4e}: E_k + E_p oscillates by {:.2e} (O(dt^2), bounded), shadow energy drift {:.2e}",
                 run.name,
                 run.steps,
                 run.dt,
                 run.dt / run.limit.dt,
                 run.limit.dt,
+                run.limit.seconds,
                 run.n_dofs,
                 run.n_fixed,
                 run.n_bonds,
                 run.wall_seconds,
                 run.steps_per_second(),
                 run.bond_updates_per_second(),
+                run.energy_scale(),
                 run.max_total_drift(),
                 run.max_shadow_drift(),
             )?;
@@ -295,7 +297,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
                     p.dim(),
                     p.nodes().len(),
                     c.n_bonds(),
-                    if c.is_symmetric() { "symmetric".to_string() } else { format!("unsymmetric (relative asymmetry {:.2e})", c.asymmetry()) },
+                    c.symmetry(),
                     constrained,
                     p.loads().len()
                 )?,
@@ -360,7 +362,9 @@ fn run(cli: Cli) -> Result<(), CliError> {
         }
         Command::Bench(args) => {
             let doc = linpd_bench::run(&args)?;
-            linpd_bench::print_table(&doc);
+            // a closed stdout (`linpd bench | head`) only cuts the table: the document is written
+            linpd_bench::print_table(&doc, &mut UntilClosed(Some(std::io::stdout().lock())))
+                .map_err(CliError::Stdout)?;
             say!("wrote {}", args.out.display())?;
             Ok(())
         }
@@ -374,11 +378,16 @@ fn run(cli: Cli) -> Result<(), CliError> {
             // clap accepted the name, so it is `list` or a study.
             let study = Study::from_name(&name).ok_or_else(|| CliError::UnknownStudy(name.clone()))?;
             let dir = out.unwrap_or_else(|| study.default_out_dir());
+            // all of a study's files or none, as for the other commands: staged, then swapped
+            // into place with data.json as the main document
+            let staged = OutputDir::begin(&dir).map_err(output)?;
             let progress = Reporter::new(false);
             let mut table = Suspending(&progress, UntilClosed(Some(std::io::stdout().lock())));
             study
-                .run_with_progress(&dir, &StudyOptions { dense: !no_dense }, &mut table, &progress)
+                .run_with_progress(staged.path(), &StudyOptions { dense: !no_dense }, &mut table, &progress)
                 .map_err(|source| CliError::Study { name, source })?;
+            let identity = RunIdentity::of_inputs(&[]).map_err(output)?;
+            staged.commit_staged("data.json", &identity).map_err(output)?;
             say!("wrote {}", dir.display())?;
             Ok(())
         }

@@ -819,7 +819,7 @@ mod tests {
     /// A size line declaring more entries than the file can hold is an error naming the file
     /// and line, not a capacity-overflow panic or an allocation abort.
     #[test]
-    fn mtx_huge_count_is_an_error() {
+    fn item_2_mtx_huge_count_is_an_error() {
         for nnz in ["18446744073709551615", "1000000000000000"] {
             let e = bad("huge", &format!("{HEAD}3 3 {nnz}\n1 2 1.0\n"), None);
             check(&e, &["m.mtx", "line 4", &format!("declares {nnz} entries"), "room for at most"]);
@@ -829,7 +829,7 @@ mod tests {
     /// `% nodes` follows a bare file name beside the matrix only: absolute paths and `..` are
     /// refused before anything is read, and nothing of the named file is quoted.
     #[test]
-    fn mtx_no_path_following() {
+    fn item_2_mtx_no_path_following() {
         let dir = temp_dir("no-follow");
         let secret = dir.join("secret.csv");
         std::fs::write(&secret, "TOP-SECRET first line\n").unwrap();
@@ -848,7 +848,7 @@ mod tests {
 
     /// Quoted file text is short and escaped: a binary line cannot reach the terminal raw.
     #[test]
-    fn mtx_excerpts_are_short_and_escaped() {
+    fn item_2_mtx_excerpts_are_short_and_escaped() {
         let line = format!("\u{1b}[2J\u{7}{}", "x".repeat(500));
         let e = bad("escape", &format!("{HEAD}3 3 1\n{line}\n"), None);
         check(&e, &["line 5", "\\u{1b}[2J\\u{7}", "..."]);

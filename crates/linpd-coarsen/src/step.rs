@@ -27,6 +27,12 @@ pub enum Matching {
     ForceDensity,
 }
 
+/// Most radii the radius rule ([`Radius::Auto`]) may try: with the default growth 1.25 from
+/// `2 delta`, 40 radii reach `1.25^39 x 2 delta ~ 6000 delta`, beyond any body a coarsening
+/// step can hold; a growth so close to 1 that more are needed (`1.000000001`) would run for
+/// days and is refused before the first step.
+pub const MAX_RADII: usize = 40;
+
 /// How the neighbourhood radius `r^m` is chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Radius {
@@ -176,7 +182,22 @@ pub fn coarsen_with_progress(
             }
             let mut r = start.unwrap_or(2.0 * delta);
             check_radius(r)?;
-            let r_max = max.unwrap_or(diameter * (1.0 + 1e-9)).max(r);
+            let r_max = max.unwrap_or(diameter * (1.0 + 1e-9));
+            if r_max < r {
+                return Err(CoarsenError::InvalidInput(format!(
+                    "radius rule: radius_max {r_max:e} is below the first radius {r:e} (radius_start, default 2 x horizon)"
+                )));
+            }
+            // Every radius tried is a whole coarsening step: bound their number before the
+            // first one. Radii beyond the body's diameter all give the whole body (tail 0), so
+            // the rule stops at the first of them.
+            let last = r_max.min(diameter * (1.0 + 1e-9)).max(r);
+            let radii = ((last / r).ln() / growth.ln()).ceil() + 1.0;
+            if radii > MAX_RADII as f64 {
+                return Err(CoarsenError::InvalidInput(format!(
+                    "radius rule: growth {growth:e} from {r:e} to {last:e} would try up to {radii:e} radii (each a full coarsening step), more than {MAX_RADII}: raise radius_growth (default 1.25) or narrow radius_start..radius_max"
+                )));
+            }
             let mut tried = Vec::new();
             loop {
                 let c = step.run(r, delta, diameter)?;

@@ -9,6 +9,12 @@
 //!
 //! Nodes are numbered lexicographically with the first axis fastest; the lattice index of a
 //! node is kept so that neighbour search and region tests can work in lattice units.
+//!
+//! The layer may differ per side ([`Grid::with_layers`]: a cantilever clamped through a layer
+//! at `x-` only), and a body may keep only some of the lattice's sites ([`Grid::with_body`]: a
+//! plate with a hole). Then nodes are numbered over the kept sites in the same lexicographic
+//! order; [`Grid::node_at`] returns `None` for a removed site, so every neighbour search that
+//! goes through it (families, LPS reach, orderings) sees the hole as empty space.
 
 use crate::{CoreError, Point, GEOMETRY_RTOL};
 
@@ -37,7 +43,21 @@ pub struct Grid {
     /// Lattice index range `[body_lo, body_hi]` of body (non-layer) nodes per axis.
     body_lo: [i64; 3],
     body_hi: [i64; 3],
+    /// The kept sites when a body removed some (`None`: every site is a node).
+    mask: Option<std::sync::Arc<SiteMask>>,
 }
+
+/// Which lattice sites are nodes ([`Grid::with_body`]).
+#[derive(Debug)]
+struct SiteMask {
+    /// Site (lexicographic index over the full lattice) of each node.
+    site_of: Vec<u32>,
+    /// Node of each site, `u32::MAX` for a removed site.
+    node_of: Vec<u32>,
+}
+
+/// Layer thicknesses `[lower, upper]` per axis (unused axes ignored).
+pub type Layers = [[f64; 2]; 3];
 
 impl Grid {
     /// Builds the lattice on `[min, max]` with spacing `h` and `layer` thickness outside.
@@ -45,6 +65,17 @@ impl Grid {
     /// `(max - min) / h` must be an integer up to a relative tolerance of `1e-6`; the layer
     /// holds `floor(layer / h)` nodes per side (a layer thinner than `h` holds none).
     pub fn new(min: &[f64], max: &[f64], h: f64, layer: f64, placement: Placement) -> Result<Self, CoreError> {
+        Self::with_layers(min, max, h, [[layer; 2]; 3], placement)
+    }
+
+    /// [`Grid::new`] with a layer thickness per side: `layers[a] = [below min_a, above max_a]`.
+    pub fn with_layers(
+        min: &[f64],
+        max: &[f64],
+        h: f64,
+        layers: Layers,
+        placement: Placement,
+    ) -> Result<Self, CoreError> {
         let dim = min.len();
         if !(1..=3).contains(&dim) {
             return Err(CoreError::Dimension(dim));
@@ -55,21 +86,26 @@ impl Grid {
         if !(h.is_finite() && h > 0.0) {
             return Err(CoreError::param("spacing", format!("must be a positive number, got {h:e}")));
         }
-        if !(layer.is_finite() && layer >= 0.0) {
-            return Err(CoreError::param("layer", format!("must be >= 0, got {layer:e}")));
-        }
         // Node counts in checked integer arithmetic: a float count beyond `i64` would saturate
         // in `as i64` and `last + 2 nl + 1` would wrap (`layer: 1e300` gave "99 nodes" at
         // x = -9.2e18). `MAX_AXIS` keeps every sum below `i64::MAX`.
         const MAX_AXIS: f64 = (1u64 << 52) as f64;
-        let layer_nodes = (layer / h * (1.0 + GEOMETRY_RTOL)).floor();
-        if layer_nodes > MAX_AXIS {
-            return Err(CoreError::param(
-                "layer",
-                format!("layer {layer:e} with spacing {h:e} gives more than usize::MAX nodes"),
-            ));
+        let mut nl = [[0i64; 2]; 3];
+        for a in 0..dim {
+            for (side, &layer) in layers[a].iter().enumerate() {
+                if !(layer.is_finite() && layer >= 0.0) {
+                    return Err(CoreError::param("layer", format!("must be >= 0, got {layer:e}")));
+                }
+                let layer_nodes = (layer / h * (1.0 + GEOMETRY_RTOL)).floor();
+                if layer_nodes > MAX_AXIS {
+                    return Err(CoreError::param(
+                        "layer",
+                        format!("layer {layer:e} with spacing {h:e} gives more than usize::MAX nodes"),
+                    ));
+                }
+                nl[a][side] = layer_nodes as i64;
+            }
         }
-        let nl = layer_nodes as i64;
         let mut g = Grid {
             dim,
             h,
@@ -80,6 +116,7 @@ impl Grid {
             counts: [1; 3],
             body_lo: [0; 3],
             body_hi: [0; 3],
+            mask: None,
         };
         for a in 0..dim {
             if !(min[a].is_finite() && max[a].is_finite()) || max[a] <= min[a] {
@@ -107,18 +144,24 @@ impl Grid {
                 Placement::Vertex => n,
                 Placement::Cell => n - 1,
             };
-            let count = nl.checked_mul(2).and_then(|x| x.checked_add(last + 1)).and_then(|c| usize::try_from(c).ok());
+            let count = nl[a][0]
+                .checked_add(nl[a][1])
+                .and_then(|x| x.checked_add(last + 1))
+                .and_then(|c| usize::try_from(c).ok());
             let Some(count) = count else {
                 return Err(CoreError::param(
                     "layer",
-                    format!("layer {layer:e} with spacing {h:e} gives more than usize::MAX nodes"),
+                    format!(
+                        "layers {:e}, {:e} with spacing {h:e} give more than usize::MAX nodes",
+                        layers[a][0], layers[a][1]
+                    ),
                 ));
             };
             g.min[a] = min[a];
             g.max[a] = max[a];
             g.body_lo[a] = 0;
             g.body_hi[a] = last;
-            g.lo[a] = -nl;
+            g.lo[a] = -nl[a][0];
             g.counts[a] = count;
         }
         let total: u128 = g.counts.iter().map(|&c| c as u128).product();
@@ -143,9 +186,50 @@ impl Grid {
     pub fn volume(&self) -> f64 {
         self.h.powi(self.dim as i32)
     }
-    /// Number of nodes, layers included.
+    /// Number of nodes, layers included (the kept sites only, when a body removed some).
     pub fn len(&self) -> usize {
+        match &self.mask {
+            Some(m) => m.site_of.len(),
+            None => self.n_sites(),
+        }
+    }
+    /// Number of lattice sites, kept or not: the product of [`Grid::counts`].
+    pub fn n_sites(&self) -> usize {
         self.counts.iter().product()
+    }
+    /// True when every lattice site is a node (no body removed any): the full box that the
+    /// stencil operator and the lattice plots need.
+    pub fn is_full(&self) -> bool {
+        self.mask.is_none()
+    }
+
+    /// The grid with only the nodes for which `keep(position)` holds (see the module docs).
+    /// Nodes keep their lattice indices, positions, volumes and layer flags; they are
+    /// renumbered in the same order. Errors when no node is kept.
+    pub fn with_body(&self, keep: impl Fn(&Point) -> bool + Sync) -> Result<Grid, CoreError> {
+        use rayon::prelude::*;
+        let kept: Vec<bool> = (0..self.len()).into_par_iter().map(|n| keep(&self.position(n))).collect();
+        let mut site_of = Vec::with_capacity(kept.iter().filter(|k| **k).count());
+        let mut node_of = vec![u32::MAX; self.n_sites()];
+        for (n, _) in kept.iter().enumerate().filter(|(_, k)| **k) {
+            let site = self.site(n);
+            node_of[site] = site_of.len() as u32;
+            site_of.push(site as u32);
+        }
+        if site_of.is_empty() {
+            return Err(CoreError::param("body", format!("keeps none of the {} nodes of the grid", self.len())));
+        }
+        let mut g = self.clone();
+        g.mask = Some(std::sync::Arc::new(SiteMask { site_of, node_of }));
+        Ok(g)
+    }
+
+    /// Lexicographic site index of node `n`.
+    fn site(&self, n: usize) -> usize {
+        match &self.mask {
+            Some(m) => m.site_of[n] as usize,
+            None => n,
+        }
     }
     /// True when the grid has no nodes (never, for a grid built by [`Grid::new`]).
     pub fn is_empty(&self) -> bool {
@@ -171,7 +255,7 @@ impl Grid {
     /// Lattice index of node `n` (layer nodes have indices below 0 or above the body's).
     pub fn lattice_index(&self, n: usize) -> [i64; 3] {
         let mut idx = [0i64; 3];
-        let mut r = n;
+        let mut r = self.site(n);
         for a in 0..3 {
             idx[a] = (r % self.counts[a]) as i64 + self.lo[a];
             r /= self.counts[a];
@@ -189,12 +273,29 @@ impl Grid {
             }
             n = n * self.counts[a] + k as usize;
         }
-        Some(n)
+        match &self.mask {
+            Some(m) => Some(m.node_of[n]).filter(|&k| k != u32::MAX).map(|k| k as usize),
+            None => Some(n),
+        }
+    }
+
+    /// The node at site `(i, j, k)` of the lattice box (`0 <= i < counts[0]`, ...; layers
+    /// included), or `None` where a body removed it or outside the box.
+    pub fn node_at_site(&self, site: [usize; 3]) -> Option<usize> {
+        self.node_at([0, 1, 2].map(|a| self.lo[a] + site[a] as i64))
+    }
+
+    /// Position of lattice site `(i, j, k)` (see [`Grid::node_at_site`]), node or not.
+    pub fn site_position(&self, site: [usize; 3]) -> Point {
+        self.position_of_index([0, 1, 2].map(|a| self.lo[a] + site[a] as i64))
     }
 
     /// Position of node `n`.
     pub fn position(&self, n: usize) -> Point {
-        let idx = self.lattice_index(n);
+        self.position_of_index(self.lattice_index(n))
+    }
+
+    fn position_of_index(&self, idx: [i64; 3]) -> Point {
         let shift = match self.placement {
             Placement::Vertex => 0.0,
             Placement::Cell => 0.5,
@@ -228,10 +329,17 @@ impl Grid {
             let k = ((x[a] - self.min[a]) / self.h - shift).round() as i64;
             idx[a] = k.clamp(self.lo[a], self.lo[a] + self.counts[a] as i64 - 1);
         }
-        let n = self.node_at(idx).expect("clamped index lies in the grid");
-        let p = self.position(n);
-        let d = (0..self.dim).map(|a| (p[a] - x[a]).powi(2)).sum::<f64>().sqrt();
-        (n, d)
+        let dist = |n: usize| {
+            let p = self.position(n);
+            (0..self.dim).map(|a| (p[a] - x[a]).powi(2)).sum::<f64>().sqrt()
+        };
+        match self.node_at(idx) {
+            Some(n) => (n, dist(n)),
+            // the nearest site was removed by a body: search the kept nodes
+            None => {
+                (0..self.len()).map(|n| (n, dist(n))).fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
+            }
+        }
     }
 }
 
@@ -270,6 +378,40 @@ mod tests {
         assert!(Grid::new(&[0.0], &[1.0], -0.1, 0.0, Placement::Vertex).is_err());
         assert!(Grid::new(&[1.0], &[0.0], 0.1, 0.0, Placement::Vertex).is_err());
         assert!(Grid::new(&[0.0, 0.0], &[1.0], 0.1, 0.0, Placement::Vertex).is_err());
+    }
+
+    /// Per-side layers: 3 layer nodes below x = 0 only, none elsewhere.
+    #[test]
+    fn per_side_layers() {
+        let mut layers = [[0.0; 2]; 3];
+        layers[0][0] = 0.3;
+        let g = Grid::with_layers(&[0.0, 0.0], &[1.0, 0.5], 0.1, layers, Placement::Vertex).unwrap();
+        assert_eq!(g.counts(), [11 + 3, 6, 1]);
+        assert!((g.position(0)[0] + 0.3).abs() < 1e-15);
+        let layer = (0..g.len()).filter(|&n| g.is_layer(n)).count();
+        assert_eq!(layer, 3 * 6);
+        assert!((0..g.len()).all(|n| !g.is_layer(n) || g.position(n)[0] < 0.0));
+    }
+
+    /// A body keeps the sites inside it, renumbered in order; removed sites look up as `None`,
+    /// and the nearest node of a point in the hole is a kept node.
+    #[test]
+    fn body_keeps_sites_and_renumbers() {
+        let full = Grid::new(&[0.0, 0.0], &[1.0, 1.0], 0.1, 0.0, Placement::Vertex).unwrap();
+        let inside = |x: &Point| (x[0] - 0.5).powi(2) + (x[1] - 0.5).powi(2) >= 0.2f64.powi(2);
+        let g = full.with_body(inside).unwrap();
+        let kept: Vec<usize> = (0..full.len()).filter(|&n| inside(&full.position(n))).collect();
+        assert_eq!(g.len(), kept.len());
+        assert!(g.len() < full.len() && !g.is_full() && full.is_full());
+        assert_eq!(g.n_sites(), full.n_sites());
+        for (n, &f) in kept.iter().enumerate() {
+            assert_eq!(g.position(n), full.position(f));
+            assert_eq!(g.node_at(g.lattice_index(n)), Some(n));
+        }
+        assert_eq!(g.node_at(full.lattice_index(full.nearest_node(&[0.5, 0.5]).0)), None, "the centre is gone");
+        let (n, d) = g.nearest_node(&[0.5, 0.5]);
+        assert!(inside(&g.position(n)) && d >= 0.2 - 1e-12);
+        assert!(full.with_body(|_| false).unwrap_err().to_string().contains("keeps none of the 121 nodes"));
     }
 
     /// Node counts are checked integers: a huge layer or box is an error, never a wrapped count.

@@ -1,8 +1,9 @@
-//! Regions that name node sets: boxes (intervals in 1D), unions and differences.
+//! Regions that name node sets and shape bodies: boxes (intervals in 1D), balls (disks in 2D),
+//! cylinders (3D), half spaces, polygons (2D, extruded along z in 3D), unions and differences.
 //!
-//! Membership is closed (a node on a box face belongs to the box) with a tolerance of
-//! [`GEOMETRY_RTOL`](crate::GEOMETRY_RTOL) times the lattice spacing, so that nodes computed
-//! as `min + i h` in floating point are not lost on round-off.
+//! Membership is closed (a node on a box face, a sphere or a polygon edge belongs to the
+//! region) with a tolerance of [`GEOMETRY_RTOL`](crate::GEOMETRY_RTOL) times the lattice
+//! spacing, so that nodes computed as `min + i h` in floating point are not lost on round-off.
 
 use crate::{CoreError, Grid, Point};
 
@@ -17,6 +18,41 @@ pub enum Region {
         min: Vec<f64>,
         /// Upper corner.
         max: Vec<f64>,
+    },
+    /// The closed ball `|x - center| <= radius` (a disk in 2D, an interval in 1D).
+    Ball {
+        /// Centre.
+        center: Vec<f64>,
+        /// Radius `> 0`.
+        radius: f64,
+    },
+    /// 3D: the closed circular cylinder of `radius` around the line through `center` along
+    /// `axis`; with `length`, only `|(x - center) . axis| <= length / 2` (`center` is the middle).
+    Cylinder {
+        /// A point of the axis (the middle when `length` is given).
+        center: Vec<f64>,
+        /// Axis direction (any length `> 0`; normalized on use).
+        axis: Vec<f64>,
+        /// Radius `> 0`.
+        radius: f64,
+        /// Length along the axis (infinite when `None`).
+        length: Option<f64>,
+    },
+    /// The closed half space `(x - point) . normal <= 0`: `normal` points out of it, as a
+    /// body's outward normal does.
+    HalfSpace {
+        /// A point of the bounding plane.
+        point: Vec<f64>,
+        /// Outward normal (any length `> 0`).
+        normal: Vec<f64>,
+    },
+    /// 2D: the closed polygon with these vertices (either orientation; edges may not cross;
+    /// inside by the even-odd rule, edges included). 3D: the prism `polygon x [z0, z1]`.
+    Polygon {
+        /// Vertices `(x, y)`, at least 3.
+        vertices: Vec<[f64; 2]>,
+        /// 3D only: `[z0, z1]`, the extent along z.
+        extrude: Option<[f64; 2]>,
     },
     /// Points in any of the regions.
     Union(Vec<Region>),
@@ -45,6 +81,56 @@ impl Region {
                 }
                 Ok(())
             }
+            Region::Ball { center, radius } => {
+                components(center, dim)?;
+                positive("ball.radius", *radius)
+            }
+            Region::Cylinder { center, axis, radius, length } => {
+                if dim != 3 {
+                    return Err(CoreError::param("cylinder", format!("is a 3D region (use ball in {dim}D)")));
+                }
+                components(center, dim)?;
+                components(axis, dim)?;
+                if norm(axis) == 0.0 {
+                    return Err(CoreError::param("cylinder.axis", "must not be zero"));
+                }
+                positive("cylinder.radius", *radius)?;
+                length.map_or(Ok(()), |l| positive("cylinder.length", l))
+            }
+            Region::HalfSpace { point, normal } => {
+                components(point, dim)?;
+                components(normal, dim)?;
+                if norm(normal) == 0.0 {
+                    return Err(CoreError::param("half_space.normal", "must not be zero"));
+                }
+                Ok(())
+            }
+            Region::Polygon { vertices, extrude } => {
+                if dim == 1 {
+                    return Err(CoreError::param("polygon", "is a 2D region (extruded in 3D); use box in 1D"));
+                }
+                if vertices.len() < 3 {
+                    return Err(CoreError::param(
+                        "polygon.vertices",
+                        format!("needs at least 3, got {}", vertices.len()),
+                    ));
+                }
+                if vertices.iter().flatten().any(|v| !v.is_finite()) {
+                    return Err(CoreError::param("polygon.vertices", "must be finite"));
+                }
+                match (dim, extrude) {
+                    (2, Some(_)) => Err(CoreError::param("polygon.extrude", "is for 3D scenes only")),
+                    (3, None) => Err(CoreError::param(
+                        "polygon.extrude",
+                        "missing: a 3D polygon is extruded along z over [z0, z1]",
+                    )),
+                    (3, Some([z0, z1])) if !(z0.is_finite() && z1.is_finite() && z0 <= z1) => Err(CoreError::param(
+                        "polygon.extrude",
+                        format!("must be [z0, z1] with z0 <= z1, got [{z0:e}, {z1:e}]"),
+                    )),
+                    _ => Ok(()),
+                }
+            }
             Region::Union(parts) => parts.iter().try_for_each(|r| r.validate(dim)),
             Region::Difference(a, b) => {
                 a.validate(dim)?;
@@ -58,9 +144,34 @@ impl Region {
         match self {
             Region::All => true,
             Region::Box { min, max } => (0..dim).all(|a| x[a] >= min[a] - tol && x[a] <= max[a] + tol),
+            Region::Ball { center, radius } => {
+                (0..dim).map(|a| (x[a] - center[a]).powi(2)).sum::<f64>().sqrt() <= radius + tol
+            }
+            Region::Cylinder { center, axis, radius, length } => {
+                let n = norm(axis);
+                let r: Vec<f64> = (0..3).map(|a| x[a] - center[a]).collect();
+                let t = (0..3).map(|a| r[a] * axis[a]).sum::<f64>() / n;
+                let radial = (0..3).map(|a| (r[a] - t * axis[a] / n).powi(2)).sum::<f64>().sqrt();
+                radial <= radius + tol && length.is_none_or(|l| t.abs() <= 0.5 * l + tol)
+            }
+            Region::HalfSpace { point, normal } => {
+                (0..dim).map(|a| (x[a] - point[a]) * normal[a]).sum::<f64>() / norm(normal) <= tol
+            }
+            Region::Polygon { vertices, extrude } => {
+                let z_ok = match (dim, extrude) {
+                    (3, Some([z0, z1])) => x[2] >= z0 - tol && x[2] <= z1 + tol,
+                    _ => true,
+                };
+                z_ok && in_polygon([x[0], x[1]], vertices, tol)
+            }
             Region::Union(parts) => parts.iter().any(|r| r.contains(x, dim, tol)),
             Region::Difference(a, b) => a.contains(x, dim, tol) && !b.contains(x, dim, tol),
         }
+    }
+
+    /// True for a shape (box, ball, ...), false for `all`, unions and differences.
+    pub fn is_leaf(&self) -> bool {
+        !matches!(self, Region::All | Region::Union(_) | Region::Difference(..))
     }
 
     /// The nodes of `grid` inside the region, ascending.
@@ -68,6 +179,51 @@ impl Region {
         let tol = crate::GEOMETRY_RTOL * grid.spacing();
         (0..grid.len()).filter(|&n| self.contains(&grid.position(n), grid.dim(), tol)).collect()
     }
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+fn components(v: &[f64], dim: usize) -> Result<(), CoreError> {
+    if v.len() != dim {
+        return Err(CoreError::Components { expected: dim, got: v.len() });
+    }
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err(CoreError::param("region", "coordinates must be finite numbers"));
+    }
+    Ok(())
+}
+
+fn positive(what: &str, x: f64) -> Result<(), CoreError> {
+    if x.is_finite() && x > 0.0 {
+        Ok(())
+    } else {
+        Err(CoreError::param(what, format!("must be > 0, got {x:e}")))
+    }
+}
+
+/// Even-odd point-in-polygon test with the edges included: inside when a ray from `p` crosses
+/// an odd number of edges, or when `p` lies within `tol` of an edge.
+fn in_polygon(p: [f64; 2], v: &[[f64; 2]], tol: f64) -> bool {
+    let mut inside = false;
+    for k in 0..v.len() {
+        let (a, b) = (v[k], v[(k + 1) % v.len()]);
+        // distance from p to the segment ab
+        let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
+        let len2 = ex * ex + ey * ey;
+        let t = if len2 > 0.0 { (((p[0] - a[0]) * ex + (p[1] - a[1]) * ey) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        if (p[0] - a[0] - t * ex).hypot(p[1] - a[1] - t * ey) <= tol {
+            return true;
+        }
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x_cross = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+            if p[0] < x_cross {
+                inside = !inside;
+            }
+        }
+    }
+    inside
 }
 
 #[cfg(test)]
@@ -87,6 +243,84 @@ mod tests {
         assert_eq!(inner.nodes(&g).len(), g.len() - 6);
         // 0.3 is computed as 0.30000000000000004 on the lattice: still inside [0.3, 0.3].
         assert_eq!(Region::Box { min: vec![0.3], max: vec![0.3] }.nodes(&g).len(), 1);
+    }
+
+    /// Lattice points (spacing h = 0.05, vertex grid on [-1, 1]^d) inside each primitive,
+    /// against independent integer counts: Gauss's circle count `#{(i, j): i^2 + j^2 <= R^2}`
+    /// (R = r / h = 13), Pick's theorem `I + B = A + B/2 + 1` for a lattice triangle, the
+    /// half space `x + y <= 0.1` by summing columns, and a cylinder as a disk count times its
+    /// planes. A node on the boundary is inside: every one of these shapes has nodes exactly on
+    /// its boundary (R^2 = 169 = 5^2 + 12^2), which the counts include.
+    #[test]
+    fn primitives_count_lattice_points_exactly() {
+        let h = 0.05;
+        let g2 = Grid::new(&[-1.0, -1.0], &[1.0, 1.0], h, 0.0, Placement::Vertex).unwrap();
+        let r = 13i64;
+        let gauss =
+            (-r..=r).flat_map(|i| (-r..=r).map(move |j| (i, j))).filter(|(i, j)| i * i + j * j <= r * r).count();
+        let disk = Region::Ball { center: vec![0.0, 0.0], radius: r as f64 * h };
+        disk.validate(2).unwrap();
+        assert_eq!(disk.nodes(&g2).len(), gauss);
+        assert_eq!(gauss, 529); // sum over i of 2 floor(sqrt(169 - i^2)) + 1
+
+        // triangle (0,0), (12h,0), (0,8h): area 48 h^2, boundary points 12 + 8 + gcd(12, 8) = 24
+        let tri = Region::Polygon { vertices: vec![[0.0, 0.0], [12.0 * h, 0.0], [0.0, 8.0 * h]], extrude: None };
+        tri.validate(2).unwrap();
+        assert_eq!(tri.nodes(&g2).len(), 48 + 24 / 2 + 1);
+        // the same triangle listed clockwise
+        let cw = Region::Polygon { vertices: vec![[0.0, 0.0], [0.0, 8.0 * h], [12.0 * h, 0.0]], extrude: None };
+        assert_eq!(cw.nodes(&g2).len(), 61);
+
+        // x + y <= 2h: for column i (x = i h, i in -20..=20) the rows j <= 2 - i, j >= -20
+        let half = Region::HalfSpace { point: vec![0.1, 0.0], normal: vec![2.0, 2.0] };
+        half.validate(2).unwrap();
+        let expected: i64 = (-20i64..=20).map(|i| (2 - i).min(20) - (-20) + 1).map(|c| c.max(0)).sum();
+        assert_eq!(half.nodes(&g2).len() as i64, expected);
+
+        // 3D: cylinder along z of radius 13h, length 10h around z = 0: planes k = -5..=5
+        let g3 = Grid::new(&[-1.0, -1.0, -1.0], &[1.0, 1.0, 1.0], h, 0.0, Placement::Vertex).unwrap();
+        let cyl = Region::Cylinder {
+            center: vec![0.0; 3],
+            axis: vec![0.0, 0.0, 3.0],
+            radius: 13.0 * h,
+            length: Some(10.0 * h),
+        };
+        cyl.validate(3).unwrap();
+        assert_eq!(cyl.nodes(&g3).len(), gauss * 11);
+        let prism = Region::Polygon {
+            vertices: vec![[0.0, 0.0], [12.0 * h, 0.0], [0.0, 8.0 * h]],
+            extrude: Some([0.0, 2.0 * h]),
+        };
+        prism.validate(3).unwrap();
+        assert_eq!(prism.nodes(&g3).len(), 61 * 3);
+        let ball = Region::Ball { center: vec![0.0; 3], radius: 4.0 * h };
+        let lattice_ball = (-4i64..=4)
+            .flat_map(|i| (-4i64..=4).flat_map(move |j| (-4i64..=4).map(move |k| i * i + j * j + k * k)))
+            .filter(|s| *s <= 16)
+            .count();
+        assert_eq!(ball.nodes(&g3).len(), lattice_ball);
+    }
+
+    #[test]
+    fn primitives_validate() {
+        let bad = [
+            (Region::Ball { center: vec![0.0, 0.0], radius: 0.0 }, 2, "radius"),
+            (Region::Ball { center: vec![0.0], radius: 1.0 }, 2, "expected 2"),
+            (Region::Cylinder { center: vec![0.0; 2], axis: vec![1.0, 0.0], radius: 1.0, length: None }, 2, "3D"),
+            (Region::Cylinder { center: vec![0.0; 3], axis: vec![0.0; 3], radius: 1.0, length: None }, 3, "axis"),
+            (Region::HalfSpace { point: vec![0.0; 2], normal: vec![0.0; 2] }, 2, "normal"),
+            (Region::Polygon { vertices: vec![[0.0, 0.0], [1.0, 0.0]], extrude: None }, 2, "at least 3"),
+            (Region::Polygon { vertices: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], extrude: None }, 3, "extrude"),
+            (
+                Region::Polygon { vertices: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], extrude: Some([0.0, 1.0]) },
+                2,
+                "3D",
+            ),
+        ];
+        for (r, dim, needle) in bad {
+            let e = r.validate(dim).expect_err(needle).to_string();
+            assert!(e.contains(needle), "{e}");
+        }
     }
 
     #[test]

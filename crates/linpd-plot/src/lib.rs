@@ -148,6 +148,9 @@ pub struct ScalarMap {
     pub values: Vec<f64>,
     /// Description of the value, shown next to the colour bar.
     pub value_label: String,
+    /// Cells without data (a hole in a body), drawn white and left out of the colour range:
+    /// empty, or one flag per cell (`nx*ny`). Their `values` are ignored.
+    pub empty: Vec<bool>,
 }
 
 /// Errors from the plotting functions.
@@ -323,12 +326,19 @@ fn scalar_map_value_range(map: &ScalarMap) -> Result<(f64, f64), PlotError> {
             return Err(invalid(format!("{axis} = ({a}, {b}) must be finite with min < max")));
         }
     }
-    if let Some(k) = map.values.iter().position(|v| !v.is_finite()) {
+    if !map.empty.is_empty() && map.empty.len() != n {
+        return Err(invalid(format!("empty has {} flags, expected none or nx*ny = {n}", map.empty.len())));
+    }
+    let has_data = |k: usize| map.empty.get(k).is_none_or(|e| !e);
+    if let Some(k) = (0..n).find(|&k| has_data(k) && !map.values[k].is_finite()) {
         let (ix, iy) = (k % map.nx, k / map.nx);
         return Err(invalid(format!("values[{k}] (ix = {ix}, iy = {iy}) = {:e} is not finite", map.values[k])));
     }
-    let lo = map.values.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = map.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if !(0..n).any(has_data) {
+        return Err(invalid("every cell is empty"));
+    }
+    let lo = (0..n).filter(|&k| has_data(k)).map(|k| map.values[k]).fold(f64::INFINITY, f64::min);
+    let hi = (0..n).filter(|&k| has_data(k)).map(|k| map.values[k]).fold(f64::NEG_INFINITY, f64::max);
     if is_degenerate(lo, hi) {
         let r = linear_range(lo, hi);
         Ok((r.start, r.end))
@@ -714,7 +724,7 @@ fn draw_scalar_map<DB: DrawingBackend>(
     let cy = |iy: usize| y0 + (y1 - y0) * (iy as f64 / ny as f64);
     chart
         .draw_series((0..ny).flat_map(|iy| {
-            (0..nx).map(move |ix| {
+            (0..nx).filter(move |ix| !map.empty.get(ix + nx * iy).is_some_and(|e| *e)).map(move |ix| {
                 let v = map.values[ix + nx * iy];
                 Rectangle::new([(cx(ix), cy(iy)), (cx(ix + 1), cy(iy + 1))], viridis(fraction(v, lo, hi)).filled())
             })
@@ -848,6 +858,7 @@ mod tests {
             y_range: (-1.0, 1.0),
             values,
             value_label: "strain energy".into(),
+            empty: Vec::new(),
         }
     }
 

@@ -17,9 +17,13 @@ pub fn solution_plots(grid: &Grid, s: &Solution, dir: &Path) -> Result<Vec<PathB
             let (nx, ny) = (counts[0], counts[1]);
             let k0 = if d == 3 { counts[2] / 2 } else { 0 };
             let mag = |n: usize| (0..d).map(|a| s.u[d * n + a].powi(2)).sum::<f64>().sqrt();
-            let values: Vec<f64> = (0..nx * ny).map(|q| mag(q + nx * ny * k0)).collect();
-            let first = s.x[nx * ny * k0];
-            let last = s.x[nx * ny * k0 + nx * ny - 1];
+            // lattice sites of the plane; a site a body removed is an empty (white) cell
+            let nodes: Vec<Option<usize>> = (0..nx * ny).map(|q| grid.node_at_site([q % nx, q / nx, k0])).collect();
+            let values: Vec<f64> = nodes.iter().map(|n| n.map_or(0.0, mag)).collect();
+            let empty: Vec<bool> =
+                if grid.is_full() { Vec::new() } else { nodes.iter().map(Option::is_none).collect() };
+            let first = grid.site_position([0, 0, k0]);
+            let last = grid.site_position([nx - 1, ny - 1, k0]);
             let h = grid.spacing();
             let title =
                 if d == 3 { format!("{}: |u| on z = {:.4}", s.name, first[2]) } else { format!("{}: |u|", s.name) };
@@ -33,6 +37,7 @@ pub fn solution_plots(grid: &Grid, s: &Solution, dir: &Path) -> Result<Vec<PathB
                 y_range: (first[1] - 0.5 * h, last[1] + 0.5 * h),
                 values,
                 value_label: "|u|".into(),
+                empty,
             };
             scalar_map(&map, &dir.join("u_magnitude"))
         }
@@ -70,7 +75,9 @@ pub fn dynamics_plots(r: &DynamicsRun, dir: &Path) -> Result<Vec<PathBuf>, PlotE
     let series = vec![
         Series::new("kinetic", t.clone(), r.energies.iter().map(|e| e.kinetic).collect()),
         Series::new("potential", t.clone(), r.energies.iter().map(|e| e.potential).collect()),
-        Series::new("total", t.clone(), r.energies.iter().map(|e| e.total()).collect()),
+        Series::new("total E_k + E_p", t.clone(), r.energies.iter().map(|e| e.total()).collect()),
+        // the energy velocity Verlet conserves exactly (the total oscillates around it)
+        Series::new("shadow (conserved)", t.clone(), r.energies.iter().map(|e| e.shadow).collect()),
     ];
     let plot = LinePlot {
         title: format!("{}: energies", r.name),
@@ -97,6 +104,7 @@ pub fn dynamics_plots(r: &DynamicsRun, dir: &Path) -> Result<Vec<PathBuf>, PlotE
             y_range: (t[0] - 0.5 * dt_out, t[ny - 1] + 0.5 * dt_out),
             values,
             value_label: "u".into(),
+            empty: Vec::new(),
         };
         files.extend(scalar_map(&map, &dir.join("u_xt"))?);
     }

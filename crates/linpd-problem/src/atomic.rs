@@ -5,8 +5,8 @@
 //! [`OutputDir::begin`] takes the lock `<dir>.lock` (created with `O_EXCL`; it holds the pid)
 //! and creates the staging directory `<dir>.tmp-<pid>-<nanos>` in the same parent, so on the
 //! same filesystem, where a rename is atomic. The writers write into [`OutputDir::path`].
-//! [`OutputDir::commit`] writes the run's main document (`result.json`, `history.json` or
-//! `summary.json`) last, with the run's identity ([`RunIdentity`]) and the name and size of
+//! [`OutputDir::commit`] writes the run's main document (`result.json`, `history.json`,
+//! `summary.json`, or a study's `data.json` through [`OutputDir::commit_staged`]) last, with the run's identity ([`RunIdentity`]) and the name and size of
 //! every other file, then
 //! 1. renames an existing `<dir>` to `<dir>.old-<pid>-<nanos>`,
 //! 2. renames the staging directory to `<dir>`,
@@ -40,7 +40,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 /// The file names of the main documents: a directory that holds one (and nothing it does not
 /// list) was written by linpd.
-pub const MAIN_DOCUMENTS: [&str; 3] = ["result.json", "history.json", "summary.json"];
+pub const MAIN_DOCUMENTS: [&str; 4] = ["result.json", "history.json", "summary.json", "data.json"];
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ProblemError + '_ {
     move |source| ProblemError::Io { path: path.display().to_string(), source }
@@ -225,6 +225,21 @@ impl OutputDir {
         let mut paths: Vec<PathBuf> = files.iter().map(|f| self.target.join(&f.name)).collect();
         paths.push(self.target.join(main));
         Ok(paths)
+    }
+}
+
+impl OutputDir {
+    /// [`OutputDir::commit`] for a run that wrote its main document `main` itself (a study's
+    /// `data.json`): reads it back from the staging directory, adds the `"run"` member and
+    /// commits. `main` must be a JSON object.
+    pub fn commit_staged(self, main: &str, identity: &RunIdentity) -> Result<Vec<PathBuf>, ProblemError> {
+        let path = self.staging.join(main);
+        let bytes = fs::read(&path).map_err(io(&path))?;
+        let doc: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| io(&path)(e.into()))?;
+        if !doc.is_object() {
+            return Err(refuse(&self.target, format!("{main} is not a JSON object")));
+        }
+        self.commit(main, doc, identity)
     }
 }
 

@@ -41,7 +41,7 @@ pub(crate) fn scene(
     if grid_raw.min[0] != 0.0 {
         return Err(ProblemError::invalid("grid.min", format!("{name} models live on (0, L): min must be [0.0]")));
     }
-    if grid_raw.layer != 0.0 {
+    if !grid_raw.has_no_layer(1) {
         return Err(ProblemError::invalid(
             "grid.layer",
             format!("{name} models have local Dirichlet conditions at both ends: no layer"),
@@ -178,6 +178,12 @@ pub(crate) fn scene(
                     to: b,
                     density: density[0],
                 }));
+            }
+            Load::Resultant { .. } => {
+                return Err(ProblemError::invalid(
+                    format!("loads[{k}]"),
+                    format!("{name} models take point and body loads (a resultant needs the model's node volumes)"),
+                ))
             }
         }
     }

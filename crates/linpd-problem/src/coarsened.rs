@@ -48,6 +48,9 @@ pub struct CoarsenedModel {
     pub(crate) n_bonds: usize,
     /// `max |K - K^T| / max |K|`.
     pub(crate) asymmetry: f64,
+    /// Reciprocity defect of the moduli, `max |C_ij - C_ji^T| / max |C|` over the file's entries
+    /// ([`ModuliFile::asymmetry`]).
+    pub(crate) reciprocity: f64,
     /// Seconds spent reading the files and building `K`.
     pub(crate) build_seconds: f64,
 }
@@ -76,6 +79,33 @@ impl CoarsenedModel {
     /// `max |K - K^T| / max |K|`.
     pub fn asymmetry(&self) -> f64 {
         self.asymmetry
+    }
+    /// `max |C_ij - C_ji^T| / max |C|`: 0 for the levels `linpd coarsen` writes (symmetrized).
+    pub fn reciprocity(&self) -> f64 {
+        self.reciprocity
+    }
+    /// What the symmetry check found, for `linpd validate` and the solve report. `K` is what
+    /// is factorized, so `K` is judged. Reciprocal moduli (`C_ij = C_ji^T`) make the off-diagonal
+    /// blocks `K_ij = -v_i v_j C_ij` symmetric, but the diagonal block
+    /// `K_ii = sum_j v_i v_j C_ij` is symmetric only when the sum of the tensors `C_ij` is,
+    /// which Silling's coarsened moduli do not promise (the bond plate's level 1: 1.5e-4); a
+    /// Cholesky factorization of such a `K` would solve another system (relative residual
+    /// 2.4e-3, docs/coarsening.md).
+    pub fn symmetry(&self) -> String {
+        if self.is_symmetric() {
+            return "symmetric".to_string();
+        }
+        if self.reciprocity <= SYMMETRY_RTOL {
+            format!(
+                "unsymmetric (relative asymmetry {:.2e}, all in the diagonal blocks K_ii = sum_j v_i v_j C_ij: the moduli are reciprocal, C_ij = C_ji^T to {:.1e}, but the tensors C_ij are not symmetric)",
+                self.asymmetry, self.reciprocity
+            )
+        } else {
+            format!(
+                "unsymmetric (relative asymmetry {:.2e}; the moduli are not reciprocal: max |C_ij - C_ji^T| / max |C| = {:.2e})",
+                self.asymmetry, self.reciprocity
+            )
+        }
     }
     /// Seconds spent reading the files and building `K`.
     pub fn build_seconds(&self) -> f64 {
@@ -116,6 +146,12 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         )
     })?;
     let moduli_path = if Path::new(moduli).is_absolute() { PathBuf::from(moduli) } else { base_dir.join(moduli) };
+    if raw.body.is_some() {
+        return Err(ProblemError::invalid(
+            "body",
+            "not used by a coarsened model (its nodes come from its nodes file)",
+        ));
+    }
     if raw.grid.is_some() {
         return Err(ProblemError::invalid(
             "grid",
@@ -161,6 +197,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
     let model = AssembledModel::new("coarsened", dim, file.positions.clone(), file.stiffness())
         .with_labels("level-0 node", file.level0.clone());
     let asymmetry = model.stiffness_asymmetry();
+    let reciprocity = file.asymmetry();
     let mut pairs: Vec<(usize, usize)> =
         file.entries.iter().filter(|e| e.2 != 0.0).map(|e| (e.0 / dim, e.1 / dim)).collect();
     pairs.sort_unstable();
@@ -172,6 +209,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         model,
         n_bonds: pairs.len(),
         asymmetry,
+        reciprocity,
         build_seconds: t0.elapsed().as_secs_f64(),
     };
     Ok(Problem {
@@ -196,6 +234,14 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) ->
     let solved = solve_model(&c.model, &bc, &p.load_vector(), &p.solver, progress).map_err(static_error)?;
     let mut report = solved.report;
     report.timings.assemble += c.build_seconds;
+    if !c.is_symmetric() {
+        // say which quantity is unsymmetric, beside the solver's generic note
+        let why = format!("K is {}", c.symmetry());
+        report.note = Some(match report.note.take() {
+            Some(n) => format!("{n}; {why}"),
+            None => why,
+        });
+    }
     progress.phase(&format!(
         "done in {:.3} s, relative residual {:.2e}",
         t0.elapsed().as_secs_f64(),

@@ -159,11 +159,61 @@ fn positive(path: &str, x: f64) -> Result<f64, ProblemError> {
     }
 }
 
+/// Most snapshots a run keeps (each is `d n` values in memory until the run ends, for the
+/// plots, and a `u_<step>.csv` plus a `u_<step>.vtk` file): 10,000, a frame per 0.01 % of the
+/// run, more than any plot or animation shows.
+pub const MAX_SNAPSHOTS: usize = 10_000;
+
+/// Most bond updates (`steps x nodes x bonds per node`) a run may ask for: 1e14, i.e. 1.3 to 3.8
+/// days at the 3e8-8.6e8 bond updates per second `linpd bench --dynamics` measures (2 cores,
+/// docs/benchmarks.md). A runaway guard against `"steps": 1e18`-sized typos, not a policy: any
+/// run a session can wait for is far below it.
+pub const MAX_BOND_UPDATES: f64 = 1e14;
+
+/// Refuses runs that cannot finish (see [`MAX_BOND_UPDATES`]) or whose snapshots would not fit
+/// ([`MAX_SNAPSHOTS`], and their bytes against the available memory) before anything runs.
+fn check_run_size(
+    steps: usize,
+    output_every: usize,
+    dim: usize,
+    n_nodes: usize,
+    horizon_ratio: f64,
+) -> Result<(), ProblemError> {
+    let per_step = n_nodes as f64 * crate::memory::neighbours(dim, horizon_ratio).max(1.0);
+    let work = steps as f64 * per_step;
+    if work > MAX_BOND_UPDATES {
+        return Err(ProblemError::invalid(
+            "dynamics.steps",
+            format!(
+                "{steps:e} steps x {per_step:e} bond updates per step = {work:e}, more than {MAX_BOND_UPDATES:e}                  (days at the measured 3e8-8.6e8 bond updates per second): use fewer steps or nodes"
+            ),
+        ));
+    }
+    let snapshots = steps / output_every + 1;
+    if snapshots > MAX_SNAPSHOTS {
+        return Err(ProblemError::invalid(
+            "dynamics.output_every",
+            format!(
+                "{steps} steps every {output_every} gives {snapshots} snapshots (each kept in memory and written as                  two files), more than {MAX_SNAPSHOTS}: use output_every >= {}",
+                steps.div_ceil(MAX_SNAPSHOTS - 1)
+            ),
+        ));
+    }
+    let bytes = snapshots as f64 * (dim * n_nodes) as f64 * 8.0;
+    linpd_core::memory::check(
+        format!("{snapshots} displacement snapshots of {n_nodes} nodes"),
+        bytes,
+        "use a larger output_every",
+    )
+    .map_err(|e| ProblemError::invalid("dynamics.output_every", e.to_string()))
+}
+
 /// Validates `dynamics` (shape was checked by serde).
 pub(crate) fn validate(
     raw: &RawDynamics,
     dim: usize,
     n_nodes: usize,
+    horizon_ratio: f64,
     kind: RawModelKind,
 ) -> Result<Dynamics, ProblemError> {
     if kind != RawModelKind::Bond {
@@ -194,6 +244,7 @@ pub(crate) fn validate(
         Some(k) => k,
         None => (raw.steps / 10).max(1),
     };
+    check_run_size(raw.steps, output_every, dim, n_nodes, horizon_ratio)?;
     let initial = match &raw.initial {
         None => Initial::Rest,
         Some(i) => initial(i, dim, n_nodes)?,
@@ -319,6 +370,9 @@ pub struct StabilityLimit {
     pub dt: f64,
     /// How it was computed.
     pub method: String,
+    /// Seconds spent computing it (a power iteration on a large 2D/3D scene takes seconds to
+    /// minutes; part of the run's setup time).
+    pub seconds: f64,
 }
 
 /// The result of `linpd run`: energies at every output, displacement snapshots, throughput.
@@ -369,28 +423,45 @@ impl DynamicsRun {
     pub fn bond_updates_per_second(&self) -> f64 {
         self.steps as f64 * self.n_bonds as f64 / self.wall_seconds
     }
-    /// `max_n |E_n - E_0| / |E_0|` of `E = E_k + E_p` (oscillates by `O(dt^2)`, no drift).
-    pub fn max_total_drift(&self) -> f64 {
-        let e0 = self.energies[0].total();
-        self.energies.iter().map(|e| (e.total() - e0).abs() / e0.abs()).fold(0.0, f64::max)
+    /// The energy scale the drifts are relative to: the largest energy the run holds,
+    ///
+    /// ```text
+    /// E_ref = max( |E_0|, max_n E_k,n, max_n |E_p,n| ).
+    /// ```
+    ///
+    /// Not `|E_0|` alone: a run from rest under a constant load starts at `E_0 = 0` (no motion,
+    /// no strain) and `|E_n - E_0| / |E_0|` is `inf` (until 2026-11 it was, and `null` in
+    /// history.json). For a free wave `E_ref = E_0` up to the `O(dt^2)` oscillation of `E_k + E_p`.
+    /// `E_ref = 0` only when nothing moves; then the drifts are 0.
+    pub fn energy_scale(&self) -> f64 {
+        let e0 = self.energies[0].total().abs();
+        self.energies.iter().fold(e0, |m, e| m.max(e.kinetic).max(e.potential.abs()))
     }
-    /// `max_n |E~_n - E~_0| / |E~_0|` of the shadow energy (conserved to round-off).
+    /// `(x_n - x_0) / E_ref` for every output ([`DynamicsRun::energy_scale`]).
+    fn relative(&self, x: impl Fn(&linpd_dynamics::Energy) -> f64) -> Vec<f64> {
+        let scale = self.energy_scale();
+        let x0 = x(&self.energies[0]);
+        self.energies.iter().map(|e| if scale > 0.0 { (x(e) - x0) / scale } else { 0.0 }).collect()
+    }
+    /// `max_n |E_n - E_0| / E_ref` of `E = E_k + E_p`: velocity Verlet makes it oscillate by
+    /// `O(dt^2)` without drift, so this is an oscillation amplitude, not an error that grows.
+    pub fn max_total_drift(&self) -> f64 {
+        self.relative(|e| e.total()).iter().fold(0.0, |m, d| m.max(d.abs()))
+    }
+    /// `max_n |E~_n - E~_0| / E_ref` of the shadow energy (conserved to round-off).
     pub fn max_shadow_drift(&self) -> f64 {
-        let e0 = self.energies[0].shadow;
-        self.energies.iter().map(|e| (e.shadow - e0).abs() / e0.abs()).fold(0.0, f64::max)
+        self.relative(|e| e.shadow).iter().fold(0.0, |m, d| m.max(d.abs()))
     }
 
     /// The `history.json` document.
     pub fn history_json(&self) -> serde_json::Value {
-        let e0 = self.energies[0].total();
-        let s0 = self.energies[0].shadow;
-        let rel = |d: f64, r: f64| if r != 0.0 { d / r.abs() } else { d };
         json!({
             "name": self.name,
             "dimension": self.dim,
             "dt": self.dt,
             "dt_limit": self.limit.dt,
             "dt_limit_method": self.limit.method,
+            "dt_limit_seconds": self.limit.seconds,
             "steps": self.steps,
             "output_every": self.output_every,
             "nodes": self.x.len(),
@@ -404,8 +475,9 @@ impl DynamicsRun {
                 "potential": self.energies.iter().map(|e| e.potential).collect::<Vec<_>>(),
                 "total": self.energies.iter().map(|e| e.total()).collect::<Vec<_>>(),
                 "shadow": self.energies.iter().map(|e| e.shadow).collect::<Vec<_>>(),
-                "drift": self.energies.iter().map(|e| rel(e.total() - e0, e0)).collect::<Vec<_>>(),
-                "shadow_drift": self.energies.iter().map(|e| rel(e.shadow - s0, s0)).collect::<Vec<_>>(),
+                "scale": self.energy_scale(),
+                "drift": self.relative(|e| e.total()),
+                "shadow_drift": self.relative(|e| e.shadow),
             },
             "stats": {
                 "wall_seconds": self.wall_seconds,
@@ -522,6 +594,7 @@ impl Problem {
         dynamics: &Dynamics,
         progress: &dyn Progress,
     ) -> Result<StabilityLimit, ProblemError> {
+        let t0 = Instant::now();
         let rho = dynamics.density;
         let bond = self
             .model
@@ -534,6 +607,7 @@ impl Problem {
             return Ok(StabilityLimit {
                 dt: l.dt,
                 method: "2/omega_max of the infinite lattice (exact; a lower bound for the bar)".into(),
+                seconds: t0.elapsed().as_secs_f64(),
             });
         }
         let mass = self.mass(rho)?;
@@ -549,6 +623,7 @@ impl Problem {
         Ok(StabilityLimit {
             dt: verlet_limit(info.lambda) * (1.0 - 1e-3),
             method: format!("2/sqrt(lambda_max) by power iteration ({} iterations), less 0.1%", info.iterations),
+            seconds: t0.elapsed().as_secs_f64(),
         })
     }
 
@@ -568,6 +643,10 @@ impl Problem {
             self.model.horizon().unwrap_or(f64::NAN) / grid.spacing()
         ));
         let op = self.operator()?;
+        progress.phase(&format!(
+            "estimating the stable time step ({} free DOFs)",
+            d * n_nodes - self.constrained().0.iter().filter(|m| **m).count()
+        ));
         let limit = self.limit_of(&op, dynamics, progress)?;
         let dt = match dynamics.step {
             TimeStep::Dt(dt) => dt,
@@ -587,10 +666,11 @@ impl Problem {
             ));
         }
         progress.phase(&format!(
-            "dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {})",
+            "dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {}; {:.3} s)",
             dt / limit.dt,
             limit.dt,
-            limit.method
+            limit.method,
+            limit.seconds
         ));
         let fixed = self.fixed();
         let mass = self.mass(dynamics.density)?;

@@ -29,5 +29,5 @@ pub use error::ProblemError;
 pub use linpd_core::sparse::restrict_to_free as reduce_to_free;
 pub use lps::CG_NEAR_INCOMPRESSIBLE_NU;
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
-pub use problem::{BlendScene, BondModel, Constraint, LevelNodes, Load, ModelSpec, Nodes, Problem};
+pub use problem::{BlendScene, BondModel, Constraint, LevelNodes, Load, ModelSpec, Nodes, Problem, MAX_JSON_BYTES};
 pub use run::Solution;

@@ -5,9 +5,17 @@
 //! Boundary conditions in a pipeline act on the nodes of the coarsest level only (they exist at
 //! every level), identically at every level, as in Silling's Examples 5.2 and 5.3: constrained
 //! DOFs are the scene's constraints at those nodes; a body load gives each of them the nodal
-//! force `density x v^0` (its level-0 volume), the same at every level (the default force
-//! matching of `linpd_coarsen` conserves nodal forces); a point load must sit on such a node.
-//! Loads on excluded nodes would violate the assumption (5) of the coarsening step.
+//! force `density x v^M` (its volume at the coarsest level M), the same nodal force at every
+//! level (the default force matching of `linpd_coarsen` conserves nodal forces, so every level
+//! solves the same problem); a point load must sit on such a node. Loads on excluded nodes would
+//! violate the assumption (5) of the coarsening step.
+//!
+//! One load convention for pipelines and scenes: a scene on a coarsened level gives a body load
+//! `density x v^m` with the volumes of its own level, so the coarsest level's `level-M.mtx`
+//! loaded back as a scene with the pipeline scene's constraints and loads solves exactly the
+//! pipeline's problem (tests/coarsened_scene.rs). Why `v^M` and not `v^0` (used until 2026-11):
+//! the coarsest nodes stand for `v^M` of the body, so the total force is `density` times the
+//! loaded volume at every level, as a user loading a coarse model expects.
 
 use crate::{Load, Problem, ProblemError};
 use linpd_bond::{assemble, BondOperator};
@@ -125,8 +133,7 @@ fn inv(path: impl Into<String>, reason: impl Into<String>) -> ProblemError {
 impl Pipeline {
     /// Reads and validates a pipeline file (and its scene).
     pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
+        let text = crate::problem::read_json_file(path)?;
         let raw: RawPipeline = crate::problem::parse_json(&text)?;
         let base = path.parent().unwrap_or(Path::new("."));
         Self::from_raw(raw, base)
@@ -186,6 +193,11 @@ impl Pipeline {
                             if !(v.is_finite() && v > 0.0) {
                                 return Err(inv(p(k), format!("must be > 0, got {v:e}")));
                             }
+                        }
+                    }
+                    if let (Some(start), Some(max)) = (l.radius_start, l.radius_max) {
+                        if max < start {
+                            return Err(inv(p("radius_max"), format!("{max:e} is below radius_start {start:e}")));
                         }
                     }
                     Radius::Auto { tol, start: l.radius_start, growth, max: l.radius_max }
@@ -336,7 +348,7 @@ impl Pipeline {
         let shared_x: Vec<[f64; 3]> = coarsest.positions().to_vec();
         if self.solve {
             let shared0: Vec<usize> = coarsest.level0().to_vec();
-            let (fixed0, f0) = self.shared_bvp(&shared0)?;
+            let (fixed0, f0) = self.shared_bvp(coarsest)?;
             let bvp_task = Task::start(progress, "BVP solves", Some(models.len() as u64));
             for (lvl, model) in models.iter().enumerate() {
                 bvp_task.set(lvl as u64, &format!("level {lvl} of {}", models.len() - 1));
@@ -390,19 +402,24 @@ impl Pipeline {
         Ok(result)
     }
 
-    /// Constrained DOFs `(level-0 node, component, value)` and nodal forces `(node, comp, f)`
-    /// on the shared nodes (see the module docs).
+    /// Constrained DOFs `(level-0 node, component, value)` and nodal forces `(level-0 node,
+    /// component, f)` on the nodes of the `coarsest` level, which every level shares (see the
+    /// module docs): a body load gives node `i` the force `density x v^M_i`, its volume at the
+    /// coarsest level, as a scene on that level does.
     #[allow(clippy::type_complexity)]
     fn shared_bvp(
         &self,
-        shared0: &[usize],
+        coarsest: &LevelModel,
     ) -> Result<(Vec<(usize, usize, f64)>, Vec<(usize, usize, f64)>), ProblemError> {
         let p = &self.scene;
         let d = p.dim();
         let (mask, ubar) = p.constrained();
         let grid = p.lattice()?;
-        let mut is_shared = vec![false; grid.len()];
-        shared0.iter().for_each(|&i| is_shared[i] = true);
+        let shared0 = coarsest.level0();
+        // level-0 node -> its volume at the coarsest level (NaN: not shared)
+        let mut v_coarsest = vec![f64::NAN; grid.len()];
+        shared0.iter().zip(coarsest.volumes()).for_each(|(&i, &v)| v_coarsest[i] = v);
+        let is_shared = |i: usize| !v_coarsest[i].is_nan();
         let mut fixed = Vec::new();
         for &i in shared0 {
             for a in 0..d {
@@ -418,7 +435,7 @@ impl Pipeline {
         for (li, l) in p.loads.iter().enumerate() {
             match l {
                 Load::Point { node, force } => {
-                    if !is_shared[*node] {
+                    if !is_shared(*node) {
                         let x = grid.position(*node);
                         return Err(inv(
                             format!("loads[{li}]"),
@@ -428,8 +445,7 @@ impl Pipeline {
                     (0..d).for_each(|a| f.push((*node, a, force[a])));
                 }
                 Load::Body { region, density } => {
-                    let v = grid.volume();
-                    let nodes: Vec<usize> = region.nodes(grid).into_iter().filter(|&i| is_shared[i]).collect();
+                    let nodes: Vec<usize> = region.nodes(grid).into_iter().filter(|&i| is_shared(i)).collect();
                     if nodes.is_empty() {
                         return Err(inv(
                             format!("loads[{li}]"),
@@ -437,7 +453,22 @@ impl Pipeline {
                         ));
                     }
                     for i in nodes {
-                        (0..d).for_each(|a| f.push((i, a, density[a] * v)));
+                        (0..d).for_each(|a| f.push((i, a, density[a] * v_coarsest[i])));
+                    }
+                }
+                Load::Resultant { region, force } => {
+                    // spread over the coarsest nodes of the region by their coarsest volumes,
+                    // as a scene on that level spreads it
+                    let nodes: Vec<usize> = region.nodes(grid).into_iter().filter(|&i| is_shared(i)).collect();
+                    if nodes.is_empty() {
+                        return Err(inv(
+                            format!("loads[{li}]"),
+                            "the resultant load's region contains no node of the coarsest level",
+                        ));
+                    }
+                    let total: f64 = nodes.iter().map(|&i| v_coarsest[i]).sum();
+                    for i in nodes {
+                        (0..d).for_each(|a| f.push((i, a, force[a] * v_coarsest[i] / total)));
                     }
                 }
             }

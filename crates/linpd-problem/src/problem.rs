@@ -66,6 +66,14 @@ pub enum Load {
         /// Force per unit volume.
         density: Vec<f64>,
     },
+    /// A total force spread over a region's nodes in proportion to their volumes,
+    /// `f_i = F v_i / sum_{j in R} v_j`: the applied total is `F` whatever the spacing.
+    Resultant {
+        /// Where.
+        region: Region,
+        /// The total force `F`.
+        force: Vec<f64>,
+    },
 }
 
 /// The bond-based model.
@@ -252,6 +260,19 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
             }
             Region::Box { min: min.clone(), max: max.clone() }
         }
+        RawRegion::Ball { center, radius } => {
+            check_len(&format!("{path}.ball.center"), center, dim)?;
+            Region::Ball { center: center.clone(), radius: *radius }
+        }
+        RawRegion::Cylinder { center, axis, radius, length } => {
+            Region::Cylinder { center: center.clone(), axis: axis.clone(), radius: *radius, length: *length }
+        }
+        RawRegion::HalfSpace { point, normal } => {
+            check_len(&format!("{path}.half_space.point"), point, dim)?;
+            check_len(&format!("{path}.half_space.normal"), normal, dim)?;
+            Region::HalfSpace { point: point.clone(), normal: normal.clone() }
+        }
+        RawRegion::Polygon { vertices, extrude } => Region::Polygon { vertices: vertices.clone(), extrude: *extrude },
         RawRegion::Union(parts) => Region::Union(
             parts
                 .iter()
@@ -264,6 +285,11 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
             Box::new(region(&format!("{path}.difference[1]"), b, dim)?),
         ),
     };
+    if out.is_leaf() {
+        // the shape's own checks (radius > 0, 3D-only shapes, polygon vertices), named by the
+        // shape's key under `path` (`body.ball.radius: must be > 0, got 0e0`)
+        out.validate(dim).map_err(|e| core(path, e))?;
+    }
     Ok(out)
 }
 
@@ -273,6 +299,41 @@ pub(crate) fn check_model_keys(model: &RawModel) -> Result<(), ProblemError> {
 }
 
 /// Parses scene text into the serde mirror; syntax and shape errors carry line, column and path.
+/// Largest scene or pipeline file read: 16 MiB. A scene is a few hundred bytes of keys (node
+/// data lives in the files it names), so anything larger is a wrong file, and the limit keeps
+/// `linpd validate /dev/urandom` from reading forever.
+pub const MAX_JSON_BYTES: u64 = 16 << 20;
+
+/// Reads a scene or pipeline file: a regular file (not a device, FIFO or directory) of at most
+/// [`MAX_JSON_BYTES`], in UTF-8.
+pub(crate) fn read_json_file(path: &Path) -> Result<String, ProblemError> {
+    use std::io::Read;
+    let err = |source| ProblemError::Io { path: path.display().to_string(), source };
+    let other = |m: String| err(std::io::Error::new(std::io::ErrorKind::InvalidInput, m));
+    let meta = std::fs::metadata(path).map_err(err)?;
+    if !meta.is_file() {
+        return Err(other("not a regular file (a scene or pipeline is a JSON file)".into()));
+    }
+    if meta.len() > MAX_JSON_BYTES {
+        return Err(other(format!(
+            "{} bytes, more than a scene or pipeline file may hold ({MAX_JSON_BYTES})",
+            meta.len()
+        )));
+    }
+    // `take`: a file that grows while it is read still stops at the limit
+    let mut bytes = Vec::new();
+    std::fs::File::open(path).and_then(|f| f.take(MAX_JSON_BYTES + 1).read_to_end(&mut bytes)).map_err(err)?;
+    if bytes.len() as u64 > MAX_JSON_BYTES {
+        return Err(other(format!("more than {MAX_JSON_BYTES} bytes, more than a scene or pipeline file may hold")));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        other(format!(
+            "not UTF-8 text (invalid byte at offset {}): a scene or pipeline is a JSON file",
+            e.utf8_error().valid_up_to()
+        ))
+    })
+}
+
 pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, ProblemError> {
     if is_pipeline(text) {
         return Err(ProblemError::invalid(
@@ -340,8 +401,7 @@ impl Problem {
 
     /// Reads and validates a scene file (relative file names in it start at its directory).
     pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
+        let text = read_json_file(path)?;
         Self::from_json_in(&text, path.parent().unwrap_or(Path::new("")))
     }
 
@@ -368,14 +428,29 @@ impl Problem {
         let Some(raw_grid) = &raw.grid else {
             return Err(ProblemError::invalid("grid", format!("required for model type {}", model_kind.name())));
         };
+        if raw.body.is_some() && matches!(model_kind, RawModelKind::Blend | RawModelKind::Ce) {
+            return Err(ProblemError::invalid(
+                "body",
+                format!("{} models live on the whole interval (0, L) of the grid: no body", model_kind.name()),
+            ));
+        }
         check_len("grid.min", &raw_grid.min, dim)?;
         check_len("grid.max", &raw_grid.max, dim)?;
         let placement = match raw_grid.placement {
             RawPlacement::Vertex => Placement::Vertex,
             RawPlacement::Cell => Placement::Cell,
         };
-        let grid = Grid::new(&raw_grid.min, &raw_grid.max, raw_grid.spacing, raw_grid.layer, placement)
+        let layers = raw_grid.layers(dim).map_err(|(path, reason)| ProblemError::invalid(path, reason))?;
+        let grid = Grid::with_layers(&raw_grid.min, &raw_grid.max, raw_grid.spacing, layers, placement)
             .map_err(|e| core("grid", e))?;
+        let grid = match &raw.body {
+            None => grid,
+            Some(b) => {
+                let body = region("body", b, dim)?;
+                let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
+                grid.with_body(|x| body.contains(x, dim, tol)).map_err(|e| core("body", e))?
+            }
+        };
         // Optional in the mirror only because coarsened models have none; the wording matches
         // serde's so that the message reads the same as before.
         let Some(horizon) = raw.model.horizon else {
@@ -480,7 +555,7 @@ impl Problem {
         };
         let dynamics = match &raw.dynamics {
             None => None,
-            Some(d) => Some(crate::dynamics::validate(d, dim, grid.len(), model_kind)?),
+            Some(d) => Some(crate::dynamics::validate(d, dim, grid.len(), ratio, model_kind)?),
         };
         Ok(Problem {
             dynamics,
@@ -703,6 +778,39 @@ impl NodeSet for LevelNodes {
 
 /// The nodes a scene's regions and point loads refer to: a lattice, or the nodes of a
 /// coarsened level.
+/// Two constraints that prescribe one DOF must prescribe the same value (to `1e-12` relative:
+/// overlapping regions of one affine field written twice agree to rounding); otherwise the later
+/// would silently win. The error names both constraints, the node and the two values.
+fn check_constraints_agree(constraints: &[Constraint], dim: usize, nodes: &dyn NodeSet) -> Result<(), ProblemError> {
+    let mut first: std::collections::HashMap<(usize, usize), (usize, f64)> = Default::default();
+    for (k, c) in constraints.iter().enumerate() {
+        for node in nodes.select(&c.region) {
+            let x = nodes.position(node);
+            for &a in &c.components {
+                let u = c.displacement(&x[..dim], a);
+                match first.entry((node, a)) {
+                    std::collections::hash_map::Entry::Vacant(e) => {
+                        e.insert((k, u));
+                    }
+                    std::collections::hash_map::Entry::Occupied(e) => {
+                        let (j, v) = *e.get();
+                        if (u - v).abs() > 1e-12 * u.abs().max(v.abs()) {
+                            return Err(ProblemError::invalid(
+                                format!("constraints[{k}]"),
+                                format!(
+                                    "prescribes u_{a} = {u:e} at node {node} (x = {:?}), where constraints[{j}] prescribes {v:e}: constraints that share a DOF must agree",
+                                    &x[..dim]
+                                ),
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 pub(crate) trait NodeSet {
     /// `"the grid"`, `"the coarsened level"` (for messages).
     fn what(&self) -> &'static str;
@@ -779,6 +887,7 @@ pub(crate) fn constraints_and_loads(
         }
         constraints.push(cons);
     }
+    check_constraints_agree(&constraints, dim, nodes)?;
 
     let mut loads = Vec::new();
     for (k, l) in raw.loads.iter().enumerate() {
@@ -813,6 +922,19 @@ pub(crate) fn constraints_and_loads(
                     ));
                 }
                 Load::Point { node, force }
+            }
+            RawLoadKind::Resultant => {
+                only("resultant", &[("at", l.at.is_some()), ("density", l.density.is_some())])?;
+                let force = need("force", &l.force)?;
+                let r = l.region.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.region"), "missing"))?;
+                let region = region(&format!("{p}.region"), r, dim)?;
+                if nodes.select(&region).is_empty() {
+                    return Err(ProblemError::invalid(
+                        format!("{p}.region"),
+                        format!("contains no node of {}: a resultant needs nodes to spread over", nodes.what()),
+                    ));
+                }
+                Load::Resultant { region, force }
             }
             RawLoadKind::Body => {
                 only("body", &[("at", l.at.is_some()), ("force", l.force.is_some())])?;

@@ -33,6 +33,9 @@ pub struct RawProblem {
     /// Explicit dynamics (`linpd run`).
     #[serde(default)]
     pub dynamics: Option<RawDynamics>,
+    /// The body: only the grid's nodes inside this region (layer nodes included) are kept.
+    #[serde(default)]
+    pub body: Option<RawRegion>,
 }
 
 /// `dynamics`: velocity-Verlet time stepping.
@@ -119,12 +122,57 @@ pub struct RawGrid {
     pub max: Vec<f64>,
     /// Lattice spacing.
     pub spacing: f64,
-    /// Thickness of the outer layer (nodes outside `[min, max]`).
+    /// Thickness of the outer layer (nodes outside `[min, max]`): a number (every side) or an
+    /// object of per-side thicknesses `{"x-": 0.06, "x+": 0, ...}` (missing sides 0); read by
+    /// [`RawGrid::layers`].
     #[serde(default)]
-    pub layer: f64,
+    pub layer: Option<serde_json::Value>,
     /// `vertex` (default) or `cell`.
     #[serde(default)]
     pub placement: RawPlacement,
+}
+
+impl RawGrid {
+    /// The layer thicknesses `[below, above]` per axis (`grid.layer`, see the field), or an
+    /// error naming the key (`grid.layer.w-: not a side ...`).
+    pub fn layers(&self, dim: usize) -> Result<linpd_core::grid::Layers, (String, String)> {
+        const SIDES: [&str; 6] = ["x-", "x+", "y-", "y+", "z-", "z+"];
+        let mut out = [[0.0; 2]; 3];
+        let number = |path: &str, v: &serde_json::Value| -> Result<f64, (String, String)> {
+            let x = v.as_f64().ok_or_else(|| (path.to_string(), format!("expected a number, got {v}")))?;
+            if x.is_finite() && x >= 0.0 {
+                Ok(x)
+            } else {
+                Err((path.to_string(), format!("must be >= 0, got {x:e}")))
+            }
+        };
+        match &self.layer {
+            None => {}
+            Some(serde_json::Value::Object(sides)) => {
+                for (key, v) in sides {
+                    let Some(k) = SIDES[..2 * dim].iter().position(|s| s == key) else {
+                        return Err((
+                            format!("grid.layer.{key}"),
+                            format!("not a side of a {dim}D grid (sides: {})", SIDES[..2 * dim].join(", ")),
+                        ));
+                    };
+                    out[k / 2][k % 2] = number(&format!("grid.layer.{key}"), v)?;
+                }
+            }
+            Some(v) => {
+                let x = number("grid.layer", v).map_err(|(p, r)| {
+                    (p, format!("{r} (a thickness for every side, or an object such as {{\"x-\": 0.06}})"))
+                })?;
+                out = [[x; 2]; 3];
+            }
+        }
+        Ok(out)
+    }
+
+    /// True when every side's layer is 0.
+    pub fn has_no_layer(&self, dim: usize) -> bool {
+        self.layers(dim).is_ok_and(|l| l.iter().take(dim).all(|s| s[0] == 0.0 && s[1] == 0.0))
+    }
 }
 
 /// `grid.placement`.
@@ -477,7 +525,8 @@ pub struct RawPlaneDefect {
     pub extent: Option<RawRegion>,
 }
 
-/// A region: `"all"`, `{"box": {...}}`, `{"union": [...]}`, `{"difference": [A, B]}`.
+/// A region: `"all"`, `{"box": {...}}`, `{"ball": {...}}`, `{"cylinder": {...}}`,
+/// `{"half_space": {...}}`, `{"polygon": {...}}`, `{"union": [...]}`, `{"difference": [A, B]}`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum RawRegion {
@@ -489,6 +538,40 @@ pub enum RawRegion {
         min: Vec<f64>,
         /// Upper corner.
         max: Vec<f64>,
+    },
+    /// A closed ball (disk in 2D).
+    Ball {
+        /// Centre.
+        center: Vec<f64>,
+        /// Radius.
+        radius: f64,
+    },
+    /// A closed circular cylinder (3D).
+    Cylinder {
+        /// A point of the axis (its middle when `length` is given).
+        center: Vec<f64>,
+        /// Axis direction.
+        axis: Vec<f64>,
+        /// Radius.
+        radius: f64,
+        /// Length (infinite when absent).
+        #[serde(default)]
+        length: Option<f64>,
+    },
+    /// `(x - point) . normal <= 0`.
+    HalfSpace {
+        /// A point of the plane.
+        point: Vec<f64>,
+        /// Outward normal.
+        normal: Vec<f64>,
+    },
+    /// A 2D polygon, extruded along z in 3D.
+    Polygon {
+        /// Vertices `[x, y]`.
+        vertices: Vec<[f64; 2]>,
+        /// 3D: `[z0, z1]`.
+        #[serde(default)]
+        extrude: Option<[f64; 2]>,
     },
     /// Any of.
     Union(Vec<RawRegion>),
@@ -528,6 +611,8 @@ pub enum RawLoadKind {
     Point,
     /// A body-force density on every node of a region (force = density * node volume).
     Body,
+    /// A total force spread over a region's nodes in proportion to their volumes.
+    Resultant,
 }
 
 /// A load: `{"type": "point", "at", "force"}` or `{"type": "body", "region", "density"}`

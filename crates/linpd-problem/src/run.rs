@@ -78,6 +78,14 @@ impl Problem {
                         (0..d).for_each(|a| f[d * node + a] += density[a] * v);
                     }
                 }
+                Load::Resultant { region, force } => {
+                    let nodes = self.nodes.select(region);
+                    let total: f64 = nodes.iter().map(|&n| self.nodes.volume(n)).sum();
+                    for node in nodes {
+                        let share = self.nodes.volume(node) / total;
+                        (0..d).for_each(|a| f[d * node + a] += force[a] * share);
+                    }
+                }
             }
         }
         f

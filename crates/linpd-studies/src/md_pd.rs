@@ -169,6 +169,7 @@ fn density_map(m: &Model, r: &Run, dir: &Path, what: &str) -> Result<(), StudyEr
         y_range: (r.map_t[0] - 0.5 * dtr, r.map_t[0] - 0.5 * dtr + ny as f64 * dtr),
         values,
         value_label: "density".into(),
+        empty: Vec::new(),
     };
     // Keep the PNG only: the SVG of a cell map is megabytes.
     for f in scalar_map(&map, &dir.join(format!("density_{}", m.key)))? {
