@@ -90,7 +90,7 @@ fn patch_test_strain_spread_is_round_off() {
     // uses dx = 0.0125 so that N = eps/dx = 4 is an integer and the layer holds N nodes.
     let p = Problem::from_path(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/bar-patch-test.json")))
         .unwrap();
-    let s = p.solve(&|_| {}).unwrap();
+    let s = p.solve(&linpd::core::NoProgress).unwrap();
     let strains: Vec<f64> = (0..s.x.len() - 1).map(|i| (s.u[i + 1] - s.u[i]) / (s.x[i + 1][0] - s.x[i][0])).collect();
     let max = strains.iter().cloned().fold(f64::MIN, f64::max);
     let min = strains.iter().cloned().fold(f64::MAX, f64::min);

@@ -108,7 +108,7 @@ fn reactions_balance_the_applied_loads() {
         let _ = std::fs::remove_dir_all(&out);
     }
     let p = Problem::from_path(&data("lps-plate-2d.json")).unwrap();
-    let s = p.solve(&|_| {}).unwrap();
+    let s = p.solve(&linpd::core::NoProgress).unwrap();
     let b = s.balance.expect("an lps solve reports its balance");
     assert!(b.relative_imbalance <= 1e-10, "lps: {b:?}");
     assert!(b.constraints.iter().all(|c| c.nodes > 0 && c.dofs > 0));
@@ -123,9 +123,9 @@ fn matrix_free_cg_with_a_body_agrees_with_cholesky() {
     s["grid"]["spacing"] = json!(0.025);
     s["model"]["horizon"] = json!(0.075);
     s["grid"]["layer"] = json!({"x-": 0.075, "x+": 0.075});
-    let direct = Problem::from_json(&s.to_string()).unwrap().solve(&|_| {}).unwrap();
+    let direct = Problem::from_json(&s.to_string()).unwrap().solve(&linpd::core::NoProgress).unwrap();
     s["solver"] = json!({"type": "cg", "matrix_free": true, "rtol": 1e-12});
-    let cg = Problem::from_json(&s.to_string()).unwrap().solve(&|_| {}).unwrap();
+    let cg = Problem::from_json(&s.to_string()).unwrap().solve(&linpd::core::NoProgress).unwrap();
     let scale = direct.u.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let e = direct.u.iter().zip(&cg.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())) / scale;
     assert!(e < 1e-6, "matrix-free CG vs Cholesky: {e:e}");
@@ -239,7 +239,7 @@ print(json.dumps({"points": m.points.tolist(), "u": m.point_data["u"].tolist(),
     }
     // sum W_i V_i against u.A u / 2 from the library's operator
     let p = Problem::from_path(&data("plate-hole-2d.json")).unwrap();
-    let s = p.solve(&|_| {}).unwrap();
+    let s = p.solve(&linpd::core::NoProgress).unwrap();
     let model = p.lattice_model().unwrap();
     let mut au = vec![0.0; s.u.len()];
     linpd::core::Model::apply(&model, &s.u, &mut au);

@@ -161,7 +161,7 @@ fn bar_1d_cli_and_library_match_a_dense_solve() {
     let ModelSpec::Coarsened(c) = p.model() else { panic!("expected a coarsened scene") };
     assert_eq!((p.dim(), c.level(), p.nodes().len()), (1, 1, 41));
     assert!(c.is_symmetric());
-    let s = p.solve(&|_| {}).unwrap();
+    let s = p.solve(&linpd::core::NoProgress).unwrap();
     assert_eq!(s.report.solver.to_string(), "cholesky-amd");
     assert!(s.report.rel_residual < 1e-12, "{}", s.report.rel_residual);
     assert_eq!(s.n_bonds, 2 * (38 + 39 + 40)); // pairs at distance 1, 2, 3, both directions
@@ -203,7 +203,7 @@ fn bar_1d_body_load_uses_node_volumes() {
     let mut scene = bar_scene(&dir.join("out"));
     scene["loads"] = json!([{"type": "body", "region": "all", "density": [2.0]}]);
     let path = write_scene(&dir, "scene", &scene);
-    let s = Problem::from_path(&path).unwrap().solve(&|_| {}).unwrap();
+    let s = Problem::from_path(&path).unwrap().solve(&linpd::core::NoProgress).unwrap();
     let f: Vec<f64> = m.volumes.iter().map(|v| 2.0 * v).collect();
     let mut fixed = vec![false; 41];
     fixed[0] = true;
@@ -233,7 +233,7 @@ fn plate_2d_cholesky_lu_and_dense_agree() {
     m.write(&dir.join("level-2")).unwrap();
     let solve = |solver: &str| {
         let p = write_scene(&dir, solver, &plate_scene(solver));
-        Problem::from_path(&p).unwrap().solve(&|_| {}).unwrap()
+        Problem::from_path(&p).unwrap().solve(&linpd::core::NoProgress).unwrap()
     };
     let chol = solve("cholesky");
     let auto = solve("auto");
@@ -273,7 +273,7 @@ fn unsymmetric_moduli_take_the_lu_path() {
     let problem = Problem::from_path(&p).unwrap();
     let ModelSpec::Coarsened(c) = problem.model() else { panic!() };
     assert!(!c.is_symmetric());
-    let s = problem.solve(&|_| {}).unwrap();
+    let s = problem.solve(&linpd::core::NoProgress).unwrap();
     assert_eq!(s.report.solver, linpd::solve::SolverId::Lu);
     let note = s.report.note.as_deref().unwrap_or_default();
     assert!(note.contains("A is unsymmetric (relative asymmetry"), "{note}");
@@ -303,7 +303,7 @@ fn plate_2d_multigrid_agrees_with_cholesky() {
         scene["solver"] = solver;
         scene["loads"][0]["at"] = json!([1.0, 1.0]);
         let p = write_scene(&dir, "mg", &scene);
-        Problem::from_path(&p).unwrap().solve(&|_| {}).unwrap()
+        Problem::from_path(&p).unwrap().solve(&linpd::core::NoProgress).unwrap()
     };
     let chol = solve(json!({"type": "cholesky"}));
     let mg = solve(json!({"type": "cg", "preconditioner": "multigrid", "rtol": 1e-12}));
@@ -352,7 +352,7 @@ fn item_7_a_level_loaded_back_reproduces_the_pipeline() {
     let p = Problem::from_path(&path).unwrap();
     let ModelSpec::Coarsened(c) = p.model() else { panic!("expected a coarsened scene") };
     assert_eq!(c.level(), 2);
-    let s = p.solve(&|_| {}).unwrap();
+    let s = p.solve(&linpd::core::NoProgress).unwrap();
 
     // the pipeline's level-2 displacements at the shared (= level-2) nodes, in level order
     let csv = std::fs::read_to_string(out.join("shared.csv")).unwrap();

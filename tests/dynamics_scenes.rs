@@ -26,7 +26,7 @@ fn scene() -> Value {
 }
 
 fn error_of(v: &Value) -> String {
-    match Problem::from_json(&v.to_string()).and_then(|p| p.run_dynamics(&|_| {}).map(|_| ())) {
+    match Problem::from_json(&v.to_string()).and_then(|p| p.run_dynamics(&linpd::core::NoProgress).map(|_| ())) {
         Ok(()) => panic!("accepted: {v}"),
         Err(e) => e.to_string(),
     }
@@ -35,7 +35,7 @@ fn error_of(v: &Value) -> String {
 #[test]
 fn square_pulse_scene_runs_and_conserves_the_shadow_energy() {
     let p = Problem::from_path(&data("wave-square-pulse-1d.json")).unwrap();
-    let r = p.run_dynamics(&|_| {}).unwrap();
+    let r = p.run_dynamics(&linpd::core::NoProgress).unwrap();
     assert_eq!(r.steps, 400);
     assert_eq!(r.snapshots.len(), 101, "outputs at steps 0, 4, ..., 400");
     assert!((r.dt / r.limit.dt - 0.85).abs() < 1e-12);
@@ -59,7 +59,7 @@ fn square_pulse_scene_runs_and_conserves_the_shadow_energy() {
     let mut v = scene();
     v["dynamics"].as_object_mut().unwrap().remove("dt_safety");
     v["dynamics"]["dt"] = json!(r.dt);
-    let q = Problem::from_json(&v.to_string()).unwrap().run_dynamics(&|_| {}).unwrap();
+    let q = Problem::from_json(&v.to_string()).unwrap().run_dynamics(&linpd::core::NoProgress).unwrap();
     assert_eq!(q.snapshots.last(), r.snapshots.last());
 }
 
@@ -128,7 +128,7 @@ fn malformed_dynamics_sections_name_the_path() {
     // allow_unstable lets an unstable dt through; the run then diverges (an error, not a panic).
     let mut v = set("dt_safety", json!(1.2));
     v["dynamics"]["allow_unstable"] = json!(true);
-    match Problem::from_json(&v.to_string()).unwrap().run_dynamics(&|_| {}) {
+    match Problem::from_json(&v.to_string()).unwrap().run_dynamics(&linpd::core::NoProgress) {
         Err(ProblemError::Solve(m)) => assert!(m.contains("diverged"), "{m}"),
         Ok(r) => assert!(r.max_total_drift() > 1e3, "1.2 dt_max must blow up in 400 steps"),
         Err(e) => panic!("{e}"),
@@ -225,7 +225,7 @@ fn item_8_dynamics_drift_from_rest_and_timed_dt_estimate() {
     let out = std::env::temp_dir().join(format!("linpd-run-rest-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let p = Problem::from_json(&from_rest(1, &out).to_string()).unwrap();
-    let r = p.run_dynamics(&|_| {}).unwrap();
+    let r = p.run_dynamics(&linpd::core::NoProgress).unwrap();
     assert_eq!(r.energies[0].total(), 0.0, "from rest, unloaded start: E_0 = 0");
     let (scale, total, shadow) = (r.energy_scale(), r.max_total_drift(), r.max_shadow_drift());
     println!("E_ref = {scale:e}, E_k + E_p oscillation {total:e}, shadow drift {shadow:e}");

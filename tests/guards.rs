@@ -140,7 +140,9 @@ fn item_4_nan_load_is_an_error() {
         s["loads"] = json!([{"type": "point", "at": [0.5], "force": [force]}]);
         s
     };
-    let solve = |s: &Value| Problem::from_json(&s.to_string()).unwrap().solve(&|_| {}).unwrap_err().to_string();
+    let solve = |s: &Value| {
+        Problem::from_json(&s.to_string()).unwrap().solve(&linpd::core::NoProgress).unwrap_err().to_string()
+    };
     // ||f||^2 overflows: every residual would be inf / inf.
     let e = solve(&base(1.0, 1e308, 1e300));
     assert!(e.contains("the load vector has non-finite values") && e.contains("squared norm overflows"), "{e}");
@@ -192,7 +194,7 @@ fn item_5_modulus_overflow_named() {
         "loads": [{"type": "point", "at": [1.0], "force": [1.0]}]
     });
     let p = Problem::from_json_in(&s.to_string(), &dir).unwrap();
-    let e = p.solve(&|_| {}).unwrap_err().to_string();
+    let e = p.solve(&linpd::core::NoProgress).unwrap_err().to_string();
     assert!(e.contains("the stiffness has non-finite values") && e.contains("overflow"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -281,9 +281,9 @@ fn cases() -> Vec<Case> {
         parse("unknown solver", e1(set("solver", "type", json!("gmres"))), "solver.type", "unknown variant `gmres`"),
         parse(
             "unknown region shape",
-            e1(set("constraints/0", "region", json!({"ball": {"center": [0.0], "radius": 1.0}}))),
+            e1(set("constraints/0", "region", json!({"circle": {"center": [0.0], "radius": 1.0}}))),
             "constraints[0].region",
-            "unknown variant `ball`",
+            "unknown variant `circle`, expected one of `all`, `box`, `ball`, `cylinder`, `half_space`, `polygon`",
         ),
         // --- dimension and grid ---
         parse("dimension 4", e1(set("", "dimension", json!(4))), "dimension", "must be 1, 2 or 3, got 4"),
@@ -528,7 +528,7 @@ fn cases() -> Vec<Case> {
             "unknown load type",
             e1(set("loads/0", "type", json!("pressure"))),
             "loads[0].type",
-            "unknown variant `pressure`, expected `point` or `body`",
+            "unknown variant `pressure`, expected one of `point`, `body`, `resultant`",
         ),
         // --- solver ---
         parse(
@@ -903,7 +903,7 @@ fn run(case: &Case) -> Result<String, String> {
             (Err(e), Stage::Parse) => Ok(e),
             (Err(e), Stage::Solve) => Err(format!("expected to parse, got: {e}")),
             (Ok(_), Stage::Parse) => Err("the scene was accepted".into()),
-            (Ok(p), Stage::Solve) => match p.solve(&|_| {}) {
+            (Ok(p), Stage::Solve) => match p.solve(&linpd::core::NoProgress) {
                 Err(e @ ProblemError::Unsupported(_)) => Ok(e),
                 Err(e) => Err(format!("expected ProblemError::Unsupported, got {e:?}")),
                 Ok(_) => Err("the scene was solved".into()),
@@ -941,7 +941,7 @@ fn base_scenes_are_valid_and_solve() {
     for (name, base) in [("1D", base_1d as fn() -> Value), ("2D", base_2d), ("coarsened", base_coarsened)] {
         let p = Problem::from_json_in(&base().to_string(), std::path::Path::new("."))
             .unwrap_or_else(|e| panic!("{name} base scene: {e}"));
-        let s = p.solve(&|_| {}).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
+        let s = p.solve(&linpd::core::NoProgress).unwrap_or_else(|e| panic!("{name} base scene: {e}"));
         assert!(s.report.rel_residual < 1e-10, "{name}: residual {}", s.report.rel_residual);
     }
 }

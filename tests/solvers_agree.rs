@@ -24,7 +24,7 @@ fn every_solver_gives_the_same_displacements() {
     for spec in [SolverSpec::Cholesky, SolverSpec::Lu, SolverSpec::Dense, cg_spec(false), cg_spec(true)] {
         let mut p = base.clone();
         p.set_solver(spec);
-        let s = p.solve(&|_| {}).unwrap();
+        let s = p.solve(&linpd::core::NoProgress).unwrap();
         assert!(s.report.rel_residual < 1e-11, "{}: residual {:e}", s.report.solver, s.report.rel_residual);
         solutions.push((s.report.solver, s.u));
     }
@@ -82,7 +82,7 @@ fn auto_uses_the_scenes_cg_parameters_when_it_picks_cg() {
     // proving the scene's parameters reach the solver (they used to be ignored under auto).
     let mut p = scene("cube-compression-3d.json");
     p.set_solver(SolverSpec::Auto(CgParams { max_iter: 1, ..CgParams::default() }));
-    match p.solve(&|_| {}) {
+    match p.solve(&linpd::core::NoProgress) {
         Err(e) => assert!(e.to_string().contains("did not converge in 1 iterations"), "{e}"),
         Ok(s) => panic!("converged in {:?} iterations with max_iter = 1", s.report.iterations),
     }
@@ -114,7 +114,7 @@ fn auto_picks_by_estimated_cost_and_reports_the_estimates() {
         ("plate-101", plate_101, "cg-multigrid"),
     ];
     for (name, p, expect) in cases {
-        let s = p.solve(&|_| {}).unwrap();
+        let s = p.solve(&linpd::core::NoProgress).unwrap();
         assert_eq!(s.report.solver.to_string(), expect, "{name}: {:?}", s.report.auto);
         let line = s.report.auto.clone().unwrap_or_default();
         for candidate in ["cholesky-nd est.", "cg-jacobi est.", "cg-multigrid est."] {
@@ -146,7 +146,7 @@ fn multigrid_cg_agrees_with_cholesky_on_bond_lps_and_heterogeneous_scenes() {
         let solve = |spec: SolverSpec| {
             let mut p = base.clone();
             p.set_solver(spec);
-            p.solve(&|_| {}).unwrap_or_else(|e| panic!("{name}: {e}"))
+            p.solve(&linpd::core::NoProgress).unwrap_or_else(|e| panic!("{name}: {e}"))
         };
         let chol = if base.dim() == 3 {
             let params = CgParams { rtol: 1e-13, max_iter: 20_000 };

@@ -167,7 +167,7 @@ pub fn run(quick: bool, filter: Option<&str>, direct_max_3d: usize, export_dir: 
             crate::reset_peak_rss();
             p.set_solver(spec);
             let t = Instant::now();
-            let row = match p.solve(&|_| {}) {
+            let row = match p.solve(&linpd_core::NoProgress) {
                 Ok(s) => {
                     let wall = t.elapsed().as_secs_f64();
                     let r = &s.report;

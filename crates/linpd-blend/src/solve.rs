@@ -169,7 +169,7 @@ pub fn solve_model(
         fixed.push((n - 1, u_right));
     }
     let bc = Dirichlet::from_fixed(1, n, &fixed).map_err(|e| BlendError::param("constraints", e.to_string()))?;
-    let solved = linpd_solve::solve_model(&op, &bc, &f, &solver.spec(), &|_| {})?;
+    let solved = linpd_solve::solve_model(&op, &bc, &f, &solver.spec(), &linpd_core::NoProgress)?;
     let mut report = solved.report;
     report.timings.assemble += t_asm;
     Ok(BlendSolution {

@@ -16,6 +16,8 @@
 use crate::BondOperator;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use linpd_core::par::for_each_node_slice;
+use linpd_core::progress::{Progress, Task};
+use linpd_core::sparse::Csc;
 use linpd_core::DofMap;
 use rayon::prelude::*;
 
@@ -30,6 +32,11 @@ pub struct Pattern {
 impl Pattern {
     /// Builds the pattern of `op` over the free DOFs of `dofs`.
     pub fn new(op: &BondOperator, dofs: &DofMap) -> Self {
+        Self::new_counted(op, dofs, None)
+    }
+
+    /// [`Pattern::new`] counting the nodes done on `task` (by chunks of [`CHUNK`] nodes).
+    fn new_counted(op: &BondOperator, dofs: &DofMap, task: Option<&Task<'_>>) -> Self {
         let d = op.dim();
         assert_eq!(dofs.n_dofs(), op.n_dofs(), "DOF map and operator disagree");
         let n = op.n_nodes();
@@ -52,6 +59,7 @@ impl Pattern {
         let nnz = *col_ptr.last().unwrap();
         let mut row_idx = vec![0usize; nnz];
         for_each_node_slice(&mut row_idx, &node_start, |i, rows| {
+            count(task, i);
             let mut pos = 0;
             let nf = free_comps(i);
             let len = per_col[i];
@@ -86,9 +94,15 @@ impl Pattern {
     /// negated into the off-diagonal block and accumulated into the diagonal block, which is
     /// written last at the position remembered for `k = i`.
     pub fn fill(&self, op: &BondOperator, dofs: &DofMap, values: &mut [f64]) {
+        self.fill_counted(op, dofs, values, None)
+    }
+
+    /// [`Pattern::fill`] counting the nodes done on `task` (by chunks of [`CHUNK`] nodes).
+    fn fill_counted(&self, op: &BondOperator, dofs: &DofMap, values: &mut [f64], task: Option<&Task<'_>>) {
         let d = op.dim();
         assert_eq!(values.len(), self.nnz());
         for_each_node_slice(values, &self.node_start, |i, vals| {
+            count(task, i);
             let mut free_a = [0usize; 3];
             let mut nf = 0;
             for a in 0..d {
@@ -145,6 +159,36 @@ impl Pattern {
             }
         });
     }
+}
+
+/// Nodes per step of the assembly's task: one atomic add per chunk, not per node.
+const CHUNK: usize = 1024;
+const _: () = assert!(CHUNK.is_power_of_two());
+
+/// Counts a chunk of nodes on `task` at every [`CHUNK`]-th node (the nodes run in any order on
+/// the rayon workers: the count is that of the chunks begun).
+#[inline]
+fn count(task: Option<&Task<'_>>, i: usize) {
+    if let Some(t) = task {
+        // `i % CHUNK == 0` (a power of two; `is_multiple_of` is newer than the MSRV 1.85).
+        if i & (CHUNK - 1) == 0 {
+            t.advance(CHUNK as u64);
+        }
+    }
+}
+
+/// `A_ff` of `op` on the free DOFs of `dofs` ([`Pattern::new`] then [`Pattern::fill`]) with a
+/// task `"assembling"` on `progress` counting nodes: `2 n` steps, the pattern and the values.
+pub fn assemble_free_with_progress(op: &BondOperator, dofs: &DofMap, progress: &dyn Progress) -> Csc {
+    let n = op.n_nodes() as u64;
+    let task = Task::start(progress, "assembling", Some(2 * n));
+    let on = task.is_on().then_some(&task);
+    let pattern = Pattern::new_counted(op, dofs, on);
+    task.set(n, "");
+    let mut values = vec![0.0; pattern.nnz()];
+    pattern.fill_counted(op, dofs, &mut values, on);
+    task.set(2 * n, "");
+    Csc::new(pattern.symbolic().clone(), values)
 }
 
 /// Calls `f(k)` for `k` in `{i} U F_i`, ascending.

@@ -2,8 +2,9 @@
 //! and [`LatticeBondModel`], the same operator on a lattice, which adds the lattice's
 //! fill-reducing ordering and, for a homogeneous material, the stencil apply for matrix-free CG.
 
-use crate::{BondOperator, Pattern, StencilOperator};
+use crate::{BondOperator, StencilOperator};
 use linpd_core::family::lattice_stencil;
+use linpd_core::progress::Progress;
 use linpd_core::sparse::Csc;
 use linpd_core::{nested_dissection, DofMap, FastApply, Grid, LinearOperator, Micromodulus, Model, Ordering, Point};
 
@@ -70,10 +71,7 @@ impl BondOperator {
 
     /// `A_ff` assembled on the free DOFs (pattern, then values).
     pub fn assemble_free(&self, dofs: &DofMap) -> Csc {
-        let pattern = Pattern::new(self, dofs);
-        let mut values = vec![0.0; pattern.nnz()];
-        pattern.fill(self, dofs, &mut values);
-        Csc::new(pattern.symbolic().clone(), values)
+        crate::assemble::assemble_free_with_progress(self, dofs, &linpd_core::NoProgress)
     }
 }
 
@@ -106,6 +104,9 @@ impl Model for BondOperator {
     }
     fn assemble_free(&self, dofs: &DofMap) -> Csc {
         BondOperator::assemble_free(self, dofs)
+    }
+    fn assemble_free_with_progress(&self, dofs: &DofMap, progress: &dyn Progress) -> Csc {
+        crate::assemble::assemble_free_with_progress(self, dofs, progress)
     }
     /// `A_ij = -w_ij e_ij e_ij^T` for every bond with `w_ij > 0` and `A_ii = sum_j w_ij
     /// e_ij e_ij^T` (the blocks [`BondOperator::apply`] multiplies with).
@@ -186,6 +187,9 @@ impl Model for LatticeBondModel {
     }
     fn assemble_free(&self, dofs: &DofMap) -> Csc {
         self.op.assemble_free(dofs)
+    }
+    fn assemble_free_with_progress(&self, dofs: &DofMap, progress: &dyn Progress) -> Csc {
+        crate::assemble::assemble_free_with_progress(&self.op, dofs, progress)
     }
     fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
         Model::for_each_block(&self.op, i, f)

@@ -7,11 +7,15 @@
 
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use linpd_core::progress::Progress;
 use linpd_problem::{ModelSpec, OutputDir, Problem, ProblemError, RunIdentity};
 use linpd_studies::{Study, StudyOptions};
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Mutex;
+use std::time::Duration;
 
 /// `println!` that returns an error instead of panicking when stdout is closed
 /// (`linpd solve scene.json | head -1`); [`main`] exits quietly on a broken pipe.
@@ -42,7 +46,7 @@ enum Command {
         /// whole, only when the run succeeds.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Print no progress messages.
+        /// Print no progress messages (no phase lines, no progress bars).
         #[arg(long, short)]
         quiet: bool,
     },
@@ -55,7 +59,7 @@ enum Command {
         /// whole, only when the run succeeds.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Print no progress messages.
+        /// Print no progress messages (no phase lines, no progress bars).
         #[arg(long, short)]
         quiet: bool,
     },
@@ -69,7 +73,7 @@ enum Command {
         /// whole, only when the run succeeds.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Print no progress messages.
+        /// Print no progress messages (no phase lines, no progress bars).
         #[arg(long, short)]
         quiet: bool,
     },
@@ -201,11 +205,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Solve { scene, out, quiet } => {
             let problem = Problem::from_path(&scene).map_err(input(&scene))?;
-            let progress = |m: &str| {
-                if !quiet {
-                    eprintln!("[linpd] {m}");
-                }
-            };
+            let progress = Reporter::new(quiet);
             let identity = scene_identity(&problem, &scene)?;
             // Locked (and checked) before the solve: a second run into the directory fails now,
             // not after its solve. Everything is written into `staged.path()`.
@@ -258,11 +258,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
         }
         Command::Run { scene, out, quiet } => {
             let problem = Problem::from_path(&scene).map_err(input(&scene))?;
-            let progress = |m: &str| {
-                if !quiet {
-                    eprintln!("[linpd] {m}");
-                }
-            };
+            let progress = Reporter::new(quiet);
             let identity = scene_identity(&problem, &scene)?;
             let staged =
                 OutputDir::begin(&out.unwrap_or_else(|| PathBuf::from(problem.output_dir()))).map_err(output)?;
@@ -333,11 +329,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
         }
         Command::Coarsen { pipeline, out, quiet } => {
             let p = linpd_problem::Pipeline::from_path(&pipeline).map_err(input(&pipeline))?;
-            let progress = |m: &str| {
-                if !quiet {
-                    eprintln!("[linpd] {m}");
-                }
-            };
+            let progress = Reporter::new(quiet);
             let identity = RunIdentity::of_inputs(&[&pipeline, &p.scene_path]).map_err(input(&pipeline))?;
             let staged = OutputDir::begin(&out.unwrap_or_else(|| p.output_dir.clone())).map_err(output)?;
             let r = p.run(staged.path(), &progress).map_err(input(&pipeline))?;
@@ -402,18 +394,109 @@ fn run(cli: Cli) -> Result<(), CliError> {
             // all of a study's files or none, as for the other commands: staged, then swapped
             // into place with data.json as the main document
             let staged = OutputDir::begin(&dir).map_err(output)?;
+            let progress = Reporter::new(false);
+            let mut table = Suspending(&progress, UntilClosed(Some(std::io::stdout().lock())));
             study
-                .run(
-                    staged.path(),
-                    &StudyOptions { dense: !no_dense },
-                    &mut UntilClosed(Some(std::io::stdout().lock())),
-                )
+                .run_with_progress(staged.path(), &StudyOptions { dense: !no_dense }, &mut table, &progress)
                 .map_err(|source| CliError::Study { name, source })?;
             let identity = RunIdentity::of_inputs(&[]).map_err(output)?;
             staged.commit_staged("data.json", &identity).map_err(output)?;
             say!("wrote {}", dir.display())?;
             Ok(())
         }
+    }
+}
+
+/// The command line's [`Progress`]: every phase line as `[linpd] <line>` on stderr (unless
+/// `-q`), and the tasks as indicatif progress bars on stderr, only when stderr is a terminal
+/// (and not `-q`): a bar with ETA for a task with a known total (time steps, coarsening levels,
+/// local solves, assembly, study cases), a spinner with the message for one without (CG and
+/// GMRES: iteration and relative residual). Nested tasks stack as lines under their parent.
+/// Redirected or captured stderr gets the phase lines only: no `\r`, no escape sequences.
+struct Reporter {
+    quiet: bool,
+    /// `None`: no bars (quiet, or stderr is not a terminal).
+    bars: Option<MultiProgress>,
+    /// The open tasks, innermost last.
+    open: Mutex<Vec<ProgressBar>>,
+}
+
+impl Reporter {
+    fn new(quiet: bool) -> Self {
+        // indicatif hides a stderr target that is not a terminal by itself; checking here as
+        // well means no bar state (nor the spinner's tick thread) exists then.
+        let bars = (!quiet && std::io::stderr().is_terminal())
+            .then(|| MultiProgress::with_draw_target(ProgressDrawTarget::stderr()));
+        Reporter { quiet, bars, open: Mutex::new(Vec::new()) }
+    }
+
+    /// Runs `f` with the bars cleared from the screen (for lines printed while they show).
+    fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
+        match &self.bars {
+            Some(m) => m.suspend(f),
+            None => f(),
+        }
+    }
+
+    fn open(&self) -> std::sync::MutexGuard<'_, Vec<ProgressBar>> {
+        self.open.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl Progress for Reporter {
+    fn phase(&self, line: &str) {
+        if !self.quiet {
+            self.suspend(|| eprintln!("[linpd] {line}"));
+        }
+    }
+    fn tracks_tasks(&self) -> bool {
+        self.bars.is_some()
+    }
+    fn start(&self, task: &str, total: Option<u64>) {
+        let Some(multi) = &self.bars else { return };
+        let bar = match total {
+            Some(n) => ProgressBar::new(n).with_style(
+                ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} [{elapsed} elapsed, {eta} left] {msg}")
+                    .expect("a valid template")
+                    .progress_chars("=> "),
+            ),
+            None => ProgressBar::new_spinner().with_style(
+                ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {msg}").expect("a valid template"),
+            ),
+        };
+        let bar = multi.add(bar.with_prefix(task.to_string()));
+        if total.is_none() {
+            // A spinner moves (and its clock runs) between updates: factorizations send none.
+            bar.enable_steady_tick(Duration::from_millis(100));
+        }
+        self.open().push(bar);
+    }
+    fn set(&self, done: u64, message: &str) {
+        if let Some(bar) = self.open().last() {
+            bar.set_position(done);
+            bar.set_message(message.to_string());
+        }
+    }
+    fn finish(&self) {
+        let bar = self.open().pop();
+        if let (Some(bar), Some(multi)) = (bar, &self.bars) {
+            bar.finish_and_clear();
+            multi.remove(&bar);
+        }
+    }
+}
+
+/// A study's table stream written with the progress bars out of the way.
+struct Suspending<'a, W>(&'a Reporter, W);
+
+impl<W: std::io::Write> std::io::Write for Suspending<'_, W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let Suspending(bars, w) = self;
+        bars.suspend(|| w.write(buf))
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        let Suspending(bars, w) = self;
+        bars.suspend(|| w.flush())
     }
 }
 

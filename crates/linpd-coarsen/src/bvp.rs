@@ -2,6 +2,7 @@
 //! solves and the studies), through the one static solve of linpd-solve.
 
 use crate::{CoarsenError, LevelModel};
+use linpd_core::progress::{NoProgress, Progress};
 use linpd_core::AssembledModel;
 use linpd_solve::{solve_model, Dirichlet, SolverSpec};
 
@@ -23,13 +24,42 @@ impl LevelModel {
     /// sparse LU otherwise ([`linpd_solve::solve_model`]). Loads on prescribed DOFs are
     /// reactions and are ignored.
     pub fn solve_dirichlet(&self, f: &[f64], fixed: &[(usize, f64)]) -> Result<Vec<f64>, CoarsenError> {
+        self.solve_dirichlet_with_progress(f, fixed, &NoProgress)
+    }
+
+    /// [`LevelModel::solve_dirichlet`] reporting the tasks of the solve to `progress` (its
+    /// phase lines are dropped: the caller names the level).
+    pub fn solve_dirichlet_with_progress(
+        &self,
+        f: &[f64],
+        fixed: &[(usize, f64)],
+        progress: &dyn Progress,
+    ) -> Result<Vec<f64>, CoarsenError> {
         let nd = self.dim() * self.len();
         if f.len() != nd {
             return Err(CoarsenError::InvalidInput(format!("load has {} entries, model has {nd} DOFs", f.len())));
         }
         let bc = Dirichlet::from_fixed(self.dim(), nd, fixed).map_err(|e| CoarsenError::InvalidInput(e.to_string()))?;
-        let solved = solve_model(&self.as_model(), &bc, f, &SolverSpec::Cholesky, &|_| {})
+        let solved = solve_model(&self.as_model(), &bc, f, &SolverSpec::Cholesky, &TasksOnly(progress))
             .map_err(|e| CoarsenError::SingularGlobal(e.to_string()))?;
         Ok(solved.u)
+    }
+}
+
+/// Passes the tasks of `0` on and drops its phase lines.
+struct TasksOnly<'a>(&'a dyn Progress);
+
+impl Progress for TasksOnly<'_> {
+    fn tracks_tasks(&self) -> bool {
+        self.0.tracks_tasks()
+    }
+    fn start(&self, task: &str, total: Option<u64>) {
+        self.0.start(task, total)
+    }
+    fn set(&self, done: u64, message: &str) {
+        self.0.set(done, message)
+    }
+    fn finish(&self) {
+        self.0.finish()
     }
 }

@@ -132,7 +132,8 @@ mod step;
 pub use level::LevelModel;
 pub use retain::{check_retained, coarse_volumes, every_kth, retain_every};
 pub use step::{
-    coarsen, coarsen_with, local_resolvent, Coarsened, LocalResolvent, Matching, Options, Radius, StepReport, MAX_RADII,
+    coarsen, coarsen_with, coarsen_with_progress, local_resolvent, Coarsened, LocalResolvent, Matching, Options,
+    Radius, StepReport, MAX_RADII,
 };
 
 /// Errors of model construction and coarsening.

@@ -6,6 +6,7 @@ use crate::retain::{check_retained, coarse_volumes};
 use crate::{CoarsenError, LevelModel};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, Side};
+use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::Point;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -141,6 +142,17 @@ pub fn coarsen(fine: &LevelModel, retained: &[usize], radius: f64) -> Result<Coa
 
 /// One coarsening step (8)-(14) of `fine` onto `retained` (level-(m-1) indices of `B^m`).
 pub fn coarsen_with(fine: &LevelModel, retained: &[usize], opts: &Options) -> Result<Coarsened, CoarsenError> {
+    coarsen_with_progress(fine, retained, opts, &NoProgress)
+}
+
+/// [`coarsen_with`] reporting to `progress`: one task `"local solves (r = <r>)"` per radius tried (one
+/// per step with a fixed radius) whose steps are the neighbourhood classes solved.
+pub fn coarsen_with_progress(
+    fine: &LevelModel,
+    retained: &[usize],
+    opts: &Options,
+    progress: &dyn Progress,
+) -> Result<Coarsened, CoarsenError> {
     let t0 = Instant::now();
     let parent = check_retained(retained, fine.len())?;
     let delta = fine.horizon();
@@ -154,7 +166,7 @@ pub fn coarsen_with(fine: &LevelModel, retained: &[usize], opts: &Options) -> Re
         }
         Ok(())
     };
-    let step = Step::new(fine, parent, opts)?;
+    let step = Step::new(fine, parent, opts, progress)?;
     let (mut out, tried) = match opts.radius {
         Radius::Fixed(r) => {
             check_radius(r)?;
@@ -225,6 +237,7 @@ struct Step<'a> {
     coarse_index: Vec<usize>,
     vm: Vec<f64>,
     opts: Options,
+    progress: &'a dyn Progress,
     /// Quantum of the micromodulus values and volumes in the class signature.
     c_quantum: f64,
     v_quantum: f64,
@@ -245,7 +258,12 @@ impl Hood {
 }
 
 impl<'a> Step<'a> {
-    fn new(fine: &'a LevelModel, parent: Vec<usize>, opts: &Options) -> Result<Self, CoarsenError> {
+    fn new(
+        fine: &'a LevelModel,
+        parent: Vec<usize>,
+        opts: &Options,
+        progress: &'a dyn Progress,
+    ) -> Result<Self, CoarsenError> {
         let n = fine.len();
         let mut is_retained = vec![false; n];
         let mut coarse_index = vec![usize::MAX; n];
@@ -256,7 +274,7 @@ impl<'a> Step<'a> {
         let vm = coarse_volumes(fine, &parent);
         let c_quantum = 1e-12 * fine.max_abs().max(f64::MIN_POSITIVE);
         let v_quantum = 1e-12 * fine.volumes().iter().copied().fold(0.0, f64::max);
-        Ok(Self { fine, parent, is_retained, coarse_index, vm, opts: *opts, c_quantum, v_quantum })
+        Ok(Self { fine, parent, is_retained, coarse_index, vm, opts: *opts, progress, c_quantum, v_quantum })
     }
 
     /// `N_x` for retained node `xi` in canonical order (see [`Hood`]); `keys` are the quantized
@@ -493,15 +511,19 @@ impl<'a> Step<'a> {
         let t_hoods = t1.elapsed().as_secs_f64();
         // 3. one local solve per class
         let t2 = Instant::now();
+        let task = Task::start(self.progress, &format!("local solves (r = {r:.3e})"), Some(reps.len() as u64));
         let solved: Vec<Result<LocalRow, CoarsenError>> = reps
             .par_iter()
             .map_init(Vec::new, |buf, &k| {
                 let xi = self.parent[k];
                 let (hood, _) = self.hood(&cells, xi, r, buf);
                 let (row, sparse) = self.local_row(&hood, xi, r)?;
+                task.advance(1);
                 Ok((row, sparse, d * (hood.nodes.len() - hood.n_r)))
             })
             .collect();
+        task.set(reps.len() as u64, "");
+        drop(task);
         let mut rows_w = Vec::with_capacity(solved.len());
         let (mut n_sparse, mut unknowns_max, mut unknowns_sum) = (0, 0, 0usize);
         for s in solved {
@@ -646,7 +668,7 @@ pub fn local_resolvent(
     radius: f64,
 ) -> Result<LocalResolvent, CoarsenError> {
     let parent: Vec<usize> = (0..fine.len()).filter(|&p| is_retained[p]).collect();
-    let step = Step::new(fine, parent, &Options::fixed(radius))?;
+    let step = Step::new(fine, parent, &Options::fixed(radius), &NoProgress)?;
     let all: Vec<usize> = (0..fine.len()).collect();
     let cells = Cells::new(fine.dim(), fine.positions(), &all, radius);
     let (hood, _) = step.hood(&cells, xi, radius, &mut Vec::new());

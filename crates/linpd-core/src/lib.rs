@@ -15,6 +15,7 @@
 //! * [`memory`]: the available memory and the guard that compares an estimate with it;
 //! * [`model`]: the [`Model`] interface every static model implements;
 //! * [`ordering`]: nested dissection on the lattice, a fill-reducing ordering for Cholesky;
+//! * [`progress`]: the progress interface of long computations ([`Progress`], [`NoProgress`]);
 //! * [`support`]: do the constraints remove every rigid motion of a model?
 //! * [`error`]: the error type shared by these modules.
 //!
@@ -34,6 +35,7 @@ pub mod model;
 pub mod op;
 pub mod ordering;
 pub mod par;
+pub mod progress;
 pub mod region;
 pub mod sparse;
 pub mod support;
@@ -47,6 +49,7 @@ pub use material::{BondRule, Defect, Material};
 pub use model::{AssembledModel, FastApply, Model, ModelOperator, Ordering, SpdApproximation, SpdApproximationKind};
 pub use op::{FnOperator, LinearOperator};
 pub use ordering::{nested_dissection, planar_nested_dissection, two_hop_stencil};
+pub use progress::{NoProgress, Progress};
 pub use region::Region;
 pub use sparse::Csc;
 pub use support::{check_support, Unsupported};

@@ -18,6 +18,7 @@
 //! against this trait; a new model implements it and is solved by every solver.
 
 use crate::op::LinearOperator;
+use crate::progress::{Progress, Task};
 use crate::sparse::Csc;
 use crate::{DofMap, Point};
 
@@ -84,6 +85,12 @@ pub trait Model: Sync {
     /// `A_ff`: the rows and columns of the free DOFs of `dofs`, assembled (both triangles,
     /// sorted rows in each column).
     fn assemble_free(&self, dofs: &DofMap) -> Csc;
+    /// [`Model::assemble_free`] reporting to `progress`: by default a task `"assembling"` with
+    /// no steps around it; a model whose assembly loops over nodes reports them (the bond model).
+    fn assemble_free_with_progress(&self, dofs: &DofMap, progress: &dyn Progress) -> Csc {
+        let _task = Task::start(progress, "assembling", None);
+        self.assemble_free(dofs)
+    }
     /// `max |A_ff - A_ff^T| / max |A_ff|` over the free DOFs of `dofs` (a model may return a
     /// bound, e.g. that of the full `A`); the solvers treat `A_ff` as symmetric when it is at
     /// most [`crate::sparse::SYMMETRY_RTOL`].

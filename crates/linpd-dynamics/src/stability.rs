@@ -62,6 +62,7 @@
 use crate::chain::{spring_constant, Chain};
 use crate::error::DynamicsError;
 use crate::verlet::{check_size, LumpedMass};
+use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::LinearOperator;
 
 /// Harmonic number `H_N = sum_{q=1}^N 1/q`.
@@ -220,6 +221,19 @@ pub fn power_iteration<A: LinearOperator + ?Sized>(
     fixed: &[usize],
     params: &PowerParams,
 ) -> Result<PowerInfo, DynamicsError> {
+    power_iteration_with_progress(op, mass, fixed, params, &NoProgress)
+}
+
+/// [`power_iteration`] reporting to `progress`: a task `"stable time step (power iteration)"`
+/// with no total whose updates carry the iteration and the relative change of the Rayleigh
+/// quotient (the quantity compared with `rtol`).
+pub fn power_iteration_with_progress<A: LinearOperator + ?Sized>(
+    op: &A,
+    mass: &LumpedMass,
+    fixed: &[usize],
+    params: &PowerParams,
+    progress: &dyn Progress,
+) -> Result<PowerInfo, DynamicsError> {
     if params.max_iter == 0 {
         return Err(DynamicsError::param("max_iter", "must be >= 1, got 0"));
     }
@@ -255,6 +269,7 @@ pub fn power_iteration<A: LinearOperator + ?Sized>(
     let mut y = vec![0.0; n];
     let mut q_prev = f64::NAN;
     let mut info = PowerInfo { lambda: 0.0, iterations: 0, converged: false, residual: f64::INFINITY };
+    let task = Task::start(progress, "stable time step (power iteration)", None);
     for it in 1..=params.max_iter {
         for i in 0..n {
             z[i] = s[i] * x[i];
@@ -273,6 +288,9 @@ pub fn power_iteration<A: LinearOperator + ?Sized>(
         }
         for i in 0..n {
             x[i] = y[i] / ny;
+        }
+        if task.due() {
+            task.set(it as u64, &format!("iteration {it}, relative change {:.2e}", (q - q_prev).abs() / q.abs()));
         }
         if (q - q_prev).abs() <= params.rtol * q.abs() {
             info.converged = true;

@@ -53,7 +53,8 @@
 //! [`DynamicsError::Unstable`] when `dt > dt_max`, unless [`VerletParams::allow_unstable`] is set.
 
 use crate::error::{DynamicsError, LimitMethod};
-use crate::stability::{gershgorin, power_iteration, verlet_limit, PowerParams};
+use crate::stability::{gershgorin, power_iteration_with_progress, verlet_limit, PowerParams};
+use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::LinearOperator;
 use std::ops::ControlFlow;
 
@@ -244,13 +245,33 @@ pub struct Verlet<'a, A: ?Sized> {
     mass: LumpedMass,
     inv_m: Vec<f64>,
     fixed: Vec<(usize, f64)>,
+    progress: Reporter<'a>,
+}
+
+/// Where [`Verlet::run`] reports (a newtype for `Debug`).
+#[derive(Clone, Copy)]
+struct Reporter<'a>(&'a dyn Progress);
+
+impl std::fmt::Debug for Reporter<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.tracks_tasks() { "Progress" } else { "NoProgress" })
+    }
 }
 
 impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
     /// The system `M u'' = -A u + f` with every DOF free.
     pub fn new(operator: &'a A, mass: LumpedMass) -> Self {
         let inv_m = mass.m.iter().map(|m| 1.0 / m).collect();
-        Verlet { operator, mass, inv_m, fixed: Vec::new() }
+        Verlet { operator, mass, inv_m, fixed: Vec::new(), progress: Reporter(&NoProgress) }
+    }
+
+    /// Reports to `progress` from [`Verlet::run`]: a task `"time steps"` of `params.steps`
+    /// steps (updated at most every [`linpd_core::progress::REPORT_INTERVAL`]; the time loop
+    /// still allocates nothing between updates), and the power iteration of
+    /// [`Verlet::dt_limit`].
+    pub fn with_progress(mut self, progress: &'a dyn Progress) -> Self {
+        self.progress = Reporter(progress);
+        self
     }
 
     /// Holds DOF `dof` at `value` (zero velocity) for every `(dof, value)`.
@@ -284,7 +305,7 @@ impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
         let fixed = self.fixed_dofs();
         Ok(match how {
             DtLimit::PowerIteration(p) => {
-                let info = power_iteration(self.operator, &self.mass, &fixed, p)?;
+                let info = power_iteration_with_progress(self.operator, &self.mass, &fixed, p, self.progress.0)?;
                 (verlet_limit(info.lambda), LimitMethod::PowerIteration)
             }
             DtLimit::Gershgorin => {
@@ -408,6 +429,7 @@ impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
         if !initial.total().is_finite() {
             return Err(DynamicsError::Diverged { step: 0, t: t0 });
         }
+        let task = Task::start(self.progress.0, "time steps", Some(params.steps as u64));
         let mut last = initial;
         let mut stopped = output(&Snapshot { step: 0, t: t0, u: &u[..], v: &v[..], energy: initial }).is_break();
         let mut taken = 0;
@@ -434,6 +456,9 @@ impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
             }
             taken = step;
             *t_state = t;
+            if task.due() {
+                task.set(step as u64, "");
+            }
             if !v_abs.is_finite() {
                 return Err(DynamicsError::Diverged { step, t });
             }
@@ -446,6 +471,7 @@ impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
                 stopped = output(&Snapshot { step, t, u: &u[..], v: &v[..], energy: last }).is_break();
             }
         }
+        task.set(taken as u64, "");
         Ok(VerletInfo { steps: taken, t: *t_state, dt_limit, initial, last, stopped: stopped && taken < params.steps })
     }
 }

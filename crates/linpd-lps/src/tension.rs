@@ -174,7 +174,7 @@ pub fn tension_bar(params: &TensionBar) -> Result<TensionResult, TensionError> {
         SolverSpec::cg(CgParams { rtol: 1e-10, max_iter: 50_000 })
     };
     let start = Instant::now();
-    let solved = solve_model(&model, &bc, &f, &spec, &|_| {})?;
+    let solved = solve_model(&model, &bc, &f, &spec, &linpd_core::NoProgress)?;
     let cg_iterations = solved.report.iterations.unwrap_or(0);
     let solve_seconds = start.elapsed().as_secs_f64();
     let u = |i: usize, c: usize| solved.u[3 * i + c];

@@ -11,6 +11,7 @@
 use crate::raw::{RawBlending, RawModelKind, RawNormalize, RawProblem, RawSolverKind};
 use crate::{BlendScene, Constraint, Load, Problem, ProblemError, Solution};
 use linpd_blend::{solve_model, BlendParams, BlendSolver, Blending, ModelKind, Regions};
+use linpd_core::progress::Progress;
 use linpd_core::{Grid, Region};
 
 /// Validates the blend-specific keys and translates constraints and loads.
@@ -208,8 +209,8 @@ pub(crate) fn scene(
 }
 
 /// Solves a blend scene.
-pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
-    progress(&format!(
+pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Progress) -> Result<Solution, ProblemError> {
+    progress.phase(&format!(
         "assembling the 1D {:?} model: dx = {}, N = {}",
         b.kind,
         b.params.dx,
@@ -219,7 +220,7 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Fn(&str)) -> Resu
         linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
         other => ProblemError::Blend(other),
     })?;
-    progress(&format!(
+    progress.phase(&format!(
         "done: {} unknowns, solver {}, relative residual {:.2e}",
         s.report.n, s.report.solver, s.report.rel_residual
     ));

@@ -22,6 +22,7 @@ use crate::problem::{constraints_and_loads, solver_spec, LevelNodes, Nodes};
 use crate::raw::{RawModelKind, RawProblem};
 use crate::run::static_error;
 use crate::{ModelSpec, Problem, ProblemError, Solution};
+use linpd_core::progress::Progress;
 use linpd_core::AssembledModel;
 use linpd_solve::{solve_model, Dirichlet};
 use std::path::{Path, PathBuf};
@@ -226,7 +227,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
 
 /// Solves `K u = f` with the constraints eliminated ([`linpd_solve::solve_model`]: sparse LU
 /// when `K` is unsymmetric, whatever the scene asked).
-pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
+pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) -> Result<Solution, ProblemError> {
     let t0 = Instant::now();
     let (mask, ubar) = p.constrained();
     let bc = Dirichlet::new(p.dim(), &mask, ubar);
@@ -241,7 +242,11 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Fn(&str)) ->
             None => why,
         });
     }
-    progress(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
+    progress.phase(&format!(
+        "done in {:.3} s, relative residual {:.2e}",
+        t0.elapsed().as_secs_f64(),
+        report.rel_residual
+    ));
     let balance = p.balance(&c.model, &solved.u);
     Ok(Solution {
         name: p.name.clone(),

@@ -16,9 +16,10 @@
 
 use crate::raw::{RawDynamics, RawInitial, RawInitialKind, RawModelKind};
 use crate::{Problem, ProblemError};
+use linpd_core::progress::Progress;
 use linpd_core::Point;
 use linpd_dynamics::initial::smooth_pulse;
-use linpd_dynamics::stability::{lattice_limit, power_iteration, verlet_limit, PowerParams};
+use linpd_dynamics::stability::{lattice_limit, power_iteration_with_progress, verlet_limit, PowerParams};
 use linpd_dynamics::{Chain, DtLimit, Energy, LumpedMass, State, Verlet, VerletParams};
 use serde_json::json;
 use std::io::Write;
@@ -573,7 +574,7 @@ impl Problem {
     pub fn stability_limit(&self) -> Result<StabilityLimit, ProblemError> {
         let dynamics = self.dynamics_section()?;
         let op = self.operator()?;
-        self.limit_of(&op, dynamics)
+        self.limit_of(&op, dynamics, &linpd_core::NoProgress)
     }
 
     fn mass(&self, rho: f64) -> Result<LumpedMass, ProblemError> {
@@ -587,7 +588,12 @@ impl Problem {
         mask.iter().enumerate().filter(|(_, m)| **m).map(|(i, _)| (i, ubar[i])).collect()
     }
 
-    fn limit_of(&self, op: &linpd_bond::BondOperator, dynamics: &Dynamics) -> Result<StabilityLimit, ProblemError> {
+    fn limit_of(
+        &self,
+        op: &linpd_bond::BondOperator,
+        dynamics: &Dynamics,
+        progress: &dyn Progress,
+    ) -> Result<StabilityLimit, ProblemError> {
         let t0 = Instant::now();
         let rho = dynamics.density;
         let bond = self
@@ -606,9 +612,14 @@ impl Problem {
         }
         let mass = self.mass(rho)?;
         let fixed: Vec<usize> = self.fixed().iter().map(|p| p.0).collect();
-        let info =
-            power_iteration(op, &mass, &fixed, &PowerParams { max_iter: 5000, rtol: 1e-10, ..Default::default() })
-                .map_err(|e| ProblemError::invalid("dynamics", e.to_string()))?;
+        let info = power_iteration_with_progress(
+            op,
+            &mass,
+            &fixed,
+            &PowerParams { max_iter: 5000, rtol: 1e-10, ..Default::default() },
+            progress,
+        )
+        .map_err(|e| ProblemError::invalid("dynamics", e.to_string()))?;
         Ok(StabilityLimit {
             dt: verlet_limit(info.lambda) * (1.0 - 1e-3),
             method: format!("2/sqrt(lambda_max) by power iteration ({} iterations), less 0.1%", info.iterations),
@@ -616,8 +627,9 @@ impl Problem {
         })
     }
 
-    /// Runs the `dynamics` section. `progress` receives one line per phase.
-    pub fn run_dynamics(&self, progress: &dyn Fn(&str)) -> Result<DynamicsRun, ProblemError> {
+    /// Runs the `dynamics` section. `progress` receives one line per phase and the tasks of the
+    /// stable-time-step estimate (power iteration, 2D/3D) and of the time steps.
+    pub fn run_dynamics(&self, progress: &dyn Progress) -> Result<DynamicsRun, ProblemError> {
         let dynamics = self.dynamics_section()?;
         if self.model.bond().is_none() {
             return Err(ProblemError::invalid("dynamics", "only bond models have explicit dynamics"));
@@ -626,16 +638,16 @@ impl Problem {
         let d = self.dim();
         let grid = self.lattice()?;
         let n_nodes = grid.len();
-        progress(&format!(
+        progress.phase(&format!(
             "building bonds: {n_nodes} nodes, horizon/spacing = {:.3}",
             self.model.horizon().unwrap_or(f64::NAN) / grid.spacing()
         ));
         let op = self.operator()?;
-        progress(&format!(
+        progress.phase(&format!(
             "estimating the stable time step ({} free DOFs)",
             d * n_nodes - self.constrained().0.iter().filter(|m| **m).count()
         ));
-        let limit = self.limit_of(&op, dynamics)?;
+        let limit = self.limit_of(&op, dynamics, progress)?;
         let dt = match dynamics.step {
             TimeStep::Dt(dt) => dt,
             TimeStep::Safety(s) => s * limit.dt,
@@ -653,7 +665,7 @@ impl Problem {
                 ),
             ));
         }
-        progress(&format!(
+        progress.phase(&format!(
             "dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {}; {:.3} s)",
             dt / limit.dt,
             limit.dt,
@@ -663,6 +675,7 @@ impl Problem {
         let fixed = self.fixed();
         let mass = self.mass(dynamics.density)?;
         let verlet = Verlet::new(&op, mass)
+            .with_progress(progress)
             .with_fixed(&fixed)
             .map_err(|e| ProblemError::invalid("constraints", e.to_string()))?;
         let positions = op.positions().to_vec();
@@ -679,7 +692,7 @@ impl Problem {
         let (mut output_steps, mut times, mut energies, mut snapshots) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let setup_seconds = t0.elapsed().as_secs_f64();
-        progress(&format!(
+        progress.phase(&format!(
             "running {} steps ({} DOFs, {} held, {} bonds)",
             dynamics.steps,
             d * n_nodes,
@@ -698,7 +711,7 @@ impl Problem {
             })
             .map_err(|e| ProblemError::Solve(format!("dynamics: {e}")))?;
         let wall_seconds = t1.elapsed().as_secs_f64();
-        progress(&format!("done: t = {:.6e} in {wall_seconds:.3} s", info.t));
+        progress.phase(&format!("done: t = {:.6e} in {wall_seconds:.3} s", info.t));
         Ok(DynamicsRun {
             name: self.name.clone(),
             dim: d,
@@ -750,14 +763,14 @@ mod tests {
         let n = 25;
         let u: Vec<f64> = (0..2 * n).map(|k| 1e-3 * (k as f64).sin()).collect();
         let p = Problem::from_json(&scene(json!({"type": "data", "u": u})).to_string()).unwrap();
-        let r = p.run_dynamics(&|_| {}).unwrap();
+        let r = p.run_dynamics(&linpd_core::NoProgress).unwrap();
         // serde_json's default float parsing may be off by an ulp.
         assert!(r.snapshots[0].iter().zip(&u).all(|(a, b)| (a - b).abs() <= 1e-15 * b.abs()), "step 0 is the data");
         assert!(r.energies[0].potential > 0.0);
         // A uniform velocity translates the free body rigidly: u = v t exactly.
         let v: Vec<f64> = (0..2 * n).map(|k| if k % 2 == 0 { 0.5 } else { -0.25 }).collect();
         let p = Problem::from_json(&scene(json!({"type": "data", "u": vec![0.0; 2 * n], "v": v})).to_string()).unwrap();
-        let r = p.run_dynamics(&|_| {}).unwrap();
+        let r = p.run_dynamics(&linpd_core::NoProgress).unwrap();
         let (t, last) = (*r.times.last().unwrap(), r.snapshots.last().unwrap());
         for (k, x) in last.iter().enumerate() {
             assert!((x - v[k] * t).abs() < 1e-12, "dof {k}: {x} vs {}", v[k] * t);
@@ -796,7 +809,7 @@ mod tests {
     fn two_dimensional_runs_write_parseable_vtk() {
         let u: Vec<f64> = (0..50).map(|k| 1e-3 * k as f64).collect();
         let p = Problem::from_json(&scene(json!({"type": "data", "u": u})).to_string()).unwrap();
-        let r = p.run_dynamics(&|_| {}).unwrap();
+        let r = p.run_dynamics(&linpd_core::NoProgress).unwrap();
         let dir = std::env::temp_dir().join(format!("linpd-vtk-test-{}", std::process::id()));
         let files = r.write(&dir).unwrap();
         let vtk: Vec<_> = files.iter().filter(|f| f.extension().is_some_and(|e| e == "vtk")).collect();

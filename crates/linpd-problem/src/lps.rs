@@ -6,6 +6,7 @@
 
 use crate::run::static_error;
 use crate::{Problem, ProblemError, Solution};
+use linpd_core::progress::Progress;
 use linpd_lps::{LpsModel, LpsParams};
 use linpd_solve::solve_model;
 use std::time::Instant;
@@ -19,19 +20,19 @@ use std::time::Instant;
 pub const CG_NEAR_INCOMPRESSIBLE_NU: f64 = 0.499;
 
 /// Solves an lps scene.
-pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
+pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) -> Result<Solution, ProblemError> {
     let t0 = Instant::now();
     let grid = p.lattice()?;
     let multigrid = p.solver.uses_multigrid();
     crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, params.horizon, multigrid)?;
-    progress(&format!(
+    progress.phase(&format!(
         "building the LPS model: {} nodes, horizon/spacing = {:.3}",
         grid.len(),
         params.horizon / grid.spacing()
     ));
     let model = LpsModel::new(grid, params).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
     let t_build = t0.elapsed().as_secs_f64();
-    progress("the LPS tangent couples nodes up to 2 horizons apart");
+    progress.phase("the LPS tangent couples nodes up to 2 horizons apart");
     let solved = solve_model(&model, &p.dirichlet(), &p.load_vector(), &p.solver, progress).map_err(static_error)?;
     let mut report = solved.report;
     report.timings.assemble += t_build;
@@ -42,13 +43,17 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Fn(&str)) ->
              against the direct solver at the same residual, to need 10x the iterations and, from nu = 0.4993, to stop \
              above rtol 1e-10 (docs/solvers.md); the cholesky solver is the safer choice"
         );
-        progress(&format!("warning: {note}"));
+        progress.phase(&format!("warning: {note}"));
         report.note = Some(match report.note.take() {
             Some(n) => format!("{n}; {note}"),
             None => note,
         });
     }
-    progress(&format!("done in {:.3} s, relative residual {:.2e}", t0.elapsed().as_secs_f64(), report.rel_residual));
+    progress.phase(&format!(
+        "done in {:.3} s, relative residual {:.2e}",
+        t0.elapsed().as_secs_f64(),
+        report.rel_residual
+    ));
     let balance = p.balance(&model, &solved.u);
     Ok(Solution {
         name: p.name.clone(),

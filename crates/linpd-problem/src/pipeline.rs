@@ -20,7 +20,8 @@
 use crate::{Load, Problem, ProblemError};
 use linpd_bond::{assemble, BondOperator};
 use linpd_coarsen::io::ModuliFile;
-use linpd_coarsen::{check_retained, coarsen_with, retain_every, LevelModel, Options, Radius, StepReport};
+use linpd_coarsen::{check_retained, coarsen_with_progress, retain_every, LevelModel, Options, Radius, StepReport};
+use linpd_core::progress::{Progress, Task};
 use linpd_core::DofMap;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -277,13 +278,14 @@ pub struct PipelineResult {
 
 impl Pipeline {
     /// Runs every step, writes the levels into `dir` ([`PipelineResult::write`]), and (if asked)
-    /// solves and compares. `summary.json` ([`PipelineResult::summary_json`]) is written by
-    /// [`crate::OutputDir::commit`].
-    pub fn run(&self, dir: &Path, progress: &dyn Fn(&str)) -> Result<PipelineResult, ProblemError> {
+    /// solves and compares; `progress` receives one line per level and the tasks of the run (the
+    /// levels, each level's local solves, the BVP solves). `summary.json`
+    /// ([`PipelineResult::summary_json`]) is written by [`crate::OutputDir::commit`].
+    pub fn run(&self, dir: &Path, progress: &dyn Progress) -> Result<PipelineResult, ProblemError> {
         let d = self.scene.dim();
         let t = Instant::now();
         let m0 = level0_model(&self.scene)?;
-        progress(&format!(
+        progress.phase(&format!(
             "level 0: {} nodes, {} bonds, horizon {:.4e} ({:.2} s)",
             m0.len(),
             m0.n_bonds(),
@@ -302,8 +304,11 @@ impl Pipeline {
             u_shared: Vec::new(),
         }];
         let t_all = Instant::now();
+        let n_levels = self.levels.len();
+        let levels_task = Task::start(progress, "coarsening levels", Some(n_levels as u64));
         for (i, spec) in self.levels.iter().enumerate() {
             let m = i + 1;
+            levels_task.set(i as u64, &format!("level {m} of {n_levels}"));
             let fine = models.last().unwrap();
             let path = format!("levels[{i}]");
             let retained = match &spec.retain {
@@ -316,9 +321,10 @@ impl Pipeline {
                 return Err(inv(&path, format!("retains all {} nodes of level {i}: nothing to coarsen", fine.len())));
             }
             let opts = Options { radius: spec.radius, cache: self.cache, ..Options::fixed(1.0) };
-            let c = coarsen_with(fine, &retained, &opts).map_err(|e| inv(&path, format!("level {m}: {e}")))?;
+            let c = coarsen_with_progress(fine, &retained, &opts, progress)
+                .map_err(|e| inv(&path, format!("level {m}: {e}")))?;
             let rep = c.report.clone();
-            progress(&format!(
+            progress.phase(&format!(
                 "level {m}: {} -> {} nodes, r = {:.4e} (horizon {:.4e}), tail {:.2e}, {} classes (hit rate {:.4}), asymmetry {:.1e}, {:.2} s",
                 rep.n_fine, rep.n_coarse, rep.radius, rep.horizon_fine, rep.tail, rep.classes, rep.hit_rate, rep.asymmetry, rep.seconds_total
             ));
@@ -335,13 +341,17 @@ impl Pipeline {
             });
             models.push(model);
         }
+        levels_task.set(n_levels as u64, "");
+        drop(levels_task);
         let seconds_coarsening = t_all.elapsed().as_secs_f64();
         let coarsest = models.last().unwrap();
         let shared_x: Vec<[f64; 3]> = coarsest.positions().to_vec();
         if self.solve {
             let shared0: Vec<usize> = coarsest.level0().to_vec();
             let (fixed0, f0) = self.shared_bvp(coarsest)?;
+            let bvp_task = Task::start(progress, "BVP solves", Some(models.len() as u64));
             for (lvl, model) in models.iter().enumerate() {
+                bvp_task.set(lvl as u64, &format!("level {lvl} of {}", models.len() - 1));
                 // level-0 index -> this level's index
                 let mut at = std::collections::HashMap::new();
                 for (k, &p) in model.level0().iter().enumerate() {
@@ -353,14 +363,17 @@ impl Pipeline {
                     f[d * at[&p] + a] += val;
                 }
                 let t = Instant::now();
-                let u =
-                    model.solve_dirichlet(&f, &fixed).map_err(|source| ProblemError::Level { level: lvl, source })?;
+                let u = model
+                    .solve_dirichlet_with_progress(&f, &fixed, progress)
+                    .map_err(|source| ProblemError::Level { level: lvl, source })?;
                 let secs = t.elapsed().as_secs_f64();
                 let us: Vec<f64> =
                     shared0.iter().flat_map(|p| (0..d).map(move |a| (p, a))).map(|(p, a)| u[d * at[p] + a]).collect();
                 results[lvl].solve_seconds = Some(secs);
                 results[lvl].u_shared = us;
             }
+            bvp_task.set(models.len() as u64, "");
+            drop(bvp_task);
             let u0 = results[0].u_shared.clone();
             let umax = u0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             for r in results.iter_mut() {
@@ -368,7 +381,7 @@ impl Pipeline {
                 r.error_shared = Some(if umax > 0.0 { e / umax } else { e });
             }
             for r in &results {
-                progress(&format!(
+                progress.phase(&format!(
                     "BVP level {}: {} nodes, solve {:.3} s, error at the {} shared nodes {:.3e}",
                     r.level,
                     r.nodes,

@@ -5,6 +5,7 @@
 use crate::problem::NodeSet;
 use crate::{ModelSpec, Problem, ProblemError};
 use linpd_bond::{BondOperator, LatticeBondModel};
+use linpd_core::progress::Progress;
 use linpd_core::Point;
 use linpd_solve::{solve_model, Dirichlet, SolveReport, StaticError};
 use std::time::Instant;
@@ -95,8 +96,8 @@ impl Problem {
         Ok(LatticeBondModel::new(op, self.lattice()?.clone(), b.horizon, homogeneous))
     }
 
-    /// Solves the static problem. `progress` receives one line per phase.
-    pub fn solve(&self, progress: &dyn Fn(&str)) -> Result<Solution, ProblemError> {
+    /// Solves the static problem. `progress` receives one line per phase and the tasks of the assembly and the solver.
+    pub fn solve(&self, progress: &dyn Progress) -> Result<Solution, ProblemError> {
         // One arm per model type: a new model adds its variant here.
         match &self.model {
             ModelSpec::Blend(b) => return crate::blend::solve(&self.name, b, progress),
@@ -112,7 +113,7 @@ impl Problem {
         let multigrid = self.solver.uses_multigrid();
         crate::memory::check_solver(path, self.lattice()?, self.bond_model()?.horizon, multigrid)?;
         let t0 = Instant::now();
-        progress(&format!(
+        progress.phase(&format!(
             "building bonds: {} nodes, horizon/spacing = {:.3}",
             self.nodes.len(),
             self.model.horizon().unwrap_or(f64::NAN) / self.lattice()?.spacing()
@@ -123,7 +124,7 @@ impl Problem {
             .map_err(static_error)?;
         let mut report = solved.report;
         report.timings.assemble += t_build;
-        progress(&format!(
+        progress.phase(&format!(
             "done in {:.3} s, relative residual {:.2e}",
             t0.elapsed().as_secs_f64(),
             report.rel_residual

@@ -23,8 +23,8 @@ pub mod statics;
 
 pub use bc::{Dirichlet, ReducedOperator};
 pub use direct::{dense_lu_solve, dense_solve, Cholesky, CholeskyFactor, Lu, LuFactor, LuOrdering, DENSE_LIMIT};
-pub use krylov::cg::{pcg, CgError, CgInfo, CgParams};
-pub use krylov::gmres::{gmres, GmresError, GmresInfo, GmresParams};
+pub use krylov::cg::{pcg, pcg_with_progress, CgError, CgInfo, CgParams};
+pub use krylov::gmres::{gmres, gmres_with_progress, GmresError, GmresInfo, GmresParams};
 pub use linpd_core::sparse::{diagonal, matvec, relative_residual, sym_matvec, GeneralCsc, SymCsc};
 pub use linpd_core::LinearOperator;
 pub use precond::amg::{rigid_body_modes, Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
@@ -34,7 +34,9 @@ pub use spec::{
     CholeskyOrdering, DofGeometry, GmresPreconditioner, MatrixFree, ModelInput, PreconditionerInput,
     PreconditionerKind, SolverId, SolverSpec,
 };
-pub use statics::{solve_assembled, solve_model, MatrixHints, StaticError, StaticSolution};
+pub use statics::{
+    solve_assembled, solve_assembled_with_progress, solve_model, MatrixHints, StaticError, StaticSolution,
+};
 
 /// A failed solve.
 #[non_exhaustive]

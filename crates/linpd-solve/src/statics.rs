@@ -12,8 +12,8 @@
 use crate::bc::{Dirichlet, ReducedOperator};
 use crate::cost;
 use crate::direct::{dense_lu_solve, dense_solve, Cholesky, Lu, LuOrdering};
-use crate::krylov::cg::pcg;
-use crate::krylov::gmres::{gmres, GmresParams};
+use crate::krylov::cg::pcg_with_progress;
+use crate::krylov::gmres::{gmres_with_progress, GmresParams};
 use crate::precond::FactorPreconditioner;
 use crate::report::peak_rss_bytes;
 use crate::spec::{
@@ -22,6 +22,7 @@ use crate::spec::{
 };
 use crate::CgParams;
 use crate::{SolveError, SolveReport};
+use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::sparse::{diagonal, relative_residual, Csc, GeneralCsc, SymCsc, SYMMETRY_RTOL};
 use linpd_core::{check_support, LinearOperator, Model, ModelOperator, Ordering, SpdApproximation, Unsupported};
 use std::time::Instant;
@@ -72,6 +73,18 @@ pub fn solve_assembled(
     spec: &SolverSpec,
     hints: &MatrixHints,
 ) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    solve_assembled_with_progress(a, f, spec, hints, &NoProgress)
+}
+
+/// [`solve_assembled`] reporting to `progress`: the iterations of CG and GMRES
+/// ([`crate::pcg_with_progress`]) and a task with no steps around each factorization.
+pub fn solve_assembled_with_progress(
+    a: &Csc,
+    f: &[f64],
+    spec: &SolverSpec,
+    hints: &MatrixHints,
+    progress: &dyn Progress,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
     finite_matrix(a)?;
     finite_vector("the load vector", f)?;
     let n = a.nrows();
@@ -81,9 +94,9 @@ pub fn solve_assembled(
     let t0 = Instant::now();
     let (u, mut report) = if symmetric {
         match &resolved {
-            SolverSpec::Auto(params) => auto(a, f, params, hints)?,
-            SolverSpec::Cholesky => cholesky(a, f, analyze_cholesky(a, &hints.ordering)?)?,
-            SolverSpec::Lu => lu(a, f, &hints.ordering)?,
+            SolverSpec::Auto(params) => auto(a, f, params, hints, progress)?,
+            SolverSpec::Cholesky => cholesky(a, f, analyze_cholesky(a, &hints.ordering)?, progress)?,
+            SolverSpec::Lu => lu(a, f, &hints.ordering, progress)?,
             SolverSpec::Dense => {
                 let mut report = SolveReport::new(SolverId::Dense, n, a.val().len());
                 let t = Instant::now();
@@ -93,7 +106,7 @@ pub fn solve_assembled(
                 (u, report)
             }
             SolverSpec::Cg { params, preconditioner, matrix_free: _ } => {
-                assembled_cg(a, f, params, *preconditioner, hints.geometry.as_ref())?
+                assembled_cg(a, f, params, *preconditioner, hints.geometry.as_ref(), progress)?
             }
         }
     } else {
@@ -106,20 +119,22 @@ pub fn solve_assembled(
                 report.nnz_factor = Some(n * n);
                 (u, report)
             }
-            (SolverSpec::Lu, _) => lu(a, f, &hints.ordering)?,
-            (_, Some(spd)) if matches!(spec, SolverSpec::Auto(_)) => match spd_gmres(a, f, spd, &hints.ordering) {
-                Ok(solved) => solved,
-                Err(why) => {
-                    note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
-                    lu(a, f, &hints.ordering)?
+            (SolverSpec::Lu, _) => lu(a, f, &hints.ordering, progress)?,
+            (_, Some(spd)) if matches!(spec, SolverSpec::Auto(_)) => {
+                match spd_gmres(a, f, spd, &hints.ordering, progress) {
+                    Ok(solved) => solved,
+                    Err(why) => {
+                        note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
+                        lu(a, f, &hints.ordering, progress)?
+                    }
                 }
-            },
+            }
             (s, _) => {
                 note = Some(format!(
                     "{s} asked, sparse LU used: A is unsymmetric (relative asymmetry {:.2e} > {SYMMETRY_RTOL:e})",
                     hints.asymmetry
                 ));
-                lu(a, f, &hints.ordering)?
+                lu(a, f, &hints.ordering, progress)?
             }
         }
     };
@@ -192,11 +207,14 @@ fn cholesky(
     a: &Csc,
     f: &[f64],
     (chol, label, t_symbolic): (Cholesky, CholeskyOrdering, f64),
+    progress: &dyn Progress,
 ) -> Result<(Vec<f64>, SolveReport), SolveError> {
     let mut report = SolveReport::new(SolverId::Cholesky(label), a.nrows(), a.val().len());
     report.timings.symbolic = t_symbolic;
     let t = Instant::now();
+    let task = Task::start(progress, "Cholesky factorization", None);
     let factor = chol.factor(a)?;
+    drop(task);
     report.timings.numeric = t.elapsed().as_secs_f64();
     report.nnz_factor = Some(chol.nnz_factor());
     report.factor_flops = Some(chol.flops());
@@ -213,13 +231,16 @@ fn assembled_cg(
     params: &CgParams,
     preconditioner: PreconditionerKind,
     geometry: Option<&DofGeometry>,
+    progress: &dyn Progress,
 ) -> Result<(Vec<f64>, SolveReport), SolveError> {
     let id = SolverId::Cg { preconditioner, matrix_free: MatrixFree::No };
     let mut report = SolveReport::new(id, a.nrows(), a.val().len());
     let t = Instant::now();
     let diag = diagonal(a);
+    let task = Task::start(progress, &format!("{} preconditioner setup", preconditioner.name()), None);
     let m_inv =
         preconditioner.build(&PreconditionerInput { diagonal: &diag, matrix: Some(a), geometry, model: None })?;
+    drop(task);
     report.timings.setup = t.elapsed().as_secs_f64();
     report.preconditioner = m_inv.summary();
     let t = Instant::now();
@@ -228,7 +249,7 @@ fn assembled_cg(
     // iterations on the bench cases).
     let sym = SymCsc(a);
     let op: &dyn LinearOperator = m_inv.operator_copy().unwrap_or(&sym);
-    let info = pcg(&op, &m_inv, f, &mut u, params)?;
+    let info = pcg_with_progress(&op, &m_inv, f, &mut u, params, progress)?;
     report.timings.solve = t.elapsed().as_secs_f64();
     report.iterations = Some(info.iterations);
     Ok((u, report))
@@ -242,7 +263,13 @@ pub const AUTO_3D_CHOLESKY_LIMIT: usize = 100_000;
 /// `auto` on a symmetric `A` in 2D/3D: the cheapest of sparse Cholesky, Jacobi-PCG and (when
 /// the DOF geometry is known) multigrid-PCG by [`crate::cost`]; the report's `auto` field lists
 /// the estimates.
-fn auto(a: &Csc, f: &[f64], params: &CgParams, hints: &MatrixHints) -> Result<(Vec<f64>, SolveReport), SolveError> {
+fn auto(
+    a: &Csc,
+    f: &[f64],
+    params: &CgParams,
+    hints: &MatrixHints,
+    progress: &dyn Progress,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
     let (n, dim) = (a.nrows(), hints.dim);
     let n_side = hints.n_side.unwrap_or_else(|| (n as f64 / dim as f64).powf(1.0 / dim as f64));
     let cg = cost::jacobi_cg(dim, a.val().len(), n_side, params);
@@ -254,7 +281,9 @@ fn auto(a: &Csc, f: &[f64], params: &CgParams, hints: &MatrixHints) -> Result<(V
             why: format!("3D with {n} > {AUTO_3D_CHOLESKY_LIMIT} unknowns"),
         }
     } else {
+        let task = Task::start(progress, "Cholesky symbolic analysis (auto's estimate)", None);
         let (c, label, t) = analyze_cholesky(a, &hints.ordering)?;
+        drop(task);
         let e = cost::cholesky(&c, SolverId::Cholesky(label).to_string());
         analyzed = Some((c, label, t));
         e
@@ -271,15 +300,15 @@ fn auto(a: &Csc, f: &[f64], params: &CgParams, hints: &MatrixHints) -> Result<(V
         .min_by(|x, y| x.0.total_cmp(&y.0))
         .map_or(Some(PreconditionerKind::Jacobi), |(_, choice)| choice);
     let (u, mut report) = match (best, analyzed) {
-        (None, Some(analysis)) => cholesky(a, f, analysis)?,
-        (p, _) => assembled_cg(a, f, params, p.unwrap_or_default(), hints.geometry.as_ref())?,
+        (None, Some(analysis)) => cholesky(a, f, analysis, progress)?,
+        (p, _) => assembled_cg(a, f, params, p.unwrap_or_default(), hints.geometry.as_ref(), progress)?,
     };
     report.auto = Some(line);
     Ok((u, report))
 }
 
 /// Sparse LU with partial pivoting: COLAMD, or the natural order for a banded model.
-fn lu(a: &Csc, f: &[f64], ordering: &Ordering) -> Result<(Vec<f64>, SolveReport), SolveError> {
+fn lu(a: &Csc, f: &[f64], ordering: &Ordering, progress: &dyn Progress) -> Result<(Vec<f64>, SolveReport), SolveError> {
     let (how, id) = match ordering {
         Ordering::Band => (LuOrdering::Band, SolverId::LuBand),
         _ => (LuOrdering::Colamd, SolverId::Lu),
@@ -289,7 +318,9 @@ fn lu(a: &Csc, f: &[f64], ordering: &Ordering) -> Result<(Vec<f64>, SolveReport)
     let lu = Lu::analyze(a, how)?;
     report.timings.symbolic = t.elapsed().as_secs_f64();
     let t = Instant::now();
+    let task = Task::start(progress, "LU factorization", None);
     let factor = lu.factor(a)?;
+    drop(task);
     report.timings.numeric = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let u = factor.solve(f);
@@ -311,6 +342,7 @@ fn spd_gmres(
     f: &[f64],
     spd: &SpdApproximation,
     ordering: &Ordering,
+    progress: &dyn Progress,
 ) -> Result<(Vec<f64>, SolveReport), String> {
     let n = a.nrows();
     let mut report = SolveReport::new(SolverId::Gmres(spd.kind), n, a.val().len());
@@ -337,7 +369,8 @@ fn spd_gmres(
     let norm = |v: &[f64]| v.iter().map(|v| v * v).sum::<f64>().sqrt();
     let rtol = (16.0 * f64::EPSILON * norm_a * norm(&x) / norm(f).max(f64::MIN_POSITIVE)).clamp(1e-15, 1e-8);
     let params = GmresParams { rtol, restart: 40, max_iter: 200 };
-    let info = gmres(&GeneralCsc(a), &FactorPreconditioner(factor), f, &mut x, &params).map_err(|e| e.to_string())?;
+    let info = gmres_with_progress(&GeneralCsc(a), &FactorPreconditioner(factor), f, &mut x, &params, progress)
+        .map_err(|e| e.to_string())?;
     report.iterations = Some(info.iterations);
     report.timings.solve = t.elapsed().as_secs_f64();
     Ok((x, report))
@@ -418,13 +451,14 @@ pub struct StaticSolution {
 }
 
 /// Solves `A u = f` for `model` with the prescribed displacements of `bc` (see the module
-/// docs). `progress` receives one line per phase.
+/// docs). `progress` receives one line per phase and the tasks of the assembly
+/// ([`Model::assemble_free_with_progress`]) and of the solver ([`solve_assembled_with_progress`]).
 pub fn solve_model(
     model: &dyn Model,
     bc: &Dirichlet,
     f: &[f64],
     spec: &SolverSpec,
-    progress: &dyn Fn(&str),
+    progress: &dyn Progress,
 ) -> Result<StaticSolution, StaticError> {
     let d = model.dim();
     let dofs = bc.dofs();
@@ -460,7 +494,7 @@ pub fn solve_model(
             if asymmetry > SYMMETRY_RTOL {
                 return Err(StaticError::UnsymmetricForCg { kind: model.kind(), asymmetry });
             }
-            progress(&format!("solving matrix-free with {spec}: {} unknowns", dofs.n_free()));
+            progress.phase(&format!("solving matrix-free with {spec}: {} unknowns", dofs.n_free()));
             let diag = dofs.gather(&model.diagonal());
             finite_vector("the stiffness (its diagonal over the free DOFs)", &diag)?;
             finite_vector(REDUCED_LOAD, &rhs)?;
@@ -478,11 +512,13 @@ pub fn solve_model(
                 geometry: geometry.as_ref(),
                 model: Some(ModelInput { model, dofs, full }),
             };
+            let task = Task::start(progress, &format!("{} preconditioner setup", preconditioner.name()), None);
             let m_inv = preconditioner.build(&input).map_err(at_dof)?;
+            drop(task);
             let t_setup = t.elapsed().as_secs_f64();
             let mut u = vec![0.0; dofs.n_free()];
-            let info =
-                pcg(&ReducedOperator::new(full, dofs), &m_inv, &rhs, &mut u, params).map_err(|e| at_dof(e.into()))?;
+            let info = pcg_with_progress(&ReducedOperator::new(full, dofs), &m_inv, &rhs, &mut u, params, progress)
+                .map_err(|e| at_dof(e.into()))?;
             let id = SolverId::Cg { preconditioner: *preconditioner, matrix_free: how };
             let mut report = SolveReport::new(id, dofs.n_free(), 0);
             report.preconditioner = m_inv.summary();
@@ -495,9 +531,9 @@ pub fn solve_model(
             (u, report)
         }
         _ => {
-            progress(&format!("assembling: {} free DOFs", dofs.n_free()));
+            progress.phase(&format!("assembling: {} free DOFs", dofs.n_free()));
             let t = Instant::now();
-            let a = model.assemble_free(dofs);
+            let a = model.assemble_free_with_progress(dofs, progress);
             let t_asm = t.elapsed().as_secs_f64();
             finite_matrix(&a)?;
             finite_vector(REDUCED_LOAD, &rhs)?;
@@ -524,14 +560,14 @@ pub fn solve_model(
                 _ => None,
             };
             let hints = MatrixHints { dim: d, asymmetry, ordering: model.ordering(dofs), spd, geometry, n_side };
-            progress(&format!(
+            progress.phase(&format!(
                 "solving: {} unknowns, {} stored entries, solver {}",
                 a.nrows(),
                 a.val().len(),
                 spec.resolve(d, a.nrows())
             ));
-            let (u, report) = solve_assembled(&a, &rhs, spec, &hints).map_err(at_dof)?;
-            progress(&format!("assembled in {t_asm:.3} s"));
+            let (u, report) = solve_assembled_with_progress(&a, &rhs, spec, &hints, progress).map_err(at_dof)?;
+            progress.phase(&format!("assembled in {t_asm:.3} s"));
             (u, report)
         }
     };

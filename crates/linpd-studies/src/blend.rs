@@ -2,11 +2,12 @@
 //! (2013), section 5, Figs. 7-14, plus a speed-versus-error map. Each study writes `data.json`,
 //! PNG and SVG plots into its directory and prints a table.
 
-use crate::out::{plot, write};
+use crate::out::{plot, write, Cases};
 use crate::StudyError;
 use linpd_blend::{
     ce_exact_point_load, solve_model, BlendParams, BlendSolution, BlendSolver, Blending, Load, ModelKind, Regions,
 };
+use linpd_core::progress::Progress;
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
 use serde_json::json;
 use std::io::Write;
@@ -50,7 +51,7 @@ fn positive(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
     x.iter().zip(y).filter(|(_, v)| **v > 0.0).map(|(a, b)| (*a, *b)).unzip()
 }
 
-pub(crate) fn patch(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn patch(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
     // Table 2 with dx = 0.0125: the paper's dx = 0.02 gives eps/dx = 2.5, not an integer N.
     let mut p = BlendParams::table3(Blending::Cubic);
     p.regions = Regions { l1: 0.35, l2: 0.4, l3: 0.6, l4: 0.65 };
@@ -60,7 +61,9 @@ pub(crate) fn patch(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError
     cases.extend(blendings().into_iter().map(|(n, b)| (format!("blended {n}"), ModelKind::Blended, b)));
     let (mut rows, mut prof, mut fluct) = (Vec::new(), Vec::new(), Vec::new());
     writeln!(report, "{:<18} {:>12} {:>12}", "model", "spread (30)", "solver")?;
+    let n_cases = Cases::new(progress, "blend-patch", cases.len());
     for (label, kind, b) in cases {
+        n_cases.next(&label);
         p.blending = b;
         let s = solve_model(&p, kind, 0.0, 1.0, &[], BlendSolver::Lu)?;
         let (xs, strain): (Vec<f64>, Vec<f64>) =
@@ -81,7 +84,7 @@ pub(crate) fn patch(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError
     plot(dir, "fig8_strain_fluctuation", "Strain fluctuation du/dx - 1", "x", "du/dx - 1", fluct, false)
 }
 
-pub(crate) fn point_load(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn point_load(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
     let p = BlendParams::table3(Blending::Cubic);
     let load = [Load::Point { x: 0.5, force: 1.0 }];
     let pd = solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load, BlendSolver::Auto)?;
@@ -100,7 +103,9 @@ pub(crate) fn point_load(dir: &Path, report: &mut dyn Write) -> Result<(), Study
     writeln!(report, "{:<10} {:>12} {:>12}", "model", "e_r,inf (33)", "e_r,2 (34)")?;
     writeln!(report, "{:<10} {:>12.3e} {:>12.3e}", "CE", ei, e2)?;
     out.push(json!({"model": "CE", "e_inf": ei, "e_2": e2}));
+    let cases = Cases::new(progress, "blend-point-load", blendings().len());
     for (name, b) in blendings() {
+        cases.next(name);
         let mut q = p.clone();
         q.blending = b;
         let s = solve_model(&q, ModelKind::Blended, 0.0, 0.0, &load, BlendSolver::Auto)?;
@@ -135,9 +140,12 @@ fn sweep(
     xlabel: &str,
     geometries: impl Fn(f64, f64) -> Vec<(f64, Regions)>,
     load_at: f64,
+    progress: &dyn Progress,
 ) -> Result<(), StudyError> {
     let mut data = Vec::new();
-    for (eps, dx) in [(0.05, 0.0005), (0.025, 0.00025)] {
+    let resolutions = [(0.05, 0.0005), (0.025, 0.00025)];
+    let cases = Cases::new(progress, study, resolutions.len() * blendings().len());
+    for (eps, dx) in resolutions {
         let mut p = BlendParams::table3(Blending::Cubic);
         p.horizon = eps;
         p.dx = dx;
@@ -148,6 +156,7 @@ fn sweep(
         let mut all = Vec::new();
         let mut plots = Vec::new();
         for (name, b) in blendings() {
+            cases.next(format_args!("{name}, delta = {eps}"));
             let (mut xs, mut es) = (Vec::new(), Vec::new());
             for (param, r) in &geos {
                 let mut q = p.clone();
@@ -194,7 +203,7 @@ fn sweep(
     write(dir, &json!({"study": study, "sweeps": data}))
 }
 
-pub(crate) fn pd_size(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn pd_size(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
     // Section 5.2.1: bridges of 0.1 each, PD region centred at the load, size varied (the paper
     // steps by 2 dx; we step by 20 dx to keep the run short).
     sweep(
@@ -219,10 +228,11 @@ pub(crate) fn pd_size(dir: &Path, report: &mut dyn Write) -> Result<(), StudyErr
             g
         },
         0.5,
+        progress,
     )
 }
 
-pub(crate) fn bridge_size(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn bridge_size(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
     // Section 5.2.2: |Omega_PD| = 2 eps - 6 dx, bridge half-size |Omega_b|/2 varied (the paper
     // steps by dx; we step by 10 dx).
     sweep(
@@ -248,10 +258,11 @@ pub(crate) fn bridge_size(dir: &Path, report: &mut dyn Write) -> Result<(), Stud
             g
         },
         0.5,
+        progress,
     )
 }
 
-pub(crate) fn load_location(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn load_location(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
     // Section 5.2.3: eps = 0.05, dx = 0.005, bridges eps, |Omega_PD| = 6 eps centred.
     let mut p = BlendParams::table3(Blending::Cubic);
     p.dx = 0.005;
@@ -260,11 +271,14 @@ pub(crate) fn load_location(dir: &Path, report: &mut dyn Write) -> Result<(), St
     let mut curves = Vec::new();
     let mut plots = Vec::new();
     let mut pds = Vec::new();
+    let cases = Cases::new(progress, "blend-load-location", 1 + blendings().len());
+    cases.next("PD");
     for &xp in &locations {
         let load = [Load::Point { x: xp, force: 1.0 }];
         pds.push(solve_model(&p, ModelKind::PurePd, 0.0, 0.0, &load, BlendSolver::Auto)?);
     }
     for (name, b) in blendings() {
+        cases.next(name);
         let mut q = p.clone();
         q.blending = b;
         let mut es = Vec::new();
@@ -311,7 +325,12 @@ fn timed(
     Ok((s, t.elapsed().as_secs_f64()))
 }
 
-pub(crate) fn speedup(dir: &Path, dense: bool, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn speedup(
+    dir: &Path,
+    dense: bool,
+    report: &mut dyn Write,
+    progress: &dyn Progress,
+) -> Result<(), StudyError> {
     let load = [Load::Point { x: 0.5, force: 1.0 }];
     let p = fig14_params(Blending::Cubic);
     let (pd, t_pd) = timed(&p, ModelKind::PurePd, &load, BlendSolver::Auto)?;
@@ -330,8 +349,10 @@ pub(crate) fn speedup(dir: &Path, dense: bool, report: &mut dyn Write) -> Result
     )?;
     let (mut rows, mut rs, mut ews, mut sps, mut dsps) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut blended_solution = None;
+    let cases = Cases::new(progress, "blend-speedup", 10);
     for k in 0..=9 {
         let ratio = (1u32 << k) as f64;
+        cases.next(format_args!("ratio {ratio}"));
         let mut q = p.clone();
         q.ce_spacing = Some(ratio * p.dx);
         let (s, t) = timed(&q, ModelKind::Blended, &load, BlendSolver::Auto)?;
@@ -406,7 +427,7 @@ pub(crate) fn speedup(dir: &Path, dense: bool, report: &mut dyn Write) -> Result
     loglog(dir, "fig14d_speedup_vs_ratio", "Speedup t_PD / t_blended vs CE mesh ratio", "dx_CE / dx", "speedup", sp)
 }
 
-pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
     let load = [Load::Point { x: 0.5, force: 1.0 }];
     let p = fig14_params(Blending::Cubic);
     let (pd, t_pd) = timed(&p, ModelKind::PurePd, &load, BlendSolver::Auto)?;
@@ -419,9 +440,11 @@ pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write) -> Result<(), S
     ];
     writeln!(report, "PD {t_pd:.3} s ({}); CE {t_ce:.4} s, e_r,2 = {e_ce:.3e}", pd.report.solver)?;
     let mut ymin = e_ce;
+    let cases = Cases::new(progress, "blend-speed-vs-error", 10 * blendings().len());
     for (name, b) in blendings() {
         let (mut ts, mut es) = (Vec::new(), Vec::new());
         for k in 0..=9 {
+            cases.next(format_args!("{name}, ratio {}", 1u32 << k));
             let mut q = fig14_params(b.clone());
             q.ce_spacing = Some((1u32 << k) as f64 * p.dx);
             let (s, t) = timed(&q, ModelKind::Blended, &load, BlendSolver::Auto)?;

@@ -7,11 +7,14 @@
 //! (`Matching::TotalForce`, the crate's default; a body-force density `b` gives `f = b v^0`).
 //! The same examples are tests in `crates/linpd-coarsen/tests/examples.rs` (with the tolerances).
 
-use crate::out::{plot, write};
+use crate::out::{plot, write, Cases};
 use crate::StudyError;
 use linpd_bond::{assemble, BondOperator};
 use linpd_coarsen::paper::{cell_modulus, composite, defect, tent, H, R0};
-use linpd_coarsen::{coarsen, every_kth, retain_every, Coarsened, LevelModel, StepReport};
+use linpd_coarsen::{
+    coarsen, coarsen_with_progress, every_kth, retain_every, Coarsened, LevelModel, Options, StepReport,
+};
+use linpd_core::progress::Progress;
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
 use serde_json::{json, Value};
@@ -87,7 +90,8 @@ fn row(m: &LevelModel, p: usize) -> (Vec<f64>, Vec<f64>) {
 // coarsen-tent (Fig. 3)
 // ----------------------------------------------------------------------------------------------
 
-pub(crate) fn tent_study(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn tent_study(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
+    let cases = Cases::new(progress, "coarsen-tent", 2);
     let m0 = level0(tent)?;
     // x = 0.5 (node 100) is a level-1 node; level 2 (every 8th node) has none there: its row is
     // taken at 0.48 (node 96), the level-2 node nearest the centre.
@@ -101,6 +105,7 @@ pub(crate) fn tent_study(dir: &Path, report: &mut dyn Write) -> Result<(), Study
     )?;
     let m_ref = m0.second_moment(100);
     for (r1, r2) in [RADII[0], RADII[3]] {
+        cases.next(radius_label(r1));
         let (c1, c2) = chain(&m0, 4, 2, r1, r2)?;
         for (lvl, c, p, x, r) in [(1, &c1, 100, 0.5, r1), (2, &c2, 96, 0.48, r2)] {
             let (s, v) = row(&c.model, p);
@@ -145,7 +150,8 @@ pub(crate) fn tent_study(dir: &Path, report: &mut dyn Write) -> Result<(), Study
 // coarsen-composite (Fig. 5)
 // ----------------------------------------------------------------------------------------------
 
-pub(crate) fn composite_study(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn composite_study(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
+    let cases = Cases::new(progress, "coarsen-composite", RADII.len());
     let m0 = level0(composite)?;
     let e_eff = cell_modulus(20, composite);
     // leftmost three level-2 nodes fixed, rightmost three loaded with b v^0, b = 0.001
@@ -168,6 +174,7 @@ pub(crate) fn composite_study(dir: &Path, report: &mut dyn Write) -> Result<(), 
     let mut plots = vec![series("level 0", x0.clone(), u0.clone(), SeriesStyle::Line)];
     let mut fields = vec![json!({"level": 0, "x": x0, "u": u0})];
     for (r1, r2) in RADII {
+        cases.next(radius_label(r1));
         let (c1, c2) = chain(&m0, 4, 2, r1, r2)?;
         for (lvl, c, r) in [(1, &c1, r1), (2, &c2, r2)] {
             let (x, u, by) = solve(&c.model, &fixed, &loads)?;
@@ -211,7 +218,8 @@ pub(crate) fn composite_study(dir: &Path, report: &mut dyn Write) -> Result<(), 
 // coarsen-defect (Fig. 7)
 // ----------------------------------------------------------------------------------------------
 
-pub(crate) fn defect_study(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn defect_study(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
+    let cases = Cases::new(progress, "coarsen-defect", RADII.len());
     let m0 = level0(defect)?;
     // u = x on the three leftmost and rightmost level-2 nodes (every 9th level-0 node)
     let fixed: Vec<(usize, f64)> = [0, 9, 18, 180, 189, 198].iter().map(|&p| (p, p as f64 * H)).collect();
@@ -246,6 +254,7 @@ pub(crate) fn defect_study(dir: &Path, report: &mut dyn Write) -> Result<(), Stu
     let mut plots = vec![series("level 0", wx.clone(), wu.clone(), SeriesStyle::LineMarkers)];
     let mut fields = vec![json!({"level": 0, "x": wx, "u": wu})];
     for (r1, r2) in RADII {
+        cases.next(radius_label(r1));
         let (c1, c2) = chain(&m0, 3, 3, r1, r2)?;
         for (lvl, c, r) in [(1, &c1, r1), (2, &c2, r2)] {
             let (x, u, by) = solve(&c.model, &fixed, &[])?;
@@ -366,7 +375,9 @@ fn report_json(r: &StepReport) -> Value {
     json!(r)
 }
 
-pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
+    // Level 1 for r = k delta, k in 2, 3, 4, 6; level 2 on the first three.
+    let cases = Cases::new(progress, "coarsen-speed-vs-error", 7);
     let t = Instant::now();
     let m0 = plate_level0()?;
     let t_build = t.elapsed().as_secs_f64();
@@ -395,8 +406,9 @@ pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write) -> Result<(), S
     // k = 6 (r^2 = 3.6, ~20 s) would take the study past a minute: levels 2 are k = 2, 3, 4.
     let mut level1 = Vec::new();
     for k in [2.0, 3.0, 4.0, 6.0] {
+        cases.next(format_args!("level 1, r = {k} delta"));
         let t = Instant::now();
-        let c1 = coarsen(&m0, &retain_every(&m0, 2)?, k * d0)?;
+        let c1 = coarsen_with_progress(&m0, &retain_every(&m0, 2)?, &Options::fixed(k * d0), progress)?;
         let t_c1 = t.elapsed().as_secs_f64();
         let (u1, t_s1) = plate_solve(&c1.model, &held, &loads)?;
         let e1 = shared_error(&u1, &u0);
@@ -419,9 +431,10 @@ pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write) -> Result<(), S
         }
     }
     for (k, c1, t_c1) in level1 {
+        cases.next(format_args!("level 2 on r = {k} delta"));
         let d1 = c1.model.horizon();
         let t = Instant::now();
-        let c2 = coarsen(&c1.model, &retain_every(&c1.model, 2)?, 2.0 * d1)?;
+        let c2 = coarsen_with_progress(&c1.model, &retain_every(&c1.model, 2)?, &Options::fixed(2.0 * d1), progress)?;
         let t_c2 = t.elapsed().as_secs_f64() + t_c1;
         let (u2, t_s2) = plate_solve(&c2.model, &held, &loads)?;
         let e2 = shared_error(&u2, &u0);

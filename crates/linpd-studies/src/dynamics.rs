@@ -9,9 +9,10 @@
 //!   the square pulse (4.14) on the bar `[0, 1000]` (fixed layers of width `delta`) over `dx`
 //!   (Fig. 4.2).
 
-use crate::out::{create_dir, write_text};
+use crate::out::{create_dir, write_text, Cases};
 use crate::StudyError;
 use linpd_bond::BondOperator;
+use linpd_core::progress::Progress;
 use linpd_core::{Grid, Kernel, Material, Micromodulus, Normalization, Placement};
 use linpd_dynamics::dispersion::{
     continuum_amplitude, measure_omega, omega, omega_continuum, omega_paper_series, verlet_omega, ModalFit, ModeRun,
@@ -31,15 +32,15 @@ const K1: f64 = 1.0;
 const RHO: f64 = 1.0;
 
 /// Runs `dispersion` into `dir`.
-pub(crate) fn run_dispersion(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn run_dispersion(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
     create_dir(dir)?;
-    dispersion(dir, report)
+    dispersion(dir, report, progress)
 }
 
 /// Runs `stability` into `dir`.
-pub(crate) fn run_stability(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn run_stability(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
     create_dir(dir)?;
-    stability(dir, report)
+    stability(dir, report, progress)
 }
 
 fn write_data(dir: &Path, data: &serde_json::Value) -> Result<(), StudyError> {
@@ -50,7 +51,9 @@ fn max_rel(a: &[f64], b: &[f64], keep: impl Fn(usize) -> bool) -> f64 {
     a.iter().zip(b).enumerate().filter(|(i, _)| keep(*i)).map(|(_, (x, y))| ((x - y) / y).abs()).fold(0.0, f64::max)
 }
 
-fn dispersion(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+fn dispersion(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
+    // 3 chains, then the 4 lattices of `lattice_dispersion`.
+    let cases = Cases::new(progress, "dispersion", 7);
     let kernel = Kernel::InverseDistance;
     let c = continuum_amplitude(&kernel, K1, DELTA)?;
     let mut rows = Vec::new();
@@ -59,6 +62,7 @@ fn dispersion(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     );
     writeln!(report, "max relative errors in omega(k) (K_1 = rho = 1, delta = 5, k in (0, pi/dx]):")?;
     for n in [1usize, 5, 20] {
+        cases.next(format_args!("N = {n}"));
         let dx = DELTA / n as f64;
         let chain = Chain::springs(K1, n, dx)?;
         let kmax = std::f64::consts::PI / dx;
@@ -130,14 +134,14 @@ fn dispersion(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
     }
     write_text(&dir.join("table.md"), &table)?;
     write_data(dir, &json!({"study": "dispersion", "K1": K1, "rho": RHO, "delta": DELTA, "cases": rows}))?;
-    lattice_dispersion(dir, report)
+    lattice_dispersion(dir, report, &cases)
 }
 
 /// Bloch dispersion of the 2D (plane strain) and 3D bond-based and LPS operators along
 /// [100], [110], [111] (`linpd_dynamics::bloch`): `h = 1`, `delta = 3h`, `K = rho = 1`;
 /// bond-based `lambda = mu = 3K/5`, LPS `G = 0.3` (`lambda = K - 2G/3`, `mu = G`).
 /// Writes `lattice_<model>_<d>d.{png,svg}`, `lattice_table.md`, `lattice.json`.
-fn lattice_dispersion(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+fn lattice_dispersion(dir: &Path, report: &mut dyn Write, progress: &Cases<'_>) -> Result<(), StudyError> {
     use linpd_core::{DofMap, PlaneModel};
     use linpd_dynamics::bloch::{classical_speeds, lattice_direction, lattice_reach, BlochStencil};
     use linpd_lps::{assemble_tangent, Influence, LpsModel, LpsParams};
@@ -149,6 +153,7 @@ fn lattice_dispersion(dir: &Path, report: &mut dyn Write) -> Result<(), StudyErr
     writeln!(report, "Bloch dispersion, delta = 3h, K = rho = 1 (2D: plane strain); long-wave speeds vs classical:")?;
     for model in ["bond", "lps"] {
         for dim in [2usize, 3] {
+            progress.next(format_args!("{model}, {dim}D"));
             let plane = (dim == 2).then_some(PlaneModel::Strain);
             let reach = lattice_reach(delta, h) * if model == "lps" { 2 } else { 1 };
             let side = 2.0 * reach as f64 * h;
@@ -266,7 +271,9 @@ fn blows_up(
     }
 }
 
-fn stability(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+fn stability(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
+    let ns = [1usize, 2, 3, 5, 10, 20];
+    let cases = Cases::new(progress, "stability", ns.len());
     let mm = Micromodulus {
         kernel: Kernel::InverseDistance,
         normalization: Normalization::Discrete,
@@ -284,7 +291,8 @@ fn stability(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
         report,
         "square pulse (4.14) on [0, 1000], delta = 5, K_1 = rho = 1, {steps} steps; blow-up = energy x1e3"
     )?;
-    for n in [1usize, 2, 3, 5, 10, 20] {
+    for n in ns {
+        cases.next(format_args!("N = {n}"));
         let t = Instant::now();
         let dx = DELTA / n as f64;
         let chain = Chain::new(dx, DELTA, &mm)?;

@@ -31,6 +31,7 @@ mod md_pd;
 mod out;
 
 use clap::ValueEnum;
+use linpd_core::progress::{NoProgress, Progress};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -155,23 +156,36 @@ impl Study {
     /// Runs the study: writes `data.json` and the PNG/SVG figures into `out_dir` (created if
     /// needed) and its table to `out` (the CLI passes stdout).
     pub fn run(&self, out_dir: &Path, options: &StudyOptions, report: &mut dyn Write) -> Result<(), StudyError> {
+        self.run_with_progress(out_dir, options, report, &NoProgress)
+    }
+
+    /// [`Study::run`] reporting to `progress`: a task `"<study>: cases"` whose steps are the
+    /// study's cases ("case i of n: <label>"), with the tasks of their solves and coarsening
+    /// steps nested where the study passes them on.
+    pub fn run_with_progress(
+        &self,
+        out_dir: &Path,
+        options: &StudyOptions,
+        report: &mut dyn Write,
+        progress: &dyn Progress,
+    ) -> Result<(), StudyError> {
         let dir = out_dir;
         match self {
-            Study::BlendPatch => blend::patch(dir, report),
-            Study::BlendPointLoad => blend::point_load(dir, report),
-            Study::BlendPdSize => blend::pd_size(dir, report),
-            Study::BlendBridgeSize => blend::bridge_size(dir, report),
-            Study::BlendLoadLocation => blend::load_location(dir, report),
-            Study::BlendSpeedup => blend::speedup(dir, options.dense, report),
-            Study::BlendSpeedVsError => blend::speed_vs_error(dir, report),
-            Study::LpsTensionBar => lps::run(dir, report),
-            Study::Dispersion => dynamics::run_dispersion(dir, report),
-            Study::Stability => dynamics::run_stability(dir, report),
-            Study::MdPd => md_pd::run(dir, report),
-            Study::CoarsenTent => coarsen::tent_study(dir, report),
-            Study::CoarsenComposite => coarsen::composite_study(dir, report),
-            Study::CoarsenDefect => coarsen::defect_study(dir, report),
-            Study::CoarsenSpeedVsError => coarsen::speed_vs_error(dir, report),
+            Study::BlendPatch => blend::patch(dir, report, progress),
+            Study::BlendPointLoad => blend::point_load(dir, report, progress),
+            Study::BlendPdSize => blend::pd_size(dir, report, progress),
+            Study::BlendBridgeSize => blend::bridge_size(dir, report, progress),
+            Study::BlendLoadLocation => blend::load_location(dir, report, progress),
+            Study::BlendSpeedup => blend::speedup(dir, options.dense, report, progress),
+            Study::BlendSpeedVsError => blend::speed_vs_error(dir, report, progress),
+            Study::LpsTensionBar => lps::run(dir, report, progress),
+            Study::Dispersion => dynamics::run_dispersion(dir, report, progress),
+            Study::Stability => dynamics::run_stability(dir, report, progress),
+            Study::MdPd => md_pd::run(dir, report, progress),
+            Study::CoarsenTent => coarsen::tent_study(dir, report, progress),
+            Study::CoarsenComposite => coarsen::composite_study(dir, report, progress),
+            Study::CoarsenDefect => coarsen::defect_study(dir, report, progress),
+            Study::CoarsenSpeedVsError => coarsen::speed_vs_error(dir, report, progress),
         }
     }
 

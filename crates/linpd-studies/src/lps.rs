@@ -2,8 +2,9 @@
 //! (E = 9KG/(3K + G), nu = (3K - 2G)/(2(3K + G))): elongation and lateral contraction versus
 //! grid refinement and delta/h, with and without the bulk-weighted-volume surface correction.
 
-use crate::out::write;
+use crate::out::{write, Cases};
 use crate::StudyError;
+use linpd_core::progress::Progress;
 use linpd_lps::{tension_bar, Influence, SurfaceCorrection, TensionBar};
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
 use serde_json::json;
@@ -11,7 +12,8 @@ use std::io::Write;
 use std::path::Path;
 
 /// Runs the study into `dir`.
-pub(crate) fn run(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
+    let cases = Cases::new(progress, "lps-tension-bar", 9);
     let mut rows = Vec::new();
     let mut series = Vec::new();
     writeln!(
@@ -26,6 +28,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> 
     ] {
         let (mut xs, mut ys) = (Vec::new(), Vec::new());
         for h in [0.125, 0.0833333333333333, 0.0625] {
+            cases.next(format_args!("{label}, h = {h:.4}"));
             let bar = TensionBar {
                 length: 1.0,
                 width: 0.5,

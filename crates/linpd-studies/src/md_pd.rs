@@ -13,8 +13,9 @@
 //! of steps ends at `t = 150.05` (Fig. 4.4). Square pulse (4.14): `dt = 0.0649` for all models
 //! (Fig. 4.6), snapshots at `t ~ 50` and `t ~ 150`.
 
-use crate::out::{create_dir, write};
+use crate::out::{create_dir, write, Cases};
 use crate::StudyError;
+use linpd_core::progress::Progress;
 use linpd_dynamics::initial::{smooth_pulse, square_pulse};
 use linpd_dynamics::stability::refinement_dt;
 use linpd_dynamics::{Chain, DtLimit, Ring, State, Verlet, VerletParams};
@@ -180,7 +181,9 @@ fn density_map(m: &Model, r: &Run, dir: &Path, what: &str) -> Result<(), StudyEr
 }
 
 /// Runs the study into `dir`.
-pub(crate) fn run(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> {
+pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
+    // Every model twice: the smooth pulse, then the square pulse.
+    let cases = Cases::new(progress, "md-pd", 2 * MODELS.len());
     create_dir(dir)?;
     let total = Instant::now();
 
@@ -196,6 +199,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> 
     )?;
     let mut smooth = Vec::new();
     for m in MODELS {
+        cases.next(format_args!("smooth pulse, {}", m.label));
         let dt_rule = refinement_dt(DT0, RHO, K1, m.n, m.dx);
         let steps = (T_SMOOTH / dt_rule).ceil() as usize;
         let dt = T_SMOOTH / steps as f64;
@@ -310,6 +314,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write) -> Result<(), StudyError> 
     let mut sq_runs = Vec::new();
     let mut fronts = Vec::new();
     for m in MODELS {
+        cases.next(format_args!("square pulse, {}", m.label));
         let r = simulate(m, square_pulse, DT_SQUARE, steps, &snap_steps, false)?;
         // Overshoot above the d'Alembert maximum 0.5 and undershoot below 0.
         let stats: Vec<(f64, f64)> = r

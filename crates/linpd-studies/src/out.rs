@@ -2,6 +2,7 @@
 //! that name the file.
 
 use crate::StudyError;
+use linpd_core::progress::{Progress, Task};
 use linpd_plot::{line_plot, LinePlot, Series};
 use serde_json::Value;
 use std::path::Path;
@@ -37,4 +38,33 @@ pub(crate) fn plot(
     let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: false, log_y };
     line_plot(&p, &dir.join(name))?;
     Ok(())
+}
+
+/// The cases of a study as a task `"<study>: cases"` of `n` steps: [`Cases::next`] at the start
+/// of each case reports "case i of n: <label>"; the task finishes when dropped.
+pub(crate) struct Cases<'a> {
+    task: Task<'a>,
+    n: usize,
+    done: std::cell::Cell<usize>,
+}
+
+impl<'a> Cases<'a> {
+    pub(crate) fn new(progress: &'a dyn Progress, study: &str, n: usize) -> Self {
+        Cases { task: Task::start(progress, &format!("{study}: cases"), Some(n as u64)), n, done: 0.into() }
+    }
+
+    /// Case `i + 1` (of `n`) begins; `i` cases are done.
+    pub(crate) fn next(&self, label: impl std::fmt::Display) {
+        let i = self.done.get();
+        if self.task.is_on() {
+            self.task.set(i as u64, &format!("case {} of {}: {label}", i + 1, self.n));
+        }
+        self.done.set(i + 1);
+    }
+}
+
+impl Drop for Cases<'_> {
+    fn drop(&mut self) {
+        self.task.set(self.done.get() as u64, "");
+    }
 }

@@ -17,6 +17,7 @@
 //! iteration counts identical to the published ones in docs/benchmarks.md.
 
 use crate::precond::Preconditioner;
+use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::LinearOperator;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -95,6 +96,13 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.par_iter().zip(b).with_min_len(4096).map(|(x, y)| x * y).sum()
 }
 
+/// One CG update: iteration `it`, relative residual `rel`.
+fn report(task: &Task<'_>, it: usize, rel: f64) {
+    if task.is_on() {
+        task.set(it as u64, &format!("iteration {it}, relative residual {rel:.2e}"));
+    }
+}
+
 /// Solves `A x = b` from the initial guess in `x`, preconditioned by `m_inv` (`z = M^{-1} r`);
 /// `Ok` only when the true relative residual is at most `rtol` (see the module docs).
 pub fn pcg(
@@ -104,6 +112,21 @@ pub fn pcg(
     x: &mut [f64],
     params: &CgParams,
 ) -> Result<CgInfo, CgError> {
+    pcg_with_progress(a, m_inv, b, x, params, &NoProgress)
+}
+
+/// [`pcg`] reporting to `progress`: a task `"CG"` with no total whose updates carry the
+/// iteration and the message `"iteration <k>, relative residual <r>"` (the recursive residual
+/// `||r_k|| / ||b||`, the true one at each (re)start and at exit), at most every
+/// [`linpd_core::progress::REPORT_INTERVAL`]; the last update is the final iteration count.
+pub fn pcg_with_progress(
+    a: &impl LinearOperator,
+    m_inv: &impl Preconditioner,
+    b: &[f64],
+    x: &mut [f64],
+    params: &CgParams,
+    progress: &dyn Progress,
+) -> Result<CgInfo, CgError> {
     let n = a.n();
     assert_eq!(b.len(), n);
     assert_eq!(x.len(), n);
@@ -112,6 +135,7 @@ pub fn pcg(
         x.iter_mut().for_each(|v| *v = 0.0);
         return Ok(CgInfo { iterations: 0, rel_residual: 0.0 });
     }
+    let task = Task::start(progress, "CG", None);
     let mut r = vec![0.0; n];
     let mut z = vec![0.0; n];
     let mut p = vec![0.0; n];
@@ -129,6 +153,7 @@ pub fn pcg(
             return Err(CgError::NonFinite { iteration: it, what: "residual" });
         }
         let rel_residual = true_norm / bnorm;
+        report(&task, it, rel_residual);
         if true_norm <= target {
             return Ok(CgInfo { iterations: it, rel_residual });
         }
@@ -142,7 +167,15 @@ pub fn pcg(
         m_inv.apply(&r, &mut z);
         p.copy_from_slice(&z);
         let mut rz = dot(&r, &z);
-        while dot(&r, &r).sqrt() > target && it < params.max_iter {
+        loop {
+            let r_norm = dot(&r, &r).sqrt();
+            if task.due() {
+                report(&task, it, r_norm / bnorm);
+            }
+            // Not `r_norm <= target`: a NaN residual leaves the loop too (caught at the restart).
+            if !(r_norm > target && it < params.max_iter) {
+                break;
+            }
             a.apply(&p, &mut ap);
             let pap = dot(&p, &ap);
             if !pap.is_finite() {

@@ -6,6 +6,7 @@
 //! recomputed at each restart and at exit.
 
 use crate::precond::Preconditioner;
+use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::LinearOperator;
 use serde::Serialize;
 
@@ -66,12 +67,33 @@ pub fn gmres(
     x: &mut [f64],
     params: &GmresParams,
 ) -> Result<GmresInfo, GmresError> {
+    gmres_with_progress(a, m_inv, b, x, params, &NoProgress)
+}
+
+/// [`gmres`] reporting to `progress`: a task `"GMRES"` with no total whose updates carry the
+/// iteration and the message `"iteration <k>, relative residual <r>"` (the least-squares
+/// residual within a cycle, the true one at each restart and at exit), at most every
+/// [`linpd_core::progress::REPORT_INTERVAL`].
+pub fn gmres_with_progress(
+    a: &impl LinearOperator,
+    m_inv: &impl Preconditioner,
+    b: &[f64],
+    x: &mut [f64],
+    params: &GmresParams,
+    progress: &dyn Progress,
+) -> Result<GmresInfo, GmresError> {
     let n = a.n();
     let bnorm = norm(b);
     if bnorm == 0.0 {
         x.iter_mut().for_each(|v| *v = 0.0);
         return Ok(GmresInfo { iterations: 0, rel_residual: 0.0 });
     }
+    let task = Task::start(progress, "GMRES", None);
+    let report = |it: usize, rel: f64| {
+        if task.is_on() {
+            task.set(it as u64, &format!("iteration {it}, relative residual {rel:.2e}"));
+        }
+    };
     let m = params.restart.max(1);
     let mut it = 0;
     let mut z = vec![0.0; n];
@@ -79,6 +101,7 @@ pub fn gmres(
     loop {
         let r = residual(a, b, x);
         let beta = norm(&r);
+        report(it, beta / bnorm);
         if beta <= params.rtol * bnorm {
             return Ok(GmresInfo { iterations: it, rel_residual: beta / bnorm });
         }
@@ -121,6 +144,9 @@ pub fn gmres(
             g[k] *= cs[k];
             it += 1;
             k += 1;
+            if task.due() {
+                report(it, g[k].abs() / bnorm);
+            }
             if g[k].abs() <= params.rtol * bnorm * 0.5 || hn == 0.0 {
                 break;
             }
