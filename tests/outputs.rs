@@ -242,7 +242,7 @@ fn item_1_stale_files_removed() {
         assert!(o.status.success(), "{}", stderr(&o));
     }
     complete_run(&root.join("out")).unwrap();
-    assert_eq!(names(&root.join("out")), ["result.json", "u.csv"]);
+    assert_eq!(names(&root.join("out")), ["result.json", "result.vtu", "u.csv"]);
 
     // run: 11 snapshots, then 3.
     let mut wave: Value =
