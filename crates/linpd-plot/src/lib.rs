@@ -151,6 +151,10 @@ pub struct ScalarMap {
     /// Cells without data (a hole in a body), drawn white and left out of the colour range:
     /// empty, or one flag per cell (`nx*ny`). Their `values` are ignored.
     pub empty: Vec<bool>,
+    /// Draw one unit of x as long as one unit of y (a body's map keeps its shape: a 1 x 0.1
+    /// beam is drawn 10 times wider than tall), centring the map in the space left; `false`
+    /// (default) stretches the map over the plotting area, for axes in different units.
+    pub equal_aspect: bool,
 }
 
 /// Errors from the plotting functions.
@@ -683,6 +687,14 @@ where
     Ok(())
 }
 
+/// Extra margins `(left = right, top = bottom)` in pixels that leave a plotting box of
+/// `avail_w x avail_h` pixels with the aspect ratio `dx : dy` of the data, centred.
+fn equal_aspect_pads(avail_w: f64, avail_h: f64, dx: f64, dy: f64) -> (u32, u32) {
+    let scale = (avail_w / dx).min(avail_h / dy);
+    let pad = |avail: f64, len: f64| ((avail - scale * len) / 2.0).max(0.0).floor() as u32;
+    (pad(avail_w, dx), pad(avail_h, dy))
+}
+
 fn draw_scalar_map<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     map: &ScalarMap,
@@ -701,8 +713,21 @@ fn draw_scalar_map<DB: DrawingBackend>(
 
     let (x0, x1) = map.x_range;
     let (y0, y1) = map.y_range;
+    // With equal aspect, the data-to-pixel scale is the smaller of the two axes' and the
+    // other axis gets the rest of its pixels as extra margin on both sides.
+    let (pad_x, pad_y) = if map.equal_aspect {
+        let (mw, mh) = main.dim_in_pixel();
+        let avail_w = mw as f64 - (2 * margin + y_label_area) as f64;
+        let avail_h = mh as f64 - (2 * margin + x_label_area) as f64;
+        equal_aspect_pads(avail_w, avail_h, x1 - x0, y1 - y0)
+    } else {
+        (0, 0)
+    };
     let mut chart = ChartBuilder::on(&main)
-        .margin(margin)
+        .margin_left(margin + pad_x)
+        .margin_right(margin + pad_x)
+        .margin_top(margin + pad_y)
+        .margin_bottom(margin + pad_y)
         .x_label_area_size(x_label_area)
         .y_label_area_size(y_label_area)
         .build_cartesian_2d(x0..x1, y0..y1)
@@ -859,6 +884,7 @@ mod tests {
             values,
             value_label: "strain energy".into(),
             empty: Vec::new(),
+            equal_aspect: false,
         }
     }
 
@@ -976,6 +1002,20 @@ mod tests {
 
         // Nothing was written for invalid input.
         assert!(!dir.exists());
+    }
+
+    /// The plotting box left by the pads has the data's aspect ratio to within the 2 pixels
+    /// that flooring the pads can cost, and one axis keeps all its pixels.
+    #[test]
+    fn equal_aspect_pads_keep_the_data_shape() {
+        for (w, h, dx, dy) in
+            [(700.0, 600.0, 1.0, 0.1), (700.0, 600.0, 1.0, 0.5), (700.0, 600.0, 0.2, 1.0), (500.0, 500.0, 1.0, 1.0)]
+        {
+            let (px, py) = equal_aspect_pads(w, h, dx, dy);
+            let (bw, bh) = (w - 2.0 * px as f64, h - 2.0 * py as f64);
+            assert!(px == 0 || py == 0, "one axis keeps its pixels: {px}, {py}");
+            assert!((bw - bh * dx / dy).abs() <= 2.0 * (1.0 + dx / dy), "{w}x{h}, {dx}:{dy}: box {bw}x{bh}");
+        }
     }
 
     #[test]

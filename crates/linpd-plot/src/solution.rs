@@ -38,6 +38,8 @@ pub fn solution_plots(grid: &Grid, s: &Solution, dir: &Path) -> Result<Vec<PathB
                 values,
                 value_label: "|u|".into(),
                 empty,
+                // the body's shape: a 1 x 0.1 beam is drawn 10 times wider than tall
+                equal_aspect: true,
             };
             scalar_map(&map, &dir.join("u_magnitude"))
         }
@@ -105,6 +107,7 @@ pub fn dynamics_plots(r: &DynamicsRun, dir: &Path) -> Result<Vec<PathBuf>, PlotE
             values,
             value_label: "u".into(),
             empty: Vec::new(),
+            equal_aspect: false,
         };
         files.extend(scalar_map(&map, &dir.join("u_xt"))?);
     }

@@ -170,6 +170,7 @@ fn density_map(m: &Model, r: &Run, dir: &Path, what: &str) -> Result<(), StudyEr
         values,
         value_label: "density".into(),
         empty: Vec::new(),
+        equal_aspect: false,
     };
     // Keep the PNG only: the SVG of a cell map is megabytes.
     for f in scalar_map(&map, &dir.join(format!("density_{}", m.key)))? {
