@@ -443,14 +443,9 @@ impl Problem {
         let layers = raw_grid.layers(dim).map_err(|(path, reason)| ProblemError::invalid(path, reason))?;
         let grid = Grid::with_layers(&raw_grid.min, &raw_grid.max, raw_grid.spacing, layers, placement)
             .map_err(|e| core("grid", e))?;
-        let grid = match &raw.body {
-            None => grid,
-            Some(b) => {
-                let body = region("body", b, dim)?;
-                let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
-                grid.with_body(|x| body.contains(x, dim, tol)).map_err(|e| core("body", e))?
-            }
-        };
+        // the body is applied after the memory check below: its site tables cost 5 bytes per
+        // lattice site, and the check on the full box is an upper bound for the body
+        let body = raw.body.as_ref().map(|b| region("body", b, dim)).transpose()?;
         // Optional in the mirror only because coarsened models have none; the wording matches
         // serde's so that the message reads the same as before.
         let Some(horizon) = raw.model.horizon else {
@@ -496,6 +491,13 @@ impl Problem {
         // Refuse scenes that cannot fit before anything per node is allocated (the regions
         // below already walk every node).
         crate::memory::check(memory_path(model_kind, raw.solver.matrix_free, raw.dynamics.is_some()), &grid, horizon)?;
+        let grid = match &body {
+            None => grid,
+            Some(body) => {
+                let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
+                grid.with_body(|x| body.contains(x, dim, tol)).map_err(|e| core("body", e))?
+            }
+        };
         let (constraints, loads) = constraints_and_loads(&raw, dim, &grid)?;
         let solver = solver_spec(&raw.solver)?;
         let model = if model_kind == RawModelKind::Lps {
