@@ -8,7 +8,8 @@
 //!
 //! Every run is classified; the test fails on any panic, abort (a signal other than our timeout
 //! kill), output of a failed run (the contract: an error writes no file), stray file (a lock, a
-//! staging directory, anything beside the output), success without its main document, error
+//! staging directory, anything beside the output), success without its main document, a
+//! `result.json` whose positions or displacements are not all numbers (NaN or inf), error
 //! without a message on stderr, or run over the resident-memory ceiling. Every failing case is
 //! saved under `target/fuzz-failures/<seed>-<case>/` (inputs, `command.txt`, `stderr.txt`).
 //!
@@ -45,6 +46,7 @@ enum Class {
     OutputFromFailedRun,
     StrayFile,
     SuccessWithoutResult,
+    NonFiniteResult,
     SilentRejection,
     OverMemory,
     Hang,
@@ -54,12 +56,13 @@ enum Class {
 }
 
 impl Class {
-    const ALL: [Class; 11] = [
+    const ALL: [Class; 12] = [
         Class::Panic,
         Class::Abort,
         Class::OutputFromFailedRun,
         Class::StrayFile,
         Class::SuccessWithoutResult,
+        Class::NonFiniteResult,
         Class::SilentRejection,
         Class::OverMemory,
         Class::Hang,
@@ -75,6 +78,7 @@ impl Class {
             Class::OutputFromFailedRun => "output_from_failed_run",
             Class::StrayFile => "stray_file",
             Class::SuccessWithoutResult => "success_without_result",
+            Class::NonFiniteResult => "non_finite_result",
             Class::SilentRejection => "rejected_without_message",
             Class::OverMemory => "over_memory",
             Class::Hang => "hang",
@@ -545,6 +549,15 @@ fn cpu_secs(pid: u32) -> Option<f64> {
     Some(ticks as f64 / 100.0)
 }
 
+/// `v` is a number or a non-empty array of numbers (or of such arrays).
+fn numbers(v: &Value) -> bool {
+    match v {
+        Value::Number(_) => true,
+        Value::Array(a) => !a.is_empty() && a.iter().all(numbers),
+        _ => false,
+    }
+}
+
 struct Run {
     args: Vec<String>,
     class: Class,
@@ -609,14 +622,19 @@ fn run(args: Vec<String>, dir: &Path, logs: &Path, inputs: &BTreeSet<String>, ma
             None if extra.is_empty() => (Class::OkSuccess, String::new()),
             None => (Class::StrayFile, format!("validate left {extra:?}")),
             Some(m) => {
-                let doc = std::fs::read_to_string(dir.join("out").join(m)).ok();
+                let doc = std::fs::read_to_string(dir.join("out").join(m))
+                    .ok()
+                    .and_then(|d| serde_json::from_str::<Value>(&d).ok());
                 if extra.iter().any(|e| e.as_str() != "out") {
                     (Class::StrayFile, format!("left {extra:?}"))
-                } else if doc.is_none_or(|d| serde_json::from_str::<Value>(&d).is_err()) {
+                } else if doc.is_none() {
                     (
                         Class::SuccessWithoutResult,
                         format!("no parsable out/{m}; out holds {:?}", names(&dir.join("out"))),
                     )
+                } else if m == "result.json" && !["x", "u"].iter().all(|k| numbers(&doc.as_ref().unwrap()[k])) {
+                    // serde_json writes a non-finite f64 as null.
+                    (Class::NonFiniteResult, "result.json: x or u holds a non-number (null: NaN or inf)".into())
                 } else {
                     (Class::OkSuccess, String::new())
                 }
