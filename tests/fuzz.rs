@@ -568,8 +568,21 @@ struct Run {
 /// Runs `linpd args` in `dir` (the case directory, holding exactly `inputs`) and classifies it.
 /// `main`: the document a successful run writes into `dir/out` (None for `validate`).
 fn run(args: Vec<String>, dir: &Path, logs: &Path, inputs: &BTreeSet<String>, main: Option<&str>) -> Run {
+    run_program(env!("CARGO_BIN_EXE_linpd"), RUN_TIMEOUT, args, dir, logs, inputs, main)
+}
+
+/// [`run`] of any program (the classifier's own test runs `sh`).
+fn run_program(
+    program: &str,
+    timeout: Duration,
+    args: Vec<String>,
+    dir: &Path,
+    logs: &Path,
+    inputs: &BTreeSet<String>,
+    main: Option<&str>,
+) -> Run {
     let (out_log, err_log) = (logs.join("stdout"), logs.join("stderr"));
-    let mut child = Command::new(env!("CARGO_BIN_EXE_linpd"))
+    let mut child = Command::new(program)
         .args(&args)
         .current_dir(dir)
         .env("LINPD_MEMORY_GIB", MEMORY_GIB)
@@ -585,10 +598,10 @@ fn run(args: Vec<String>, dir: &Path, logs: &Path, inputs: &BTreeSet<String>, ma
         if let Some(st) = child.try_wait().unwrap() {
             break st;
         }
-        if start.elapsed() > RUN_TIMEOUT {
-            // Under a quarter of a core on average: blocked, not computing.
+        if start.elapsed() > timeout {
+            // Under a tenth of a core on average: blocked, not computing.
             cpu = cpu_secs(child.id());
-            let busy = cpu.is_none_or(|c| c > 0.25 * start.elapsed().as_secs_f64());
+            let busy = cpu.is_none_or(|c| c > 0.1 * start.elapsed().as_secs_f64());
             killed = Some(if busy { Class::Timeout } else { Class::Hang });
         } else if rss(child.id()) > RSS_LIMIT {
             killed = Some(Class::OverMemory);
@@ -811,4 +824,47 @@ fn cpu_secs_reads_the_cpu_time_of_a_process() {
         after = cpu_secs(std::process::id()).unwrap();
     }
     assert!(after - before >= 0.2, "{before} s then {after} s of CPU after {:?}", start.elapsed());
+}
+
+/// The classifier on runs of `sh` that do what a faulty linpd would: every class it must tell.
+#[test]
+fn the_classifier_tells_each_class() {
+    let root = std::env::temp_dir().join(format!("linpd-fuzz-classifier-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let (dir, logs) = (root.join("case"), root.join("logs"));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::create_dir_all(&logs).unwrap();
+    std::fs::write(dir.join("scene.json"), "{}").unwrap();
+    let inputs: BTreeSet<String> = ["scene.json".to_string()].into();
+    let cases: [(&str, Option<&str>, Class); 12] = [
+        ("echo 'error: bad' >&2; exit 1", Some("result.json"), Class::OkRejected),
+        ("exit 1", Some("result.json"), Class::SilentRejection),
+        ("echo 'thread main panicked at x' >&2; exit 101", Some("result.json"), Class::Panic),
+        ("kill -ABRT $$", Some("result.json"), Class::Abort),
+        ("mkdir out.tmp-1-2; echo 'error: bad' >&2; exit 1", Some("result.json"), Class::OutputFromFailedRun),
+        ("mkdir out; echo '{}' > out/result.json; touch out.lock", Some("result.json"), Class::StrayFile),
+        ("touch notes.txt", None, Class::StrayFile),
+        ("mkdir out", Some("history.json"), Class::SuccessWithoutResult),
+        (
+            "mkdir out; echo '{\"x\": [0.0], \"u\": [null]}' > out/result.json",
+            Some("result.json"),
+            Class::NonFiniteResult,
+        ),
+        (
+            "mkdir out; echo '{\"x\": [0.0], \"u\": [[1.0, 2.0]]}' > out/result.json",
+            Some("result.json"),
+            Class::OkSuccess,
+        ),
+        ("sleep 5", None, Class::Hang),
+        ("while :; do :; done", None, Class::Timeout),
+    ];
+    for (script, main, class) in cases {
+        let r = run_program("sh", Duration::from_secs(1), vec!["-c".into(), script.into()], &dir, &logs, &inputs, main);
+        assert_eq!(r.class, class, "`{script}`: {}", r.detail);
+        for n in names(&dir).difference(&inputs) {
+            let p = dir.join(n);
+            let _ = std::fs::remove_dir_all(&p).or_else(|_| std::fs::remove_file(&p));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&root);
 }
