@@ -502,8 +502,8 @@ fn make_case(
             files.push((csv_file.clone(), None, csv.clone()));
         }
     }
-    // The plan: (file, JSON-aware?); the main file most often.
-    // 1 mutation half of the time (more cases get past validation), else 2 or 3.
+    // The plan: (file, JSON-aware?), the main file half of the time. 1 mutation half of the
+    // time (more cases get past validation), else 2 or 3.
     let plan: Vec<(usize, bool)> = (0..[1, 1, 1, 2, 2, 3][rng.usize(..6)])
         .map(|_| {
             let f = if files.len() == 1 || rng.usize(..10) < 5 { 0 } else { rng.usize(1..files.len()) };
