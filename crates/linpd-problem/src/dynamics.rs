@@ -185,7 +185,7 @@ fn check_run_size(
         return Err(ProblemError::invalid(
             "dynamics.steps",
             format!(
-                "{steps:e} steps x {per_step:e} bond updates per step = {work:e}, more than {MAX_BOND_UPDATES:e}                  (days at the measured 3e8-8.6e8 bond updates per second): use fewer steps or nodes"
+                "{steps:e} steps x {per_step:e} bond updates per step = {work:e}, more than {MAX_BOND_UPDATES:e} (days at the measured 3e8-8.6e8 bond updates per second): use fewer steps or nodes"
             ),
         ));
     }
@@ -194,7 +194,7 @@ fn check_run_size(
         return Err(ProblemError::invalid(
             "dynamics.output_every",
             format!(
-                "{steps} steps every {output_every} gives {snapshots} snapshots (each kept in memory and written as                  two files), more than {MAX_SNAPSHOTS}: use output_every >= {}",
+                "{steps} steps every {output_every} gives {snapshots} snapshots (each kept in memory and written as two files), more than {MAX_SNAPSHOTS}: use output_every >= {}",
                 steps.div_ceil(MAX_SNAPSHOTS - 1)
             ),
         ));
