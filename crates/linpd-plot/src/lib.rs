@@ -523,6 +523,25 @@ fn fraction(v: f64, lo: f64, hi: f64) -> f64 {
 /// Label for a tick value `v` on a linear scale spanning `[lo, hi]` with about `n` ticks:
 /// enough digits to tell neighbouring ticks apart, scientific notation for very large or
 /// small magnitudes, no "-0".
+/// At most `max` round tick values in `[lo, hi]`: the multiples of the smallest step
+/// `s = m 10^k` (`m` in 1, 2, 5) with at most `max` multiples in the range. `None` for a
+/// non-finite or empty range.
+fn nice_ticks(lo: f64, hi: f64, max: usize) -> Option<Vec<f64>> {
+    let span = hi / 2.0 - lo / 2.0; // half span: no overflow for huge ranges
+    if !(lo.is_finite() && hi.is_finite() && span > 0.0 && max >= 2) {
+        return None;
+    }
+    let raw = 2.0 * span / (max - 1) as f64;
+    let k = raw.log10().floor();
+    let step = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * 10f64.powf(k)).find(|s| *s >= raw * (1.0 - 1e-12))?;
+    let first = (lo / step - 1e-9).ceil();
+    let last = (hi / step + 1e-9).floor();
+    if !(first.is_finite() && last.is_finite()) || last - first > 100.0 {
+        return None;
+    }
+    Some((first as i64..=last as i64).map(|i| i as f64 * step).map(|v| if v == 0.0 { 0.0 } else { v }).collect())
+}
+
 fn tick_label(v: f64, lo: f64, hi: f64, n: f64) -> String {
     let half_span = hi / 2.0 - lo / 2.0;
     if !(v.is_finite() && half_span.is_finite() && half_span > 0.0) {
@@ -773,17 +792,14 @@ fn draw_scalar_map<DB: DrawingBackend>(
     }
     bar.draw(&Rectangle::new([(left, top), (right, bottom)], BLACK.stroke_width(1))).map_err(e)?;
     let tick_style = TextStyle::from((FONT, 15).into_font()).color(&BLACK).pos(Pos::new(HPos::Left, VPos::Center));
-    let nticks = 5;
-    for k in 0..nticks {
-        let f = k as f64 / (nticks - 1) as f64;
-        // Exact min and max at the ends; halves avoid overflow for huge ranges.
-        let v = if k == 0 {
-            lo
-        } else if k == nticks - 1 {
-            hi
-        } else {
-            2.0 * (lo / 2.0 + f * (hi / 2.0 - lo / 2.0))
-        };
+    // Round values (multiples of 1, 2 or 5 x 10^k) where the range allows at least two;
+    // otherwise five evenly spaced values with the exact ends.
+    let ticks = nice_ticks(lo, hi, 8).filter(|t| t.len() >= 2).unwrap_or_else(|| {
+        // halves avoid overflow for huge ranges
+        (0..5).map(|k| if k == 4 { hi } else { 2.0 * (lo / 2.0 + k as f64 / 4.0 * (hi / 2.0 - lo / 2.0)) }).collect()
+    });
+    for v in ticks {
+        let f = ((v / 2.0 - lo / 2.0) / (hi / 2.0 - lo / 2.0)).clamp(0.0, 1.0);
         let y = bottom - ((bottom - top) as f64 * f).round() as i32;
         bar.draw(&PathElement::new(vec![(right, y), (right + 6, y)], BLACK)).map_err(e)?;
         bar.draw(&Text::new(tick_label(v, lo, hi, 40.0), (right + 9, y), tick_style.clone())).map_err(e)?;
@@ -1002,6 +1018,33 @@ mod tests {
 
         // Nothing was written for invalid input.
         assert!(!dir.exists());
+    }
+
+    /// Colour-bar ticks are round: the issue's `0.00078, 0.00157` become multiples of 5e-4,
+    /// every tick is a whole multiple of its step (1, 2 or 5 x 10^k), inside the range, at
+    /// most the number asked, and at least two for any non-empty range.
+    #[test]
+    fn colour_bar_ticks_are_round() {
+        let t = nice_ticks(0.0, 0.00195, 6).unwrap();
+        assert_eq!(
+            t.iter().map(|v| tick_label(*v, 0.0, 0.00195, 40.0)).collect::<Vec<_>>(),
+            ["0", "0.0005", "0.001", "0.0015"]
+        );
+        for (lo, hi) in [(0.0, 1.19), (-3.7, 12.1), (1e-9, 3e-9), (0.5, 0.5000001), (-1e300, 1e300), (123.4, 5678.9)] {
+            let t = nice_ticks(lo, hi, 6).unwrap();
+            assert!((2..=6).contains(&t.len()), "{lo}..{hi}: {t:?}");
+            // the step from the difference (which loses digits when the ticks are far from 0),
+            // then snapped to the round value it must be
+            let diff = t[1] - t[0];
+            let decade = 10f64.powf(diff.log10().floor());
+            let m = [1.0, 2.0, 5.0, 10.0].into_iter().find(|c| (diff / decade - c).abs() < 1e-6);
+            let step = m.unwrap_or_else(|| panic!("{lo}..{hi}: step {diff} is not 1, 2 or 5 x 10^k")) * decade;
+            for v in &t {
+                assert!(*v >= lo - 1e-9 * step && *v <= hi + 1e-9 * step, "{v} outside {lo}..{hi}");
+                assert!(((v / step).round() - v / step).abs() < 1e-6, "{v} not a multiple of {step}");
+            }
+        }
+        assert!(nice_ticks(1.0, 1.0, 6).is_none() && nice_ticks(0.0, f64::INFINITY, 6).is_none());
     }
 
     /// The plotting box left by the pads has the data's aspect ratio to within the 2 pixels
