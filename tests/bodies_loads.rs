@@ -274,3 +274,33 @@ fn a_crack_that_cuts_nothing_is_an_error() {
     }
     Problem::from_path(&data("plate-crack-2d.json")).expect("the bundled crack cuts bonds");
 }
+
+/// `output.slice` picks the 3D map's plane (the cantilever's x-z mid-plane `y = 0.05`); a key
+/// that is not an axis, a value outside the lattice, two keys and a 2D scene are refused.
+#[test]
+fn output_slice_picks_the_plane_of_a_3d_map() {
+    let out = std::env::temp_dir().join(format!("linpd-slice-{}", std::process::id()));
+    let mut s = scene("cantilever-3d.json");
+    s["output"] = json!({"dir": out.to_string_lossy(), "slice": {"y": 0.05}});
+    let path = out.with_extension("json");
+    std::fs::write(&path, s.to_string()).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_linpd")).args(["solve", path.to_str().unwrap(), "-q"]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(out.join("u_magnitude.svg")).unwrap();
+    assert!(svg.contains("cantilever-3d: |u| on y = 0.0500"), "the title names the plane");
+    assert!(svg.contains(">\nz\n</text>") && !svg.contains(">\ny\n</text>"), "the vertical axis is z, not y");
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_file(&path);
+    for (slice, needle) in [
+        (json!({"w": 0.05}), "output.slice.w: not an axis"),
+        (json!({"y": 5.0}), "output.slice.y: 5e0 is outside the lattice's extent [0e0, 1e-1]"),
+        (json!({"y": 0.05, "z": 0.05}), "output.slice: give exactly one of x, y, z"),
+    ] {
+        let mut t = scene("cantilever-3d.json");
+        t["output"]["slice"] = slice;
+        assert!(error_of(&t).contains(needle), "{}", error_of(&t));
+    }
+    let mut t = scene("plate-hole-2d.json");
+    t["output"]["slice"] = json!({"z": 0.0});
+    assert!(error_of(&t).contains("output.slice: is for 3D scenes"), "{}", error_of(&t));
+}

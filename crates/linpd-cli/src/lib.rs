@@ -216,7 +216,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             solution.write(dir).map_err(output)?;
             match problem.grid() {
                 Some(grid) if problem.plot() => {
-                    linpd_plot::solution::solution_plots(grid, &solution, dir)?;
+                    linpd_plot::solution::solution_plots(grid, &solution, dir, problem.slice())?;
                 }
                 // Coarsened levels have no lattice: 1D gets the displacement profile; the 2D/3D
                 // maps need a grid (scattered nodes are not plotted yet).

@@ -1,49 +1,72 @@
 //! The figures `linpd solve` and `linpd run` write beside their results: the 1D displacement
-//! profile; in 2D the displacement-magnitude map, in 3D the magnitude on the mid-plane
-//! z = const; the energies of a dynamics run and, in 1D, its space-time map.
+//! profile; in 2D the displacement-magnitude map, in 3D the magnitude on a lattice plane (the
+//! middle z plane, or `output.slice`); the energies of a dynamics run and, in 1D, its space-time map.
 
 use crate::{line_plot, scalar_map, LinePlot, PlotError, ScalarMap, Series, SeriesStyle};
 use linpd_core::Grid;
 use linpd_problem::{DynamicsRun, Solution};
 use std::path::{Path, PathBuf};
 
-/// The plots of a static solution on the lattice `grid`.
-pub fn solution_plots(grid: &Grid, s: &Solution, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+/// The plots of a static solution on the lattice `grid`; in 3D the map shows the lattice
+/// plane nearest to `slice = (axis, value)` (the middle z plane when `None`).
+pub fn solution_plots(
+    grid: &Grid,
+    s: &Solution,
+    dir: &Path,
+    slice: Option<(usize, f64)>,
+) -> Result<Vec<PathBuf>, PlotError> {
     let d = s.dim;
     let counts = grid.counts();
-    match d {
-        1 => profile_1d(s, dir),
-        _ => {
-            let (nx, ny) = (counts[0], counts[1]);
-            let k0 = if d == 3 { counts[2] / 2 } else { 0 };
-            let mag = |n: usize| (0..d).map(|a| s.u[d * n + a].powi(2)).sum::<f64>().sqrt();
-            // lattice sites of the plane; a site a body removed is an empty (white) cell
-            let nodes: Vec<Option<usize>> = (0..nx * ny).map(|q| grid.node_at_site([q % nx, q / nx, k0])).collect();
-            let values: Vec<f64> = nodes.iter().map(|n| n.map_or(0.0, mag)).collect();
-            let empty: Vec<bool> =
-                if grid.is_full() { Vec::new() } else { nodes.iter().map(Option::is_none).collect() };
-            let first = grid.site_position([0, 0, k0]);
-            let last = grid.site_position([nx - 1, ny - 1, k0]);
-            let h = grid.spacing();
-            let title =
-                if d == 3 { format!("{}: |u| on z = {:.4}", s.name, first[2]) } else { format!("{}: |u|", s.name) };
-            let map = ScalarMap {
-                title,
-                x_label: "x".into(),
-                y_label: "y".into(),
-                nx,
-                ny,
-                x_range: (first[0] - 0.5 * h, last[0] + 0.5 * h),
-                y_range: (first[1] - 0.5 * h, last[1] + 0.5 * h),
-                values,
-                value_label: "|u|".into(),
-                empty,
-                // the body's shape: a 1 x 0.1 beam is drawn 10 times wider than tall
-                equal_aspect: true,
-            };
-            scalar_map(&map, &dir.join("u_magnitude"))
-        }
+    if d == 1 {
+        return profile_1d(s, dir);
     }
+    // the plane's normal axis `c` at site index `k0`, drawn over the axes (a, b)
+    let (c, k0) = match (d, slice) {
+        (3, Some((axis, value))) => {
+            let x0 = grid.site_position([0; 3])[axis];
+            let k = ((value - x0) / grid.spacing()).round().clamp(0.0, (counts[axis] - 1) as f64);
+            (axis, k as usize)
+        }
+        (3, None) => (2, counts[2] / 2),
+        _ => (2, 0),
+    };
+    let (a, b) = match c {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    let site = |i: usize, j: usize| {
+        let mut q = [0usize; 3];
+        (q[a], q[b], q[c]) = (i, j, k0);
+        q
+    };
+    let (nx, ny) = (counts[a], counts[b]);
+    let mag = |n: usize| (0..d).map(|k| s.u[d * n + k].powi(2)).sum::<f64>().sqrt();
+    // lattice sites of the plane; a site a body removed is an empty (white) cell
+    let nodes: Vec<Option<usize>> = (0..nx * ny).map(|q| grid.node_at_site(site(q % nx, q / nx))).collect();
+    let values: Vec<f64> = nodes.iter().map(|n| n.map_or(0.0, mag)).collect();
+    let empty: Vec<bool> = if grid.is_full() { Vec::new() } else { nodes.iter().map(Option::is_none).collect() };
+    let first = grid.site_position(site(0, 0));
+    let last = grid.site_position(site(nx - 1, ny - 1));
+    let h = grid.spacing();
+    let names = ["x", "y", "z"];
+    let title =
+        if d == 3 { format!("{}: |u| on {} = {:.4}", s.name, names[c], first[c]) } else { format!("{}: |u|", s.name) };
+    let map = ScalarMap {
+        title,
+        x_label: names[a].into(),
+        y_label: names[b].into(),
+        nx,
+        ny,
+        x_range: (first[a] - 0.5 * h, last[a] + 0.5 * h),
+        y_range: (first[b] - 0.5 * h, last[b] + 0.5 * h),
+        values,
+        value_label: "|u|".into(),
+        empty,
+        // the body's shape: a 1 x 0.1 beam is drawn 10 times wider than tall
+        equal_aspect: true,
+    };
+    scalar_map(&map, &dir.join("u_magnitude"))
 }
 
 /// The 1D displacement profile (layer nodes as markers); needs only the solution, so it also

@@ -146,6 +146,12 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         )
     })?;
     let moduli_path = if Path::new(moduli).is_absolute() { PathBuf::from(moduli) } else { base_dir.join(moduli) };
+    if raw.output.slice.is_some() {
+        return Err(ProblemError::invalid(
+            "output.slice",
+            "coarsened levels get no map yet (their nodes are not on a lattice)",
+        ));
+    }
     if raw.body.is_some() {
         return Err(ProblemError::invalid(
             "body",
@@ -215,6 +221,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
     Ok(Problem {
         output_dir: crate::problem::output_dir(raw.output.dir.as_deref(), &raw.name)?,
         plot: raw.output.plot.unwrap_or(true),
+        slice: None,
         name: raw.name,
         nodes: Nodes::Level(nodes),
         model: ModelSpec::Coarsened(coarsened),

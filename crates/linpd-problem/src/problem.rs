@@ -168,6 +168,8 @@ pub struct Problem {
     pub(crate) output_dir: String,
     /// Write plots.
     pub(crate) plot: bool,
+    /// 3D maps: the plane `x[axis] = value` (`output.slice`), `None` for the middle z plane.
+    pub(crate) slice: Option<(usize, f64)>,
     /// The `dynamics` section (explicit time stepping with `linpd run`), if any.
     pub(crate) dynamics: Option<crate::dynamics::Dynamics>,
 }
@@ -569,6 +571,7 @@ impl Problem {
             dynamics,
             output_dir: output_dir(raw.output.dir.as_deref(), &raw.name)?,
             plot: raw.output.plot.unwrap_or(true),
+            slice: output_slice(&raw, &grid)?,
             name: raw.name,
             nodes: Nodes::Lattice(grid),
             model,
@@ -628,6 +631,11 @@ impl Problem {
     /// Whether to write plots.
     pub fn plot(&self) -> bool {
         self.plot
+    }
+    /// 3D maps: `(axis, value)` of the plane to show (`output.slice`), `None` for the middle
+    /// z plane.
+    pub fn slice(&self) -> Option<(usize, f64)> {
+        self.slice
     }
     /// The `dynamics` section, if any.
     pub fn dynamics(&self) -> Option<&crate::dynamics::Dynamics> {
@@ -786,6 +794,33 @@ impl NodeSet for LevelNodes {
 
 /// The nodes a scene's regions and point loads refer to: a lattice, or the nodes of a
 /// coarsened level.
+/// `output.slice`: one axis key (`x`, `y` or `z`) of a 3D scene and a finite value within
+/// the lattice's extent (layers included).
+fn output_slice(raw: &RawProblem, grid: &Grid) -> Result<Option<(usize, f64)>, ProblemError> {
+    let Some(slice) = &raw.output.slice else { return Ok(None) };
+    if raw.dimension != 3 {
+        return Err(ProblemError::invalid("output.slice", "is for 3D scenes (2D maps show the whole plate)"));
+    }
+    let mut entries = slice.iter();
+    let (Some((key, &value)), None) = (entries.next(), entries.next()) else {
+        return Err(ProblemError::invalid("output.slice", "give exactly one of x, y, z, e.g. {\"z\": 0.05}"));
+    };
+    let Some(axis) = ["x", "y", "z"].iter().position(|a| a == key) else {
+        return Err(ProblemError::invalid(format!("output.slice.{key}"), "not an axis (x, y or z)"));
+    };
+    let counts = grid.counts();
+    let (lo, hi) =
+        (grid.site_position([0; 3])[axis], grid.site_position([counts[0] - 1, counts[1] - 1, counts[2] - 1])[axis]);
+    let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
+    if !(value.is_finite() && value >= lo - tol && value <= hi + tol) {
+        return Err(ProblemError::invalid(
+            format!("output.slice.{key}"),
+            format!("{value:e} is outside the lattice's extent [{lo:e}, {hi:e}] along {key}"),
+        ));
+    }
+    Ok(Some((axis, value)))
+}
+
 /// Two constraints that prescribe one DOF must prescribe the same value (to `1e-12` relative:
 /// overlapping regions of one affine field written twice agree to rounding); otherwise the later
 /// would silently win. The error names both constraints, the node and the two values.

@@ -695,4 +695,7 @@ pub struct RawOutput {
     /// Write PNG/SVG plots (default true).
     #[serde(default)]
     pub plot: Option<bool>,
+    /// 3D: the lattice plane the map shows, `{"x"|"y"|"z": value}` (default: the middle z plane).
+    #[serde(default)]
+    pub slice: Option<std::collections::BTreeMap<String, f64>>,
 }
