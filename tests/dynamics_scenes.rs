@@ -157,9 +157,11 @@ fn linpd_run_writes_history_and_refuses_static_scenes() {
     for key in ["kinetic", "potential", "total", "drift"] {
         assert_eq!(h["energies"][key].as_array().unwrap().len(), 101, "{key}");
     }
-    for f in ["u_000.csv", "u_400.csv", "u_xt.png", "u_xt.svg", "energy.png"] {
+    for f in ["u_000.csv", "u_400.csv", "u_xt.png", "energy.png", "energy.svg"] {
         assert!(out.join(f).exists(), "{f} missing");
     }
+    // the space-time map has 421 x 101 cells, above linpd_plot::MAX_SVG_CELLS: PNG only
+    assert!(421 * 101 > linpd::plot::MAX_SVG_CELLS && !out.join("u_xt.svg").exists());
     let csv = std::fs::read_to_string(out.join("u_400.csv")).unwrap();
     assert_eq!(csv.lines().next(), Some("x,u,layer"));
     let _ = std::fs::remove_dir_all(&out);

@@ -195,7 +195,8 @@ pub fn line_plot_with_size(plot: &LinePlot, stem: &Path, size: (u32, u32)) -> Re
 }
 
 /// Writes a colour map of `map` with a colour bar as `<stem>.png` (1000x700,
-/// [`DEFAULT_SIZE`]) and `<stem>.svg`; returns both paths (PNG first). Creates the parent
+/// [`DEFAULT_SIZE`]) and `<stem>.svg` (only up to [`MAX_SVG_CELLS`] cells); returns the paths
+/// written (PNG first). Creates the parent
 /// directory if missing. A constant field is drawn in the middle colour of the map.
 pub fn scalar_map(map: &ScalarMap, stem: &Path) -> Result<Vec<PathBuf>, PlotError> {
     scalar_map_with_size(map, stem, DEFAULT_SIZE)
@@ -403,6 +404,11 @@ impl Job<'_> {
 }
 
 /// Draws `job` onto a PNG and an SVG backend and writes both files.
+/// Most cells of a colour map that also get an SVG (a 200 x 200 map): every cell is an SVG
+/// rectangle of ~150 bytes, so the SVG of an 84k-node plate was 7.3 MB; above this only the
+/// PNG (whose size does not grow with the cells) is written.
+pub const MAX_SVG_CELLS: usize = 40_000;
+
 fn render(stem: &Path, size: (u32, u32), job: &Job<'_>) -> Result<Vec<PathBuf>, PlotError> {
     if stem.file_name().is_none() {
         return Err(invalid(format!("output stem {} has no file name", stem.display())));
@@ -430,6 +436,11 @@ fn render(stem: &Path, size: (u32, u32), job: &Job<'_>) -> Result<Vec<PathBuf>, 
             root.present().map_err(|e| e.to_string()).map_err(backend_err(&png))?;
         }
         write_png(&png, size, &rgb).map_err(backend_err(&png))?;
+    }
+    if let Job::Map { map, .. } = job {
+        if map.nx * map.ny > MAX_SVG_CELLS {
+            return Ok(vec![png]);
+        }
     }
     {
         let root = SVGBackend::new(&svg, size).into_drawing_area();
@@ -1086,6 +1097,21 @@ mod tests {
         assert_eq!(legend_corner(&high, &xr, &yr), SeriesLabelPosition::LowerRight);
         let flat = plot(vec![5.0; 11]);
         assert_eq!(legend_corner(&flat, &xr, &yr), SeriesLabelPosition::UpperRight);
+    }
+
+    /// A map above [`MAX_SVG_CELLS`] cells writes the PNG only; one at the limit both.
+    #[test]
+    fn dense_maps_skip_the_svg() {
+        let dir = temp_dir("dense-map");
+        for (n, files) in [(200, 2), (201, 1)] {
+            let m = sample_map(n, 200);
+            let stem = dir.join(format!("m{n}"));
+            let written = scalar_map(&m, &stem).unwrap();
+            assert_eq!(written.len(), files, "{n} x 200 cells: {written:?}");
+            assert!(written[0].extension().is_some_and(|e| e == "png") && written[0].is_file());
+            assert_eq!(with_ext(&stem, "svg").exists(), files == 2);
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// Colour-bar ticks are round: the issue's `0.00078, 0.00157` become multiples of 5e-4,
