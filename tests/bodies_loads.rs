@@ -115,8 +115,10 @@ fn reactions_balance_the_applied_loads() {
 }
 
 /// With a body the matrix-free solve runs on the per-bond operator (the stencil needs the full
-/// lattice box) and agrees with the direct solve (CG at rtol 1e-12 on a system with
-/// kappa ~ 1e5: 1e-6 relative is the bound).
+/// lattice box) and agrees with the direct solve. CG stops at a true relative residual of
+/// 1e-12; measured agreement 6.1e-14 (108 iterations). The bound 1e-10 leaves a factor 1000
+/// for the conditioning while any operator that treated the hole differently would move `u`
+/// by O(1).
 #[test]
 fn matrix_free_cg_with_a_body_agrees_with_cholesky() {
     let mut s = scene("plate-hole-2d.json");
@@ -128,7 +130,9 @@ fn matrix_free_cg_with_a_body_agrees_with_cholesky() {
     let cg = Problem::from_json(&s.to_string()).unwrap().solve(&linpd::core::NoProgress).unwrap();
     let scale = direct.u.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let e = direct.u.iter().zip(&cg.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())) / scale;
-    assert!(e < 1e-6, "matrix-free CG vs Cholesky: {e:e}");
+    println!("matrix-free CG vs Cholesky: {e:e}, {:?} CG iterations", cg.report.iterations);
+    assert_eq!(cg.report.solver.to_string(), "cg-jacobi-matrix-free", "per-bond, not the stencil");
+    assert!(e < 1e-10, "matrix-free CG vs Cholesky: {e:e}");
 }
 
 /// Bad bodies, layers and resultants: each an error naming the key.

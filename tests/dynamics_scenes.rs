@@ -218,8 +218,8 @@ fn from_rest(dim: usize, out: &Path) -> Value {
 /// Issue #15 item 8 (dynamics reporting): a run from rest under a constant load has `E_0 = 0`;
 /// the drifts are relative to `E_ref = max(|E_0|, max E_k, max |E_p|)` and finite (until 2026-11:
 /// `inf`, `null` in history.json). Bounds: the shadow energy is an exact invariant, so it moves by
-/// round-off only (`<= 1e-12 E_ref`, observed ~1e-16); `E_k + E_p` oscillates by `O((omega
-/// dt)^2)` of `E_ref`, below 1 at `dt = 0.5 dt_max`. The time-step estimate is timed and
+/// round-off only (`<= 1e-12 E_ref`, observed 1.7e-15); `E_k + E_p` oscillates by `O((omega
+/// dt)^2)` of `E_ref`, at most `(dt/dt_max)^2 = 0.25` at `dt = 0.5 dt_max` (observed 2.7e-3). The time-step estimate is timed and
 /// reported (a power iteration in 2D), and the energy plot shows the conserved shadow energy
 /// beside the total.
 #[test]
@@ -232,7 +232,10 @@ fn item_8_dynamics_drift_from_rest_and_timed_dt_estimate() {
     let (scale, total, shadow) = (r.energy_scale(), r.max_total_drift(), r.max_shadow_drift());
     println!("E_ref = {scale:e}, E_k + E_p oscillation {total:e}, shadow drift {shadow:e}");
     assert!(scale > 0.0 && scale.is_finite());
-    assert!(total.is_finite() && total > 0.0 && total < 1.0, "E_k + E_p oscillation {total:e}");
+    // per mode, E_k + E_p departs from the shadow energy by at most the fraction
+    // s = (omega dt / 2)^2 <= (dt / dt_max)^2 = 0.25 of the mode's energy (module docs);
+    // measured 2.7e-3 of E_ref
+    assert!(total.is_finite() && total > 0.0 && total <= 0.25, "E_k + E_p oscillation {total:e}");
     assert!(shadow <= 1e-12, "shadow drift {shadow:e}");
 
     // 2D through the binary: history.json has finite drifts and the timed estimate, stderr the

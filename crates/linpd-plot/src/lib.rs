@@ -191,7 +191,7 @@ pub fn line_plot(plot: &LinePlot, stem: &Path) -> Result<Vec<PathBuf>, PlotError
 pub fn line_plot_with_size(plot: &LinePlot, stem: &Path, size: (u32, u32)) -> Result<Vec<PathBuf>, PlotError> {
     check_size(size)?;
     let (xr, yr) = line_plot_ranges(plot)?;
-    render(stem, size, &Job::Line { plot, xr, yr })
+    render(stem, size, &Job::Line { plot, xr, yr }, true)
 }
 
 /// Writes a colour map of `map` with a colour bar as `<stem>.png` (1000x700,
@@ -207,7 +207,16 @@ pub fn scalar_map(map: &ScalarMap, stem: &Path) -> Result<Vec<PathBuf>, PlotErro
 pub fn scalar_map_with_size(map: &ScalarMap, stem: &Path, size: (u32, u32)) -> Result<Vec<PathBuf>, PlotError> {
     check_size(size)?;
     let (lo, hi) = scalar_map_value_range(map)?;
-    render(stem, size, &Job::Map { map, lo, hi })
+    render(stem, size, &Job::Map { map, lo, hi }, map.nx * map.ny <= MAX_SVG_CELLS)
+}
+
+/// [`scalar_map`] as `<stem>.png` only, whatever the number of cells (a study's dense maps);
+/// returns its path.
+pub fn scalar_map_png(map: &ScalarMap, stem: &Path) -> Result<PathBuf, PlotError> {
+    check_size(DEFAULT_SIZE)?;
+    let (lo, hi) = scalar_map_value_range(map)?;
+    let mut files = render(stem, DEFAULT_SIZE, &Job::Map { map, lo, hi }, false)?;
+    Ok(files.remove(0))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -409,7 +418,8 @@ impl Job<'_> {
 /// PNG (whose size does not grow with the cells) is written.
 pub const MAX_SVG_CELLS: usize = 40_000;
 
-fn render(stem: &Path, size: (u32, u32), job: &Job<'_>) -> Result<Vec<PathBuf>, PlotError> {
+/// Draws `job` into `<stem>.png` and, when `svg`, `<stem>.svg`; returns the paths written.
+fn render(stem: &Path, size: (u32, u32), job: &Job<'_>, svg_too: bool) -> Result<Vec<PathBuf>, PlotError> {
     if stem.file_name().is_none() {
         return Err(invalid(format!("output stem {} has no file name", stem.display())));
     }
@@ -437,10 +447,8 @@ fn render(stem: &Path, size: (u32, u32), job: &Job<'_>) -> Result<Vec<PathBuf>, 
         }
         write_png(&png, size, &rgb).map_err(backend_err(&png))?;
     }
-    if let Job::Map { map, .. } = job {
-        if map.nx * map.ny > MAX_SVG_CELLS {
-            return Ok(vec![png]);
-        }
+    if !svg_too {
+        return Ok(vec![png]);
     }
     {
         let root = SVGBackend::new(&svg, size).into_drawing_area();

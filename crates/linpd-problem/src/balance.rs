@@ -62,29 +62,22 @@ impl Problem {
     /// Adds the nodal forces of `load` to `f` (full DOFs); returns the nodes it loaded.
     pub(crate) fn add_load(&self, load: &Load, f: &mut [f64]) -> usize {
         let d = self.dim();
-        match load {
+        // f_i = density v_i (body), or force v_i / sum_j v_j (resultant)
+        let (region, vector, resultant) = match load {
             Load::Point { node, force } => {
                 (0..d).for_each(|a| f[d * node + a] += force[a]);
-                1
+                return 1;
             }
-            Load::Body { region, density } => {
-                let nodes = self.nodes.select(region);
-                for &node in &nodes {
-                    let v = self.nodes.volume(node);
-                    (0..d).for_each(|a| f[d * node + a] += density[a] * v);
-                }
-                nodes.len()
-            }
-            Load::Resultant { region, force } => {
-                let nodes = self.nodes.select(region);
-                let total: f64 = nodes.iter().map(|&n| self.nodes.volume(n)).sum();
-                for &node in &nodes {
-                    let share = self.nodes.volume(node) / total;
-                    (0..d).for_each(|a| f[d * node + a] += force[a] * share);
-                }
-                nodes.len()
-            }
+            Load::Body { region, density } => (region, density, false),
+            Load::Resultant { region, force } => (region, force, true),
+        };
+        let nodes = self.nodes.select(region);
+        let per_volume = if resultant { 1.0 / nodes.iter().map(|&n| self.nodes.volume(n)).sum::<f64>() } else { 1.0 };
+        for &node in &nodes {
+            let v = self.nodes.volume(node) * per_volume;
+            (0..d).for_each(|a| f[d * node + a] += vector[a] * v);
         }
+        nodes.len()
     }
 
     /// The balance of the solution `u` of this scene on `model` (its full operator).
@@ -164,7 +157,9 @@ pub fn nodal_energy(model: &dyn Model, u: &[f64]) -> Option<Vec<f64>> {
                 if j == i {
                     return;
                 }
-                let du: Vec<f64> = (0..d).map(|a| u[d * j + a] - u[d * i + a]).collect();
+                // per bond: no allocation (d <= 3)
+                let mut du = [0.0; 3];
+                (0..d).for_each(|a| du[a] = u[d * j + a] - u[d * i + a]);
                 for a in 0..d {
                     for b in 0..d {
                         w -= 0.25 * du[a] * block[a * d + b] * du[b];

@@ -433,7 +433,10 @@ impl Pipeline {
         }
         let mut f = Vec::new();
         for (li, l) in p.loads.iter().enumerate() {
-            match l {
+            // a body load gives node i the force v_i density; a resultant is spread over the
+            // coarsest nodes of its region by their coarsest volumes, as a scene on that level
+            // spreads it
+            let (region, vector, resultant) = match l {
                 Load::Point { node, force } => {
                     if !is_shared(*node) {
                         let x = grid.position(*node);
@@ -443,34 +446,18 @@ impl Pipeline {
                         ));
                     }
                     (0..d).for_each(|a| f.push((*node, a, force[a])));
+                    continue;
                 }
-                Load::Body { region, density } => {
-                    let nodes: Vec<usize> = region.nodes(grid).into_iter().filter(|&i| is_shared(i)).collect();
-                    if nodes.is_empty() {
-                        return Err(inv(
-                            format!("loads[{li}]"),
-                            "the body load's region contains no node of the coarsest level",
-                        ));
-                    }
-                    for i in nodes {
-                        (0..d).for_each(|a| f.push((i, a, density[a] * v_coarsest[i])));
-                    }
-                }
-                Load::Resultant { region, force } => {
-                    // spread over the coarsest nodes of the region by their coarsest volumes,
-                    // as a scene on that level spreads it
-                    let nodes: Vec<usize> = region.nodes(grid).into_iter().filter(|&i| is_shared(i)).collect();
-                    if nodes.is_empty() {
-                        return Err(inv(
-                            format!("loads[{li}]"),
-                            "the resultant load's region contains no node of the coarsest level",
-                        ));
-                    }
-                    let total: f64 = nodes.iter().map(|&i| v_coarsest[i]).sum();
-                    for i in nodes {
-                        (0..d).for_each(|a| f.push((i, a, force[a] * v_coarsest[i] / total)));
-                    }
-                }
+                Load::Body { region, density } => (region, density, false),
+                Load::Resultant { region, force } => (region, force, true),
+            };
+            let nodes: Vec<usize> = region.nodes(grid).into_iter().filter(|&i| is_shared(i)).collect();
+            if nodes.is_empty() {
+                return Err(inv(format!("loads[{li}]"), "the load's region contains no node of the coarsest level"));
+            }
+            let per_volume = if resultant { 1.0 / nodes.iter().map(|&i| v_coarsest[i]).sum::<f64>() } else { 1.0 };
+            for i in nodes {
+                (0..d).for_each(|a| f.push((i, a, vector[a] * v_coarsest[i] * per_volume)));
             }
         }
         Ok((fixed, f))

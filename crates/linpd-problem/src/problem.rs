@@ -948,6 +948,18 @@ pub(crate) fn constraints_and_loads(
             check_len(&format!("{p}.{key}"), &v, dim)?;
             Ok(v)
         };
+        // the region of a body or resultant load: present, valid, and holding a node
+        let load_region = || -> Result<Region, ProblemError> {
+            let r = l.region.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.region"), "missing"))?;
+            let region = region(&format!("{p}.region"), r, dim)?;
+            if nodes.select(&region).is_empty() {
+                return Err(ProblemError::invalid(
+                    format!("{p}.region"),
+                    format!("contains no node of {}", nodes.what()),
+                ));
+            }
+            Ok(region)
+        };
         loads.push(match l.kind {
             RawLoadKind::Point => {
                 only("point", &[("region", l.region.is_some()), ("density", l.density.is_some())])?;
@@ -968,26 +980,11 @@ pub(crate) fn constraints_and_loads(
             }
             RawLoadKind::Resultant => {
                 only("resultant", &[("at", l.at.is_some()), ("density", l.density.is_some())])?;
-                let force = need("force", &l.force)?;
-                let r = l.region.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.region"), "missing"))?;
-                let region = region(&format!("{p}.region"), r, dim)?;
-                if nodes.select(&region).is_empty() {
-                    return Err(ProblemError::invalid(
-                        format!("{p}.region"),
-                        format!("contains no node of {}: a resultant needs nodes to spread over", nodes.what()),
-                    ));
-                }
-                Load::Resultant { region, force }
+                Load::Resultant { force: need("force", &l.force)?, region: load_region()? }
             }
             RawLoadKind::Body => {
                 only("body", &[("at", l.at.is_some()), ("force", l.force.is_some())])?;
-                let density = need("density", &l.density)?;
-                let r = l.region.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.region"), "missing"))?;
-                let region = region(&format!("{p}.region"), r, dim)?;
-                if nodes.select(&region).is_empty() {
-                    return Err(ProblemError::invalid(format!("{p}.region"), format!("contains no node of {}", nodes.what())));
-                }
-                Load::Body { region, density }
+                Load::Body { density: need("density", &l.density)?, region: load_region()? }
             }
         });
     }

@@ -19,7 +19,7 @@ use linpd_core::progress::Progress;
 use linpd_dynamics::initial::{smooth_pulse, square_pulse};
 use linpd_dynamics::stability::refinement_dt;
 use linpd_dynamics::{Chain, DtLimit, Ring, State, Verlet, VerletParams};
-use linpd_plot::{line_plot, scalar_map, LinePlot, ScalarMap, Series};
+use linpd_plot::{line_plot, scalar_map_png, LinePlot, ScalarMap, Series};
 use serde_json::json;
 use std::io::Write;
 use std::ops::ControlFlow;
@@ -172,12 +172,8 @@ fn density_map(m: &Model, r: &Run, dir: &Path, what: &str) -> Result<(), StudyEr
         empty: Vec::new(),
         equal_aspect: false,
     };
-    // Keep the PNG only: the SVG of a cell map is megabytes.
-    for f in scalar_map(&map, &dir.join(format!("density_{}", m.key)))? {
-        if f.extension().is_some_and(|e| e == "svg") {
-            std::fs::remove_file(&f).map_err(|source| StudyError::File { path: f.clone(), source })?;
-        }
-    }
+    // the PNG only: the SVG of a cell map is megabytes
+    scalar_map_png(&map, &dir.join(format!("density_{}", m.key)))?;
     Ok(())
 }
 
