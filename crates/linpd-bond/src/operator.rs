@@ -94,6 +94,74 @@ impl BondOperator {
         Ok(BondOperator { dim, positions, lattice: Some((lattice, h)), units, family, weights })
     }
 
+    /// Builds the operator on an arbitrary point set with per-node volumes `V_i` (a point
+    /// cloud): family by a cell list ([`BondFamily::from_points`]), weights
+    /// `w_ij = c g(|xi|) nu_ij f_ij V_i V_j` with `f_ij` from `material` (phases by region,
+    /// overridden per node by `moduli` when given) as on a lattice.
+    ///
+    /// The partial-volume factor `nu_ij` uses the node size `h_ij = (V_i^(1/d) + V_j^(1/d)) / 2`
+    /// (a lattice's `h` when the volumes are `h^d`; the mean keeps `w_ij = w_ji`). The
+    /// micromodulus must not use [`linpd_core::Normalization::Discrete`] (a lattice sum): the
+    /// amplitude is taken with `h = 0`, which only that normalization reads.
+    pub fn on_points(
+        dim: usize,
+        positions: Vec<Point>,
+        volumes: &[f64],
+        horizon: f64,
+        micromodulus: &Micromodulus,
+        material: &Material,
+        moduli: Option<&[f64]>,
+    ) -> Result<Self, CoreError> {
+        if !(horizon.is_finite() && horizon > 0.0) {
+            return Err(CoreError::param("horizon", format!("must be > 0, got {horizon:e}")));
+        }
+        if micromodulus.normalization == linpd_core::Normalization::Discrete {
+            return Err(CoreError::param("micromodulus", "the discrete normalization needs a lattice"));
+        }
+        assert_eq!(positions.len(), volumes.len(), "one volume per node");
+        micromodulus.validate(dim)?;
+        material.validate(dim)?;
+        let c = micromodulus.amplitude(dim, horizon, 0.0)?;
+        let size: Vec<f64> = volumes.iter().map(|v| v.powf(1.0 / dim as f64)).collect();
+        let h_min = size.iter().fold(f64::INFINITY, |m, &s| m.min(s));
+        let tol = GEOMETRY_RTOL * h_min;
+        let family = BondFamily::from_points(&positions, dim, horizon);
+        let k_ref = micromodulus.reference_modulus();
+        let own;
+        let moduli = match moduli {
+            Some(m) => Some(m),
+            None if !material.phases.is_empty() => {
+                own = material.node_moduli_at(&positions, dim, k_ref, tol);
+                Some(own.as_slice())
+            }
+            None => None,
+        };
+        let weights: Vec<f64> = (0..family.len())
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let (xi, family, positions, size) = (positions[i], &family, &positions, &size);
+                family.neighbors(i).iter().map(move |&j| {
+                    let j = j as usize;
+                    let xj = positions[j];
+                    let r = (0..dim).map(|a| (xj[a] - xi[a]).powi(2)).sum::<f64>().sqrt();
+                    let nu = if micromodulus.partial_volume {
+                        partial_volume(r, horizon, 0.5 * (size[i] + size[j]))
+                    } else {
+                        1.0
+                    };
+                    let (ki, kj) = moduli.map_or((k_ref, k_ref), |m| (m[i], m[j]));
+                    let f = if material.is_homogeneous() && moduli.is_none() {
+                        1.0
+                    } else {
+                        material.bond_factor(&xi, &xj, ki, kj, k_ref, tol)
+                    };
+                    c * micromodulus.kernel.shape(r, horizon) * nu * f * volumes[i] * volumes[j]
+                })
+            })
+            .collect();
+        Ok(BondOperator { dim, positions, lattice: None, units: None, family, weights })
+    }
+
     /// Builds an operator from explicit parts (weights indexed like `family`'s bonds and
     /// symmetric: `w_ij = w_ji`).
     pub fn from_parts(dim: usize, positions: Vec<Point>, family: BondFamily, weights: Vec<f64>) -> Self {

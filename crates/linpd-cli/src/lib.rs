@@ -218,10 +218,10 @@ fn run(cli: Cli) -> Result<(), CliError> {
                 Some(grid) if problem.plot() => {
                     linpd_plot::solution::solution_plots(grid, &solution, dir, problem.slice())?;
                 }
-                // Coarsened levels have no lattice: 1D gets the displacement profile; the 2D/3D
-                // maps need a grid (scattered nodes are not plotted yet).
-                None if problem.plot() && problem.dim() == 1 => {
-                    linpd_plot::solution::profile_1d(&solution, dir)?;
+                // Point clouds and coarsened levels: the map rasterized from the scattered
+                // nodes (1D: the displacement profile).
+                None if problem.plot() => {
+                    linpd_plot::solution::scattered_plots(&solution, dir, problem.slice())?;
                 }
                 _ => {}
             }

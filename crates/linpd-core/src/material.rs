@@ -213,14 +213,34 @@ impl Material {
         })
     }
 
+    /// [`Material::defect_cutting_nothing`] for the bonds of `family` on `positions` (a point
+    /// cloud); `tol` is the length tolerance of the crossing test.
+    pub fn defect_cutting_nothing_in(
+        &self,
+        family: &crate::BondFamily,
+        positions: &[Point],
+        tol: f64,
+    ) -> Option<usize> {
+        use rayon::prelude::*;
+        self.defects.iter().position(|d| {
+            !(0..family.len())
+                .into_par_iter()
+                .any(|i| family.neighbors(i).iter().any(|&j| d.crosses(&positions[i], &positions[j as usize], tol)))
+        })
+    }
+
     /// Modulus of every node (`reference` outside all phases).
     pub fn node_moduli(&self, grid: &Grid, reference: f64) -> Vec<f64> {
         let tol = crate::GEOMETRY_RTOL * grid.spacing();
-        (0..grid.len())
-            .map(|n| {
-                let x = grid.position(n);
-                self.phases.iter().rev().find(|(r, _)| r.contains(&x, grid.dim(), tol)).map_or(reference, |(_, k)| *k)
-            })
+        self.node_moduli_at(&grid.positions(), grid.dim(), reference, tol)
+    }
+
+    /// Modulus of the nodes at `positions` (`reference` outside all phases); `tol` is the
+    /// length tolerance of the region tests.
+    pub fn node_moduli_at(&self, positions: &[Point], dim: usize, reference: f64, tol: f64) -> Vec<f64> {
+        positions
+            .iter()
+            .map(|x| self.phases.iter().rev().find(|(r, _)| r.contains(x, dim, tol)).map_or(reference, |(_, k)| *k))
             .collect()
     }
 

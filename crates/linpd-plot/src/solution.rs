@@ -69,6 +69,92 @@ pub fn solution_plots(
     scalar_map(&map, &dir.join("u_magnitude"))
 }
 
+/// The largest raster [`scattered_plots`] draws per side (cells).
+pub const MAX_SCATTER_CELLS: usize = 800;
+
+/// The map of a static solution on scattered nodes (a point cloud or a coarsened level):
+/// `|u|` rasterized on square cells of the smallest node size `min_i V_i^(1/d)` (coarser if
+/// the raster would exceed [`MAX_SCATTER_CELLS`] per side). Each node paints the cells within
+/// `V_i^(1/d)` of it (a node's square of volume `V_i` has its corners at `0.71 V_i^(1/d)`;
+/// the margin covers the gaps of irregular clouds, such as element centroids), a cell taking
+/// the value of its nearest node; cells no node reaches are empty (white), so holes show and
+/// edges are drawn up to half a node size too far out. In 3D the nodes within half their size of the plane `slice = (axis,
+/// value)` are drawn (the plane through the middle of the nodes' z extent when `None`).
+/// 1D solutions get [`profile_1d`].
+pub fn scattered_plots(s: &Solution, dir: &Path, slice: Option<(usize, f64)>) -> Result<Vec<PathBuf>, PlotError> {
+    let d = s.dim;
+    if d == 1 {
+        return profile_1d(s, dir);
+    }
+    let size = |n: usize| s.volumes.get(n).map_or(f64::NAN, |v| v.powf(1.0 / d as f64));
+    let n_all = s.x.len();
+    let bounds = |axis: usize| {
+        s.x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p[axis]), hi.max(p[axis])))
+    };
+    let (c, value) = match (d, slice) {
+        (3, Some(sl)) => sl,
+        (3, None) => (2, 0.5 * (bounds(2).0 + bounds(2).1)),
+        _ => (2, 0.0),
+    };
+    let (a, b) = match c {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    let nodes: Vec<usize> = (0..n_all).filter(|&n| d == 2 || (s.x[n][c] - value).abs() <= 0.5 * size(n)).collect();
+    let names = ["x", "y", "z"];
+    let finite = nodes.iter().all(|&n| size(n).is_finite() && size(n) > 0.0);
+    if nodes.is_empty() || !finite {
+        return Ok(Vec::new());
+    }
+    let (ax, bx) = (bounds(a), bounds(b));
+    let reach = |n: usize| size(n);
+    let pad = nodes.iter().map(|&n| reach(n)).fold(0.0, f64::max);
+    let (x0, x1, y0, y1) = (ax.0 - pad, ax.1 + pad, bx.0 - pad, bx.1 + pad);
+    let smallest = nodes.iter().map(|&n| size(n)).fold(f64::INFINITY, f64::min);
+    let cell = smallest.max((x1 - x0).max(y1 - y0) / MAX_SCATTER_CELLS as f64);
+    let nx = (((x1 - x0) / cell).ceil() as usize).max(1);
+    let ny = (((y1 - y0) / cell).ceil() as usize).max(1);
+    let mut best = vec![(f64::INFINITY, 0.0f64); nx * ny];
+    let mag = |n: usize| (0..d).map(|k| s.u[d * n + k].powi(2)).sum::<f64>().sqrt();
+    for &n in &nodes {
+        let (px, py, r) = (s.x[n][a], s.x[n][b], reach(n));
+        let i_lo = (((px - r - x0) / cell).floor().max(0.0)) as usize;
+        let j_lo = (((py - r - y0) / cell).floor().max(0.0)) as usize;
+        let i_hi = (((px + r - x0) / cell).ceil() as usize).min(nx - 1);
+        let j_hi = (((py + r - y0) / cell).ceil() as usize).min(ny - 1);
+        for j in j_lo..=j_hi {
+            for i in i_lo..=i_hi {
+                let (cx, cy) = (x0 + (i as f64 + 0.5) * cell, y0 + (j as f64 + 0.5) * cell);
+                let dist = (cx - px).hypot(cy - py);
+                let slot = &mut best[i + nx * j];
+                if dist <= r && dist < slot.0 {
+                    *slot = (dist, mag(n));
+                }
+            }
+        }
+    }
+    let title = if d == 3 {
+        format!("{}: |u| on {} = {:.4} ({} nodes)", s.name, names[c], value, nodes.len())
+    } else {
+        format!("{}: |u| ({} nodes)", s.name, nodes.len())
+    };
+    let map = ScalarMap {
+        title,
+        x_label: names[a].into(),
+        y_label: names[b].into(),
+        nx,
+        ny,
+        x_range: (x0, x0 + nx as f64 * cell),
+        y_range: (y0, y0 + ny as f64 * cell),
+        values: best.iter().map(|c| if c.0.is_finite() { c.1 } else { 0.0 }).collect(),
+        value_label: "|u|".into(),
+        empty: best.iter().map(|c| !c.0.is_finite()).collect(),
+        equal_aspect: true,
+    };
+    scalar_map(&map, &dir.join("u_magnitude"))
+}
+
 /// The 1D displacement profile (layer nodes as markers); needs only the solution, so it also
 /// serves coarsened levels.
 pub fn profile_1d(s: &Solution, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {

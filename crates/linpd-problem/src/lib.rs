@@ -12,6 +12,7 @@
 pub mod atomic;
 pub mod balance;
 pub(crate) mod blend;
+pub mod cloud;
 pub mod coarsened;
 pub mod dynamics;
 pub mod error;

@@ -92,9 +92,12 @@ pub enum Path {
 
 /// The estimated peak bytes of `path` on `grid` with `horizon`, and a description of it.
 pub fn estimate(path: Path, grid: &Grid, horizon: f64) -> (String, f64) {
-    let dim = grid.dim();
-    let ratio = horizon / grid.spacing();
-    let nodes = grid.len();
+    estimate_nodes(path, grid.dim(), grid.len(), horizon / grid.spacing())
+}
+
+/// [`estimate`] for `nodes` nodes in dimension `dim` with `ratio` = horizon / spacing (a point
+/// cloud's mean spacing: its families hold as many bonds as a lattice's of that spacing).
+pub fn estimate_nodes(path: Path, dim: usize, nodes: usize, ratio: f64) -> (String, f64) {
     let n = nodes as f64;
     let dofs = n * dim as f64;
     let dd = (dim * dim) as f64;
@@ -137,6 +140,13 @@ pub fn multigrid_dof_bytes(dim: usize) -> f64 {
 /// `Err` (at `model.horizon`) when `path` would not fit in the available memory.
 pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<(), ProblemError> {
     check_solver(path, grid, horizon, false)
+}
+
+/// [`check`] for a point cloud of `nodes` nodes ([`estimate_nodes`]).
+pub fn check_nodes(path: Path, dim: usize, nodes: usize, ratio: f64) -> Result<(), ProblemError> {
+    let (what, bytes) = estimate_nodes(path, dim, nodes, ratio);
+    memory::check(what, bytes, "use fewer nodes or a smaller horizon")
+        .map_err(|e: OutOfMemory| ProblemError::invalid("model.horizon", e.to_string()))
 }
 
 /// [`check`] with the multigrid hierarchy counted when `multigrid` (the solver is known).

@@ -427,6 +427,9 @@ impl Problem {
         if model_kind == RawModelKind::Coarsened {
             return crate::coarsened::from_raw(raw, base_dir);
         }
+        if raw.nodes.is_some() {
+            return crate::cloud::from_raw(raw, base_dir);
+        }
         let Some(raw_grid) = &raw.grid else {
             return Err(ProblemError::invalid("grid", format!("required for model type {}", model_kind.name())));
         };
@@ -521,29 +524,7 @@ impl Problem {
             )?)
         } else {
             // Bond, blend and ce models: a micromodulus.
-            let mm = mm.ok_or_else(|| {
-                ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization")
-            })?;
-            let plane = match (dim, plane) {
-                (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
-                (2, Some(RawPlane::Strain)) => Some(PlaneModel::Strain),
-                (2, None) if mm.normalize != RawNormalize::None => {
-                    return Err(ProblemError::invalid(
-                        "model.plane",
-                        "2D scenes need \"plane\": \"stress\" or \"strain\"",
-                    ))
-                }
-                (2, None) => None,
-                (_, Some(_)) => {
-                    return Err(ProblemError::invalid(
-                        "model.plane",
-                        format!("only meaningful in 2D (dimension is {dim})"),
-                    ))
-                }
-                (_, None) => None,
-            };
-            let micromodulus = micromodulus(&mm, horizon, plane, partial_volume)?;
-            micromodulus.validate(dim).map_err(|e| core("model.micromodulus", e))?;
+            let micromodulus = bond_micromodulus(dim, horizon, mm.as_ref(), plane, partial_volume)?;
             let material = self::material(&material, dim)?;
             if let Some(k) = material.defect_cutting_nothing(&grid, horizon) {
                 return Err(ProblemError::invalid(
@@ -650,6 +631,8 @@ pub enum Nodes {
     Lattice(Grid),
     /// The nodes of a coarsened level (positions and volumes from its nodes file).
     Level(LevelNodes),
+    /// A point cloud read from a file ([`crate::cloud`]).
+    Cloud(LevelNodes),
 }
 
 /// The nodes of a coarsened level.
@@ -661,6 +644,12 @@ pub struct LevelNodes {
     /// The scale of the geometric tolerances: `min_i v_i^(1/d)`, the smallest node spacing,
     /// capped by the nodes' extent (see [`LevelNodes::new`]).
     pub(crate) h: f64,
+    /// Layer flags of a point cloud (empty for a level: no layer).
+    pub(crate) layer: Vec<bool>,
+    /// Phase numbers of a point cloud (empty without a `phase` column).
+    pub(crate) phase: Vec<u32>,
+    /// What the nodes are, for messages.
+    pub(crate) what: &'static str,
 }
 
 impl LevelNodes {
@@ -681,7 +670,15 @@ impl LevelNodes {
             })
             .fold(0.0f64, f64::max);
         let h = if extent.is_finite() && extent > 0.0 { h.min(extent) } else { h };
-        LevelNodes { dim, positions, volumes, h: if h.is_finite() { h } else { 1.0 } }
+        LevelNodes {
+            dim,
+            positions,
+            volumes,
+            h: if h.is_finite() { h } else { 1.0 },
+            layer: Vec::new(),
+            phase: Vec::new(),
+            what: "the coarsened level",
+        }
     }
 }
 
@@ -690,7 +687,7 @@ impl Nodes {
     pub fn len(&self) -> usize {
         match self {
             Nodes::Lattice(g) => g.len(),
-            Nodes::Level(l) => l.positions.len(),
+            Nodes::Level(l) | Nodes::Cloud(l) => l.positions.len(),
         }
     }
     /// True when there is no node.
@@ -701,14 +698,14 @@ impl Nodes {
     pub fn dim(&self) -> usize {
         match self {
             Nodes::Lattice(g) => g.dim(),
-            Nodes::Level(l) => l.dim,
+            Nodes::Level(l) | Nodes::Cloud(l) => l.dim,
         }
     }
     /// Position of node `n` (unused coordinates 0).
     pub fn position(&self, n: usize) -> Point {
         match self {
             Nodes::Lattice(g) => g.position(n),
-            Nodes::Level(l) => l.positions[n],
+            Nodes::Level(l) | Nodes::Cloud(l) => l.positions[n],
         }
     }
     /// All positions.
@@ -719,21 +716,29 @@ impl Nodes {
     pub fn volume(&self, n: usize) -> f64 {
         match self {
             Nodes::Lattice(g) => g.volume(),
-            Nodes::Level(l) => l.volumes[n],
+            Nodes::Level(l) | Nodes::Cloud(l) => l.volumes[n],
         }
     }
-    /// True for nodes of the lattice's outer layer (never for a level's nodes).
+    /// True for nodes of the lattice's outer layer or a cloud's `layer` column (never for a
+    /// level's nodes).
     pub fn is_layer(&self, n: usize) -> bool {
         match self {
             Nodes::Lattice(g) => g.is_layer(n),
-            Nodes::Level(_) => false,
+            Nodes::Level(l) | Nodes::Cloud(l) => l.layer.get(n).copied().unwrap_or(false),
+        }
+    }
+    /// The point cloud, if the nodes are one.
+    pub fn cloud(&self) -> Option<&LevelNodes> {
+        match self {
+            Nodes::Cloud(c) => Some(c),
+            _ => None,
         }
     }
     /// The lattice, if the nodes are one.
     pub fn lattice(&self) -> Option<&Grid> {
         match self {
             Nodes::Lattice(g) => Some(g),
-            Nodes::Level(_) => None,
+            Nodes::Level(_) | Nodes::Cloud(_) => None,
         }
     }
 }
@@ -742,13 +747,13 @@ impl NodeSet for Nodes {
     fn what(&self) -> &'static str {
         match self {
             Nodes::Lattice(g) => g.what(),
-            Nodes::Level(l) => l.what(),
+            Nodes::Level(l) | Nodes::Cloud(l) => l.what(),
         }
     }
     fn spacing(&self) -> f64 {
         match self {
             Nodes::Lattice(g) => NodeSet::spacing(g),
-            Nodes::Level(l) => l.spacing(),
+            Nodes::Level(l) | Nodes::Cloud(l) => l.spacing(),
         }
     }
     fn position(&self, n: usize) -> Point {
@@ -757,20 +762,20 @@ impl NodeSet for Nodes {
     fn nearest(&self, x: &[f64]) -> (usize, f64) {
         match self {
             Nodes::Lattice(g) => g.nearest(x),
-            Nodes::Level(l) => l.nearest(x),
+            Nodes::Level(l) | Nodes::Cloud(l) => l.nearest(x),
         }
     }
     fn select(&self, r: &Region) -> Vec<usize> {
         match self {
             Nodes::Lattice(g) => g.select(r),
-            Nodes::Level(l) => l.select(r),
+            Nodes::Level(l) | Nodes::Cloud(l) => l.select(r),
         }
     }
 }
 
 impl NodeSet for LevelNodes {
     fn what(&self) -> &'static str {
-        "the coarsened level"
+        self.what
     }
     fn spacing(&self) -> f64 {
         self.h
@@ -1083,6 +1088,33 @@ impl Problem {
     }
 }
 
+/// The micromodulus of a bond (or blend, ce) model from its keys, validated for `dim`.
+pub(crate) fn bond_micromodulus(
+    dim: usize,
+    horizon: f64,
+    mm: Option<&RawMicromodulus>,
+    plane: Option<RawPlane>,
+    partial_volume: bool,
+) -> Result<Micromodulus, ProblemError> {
+    let mm =
+        mm.ok_or_else(|| ProblemError::invalid("model.micromodulus", "missing: the kernel and its normalization"))?;
+    let plane = match (dim, plane) {
+        (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
+        (2, Some(RawPlane::Strain)) => Some(PlaneModel::Strain),
+        (2, None) if mm.normalize != RawNormalize::None => {
+            return Err(ProblemError::invalid("model.plane", "2D scenes need \"plane\": \"stress\" or \"strain\""))
+        }
+        (2, None) => None,
+        (_, Some(_)) => {
+            return Err(ProblemError::invalid("model.plane", format!("only meaningful in 2D (dimension is {dim})")))
+        }
+        (_, None) => None,
+    };
+    let micromodulus = micromodulus(mm, horizon, plane, partial_volume)?;
+    micromodulus.validate(dim).map_err(|e| core("model.micromodulus", e))?;
+    Ok(micromodulus)
+}
+
 /// Validates the lps keys (the model itself checks `m > 0` when it is built).
 #[allow(clippy::too_many_arguments)]
 fn lps_params(
@@ -1187,7 +1219,7 @@ fn micromodulus(
     Ok(m)
 }
 
-fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
+pub(crate) fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
     let p = "model.material";
     let mut phases = Vec::new();
     for (k, ph) in raw.phases.iter().enumerate() {

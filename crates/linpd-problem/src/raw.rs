@@ -36,6 +36,21 @@ pub struct RawProblem {
     /// The body: only the grid's nodes inside this region (layer nodes included) are kept.
     #[serde(default)]
     pub body: Option<RawRegion>,
+    /// A point cloud read from a file, instead of `grid` (`{"csv": "file.csv"}`).
+    #[serde(default)]
+    pub nodes: Option<RawNodes>,
+}
+
+/// `nodes`: where a point cloud comes from (exactly one key).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawNodes {
+    /// A CSV file: header `x[,y[,z]],volume[,phase][,layer]`, one node per line.
+    #[serde(default)]
+    pub csv: Option<String>,
+    /// A VTK XML UnstructuredGrid file: its points and a `volume` point array.
+    #[serde(default)]
+    pub vtk: Option<String>,
 }
 
 /// `dynamics`: velocity-Verlet time stepping.

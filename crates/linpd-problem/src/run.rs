@@ -48,11 +48,23 @@ impl Problem {
         })
     }
 
-    /// Builds the bond operator of the scene (bond models only).
+    /// Builds the bond operator of the scene (bond models only): on its lattice, or on its
+    /// point cloud with the nodes' own volumes.
     pub fn operator(&self) -> Result<BondOperator, ProblemError> {
         let b = self.bond_model()?;
-        BondOperator::on_grid(self.lattice()?, b.horizon, &b.micromodulus, &b.material)
-            .map_err(|e| ProblemError::invalid("model", e.to_string()))
+        let op = match self.nodes.cloud() {
+            Some(c) => BondOperator::on_points(
+                c.dim,
+                c.positions.clone(),
+                &c.volumes,
+                b.horizon,
+                &b.micromodulus,
+                &b.material,
+                None,
+            ),
+            None => BondOperator::on_grid(self.lattice()?, b.horizon, &b.micromodulus, &b.material),
+        };
+        op.map_err(|e| ProblemError::invalid("model", e.to_string()))
     }
 
     /// Constrained-DOF mask and the prescribed full displacement `u_bar`.
@@ -105,6 +117,9 @@ impl Problem {
             ModelSpec::Coarsened(c) => return crate::coarsened::solve(self, c, progress),
             ModelSpec::Bond(_) => {}
         }
+        if self.nodes.cloud().is_some() {
+            return self.solve_cloud(progress);
+        }
         // Checked again here: the solver may have changed since validation (`set_solver`).
         let path = match self.solver {
             linpd_solve::SolverSpec::Cg { matrix_free: true, .. } => crate::memory::Path::BondMatrixFree,
@@ -129,17 +144,52 @@ impl Problem {
             t0.elapsed().as_secs_f64(),
             report.rel_residual
         ));
-        let balance = self.balance(&model, &solved.u);
-        let strain_energy_density = crate::balance::nodal_energy(&model, &solved.u)
+        let n_bonds = model.operator().family().n_bonds();
+        self.bond_solution(&model, n_bonds, solved.u, report)
+    }
+}
+
+impl Problem {
+    /// The bond model on a point cloud: the operator with its AMD ordering
+    /// ([`linpd_core::Model`] for [`BondOperator`]), always assembled.
+    fn solve_cloud(&self, progress: &dyn Progress) -> Result<Solution, ProblemError> {
+        let t0 = Instant::now();
+        progress.phase(&format!("building bonds: {} nodes of the point cloud", self.nodes.len()));
+        let model = self.operator()?;
+        let t_build = t0.elapsed().as_secs_f64();
+        let solved = solve_model(&model, &self.dirichlet(), &self.load_vector(), &self.solver, progress)
+            .map_err(static_error)?;
+        let mut report = solved.report;
+        report.timings.assemble += t_build;
+        progress.phase(&format!(
+            "done in {:.3} s, relative residual {:.2e}",
+            t0.elapsed().as_secs_f64(),
+            report.rel_residual
+        ));
+        let n_bonds = model.family().n_bonds();
+        self.bond_solution(&model, n_bonds, solved.u, report)
+    }
+
+    /// The solution of a bond model (`n_bonds` bonds, cut ones included): balance and strain
+    /// energy density from its blocks.
+    fn bond_solution(
+        &self,
+        model: &dyn linpd_core::Model,
+        n_bonds: usize,
+        u: Vec<f64>,
+        report: SolveReport,
+    ) -> Result<Solution, ProblemError> {
+        let balance = self.balance(model, &u);
+        let strain_energy_density = crate::balance::nodal_energy(model, &u)
             .map(|e| e.iter().enumerate().map(|(n, w)| w / self.nodes.volume(n)).collect());
         Ok(Solution {
             name: self.name.clone(),
             dim: self.dim(),
-            x: model.operator().positions().to_vec(),
-            u: solved.u,
+            x: (0..model.n_nodes()).map(|i| model.position(i)).collect(),
+            u,
             is_layer: (0..self.nodes.len()).map(|n| self.nodes.is_layer(n)).collect(),
             volumes: (0..self.nodes.len()).map(|n| self.nodes.volume(n)).collect(),
-            n_bonds: model.operator().family().n_bonds(),
+            n_bonds,
             balance: Some(balance),
             strain_energy_density,
             report,

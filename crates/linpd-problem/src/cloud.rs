@@ -1,0 +1,389 @@
+//! `"nodes"`: a point cloud read from a file instead of a lattice.
+//!
+//! A CSV file (`"nodes": {"csv": "file.csv"}`) has a header naming its columns and one node per
+//! line:
+//!
+//! ```text
+//! x,y,volume,phase,layer
+//! 0.0,0.0,1e-4,0,1
+//! ```
+//!
+//! `x`, `y` (2D and 3D), `z` (3D) and `volume` are required, `phase` (an integer >= 0, for
+//! `model.material.phases` entries that name a phase instead of a region) and `layer` (0 or 1:
+//! the node belongs to a constraint layer outside the body; only reported, as for grids) are
+//! optional; the order of the columns is free, lines starting with `#` are comments. Every
+//! value is checked: finite coordinates, volumes > 0, no two nodes closer than
+//! [`DUPLICATE_RTOL`] times the smallest node size `min_i V_i^(1/d)`. An error names the file
+//! and its line.
+//!
+//! The file is read in a stream (its size is capped at [`MAX_CLOUD_BYTES`]), so no count in it
+//! decides an allocation.
+
+use crate::problem::{bond_micromodulus, constraints_and_loads, solver_spec, LevelNodes};
+use crate::raw::{RawModelKind, RawProblem};
+use crate::{BondModel, ModelSpec, Nodes, Problem, ProblemError};
+use linpd_core::{BondFamily, Point};
+use std::path::Path;
+
+/// The largest point-cloud file read (1 GiB: ~15 million 3D nodes at 70 bytes a line).
+pub const MAX_CLOUD_BYTES: u64 = 1 << 30;
+
+/// Two nodes closer than this times the smallest node size `min_i V_i^(1/d)` are duplicates
+/// (the same relative tolerance as the lattice's geometry tests).
+pub const DUPLICATE_RTOL: f64 = linpd_core::GEOMETRY_RTOL;
+
+/// The columns of a node file.
+#[derive(Debug, Default)]
+struct Columns {
+    coord: [Option<usize>; 3],
+    volume: Option<usize>,
+    phase: Option<usize>,
+    layer: Option<usize>,
+}
+
+/// A node file's nodes: positions, volumes, layer flags and phase numbers (empty when the
+/// file has no `phase` column).
+#[derive(Debug, Clone)]
+pub struct Cloud {
+    /// Positions (unused coordinates 0).
+    pub positions: Vec<Point>,
+    /// Volumes `V_i > 0`.
+    pub volumes: Vec<f64>,
+    /// Layer flags (all false without a `layer` column).
+    pub layer: Vec<bool>,
+    /// Phase numbers (empty without a `phase` column).
+    pub phase: Vec<u32>,
+    /// 1-based file line of each node, for messages.
+    pub lines: Vec<u64>,
+}
+
+/// Reads a CSV point cloud of dimension `dim`. `key` is the JSON path of the file name
+/// (`nodes.csv`), which every error starts with.
+pub fn read_csv(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemError> {
+    let shown = path.display().to_string();
+    let err = |line: u64, reason: String| ProblemError::invalid(key, format!("{shown} line {line}: {reason}"));
+    let meta = std::fs::metadata(path).map_err(|e| ProblemError::invalid(key, format!("{shown}: {e}")))?;
+    if !meta.is_file() {
+        return Err(ProblemError::invalid(key, format!("{shown}: not a regular file")));
+    }
+    if meta.len() > MAX_CLOUD_BYTES {
+        return Err(ProblemError::invalid(
+            key,
+            format!("{shown}: {} bytes, more than a node file may hold ({MAX_CLOUD_BYTES})", meta.len()),
+        ));
+    }
+    let file = std::fs::File::open(path).map_err(|e| ProblemError::invalid(key, format!("{shown}: {e}")))?;
+    use std::io::Read;
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(file.take(MAX_CLOUD_BYTES + 1));
+    let headers = reader.headers().map_err(|e| err(1, format!("unreadable header ({e})")))?.clone();
+    // the reader now stands at the start of the line after the header
+    let hline = reader.position().line().saturating_sub(1).max(1);
+    let mut cols = Columns::default();
+    const NAMES: [&str; 3] = ["x", "y", "z"];
+    for (k, name) in headers.iter().enumerate() {
+        let slot = match name {
+            "x" => &mut cols.coord[0],
+            "y" => &mut cols.coord[1],
+            "z" => &mut cols.coord[2],
+            "volume" => &mut cols.volume,
+            "phase" => &mut cols.phase,
+            "layer" => &mut cols.layer,
+            other => {
+                return Err(err(
+                    hline,
+                    format!("unknown column {other:?} (the columns are x, y, z, volume, phase and layer)"),
+                ))
+            }
+        };
+        if slot.is_some() {
+            return Err(err(hline, format!("column {name:?} appears twice")));
+        }
+        *slot = Some(k);
+    }
+    for (a, name) in NAMES.iter().enumerate() {
+        match (a < dim, cols.coord[a].is_some()) {
+            (true, false) => {
+                return Err(err(
+                    hline,
+                    format!("missing column {name:?} (a {dim}D cloud needs {})", NAMES[..dim].join(", ")),
+                ))
+            }
+            (false, true) => return Err(err(hline, format!("column {name:?} in a {dim}D scene"))),
+            _ => {}
+        }
+    }
+    if cols.volume.is_none() {
+        return Err(err(hline, "missing column \"volume\"".into()));
+    }
+    let mut cloud =
+        Cloud { positions: Vec::new(), volumes: Vec::new(), layer: Vec::new(), phase: Vec::new(), lines: Vec::new() };
+    let mut record = csv::StringRecord::new();
+    loop {
+        let more = reader.read_record(&mut record).map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            err(line, format!("unreadable ({e})"))
+        })?;
+        if !more {
+            break;
+        }
+        let line = record.position().map_or(0, |p| p.line());
+        if record.len() != headers.len() {
+            return Err(err(line, format!("{} fields, the header has {}", record.len(), headers.len())));
+        }
+        let number = |k: usize, name: &str| -> Result<f64, ProblemError> {
+            let s = &record[k];
+            let v: f64 = s.parse().map_err(|_| err(line, format!("{name} = {s:?} is not a number")))?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(err(line, format!("{name} = {s} is not finite")))
+            }
+        };
+        let mut x = [0.0; 3];
+        for a in 0..dim {
+            x[a] = number(cols.coord[a].unwrap(), NAMES[a])?;
+        }
+        let v = number(cols.volume.unwrap(), "volume")?;
+        if v <= 0.0 {
+            return Err(err(line, format!("volume = {v:e} must be > 0")));
+        }
+        if let Some(k) = cols.layer {
+            cloud.layer.push(match &record[k] {
+                "0" => false,
+                "1" => true,
+                s => return Err(err(line, format!("layer = {s:?} must be 0 or 1"))),
+            });
+        }
+        if let Some(k) = cols.phase {
+            let s = &record[k];
+            cloud.phase.push(s.parse().map_err(|_| err(line, format!("phase = {s:?} must be an integer >= 0")))?);
+        }
+        if cloud.positions.len() == u32::MAX as usize {
+            return Err(err(line, "more than 2^32 - 1 nodes".into()));
+        }
+        cloud.positions.push(x);
+        cloud.volumes.push(v);
+        cloud.lines.push(line);
+    }
+    if reader.position().byte() > MAX_CLOUD_BYTES {
+        return Err(ProblemError::invalid(key, format!("{shown}: grew beyond {MAX_CLOUD_BYTES} bytes while read")));
+    }
+    if cloud.positions.is_empty() {
+        return Err(err(hline, "no nodes (a header and no data lines)".into()));
+    }
+    if cloud.layer.is_empty() {
+        cloud.layer = vec![false; cloud.positions.len()];
+    }
+    check_duplicates(&cloud, dim).map_err(|(a, b)| {
+        err(
+            cloud.lines[b],
+            format!(
+                "the node at {:?} coincides with the node of line {} (closer than {DUPLICATE_RTOL:e} node sizes)",
+                &cloud.positions[b][..dim],
+                cloud.lines[a]
+            ),
+        )
+    })?;
+    Ok(cloud)
+}
+
+/// The first pair of nodes closer than [`DUPLICATE_RTOL`] `min_i V_i^(1/d)` (by a cell list of
+/// that size: no O(n^2) pass).
+fn check_duplicates(cloud: &Cloud, dim: usize) -> Result<(), (usize, usize)> {
+    let size = cloud.volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
+    let tol = DUPLICATE_RTOL * size;
+    if !(tol > 0.0 && tol.is_finite()) {
+        return Ok(());
+    }
+    let close = BondFamily::from_points(&cloud.positions, dim, tol);
+    match (0..close.len()).find(|&i| !close.neighbors(i).is_empty()) {
+        None => Ok(()),
+        Some(i) => {
+            let j = close.neighbors(i)[0] as usize;
+            Err((i.min(j), i.max(j)))
+        }
+    }
+}
+
+impl Cloud {
+    /// The cloud as the node set of a scene.
+    pub(crate) fn into_nodes(self, dim: usize) -> LevelNodes {
+        let mut nodes = LevelNodes::new(dim, self.positions, self.volumes);
+        nodes.layer = self.layer;
+        nodes.phase = self.phase;
+        nodes.what = "the point cloud";
+        nodes
+    }
+}
+
+/// The mean node spacing `(sum_i V_i / n)^(1/d)` of a cloud: the scale of its horizon checks
+/// and memory estimate (a lattice's spacing `h` when the cloud is one).
+pub fn mean_spacing(volumes: &[f64], dim: usize) -> f64 {
+    (volumes.iter().sum::<f64>() / volumes.len() as f64).powf(1.0 / dim as f64)
+}
+
+/// Validates a scene whose nodes come from a file (`"nodes"` instead of `"grid"`): bond models
+/// only for now; the bond weights use the nodes' own volumes ([`linpd_bond::BondOperator::on_points`]).
+pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, ProblemError> {
+    let dim = raw.dimension;
+    let spec = raw.nodes.as_ref().expect("called for scenes with nodes");
+    let kind = raw.model.kind;
+    if raw.grid.is_some() {
+        return Err(ProblemError::invalid("grid", "give either \"grid\" or \"nodes\", not both"));
+    }
+    if raw.body.is_some() {
+        return Err(ProblemError::invalid("body", "not used with \"nodes\" (the point cloud is the body)"));
+    }
+    if kind != RawModelKind::Bond {
+        return Err(ProblemError::invalid(
+            "nodes",
+            format!(
+                "point clouds take bond models for now, the scene has {} (lps, blend and ce need a grid)",
+                kind.name()
+            ),
+        ));
+    }
+    if raw.dynamics.is_some() {
+        return Err(ProblemError::invalid(
+            "dynamics",
+            "explicit dynamics needs a grid (not available on point clouds yet)",
+        ));
+    }
+    if raw.solver.matrix_free {
+        return Err(ProblemError::invalid(
+            "solver.matrix_free",
+            "the matrix-free stencil operator needs a grid; point clouds are solved assembled",
+        ));
+    }
+    if raw.output.slice.is_some() {
+        return Err(ProblemError::invalid(
+            "output.slice",
+            "point clouds get no map (their nodes are not on a lattice)",
+        ));
+    }
+    let cloud = match (&spec.csv, &spec.vtk) {
+        (Some(f), None) => read_csv(&base_dir.join(f), dim, "nodes.csv")?,
+        (None, Some(_)) => {
+            return Err(ProblemError::invalid("nodes.vtk", "VTK node files are not read yet: convert to CSV"))
+        }
+        _ => return Err(ProblemError::invalid("nodes", "give exactly one of \"csv\" or \"vtk\"")),
+    };
+    let Some(horizon) = raw.model.horizon else {
+        return Err(ProblemError::invalid(
+            "model",
+            "missing field `horizon` (model.horizon is required for bond models)",
+        ));
+    };
+    if !(horizon.is_finite() && horizon > 0.0) {
+        return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));
+    }
+    let h = mean_spacing(&cloud.volumes, dim);
+    let ratio = horizon / h;
+    if ratio < 1.0 {
+        return Err(ProblemError::invalid(
+            "model.horizon",
+            format!("horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing"),
+        ));
+    }
+    crate::memory::check_nodes(crate::memory::Path::BondAssembled, dim, cloud.positions.len(), ratio)?;
+    let raw_model = raw.model.clone();
+    let micromodulus =
+        bond_micromodulus(dim, horizon, raw_model.micromodulus.as_ref(), raw_model.plane, raw_model.partial_volume)?;
+    if micromodulus.normalization == linpd_core::Normalization::Discrete {
+        return Err(ProblemError::invalid(
+            "model.micromodulus.normalize",
+            "\"discrete\" sums over a lattice stencil; point clouds take \"continuum\" or an amplitude",
+        ));
+    }
+    micromodulus.amplitude(dim, horizon, h).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
+    let material = crate::problem::material(&raw_model.material, dim)?;
+    let nodes = cloud.into_nodes(dim);
+    if !material.defects.is_empty() {
+        let family = BondFamily::from_points(&nodes.positions, dim, horizon);
+        let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
+        if let Some(k) = material.defect_cutting_nothing_in(&family, &nodes.positions, tol) {
+            return Err(ProblemError::invalid(
+                format!("model.material.defects[{k}]"),
+                "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
+            ));
+        }
+    }
+    let (constraints, loads) = constraints_and_loads(&raw, dim, &nodes)?;
+    let solver = solver_spec(&raw.solver)?;
+    Ok(Problem {
+        output_dir: crate::problem::output_dir(raw.output.dir.as_deref(), &raw.name)?,
+        plot: raw.output.plot.unwrap_or(true),
+        slice: None,
+        name: raw.name,
+        nodes: Nodes::Cloud(nodes),
+        model: ModelSpec::Bond(BondModel { horizon, micromodulus, material }),
+        constraints,
+        loads,
+        solver,
+        dynamics: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(name: &str, text: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("linpd-cloud-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    fn error(name: &str, text: &str, dim: usize) -> String {
+        read_csv(&write(name, text), dim, "nodes.csv").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn reads_columns_in_any_order_with_comments() {
+        let p = write("ok.csv", "# a cloud\nvolume,y,x,layer,phase\n0.25,0,0,1,2\n0.25,0,0.5,0,0\n");
+        let c = read_csv(&p, 2, "nodes.csv").unwrap();
+        assert_eq!(c.positions, vec![[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]]);
+        assert_eq!(c.volumes, vec![0.25, 0.25]);
+        assert_eq!(c.layer, vec![true, false]);
+        assert_eq!(c.phase, vec![2, 0]);
+        assert_eq!(c.lines, vec![3, 4]);
+    }
+
+    /// Each bad file names the file, the line and the cause.
+    #[test]
+    fn bad_files_name_the_line() {
+        let e = error("m.csv", "x,volume\n0,1\n", 2);
+        assert!(e.starts_with("nodes.csv: ") && e.contains("m.csv line 1: missing column \"y\""), "{e}");
+        let e = error("v.csv", "x,y\n0,1\n", 2);
+        assert!(e.contains("line 1: missing column \"volume\""), "{e}");
+        let e = error("n.csv", "x,y,volume\n0,0,1\n0,1,-1\n", 2);
+        assert!(e.contains("n.csv line 3: volume = -1e0 must be > 0"), "{e}");
+        let e = error("nan.csv", "x,y,volume\n0,0,1\nNaN,1,1\n", 2);
+        assert!(e.contains("line 3: x = NaN is not finite"), "{e}");
+        let e = error("d.csv", "x,y,volume\n0,0,1\n1,0,1\n0,0,1\n", 2);
+        assert!(e.contains("d.csv line 4: the node at [0.0, 0.0] coincides with the node of line 2"), "{e}");
+        let e = error("f.csv", "x,y,volume\n0,0,1\n1,0\n", 2);
+        assert!(e.contains("line 3: 2 fields, the header has 3"), "{e}");
+        let e = error("u.csv", "x,y,volume,colour\n0,0,1,3\n", 2);
+        assert!(e.contains("line 1: unknown column \"colour\""), "{e}");
+        let e = error("z.csv", "x,y,z,volume\n0,0,0,1\n", 2);
+        assert!(e.contains("column \"z\" in a 2D scene"), "{e}");
+        let e = error("l.csv", "x,volume,layer\n0,1,2\n", 1);
+        assert!(e.contains("line 2: layer = \"2\" must be 0 or 1"), "{e}");
+        let e = error("p.csv", "x,volume,phase\n0,1,-1\n", 1);
+        assert!(e.contains("line 2: phase = \"-1\" must be an integer >= 0"), "{e}");
+        let e = error("e.csv", "x,volume\n", 1);
+        assert!(e.contains("no nodes"), "{e}");
+        let e = error("t.csv", "x,volume\n0,abc\n", 1);
+        assert!(e.contains("line 2: volume = \"abc\" is not a number"), "{e}");
+        let e = read_csv(Path::new("/nonexistent/c.csv"), 1, "nodes.csv").unwrap_err().to_string();
+        assert!(e.starts_with("nodes.csv: /nonexistent/c.csv: "), "{e}");
+    }
+}
