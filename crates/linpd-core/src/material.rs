@@ -74,7 +74,8 @@ pub enum Defect {
 }
 
 impl Defect {
-    fn factor(&self) -> f64 {
+    /// The stiffness multiplier `mu` of the bonds it crosses.
+    pub fn factor(&self) -> f64 {
         match self {
             Defect::Point { factor, .. } | Defect::Segment { factor, .. } | Defect::Plane { factor, .. } => *factor,
         }

@@ -247,6 +247,41 @@ impl LpsModel {
         })
     }
 
+    /// The model with `defects` (issue #13 item 3, pre-cracks): a bond crossing defects with
+    /// factors `mu_1, mu_2, ...` gets the influence `mu_1 mu_2 ... omega` in every sum of the
+    /// model (weighted volume `m`, dilatation, deviatoric force), so a factor 0 removes the bond
+    /// from the family (a cut: nothing couples across it) and `0 < mu < 1` weakens it. The
+    /// crossing test is evaluated once per pair, from its lower-numbered node, so both ends see
+    /// the same factor and the tangent stays symmetric.
+    pub fn with_defects(grid: &Grid, params: &LpsParams, defects: &[linpd_core::Defect]) -> Result<Self, LpsError> {
+        params.validate(grid.dim(), grid.spacing())?;
+        let full = BondFamily::from_grid(grid, params.horizon);
+        if defects.is_empty() {
+            return Self::with_family(grid, full, params);
+        }
+        let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
+        let positions = grid.positions();
+        let factor = |i: usize, j: usize| -> f64 {
+            let (a, b) = (i.min(j), i.max(j));
+            defects.iter().filter(|d| d.crosses(&positions[a], &positions[b], tol)).map(|d| d.factor()).product()
+        };
+        let lists: Vec<Vec<u32>> = (0..full.len())
+            .map(|i| full.neighbors(i).iter().copied().filter(|&j| factor(i, j as usize) > 0.0).collect())
+            .collect();
+        let mut model = Self::with_family(grid, BondFamily::from_lists(lists), params)?;
+        // the weakened bonds: scale `omega nu V_j` and rebuild `m` (Algorithm 3)
+        for i in 0..model.n_nodes() {
+            let o = model.family.bond_offset(i);
+            let mut mi = 0.0;
+            for (b, &j) in model.family.neighbors(i).iter().enumerate() {
+                model.wv[o + b] *= factor(i, j as usize);
+                mi += model.wv[o + b] * model.len[o + b] * model.len[o + b];
+            }
+            model.m[i] = mi;
+        }
+        Ok(model)
+    }
+
     /// Spatial dimension `d`.
     pub fn dim(&self) -> usize {
         self.dim

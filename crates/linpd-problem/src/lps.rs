@@ -5,7 +5,7 @@
 //! support graph are documented there); the solve is [`linpd_solve::solve_model`].
 
 use crate::run::static_error;
-use crate::{Problem, ProblemError, Solution};
+use crate::{ModelSpec, Problem, ProblemError, Solution};
 use linpd_core::progress::Progress;
 use linpd_lps::{LpsModel, LpsParams};
 use linpd_solve::solve_model;
@@ -19,6 +19,20 @@ use std::time::Instant;
 /// the true residual stalls above 1e-10 on one loading (an error since CG checks it).
 pub const CG_NEAR_INCOMPRESSIBLE_NU: f64 = 0.499;
 
+impl Problem {
+    /// The LPS model of an lps scene on its lattice, with the defects of its material.
+    pub fn lps_model(&self) -> Result<LpsModel, ProblemError> {
+        let ModelSpec::Lps(params, defects) = &self.model else {
+            return Err(ProblemError::invalid(
+                "model.type",
+                format!("an lps model is needed here, the scene has {}", self.model.name()),
+            ));
+        };
+        LpsModel::with_defects(self.lattice()?, params, defects)
+            .map_err(|e| ProblemError::invalid("model", e.to_string()))
+    }
+}
+
 /// Solves an lps scene.
 pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) -> Result<Solution, ProblemError> {
     let t0 = Instant::now();
@@ -30,7 +44,7 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
         grid.len(),
         params.horizon / grid.spacing()
     ));
-    let model = LpsModel::new(grid, params).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
+    let model = p.lps_model()?;
     let t_build = t0.elapsed().as_secs_f64();
     progress.phase("the LPS tangent couples nodes up to 2 horizons apart");
     let solved = solve_model(&model, &p.dirichlet(), &p.load_vector(), &p.solver, progress).map_err(static_error)?;

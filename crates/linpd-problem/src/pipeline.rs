@@ -229,8 +229,8 @@ pub fn level0_model(p: &Problem) -> Result<LevelModel, ProblemError> {
     let d = p.dim();
     let grid = p.lattice()?;
     let n = grid.len();
-    let k = if let crate::ModelSpec::Lps(params) = &p.model {
-        let m = linpd_lps::LpsModel::new(grid, params).map_err(|e| inv("model", e.to_string()))?;
+    let k = if let crate::ModelSpec::Lps(..) = &p.model {
+        let m = p.lps_model()?;
         linpd_lps::assemble_tangent(&m)
     } else {
         let op: BondOperator = p.operator()?;

@@ -109,8 +109,9 @@ impl BondModel {
 pub enum ModelSpec {
     /// `"type": "bond"`: bond-based linear PD ([`linpd_bond::LatticeBondModel`]).
     Bond(BondModel),
-    /// `"type": "lps"`: the linearized LPS solid ([`linpd_lps::LpsModel`]).
-    Lps(linpd_lps::LpsParams),
+    /// `"type": "lps"`: the linearized LPS solid ([`linpd_lps::LpsModel`]) and the defects
+    /// (pre-cracks) of its material.
+    Lps(linpd_lps::LpsParams, Vec<Defect>),
     /// `"type": "blend"` and `"type": "ce"`: the 1D blended PD/CE model; `constraints` and
     /// `loads` have been translated into it.
     Blend(BlendScene),
@@ -124,7 +125,7 @@ impl ModelSpec {
     pub fn horizon(&self) -> Option<f64> {
         match self {
             ModelSpec::Bond(b) => Some(b.horizon),
-            ModelSpec::Lps(l) => Some(l.horizon),
+            ModelSpec::Lps(l, _) => Some(l.horizon),
             ModelSpec::Blend(b) => Some(b.params.horizon),
             ModelSpec::Coarsened(_) => None,
         }
@@ -140,7 +141,7 @@ impl ModelSpec {
     pub fn name(&self) -> &'static str {
         match self {
             ModelSpec::Bond(_) => "bond",
-            ModelSpec::Lps(_) => "lps",
+            ModelSpec::Lps(..) => "lps",
             ModelSpec::Blend(b) if b.kind == linpd_blend::ModelKind::PureCe => "ce",
             ModelSpec::Blend(_) => "blend",
             ModelSpec::Coarsened(_) => "coarsened",
@@ -512,16 +513,16 @@ impl Problem {
                     "not available for lps models yet (the Jacobi diagonal needs the assembled tangent)",
                 ));
             }
-            ModelSpec::Lps(lps_params(
-                dim,
-                horizon,
-                partial_volume,
-                plane,
-                bulk_modulus,
-                shear_modulus,
-                influence,
-                &material,
-            )?)
+            let params =
+                lps_params(dim, horizon, partial_volume, plane, bulk_modulus, shear_modulus, influence, &material)?;
+            let material = self::material(&material, dim)?;
+            if let Some(k) = material.defect_cutting_nothing(&grid, horizon) {
+                return Err(ProblemError::invalid(
+                    format!("model.material.defects[{k}]"),
+                    "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
+                ));
+            }
+            ModelSpec::Lps(params, material.defects)
         } else {
             // Bond, blend and ce models: a micromodulus.
             let micromodulus = bond_micromodulus(dim, horizon, mm.as_ref(), plane, partial_volume)?;
@@ -1130,8 +1131,11 @@ fn lps_params(
     if dim == 1 {
         return Err(ProblemError::invalid("dimension", "lps models are 2D or 3D"));
     }
-    if !material.phases.is_empty() || !material.defects.is_empty() {
-        return Err(ProblemError::invalid("model.material", "lps models are homogeneous for now"));
+    if !material.phases.is_empty() || material.bond_rule.is_some() {
+        return Err(ProblemError::invalid(
+            "model.material",
+            "lps models take defects (pre-cracks) but no phases or bond_rule yet: one K and G per scene",
+        ));
     }
     let k = bulk.ok_or_else(|| ProblemError::invalid("model.bulk_modulus", "missing"))?;
     let g = shear.ok_or_else(|| ProblemError::invalid("model.shear_modulus", "missing"))?;

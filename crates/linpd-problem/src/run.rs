@@ -113,7 +113,7 @@ impl Problem {
         // One arm per model type: a new model adds its variant here.
         match &self.model {
             ModelSpec::Blend(b) => return crate::blend::solve(&self.name, b, progress),
-            ModelSpec::Lps(params) => return crate::lps::solve(self, params, progress),
+            ModelSpec::Lps(params, _) => return crate::lps::solve(self, params, progress),
             ModelSpec::Coarsened(c) => return crate::coarsened::solve(self, c, progress),
             ModelSpec::Bond(_) => {}
         }
