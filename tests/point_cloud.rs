@@ -75,7 +75,7 @@ fn cloud_of_grid_nodes_gives_the_grid_solution() {
         ("cantilever-3d at h = 1/32", binary(scene("cantilever-3d.json")), false),
     ];
     for (name, mut grid_scene, partial_volume) in cases {
-        let dir = scratch(&name.replace(' ', "_").replace('/', "_"));
+        let dir = scratch(&name.replace([' ', '/'], "_"));
         grid_scene["model"]["partial_volume"] = json!(partial_volume);
         grid_scene["solver"] = json!({"type": "cholesky"});
         let cloud_scene = as_cloud(&grid_scene, &dir);
@@ -183,4 +183,50 @@ fn cli_refuses_a_bad_cloud_and_writes_nothing() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("c.csv line 3: volume = NaN is not finite"), "{err}");
     assert!(!dir.join("out").exists(), "nothing written");
+}
+
+/// A phase given by the cloud's `phase` column acts as the same phase given by region: the
+/// solutions are identical (the same moduli reach the same bond weights). A phase number no
+/// node carries, and a phase number on a grid, are errors.
+#[test]
+fn phase_column_selects_the_phase() {
+    let dir = scratch("phase");
+    let mut s = scene("plate-hole-2d.json");
+    s["solver"] = json!({"type": "cholesky"});
+    let stiff = json!({"box": {"min": [0.7, -1.0], "max": [2.0, 2.0]}});
+    s["model"]["material"] = json!({"phases": [{"region": stiff, "modulus": 3.0}]});
+    let by_region = as_cloud(&s, &dir);
+    // the same cloud with a phase column: 1 inside the stiff box, 0 elsewhere
+    let text = std::fs::read_to_string(dir.join("nodes.csv")).unwrap();
+    let mut tagged = String::new();
+    for (k, line) in text.lines().enumerate() {
+        match k {
+            0 => tagged += &format!("{line}\n"),
+            1 => tagged += &format!("{line},phase\n"),
+            _ => {
+                let x: f64 = line.split(',').next().unwrap().parse().unwrap();
+                tagged += &format!("{line},{}\n", (x >= 0.7 - 1e-12) as u8);
+            }
+        }
+    }
+    std::fs::write(dir.join("tagged.csv"), tagged).unwrap();
+    let mut by_tag = by_region.clone();
+    by_tag["nodes"]["csv"] = json!(dir.join("tagged.csv").to_str().unwrap());
+    by_tag["model"]["material"] = json!({"phases": [{"phase": 1, "modulus": 3.0}]});
+    let a = Problem::from_json(&by_region.to_string()).unwrap().solve(&NoProgress).unwrap();
+    let b = Problem::from_json(&by_tag.to_string()).unwrap().solve(&NoProgress).unwrap();
+    assert_eq!(a.u, b.u);
+    let plain = Problem::from_json(&as_cloud(&scene("plate-hole-2d.json"), &scratch("phase-plain")).to_string())
+        .unwrap()
+        .solve(&NoProgress)
+        .unwrap();
+    assert!(max_rel_diff(&plain.u, &b.u) > 1e-3, "the phase changes the solution");
+    let mut missing = by_tag.clone();
+    missing["model"]["material"]["phases"][0]["phase"] = json!(7);
+    let e = Problem::from_json(&missing.to_string()).unwrap_err().to_string();
+    assert!(e.starts_with("model.material.phases[0].phase: no node of the cloud has phase 7"), "{e}");
+    let mut on_grid = scene("plate-hole-2d.json");
+    on_grid["model"]["material"] = json!({"phases": [{"phase": 1, "modulus": 3.0}]});
+    let e = Problem::from_json(&on_grid.to_string()).unwrap_err().to_string();
+    assert!(e.starts_with("model.material.phases[0].phase: phase numbers come from a point cloud"), "{e}");
 }

@@ -221,6 +221,56 @@ impl Cloud {
     }
 }
 
+/// The modulus of every node when some phase names a phase number (`{"phase": k, "modulus":
+/// K}`): the phases in order, a later one overriding an earlier one where both apply (as for
+/// regions), `reference` where none does. `None` when every phase is a region (the material
+/// then applies them). A phase number that no node carries is an error (a typo would
+/// otherwise leave the material silently homogeneous).
+fn tagged_moduli(
+    raw: &crate::raw::RawMaterial,
+    nodes: &LevelNodes,
+    reference: f64,
+) -> Result<Option<Vec<f64>>, ProblemError> {
+    if raw.phases.iter().all(|ph| ph.phase.is_none()) {
+        return Ok(None);
+    }
+    let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
+    let mut moduli = vec![reference; nodes.positions.len()];
+    for (k, ph) in raw.phases.iter().enumerate() {
+        match (&ph.region, ph.phase) {
+            (Some(r), _) => {
+                let r = crate::problem::region(&format!("model.material.phases[{k}].region"), r, nodes.dim)?;
+                for (n, x) in nodes.positions.iter().enumerate() {
+                    if r.contains(x, nodes.dim, tol) {
+                        moduli[n] = ph.modulus;
+                    }
+                }
+            }
+            (None, Some(tag)) => {
+                if nodes.phase.is_empty() {
+                    return Err(ProblemError::invalid(
+                        format!("model.material.phases[{k}].phase"),
+                        "the node file has no `phase` column",
+                    ));
+                }
+                let mut any = false;
+                for (n, _) in nodes.phase.iter().enumerate().filter(|(_, &p)| p == tag) {
+                    moduli[n] = ph.modulus;
+                    any = true;
+                }
+                if !any {
+                    return Err(ProblemError::invalid(
+                        format!("model.material.phases[{k}].phase"),
+                        format!("no node of the cloud has phase {tag}"),
+                    ));
+                }
+            }
+            (None, None) => unreachable!("checked by material_with_tags"),
+        }
+    }
+    Ok(Some(moduli))
+}
+
 /// The mean node spacing `(sum_i V_i / n)^(1/d)` of a cloud: the scale of its horizon checks
 /// and memory estimate (a lattice's spacing `h` when the cloud is one).
 pub fn mean_spacing(volumes: &[f64], dim: usize) -> f64 {
@@ -301,8 +351,9 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         ));
     }
     micromodulus.amplitude(dim, horizon, h).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
-    let material = crate::problem::material(&raw_model.material, dim)?;
+    let material = crate::problem::material_with_tags(&raw_model.material, dim, true)?;
     let nodes = cloud.into_nodes(dim);
+    let node_moduli = tagged_moduli(&raw_model.material, &nodes, micromodulus.reference_modulus())?;
     if !material.defects.is_empty() {
         let family = BondFamily::from_points(&nodes.positions, dim, horizon);
         let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
@@ -321,7 +372,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         slice: None,
         name: raw.name,
         nodes: Nodes::Cloud(nodes),
-        model: ModelSpec::Bond(BondModel { horizon, micromodulus, material }),
+        model: ModelSpec::Bond(BondModel { horizon, micromodulus, material, node_moduli }),
         constraints,
         loads,
         solver,

@@ -85,6 +85,9 @@ pub struct BondModel {
     pub(crate) micromodulus: Micromodulus,
     /// Material.
     pub(crate) material: Material,
+    /// Per-node moduli of a point cloud whose phases name phase numbers (overrides the
+    /// material's region phases; `None` otherwise).
+    pub(crate) node_moduli: Option<Vec<f64>>,
 }
 
 impl BondModel {
@@ -541,7 +544,7 @@ impl Problem {
                     // The amplitude now, not at the first solve: a modulus that overflows it
                     // (1e308) is a validation error naming the overflow.
                     micromodulus.amplitude(dim, horizon, grid.spacing()).map_err(|e| core("model", e))?;
-                    ModelSpec::Bond(BondModel { horizon, micromodulus, material })
+                    ModelSpec::Bond(BondModel { horizon, micromodulus, material, node_moduli: None })
                 }
             }
         };
@@ -1224,17 +1227,38 @@ fn micromodulus(
 }
 
 pub(crate) fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
+    material_with_tags(raw, dim, false)
+}
+
+/// [`material`]; with `tags`, phases given by a point cloud's phase number (`{"phase": k}`)
+/// are validated and left out of the returned phases (the cloud applies them per node, see
+/// [`crate::cloud`]), otherwise they are an error.
+pub(crate) fn material_with_tags(raw: &RawMaterial, dim: usize, tags: bool) -> Result<Material, ProblemError> {
     let p = "model.material";
     let mut phases = Vec::new();
     for (k, ph) in raw.phases.iter().enumerate() {
-        let r = region(&format!("{p}.phases[{k}].region"), &ph.region, dim)?;
         if !(ph.modulus.is_finite() && ph.modulus > 0.0) {
             return Err(ProblemError::invalid(
                 format!("{p}.phases[{k}].modulus"),
                 format!("must be > 0, got {:e}", ph.modulus),
             ));
         }
-        phases.push((r, ph.modulus));
+        match (&ph.region, ph.phase) {
+            (Some(r), None) => phases.push((region(&format!("{p}.phases[{k}].region"), r, dim)?, ph.modulus)),
+            (None, Some(_)) if tags => {}
+            (None, Some(_)) => {
+                return Err(ProblemError::invalid(
+                    format!("{p}.phases[{k}].phase"),
+                    "phase numbers come from a point cloud's `phase` column; on a grid give a region",
+                ))
+            }
+            _ => {
+                return Err(ProblemError::invalid(
+                    format!("{p}.phases[{k}]"),
+                    "give exactly one of \"region\" or \"phase\"",
+                ))
+            }
+        }
     }
     let rule = match raw.bond_rule {
         None => BondRule::default(),

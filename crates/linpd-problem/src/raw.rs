@@ -488,8 +488,12 @@ pub struct RawMaterial {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawPhase {
-    /// Where.
-    pub region: RawRegion,
+    /// Where (exactly one of `region`, `phase`).
+    #[serde(default)]
+    pub region: Option<RawRegion>,
+    /// The nodes of a point cloud whose `phase` column holds this number.
+    #[serde(default)]
+    pub phase: Option<u32>,
     /// Its modulus.
     pub modulus: f64,
 }

@@ -60,7 +60,7 @@ impl Problem {
                 b.horizon,
                 &b.micromodulus,
                 &b.material,
-                None,
+                b.node_moduli.as_deref(),
             ),
             None => BondOperator::on_grid(self.lattice()?, b.horizon, &b.micromodulus, &b.material),
         };
