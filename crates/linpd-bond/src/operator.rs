@@ -63,7 +63,6 @@ impl BondOperator {
             .collect();
         let k_ref = micromodulus.reference_modulus();
         let moduli = (!material.phases.is_empty()).then(|| material.node_moduli(grid, k_ref));
-        let vol = grid.volume();
         let tol = GEOMETRY_RTOL * h;
         let weights: Vec<f64> = (0..family.len())
             .into_par_iter()
@@ -86,7 +85,11 @@ impl BondOperator {
                     } else {
                         material.bond_factor(&xi, &xj, ki, kj, k_ref, tol)
                     };
-                    c * micromodulus.kernel.shape(r, horizon) * nu * f * vol * vol
+                    c * micromodulus.kernel.shape(r, horizon)
+                        * nu
+                        * f
+                        * grid.node_volume(i)
+                        * grid.node_volume(j as usize)
                 })
             })
             .collect();

@@ -28,11 +28,11 @@ impl StencilOperator {
         let dim = grid.dim();
         let h = grid.spacing();
         micromodulus.validate(dim)?;
-        if !grid.is_full() {
+        if !grid.is_full() || !grid.has_uniform_volumes() {
             // the linear offsets below index every lattice site
             return Err(CoreError::param(
                 "grid",
-                "the stencil operator needs the full lattice box; a body removed nodes",
+                "the stencil operator needs the full lattice box with volumes h^d; a body removed nodes or cut their cells",
             ));
         }
         let c = micromodulus.amplitude(dim, horizon, h)?;

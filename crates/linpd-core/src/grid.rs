@@ -45,6 +45,9 @@ pub struct Grid {
     body_hi: [i64; 3],
     /// The kept sites when a body removed some (`None`: every site is a node).
     mask: Option<std::sync::Arc<SiteMask>>,
+    /// Per-node volumes of cells cut by the body's boundary ([`Grid::with_cut_volumes`];
+    /// `None`: every node has `h^d`).
+    volumes: Option<std::sync::Arc<Vec<f64>>>,
 }
 
 /// Which lattice sites are nodes ([`Grid::with_body`]).
@@ -55,6 +58,9 @@ struct SiteMask {
     /// Node of each site, `u32::MAX` for a removed site.
     node_of: Vec<u32>,
 }
+
+/// Sub-cells per axis of [`Grid::with_cut_volumes`] in 1D, 2D and 3D.
+pub const CUT_SAMPLES: [usize; 3] = [16, 16, 8];
 
 /// Layer thicknesses `[lower, upper]` per axis (unused axes ignored).
 pub type Layers = [[f64; 2]; 3];
@@ -117,6 +123,7 @@ impl Grid {
             body_lo: [0; 3],
             body_hi: [0; 3],
             mask: None,
+            volumes: None,
         };
         for a in 0..dim {
             if !(min[a].is_finite() && max[a].is_finite()) || max[a] <= min[a] {
@@ -182,9 +189,106 @@ impl Grid {
     pub fn spacing(&self) -> f64 {
         self.h
     }
-    /// Node volume `h^d`.
+    /// Node volume `h^d` (the volume of every node unless [`Grid::with_cut_volumes`] cut
+    /// some: then see [`Grid::node_volume`]).
     pub fn volume(&self) -> f64 {
         self.h.powi(self.dim as i32)
+    }
+    /// Volume of node `n`: `h^d`, or its cell's inside fraction times `h^d` after
+    /// [`Grid::with_cut_volumes`].
+    pub fn node_volume(&self, n: usize) -> f64 {
+        match &self.volumes {
+            Some(v) => v[n],
+            None => self.volume(),
+        }
+    }
+    /// True when every node has the volume `h^d`.
+    pub fn has_uniform_volumes(&self) -> bool {
+        self.volumes.is_none()
+    }
+
+    /// The grid with node volumes from the body `inside` (call it on the grid
+    /// [`Grid::with_body`] made with the same predicate): each node gets `h^d` times the
+    /// fraction of its cell (the cube of side `h` centred on it) that is inside, and the inside
+    /// part of the cell of a *removed* site (its node lies outside, part of its cell inside)
+    /// goes to the kept lattice neighbour (one of the `3^d - 1` around it) nearest to that
+    /// part's centroid. So the volumes sum to the body's measure within the lattice box, where
+    /// dropping the removed sites' parts would miss about half a cell row along the boundary.
+    ///
+    /// Fractions by the midpoint rule on `s^d` sub-cells (`s` = [`CUT_SAMPLES`] per axis: 16
+    /// in 1D and 2D, 8 in 3D): exact for whole cells and cuts along sub-cell faces; for a
+    /// smooth boundary a cut cell's error is about one sub-cell row, `h^d / s`, of either sign,
+    /// averaging out along the boundary. A kept node's fraction is at least one sub-cell, so
+    /// no node gets volume 0. A removed part with no kept neighbour is dropped.
+    pub fn with_cut_volumes(&self, inside: impl Fn(&Point) -> bool + Sync) -> Grid {
+        use rayon::prelude::*;
+        let d = self.dim;
+        let s = CUT_SAMPLES[d - 1];
+        let cells = s.pow(d as u32);
+        let v0 = self.volume();
+        // inside sub-cells of the cell at `x` and their centroid
+        let fraction = |x: &Point| -> (usize, Point) {
+            let (mut count, mut c) = (0usize, [0.0; 3]);
+            for k in 0..cells {
+                let mut p = *x;
+                let mut r = k;
+                for a in 0..d {
+                    p[a] = x[a] + self.h * (((r % s) as f64 + 0.5) / s as f64 - 0.5);
+                    r /= s;
+                }
+                if inside(&p) {
+                    count += 1;
+                    (0..d).for_each(|a| c[a] += p[a]);
+                }
+            }
+            (0..d).for_each(|a| c[a] /= count.max(1) as f64);
+            (count, c)
+        };
+        let mut volumes: Vec<f64> = (0..self.len())
+            .into_par_iter()
+            .map(|n| v0 * fraction(&self.position(n)).0.max(1) as f64 / cells as f64)
+            .collect();
+        let removed: Vec<(usize, f64)> = (0..self.n_sites())
+            .into_par_iter()
+            .filter_map(|site| {
+                let mut q = [0usize; 3];
+                let mut r = site;
+                for a in 0..3 {
+                    q[a] = r % self.counts[a];
+                    r /= self.counts[a];
+                }
+                if self.node_at_site(q).is_some() {
+                    return None;
+                }
+                let (count, c) = fraction(&self.site_position(q));
+                if count == 0 {
+                    return None;
+                }
+                let idx = [0, 1, 2].map(|a| self.lo[a] + q[a] as i64);
+                let span = |a: usize| if a < d { -1..=1i64 } else { 0..=0 };
+                let mut best: Option<(f64, usize)> = None;
+                for k2 in span(2) {
+                    for k1 in span(1) {
+                        for k0 in span(0) {
+                            if let Some(n) = self.node_at([idx[0] + k0, idx[1] + k1, idx[2] + k2]) {
+                                let p = self.position(n);
+                                let dist: f64 = (0..d).map(|a| (p[a] - c[a]).powi(2)).sum();
+                                if best.is_none_or(|(b, _)| dist < b) {
+                                    best = Some((dist, n));
+                                }
+                            }
+                        }
+                    }
+                }
+                best.map(|(_, n)| (n, v0 * count as f64 / cells as f64))
+            })
+            .collect();
+        for (n, v) in removed {
+            volumes[n] += v;
+        }
+        let mut g = self.clone();
+        g.volumes = Some(std::sync::Arc::new(volumes));
+        g
     }
     /// Number of nodes, layers included (the kept sites only, when a body removed some).
     pub fn len(&self) -> usize {
@@ -220,6 +324,10 @@ impl Grid {
             return Err(CoreError::param("body", format!("keeps none of the {} nodes of the grid", self.len())));
         }
         let mut g = self.clone();
+        if let Some(v) = &self.volumes {
+            let kept_volumes = (0..self.len()).filter(|&n| kept[n]).map(|n| v[n]).collect();
+            g.volumes = Some(std::sync::Arc::new(kept_volumes));
+        }
         g.mask = Some(std::sync::Arc::new(SiteMask { site_of, node_of }));
         Ok(g)
     }
@@ -412,6 +520,33 @@ mod tests {
         let (n, d) = g.nearest_node(&[0.5, 0.5]);
         assert!(inside(&g.position(n)) && d >= 0.2 - 1e-12);
         assert!(full.with_body(|_| false).unwrap_err().to_string().contains("keeps none of the 121 nodes"));
+    }
+
+    /// Cut-cell volumes: a half-space through a node cuts its cell in half exactly; a disk's
+    /// area is recovered far better than with full volumes; wholly inside cells keep `h^d`.
+    #[test]
+    fn cut_volumes_are_inside_fractions() {
+        let full = Grid::new(&[0.0, 0.0], &[1.0, 1.0], 0.1, 0.0, Placement::Vertex).unwrap();
+        let half = |x: &Point| x[0] <= 0.5;
+        let g = full.with_body(half).unwrap().with_cut_volumes(half);
+        let on_cut = (0..g.len()).filter(|&n| (g.position(n)[0] - 0.5).abs() < 1e-12).count();
+        assert_eq!(on_cut, 11);
+        for n in 0..g.len() {
+            let x = g.position(n)[0];
+            // boundary rows of the box are not cut by `half` (samples outside the box count)
+            let want = if (x - 0.5).abs() < 1e-12 { 0.005 } else { 0.01 };
+            assert!((g.node_volume(n) - want).abs() < 1e-15, "node {n} at x = {x}: {}", g.node_volume(n));
+        }
+        // a disk of radius 0.3: cut volumes sum to its area within 0.05 %, full volumes miss by 0.5 %
+        let disk = |x: &Point| (x[0] - 0.5).powi(2) + (x[1] - 0.5).powi(2) <= 0.09;
+        let fine = Grid::new(&[0.0, 0.0], &[1.0, 1.0], 0.02, 0.0, Placement::Vertex).unwrap();
+        let body = fine.with_body(disk).unwrap();
+        let area = std::f64::consts::PI * 0.09;
+        let full_err = (body.len() as f64 * body.volume() - area).abs() / area;
+        let cut = body.with_cut_volumes(disk);
+        let cut_err = ((0..cut.len()).map(|n| cut.node_volume(n)).sum::<f64>() - area).abs() / area;
+        assert!(cut_err < 5e-4 && cut_err < full_err / 5.0, "cut {cut_err:e}, full {full_err:e}");
+        assert!(full.has_uniform_volumes() && !cut.has_uniform_volumes());
     }
 
     /// Node counts are checked integers: a huge layer or box is an error, never a wrapped count.

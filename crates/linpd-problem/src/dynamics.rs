@@ -579,8 +579,9 @@ impl Problem {
 
     fn mass(&self, rho: f64) -> Result<LumpedMass, ProblemError> {
         let grid = self.lattice()?;
-        LumpedMass::uniform(rho, grid.volume(), self.dim() * grid.len())
-            .map_err(|e| ProblemError::invalid("dynamics.density", e.to_string()))
+        let d = self.dim();
+        let volumes: Vec<f64> = (0..d * grid.len()).map(|k| grid.node_volume(k / d)).collect();
+        LumpedMass::new(rho, &volumes).map_err(|e| ProblemError::invalid("dynamics.density", e.to_string()))
     }
 
     fn fixed(&self) -> Vec<(usize, f64)> {

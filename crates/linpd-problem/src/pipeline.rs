@@ -236,7 +236,8 @@ pub fn level0_model(p: &Problem) -> Result<LevelModel, ProblemError> {
         let op: BondOperator = p.operator()?;
         assemble(&op, &DofMap::all_free(n, d))
     };
-    LevelModel::from_stiffness(d, grid.positions(), vec![grid.volume(); n], &k).map_err(|e| inv("model", e.to_string()))
+    LevelModel::from_stiffness(d, grid.positions(), (0..n).map(|i| grid.node_volume(i)).collect(), &k)
+        .map_err(|e| inv("model", e.to_string()))
 }
 
 /// One level's outcome.

@@ -500,11 +500,30 @@ impl Problem {
         // Refuse scenes that cannot fit before anything per node is allocated (the regions
         // below already walk every node).
         crate::memory::check(memory_path(model_kind, raw.solver.matrix_free, raw.dynamics.is_some()), &grid, horizon)?;
+        let cut = raw.boundary_volumes == Some(crate::raw::RawBoundaryVolumes::Cut);
         let grid = match &body {
+            None if cut => {
+                return Err(ProblemError::invalid(
+                    "boundary_volumes",
+                    "\"cut\" needs a \"body\" whose boundary cuts cells",
+                ))
+            }
             None => grid,
             Some(body) => {
                 let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
-                grid.with_body(|x| body.contains(x, dim, tol)).map_err(|e| core("body", e))?
+                let inside = |x: &Point| body.contains(x, dim, tol);
+                let kept = grid.with_body(inside).map_err(|e| core("body", e))?;
+                if cut {
+                    if model_kind == RawModelKind::Lps {
+                        return Err(ProblemError::invalid(
+                            "boundary_volumes",
+                            "\"cut\" is for bond models for now (the LPS model takes one node volume)",
+                        ));
+                    }
+                    kept.with_cut_volumes(inside)
+                } else {
+                    kept
+                }
             }
         };
         let (constraints, loads) = constraints_and_loads(&raw, dim, &grid)?;
@@ -719,7 +738,7 @@ impl Nodes {
     /// Volume of node `n`.
     pub fn volume(&self, n: usize) -> f64 {
         match self {
-            Nodes::Lattice(g) => g.volume(),
+            Nodes::Lattice(g) => g.node_volume(n),
             Nodes::Level(l) | Nodes::Cloud(l) => l.volumes[n],
         }
     }

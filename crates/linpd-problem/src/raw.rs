@@ -36,9 +36,23 @@ pub struct RawProblem {
     /// The body: only the grid's nodes inside this region (layer nodes included) are kept.
     #[serde(default)]
     pub body: Option<RawRegion>,
+    /// `"full"` (default: every node `h^d`) or `"cut"`: cells cut by the body's boundary get
+    /// their inside fraction ([`linpd_core::Grid::with_cut_volumes`]).
+    #[serde(default)]
+    pub boundary_volumes: Option<RawBoundaryVolumes>,
     /// A point cloud read from a file, instead of `grid` (`{"csv": "file.csv"}`).
     #[serde(default)]
     pub nodes: Option<RawNodes>,
+}
+
+/// `boundary_volumes`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawBoundaryVolumes {
+    /// Every node `h^d`.
+    Full,
+    /// Inside fractions of cut cells.
+    Cut,
 }
 
 /// `nodes`: where a point cloud comes from (exactly one key).
