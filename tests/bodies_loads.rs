@@ -358,3 +358,32 @@ fn cut_volumes_recover_the_area_and_weigh_the_bonds() {
     let e = error_of(&s);
     assert!(e.starts_with("boundary_volumes: \"cut\" needs a \"body\""), "{e}");
 }
+
+/// A traction on the face `x+` of the plate: a body-force density `t / h` on the body's last
+/// column (51 nodes, layer nodes beyond the face excluded), so the applied force is
+/// `t x 51 h` = `t x 0.51` (the 51 vertex cells of the face, the face's length 0.5 plus the
+/// half cells at its ends) whatever the spacing up to that half-cell term: `t x 0.505` at
+/// h/2 (eps-level sums). A face of another dimension, a cloud, and a key of another load type
+/// are errors.
+#[test]
+fn traction_acts_on_the_outermost_slab() {
+    for (h, nodes, length) in [(0.01, 51, 0.51), (0.005, 101, 0.505)] {
+        let mut s = scene("plate-hole-2d.json");
+        s["grid"]["spacing"] = json!(h);
+        s["loads"] = json!([{"type": "traction", "face": "x+", "traction": [2.0, 0.5]}]);
+        let p = Problem::from_json(&s.to_string()).unwrap();
+        let f = p.load_vector();
+        let (fx, fy): (f64, f64) = (f.iter().step_by(2).sum(), f.iter().skip(1).step_by(2).sum());
+        assert!((fx - 2.0 * length).abs() < 1e-13 && (fy - 0.5 * length).abs() < 1e-13, "h = {h}: ({fx}, {fy})");
+        let loaded: Vec<usize> = (0..p.nodes().len()).filter(|&n| f[2 * n] != 0.0).collect();
+        assert_eq!(loaded.len(), nodes, "h = {h}");
+        assert!(loaded.iter().all(|&n| (p.nodes().position(n)[0] - 1.0).abs() < 1e-12 && !p.nodes().is_layer(n)));
+    }
+    let mut s = scene("plate-hole-2d.json");
+    s["loads"] = json!([{"type": "traction", "face": "z+", "traction": [1.0, 0.0]}]);
+    assert!(error_of(&s).starts_with("loads[0].face: \"z+\" is not a face of a 2D box (one of x-, x+, y-, y+)"));
+    s["loads"] = json!([{"type": "traction", "face": "x+", "traction": [1.0, 0.0], "force": [1.0, 0.0]}]);
+    assert!(error_of(&s).starts_with("loads[0].force: not a key of a traction load"));
+    s["loads"] = json!([{"type": "traction", "face": "x+"}]);
+    assert!(error_of(&s).starts_with("loads[0].traction: missing"));
+}

@@ -893,6 +893,10 @@ pub(crate) trait NodeSet {
     fn nearest(&self, x: &[f64]) -> (usize, f64);
     /// The nodes inside `r`, ascending.
     fn select(&self, r: &Region) -> Vec<usize>;
+    /// The body box `[min, max]` of a lattice (`None` for scattered nodes).
+    fn body_box(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        None
+    }
 }
 
 impl NodeSet for Grid {
@@ -911,6 +915,50 @@ impl NodeSet for Grid {
     fn select(&self, r: &Region) -> Vec<usize> {
         r.nodes(self)
     }
+    fn body_box(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        Some((self.min().to_vec(), self.max().to_vec()))
+    }
+}
+
+/// A traction `t` (force per area) on the face `x+`, `x-`, ... of a lattice's body box, as a
+/// body-force density `t / h` on the body's outermost slab of nodes at that face (the nodes
+/// within one spacing of it, layers excluded): the applied force is `t sum_i V_i / h`, i.e.
+/// `t` times the face's area when the slab is one full row of cells.
+fn traction(p: &str, l: &crate::raw::RawLoad, dim: usize, nodes: &dyn NodeSet) -> Result<Load, ProblemError> {
+    const FACES: [&str; 6] = ["x-", "x+", "y-", "y+", "z-", "z+"];
+    let face = l.face.as_deref().ok_or_else(|| ProblemError::invalid(format!("{p}.face"), "missing"))?;
+    let Some(k) = FACES[..2 * dim].iter().position(|f| *f == face) else {
+        return Err(ProblemError::invalid(
+            format!("{p}.face"),
+            format!("{face:?} is not a face of a {dim}D box (one of {})", FACES[..2 * dim].join(", ")),
+        ));
+    };
+    let t = l.traction.clone().ok_or_else(|| ProblemError::invalid(format!("{p}.traction"), "missing"))?;
+    check_len(&format!("{p}.traction"), &t, dim)?;
+    let Some((min, max)) = nodes.body_box() else {
+        return Err(ProblemError::invalid(
+            format!("{p}.type"),
+            format!("a traction acts on a face of the grid's box; {} has none (use a resultant load)", nodes.what()),
+        ));
+    };
+    let (axis, upper) = (k / 2, k % 2 == 1);
+    let h = nodes.spacing();
+    // one spacing, less a margin far above the region tolerance (1e-9 h): the next row is out
+    let depth = h * (1.0 - 1e-6);
+    let (mut lo, mut hi) = (min.clone(), max.clone());
+    if upper {
+        lo[axis] = max[axis] - depth;
+    } else {
+        hi[axis] = min[axis] + depth;
+    }
+    let region = Region::Box { min: lo, max: hi };
+    if nodes.select(&region).is_empty() {
+        return Err(ProblemError::invalid(
+            format!("{p}.face"),
+            format!("no node of the body lies within one spacing of the face {face}"),
+        ));
+    }
+    Ok(Load::Body { region, density: t.iter().map(|v| v / h).collect() })
 }
 
 /// Validates `constraints` and `loads` against the nodes they refer to.
@@ -1013,6 +1061,18 @@ pub(crate) fn constraints_and_loads(
             RawLoadKind::Body => {
                 only("body", &[("at", l.at.is_some()), ("force", l.force.is_some())])?;
                 Load::Body { density: need("density", &l.density)?, region: load_region()? }
+            }
+            RawLoadKind::Traction => {
+                only(
+                    "traction",
+                    &[
+                        ("at", l.at.is_some()),
+                        ("force", l.force.is_some()),
+                        ("density", l.density.is_some()),
+                        ("region", l.region.is_some()),
+                    ],
+                )?;
+                traction(&p, l, dim, nodes)?
             }
         });
     }

@@ -646,6 +646,8 @@ pub enum RawLoadKind {
     Body,
     /// A total force spread over a region's nodes in proportion to their volumes.
     Resultant,
+    /// A force per area on a face of the grid's body box.
+    Traction,
 }
 
 /// A load: `{"type": "point", "at", "force"}` or `{"type": "body", "region", "density"}`
@@ -668,6 +670,12 @@ pub struct RawLoad {
     /// Body load: force per unit volume.
     #[serde(default)]
     pub density: Option<Vec<f64>>,
+    /// Traction: the face of the body box (`x-`, `x+`, `y-`, ...).
+    #[serde(default)]
+    pub face: Option<String>,
+    /// Traction: force per unit area.
+    #[serde(default)]
+    pub traction: Option<Vec<f64>>,
 }
 
 /// `solver`.
