@@ -162,7 +162,10 @@ fn bad_clouds_are_refused_with_the_line() {
     assert!(e.starts_with("solver.matrix_free: the matrix-free stencil operator needs a grid"), "{e}");
     let e = cloud_error(ok, |s| s["model"]["micromodulus"]["normalize"] = json!("discrete"));
     assert!(e.starts_with("model.micromodulus.normalize: \"discrete\" sums over a lattice stencil"), "{e}");
-    let e = cloud_error(ok, |s| s["loads"] = json!([{"type": "traction", "face": "x+", "traction": [1.0, 0.0]}]));
+    let e = cloud_error(ok, |s| {
+        s["constraints"] = json!([]);
+        s["loads"] = json!([{"type": "traction", "face": "x+", "traction": [1.0, 0.0]}]);
+    });
     assert!(
         e.starts_with("loads[0].type: a traction acts on a face of the grid's box; the point cloud has none"),
         "{e}"
