@@ -316,6 +316,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let identity = scene_identity(&problem, &scene)?;
             let staged = OutputDir::begin(&out).map_err(output)?;
             let system = problem.reduced_system(&progress).map_err(input(&scene))?;
+            progress.phase(&format!("writing K.mtx ({} entries), f.mtx, dofs.csv", system.nnz()));
             system.write(staged.path()).map_err(output)?;
             let files = staged.commit("export.json", system.to_json(), &identity).map_err(output)?;
             say!(

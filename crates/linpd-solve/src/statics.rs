@@ -484,6 +484,7 @@ pub fn reduced_system(
 ) -> Result<(Csc, Vec<f64>), StaticError> {
     check_static(model, bc, f)?;
     let rhs = bc.reduced_rhs(&ModelOperator(model), f);
+    progress.phase(&format!("assembling: {} free DOFs", bc.dofs().n_free()));
     let a = assemble_checked(model, bc.dofs(), &rhs, progress)?;
     Ok((a, rhs))
 }
