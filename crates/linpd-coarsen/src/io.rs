@@ -517,7 +517,7 @@ impl ModuliFile {
 
         // sprs reads from the size line on, after the banner checked above (its own header
         // parser takes a blank line for the size line); it allocates `nnz` = `found` entries.
-        let mut body = std::io::BufReader::new(BANNER.as_bytes().chain(&b"\n"[..]).chain(text[size_at..].as_bytes()));
+        let mut body = std::io::BufReader::new(BANNER.as_bytes().chain(&b"\n"[..]).chain(&text.as_bytes()[size_at..]));
         let m: sprs::TriMat<f64> = sprs::io::read_matrix_market_from_bufread(&mut body)
             .map_err(|e| invalid(size_ln, format!("sprs could not read the checked entries: {e}")))?;
         let entries = m.row_inds().iter().zip(m.col_inds()).zip(m.data()).map(|((&r, &c), &v)| (r, c, v)).collect();
