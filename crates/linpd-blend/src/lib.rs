@@ -48,4 +48,4 @@ pub use blending::{Blending, Regions};
 pub use error::BlendError;
 pub use mesh::Mesh;
 pub use model::{BlendOperator, BlendParams, LocalPart, ModelKind};
-pub use solve::{ce_exact_point_load, solve_model, BlendSolution, BlendSolver, Load};
+pub use solve::{ce_exact_point_load, constraints_and_loads, solve_model, BlendSolution, BlendSolver, Load};

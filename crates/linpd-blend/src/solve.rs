@@ -132,24 +132,21 @@ fn load_vector(op: &BlendOperator, loads: &[Load], tol: f64) -> Result<Vec<f64>,
     Ok(f)
 }
 
-/// Assembles `kind` for `params`, applies `u(0) = u_left`, `u(L) = u_right` (pure PD: on the
-/// whole nonlocal boundary layer, from the CE solution of the same problem, as in section 5),
-/// and solves with [`linpd_solve::solve_model`].
-pub fn solve_model(
+/// The prescribed displacements and nodal forces [`solve_model`] solves `op` (assembled for
+/// `params` and `kind`) with: `u(0) = u_left`, `u(L) = u_right` (pure PD: on the whole nonlocal
+/// boundary layer, from the CE solution of the same problem, as in section 5).
+pub fn constraints_and_loads(
+    op: &BlendOperator,
     params: &BlendParams,
     kind: ModelKind,
     u_left: f64,
     u_right: f64,
     loads: &[Load],
-    solver: BlendSolver,
-) -> Result<BlendSolution, BlendError> {
-    let t0 = Instant::now();
-    let op = BlendOperator::assemble(params, kind)?;
-    let t_asm = t0.elapsed().as_secs_f64();
+) -> Result<(Dirichlet, Vec<f64>), BlendError> {
     let n = op.len();
     let x = &op.mesh.x;
     let tol = 1e-9 * params.dx;
-    let f = load_vector(&op, loads, tol)?;
+    let f = load_vector(op, loads, tol)?;
     // Dirichlet nodes and values.
     let mut fixed = Vec::new();
     if kind == ModelKind::PurePd {
@@ -169,6 +166,24 @@ pub fn solve_model(
         fixed.push((n - 1, u_right));
     }
     let bc = Dirichlet::from_fixed(1, n, &fixed).map_err(|e| BlendError::param("constraints", e.to_string()))?;
+    Ok((bc, f))
+}
+
+/// Assembles `kind` for `params`, applies `u(0) = u_left`, `u(L) = u_right` (pure PD: on the
+/// whole nonlocal boundary layer, from the CE solution of the same problem, as in section 5),
+/// and solves with [`linpd_solve::solve_model`].
+pub fn solve_model(
+    params: &BlendParams,
+    kind: ModelKind,
+    u_left: f64,
+    u_right: f64,
+    loads: &[Load],
+    solver: BlendSolver,
+) -> Result<BlendSolution, BlendError> {
+    let t0 = Instant::now();
+    let op = BlendOperator::assemble(params, kind)?;
+    let t_asm = t0.elapsed().as_secs_f64();
+    let (bc, f) = constraints_and_loads(&op, params, kind, u_left, u_right, loads)?;
     let solved = linpd_solve::solve_model(&op, &bc, &f, &solver.spec(), &linpd_core::NoProgress)?;
     let mut report = solved.report;
     report.timings.assemble += t_asm;

@@ -77,6 +77,19 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Export the reduced linear system of a static scene, A_ff u_f = f_f - (A u_bar)_f, for
+    /// another solver: K.mtx (A_ff) and f.mtx (Matrix Market, 1-based, general), dofs.csv
+    /// (row,node,component) and export.json. See docs/problem-format.md.
+    Export {
+        /// The scene file (JSON).
+        scene: PathBuf,
+        /// Output directory; replaced as a whole, only when the export succeeds.
+        #[arg(long)]
+        out: PathBuf,
+        /// Print no progress messages (no phase lines, no progress bars).
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Check a scene without solving it; prints a summary.
     Validate {
         /// The scene file (JSON).
@@ -294,6 +307,30 @@ fn run(cli: Cli) -> Result<(), CliError> {
                     dir.display(),
                     run.snapshots.len()
                 )?;
+            }
+            Ok(())
+        }
+        Command::Export { scene, out, quiet } => {
+            let problem = Problem::from_path(&scene).map_err(input(&scene))?;
+            let progress = Reporter::new(quiet);
+            let identity = scene_identity(&problem, &scene)?;
+            let staged = OutputDir::begin(&out).map_err(output)?;
+            let system = problem.reduced_system(&progress).map_err(input(&scene))?;
+            progress.phase(&format!("writing K.mtx ({} entries), f.mtx, dofs.csv", system.nnz()));
+            system.write(staged.path()).map_err(output)?;
+            let files = staged.commit("export.json", system.to_json(), &identity).map_err(output)?;
+            say!(
+                "{}: {} unknowns ({} nodes x {} DOFs, {} constrained), {} stored entries of A_ff ({} model)",
+                problem.name(),
+                system.n(),
+                system.n_nodes,
+                system.dim,
+                system.dim * system.n_nodes - system.n(),
+                system.nnz(),
+                system.model
+            )?;
+            for f in files {
+                say!("wrote {}", f.display())?;
             }
             Ok(())
         }

@@ -32,20 +32,48 @@
 //! % dim 2
 //! % nodes level-1.nodes.csv
 //! % entry (d*i+a+1, d*j+b+1) = C(x_i, x_j)[a][b], pointwise micromodulus tensor; L u_i = sum_j C_ij (u_j - u_i) v_j
+//! % written by sprs
 //! 2n 2n nnz
-//! 1 3 1.00000000000000000e0
+//! 1 3 81628.68683476918
 //! ...
 //! ```
 //!
-//! Entries are 1-based, values printed with `{:.17e}` (18 significant digits: reading gives back
-//! the same bits); only blocks with `i != j` are stored (the diagonal block follows from the zero
-//! row sums), and exact zeros are omitted.
+//! Entries are 1-based, values printed by sprs with `{}`, Rust's shortest decimal that reads
+//! back to the same bits (positional, no exponent: `1e-300` takes 300 characters, still within
+//! the format's 1024 per line); only blocks with `i != j` are stored (the diagonal block follows
+//! from the zero row sums), and exact zeros are omitted.
+//!
+//! # What sprs does and what is left here
+//!
+//! The matrix is written by `sprs::io::write_matrix_market_to_bufwrite` and its entries read by
+//! `sprs::io::read_matrix_market_from_bufread`. Three hand-written pieces remain, each because
+//! sprs does not do it:
+//!
+//! * writing: sprs takes no comments of ours, so [`write_matrix_market`] inserts the `% level`,
+//!   `% dim` and `% nodes` lines after the banner as sprs writes it;
+//! * reading the header: sprs skips comments (we need `% dim`, `% level`, `% nodes`), takes any
+//!   banner containing `real` and `general` (or `symmetric`, which it would mirror), takes a
+//!   blank line before the size line for the size line, and never returns at an end of file
+//!   inside the header; so the banner, the comments and the size line are read here, and sprs
+//!   is handed the canonical banner and the file from its size line on;
+//! * checking the entry lines before sprs reads them: its errors name no line
+//!   (`Bad matrix market file.`), it asserts (panics) in `TriMat::from_triplets` on an index
+//!   beyond the size line, it allocates the declared entry count before reading one, and it
+//!   ignores lines after the declared count. So every entry line is checked here first (three
+//!   fields, 1-based indices in range, not in a diagonal block, a finite value) with the file
+//!   and line in the message, the declared count against the file's size (issue #15 item 2:
+//!   never an allocation sized by the header) and against the lines found. sprs then parses
+//!   what passed: a second pass over the text (reading the 4.5 MB, 149,872-entry level 1 of
+//!   `data/coarsen-plate-2d.pipeline.json` takes 91 ms, of which sprs 42 ms).
+//!
+//! Comment lines are allowed before the size line only, as the Matrix Market format says.
 //!
 //! `out/level-1.nodes.csv`: header `x,y,z,volume,level0`, one row per node in level order, unused
 //! coordinates 0, floats `{:.17e}`.
 
 use faer::sparse::{SparseColMat, Triplet};
 use std::fmt::Write as _;
+use std::io::{Read as _, Write};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -138,6 +166,53 @@ fn with_suffix(stem: &Path, suffix: &str) -> PathBuf {
     let mut s = stem.as_os_str().to_owned();
     s.push(suffix);
     PathBuf::from(s)
+}
+
+/// Writes a `rows x cols` matrix given by 0-based `(row, col, value)` entries (in range: a
+/// contract, sprs asserts it) as Matrix Market `coordinate real general` through sprs, with
+/// `comments` (each a `% ` line) right after the banner. sprs prints values with `{}`, the
+/// shortest decimal that reads back to the same `f64` bits.
+pub fn write_matrix_market(
+    path: &Path,
+    (rows, cols): (usize, usize),
+    entries: impl IntoIterator<Item = (usize, usize, f64)>,
+    comments: &[String],
+) -> Result<(), IoError> {
+    let (mut r, mut c, mut v) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, j, x) in entries {
+        r.push(i);
+        c.push(j);
+        v.push(x);
+    }
+    let m = sprs::TriMat::from_triplets((rows, cols), r, c, v);
+    let werr = |source| IoError::Write { path: show(path), source };
+    let comments: String = comments.iter().map(|l| format!("% {l}\n")).collect();
+    let file = std::fs::File::create(path).map_err(werr)?;
+    let mut w = AfterBanner { inner: std::io::BufWriter::new(file), comments: Some(comments) };
+    sprs::io::write_matrix_market_to_bufwrite(&mut w, &m).map_err(werr)?;
+    w.flush().map_err(werr)
+}
+
+/// A writer that inserts `comments` after the first line written through it (sprs writes its
+/// banner and then `% written by sprs`; it takes no comments of ours).
+struct AfterBanner<W> {
+    inner: W,
+    comments: Option<String>,
+}
+
+impl<W: Write> Write for AfterBanner<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if let (Some(c), Some(k)) = (&self.comments, buf.iter().position(|&b| b == b'\n')) {
+            self.inner.write_all(&buf[..=k])?;
+            self.inner.write_all(c.as_bytes())?;
+            self.comments = None;
+            return Ok(k + 1);
+        }
+        self.inner.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
 }
 
 /// Reads a whole file; devices and pipes (`/dev/urandom`) are refused before reading, since
@@ -270,22 +345,16 @@ impl ModuliFile {
         let d = self.dim;
         let n = self.n_nodes();
         let csv_name = csv.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        let kept: Vec<&(usize, usize, f64)> = self.entries.iter().filter(|e| e.2 != 0.0).collect();
-        let mut s = String::new();
-        let _ = writeln!(s, "{BANNER}");
-        let _ = writeln!(s, "% linpd coarsened moduli");
-        let _ = writeln!(s, "% level {}", self.level);
-        let _ = writeln!(s, "% dim {d}");
-        let _ = writeln!(s, "% nodes {csv_name}");
-        let _ = writeln!(
-            s,
-            "% entry (d*i+a+1, d*j+b+1) = C(x_i, x_j)[a][b], pointwise micromodulus tensor; L u_i = sum_j C_ij (u_j - u_i) v_j"
-        );
-        let _ = writeln!(s, "{} {} {}", d * n, d * n, kept.len());
-        for &&(r, c, v) in &kept {
-            let _ = writeln!(s, "{} {} {v:.17e}", r + 1, c + 1);
-        }
-        std::fs::write(&mtx, s).map_err(werr(&mtx))?;
+        let comments = [
+            "linpd coarsened moduli".to_string(),
+            format!("level {}", self.level),
+            format!("dim {d}"),
+            format!("nodes {csv_name}"),
+            "entry (d*i+a+1, d*j+b+1) = C(x_i, x_j)[a][b], pointwise micromodulus tensor; L u_i = sum_j C_ij (u_j - u_i) v_j"
+                .to_string(),
+        ];
+        let kept = self.entries.iter().copied().filter(|e| e.2 != 0.0);
+        write_matrix_market(&mtx, (d * n, d * n), kept, &comments)?;
         let mut s = String::new();
         let _ = writeln!(s, "{NODES_HEADER}");
         for i in 0..n {
@@ -309,10 +378,16 @@ impl ModuliFile {
             found: excerpt(found),
         };
         let invalid = |line: usize, reason: String| IoError::Invalid { path: path.clone(), line, reason };
-        let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l.trim()));
+        // (1-based line, byte offset, trimmed text): the offset of the size line is where sprs
+        // starts reading.
+        let mut at = 0;
+        let mut lines = text.split_inclusive('\n').enumerate().map(|(k, raw)| {
+            at += raw.len();
+            (k + 1, at - raw.len(), raw.trim())
+        });
 
         // Banner.
-        let (ln, banner) = lines.next().unwrap_or((1, ""));
+        let (ln, _, banner) = lines.next().unwrap_or((1, 0, ""));
         let toks: Vec<String> = banner.split_whitespace().map(|t| t.to_ascii_lowercase()).collect();
         if toks.len() != 5 || toks[0] != "%%matrixmarket" || toks[1..] != ["matrix", "coordinate", "real", "general"] {
             return Err(syntax(ln, &format!("the banner `{BANNER}`"), banner));
@@ -320,14 +395,14 @@ impl ModuliFile {
 
         // Comments (level, dim, nodes), then the size line.
         let (mut level, mut dim, mut nodes_name) = (0usize, None::<(usize, usize)>, None::<(String, usize)>);
-        let (size_ln, size_line) = loop {
-            let Some((ln, l)) = lines.next() else {
+        let (size_ln, size_at, size_line) = loop {
+            let Some((ln, at, l)) = lines.next() else {
                 return Err(syntax(0, "a size line `rows cols entries`", "end of file"));
             };
             if l.is_empty() {
                 continue;
             }
-            let Some(c) = l.strip_prefix('%') else { break (ln, l) };
+            let Some(c) = l.strip_prefix('%') else { break (ln, at, l) };
             let mut it = c.split_whitespace();
             match it.next() {
                 Some("level") => {
@@ -399,16 +474,21 @@ impl ModuliFile {
             ));
         }
 
-        // Entries (`nnz <= room`: the allocation is bounded by the file's size).
-        let mut entries = Vec::with_capacity(nnz);
-        for (ln, l) in lines {
-            if l.is_empty() || l.starts_with('%') {
+        // The entry lines, checked before sprs reads them: sprs names no line in its errors and
+        // asserts (panics) on an index beyond the size line (see the module docs).
+        let mut found = 0usize;
+        for (ln, _, l) in lines {
+            if l.is_empty() {
                 continue;
             }
             let t: Vec<&str> = l.split_whitespace().collect();
             let parsed = (t.len() == 3).then(|| (t[0].parse::<usize>(), t[1].parse::<usize>(), t[2].parse::<f64>()));
             let Some((Ok(r), Ok(c), Ok(v))) = parsed else {
-                return Err(syntax(ln, "an entry `row col value` (1-based integer indices, a real value)", l));
+                return Err(syntax(
+                    ln,
+                    "an entry `row col value` (1-based integer indices, a real value; comments only before the size line)",
+                    l,
+                ));
             };
             if r == 0 || c == 0 || r > rows || c > cols {
                 return Err(invalid(
@@ -416,30 +496,31 @@ impl ModuliFile {
                     format!("entry ({r}, {c}) is out of range: indices are 1-based and at most {rows}"),
                 ));
             }
-            let (r, c) = (r - 1, c - 1);
-            if r / d == c / d {
+            if (r - 1) / d == (c - 1) / d {
                 return Err(invalid(
                     ln,
                     format!(
-                        "entry ({}, {}) lies inside the diagonal block of node {}; only bonded pairs i != j are stored \
+                        "entry ({r}, {c}) lies inside the diagonal block of node {}; only bonded pairs i != j are stored \
                          (the diagonal block follows from the zero row sums)",
-                        r + 1,
-                        c + 1,
-                        r / d
+                        (r - 1) / d
                     ),
                 ));
             }
             if !v.is_finite() {
-                return Err(invalid(
-                    ln,
-                    format!("entry ({}, {}) has the non-finite value {}", r + 1, c + 1, excerpt(t[2])),
-                ));
+                return Err(invalid(ln, format!("entry ({r}, {c}) has the non-finite value {}", excerpt(t[2]))));
             }
-            entries.push((r, c, v));
+            found += 1;
         }
-        if entries.len() != nnz {
-            return Err(IoError::EntryCount { path, declared: nnz, found: entries.len() });
+        if found != nnz {
+            return Err(IoError::EntryCount { path, declared: nnz, found });
         }
+
+        // sprs reads from the size line on, after the banner checked above (its own header
+        // parser takes a blank line for the size line); it allocates `nnz` = `found` entries.
+        let mut body = std::io::BufReader::new(BANNER.as_bytes().chain(&b"\n"[..]).chain(&text.as_bytes()[size_at..]));
+        let m: sprs::TriMat<f64> = sprs::io::read_matrix_market_from_bufread(&mut body)
+            .map_err(|e| invalid(size_ln, format!("sprs could not read the checked entries: {e}")))?;
+        let entries = m.row_inds().iter().zip(m.col_inds()).zip(m.data()).map(|((&r, &c), &v)| (r, c, v)).collect();
         Ok(ModuliFile { level, dim: d, positions, volumes, level0, entries })
     }
 
@@ -858,6 +939,49 @@ mod tests {
             let e = ModuliFile::read(Path::new("/dev/zero")).unwrap_err().to_string();
             check(&e, &["/dev/zero", "not a regular file"]);
         }
+    }
+
+    /// Comment lines after the size line: Matrix Market allows them in the header only (and sprs
+    /// reads none there); the message names the line.
+    #[test]
+    fn comment_among_entries_is_refused_with_its_line() {
+        let e = bad("comment-entry", &format!("{HEAD}3 3 1\n% late\n1 2 1.0\n"), None);
+        check(&e, &["m.mtx", "line 5", "expected an entry", "comments only before the size line", "`% late`"]);
+    }
+
+    /// Blank lines between the comments and the size line, and trailing blank lines: sprs's
+    /// own header parser would take the blank line for the size line; ours skips it.
+    #[test]
+    fn blank_lines_around_the_size_line_read() {
+        let dir = temp_dir("blank-size");
+        std::fs::write(dir.join("m.nodes.csv"), "x,y,z,volume,level0\n0,0,0,0.5,0\n1,0,0,0.5,2\n").unwrap();
+        std::fs::write(dir.join("m.mtx"), format!("{HEAD}\n\r\n2 2 2\r\n1 2 1.5\r\n2 1 -0.25\n\n")).unwrap();
+        let m = ModuliFile::read(&dir.join("m.mtx")).unwrap();
+        assert_eq!(m.entries, vec![(0, 1, 1.5), (1, 0, -0.25)]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// What `write` produces is plain Matrix Market: sprs's own reader gives back the entries,
+    /// bit for bit, and our comments sit between the banner and the size line.
+    #[test]
+    fn written_file_is_plain_matrix_market() {
+        let dir = temp_dir("plain-mm");
+        let mut m = sample_2d();
+        m.entries.retain(|e| e.2 != 0.0);
+        m.write(&dir.join("p")).unwrap();
+        let t: sprs::TriMat<f64> = sprs::io::read_matrix_market(dir.join("p.mtx")).unwrap();
+        assert_eq!((t.rows(), t.cols()), (12, 12));
+        let back: Vec<(usize, usize, u64)> =
+            t.row_inds().iter().zip(t.col_inds()).zip(t.data()).map(|((&r, &c), v)| (r, c, v.to_bits())).collect();
+        let want: Vec<(usize, usize, u64)> = m.entries.iter().map(|&(r, c, v)| (r, c, v.to_bits())).collect();
+        assert_eq!(back, want);
+        let text = std::fs::read_to_string(dir.join("p.mtx")).unwrap();
+        let head: Vec<&str> = text.lines().take(8).collect();
+        assert_eq!(head[0], BANNER);
+        assert_eq!(&head[1..5], ["% linpd coarsened moduli", "% level 2", "% dim 2", "% nodes p.nodes.csv"]);
+        assert_eq!(head[6], "% written by sprs");
+        assert_eq!(head[7], format!("12 12 {}", m.entries.len()));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! and creates the staging directory `<dir>.tmp-<pid>-<nanos>` in the same parent, so on the
 //! same filesystem, where a rename is atomic. The writers write into [`OutputDir::path`].
 //! [`OutputDir::commit`] writes the run's main document (`result.json`, `history.json`,
-//! `summary.json`, or a study's `data.json` through [`OutputDir::commit_staged`]) last, with the run's identity ([`RunIdentity`]) and the name and size of
+//! `summary.json`, `export.json`, or a study's `data.json` through [`OutputDir::commit_staged`]) last, with the run's identity ([`RunIdentity`]) and the name and size of
 //! every other file, then
 //! 1. renames an existing `<dir>` to `<dir>.old-<pid>-<nanos>`,
 //! 2. renames the staging directory to `<dir>`,
@@ -40,7 +40,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 /// The file names of the main documents: a directory that holds one (and nothing it does not
 /// list) was written by linpd.
-pub const MAIN_DOCUMENTS: [&str; 4] = ["result.json", "history.json", "summary.json", "data.json"];
+pub const MAIN_DOCUMENTS: [&str; 5] = ["result.json", "history.json", "summary.json", "data.json", "export.json"];
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ProblemError + '_ {
     move |source| ProblemError::Io { path: path.display().to_string(), source }

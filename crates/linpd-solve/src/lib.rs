@@ -35,7 +35,8 @@ pub use spec::{
     PreconditionerKind, SolverId, SolverSpec,
 };
 pub use statics::{
-    solve_assembled, solve_assembled_with_progress, solve_model, MatrixHints, StaticError, StaticSolution,
+    reduced_system, solve_assembled, solve_assembled_with_progress, solve_model, MatrixHints, StaticError,
+    StaticSolution,
 };
 
 /// A failed solve.

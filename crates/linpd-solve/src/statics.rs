@@ -24,7 +24,9 @@ use crate::CgParams;
 use crate::{SolveError, SolveReport};
 use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::sparse::{diagonal, relative_residual, Csc, GeneralCsc, SymCsc, SYMMETRY_RTOL};
-use linpd_core::{check_support, LinearOperator, Model, ModelOperator, Ordering, SpdApproximation, Unsupported};
+use linpd_core::{
+    check_support, DofMap, LinearOperator, Model, ModelOperator, Ordering, SpdApproximation, Unsupported,
+};
 use std::time::Instant;
 
 /// A direct solve whose relative residual exceeds this is reported as numerically singular
@@ -441,6 +443,52 @@ impl From<SolveError> for StaticError {
     }
 }
 
+/// What [`solve_model`] checks before anything else: a free DOF, no rigid motion left free by
+/// the constraints, finite loads.
+fn check_static(model: &dyn Model, bc: &Dirichlet, f: &[f64]) -> Result<(), StaticError> {
+    let dofs = bc.dofs();
+    if dofs.n_free() == 0 {
+        return Err(StaticError::NothingFree);
+    }
+    check_support(model, dofs).map_err(|source| StaticError::Unsupported {
+        positions: source.nodes.iter().take(3).map(|&i| model.position(i)[..model.dim()].to_vec()).collect(),
+        source,
+    })?;
+    finite_vector("the load vector", f)?;
+    Ok(())
+}
+
+/// `A_ff` assembled ([`Model::assemble_free_with_progress`]), checked finite together with the
+/// reduced right-hand side `rhs`.
+fn assemble_checked(
+    model: &dyn Model,
+    dofs: &DofMap,
+    rhs: &[f64],
+    progress: &dyn Progress,
+) -> Result<Csc, StaticError> {
+    let a = model.assemble_free_with_progress(dofs, progress);
+    finite_matrix(&a)?;
+    finite_vector(REDUCED_LOAD, rhs)?;
+    Ok(a)
+}
+
+/// The reduced system `A_ff u_f = f_f - (A u_bar)_f` that [`solve_model`] hands an assembled
+/// solver, with the same checks and errors, not solved: `(A_ff, rhs)`, rows and columns
+/// numbered as the free DOFs of `bc.dofs()` ([`DofMap::free_dofs`]). A matrix-free CG applies
+/// the same `A_ff` without assembling it.
+pub fn reduced_system(
+    model: &dyn Model,
+    bc: &Dirichlet,
+    f: &[f64],
+    progress: &dyn Progress,
+) -> Result<(Csc, Vec<f64>), StaticError> {
+    check_static(model, bc, f)?;
+    let rhs = bc.reduced_rhs(&ModelOperator(model), f);
+    progress.phase(&format!("assembling: {} free DOFs", bc.dofs().n_free()));
+    let a = assemble_checked(model, bc.dofs(), &rhs, progress)?;
+    Ok((a, rhs))
+}
+
 /// Displacements over all DOFs and the report of their solve.
 #[derive(Debug, Clone)]
 pub struct StaticSolution {
@@ -462,14 +510,7 @@ pub fn solve_model(
 ) -> Result<StaticSolution, StaticError> {
     let d = model.dim();
     let dofs = bc.dofs();
-    if dofs.n_free() == 0 {
-        return Err(StaticError::NothingFree);
-    }
-    check_support(model, dofs).map_err(|source| StaticError::Unsupported {
-        positions: source.nodes.iter().take(3).map(|&i| model.position(i)[..d].to_vec()).collect(),
-        source,
-    })?;
-    finite_vector("the load vector", f)?;
+    check_static(model, bc, f)?;
     let t0 = Instant::now();
     // Checked once the operator is known to be finite (an infinite A makes it NaN too).
     let rhs = bc.reduced_rhs(&ModelOperator(model), f);
@@ -533,10 +574,8 @@ pub fn solve_model(
         _ => {
             progress.phase(&format!("assembling: {} free DOFs", dofs.n_free()));
             let t = Instant::now();
-            let a = model.assemble_free_with_progress(dofs, progress);
+            let a = assemble_checked(model, dofs, &rhs, progress)?;
             let t_asm = t.elapsed().as_secs_f64();
-            finite_matrix(&a)?;
-            finite_vector(REDUCED_LOAD, &rhs)?;
             let spd = match spec {
                 SolverSpec::Auto(_) if asymmetry > SYMMETRY_RTOL => model.spd_approximation(dofs),
                 _ => None,
