@@ -53,7 +53,7 @@ pub struct Cloud {
     pub layer: Vec<bool>,
     /// Phase numbers (empty without a `phase` column).
     pub phase: Vec<u32>,
-    /// 1-based file line of each node, for messages.
+    /// 1-based file line of each node (a VTK file: its 0-based point number), for messages.
     pub lines: Vec<u64>,
 }
 
@@ -194,7 +194,7 @@ pub fn read_csv(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemErro
 
 /// The first pair of nodes closer than [`DUPLICATE_RTOL`] `min_i V_i^(1/d)` (by a cell list of
 /// that size: no O(n^2) pass).
-fn check_duplicates(cloud: &Cloud, dim: usize) -> Result<(), (usize, usize)> {
+pub(crate) fn check_duplicates(cloud: &Cloud, dim: usize) -> Result<(), (usize, usize)> {
     let size = cloud.volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
     let tol = DUPLICATE_RTOL * size;
     if !(tol > 0.0 && tol.is_finite()) {
@@ -318,9 +318,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
     }
     let cloud = match (&spec.csv, &spec.vtk) {
         (Some(f), None) => read_csv(&base_dir.join(f), dim, "nodes.csv")?,
-        (None, Some(_)) => {
-            return Err(ProblemError::invalid("nodes.vtk", "VTK node files are not read yet: convert to CSV"))
-        }
+        (None, Some(f)) => crate::vtu::read_cloud(&base_dir.join(f), dim, "nodes.vtk")?,
         _ => return Err(ProblemError::invalid("nodes", "give exactly one of \"csv\" or \"vtk\"")),
     };
     let Some(horizon) = raw.model.horizon else {

@@ -24,6 +24,7 @@ pub mod pipeline;
 pub mod problem;
 pub mod raw;
 pub mod run;
+pub mod vtu;
 
 pub use atomic::{OutputDir, RunIdentity};
 pub use balance::{Balance, ConstraintBalance, LoadBalance};
