@@ -143,10 +143,9 @@ pub fn write_vtu(path: &Path, dim: usize, x: &[linpd_core::Point], arrays: &[Poi
         writeln!(w, "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">")?;
         let floats =
             |w: &mut dyn Write, name: &str, components: usize, v: &dyn Fn(usize, usize) -> f64| -> std::io::Result<()> {
-                writeln!(
-                    w,
-                    r#"        <DataArray type="Float64" Name="{name}" NumberOfComponents="{components}" format="ascii">"#
-                )?;
+                // a scalar without NumberOfComponents: readers give it shape (n,), not (n, 1)
+                let nc = if components == 1 { String::new() } else { format!(r#" NumberOfComponents="{components}""#) };
+                writeln!(w, r#"        <DataArray type="Float64" Name="{name}"{nc} format="ascii">"#)?;
                 for k in 0..n {
                     write!(w, "         ")?;
                     for c in 0..components {
