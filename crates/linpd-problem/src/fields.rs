@@ -77,7 +77,9 @@ impl NodalStrain {
     /// shape of `x` and `u` in `result.json`).
     pub fn to_json(&self) -> serde_json::Value {
         (0..self.tensor.len())
-            .map(|n| if self.dim == 1 { serde_json::json!(self.tensor[n][0]) } else { serde_json::json!(self.voigt(n)) })
+            .map(
+                |n| if self.dim == 1 { serde_json::json!(self.tensor[n][0]) } else { serde_json::json!(self.voigt(n)) },
+            )
             .collect()
     }
 }
@@ -168,18 +170,17 @@ mod tests {
     fn degenerate_families_are_singular() {
         let line = [([1.0, 1.0, 0.0], [0.5, 0.0, 0.0], 1.0), ([-2.0, -2.0, 0.0], [0.1, 0.0, 0.0], 2.0)];
         assert_eq!(displacement_gradient(2, line), None);
-        let plane = [
-            ([1.0, 0.0, 0.0], [0.0; 3], 1.0),
-            ([0.0, 1.0, 0.0], [0.0; 3], 1.0),
-            ([1.0, 1.0, 0.0], [0.0; 3], 1.0),
-        ];
+        let plane =
+            [([1.0, 0.0, 0.0], [0.0; 3], 1.0), ([0.0, 1.0, 0.0], [0.0; 3], 1.0), ([1.0, 1.0, 0.0], [0.0; 3], 1.0)];
         assert_eq!(displacement_gradient(3, plane), None);
         assert_eq!(displacement_gradient(1, []), None);
         // one bond is enough in 1D; two independent ones in 2D
         assert_eq!(displacement_gradient(1, [([0.5, 0.0, 0.0], [0.25, 0.0, 0.0], 3.0)]).unwrap()[0], 0.5);
-        let g =
-            displacement_gradient(2, [([1.0, 0.0, 0.0], [1.0, 2.0, 0.0], 1.0), ([0.0, 1.0, 0.0], [3.0, 4.0, 0.0], 1.0)])
-                .unwrap();
+        let g = displacement_gradient(
+            2,
+            [([1.0, 0.0, 0.0], [1.0, 2.0, 0.0], 1.0), ([0.0, 1.0, 0.0], [3.0, 4.0, 0.0], 1.0)],
+        )
+        .unwrap();
         assert_eq!(&g[..2], &[1.0, 3.0]);
         assert_eq!(&g[3..5], &[2.0, 4.0]);
     }

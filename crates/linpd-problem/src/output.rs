@@ -1,6 +1,8 @@
-//! Writing a [`Solution`]: `u.csv` ([`Solution::write`]) and the `result.json` document
-//! ([`Solution::to_json`]), which [`crate::OutputDir::commit`] writes last with the run's
-//! identity and the list of the files written.
+//! Writing a [`Solution`]: `u.csv` and `result.vtu` ([`Solution::write`]) and the
+//! `result.json` document ([`Solution::to_json`]), which [`crate::OutputDir::commit`] writes
+//! last with the run's identity and the list of the files written; and the one VTU writer
+//! ([`write_vtu`]) and ParaView collection writer ([`write_pvd`]) that `linpd run`'s snapshots
+//! share.
 
 use crate::{ProblemError, Solution};
 use serde_json::json;
@@ -49,7 +51,7 @@ impl Solution {
         })
     }
 
-    /// Writes `u.csv` into `dir` (created if missing); returns its path. `result.json`
+    /// Writes `u.csv` and `result.vtu` into `dir` (created if missing); returns their paths. `result.json`
     /// ([`Solution::to_json`]) is written by [`crate::OutputDir::commit`].
     pub fn write(&self, dir: &Path) -> Result<Vec<std::path::PathBuf>, ProblemError> {
         std::fs::create_dir_all(dir).map_err(io(dir))?;
@@ -97,7 +99,8 @@ impl Solution {
         }
         let theta = |k: usize, _: usize| self.dilatation.as_ref().map_or(0.0, |t| t[k]);
         if self.dilatation.is_some() {
-            arrays.push(PointArray { name: "dilatation", values: PointValues::Float64 { components: 1, value: &theta } });
+            arrays
+                .push(PointArray { name: "dilatation", values: PointValues::Float64 { components: 1, value: &theta } });
         }
         let strain = |k: usize, c: usize| self.strain.as_ref().map_or(0.0, |s| s.tensor[k][c]);
         if self.strain.is_some() {
@@ -139,22 +142,28 @@ pub fn write_vtu(path: &Path, dim: usize, x: &[linpd_core::Point], arrays: &[Poi
     let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(io(path))?);
     let mut body = || -> std::io::Result<()> {
         writeln!(w, r#"<?xml version="1.0"?>"#)?;
-        writeln!(w, r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#)?;
+        writeln!(
+            w,
+            r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
+        )?;
         writeln!(w, "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">")?;
-        let floats =
-            |w: &mut dyn Write, name: &str, components: usize, v: &dyn Fn(usize, usize) -> f64| -> std::io::Result<()> {
-                // a scalar without NumberOfComponents: readers give it shape (n,), not (n, 1)
-                let nc = if components == 1 { String::new() } else { format!(r#" NumberOfComponents="{components}""#) };
-                writeln!(w, r#"        <DataArray type="Float64" Name="{name}"{nc} format="ascii">"#)?;
-                for k in 0..n {
-                    write!(w, "         ")?;
-                    for c in 0..components {
-                        write!(w, " {:.16e}", v(k, c))?;
-                    }
-                    writeln!(w)?;
+        let floats = |w: &mut dyn Write,
+                      name: &str,
+                      components: usize,
+                      v: &dyn Fn(usize, usize) -> f64|
+         -> std::io::Result<()> {
+            // a scalar without NumberOfComponents: readers give it shape (n,), not (n, 1)
+            let nc = if components == 1 { String::new() } else { format!(r#" NumberOfComponents="{components}""#) };
+            writeln!(w, r#"        <DataArray type="Float64" Name="{name}"{nc} format="ascii">"#)?;
+            for k in 0..n {
+                write!(w, "         ")?;
+                for c in 0..components {
+                    write!(w, " {:.16e}", v(k, c))?;
                 }
-                writeln!(w, "        </DataArray>")
-            };
+                writeln!(w)?;
+            }
+            writeln!(w, "        </DataArray>")
+        };
         let ints = |w: &mut dyn Write, name: &str, ty: &str, v: &dyn Fn(usize) -> String| -> std::io::Result<()> {
             writeln!(w, r#"        <DataArray type="{ty}" Name="{name}" format="ascii">"#)?;
             for k in 0..n {

@@ -61,7 +61,11 @@ fn models() -> Vec<(String, Box<dyn Model>, Vec<f64>)> {
         level0: (0..m * m).collect(),
         entries,
     };
-    out.push(("coarsened level".into(), Box::new(AssembledModel::new("coarsened", 2, positions, file.stiffness())), file.volumes));
+    out.push((
+        "coarsened level".into(),
+        Box::new(AssembledModel::new("coarsened", 2, positions, file.stiffness())),
+        file.volumes,
+    ));
     out
 }
 
@@ -118,7 +122,8 @@ fn voigt_order_is_the_documented_one() {
         singular: vec![],
     };
     assert_eq!(s.voigt(0), vec![11.0, 22.0, 33.0, 23.0, 13.0, 12.0]);
-    let s2 = linpd_problem::NodalStrain { dim: 2, tensor: vec![[11.0, 12.0, 0.0, 12.0, 22.0, 0.0, 0.0, 0.0, 0.0]], ..s };
+    let s2 =
+        linpd_problem::NodalStrain { dim: 2, tensor: vec![[11.0, 12.0, 0.0, 12.0, 22.0, 0.0, 0.0, 0.0, 0.0]], ..s };
     assert_eq!(s2.voigt(0), vec![11.0, 22.0, 12.0]);
     assert_eq!(s2.to_json(), serde_json::json!([[11.0, 22.0, 12.0]]));
 }
@@ -138,7 +143,14 @@ fn collinear_partners_give_a_listed_zero_strain() {
                 }
             }
         }
-        let file = ModuliFile { level: 1, dim: 2, positions: positions.clone(), volumes: vec![1.0; n], level0: (0..n).collect(), entries };
+        let file = ModuliFile {
+            level: 1,
+            dim: 2,
+            positions: positions.clone(),
+            volumes: vec![1.0; n],
+            level0: (0..n).collect(),
+            entries,
+        };
         AssembledModel::new("coarsened", 2, positions, file.stiffness())
     };
     let line = level(vec![[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 0.0]]);
@@ -150,5 +162,8 @@ fn collinear_partners_give_a_listed_zero_strain() {
     let u = affine(&kite, [0.0; 3], &[[1.0, 2.0, 0.0], [3.0, 4.0, 0.0], [0.0; 3]]);
     let s = nodal_strain(&kite, &[1.0; 4], &u);
     assert!(s.singular.is_empty());
-    assert!(s.tensor.iter().all(|t| (t[0] - 1.0).abs() < 1e-14 && (t[1] - 2.5).abs() < 1e-14 && (t[4] - 4.0).abs() < 1e-14));
+    assert!(s
+        .tensor
+        .iter()
+        .all(|t| (t[0] - 1.0).abs() < 1e-14 && (t[1] - 2.5).abs() < 1e-14 && (t[4] - 4.0).abs() < 1e-14));
 }
