@@ -88,40 +88,58 @@ impl NodalStrain {
 /// `(xi, eta, w)` (`d` used components each), row-major `d x d` in a `3 x 3` array; `None`
 /// when the shape tensor `K` is singular (see the module docs).
 pub fn displacement_gradient(d: usize, bonds: impl IntoIterator<Item = ([f64; 3], [f64; 3], f64)>) -> Option<[f64; 9]> {
-    let (mut k, mut b) = ([[0.0f64; 3]; 3], [[0.0f64; 3]; 3]);
-    for (xi, eta, w) in bonds {
+    let mut m = Moments::default();
+    bonds.into_iter().for_each(|(xi, eta, w)| m.add(d, &xi, &eta, w));
+    m.gradient(d)
+}
+
+/// The sums `K = sum_j w_j xi_j (x) xi_j` and `B = sum_j w_j eta_j (x) xi_j` of one node,
+/// accumulated bond by bond (no allocation).
+#[derive(Default)]
+struct Moments {
+    k: [[f64; 3]; 3],
+    b: [[f64; 3]; 3],
+}
+
+impl Moments {
+    fn add(&mut self, d: usize, xi: &[f64; 3], eta: &[f64; 3], w: f64) {
         for p in 0..d {
             for q in 0..d {
-                k[p][q] += w * xi[p] * xi[q];
-                b[p][q] += w * eta[p] * xi[q];
+                self.k[p][q] += w * xi[p] * xi[q];
+                self.b[p][q] += w * eta[p] * xi[q];
             }
         }
     }
-    // K = L D L^T (L unit lower triangular; no square roots: a 1D gradient is b / k)
-    let trace: f64 = (0..d).map(|p| k[p][p]).sum();
-    let (mut l, mut diag) = ([[0.0f64; 3]; 3], [0.0f64; 3]);
-    for p in 0..d {
-        for q in 0..p {
-            l[p][q] = (k[p][q] - (0..q).map(|r| l[p][r] * diag[r] * l[q][r]).sum::<f64>()) / diag[q];
-        }
-        diag[p] = k[p][p] - (0..p).map(|r| l[p][r] * l[p][r] * diag[r]).sum::<f64>();
-        if !(diag[p] > SHAPE_RTOL * trace) {
-            return None;
-        }
-    }
-    // G K = B, i.e. K g = b for every row g of G and b of B (K symmetric)
-    let mut g = [0.0f64; 9];
-    for row in 0..d {
-        let mut y = [0.0f64; 3];
+
+    /// `G = B K^-1`, or `None` when `K` is singular.
+    fn gradient(&self, d: usize) -> Option<[f64; 9]> {
+        let (k, b) = (&self.k, &self.b);
+        // K = L D L^T (L unit lower triangular; no square roots: a 1D gradient is b / k)
+        let trace: f64 = (0..d).map(|p| k[p][p]).sum();
+        let (mut l, mut diag) = ([[0.0f64; 3]; 3], [0.0f64; 3]);
         for p in 0..d {
-            y[p] = b[row][p] - (0..p).map(|r| l[p][r] * y[r]).sum::<f64>();
+            for q in 0..p {
+                l[p][q] = (k[p][q] - (0..q).map(|r| l[p][r] * diag[r] * l[q][r]).sum::<f64>()) / diag[q];
+            }
+            diag[p] = k[p][p] - (0..p).map(|r| l[p][r] * l[p][r] * diag[r]).sum::<f64>();
+            if !(diag[p] > SHAPE_RTOL * trace) {
+                return None;
+            }
         }
-        for p in (0..d).rev() {
-            let s: f64 = (p + 1..d).map(|r| l[r][p] * g[3 * row + r]).sum();
-            g[3 * row + p] = y[p] / diag[p] - s;
+        // G K = B, i.e. K g = b for every row g of G and b of B (K symmetric)
+        let mut g = [0.0f64; 9];
+        for row in 0..d {
+            let mut y = [0.0f64; 3];
+            for p in 0..d {
+                y[p] = b[row][p] - (0..p).map(|r| l[p][r] * y[r]).sum::<f64>();
+            }
+            for p in (0..d).rev() {
+                let s: f64 = (p + 1..d).map(|r| l[r][p] * g[3 * row + r]).sum();
+                g[3 * row + p] = y[p] / diag[p] - s;
+            }
         }
+        Some(g)
     }
-    Some(g)
 }
 
 /// The strain of every node of `model` for the displacement `u` (all DOFs), with the node
@@ -135,7 +153,7 @@ pub fn nodal_strain(model: &dyn Model, volumes: &[f64], u: &[f64]) -> NodalStrai
         .into_par_iter()
         .map(|i| {
             let xi_i = model.position(i);
-            let mut bonds = Vec::new();
+            let mut moments = Moments::default();
             model.for_each_partner(i, &mut |j| {
                 let xj = model.position(j);
                 let (mut xi, mut eta) = ([0.0; 3], [0.0; 3]);
@@ -143,9 +161,9 @@ pub fn nodal_strain(model: &dyn Model, volumes: &[f64], u: &[f64]) -> NodalStrai
                     xi[a] = xj[a] - xi_i[a];
                     eta[a] = u[d * j + a] - u[d * i + a];
                 }
-                bonds.push((xi, eta, volumes[j]));
+                moments.add(d, &xi, &eta, volumes[j]);
             });
-            displacement_gradient(d, bonds).map(|g| {
+            moments.gradient(d).map(|g| {
                 let mut eps = [0.0; 9];
                 for a in 0..d {
                     for b in 0..d {
