@@ -15,7 +15,7 @@
 //! * a 2D `linpd run`: every `u_<step>.vtu` listed in `snapshots.pvd` (in order, with the times
 //!   of `history.json`) opens with the displacements of `u_<step>.csv`; no legacy `.vtk`.
 
-use linpd::problem::{ModelSpec, Problem};
+use linpd::problem::Problem;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -107,8 +107,7 @@ fn result_vtu_holds_strain_dilatation_and_energy_equal_to_result_json() {
     // sum W_i V_i = u.A u / 2 on the solved LPS scene
     let p = Problem::from_path(&data("lps-plate-2d.json")).unwrap();
     let s = p.solve(&linpd::core::NoProgress).unwrap();
-    let ModelSpec::Lps(params) = p.model() else { panic!("an LPS scene") };
-    let model = linpd::lps::LpsModel::new(p.grid().unwrap(), params).unwrap();
+    let model = p.lps_model().unwrap();
     let mut au = vec![0.0; s.u.len()];
     linpd::core::Model::apply(&model, &s.u, &mut au);
     let energy = 0.5 * s.u.iter().zip(&au).map(|(a, b)| a * b).sum::<f64>();

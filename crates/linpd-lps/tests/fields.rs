@@ -10,9 +10,12 @@
 //!   surface correction (the lattice sums of `theta` and `m` coincide; model docs), to 1e-12
 //!   relative, and at interior nodes with it.
 //!
-//! Material: `K = 2`, `G = 0.5`, spacing `h = 0.1` (as in `properties.rs`).
+//! Models: 2D plane strain and stress, 3D, both influence functions, partial volumes on and
+//! off, surface correction on and off, and a 2D model with a cut and a weakened line of bonds
+//! ([`LpsModel::with_defects`]). Material: `K = 2`, `G = 0.5`, spacing `h = 0.1` (as in
+//! `properties.rs`).
 
-use linpd_core::{Grid, Placement};
+use linpd_core::{Defect, Grid, Placement};
 use linpd_lps::{Influence, LpsModel, LpsParams, PlaneModel, SurfaceCorrection};
 
 mod common;
@@ -43,6 +46,14 @@ fn models() -> Vec<(&'static str, LpsModel)> {
         out.push((name, m.clone()));
         out.push((name, m.with_surface_correction(SurfaceCorrection::BulkWeightedVolume)));
     }
+    // pre-cracks: a cut (factor 0) and a weakened line (factor 0.3) in 2D
+    let mid = 4.5 * H;
+    let defects = [
+        Defect::Segment { a: [mid, -1.0], b: [mid, 0.4], factor: 0.0 },
+        Defect::Segment { a: [-1.0, mid - 0.02], b: [0.4, mid - 0.02], factor: 0.3 },
+    ];
+    let p = params(3.0, Influence::InverseDistance, true, Some(PlaneModel::Strain));
+    out.push(("2d-defects", LpsModel::with_defects(&grid(2, 10), &p, &defects).unwrap()));
     out
 }
 

@@ -1,6 +1,7 @@
 //! The nodal strain of [`linpd_problem::fields`] on every static model with positions and
 //! partners: bond-based (1D bar, 2D plate with a hole and one-sided layers, 2D plate with a
-//! crack that cuts bonds, 3D cantilever), LPS (2D plate, 3D bar) and a coarsened level
+//! crack that cuts bonds, 3D cantilever, a 2D point cloud with per-node volumes), LPS (2D
+//! plate, 3D bar, 2D edge-notched plate with pre-cracks) and a coarsened level
 //! (`AssembledModel` from a moduli file).
 //!
 //! * An affine field `u = c + A x` gives `eps_i = sym(A)` at every node, layer and surface
@@ -11,8 +12,7 @@
 //! * No node of these models has a singular shape tensor.
 
 use linpd_core::{AssembledModel, Model};
-use linpd_lps::LpsModel;
-use linpd_problem::{nodal_strain, ModelSpec, ModuliFile, Problem};
+use linpd_problem::{nodal_strain, ModuliFile, Problem};
 use std::path::Path;
 
 fn scene(name: &str) -> Problem {
@@ -24,14 +24,19 @@ fn scene(name: &str) -> Problem {
 fn models() -> Vec<(String, Box<dyn Model>, Vec<f64>)> {
     let mut out: Vec<(String, Box<dyn Model>, Vec<f64>)> = Vec::new();
     let volumes = |p: &Problem| (0..p.nodes().len()).map(|n| p.nodes().volume(n)).collect::<Vec<_>>();
-    for name in ["bar-point-load.json", "plate-hole-2d.json", "plate-crack-2d.json", "cantilever-3d.json"] {
+    for name in [
+        "bar-point-load.json",
+        "plate-hole-2d.json",
+        "plate-crack-2d.json",
+        "cantilever-3d.json",
+        "bracket-cloud-2d.json",
+    ] {
         let p = scene(name);
-        out.push((name.into(), Box::new(p.lattice_model().unwrap()), volumes(&p)));
+        out.push((name.into(), Box::new(p.operator().unwrap()), volumes(&p)));
     }
-    for name in ["lps-plate-2d.json", "lps-tension-3d.json"] {
+    for name in ["lps-plate-2d.json", "lps-tension-3d.json", "plate-notch-2d.json"] {
         let p = scene(name);
-        let ModelSpec::Lps(params) = p.model() else { panic!("{name} is an LPS scene") };
-        let m = LpsModel::new(p.grid().unwrap(), params).unwrap();
+        let m = p.lps_model().unwrap();
         let v = (0..m.n_nodes()).map(|n| m.node_volume(n)).collect();
         out.push((name.into(), Box::new(m), v));
     }
