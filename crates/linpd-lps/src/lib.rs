@@ -30,6 +30,8 @@
 //!
 //! * [`LpsModel`] owns the lattice family, `omega`, `nu`, `|xi|` per bond and `m` per node;
 //! * [`force`]: `theta`, energy and the nonlinear internal force;
+//! * [`fields`]: the per-node output fields of the linearized model (dilatation, energy
+//!   density summing to `u . A u / 2`) and the node volume accessor;
 //! * [`tangent`]: the sparse tangent ([`tangent::assemble_tangent`]) and the matrix-free
 //!   apply in factored form ([`LpsModel::apply_tangent`]);
 //! * [`surface`]: the optional bulk weighted-volume surface correction
@@ -40,6 +42,7 @@
 
 pub mod error;
 pub mod fd;
+pub mod fields;
 pub mod force;
 pub mod model;
 pub mod static_model;

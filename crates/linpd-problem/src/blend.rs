@@ -235,5 +235,7 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Progress) -> Resu
         report: s.report,
         balance: None,
         strain_energy_density: None,
+        strain: None,
+        dilatation: None,
     })
 }

@@ -255,16 +255,20 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) ->
         report.rel_residual
     ));
     let balance = p.balance(&c.model, &solved.u);
+    let volumes: Vec<f64> = (0..p.nodes.len()).map(|n| p.nodes.volume(n)).collect();
+    let strain = Some(crate::nodal_strain(&c.model, &volumes, &solved.u));
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),
         x: p.nodes.positions(),
         u: solved.u,
         is_layer: vec![false; p.nodes.len()],
-        volumes: (0..p.nodes.len()).map(|n| p.nodes.volume(n)).collect(),
+        volumes,
         n_bonds: c.n_bonds,
         balance: Some(balance),
         strain_energy_density: None,
+        strain,
+        dilatation: None,
         report,
     })
 }

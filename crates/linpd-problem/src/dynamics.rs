@@ -160,7 +160,7 @@ fn positive(path: &str, x: f64) -> Result<f64, ProblemError> {
 }
 
 /// Most snapshots a run keeps (each is `d n` values in memory until the run ends, for the
-/// plots, and a `u_<step>.csv` plus a `u_<step>.vtk` file): 10,000, a frame per 0.01 % of the
+/// plots, and a `u_<step>.csv` plus, in 2D/3D, a `u_<step>.vtu` file): 10,000, a frame per 0.01 % of the
 /// run, more than any plot or animation shows.
 pub const MAX_SNAPSHOTS: usize = 10_000;
 
@@ -194,7 +194,7 @@ fn check_run_size(
         return Err(ProblemError::invalid(
             "dynamics.output_every",
             format!(
-                "{steps} steps every {output_every} gives {snapshots} snapshots (each kept in memory and written as two files), more than {MAX_SNAPSHOTS}: use output_every >= {}",
+                "{steps} steps every {output_every} gives {snapshots} snapshots (each kept in memory and written as u_<step>.csv and, in 2D/3D, u_<step>.vtu), more than {MAX_SNAPSHOTS}: use output_every >= {}",
                 steps.div_ceil(MAX_SNAPSHOTS - 1)
             ),
         ));
@@ -491,7 +491,8 @@ impl DynamicsRun {
     }
 
     /// Writes `u_<step>.csv` (step zero-padded) into `dir` (created if missing), and in 2D/3D
-    /// also `u_<step>.vtk` ([`DynamicsRun::vtk`]); returns the paths. `history.json`
+    /// also `u_<step>.vtu` ([`DynamicsRun::write_vtu`]) and the ParaView collection
+    /// `snapshots.pvd` listing them with their times; returns the paths. `history.json`
     /// ([`DynamicsRun::history_json`]) is written by [`crate::OutputDir::commit`].
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, ProblemError> {
         let io = |path: &Path| {
@@ -517,49 +518,34 @@ impl DynamicsRun {
             files.push(path);
         }
         if d >= 2 {
+            let mut datasets = Vec::new();
             for (i, step) in self.output_steps.iter().enumerate() {
-                let path = dir.join(format!("u_{step:0width$}.vtk"));
-                std::fs::write(&path, self.vtk(i)).map_err(io(&path))?;
+                let name = format!("u_{step:0width$}.vtu");
+                let path = dir.join(&name);
+                self.write_vtu(i, &path)?;
                 files.push(path);
+                datasets.push((self.times[i], name));
             }
+            let path = dir.join("snapshots.pvd");
+            crate::output::write_pvd(&path, &datasets)?;
+            files.push(path);
         }
         Ok(files)
     }
 
-    /// Snapshot `i` as legacy ASCII VTK POLYDATA: the nodes as `POINTS` (z = 0 in 2D) with one
-    /// `VERTICES` cell each, and `POINT_DATA`: the displacement as `VECTORS displacement`
-    /// (3 components, 0 padded) and the outer-layer flag as `SCALARS layer int`.
-    pub fn vtk(&self, i: usize) -> String {
-        use std::fmt::Write as _;
-        let (d, n, u) = (self.dim, self.x.len(), &self.snapshots[i]);
-        let mut s = String::with_capacity(120 * n + 200);
-        let _ = write!(
-            s,
-            "# vtk DataFile Version 3.0\n{} step {} t = {:e}\nASCII\nDATASET POLYDATA\nPOINTS {n} double\n",
-            self.name.replace('\n', " "),
-            self.output_steps[i],
-            self.times[i]
-        );
-        let triple = |s: &mut String, v: &dyn Fn(usize) -> f64| {
-            let c: Vec<String> = (0..3).map(|a| if a < d { format!("{:.17e}", v(a)) } else { "0".into() }).collect();
-            let _ = writeln!(s, "{}", c.join(" "));
-        };
-        for x in &self.x {
-            triple(&mut s, &|a| x[a]);
-        }
-        let _ = writeln!(s, "VERTICES {n} {}", 2 * n);
-        for k in 0..n {
-            let _ = writeln!(s, "1 {k}");
-        }
-        let _ = writeln!(s, "POINT_DATA {n}\nVECTORS displacement double");
-        for k in 0..n {
-            triple(&mut s, &|a| u[d * k + a]);
-        }
-        let _ = writeln!(s, "SCALARS layer int 1\nLOOKUP_TABLE default");
-        for k in 0..n {
-            let _ = writeln!(s, "{}", self.is_layer[k] as u8);
-        }
-        s
+    /// Writes snapshot `i` as VTK XML `UnstructuredGrid` ([`crate::output::write_vtu`], the
+    /// writer of `result.vtu`): one vertex cell per node (`z = 0` in 2D), point data `u` (3
+    /// components, 0-padded in 2D) and `layer` (0/1).
+    pub fn write_vtu(&self, i: usize, path: &Path) -> Result<(), ProblemError> {
+        use crate::output::{PointArray, PointValues};
+        let (d, u) = (self.dim, &self.snapshots[i]);
+        let disp = |k: usize, a: usize| if a < d { u[d * k + a] } else { 0.0 };
+        let layer = |k: usize| self.is_layer[k] as u8;
+        let arrays = [
+            PointArray { name: "u", values: PointValues::Float64 { components: 3, value: &disp } },
+            PointArray { name: "layer", values: PointValues::UInt8(&layer) },
+        ];
+        crate::output::write_vtu(path, d, &self.x, &arrays)
     }
 }
 
@@ -806,38 +792,27 @@ mod tests {
         }
     }
 
+    /// 2D runs write `u_<step>.vtu` (the writer of `result.vtu`; meshio opens them in
+    /// `tests/fields_out.rs`) and `snapshots.pvd` listing them with their times; no legacy
+    /// `.vtk`.
     #[test]
-    fn two_dimensional_runs_write_parseable_vtk() {
+    fn two_dimensional_runs_write_vtu_snapshots_and_a_collection() {
         let u: Vec<f64> = (0..50).map(|k| 1e-3 * k as f64).collect();
         let p = Problem::from_json(&scene(json!({"type": "data", "u": u})).to_string()).unwrap();
         let r = p.run_dynamics(&linpd_core::NoProgress).unwrap();
-        let dir = std::env::temp_dir().join(format!("linpd-vtk-test-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("linpd-vtu-test-{}", std::process::id()));
         let files = r.write(&dir).unwrap();
-        let vtk: Vec<_> = files.iter().filter(|f| f.extension().is_some_and(|e| e == "vtk")).collect();
-        assert_eq!(vtk.len(), 3, "steps 0, 2, 4: {files:?}");
-        assert!(dir.join("u_0.vtk").exists() && dir.join("u_4.vtk").exists());
-        let text = std::fs::read_to_string(dir.join("u_0.vtk")).unwrap();
-        let lines: Vec<&str> = text.lines().collect();
-        assert_eq!(lines[0], "# vtk DataFile Version 3.0");
-        assert_eq!(lines[2], "ASCII");
-        assert_eq!(lines[3], "DATASET POLYDATA");
-        assert_eq!(lines[4], "POINTS 25 double");
-        let floats = |l: &str| l.split_whitespace().map(|t| t.parse::<f64>().unwrap()).collect::<Vec<_>>();
-        let points: Vec<Vec<f64>> = lines[5..30].iter().map(|l| floats(l)).collect();
-        assert!(points.iter().all(|p| p.len() == 3 && p[2] == 0.0));
-        assert_eq!(points[6], vec![0.1, 0.1, 0.0]);
-        assert_eq!(lines[30], "VERTICES 25 50");
-        assert!(lines[31..56].iter().enumerate().all(|(k, l)| *l == format!("1 {k}")));
-        assert_eq!(lines[56], "POINT_DATA 25");
-        assert_eq!(lines[57], "VECTORS displacement double");
-        let vectors: Vec<Vec<f64>> = lines[58..83].iter().map(|l| floats(l)).collect();
-        assert_eq!(vectors.len(), 25);
-        for (k, v) in vectors.iter().enumerate() {
-            let w = [u[2 * k], u[2 * k + 1], 0.0];
-            assert!(v.len() == 3 && v.iter().zip(&w).all(|(a, b)| (a - b).abs() <= 1e-15 * b.abs()), "{v:?} vs {w:?}");
+        let ext = |e: &str| files.iter().filter(|f| f.extension().is_some_and(|x| x == e)).count();
+        assert_eq!((ext("vtu"), ext("pvd"), ext("vtk"), ext("csv")), (3, 1, 0, 3), "steps 0, 2, 4: {files:?}");
+        let text = std::fs::read_to_string(dir.join("u_0.vtu")).unwrap();
+        assert!(text.contains(r#"<Piece NumberOfPoints="25" NumberOfCells="25">"#));
+        assert!(text.contains(r#"Name="u" NumberOfComponents="3""#) && text.contains(r#"Name="layer""#));
+        let pvd = std::fs::read_to_string(dir.join("snapshots.pvd")).unwrap();
+        assert!(pvd.contains(r#"<VTKFile type="Collection""#));
+        for (i, step) in [0, 2, 4].iter().enumerate() {
+            let t = format!("{:.16e}", r.times[i]);
+            assert!(pvd.contains(&format!(r#"timestep="{t}" group="" part="0" file="u_{step}.vtu""#)), "{pvd}");
         }
-        assert_eq!(lines[83], "SCALARS layer int 1");
-        assert_eq!(lines.len(), 85 + 25);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -69,16 +69,22 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
         report.rel_residual
     ));
     let balance = p.balance(&model, &solved.u);
+    let volumes: Vec<f64> = (0..grid.len()).map(|n| model.node_volume(n)).collect();
+    let strain = Some(crate::nodal_strain(&model, &volumes, &solved.u));
+    let dilatation = Some(model.linearized_theta(&solved.u));
+    let strain_energy_density = Some(model.linearized_energy_density(&solved.u));
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),
         x: model.positions(),
         u: solved.u,
         is_layer: (0..grid.len()).map(|n| grid.is_layer(n)).collect(),
-        volumes: vec![grid.volume(); grid.len()],
+        volumes,
         n_bonds: model.family().n_bonds(),
         balance: Some(balance),
-        strain_energy_density: None,
+        strain_energy_density,
+        strain,
+        dilatation,
         report,
     })
 }

@@ -1,6 +1,8 @@
-//! Writing a [`Solution`]: `u.csv` ([`Solution::write`]) and the `result.json` document
-//! ([`Solution::to_json`]), which [`crate::OutputDir::commit`] writes last with the run's
-//! identity and the list of the files written.
+//! Writing a [`Solution`]: `u.csv` and `result.vtu` ([`Solution::write`]) and the
+//! `result.json` document ([`Solution::to_json`]), which [`crate::OutputDir::commit`] writes
+//! last with the run's identity and the list of the files written; and the one VTU writer
+//! ([`write_vtu`]) and ParaView collection writer ([`write_pvd`]) that `linpd run`'s snapshots
+//! share.
 
 use crate::{ProblemError, Solution};
 use serde_json::json;
@@ -37,6 +39,9 @@ impl Solution {
             "layer": self.is_layer,
             "balance": self.balance,
             "strain_energy_density": self.strain_energy_density,
+            "dilatation": self.dilatation,
+            "strain": self.strain.as_ref().map(|s| s.to_json()),
+            "strain_singular_nodes": self.strain.as_ref().map(|s| &s.singular),
             "stats": {
                 "nodes": n,
                 "bonds": self.n_bonds,
@@ -46,7 +51,7 @@ impl Solution {
         })
     }
 
-    /// Writes `u.csv` into `dir` (created if missing); returns its path. `result.json`
+    /// Writes `u.csv` and `result.vtu` into `dir` (created if missing); returns their paths. `result.json`
     /// ([`Solution::to_json`]) is written by [`crate::OutputDir::commit`].
     pub fn write(&self, dir: &Path) -> Result<Vec<std::path::PathBuf>, ProblemError> {
         std::fs::create_dir_all(dir).map_err(io(dir))?;
@@ -69,59 +74,132 @@ impl Solution {
         Ok(vec![csv_path, vtu_path])
     }
 
-    /// Writes the solution as VTK XML `UnstructuredGrid` (ParaView, VisIt, meshio, pyvista):
-    /// one vertex cell per node; point data `u` (3 components, 0-padded), `layer` (0/1),
-    /// `volume` and `strain_energy_density` when known. ASCII with `{:e}` numbers (17
-    /// significant digits: read back bit for bit). Written by hand: the format is a fixed
-    /// XML skeleton around number lists, and the Rust VTK crates (`vtkio`) pull in a large
-    /// dependency tree for it.
+    /// Writes the solution as VTK XML `UnstructuredGrid` ([`write_vtu`]): point data `u` (3
+    /// components, 0-padded), `layer` (0/1), and when known `volume`, `strain_energy_density`,
+    /// `dilatation` (LPS) and `strain` (the full `3 x 3` tensor, 9 components row-major, 0
+    /// outside the `d x d` block: VTK's tensor convention).
     pub fn write_vtu(&self, path: &Path) -> Result<(), ProblemError> {
         let (d, n) = (self.dim, self.x.len());
-        let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(io(path))?);
-        let mut body = || -> std::io::Result<()> {
-            writeln!(w, r#"<?xml version="1.0"?>"#)?;
-            writeln!(
-                w,
-                r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
-            )?;
-            writeln!(w, "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">")?;
-            writeln!(w, "      <PointData>")?;
-            let vector = |w: &mut dyn Write, name: &str, v: &dyn Fn(usize, usize) -> f64| -> std::io::Result<()> {
-                writeln!(
-                    w,
-                    r#"        <DataArray type="Float64" Name="{name}" NumberOfComponents="3" format="ascii">"#
-                )?;
-                for k in 0..n {
-                    writeln!(w, "          {:.16e} {:.16e} {:.16e}", v(k, 0), v(k, 1), v(k, 2))?;
-                }
-                writeln!(w, "        </DataArray>")
-            };
-            let scalar =
-                |w: &mut dyn Write, name: &str, ty: &str, v: &dyn Fn(usize) -> String| -> std::io::Result<()> {
-                    writeln!(w, r#"        <DataArray type="{ty}" Name="{name}" format="ascii">"#)?;
-                    for k in 0..n {
-                        writeln!(w, "          {}", v(k))?;
-                    }
-                    writeln!(w, "        </DataArray>")
-                };
-            vector(&mut w, "u", &|k, a| if a < d { self.u[d * k + a] } else { 0.0 })?;
-            scalar(&mut w, "layer", "UInt8", &|k| (self.is_layer[k] as u8).to_string())?;
-            if self.volumes.len() == n {
-                scalar(&mut w, "volume", "Float64", &|k| format!("{:.16e}", self.volumes[k]))?;
-            }
-            if let Some(e) = &self.strain_energy_density {
-                scalar(&mut w, "strain_energy_density", "Float64", &|k| format!("{:.16e}", e[k]))?;
-            }
-            writeln!(w, "      </PointData>\n      <Points>")?;
-            vector(&mut w, "points", &|k, a| if a < d { self.x[k][a] } else { 0.0 })?;
-            writeln!(w, "      </Points>\n      <Cells>")?;
-            scalar(&mut w, "connectivity", "Int64", &|k| k.to_string())?;
-            scalar(&mut w, "offsets", "Int64", &|k| (k + 1).to_string())?;
-            // VTK_VERTEX = 1
-            scalar(&mut w, "types", "UInt8", &|_| "1".to_string())?;
-            writeln!(w, "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>")?;
-            w.flush()
-        };
-        body().map_err(io(path))
+        let u = |k: usize, a: usize| if a < d { self.u[d * k + a] } else { 0.0 };
+        let layer = |k: usize| self.is_layer[k] as u8;
+        let mut arrays = vec![
+            PointArray { name: "u", values: PointValues::Float64 { components: 3, value: &u } },
+            PointArray { name: "layer", values: PointValues::UInt8(&layer) },
+        ];
+        let volume = |k: usize, _: usize| self.volumes[k];
+        if self.volumes.len() == n {
+            arrays.push(PointArray { name: "volume", values: PointValues::Float64 { components: 1, value: &volume } });
+        }
+        let energy = |k: usize, _: usize| self.strain_energy_density.as_ref().map_or(0.0, |e| e[k]);
+        if self.strain_energy_density.is_some() {
+            arrays.push(PointArray {
+                name: "strain_energy_density",
+                values: PointValues::Float64 { components: 1, value: &energy },
+            });
+        }
+        let theta = |k: usize, _: usize| self.dilatation.as_ref().map_or(0.0, |t| t[k]);
+        if self.dilatation.is_some() {
+            arrays
+                .push(PointArray { name: "dilatation", values: PointValues::Float64 { components: 1, value: &theta } });
+        }
+        let strain = |k: usize, c: usize| self.strain.as_ref().map_or(0.0, |s| s.tensor[k][c]);
+        if self.strain.is_some() {
+            arrays.push(PointArray { name: "strain", values: PointValues::Float64 { components: 9, value: &strain } });
+        }
+        write_vtu(path, d, &self.x, &arrays)
     }
+}
+
+/// The values of a [`PointArray`], computed per node on demand.
+pub enum PointValues<'a> {
+    /// `components` `Float64` numbers per node: `value(node, component)`.
+    Float64 {
+        /// Components per node (VTK's `NumberOfComponents`: 3 for vectors, 9 for tensors).
+        components: usize,
+        /// `value(node, component)`.
+        value: &'a dyn Fn(usize, usize) -> f64,
+    },
+    /// One `UInt8` per node (flags).
+    UInt8(&'a dyn Fn(usize) -> u8),
+}
+
+/// One point-data array of a VTU file.
+pub struct PointArray<'a> {
+    /// Its name (`u`, `layer`, `strain`, ...).
+    pub name: &'a str,
+    /// Its values.
+    pub values: PointValues<'a>,
+}
+
+/// Writes nodes as VTK XML `UnstructuredGrid` (ParaView, VisIt, meshio, pyvista): the points
+/// `x` (3 coordinates, 0-padded beyond `dim`), one vertex cell per node and the point data
+/// `arrays`. ASCII with `{:.16e}` numbers (17 significant digits: read back bit for bit).
+/// Written by hand: the format is a fixed XML skeleton around number lists, and the Rust VTK
+/// crates (`vtkio`) pull in a large dependency tree for it. Used by `linpd solve`
+/// (`result.vtu`) and `linpd run` (`u_<step>.vtu`).
+pub fn write_vtu(path: &Path, dim: usize, x: &[linpd_core::Point], arrays: &[PointArray]) -> Result<(), ProblemError> {
+    let n = x.len();
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(io(path))?);
+    let mut body = || -> std::io::Result<()> {
+        writeln!(w, r#"<?xml version="1.0"?>"#)?;
+        writeln!(
+            w,
+            r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
+        )?;
+        writeln!(w, "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">")?;
+        let floats = |w: &mut dyn Write,
+                      name: &str,
+                      components: usize,
+                      v: &dyn Fn(usize, usize) -> f64|
+         -> std::io::Result<()> {
+            // a scalar without NumberOfComponents: readers give it shape (n,), not (n, 1)
+            let nc = if components == 1 { String::new() } else { format!(r#" NumberOfComponents="{components}""#) };
+            writeln!(w, r#"        <DataArray type="Float64" Name="{name}"{nc} format="ascii">"#)?;
+            for k in 0..n {
+                write!(w, "         ")?;
+                for c in 0..components {
+                    write!(w, " {:.16e}", v(k, c))?;
+                }
+                writeln!(w)?;
+            }
+            writeln!(w, "        </DataArray>")
+        };
+        let ints = |w: &mut dyn Write, name: &str, ty: &str, v: &dyn Fn(usize) -> String| -> std::io::Result<()> {
+            writeln!(w, r#"        <DataArray type="{ty}" Name="{name}" format="ascii">"#)?;
+            for k in 0..n {
+                writeln!(w, "          {}", v(k))?;
+            }
+            writeln!(w, "        </DataArray>")
+        };
+        writeln!(w, "      <PointData>")?;
+        for a in arrays {
+            match &a.values {
+                PointValues::Float64 { components, value } => floats(&mut w, a.name, *components, value)?,
+                PointValues::UInt8(value) => ints(&mut w, a.name, "UInt8", &|k| value(k).to_string())?,
+            }
+        }
+        writeln!(w, "      </PointData>\n      <Points>")?;
+        floats(&mut w, "points", 3, &|k, a| if a < dim { x[k][a] } else { 0.0 })?;
+        writeln!(w, "      </Points>\n      <Cells>")?;
+        ints(&mut w, "connectivity", "Int64", &|k| k.to_string())?;
+        ints(&mut w, "offsets", "Int64", &|k| (k + 1).to_string())?;
+        // VTK_VERTEX = 1
+        ints(&mut w, "types", "UInt8", &|_| "1".to_string())?;
+        writeln!(w, "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>")?;
+        w.flush()
+    };
+    body().map_err(io(path))
+}
+
+/// Writes a ParaView collection (`.pvd`): one `<DataSet timestep=".." file=".."/>` per
+/// `(time, file)`, the file names relative to the collection's directory; ParaView opens it
+/// as a time series.
+pub fn write_pvd(path: &Path, datasets: &[(f64, String)]) -> Result<(), ProblemError> {
+    let mut s = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
+    for (t, file) in datasets {
+        let file = file.replace('&', "&amp;").replace('"', "&quot;").replace('<', "&lt;");
+        s.push_str(&format!("    <DataSet timestep=\"{t:.16e}\" group=\"\" part=\"0\" file=\"{file}\"/>\n"));
+    }
+    s.push_str("  </Collection>\n</VTKFile>\n");
+    std::fs::write(path, s).map_err(io(path))
 }

@@ -33,8 +33,15 @@ pub struct Solution {
     /// operator is solved by its own path).
     pub balance: Option<crate::Balance>,
     /// Strain energy density `W_i` per node (energy per volume; `sum_i W_i V_i = u.A u / 2`,
-    /// [`crate::balance::nodal_energy`]): bond-based models only.
+    /// [`crate::balance::nodal_energy`] for bond-based models,
+    /// [`linpd_lps::LpsModel::linearized_energy_density`] for LPS): not for blend scenes and
+    /// coarsened levels.
     pub strain_energy_density: Option<Vec<f64>>,
+    /// Small-strain tensor per node, least squares over the node's partners
+    /// ([`crate::fields`]): not for blend scenes.
+    pub strain: Option<crate::NodalStrain>,
+    /// Linearized dilatation `theta_i` per node: LPS scenes only.
+    pub dilatation: Option<Vec<f64>>,
 }
 
 impl Problem {
@@ -180,18 +187,22 @@ impl Problem {
         report: SolveReport,
     ) -> Result<Solution, ProblemError> {
         let balance = self.balance(model, &u);
-        let strain_energy_density = crate::balance::nodal_energy(model, &u)
-            .map(|e| e.iter().enumerate().map(|(n, w)| w / self.nodes.volume(n)).collect());
+        let volumes: Vec<f64> = (0..self.nodes.len()).map(|n| self.nodes.volume(n)).collect();
+        let strain_energy_density =
+            crate::balance::nodal_energy(model, &u).map(|e| e.iter().zip(&volumes).map(|(w, v)| w / v).collect());
+        let strain = Some(crate::nodal_strain(model, &volumes, &u));
         Ok(Solution {
             name: self.name.clone(),
             dim: self.dim(),
             x: (0..model.n_nodes()).map(|i| model.position(i)).collect(),
             u,
             is_layer: (0..self.nodes.len()).map(|n| self.nodes.is_layer(n)).collect(),
-            volumes: (0..self.nodes.len()).map(|n| self.nodes.volume(n)).collect(),
+            volumes,
             n_bonds,
             balance: Some(balance),
             strain_energy_density,
+            strain,
+            dilatation: None,
             report,
         })
     }
