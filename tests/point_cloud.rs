@@ -238,3 +238,74 @@ fn phase_column_selects_the_phase() {
     let e = Problem::from_json(&on_grid.to_string()).unwrap_err().to_string();
     assert!(e.starts_with("model.material.phases[0].phase: phase numbers come from a point cloud"), "{e}");
 }
+
+/// Writes VTK files from a CSV cloud with meshio (the VTK reader of .ci/run): `.vtu` zlib
+/// (meshio's default), `.vtu` raw binary, `.vtu` ascii, legacy binary `.vtk`, plus bad files.
+fn meshio_files(csv: &Path, dir: &Path) {
+    let script = r#"
+import sys, numpy as np, meshio
+csv, out = sys.argv[1], sys.argv[2]
+a = np.loadtxt(csv, delimiter=",", skiprows=2)
+pts = np.zeros((len(a), 3)); pts[:, :2] = a[:, :2]
+vol, layer = a[:, 2], a[:, 3]
+cells = [("vertex", np.arange(len(a)).reshape(-1, 1))]
+def mesh(p=pts, **data):
+    return meshio.Mesh(p, cells, point_data=data)
+meshio.write(out + "/zlib.vtu", mesh(volume=vol, layer=layer))
+meshio.write(out + "/raw.vtu", mesh(volume=vol, layer=layer), compression=None)
+meshio.write(out + "/ascii.vtu", mesh(volume=vol, layer=layer), binary=False)
+meshio.write(out + "/legacy.vtk", mesh(volume=vol, layer=layer))
+meshio.write(out + "/no-volume.vtu", mesh(layer=layer))
+bad = vol.copy(); bad[7] = -1.0
+meshio.write(out + "/negative.vtu", mesh(volume=bad))
+z = pts.copy(); z[3, 2] = 0.5
+meshio.write(out + "/z.vtu", mesh(p=z, volume=vol))
+"#;
+    let py = Command::new("python3").arg("-c").arg(script).arg(csv).arg(dir).output().expect("python3 runs");
+    assert!(py.status.success(), "meshio: {}", String::from_utf8_lossy(&py.stderr));
+}
+
+/// `"nodes": {"vtk": ...}`: the plate's nodes written by meshio as .vtu (zlib, raw binary,
+/// ascii) and legacy .vtk, and linpd's own result.vtu of the grid solve (17 digits), all solve
+/// to the CSV cloud's displacements: bit for bit, as they carry the float64 values exactly,
+/// except meshio's ascii, which prints fewer digits (measured 2.8e-14, bound 1e-12).
+/// Files without the
+/// volume array, with a negative volume or a nonzero z in 2D are refused naming the point.
+#[test]
+fn vtk_clouds_read_like_csv() {
+    let dir = scratch("vtk");
+    let mut s = scene("plate-hole-2d.json");
+    s["solver"] = json!({"type": "cholesky"});
+    let csv_scene = as_cloud(&s, &dir);
+    let want = Problem::from_json(&csv_scene.to_string()).unwrap().solve(&NoProgress).unwrap();
+    meshio_files(&dir.join("nodes.csv"), &dir);
+    // linpd's own output as input: the grid scene's result.vtu carries volume and layer
+    let out = dir.join("grid-out");
+    Problem::from_json(&s.to_string()).unwrap().solve(&NoProgress).unwrap().write(&out).unwrap();
+    let with = |file: &Path| {
+        let mut v = csv_scene.clone();
+        v["nodes"] = json!({"vtk": file.to_str().unwrap()});
+        v
+    };
+    for (name, bound) in
+        [("zlib.vtu", 0.0), ("raw.vtu", 0.0), ("ascii.vtu", 1e-12), ("legacy.vtk", 0.0), ("grid-out/result.vtu", 0.0)]
+    {
+        let p = Problem::from_json(&with(&dir.join(name)).to_string()).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(p.nodes().len(), want.x.len(), "{name}");
+        let got = p.solve(&NoProgress).unwrap();
+        assert_eq!(got.is_layer, want.is_layer, "{name}");
+        let diff = max_rel_diff(&want.u, &got.u);
+        eprintln!("{name}: max |u - u_csv| / max |u| = {diff:e}");
+        assert!(diff <= bound, "{name}: {diff:e}");
+    }
+    let error = |name: &str| Problem::from_json(&with(&dir.join(name)).to_string()).unwrap_err().to_string();
+    let e = error("no-volume.vtu");
+    assert!(e.starts_with("nodes.vtk: ") && e.contains("no-volume.vtu: no point array \"volume\""), "{e}");
+    let e = error("negative.vtu");
+    assert!(e.contains("negative.vtu: point 7: volume = -1e0 must be > 0"), "{e}");
+    let e = error("z.vtu");
+    assert!(e.contains("z.vtu: point 3: coordinate 2 = 5e-1 in a 2D scene (must be 0)"), "{e}");
+    std::fs::write(dir.join("junk.vtu"), "<VTKFile type=\"UnstructuredGrid\"><oops").unwrap();
+    let e = error("junk.vtu");
+    assert!(e.contains("junk.vtu: not a readable VTK file"), "{e}");
+}

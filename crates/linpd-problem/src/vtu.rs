@@ -3,7 +3,8 @@
 //! XML files (`.vtu` unstructured grids, `.vtp` poly data; ascii, base64 binary, zlib
 //! compressed, as ParaView, meshio and linpd's own `result.vtu` write them) and legacy `.vtk`
 //! files. The nodes are the file's points (every piece, in order; cells are ignored), their
-//! volumes the point array `volume` (required), and the optional point arrays `layer` (0/1)
+//! volumes the point array `volume` (required; in a legacy file also an array of a `FIELD`, as
+//! meshio writes them), and the optional point arrays `layer` (0/1)
 //! and `phase` (integers >= 0) play the roles of the CSV columns ([`crate::cloud`]). In 1D and
 //! 2D the unused coordinates must be 0. Pieces stored in other files (parallel formats) are
 //! not followed: a data file names no other file linpd reads. Errors name the file and the
@@ -39,12 +40,15 @@ pub fn read_cloud(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemEr
         let x: Vec<f64> = points.cast_into().ok_or_else(|| fail("points are not numbers".into()))?;
         let n = x.len() / 3;
         let first = cloud.positions.len();
+        // a data array of that name, or an array of a legacy FIELD (as meshio writes .vtk)
         let array = |name: &str| -> Result<Option<Vec<f64>>, ProblemError> {
-            let Some(a) = data.point.iter().find(|a| a.name() == name) else { return Ok(None) };
-            let Attribute::DataArray(a) = a else {
-                return Err(fail(format!("point array {name:?} is a field, not a data array")));
-            };
-            let v: Vec<f64> = a.data.cast_into().ok_or_else(|| fail(format!("point array {name:?} is not numeric")))?;
+            let buffer = data.point.iter().find_map(|a| match a {
+                Attribute::DataArray(a) if a.name == name => Some(&a.data),
+                Attribute::Field { data_array, .. } => data_array.iter().find(|f| f.name == name).map(|f| &f.data),
+                _ => None,
+            });
+            let Some(buffer) = buffer else { return Ok(None) };
+            let v: Vec<f64> = buffer.cast_into().ok_or_else(|| fail(format!("point array {name:?} is not numeric")))?;
             if v.len() != n {
                 return Err(fail(format!(
                     "point array {name:?} has {} values for {n} points (one per point)",
