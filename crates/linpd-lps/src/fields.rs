@@ -39,8 +39,8 @@ use rayon::prelude::*;
 impl LpsModel {
     /// Volume `V_j` of node `j` (the weights of the energy sum `E = sum_i V_i W_i`). Read
     /// volumes through this accessor: node volumes may become per-node.
-    pub fn node_volume(&self, _j: usize) -> f64 {
-        self.volume
+    pub fn node_volume(&self, j: usize) -> f64 {
+        self.volumes[j]
     }
 
     /// Linearized strain energy density `W_i` of every node (see the module docs):

@@ -81,7 +81,7 @@ impl LpsModel {
     ) -> [f64; 3] {
         let d = self.dim;
         let c_theta = d as f64 * self.kappa - self.a_g / d as f64;
-        let vi = self.volume;
+        let vi = self.volumes[i];
         let ui = disp(i);
         let (ti, mi) = (theta(i), self.m[i]);
         let mut fi = [0.0; 3];
@@ -125,7 +125,7 @@ impl LpsModel {
 
     /// Total strain energy `E = sum_i V_i W_i`.
     pub fn energy(&self, u: &[f64]) -> f64 {
-        self.energy_density(u).iter().sum::<f64>() * self.volume
+        self.energy_density(u).iter().zip(&self.volumes).map(|(w, v)| w * v).sum::<f64>()
     }
 
     /// Nonlinear internal force `F(u) = -dE/du` (force on each node, `V_i` times the force
@@ -135,8 +135,8 @@ impl LpsModel {
         let theta = self.theta(u);
         let d = self.dim;
         let c_theta = d as f64 * self.kappa - self.a_g / d as f64;
-        let vi = self.volume;
         f.par_chunks_mut(d).enumerate().for_each(|(i, fi)| {
+            let vi = self.volumes[i];
             fi.iter_mut().for_each(|v| *v = 0.0);
             let (ti, mi) = (theta[i], self.m[i]);
             for (j, w, r) in self.bonds(i) {

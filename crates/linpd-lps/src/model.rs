@@ -174,8 +174,11 @@ pub struct LpsModel {
     pub(crate) len: Vec<f64>,
     /// Per node: weighted volume `m`.
     pub(crate) m: Vec<f64>,
-    /// Node volume `V = h^d` (uniform lattice).
+    /// The lattice's cell volume `h^d` (the bulk reference of [`crate::surface`]).
     pub(crate) volume: f64,
+    /// Per node: its volume `V_i` (`h^d`, or the cut-cell volume of
+    /// [`linpd_core::Grid::with_cut_volumes`]).
+    pub(crate) volumes: Vec<f64>,
     /// `kappa`.
     pub(crate) kappa: f64,
     /// `a G` (15 G in 3D, 8 G in 2D).
@@ -221,7 +224,7 @@ impl LpsModel {
                 let xi = lattice_vector(&lattice, h, i, j as usize);
                 let r = norm(&xi);
                 let nu = if params.partial_volume { partial_volume(r, delta, h) } else { 1.0 };
-                let w = params.influence.omega(r) * nu * volume;
+                let w = params.influence.omega(r) * nu * grid.node_volume(j as usize);
                 // Algorithm 3: m_i = sum_j omega |xi|^2 nu V_j.
                 *mi += w * r * r;
                 wv.push(w);
@@ -241,6 +244,7 @@ impl LpsModel {
             len,
             m,
             volume,
+            volumes: (0..n).map(|i| grid.node_volume(i)).collect(),
             kappa: params.kappa(dim),
             a_g: LpsParams::deviatoric_factor(dim) * params.G,
             surface: crate::SurfaceCorrection::None,
@@ -310,7 +314,8 @@ impl LpsModel {
     pub fn m(&self) -> &[f64] {
         &self.m
     }
-    /// Node volume `V`.
+    /// The lattice's cell volume `h^d` (every node's volume unless the grid has cut-cell
+    /// volumes: then see [`LpsModel::node_volume`]).
     pub fn volume(&self) -> f64 {
         self.volume
     }

@@ -48,10 +48,10 @@ use rayon::prelude::*;
 use std::collections::BTreeSet;
 
 impl LpsModel {
-    /// `C_k = V (kappa - a G / d^2)`, the coefficient of `g_k g_k^T`.
-    pub fn dilatation_coefficient(&self) -> f64 {
+    /// `C_k = V_k (kappa - a G / d^2)`, the coefficient of `g_k g_k^T`.
+    pub fn dilatation_coefficient(&self, k: usize) -> f64 {
         let d = self.dim as f64;
-        self.volume * (self.kappa - self.a_g / (d * d))
+        self.volumes[k] * (self.kappa - self.a_g / (d * d))
     }
 
     /// `g_k[k] = -(d/m_k) sum_q omega nu V_q xi_kq` for every node (zero for full families).
@@ -98,13 +98,13 @@ impl LpsModel {
         let g_self = self.g_self();
         let d = self.dim;
         let df = d as f64;
-        let c = self.dilatation_coefficient();
-        let v = self.volume;
+        let c = |k: usize| self.dilatation_coefficient(k);
         y.par_chunks_mut(d).enumerate().for_each(|(p, yp)| {
             yp.iter_mut().for_each(|x| *x = 0.0);
+            let v = self.volumes[p];
             // k = p.
             for a in 0..d {
-                yp[a] += c * theta[p] * g_self[p][a];
+                yp[a] += c(p) * theta[p] * g_self[p][a];
             }
             for (j, w, r) in self.bonds(p) {
                 let xi = self.bond_vector(p, j);
@@ -114,10 +114,11 @@ impl LpsModel {
                 for a in 0..d {
                     proj += xi[a] * (u[d * p + a] - u[d * j + a]);
                 }
-                // k = j: g_j[p] = (d/m_j) w xi_jp = -(d/m_j) w xi_pj.
-                let gk = -df / self.m[j] * w;
+                // k = j: g_j[p] = (d/m_j) w_jp xi_jp = -(d/m_j) w_jp xi_pj, where
+                // w_jp = omega nu V_p = w_pj V_p / V_j (w holds the far end's volume).
+                let gk = -df / self.m[j] * w * self.volumes[p] / self.volumes[j];
                 for a in 0..d {
-                    yp[a] += s * proj * xi[a] + c * theta[j] * gk * xi[a];
+                    yp[a] += s * proj * xi[a] + c(j) * theta[j] * gk * xi[a];
                 }
             }
         });
@@ -212,8 +213,7 @@ impl TangentPattern {
         let df = d as f64;
         let lat = &model.lattice;
         let grid = &model.grid;
-        let c = model.dilatation_coefficient();
-        let v = model.volume;
+        let c = |k: usize| model.dilatation_coefficient(k);
         let g_self = model.g_self();
         for_each_node_slice(values, &self.node_start, |p, vals| {
             let lp = lat[p];
@@ -242,6 +242,7 @@ impl TangentPattern {
                 }
             };
             let sp = pos(p);
+            let v = model.volumes[p];
             // Pair part.
             for (j, w, r) in model.bonds(p) {
                 let xi = model.bond_vector(p, j);
@@ -251,22 +252,22 @@ impl TangentPattern {
             }
             // Dilatation part: k = p, then k in F_p.
             let gp = g_self[p];
-            add(&mut blocks, sp, c, &g_self[p], &gp);
+            add(&mut blocks, sp, c(p), &g_self[p], &gp);
             for (q, w, _) in model.bonds(p) {
                 let xi = model.bond_vector(p, q);
                 let g = df / model.m[p] * w;
-                add(&mut blocks, pos(q), c * g, &xi, &gp);
+                add(&mut blocks, pos(q), c(p) * g, &xi, &gp);
             }
             for (k, wpk, _) in model.bonds(p) {
-                // g_k[p] = (d/m_k) w xi_kp = -(d/m_k) w xi_pk.
+                // g_k[p] = (d/m_k) w_kp xi_kp = -(d/m_k) w_kp xi_pk, w_kp = w_pk V_p / V_k.
                 let xi_pk = model.bond_vector(p, k);
-                let gkp_s = -df / model.m[k] * wpk;
+                let gkp_s = -df / model.m[k] * wpk * model.volumes[p] / model.volumes[k];
                 let gkp = [gkp_s * xi_pk[0], gkp_s * xi_pk[1], gkp_s * xi_pk[2]];
-                add(&mut blocks, pos(k), c, &g_self[k], &gkp);
+                add(&mut blocks, pos(k), c(k), &g_self[k], &gkp);
                 for (q, w, _) in model.bonds(k) {
                     let xi = model.bond_vector(k, q);
                     let g = df / model.m[k] * w;
-                    add(&mut blocks, pos(q), c * g, &xi, &gkp);
+                    add(&mut blocks, pos(q), c(k) * g, &xi, &gkp);
                 }
             }
             let len = d * nrows;

@@ -514,12 +514,6 @@ impl Problem {
                 let inside = |x: &Point| body.contains(x, dim, tol);
                 let kept = grid.with_body(inside).map_err(|e| core("body", e))?;
                 if cut {
-                    if model_kind == RawModelKind::Lps {
-                        return Err(ProblemError::invalid(
-                            "boundary_volumes",
-                            "\"cut\" is for bond models for now (the LPS model takes one node volume)",
-                        ));
-                    }
                     kept.with_cut_volumes(inside)
                 } else {
                     kept
