@@ -354,7 +354,7 @@ fn per_node_volumes_keep_the_tangent_consistent() {
         m.apply_tangent(&u, &mut y);
         let au: Vec<f64> = ad.iter().map(|row| row.iter().zip(&u).map(|(a, b)| a * b).sum()).collect();
         let diff = y.iter().zip(&au).fold(0.0f64, |x, (a, b)| x.max((a - b).abs()));
-        assert!(diff <= 1e-12 * max_abs(&[au.clone()]), "dim {dim}: matrix-free {diff:e}");
+        assert!(diff <= 1e-12 * max_abs(std::slice::from_ref(&au)), "dim {dim}: matrix-free {diff:e}");
         let half_uau = 0.5 * u.iter().zip(&au).map(|(a, b)| a * b).sum::<f64>();
         let w: f64 = m.linearized_energy_density(&u).iter().enumerate().map(|(i, w)| w * m.node_volume(i)).sum();
         assert!((w - half_uau).abs() <= 1e-12 * half_uau.abs(), "dim {dim}: energy {w:e} vs {half_uau:e}");
