@@ -282,17 +282,8 @@ fn defects_cut_and_weaken_bonds_consistently() {
             }
         }
         assert!(removed > 0 && m.m().iter().zip(plain.m()).any(|(a, b)| a < b));
-        let a = assemble_tangent(&m);
-        let f = fd_tangent(&m, 1e-6 * H);
-        let scale = a.val().iter().fold(0.0f64, |x, v| x.max(v.abs()));
-        let err = a.val().iter().zip(f.val()).fold(0.0f64, |x, (u, v)| x.max((u - v).abs()));
-        assert!(err <= 1e-7 * scale, "dim {dim}: fd {:.3e}", err / scale);
-        let ad = dense(&a);
+        let (ad, scale) = checked_tangent(&m, dim);
         let n = ad.len();
-        let asym = (0..n)
-            .flat_map(|r| (0..n).map(move |c| (r, c)))
-            .fold(0.0f64, |x, (r, c)| x.max((ad[r][c] - ad[c][r]).abs()));
-        assert!(asym <= 1e-12 * scale, "dim {dim}: asymmetry {:.3e}", asym / scale);
         // translations and (linearized) rotations about z: A u = 0
         let x = g.positions();
         let mut modes: Vec<Vec<f64>> =
@@ -338,17 +329,8 @@ fn per_node_volumes_keep_the_tangent_consistent() {
             (0..g.len()).any(|n| (m.node_volume(n) - g.volume()).abs() > 1e-3 * g.volume()),
             "dim {dim}: no cut cell"
         );
-        let a = assemble_tangent(&m);
-        let f = fd_tangent(&m, 1e-6 * H);
-        let scale = a.val().iter().fold(0.0f64, |x, v| x.max(v.abs()));
-        let err = a.val().iter().zip(f.val()).fold(0.0f64, |x, (u, v)| x.max((u - v).abs()));
-        assert!(err <= 1e-7 * scale, "dim {dim}: fd {:.3e}", err / scale);
-        let ad = dense(&a);
+        let (ad, _) = checked_tangent(&m, dim);
         let n = ad.len();
-        let asym = (0..n)
-            .flat_map(|r| (0..n).map(move |c| (r, c)))
-            .fold(0.0f64, |x, (r, c)| x.max((ad[r][c] - ad[c][r]).abs()));
-        assert!(asym <= 1e-12 * scale, "dim {dim}: asymmetry {:.3e}", asym / scale);
         let u = random_vec(n, 7);
         let mut y = vec![0.0; n];
         m.apply_tangent(&u, &mut y);
@@ -359,4 +341,21 @@ fn per_node_volumes_keep_the_tangent_consistent() {
         let w: f64 = m.linearized_energy_density(&u).iter().enumerate().map(|(i, w)| w * m.node_volume(i)).sum();
         assert!((w - half_uau).abs() <= 1e-12 * half_uau.abs(), "dim {dim}: energy {w:e} vs {half_uau:e}");
     }
+}
+
+/// The assembled tangent of `m` as a dense matrix and its largest entry, after checking that
+/// it is the central-difference Jacobian of the force (1e-7 relative, the bound of
+/// `fd_tangent_matches_assembled_tangent`) and symmetric (1e-12).
+fn checked_tangent(m: &LpsModel, dim: usize) -> (Vec<Vec<f64>>, f64) {
+    let a = assemble_tangent(m);
+    let f = fd_tangent(m, 1e-6 * H);
+    let scale = a.val().iter().fold(0.0f64, |x, v| x.max(v.abs()));
+    let err = a.val().iter().zip(f.val()).fold(0.0f64, |x, (u, v)| x.max((u - v).abs()));
+    assert!(err <= 1e-7 * scale, "dim {dim}: fd {:.3e}", err / scale);
+    let ad = dense(&a);
+    let n = ad.len();
+    let asym =
+        (0..n).flat_map(|r| (0..n).map(move |c| (r, c))).fold(0.0f64, |x, (r, c)| x.max((ad[r][c] - ad[c][r]).abs()));
+    assert!(asym <= 1e-12 * scale, "dim {dim}: asymmetry {:.3e}", asym / scale);
+    (ad, scale)
 }

@@ -141,18 +141,9 @@ impl Problem {
             self.model.horizon().unwrap_or(f64::NAN) / self.lattice()?.spacing()
         ));
         let model = self.lattice_model()?;
-        let t_build = t0.elapsed().as_secs_f64();
-        let solved = solve_model(&model, &self.dirichlet(), &self.load_vector(), &self.solver, progress)
-            .map_err(static_error)?;
-        let mut report = solved.report;
-        report.timings.assemble += t_build;
-        progress.phase(&format!(
-            "done in {:.3} s, relative residual {:.2e}",
-            t0.elapsed().as_secs_f64(),
-            report.rel_residual
-        ));
+        let (u, report) = self.timed_solve(&model, t0, progress)?;
         let n_bonds = model.operator().family().n_bonds();
-        self.bond_solution(&model, n_bonds, solved.u, report)
+        self.bond_solution(&model, n_bonds, u, report)
     }
 }
 
@@ -163,9 +154,22 @@ impl Problem {
         let t0 = Instant::now();
         progress.phase(&format!("building bonds: {} nodes of the point cloud", self.nodes.len()));
         let model = self.operator()?;
+        let (u, report) = self.timed_solve(&model, t0, progress)?;
+        let n_bonds = model.family().n_bonds();
+        self.bond_solution(&model, n_bonds, u, report)
+    }
+
+    /// The one static solve of a model built since `t0`: the building time is counted as
+    /// assembly in the report, and the end is announced with the residual.
+    fn timed_solve(
+        &self,
+        model: &dyn linpd_core::Model,
+        t0: Instant,
+        progress: &dyn Progress,
+    ) -> Result<(Vec<f64>, SolveReport), ProblemError> {
         let t_build = t0.elapsed().as_secs_f64();
-        let solved = solve_model(&model, &self.dirichlet(), &self.load_vector(), &self.solver, progress)
-            .map_err(static_error)?;
+        let solved =
+            solve_model(model, &self.dirichlet(), &self.load_vector(), &self.solver, progress).map_err(static_error)?;
         let mut report = solved.report;
         report.timings.assemble += t_build;
         progress.phase(&format!(
@@ -173,8 +177,7 @@ impl Problem {
             t0.elapsed().as_secs_f64(),
             report.rel_residual
         ));
-        let n_bonds = model.family().n_bonds();
-        self.bond_solution(&model, n_bonds, solved.u, report)
+        Ok((solved.u, report))
     }
 
     /// The solution of a bond model (`n_bonds` bonds, cut ones included): balance and strain
