@@ -636,11 +636,20 @@ fn log_tick_label(v: f64) -> String {
     }
 }
 
-/// The corner of the plotting area where the legend covers the fewest data: the one whose
-/// box (35 % of the width, 8 % of the height per labelled series plus 4 %) holds the fewest
-/// points of the series, lines sampled 16 times per segment; ties go to upper right, upper
-/// left, lower right, lower left, in that order.
-fn legend_corner(plot: &LinePlot, xr: &Range<f64>, yr: &Range<f64>) -> SeriesLabelPosition {
+/// Where a line plot's legend goes.
+#[derive(Debug, Clone, PartialEq)]
+enum LegendPlace {
+    /// In this corner of the plotting area, which holds no data.
+    Inside(SeriesLabelPosition),
+    /// In a column right of the plotting area: every corner holds data.
+    Outside,
+}
+
+/// The corner of the plotting area where the legend covers no data, or [`LegendPlace::Outside`]
+/// when every corner's box (35 % of the width, 8 % of the height per labelled series plus
+/// 4 %) holds points of the series (lines sampled 16 times per segment); ties go to upper
+/// right, upper left, lower right, lower left, in that order.
+fn legend_place(plot: &LinePlot, xr: &Range<f64>, yr: &Range<f64>) -> LegendPlace {
     let unit = |v: f64, r: &Range<f64>, log: bool| {
         if log {
             (v.log10() - r.start.log10()) / (r.end.log10() - r.start.log10())
@@ -676,7 +685,11 @@ fn legend_corner(plot: &LinePlot, xr: &Range<f64>, yr: &Range<f64>) -> SeriesLab
         }
     }
     let best = (0..4).min_by_key(|&c| (counts[c], c)).unwrap_or(0);
-    corners[best].0.clone()
+    if counts[best] == 0 {
+        LegendPlace::Inside(corners[best].0.clone())
+    } else {
+        LegendPlace::Outside
+    }
 }
 
 fn draw_line_plot<DB, XS, YS>(
@@ -695,6 +708,19 @@ where
 {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(e)?;
+    let labelled: Vec<(usize, &Series)> = plot.series.iter().enumerate().filter(|(_, s)| !s.label.is_empty()).collect();
+    let place = legend_place(plot, xs_range, ys_range);
+    // every corner holds data: the legend gets a column of its own right of the chart
+    let (chart_area, legend_area) = if place == LegendPlace::Outside && !labelled.is_empty() {
+        let w = root.dim_in_pixel().0;
+        let longest = labelled.iter().map(|(_, s)| s.label.chars().count()).max().unwrap_or(0) as u32;
+        let lw = (longest * 9 + 60).min(2 * w / 5);
+        let (a, b) = root.split_horizontally(w - lw);
+        (a, Some(b))
+    } else {
+        (root.clone(), None)
+    };
+    let root = &chart_area;
     let (xr, yr) = (xs_range.clone(), ys_range.clone());
     let (log_x, log_y) = (plot.log_x, plot.log_y);
     let x_fmt = move |v: &f64| {
@@ -754,10 +780,23 @@ where
             });
         }
     }
-    if plot.series.iter().any(|s| !s.label.is_empty()) {
+    if let Some(area) = legend_area {
+        // drawn by hand: plotters places its legend inside the plotting area only
+        for (k, (i, s)) in labelled.iter().enumerate() {
+            let y = 80 + 26 * k as i32;
+            let color = series_color(*i);
+            if s.style != SeriesStyle::Markers {
+                area.draw(&PathElement::new(vec![(8, y), (32, y)], color.stroke_width(2))).map_err(e)?;
+            }
+            if s.style != SeriesStyle::Line {
+                area.draw(&Circle::new((20, y), 4, color.filled())).map_err(e)?;
+            }
+            area.draw(&Text::new(s.label.as_str(), (40, y - 8), (FONT, 16))).map_err(e)?;
+        }
+    } else if let (LegendPlace::Inside(corner), false) = (place, labelled.is_empty()) {
         chart
             .configure_series_labels()
-            .position(legend_corner(plot, xs_range, ys_range))
+            .position(corner)
             .label_font((FONT, 16))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
@@ -1082,10 +1121,11 @@ mod tests {
         assert!(!dir.exists());
     }
 
-    /// The legend goes to the corner with the least data: a curve rising to the upper right
-    /// puts it upper left; one falling from the upper left leaves the upper right free; a line
-    /// along the top sends it to the lower right; a flat line through the middle keeps the
-    /// default, upper right.
+    /// The legend goes to a corner without data: a curve rising to the upper right puts it
+    /// upper left; one falling from the upper left leaves the upper right free; a line along
+    /// the top sends it to the lower right; a flat line through the middle keeps the default,
+    /// upper right; data in every corner (an X and a frame) send it outside the plotting
+    /// area, and such a plot still draws.
     #[test]
     fn legend_avoids_the_data() {
         let plot = |y: Vec<f64>| LinePlot {
@@ -1097,14 +1137,26 @@ mod tests {
             log_y: false,
         };
         let (xr, yr) = (0.0..10.0, 0.0..10.0);
+        let inside = |c| LegendPlace::Inside(c);
         let rising = plot((0..=10).map(|k| k as f64).collect());
-        assert_eq!(legend_corner(&rising, &xr, &yr), SeriesLabelPosition::UpperLeft);
+        assert_eq!(legend_place(&rising, &xr, &yr), inside(SeriesLabelPosition::UpperLeft));
         let falling = plot((0..=10).map(|k| 10.0 - k as f64).collect());
-        assert_eq!(legend_corner(&falling, &xr, &yr), SeriesLabelPosition::UpperRight);
+        assert_eq!(legend_place(&falling, &xr, &yr), inside(SeriesLabelPosition::UpperRight));
         let high = plot(vec![9.5; 11]);
-        assert_eq!(legend_corner(&high, &xr, &yr), SeriesLabelPosition::LowerRight);
+        assert_eq!(legend_place(&high, &xr, &yr), inside(SeriesLabelPosition::LowerRight));
         let flat = plot(vec![5.0; 11]);
-        assert_eq!(legend_corner(&flat, &xr, &yr), SeriesLabelPosition::UpperRight);
+        assert_eq!(legend_place(&flat, &xr, &yr), inside(SeriesLabelPosition::UpperRight));
+        let mut x = rising.clone();
+        x.series.push(Series::new(
+            "b",
+            (0..=10).map(|k| k as f64).collect(),
+            (0..=10).map(|k| 10.0 - k as f64).collect(),
+        ));
+        assert_eq!(legend_place(&x, &xr, &yr), LegendPlace::Outside);
+        let dir = std::env::temp_dir().join(format!("linpd-legend-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let files = line_plot(&x, &dir.join("x")).unwrap();
+        assert!(files.iter().all(|f| std::fs::metadata(f).unwrap().len() > 1000), "{files:?}");
     }
 
     /// A map above [`MAX_SVG_CELLS`] cells writes the PNG only; one at the limit both.
