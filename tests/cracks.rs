@@ -61,6 +61,11 @@ fn bad_cracks_are_refused() {
     s["model"]["material"]["defects"][0]["segment"] = json!([[2.0, 0.5], [3.0, 0.5]]);
     let e = error_of(&s);
     assert!(e.starts_with("model.material.defects[0]: crosses no bond of the body"), "{e}");
+    // a notch along the node row y = 0.5 isolates its nodes: the message says why
+    let mut s = scene("plate-notch-2d.json");
+    s["model"]["material"]["defects"][0]["segment"] = json!([[-0.1, 0.5], [0.5, 0.5]]);
+    let e = Problem::from_json(&s.to_string()).unwrap().solve(&NoProgress).unwrap_err().to_string();
+    assert!(e.starts_with("model.material.defects: node ") && e.contains("place defects between lattice rows"), "{e}");
     let mut s = scene("plate-notch-2d.json");
     s["model"]["material"]["phases"] = json!([{"region": "all", "modulus": 2.0}]);
     let e = error_of(&s);

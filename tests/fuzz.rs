@@ -1,5 +1,6 @@
 //! Seeded mutation fuzz of the bundled inputs through the `linpd` binary (issue #15): every
-//! `data/*.json` scene and `*.pipeline.json` pipeline, and the level files (`level-<m>.mtx`,
+//! `data/*.json` scene (with the node file of a point-cloud scene) and `*.pipeline.json`
+//! pipeline, and the level files (`level-<m>.mtx`,
 //! `level-<m>.nodes.csv`) that `linpd coarsen` writes for the bundled pipelines, loaded through a
 //! coarsened scene. Each case applies 1-3 mutations chosen by a seeded PRNG (JSON-aware ones on
 //! the parsed document, byte-level ones on the serialized text and on the level files) and runs
@@ -111,8 +112,8 @@ type Files = Vec<(String, Vec<u8>)>;
 
 /// What a case's files are and which command runs them.
 enum Kind {
-    /// A scene file (`validate`, then `solve` or `run`).
-    Scene,
+    /// A scene file and the node file it reads, if any (`validate`, then `solve` or `run`).
+    Scene { side: Vec<(String, Vec<u8>)> },
     /// A pipeline and the scene it names (`coarsen`).
     Pipeline { scene_file: String, scene: Value },
     /// A coarsened scene and its level files (`validate`, then `solve`).
@@ -162,7 +163,13 @@ fn inputs(root: &Path) -> Vec<Input> {
         let file = p.file_name().unwrap().to_string_lossy().into_owned();
         let doc = read_json(p);
         if !file.ends_with(".pipeline.json") {
-            out.push(Input { label: file.clone(), file, doc, kind: Kind::Scene });
+            // a point cloud's node file goes with its scene (and is mutated as bytes)
+            let side = ["csv", "vtk"]
+                .iter()
+                .filter_map(|k| doc["nodes"][k].as_str())
+                .map(|f| (f.to_string(), std::fs::read(data_dir().join(f)).unwrap()))
+                .collect();
+            out.push(Input { label: file.clone(), file, doc, kind: Kind::Scene { side } });
             continue;
         }
         let scene_file = doc["scene"].as_str().expect("a pipeline names its scene").to_string();
@@ -495,7 +502,7 @@ fn make_case(
     let mut files: Vec<(String, Option<Value>, Vec<u8>)> =
         vec![(input.file.clone(), Some(input.doc.clone()), Vec::new())];
     match &input.kind {
-        Kind::Scene => {}
+        Kind::Scene { side } => files.extend(side.iter().map(|(n, b)| (n.clone(), None, b.clone()))),
         Kind::Pipeline { scene_file, scene } => files.push((scene_file.clone(), Some(scene.clone()), Vec::new())),
         Kind::Level { mtx_file, mtx, csv_file, csv } => {
             files.push((mtx_file.clone(), None, mtx.clone()));
@@ -666,7 +673,7 @@ fn run_case(input: &Input, files: &Files, dir: &Path, logs: &Path) -> Vec<Run> {
         Kind::Pipeline { .. } => {
             vec![run(s(&["coarsen", &main, "--out", "out", "-q"]), dir, logs, &names, Some("summary.json"))]
         }
-        Kind::Scene | Kind::Level { .. } => {
+        Kind::Scene { .. } | Kind::Level { .. } => {
             let dynamics = serde_json::from_slice::<Value>(&files[0].1).is_ok_and(|v| v.get("dynamics").is_some());
             let (cmd, doc) = if dynamics { ("run", "history.json") } else { ("solve", "result.json") };
             let mut runs = vec![run(s(&["validate", &main]), dir, logs, &names, None)];

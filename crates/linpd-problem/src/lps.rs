@@ -28,8 +28,15 @@ impl Problem {
                 format!("an lps model is needed here, the scene has {}", self.model.name()),
             ));
         };
-        LpsModel::with_defects(self.lattice()?, params, defects)
-            .map_err(|e| ProblemError::invalid("model", e.to_string()))
+        LpsModel::with_defects(self.lattice()?, params, defects).map_err(|e| match e {
+            // the usual cause with defects: one passes through the node (the crossing test is
+            // closed, so every bond of that node touches it)
+            e @ linpd_lps::LpsError::ZeroWeightedVolume { .. } if !defects.is_empty() => ProblemError::invalid(
+                "model.material.defects",
+                format!("{e}: a defect through a node cuts all its bonds; place defects between lattice rows"),
+            ),
+            e => ProblemError::invalid("model", e.to_string()),
+        })
     }
 }
 
