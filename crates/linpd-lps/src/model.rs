@@ -269,16 +269,20 @@ impl LpsModel {
             let (a, b) = (i.min(j), i.max(j));
             defects.iter().filter(|d| d.crosses(&positions[a], &positions[b], tol)).map(|d| d.factor()).product()
         };
-        let lists: Vec<Vec<u32>> = (0..full.len())
-            .map(|i| full.neighbors(i).iter().copied().filter(|&j| factor(i, j as usize) > 0.0).collect())
+        // the surviving bonds of every node with their factors, each crossing test done once
+        use rayon::prelude::*;
+        let kept: Vec<(Vec<u32>, Vec<f64>)> = (0..full.len())
+            .into_par_iter()
+            .map(|i| full.neighbors(i).iter().map(|&j| (j, factor(i, j as usize))).filter(|&(_, f)| f > 0.0).unzip())
             .collect();
+        let (lists, factors): (Vec<Vec<u32>>, Vec<Vec<f64>>) = kept.into_iter().unzip();
         let mut model = Self::with_family(grid, BondFamily::from_lists(lists), params)?;
         // the weakened bonds: scale `omega nu V_j` and rebuild `m` (Algorithm 3)
-        for i in 0..model.n_nodes() {
+        for (i, f) in factors.iter().enumerate() {
             let o = model.family.bond_offset(i);
             let mut mi = 0.0;
-            for (b, &j) in model.family.neighbors(i).iter().enumerate() {
-                model.wv[o + b] *= factor(i, j as usize);
+            for (b, &fb) in f.iter().enumerate() {
+                model.wv[o + b] *= fb;
                 mi += model.wv[o + b] * model.len[o + b] * model.len[o + b];
             }
             model.m[i] = mi;

@@ -30,18 +30,14 @@ pub fn solution_plots(
         (3, None) => (2, counts[2] / 2),
         _ => (2, 0),
     };
-    let (a, b) = match c {
-        0 => (1, 2),
-        1 => (0, 2),
-        _ => (0, 1),
-    };
+    let (a, b) = plane_axes(c);
     let site = |i: usize, j: usize| {
         let mut q = [0usize; 3];
         (q[a], q[b], q[c]) = (i, j, k0);
         q
     };
     let (nx, ny) = (counts[a], counts[b]);
-    let mag = |n: usize| (0..d).map(|k| s.u[d * n + k].powi(2)).sum::<f64>().sqrt();
+    let mag = |n: usize| magnitude(s, n);
     // lattice sites of the plane; a site a body removed is an empty (white) cell
     let nodes: Vec<Option<usize>> = (0..nx * ny).map(|q| grid.node_at_site(site(q % nx, q / nx))).collect();
     let values: Vec<f64> = nodes.iter().map(|n| n.map_or(0.0, mag)).collect();
@@ -67,6 +63,21 @@ pub fn solution_plots(
         equal_aspect: true,
     };
     scalar_map(&map, &dir.join("u_magnitude"))
+}
+
+/// The axes `(a, b)` a map of the plane normal to axis `c` is drawn over.
+fn plane_axes(c: usize) -> (usize, usize) {
+    match c {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    }
+}
+
+/// `|u|` of node `n`.
+fn magnitude(s: &Solution, n: usize) -> f64 {
+    let d = s.dim;
+    (0..d).map(|k| s.u[d * n + k].powi(2)).sum::<f64>().sqrt()
 }
 
 /// The largest raster [`scattered_plots`] draws per side (cells).
@@ -96,11 +107,7 @@ pub fn scattered_plots(s: &Solution, dir: &Path, slice: Option<(usize, f64)>) ->
         (3, None) => (2, 0.5 * (bounds(2).0 + bounds(2).1)),
         _ => (2, 0.0),
     };
-    let (a, b) = match c {
-        0 => (1, 2),
-        1 => (0, 2),
-        _ => (0, 1),
-    };
+    let (a, b) = plane_axes(c);
     let nodes: Vec<usize> = (0..n_all).filter(|&n| d == 2 || (s.x[n][c] - value).abs() <= 0.5 * size(n)).collect();
     let names = ["x", "y", "z"];
     let finite = nodes.iter().all(|&n| size(n).is_finite() && size(n) > 0.0);
@@ -116,7 +123,7 @@ pub fn scattered_plots(s: &Solution, dir: &Path, slice: Option<(usize, f64)>) ->
     let nx = (((x1 - x0) / cell).ceil() as usize).max(1);
     let ny = (((y1 - y0) / cell).ceil() as usize).max(1);
     let mut best = vec![(f64::INFINITY, 0.0f64); nx * ny];
-    let mag = |n: usize| (0..d).map(|k| s.u[d * n + k].powi(2)).sum::<f64>().sqrt();
+    let mag = |n: usize| magnitude(s, n);
     for &n in &nodes {
         let (px, py, r) = (s.x[n][a], s.x[n][b], reach(n));
         let i_lo = (((px - r - x0) / cell).floor().max(0.0)) as usize;

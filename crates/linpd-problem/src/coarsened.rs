@@ -20,11 +20,10 @@
 
 use crate::problem::{constraints_and_loads, solver_spec, LevelNodes, Nodes};
 use crate::raw::{RawModelKind, RawProblem};
-use crate::run::static_error;
 use crate::{ModelSpec, Problem, ProblemError, Solution};
 use linpd_core::progress::Progress;
 use linpd_core::AssembledModel;
-use linpd_solve::{solve_model, Dirichlet};
+
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -235,33 +234,21 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
 /// Solves `K u = f` with the constraints eliminated ([`linpd_solve::solve_model`]: sparse LU
 /// when `K` is unsymmetric, whatever the scene asked).
 pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) -> Result<Solution, ProblemError> {
-    let t0 = Instant::now();
-    let (mask, ubar) = p.constrained();
-    let bc = Dirichlet::new(p.dim(), &mask, ubar);
-    let solved = solve_model(&c.model, &bc, &p.load_vector(), &p.solver, progress).map_err(static_error)?;
-    let mut report = solved.report;
+    let (u, mut report) = p.timed_solve(&c.model, Instant::now(), progress)?;
+    // the level was read (its K built) at validation
     report.timings.assemble += c.build_seconds;
     if !c.is_symmetric() {
         // say which quantity is unsymmetric, beside the solver's generic note
-        let why = format!("K is {}", c.symmetry());
-        report.note = Some(match report.note.take() {
-            Some(n) => format!("{n}; {why}"),
-            None => why,
-        });
+        crate::run::append_note(&mut report, format!("K is {}", c.symmetry()));
     }
-    progress.phase(&format!(
-        "done in {:.3} s, relative residual {:.2e}",
-        t0.elapsed().as_secs_f64(),
-        report.rel_residual
-    ));
-    let balance = p.balance(&c.model, &solved.u);
+    let balance = p.balance(&c.model, &u);
     let volumes: Vec<f64> = (0..p.nodes.len()).map(|n| p.nodes.volume(n)).collect();
-    let strain = Some(crate::nodal_strain(&c.model, &volumes, &solved.u));
+    let strain = Some(crate::nodal_strain(&c.model, &volumes, &u));
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),
         x: p.nodes.positions(),
-        u: solved.u,
+        u,
         is_layer: vec![false; p.nodes.len()],
         volumes,
         n_bonds: c.n_bonds,

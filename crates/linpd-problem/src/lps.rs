@@ -4,11 +4,10 @@
 //! The model is [`linpd_lps::LpsModel`] as a [`linpd_core::Model`] (its ordering, reach and
 //! support graph are documented there); the solve is [`linpd_solve::solve_model`].
 
-use crate::run::static_error;
+use crate::run::append_note;
 use crate::{ModelSpec, Problem, ProblemError, Solution};
 use linpd_core::progress::Progress;
 use linpd_lps::{LpsModel, LpsParams};
-use linpd_solve::solve_model;
 use std::time::Instant;
 
 /// From this Poisson ratio on, a CG solve of an LPS scene carries a conditioning warning in
@@ -52,11 +51,8 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
         params.horizon / grid.spacing()
     ));
     let model = p.lps_model()?;
-    let t_build = t0.elapsed().as_secs_f64();
     progress.phase("the LPS tangent couples nodes up to 2 horizons apart");
-    let solved = solve_model(&model, &p.dirichlet(), &p.load_vector(), &p.solver, progress).map_err(static_error)?;
-    let mut report = solved.report;
-    report.timings.assemble += t_build;
+    let (u, mut report) = p.timed_solve(&model, t0, progress)?;
     let nu = params.poisson_ratio();
     if nu >= CG_NEAR_INCOMPRESSIBLE_NU && matches!(report.solver, linpd_solve::SolverId::Cg { .. }) {
         let note = format!(
@@ -65,26 +61,18 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
              above rtol 1e-10 (docs/solvers.md); the cholesky solver is the safer choice"
         );
         progress.phase(&format!("warning: {note}"));
-        report.note = Some(match report.note.take() {
-            Some(n) => format!("{n}; {note}"),
-            None => note,
-        });
+        append_note(&mut report, note);
     }
-    progress.phase(&format!(
-        "done in {:.3} s, relative residual {:.2e}",
-        t0.elapsed().as_secs_f64(),
-        report.rel_residual
-    ));
-    let balance = p.balance(&model, &solved.u);
+    let balance = p.balance(&model, &u);
     let volumes: Vec<f64> = (0..grid.len()).map(|n| model.node_volume(n)).collect();
-    let strain = Some(crate::nodal_strain(&model, &volumes, &solved.u));
-    let dilatation = Some(model.linearized_theta(&solved.u));
-    let strain_energy_density = Some(model.linearized_energy_density(&solved.u));
+    let strain = Some(crate::nodal_strain(&model, &volumes, &u));
+    let dilatation = Some(model.linearized_theta(&u));
+    let strain_energy_density = Some(model.linearized_energy_density(&u));
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),
         x: model.positions(),
-        u: solved.u,
+        u,
         is_layer: (0..grid.len()).map(|n| grid.is_layer(n)).collect(),
         volumes,
         n_bonds: model.family().n_bonds(),

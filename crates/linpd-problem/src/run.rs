@@ -161,7 +161,7 @@ impl Problem {
 
     /// The one static solve of a model built since `t0`: the building time is counted as
     /// assembly in the report, and the end is announced with the residual.
-    fn timed_solve(
+    pub(crate) fn timed_solve(
         &self,
         model: &dyn linpd_core::Model,
         t0: Instant,
@@ -209,6 +209,14 @@ impl Problem {
             report,
         })
     }
+}
+
+/// Adds `note` to the report's note (after the solver's own, `; `-separated).
+pub(crate) fn append_note(report: &mut SolveReport, note: String) {
+    report.note = Some(match report.note.take() {
+        Some(n) => format!("{n}; {note}"),
+        None => note,
+    });
 }
 
 /// A failed static solve as a scene error.
