@@ -22,12 +22,15 @@
 //!   dissection ordering, stencil apply when homogeneous);
 //! * [`stencil::StencilOperator`] applies `A` on a homogeneous full-box lattice from the
 //!   stencil alone (no per-bond storage);
+//! * [`surface`]: the `energy` surface correction (per-node moment matching, bond factor the
+//!   mean of its ends);
 #![deny(missing_docs)]
 
 pub mod assemble;
 pub mod model;
 pub mod operator;
 pub mod stencil;
+pub mod surface;
 
 pub use assemble::{assemble, Pattern};
 pub use linpd_core::{nested_dissection, planar_nested_dissection};

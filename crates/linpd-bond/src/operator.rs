@@ -17,7 +17,7 @@ pub struct BondOperator {
     units: Option<UnitTable>,
     family: BondFamily,
     /// `w_ij = lambda_ij nu_ij V_i V_j`, indexed like the family's neighbour lists.
-    weights: Vec<f64>,
+    pub(crate) weights: Vec<f64>,
 }
 
 impl BondOperator {

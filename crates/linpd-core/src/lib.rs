@@ -17,6 +17,7 @@
 //! * [`ordering`]: nested dissection on the lattice, a fill-reducing ordering for Cholesky;
 //! * [`progress`]: the progress interface of long computations ([`Progress`], [`NoProgress`]);
 //! * [`support`]: do the constraints remove every rigid motion of a model?
+//! * [`surface`]: surface corrections by matching each node's fourth bond moments to the bulk;
 //! * [`error`]: the error type shared by these modules.
 //!
 //! Indices into node arrays are `usize`; bond offsets are `usize` as well so that a family
@@ -39,6 +40,7 @@ pub mod progress;
 pub mod region;
 pub mod sparse;
 pub mod support;
+pub mod surface;
 
 pub use dof::DofMap;
 pub use error::CoreError;

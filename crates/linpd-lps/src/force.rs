@@ -22,7 +22,7 @@
 //! correction) so that `F = -dE/du` still holds: the force is always the gradient of
 //! `sum_i V_i [(kappa - a G / d^2) theta_i^2 / 2 + (a G / (2 m_i)) sum_j omega e^2 nu V_j]`.
 
-use crate::model::norm;
+use crate::model::{far, norm};
 use crate::LpsModel;
 use rayon::prelude::*;
 
@@ -85,7 +85,7 @@ impl LpsModel {
         let ui = disp(i);
         let (ti, mi) = (theta(i), self.m[i]);
         let mut fi = [0.0; 3];
-        for (j, w, r) in self.bonds(i) {
+        for (j, w, w_far, r) in self.bond_pairs(i) {
             let uj = disp(j);
             let mut y = self.bond_vector(i, j);
             for a in 0..d {
@@ -94,7 +94,7 @@ impl LpsModel {
             let ry = norm(&y);
             let e = ry - r;
             let (tj, mj) = (theta(j), self.m[j]);
-            let fhat = (c_theta * (ti / mi + tj / mj) * r + self.a_g * (1.0 / mi + 1.0 / mj) * e) * w;
+            let fhat = bond_force(c_theta, self.a_g, [ti, tj], [w / mi, far(w_far, vi, self.volumes[j]) / mj], r, e);
             for a in 0..d {
                 fi[a] += vi * fhat * y[a] / ry;
             }
@@ -139,15 +139,27 @@ impl LpsModel {
             let vi = self.volumes[i];
             fi.iter_mut().for_each(|v| *v = 0.0);
             let (ti, mi) = (theta[i], self.m[i]);
-            for (j, w, r) in self.bonds(i) {
-                // w = omega nu V_j; omega and nu are symmetric in (i, j).
+            for (j, w, w_far, r) in self.bond_pairs(i) {
+                // w = omega_i nu V_j, and the far end's omega_j nu V_j from its weight w_far.
                 let (y, ry, e) = self.deformed(u, i, j, r);
                 let (tj, mj) = (theta[j], self.m[j]);
-                let fhat = (c_theta * (ti / mi + tj / mj) * r + self.a_g * (1.0 / mi + 1.0 / mj) * e) * w;
+                let fhat =
+                    bond_force(c_theta, self.a_g, [ti, tj], [w / mi, far(w_far, vi, self.volumes[j]) / mj], r, e);
                 for a in 0..d {
                     fi[a] += vi * fhat * y[a] / ry;
                 }
             }
         });
     }
+}
+
+/// The scalar bond force of Algorithm 2 with per-end influence weights
+/// `w_i = omega_i nu V_j`, `w_j = omega_j nu V_j` (equal for a spherical influence function):
+/// `(d kappa - a G / d) (theta_i w_i / m_i + theta_j w_j / m_j) |xi| + a G (w_i / m_i + w_j / m_j) e`,
+/// given `[theta_i, theta_j]` and `[w_i / m_i, w_j / m_j]`.
+#[inline]
+fn bond_force(c_theta: f64, a_g: f64, theta: [f64; 2], w_over_m: [f64; 2], r: f64, e: f64) -> f64 {
+    let [ti, tj] = theta;
+    let [wi, wj] = w_over_m;
+    c_theta * (ti * wi + tj * wj) * r + a_g * (wi + wj) * e
 }

@@ -185,6 +185,11 @@ pub struct LpsModel {
     pub(crate) a_g: f64,
     /// Which weighted volume `m` holds (see [`crate::surface`]).
     pub(crate) surface: crate::SurfaceCorrection,
+    /// Per bond `i -> j`: the index of its reverse bond `j -> i`, when the influence function
+    /// is per node (`position_aware`, [`crate::surface`]): then `omega_i(xi) != omega_j(-xi)` and
+    /// the far end's weight must be read from the far end's family. Empty otherwise (the far
+    /// end's weight is then `w_ij V_i / V_j`).
+    pub(crate) rev: Vec<usize>,
 }
 
 impl LpsModel {
@@ -248,6 +253,7 @@ impl LpsModel {
             kappa: params.kappa(dim),
             a_g: LpsParams::deviatoric_factor(dim) * params.G,
             surface: crate::SurfaceCorrection::None,
+            rev: Vec::new(),
         })
     }
 
@@ -344,12 +350,58 @@ impl LpsModel {
         let o = self.family.bond_offset(i);
         self.family.neighbors(i).iter().enumerate().map(move |(b, &j)| (j as usize, self.wv[o + b], self.len[o + b]))
     }
+
+    /// Per bond of node `i` (family order): `(j, w_ij, w_ji, |xi|)`, with `w_ij = omega_i nu V_j`
+    /// the near end's weight and `w_ji = omega_j nu V_i` the far end's weight of the same pair
+    /// (the weight node `j` gives its bond to `i`). They differ only through the volumes unless
+    /// the influence function is per node (`position_aware`).
+    #[inline]
+    pub(crate) fn bond_pairs(&self, i: usize) -> impl Iterator<Item = (usize, f64, f64, f64)> + '_ {
+        let o = self.family.bond_offset(i);
+        self.family.neighbors(i).iter().enumerate().map(move |(b, &j)| {
+            let j = j as usize;
+            let w = self.wv[o + b];
+            let w_far =
+                if self.rev.is_empty() { w * self.volumes[i] / self.volumes[j] } else { self.wv[self.rev[o + b]] };
+            (j, w, w_far, self.len[o + b])
+        })
+    }
+
+    /// Fills [`LpsModel::rev`] (the reverse bond of every bond), once.
+    pub(crate) fn index_reverse_bonds(&mut self) {
+        if !self.rev.is_empty() {
+            return;
+        }
+        use rayon::prelude::*;
+        let family = &self.family;
+        self.rev = (0..family.len())
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                family.neighbors(i).iter().map(move |&j| {
+                    let j = j as usize;
+                    // every bond has its reverse (checked in `with_family`)
+                    let at = family.neighbors(j).binary_search(&(i as u32)).unwrap_or_else(|_| unreachable!());
+                    family.bond_offset(j) + at
+                })
+            })
+            .collect();
+    }
 }
 
 #[inline]
 fn lattice_vector(lattice: &[[i64; 3]], h: f64, i: usize, j: usize) -> [f64; 3] {
     let (a, b) = (lattice[i], lattice[j]);
     [(b[0] - a[0]) as f64 * h, (b[1] - a[1]) as f64 * h, (b[2] - a[2]) as f64 * h]
+}
+
+/// `omega_j nu V_j` from the far end's weight `w_ji = omega_j nu V_i`: `w_ji V_j / V_i`.
+#[inline]
+pub(crate) fn far(w_ji: f64, v_i: f64, v_j: f64) -> f64 {
+    if v_i == v_j {
+        w_ji
+    } else {
+        w_ji * v_j / v_i
+    }
 }
 
 #[inline]

@@ -46,8 +46,11 @@ use crate::model::norm;
 use crate::LpsModel;
 use linpd_core::family::lattice_stencil;
 use linpd_core::kernel::partial_volume;
+use linpd_core::surface::{fit_moments, moments, CorrectionSummary, MomentFit};
+use rayon::prelude::*;
+use std::time::Instant;
 
-/// Which weighted volume `m` each node uses.
+/// The surface correction of an LPS model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SurfaceCorrection {
     /// `m_i` is the (truncated near surfaces) lattice sum of node `i`'s family.
@@ -55,6 +58,26 @@ pub enum SurfaceCorrection {
     None,
     /// Every node uses the interior lattice value `m_0` (see the module documentation).
     BulkWeightedVolume,
+    /// `omega_ij -> omega_ij (phi_i(n) + phi_j(n)) / 2` with the moment-matching factors of
+    /// [`linpd_core::surface`]: a spherical (symmetric) influence function per bond, as the
+    /// bond-based `energy` correction (see "Moment-matching corrections" below).
+    Energy,
+    /// `omega_i(xi) = phi_i(n) omega(|xi|)`: a per-node influence function whose fourth moments
+    /// equal the interior's, so that every node's dilatation and energy are exact for every
+    /// affine deformation (see "Moment-matching corrections" below).
+    PositionAware,
+}
+
+impl SurfaceCorrection {
+    /// The name used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            SurfaceCorrection::None => "none",
+            SurfaceCorrection::BulkWeightedVolume => "bulk_weighted_volume",
+            SurfaceCorrection::Energy => "energy",
+            SurfaceCorrection::PositionAware => "position_aware",
+        }
+    }
 }
 
 impl LpsModel {
@@ -74,9 +97,20 @@ impl LpsModel {
         m0
     }
 
-    /// The model with the weighted volumes `m` rewritten by `correction`
-    /// ([`SurfaceCorrection::None`] restores the lattice sums of the model's family).
-    pub fn with_surface_correction(mut self, correction: SurfaceCorrection) -> Self {
+    /// The model with `correction` applied ([`LpsModel::corrected`] without its summary).
+    pub fn with_surface_correction(self, correction: SurfaceCorrection) -> Self {
+        self.corrected(correction).0
+    }
+
+    /// The model with `correction` applied, and for the moment-matching corrections what it
+    /// cost and changed. [`SurfaceCorrection::None`] and [`SurfaceCorrection::BulkWeightedVolume`]
+    /// rewrite the weighted volumes `m` only ([`SurfaceCorrection::None`] restores the lattice
+    /// sums of the model's current weights); [`SurfaceCorrection::Energy`] and
+    /// [`SurfaceCorrection::PositionAware`] rescale the bond weights and must be applied to an
+    /// uncorrected model (built by [`LpsModel::new`], [`LpsModel::with_family`] or
+    /// [`LpsModel::with_defects`]), once.
+    pub fn corrected(mut self, correction: SurfaceCorrection) -> (Self, Option<CorrectionSummary>) {
+        let mut summary = None;
         match correction {
             SurfaceCorrection::None => {
                 for i in 0..self.n_nodes() {
@@ -93,9 +127,86 @@ impl LpsModel {
                 let m0 = self.bulk_weighted_volume();
                 self.m.iter_mut().for_each(|m| *m = m0);
             }
+            SurfaceCorrection::Energy | SurfaceCorrection::PositionAware => {
+                debug_assert_eq!(self.surface, SurfaceCorrection::None, "corrections do not compose");
+                summary = Some(self.match_moments(correction == SurfaceCorrection::PositionAware));
+            }
         }
         self.surface = correction;
-        self
+        (self, summary)
+    }
+
+    /// The moment-matching corrections: the factors `phi_i` of every node from its geometric
+    /// weights `beta_ij = omega nu V_j |xi|^2` against the full lattice stencil's, then
+    /// `w_ij *= phi_i(n_ij)` (`per_node`) or `w_ij *= (phi_i(n_ij) + phi_j(n_ij)) / 2`, and `m`
+    /// recomputed from the new weights.
+    fn match_moments(&mut self, per_node: bool) -> CorrectionSummary {
+        let start = Instant::now();
+        let (dim, h, delta) = (self.dim, self.grid.spacing(), self.params.horizon);
+        let p = self.params;
+        let omega_nu = |r: f64| p.influence.omega(r) * if p.partial_volume { partial_volume(r, delta, h) } else { 1.0 };
+        let target = moments(
+            dim,
+            lattice_stencil(dim, delta / h).into_iter().map(|k| {
+                let xi = [k[0] as f64 * h, k[1] as f64 * h, k[2] as f64 * h];
+                let r = norm(&xi);
+                ([xi[0] / r, xi[1] / r, xi[2] / r], omega_nu(r) * self.volume * r * r)
+            }),
+        );
+        let unit = |i: usize, j: usize, r: f64| {
+            let xi = self.bond_vector(i, j);
+            [xi[0] / r, xi[1] / r, xi[2] / r]
+        };
+        let fits: Vec<MomentFit> = (0..self.n_nodes())
+            .into_par_iter()
+            .map(|i| {
+                let bonds: Vec<([f64; 3], f64)> =
+                    self.bonds(i).map(|(j, _, r)| (unit(i, j, r), omega_nu(r) * self.volumes[j] * r * r)).collect();
+                fit_moments(dim, &bonds, &target)
+            })
+            .collect();
+        let factors: Vec<Vec<f64>> = (0..self.n_nodes())
+            .into_par_iter()
+            .map(|i| {
+                self.bonds(i)
+                    .map(|(j, _, r)| {
+                        if fits[i].is_identity() && (per_node || fits[j].is_identity()) {
+                            return 1.0;
+                        }
+                        let n = unit(i, j, r);
+                        if per_node {
+                            fits[i].factor(dim, &n)
+                        } else {
+                            0.5 * (fits[i].factor(dim, &n) + fits[j].factor(dim, &n))
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut range = [f64::INFINITY, f64::NEG_INFINITY];
+        for (i, f) in factors.iter().enumerate() {
+            let o = self.family.bond_offset(i);
+            let mut mi = 0.0;
+            for (b, &fb) in f.iter().enumerate() {
+                if fb != 1.0 {
+                    range = [range[0].min(fb), range[1].max(fb)];
+                }
+                self.wv[o + b] *= fb;
+                mi += self.wv[o + b] * self.len[o + b] * self.len[o + b];
+            }
+            self.m[i] = mi;
+        }
+        if per_node {
+            self.index_reverse_bonds();
+        }
+        let corrected = fits.iter().filter(|f| !f.is_identity()).count();
+        CorrectionSummary {
+            kind: if per_node { "position_aware" } else { "energy" },
+            corrected_nodes: corrected,
+            factor_range: if range[0] > range[1] { [1.0, 1.0] } else { range },
+            max_mismatch: fits.iter().fold(0.0, |m, f| m.max(f.mismatch)),
+            seconds: start.elapsed().as_secs_f64(),
+        }
     }
 
     /// The surface correction in effect.

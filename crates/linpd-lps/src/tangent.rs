@@ -41,6 +41,7 @@
 //! g_k[p]`, the scatter `sum_k C_k g_k theta_k` written as a gather so that it runs in
 //! parallel over nodes without write conflicts.
 
+use crate::model::far;
 use crate::LpsModel;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use linpd_core::par::for_each_node_slice;
@@ -106,17 +107,18 @@ impl LpsModel {
             for a in 0..d {
                 yp[a] += c(p) * theta[p] * g_self[p][a];
             }
-            for (j, w, r) in self.bonds(p) {
+            for (j, w, w_jp, r) in self.bond_pairs(p) {
                 let xi = self.bond_vector(p, j);
-                // Pair: s (n . (u_p - u_j)) n with n = xi / r.
-                let s = v * self.a_g * w * (1.0 / self.m[p] + 1.0 / self.m[j]) / (r * r);
+                // Pair: s (n . (u_p - u_j)) n with n = xi / r; the far end's omega_j nu V_j.
+                let w_far = far(w_jp, v, self.volumes[j]);
+                let s = v * self.a_g * (w / self.m[p] + w_far / self.m[j]) / (r * r);
                 let mut proj = 0.0;
                 for a in 0..d {
                     proj += xi[a] * (u[d * p + a] - u[d * j + a]);
                 }
-                // k = j: g_j[p] = (d/m_j) w_jp xi_jp = -(d/m_j) w_jp xi_pj, where
-                // w_jp = omega nu V_p = w_pj V_p / V_j (w holds the far end's volume).
-                let gk = -df / self.m[j] * w * self.volumes[p] / self.volumes[j];
+                // k = j: g_j[p] = (d/m_j) w_jp xi_jp = -(d/m_j) w_jp xi_pj, with w_jp the
+                // weight j gives its bond to p (omega_j nu V_p).
+                let gk = -df / self.m[j] * w_jp;
                 for a in 0..d {
                     yp[a] += s * proj * xi[a] + c(j) * theta[j] * gk * xi[a];
                 }
@@ -244,9 +246,10 @@ impl TangentPattern {
             let sp = pos(p);
             let v = model.volumes[p];
             // Pair part.
-            for (j, w, r) in model.bonds(p) {
+            for (j, w, w_jp, r) in model.bond_pairs(p) {
                 let xi = model.bond_vector(p, j);
-                let s = v * model.a_g * w * (1.0 / model.m[p] + 1.0 / model.m[j]) / (r * r);
+                let w_far = far(w_jp, v, model.volumes[j]);
+                let s = v * model.a_g * (w / model.m[p] + w_far / model.m[j]) / (r * r);
                 add(&mut blocks, sp, s, &xi, &xi);
                 add(&mut blocks, pos(j), -s, &xi, &xi);
             }
@@ -258,10 +261,10 @@ impl TangentPattern {
                 let g = df / model.m[p] * w;
                 add(&mut blocks, pos(q), c(p) * g, &xi, &gp);
             }
-            for (k, wpk, _) in model.bonds(p) {
-                // g_k[p] = (d/m_k) w_kp xi_kp = -(d/m_k) w_kp xi_pk, w_kp = w_pk V_p / V_k.
+            for (k, _, w_kp, _) in model.bond_pairs(p) {
+                // g_k[p] = (d/m_k) w_kp xi_kp = -(d/m_k) w_kp xi_pk, w_kp = omega_k nu V_p.
                 let xi_pk = model.bond_vector(p, k);
-                let gkp_s = -df / model.m[k] * wpk * model.volumes[p] / model.volumes[k];
+                let gkp_s = -df / model.m[k] * w_kp;
                 let gkp = [gkp_s * xi_pk[0], gkp_s * xi_pk[1], gkp_s * xi_pk[2]];
                 add(&mut blocks, pos(k), c(k), &g_self[k], &gkp);
                 for (q, w, _) in model.bonds(k) {
