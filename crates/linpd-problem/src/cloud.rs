@@ -340,6 +340,13 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
     }
     crate::memory::check_nodes(crate::memory::Path::BondAssembled, dim, cloud.positions.len(), ratio)?;
     let raw_model = raw.model.clone();
+    if raw_model.surface_correction.is_some_and(|c| c != crate::raw::RawSurfaceCorrection::None) {
+        return Err(ProblemError::invalid(
+            "model.surface_correction",
+            "not available on point clouds yet: the correction matches each node's bond moments to a lattice \
+             interior, and a cloud has no lattice (use \"none\", or a grid)",
+        ));
+    }
     let micromodulus =
         bond_micromodulus(dim, horizon, raw_model.micromodulus.as_ref(), raw_model.plane, raw_model.partial_volume)?;
     if micromodulus.normalization == linpd_core::Normalization::Discrete {
@@ -370,7 +377,13 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         slice: None,
         name: raw.name,
         nodes: Nodes::Cloud(nodes),
-        model: ModelSpec::Bond(BondModel { horizon, micromodulus, material, node_moduli }),
+        model: ModelSpec::Bond(BondModel {
+            horizon,
+            micromodulus,
+            material,
+            node_moduli,
+            surface: linpd_lps::SurfaceCorrection::None,
+        }),
         constraints,
         loads,
         solver,

@@ -92,7 +92,7 @@ impl Problem {
                 let model = self.lattice_model()?;
                 system(&model, &self.dirichlet(), &self.load_vector()).map_err(static_error)
             }
-            ModelSpec::Lps(params, _) => {
+            ModelSpec::Lps(params, ..) => {
                 let grid = self.lattice()?;
                 crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, params.horizon, false)?;
                 let model = self.lps_model()?;

@@ -7,6 +7,7 @@
 use crate::run::append_note;
 use crate::{ModelSpec, Problem, ProblemError, Solution};
 use linpd_core::progress::Progress;
+use linpd_core::surface::CorrectionSummary;
 use linpd_lps::{LpsModel, LpsParams};
 use std::time::Instant;
 
@@ -19,15 +20,22 @@ use std::time::Instant;
 pub const CG_NEAR_INCOMPRESSIBLE_NU: f64 = 0.499;
 
 impl Problem {
-    /// The LPS model of an lps scene on its lattice, with the defects of its material.
+    /// The LPS model of an lps scene on its lattice, with the defects of its material and its
+    /// surface correction.
     pub fn lps_model(&self) -> Result<LpsModel, ProblemError> {
-        let ModelSpec::Lps(params, defects) = &self.model else {
+        self.lps_model_and_correction().map(|(m, _)| m)
+    }
+
+    /// [`Problem::lps_model`] and, with a moment-matching surface correction, what it did and
+    /// cost (for the solve report).
+    pub fn lps_model_and_correction(&self) -> Result<(LpsModel, Option<CorrectionSummary>), ProblemError> {
+        let ModelSpec::Lps(params, defects, surface) = &self.model else {
             return Err(ProblemError::invalid(
                 "model.type",
                 format!("an lps model is needed here, the scene has {}", self.model.name()),
             ));
         };
-        LpsModel::with_defects(self.lattice()?, params, defects).map_err(|e| match e {
+        let model = LpsModel::with_defects(self.lattice()?, params, defects).map_err(|e| match e {
             // the usual cause with defects: one passes through the node (the crossing test is
             // closed, so every bond of that node touches it)
             e @ linpd_lps::LpsError::ZeroWeightedVolume { .. } if !defects.is_empty() => ProblemError::invalid(
@@ -35,7 +43,8 @@ impl Problem {
                 format!("{e}: a defect through a node cuts all its bonds; place defects between lattice rows"),
             ),
             e => ProblemError::invalid("model", e.to_string()),
-        })
+        })?;
+        Ok(model.corrected(*surface))
     }
 }
 
@@ -50,9 +59,15 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
         grid.len(),
         params.horizon / grid.spacing()
     ));
-    let model = p.lps_model()?;
+    let (model, correction) = p.lps_model_and_correction()?;
+    if let Some(c) = &correction {
+        progress.phase(&c.describe());
+    }
     progress.phase("the LPS tangent couples nodes up to 2 horizons apart");
     let (u, mut report) = p.timed_solve(&model, t0, progress)?;
+    if let Some(c) = correction {
+        append_note(&mut report, c.describe());
+    }
     let nu = params.poisson_ratio();
     if nu >= CG_NEAR_INCOMPRESSIBLE_NU && matches!(report.solver, linpd_solve::SolverId::Cg { .. }) {
         let note = format!(

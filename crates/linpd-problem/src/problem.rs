@@ -6,6 +6,7 @@ use linpd_core::{
     BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point,
     Region,
 };
+use linpd_lps::SurfaceCorrection;
 use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
 use std::path::Path;
 
@@ -88,6 +89,8 @@ pub struct BondModel {
     /// Per-node moduli of a point cloud whose phases name phase numbers (overrides the
     /// material's region phases; `None` otherwise).
     pub(crate) node_moduli: Option<Vec<f64>>,
+    /// `model.surface_correction`: `None` or `Energy` ([`linpd_bond::surface`]).
+    pub(crate) surface: SurfaceCorrection,
 }
 
 impl BondModel {
@@ -112,9 +115,9 @@ impl BondModel {
 pub enum ModelSpec {
     /// `"type": "bond"`: bond-based linear PD ([`linpd_bond::LatticeBondModel`]).
     Bond(BondModel),
-    /// `"type": "lps"`: the linearized LPS solid ([`linpd_lps::LpsModel`]) and the defects
-    /// (pre-cracks) of its material.
-    Lps(linpd_lps::LpsParams, Vec<Defect>),
+    /// `"type": "lps"`: the linearized LPS solid ([`linpd_lps::LpsModel`]), the defects
+    /// (pre-cracks) of its material and its surface correction.
+    Lps(linpd_lps::LpsParams, Vec<Defect>, SurfaceCorrection),
     /// `"type": "blend"` and `"type": "ce"`: the 1D blended PD/CE model; `constraints` and
     /// `loads` have been translated into it.
     Blend(BlendScene),
@@ -128,7 +131,7 @@ impl ModelSpec {
     pub fn horizon(&self) -> Option<f64> {
         match self {
             ModelSpec::Bond(b) => Some(b.horizon),
-            ModelSpec::Lps(l, _) => Some(l.horizon),
+            ModelSpec::Lps(l, ..) => Some(l.horizon),
             ModelSpec::Blend(b) => Some(b.params.horizon),
             ModelSpec::Coarsened(_) => None,
         }
@@ -474,6 +477,7 @@ impl Problem {
             shear_modulus,
             influence,
             material,
+            surface_correction,
             // The blend keys are read by `crate::blend::scene`.
             ..
         } = raw.model.clone();
@@ -538,7 +542,7 @@ impl Problem {
                     "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
                 ));
             }
-            ModelSpec::Lps(params, material.defects)
+            ModelSpec::Lps(params, material.defects, surface_correction_of(model_kind, surface_correction)?)
         } else {
             // Bond, blend and ce models: a micromodulus.
             let micromodulus = bond_micromodulus(dim, horizon, mm.as_ref(), plane, partial_volume)?;
@@ -557,7 +561,8 @@ impl Problem {
                     // The amplitude now, not at the first solve: a modulus that overflows it
                     // (1e308) is a validation error naming the overflow.
                     micromodulus.amplitude(dim, horizon, grid.spacing()).map_err(|e| core("model", e))?;
-                    ModelSpec::Bond(BondModel { horizon, micromodulus, material, node_moduli: None })
+                    let surface = surface_correction_of(model_kind, surface_correction)?;
+                    ModelSpec::Bond(BondModel { horizon, micromodulus, material, node_moduli: None, surface })
                 }
             }
         };
@@ -1194,6 +1199,27 @@ pub(crate) fn bond_micromodulus(
 
 /// Validates the lps keys (the model itself checks `m > 0` when it is built).
 #[allow(clippy::too_many_arguments)]
+/// `model.surface_correction` of a lattice scene: `position_aware` is LPS only (a bond-based
+/// force is pairwise, so a bond must have one stiffness seen from both ends).
+fn surface_correction_of(
+    kind: RawModelKind,
+    raw: Option<crate::raw::RawSurfaceCorrection>,
+) -> Result<SurfaceCorrection, ProblemError> {
+    use crate::raw::RawSurfaceCorrection as R;
+    Ok(match raw {
+        None | Some(R::None) => SurfaceCorrection::None,
+        Some(R::Energy) => SurfaceCorrection::Energy,
+        Some(R::PositionAware) if kind == RawModelKind::Lps => SurfaceCorrection::PositionAware,
+        Some(R::PositionAware) => {
+            return Err(ProblemError::invalid(
+                "model.surface_correction",
+                "\"position_aware\" gives each node its own influence function, an LPS (state-based) correction; \
+                 bond models take \"none\" or \"energy\"",
+            ))
+        }
+    })
+}
+
 fn lps_params(
     dim: usize,
     horizon: f64,

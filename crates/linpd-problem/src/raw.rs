@@ -241,10 +241,19 @@ impl RawModelKind {
     /// model type and the types that do take it ([`RawModel::check_keys`]).
     pub fn keys(self) -> &'static [&'static str] {
         match self {
-            RawModelKind::Bond => &["horizon", "partial_volume", "plane", "micromodulus", "material"],
-            RawModelKind::Lps => {
-                &["horizon", "partial_volume", "plane", "bulk_modulus", "shear_modulus", "influence", "material"]
+            RawModelKind::Bond => {
+                &["horizon", "partial_volume", "plane", "micromodulus", "material", "surface_correction"]
             }
+            RawModelKind::Lps => &[
+                "horizon",
+                "partial_volume",
+                "plane",
+                "bulk_modulus",
+                "shear_modulus",
+                "influence",
+                "material",
+                "surface_correction",
+            ],
             RawModelKind::Blend => &[
                 "horizon",
                 "micromodulus",
@@ -308,6 +317,9 @@ pub struct RawModel {
     /// Phases, bond rule, defects.
     #[serde(default)]
     pub material: RawMaterial,
+    /// Bond and LPS: `none` (default), `energy` or (LPS) `position_aware`.
+    #[serde(default)]
+    pub surface_correction: Option<RawSurfaceCorrection>,
     /// Blend: `[L1, L2, L3, L4]`.
     #[serde(default)]
     pub regions: Option<[f64; 4]>,
@@ -344,6 +356,7 @@ impl RawModel {
             ("shear_modulus", self.shear_modulus.is_some()),
             ("influence", self.influence.is_some()),
             ("material", material),
+            ("surface_correction", self.surface_correction.is_some()),
             ("regions", self.regions.is_some()),
             ("blending", self.blending.is_some()),
             ("blending_value", self.blending_value.is_some()),
@@ -385,6 +398,18 @@ pub enum RawInfluence {
     InverseDistance,
     /// `omega = 1`.
     Constant,
+}
+
+/// `model.surface_correction`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawSurfaceCorrection {
+    /// No correction.
+    None,
+    /// Moment matching, bond factor the mean of its ends (bond and LPS).
+    Energy,
+    /// Moment matching with a per-node influence function (LPS).
+    PositionAware,
 }
 
 /// `model.blending`.

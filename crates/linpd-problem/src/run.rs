@@ -6,7 +6,9 @@ use crate::problem::NodeSet;
 use crate::{ModelSpec, Problem, ProblemError};
 use linpd_bond::{BondOperator, LatticeBondModel};
 use linpd_core::progress::Progress;
+use linpd_core::surface::CorrectionSummary;
 use linpd_core::Point;
+use linpd_lps::SurfaceCorrection;
 use linpd_solve::{solve_model, Dirichlet, SolveReport, StaticError};
 use std::time::Instant;
 
@@ -56,8 +58,26 @@ impl Problem {
     }
 
     /// Builds the bond operator of the scene (bond models only): on its lattice, or on its
-    /// point cloud with the nodes' own volumes.
+    /// point cloud with the nodes' own volumes; with the scene's surface correction.
     pub fn operator(&self) -> Result<BondOperator, ProblemError> {
+        self.operator_and_correction().map(|(op, _)| op)
+    }
+
+    /// [`Problem::operator`] and, when the scene has a surface correction, what it did and
+    /// cost (for the solve report).
+    pub fn operator_and_correction(&self) -> Result<(BondOperator, Option<CorrectionSummary>), ProblemError> {
+        let op = self.uncorrected_operator()?;
+        let b = self.bond_model()?;
+        Ok(match b.surface {
+            SurfaceCorrection::Energy => {
+                let (op, summary) = op.with_energy_correction(self.lattice()?, b.horizon, &b.micromodulus);
+                (op, Some(summary))
+            }
+            _ => (op, None),
+        })
+    }
+
+    fn uncorrected_operator(&self) -> Result<BondOperator, ProblemError> {
         let b = self.bond_model()?;
         let op = match self.nodes.cloud() {
             Some(c) => BondOperator::on_points(
@@ -109,10 +129,16 @@ impl Problem {
 
     /// The bond model of the scene on its lattice.
     pub fn lattice_model(&self) -> Result<LatticeBondModel, ProblemError> {
+        self.lattice_model_and_correction().map(|(m, _)| m)
+    }
+
+    /// [`Problem::lattice_model`] and what its surface correction did and cost.
+    pub fn lattice_model_and_correction(&self) -> Result<(LatticeBondModel, Option<CorrectionSummary>), ProblemError> {
         let b = self.bond_model()?;
-        let op = self.operator()?;
-        let homogeneous = b.material.is_homogeneous().then(|| b.micromodulus.clone());
-        Ok(LatticeBondModel::new(op, self.lattice()?.clone(), b.horizon, homogeneous))
+        let (op, summary) = self.operator_and_correction()?;
+        // the stencil applies the uncorrected lattice operator only
+        let homogeneous = (b.material.is_homogeneous() && summary.is_none()).then(|| b.micromodulus.clone());
+        Ok((LatticeBondModel::new(op, self.lattice()?.clone(), b.horizon, homogeneous), summary))
     }
 
     /// Solves the static problem. `progress` receives one line per phase and the tasks of the assembly and the solver.
@@ -120,7 +146,7 @@ impl Problem {
         // One arm per model type: a new model adds its variant here.
         match &self.model {
             ModelSpec::Blend(b) => return crate::blend::solve(&self.name, b, progress),
-            ModelSpec::Lps(params, _) => return crate::lps::solve(self, params, progress),
+            ModelSpec::Lps(params, ..) => return crate::lps::solve(self, params, progress),
             ModelSpec::Coarsened(c) => return crate::coarsened::solve(self, c, progress),
             ModelSpec::Bond(_) => {}
         }
@@ -140,8 +166,14 @@ impl Problem {
             self.nodes.len(),
             self.model.horizon().unwrap_or(f64::NAN) / self.lattice()?.spacing()
         ));
-        let model = self.lattice_model()?;
-        let (u, report) = self.timed_solve(&model, t0, progress)?;
+        let (model, correction) = self.lattice_model_and_correction()?;
+        if let Some(c) = &correction {
+            progress.phase(&c.describe());
+        }
+        let (u, mut report) = self.timed_solve(&model, t0, progress)?;
+        if let Some(c) = correction {
+            append_note(&mut report, c.describe());
+        }
         let n_bonds = model.operator().family().n_bonds();
         self.bond_solution(&model, n_bonds, u, report)
     }
