@@ -110,6 +110,7 @@ impl BondOperator {
             corrected_nodes: corrected,
             factor_range: if corrected == 0 { [1.0, 1.0] } else { range },
             max_mismatch: fits.iter().fold(0.0, |m, f| m.max(f.mismatch)),
+            max_iterations: fits.iter().map(|f| f.iterations).max().unwrap_or(0),
             seconds: start.elapsed().as_secs_f64(),
         };
         (self, summary)

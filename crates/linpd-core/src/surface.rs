@@ -251,6 +251,8 @@ pub struct CorrectionSummary {
     pub factor_range: [f64; 2],
     /// The largest relative moment mismatch left after a fit (0 when every node matched).
     pub max_mismatch: f64,
+    /// The most Newton steps one node's fit took.
+    pub max_iterations: usize,
     /// Wall time of computing and applying the factors.
     pub seconds: f64,
 }
@@ -260,12 +262,14 @@ impl CorrectionSummary {
     /// 0.81..2.4, moments matched to 3e-15, 0.02 s`.
     pub fn describe(&self) -> String {
         format!(
-            "surface correction {}: {} nodes corrected, bond factors {:.3}..{:.3}, moments matched to {:.1e}, {:.3} s",
+            "surface correction {}: {} nodes corrected, bond factors {:.3}..{:.3}, moments matched to {:.1e} \
+             (<= {} Newton steps), {:.3} s",
             self.kind,
             self.corrected_nodes,
             self.factor_range[0],
             self.factor_range[1],
             self.max_mismatch,
+            self.max_iterations,
             self.seconds
         )
     }
