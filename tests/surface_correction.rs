@@ -1,0 +1,122 @@
+//! Surface corrections in scenes (issue #14): the uniform tension bar of Peridynamics.jl's
+//! verification suite (`data/surface-bar-3d.json`: l = 1, cross-section 0.1 x 0.1, dx = 1/30
+//! cell-centred, 33 x 3 x 3 points with 3 held layers at x < -l/2, horizon 3.015 dx, E = 200e9,
+//! nu = 0.25, the last layer loaded with F = 2e6 N in total; measured: the mean x-displacement
+//! of the loaded points against F l / (E A) = 1e-3), for none / energy / position_aware, bond
+//! and LPS; and the scene errors of the new key.
+
+use linpd::core::NoProgress;
+use linpd::problem::Problem;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name)
+}
+
+fn bar() -> Value {
+    serde_json::from_str(&std::fs::read_to_string(data("surface-bar-3d.json")).unwrap()).unwrap()
+}
+
+/// The bar with `model` replaced by the LPS model (K, G from E, nu) or the bond model
+/// (inverse-distance micromodulus normalized to the bulk modulus by the continuum integral, as
+/// Peridynamics.jl does), with `correction`.
+fn bar_with(model: &str, correction: &str, normalize: &str) -> Value {
+    let mut v = bar();
+    let k = 200e9 / (3.0 * (1.0 - 2.0 * 0.25));
+    v["model"] = match model {
+        "lps" => json!({"type": "lps", "horizon": 0.1005, "bulk_modulus": k, "shear_modulus": 80e9,
+                        "surface_correction": correction}),
+        _ => json!({"type": "bond", "horizon": 0.1005, "surface_correction": correction,
+                    "micromodulus": {"kernel": "inverse_distance", "modulus": k, "normalize": normalize}}),
+    };
+    v
+}
+
+/// Relative error of the mean x-displacement of the loaded points against `F l / (E A)`.
+fn elongation_error(v: &Value) -> f64 {
+    let p = Problem::from_json(&v.to_string()).unwrap();
+    let s = p.solve(&NoProgress).unwrap();
+    let loaded: Vec<usize> = (0..s.x.len()).filter(|&i| s.x[i][0] > 0.5 - 1.0 / 30.0).collect();
+    assert_eq!(loaded.len(), 9);
+    let mean = loaded.iter().map(|&i| s.u[3 * i]).sum::<f64>() / loaded.len() as f64;
+    mean / (2e6 * 1.0 / (200e9 * 0.01)) - 1.0
+}
+
+/// The numbers of the closing note of issue #14 (see docs/models.md, "Surface corrections"):
+/// uncorrected, LPS is 36.8 % too stiff and bond-based 80.2 % too soft (the issue's figures);
+/// with `energy` the bond model meets the issue's 5 % target (1.2 %; the peer's energy
+/// correction: 13 %), and LPS with either correction is 11.1 % too soft: better than uncorrected
+/// by 3.3x, but far from the 0.5 % target (see docs/models.md for why an energy-matching
+/// correction stops there). The bounds are the targets where met and the measured values
+/// rounded up by 0.5 % where not, so that a regression fails.
+#[test]
+fn the_peridynamics_jl_tension_bar() {
+    let cases = [
+        ("lps", "none", "continuum", -0.368, 0.005),
+        ("lps", "energy", "continuum", 0.111, 0.005),
+        ("lps", "position_aware", "continuum", 0.1115, 0.005),
+        ("bond", "none", "continuum", 0.802, 0.005),
+    ];
+    for (model, correction, normalize, expected, tol) in cases {
+        let e = elongation_error(&bar_with(model, correction, normalize));
+        eprintln!("{model} {correction}: {:+.2} %", 100.0 * e);
+        assert!((e - expected).abs() <= tol, "{model} {correction}: {e:+.4} (expected {expected:+.4})");
+    }
+    let bond = elongation_error(&bar_with("bond", "energy", "continuum"));
+    eprintln!("bond energy: {:+.2} %", 100.0 * bond);
+    assert!(bond.abs() <= 0.05, "bond-based with energy: {bond:+.4} (target 5 %)");
+    // with the discrete normalization (the interior reproduces K exactly) the bond model with
+    // `energy` is the LPS model with `position_aware` at nu = 1/4 (whose dilatation term
+    // vanishes): the same +11.1 %; the continuum normalization's 1.2 % includes its interior
+    // stiffening
+    let discrete = elongation_error(&bar_with("bond", "energy", "discrete"));
+    assert!((discrete - 0.1115).abs() <= 0.005, "bond energy, discrete normalization: {discrete:+.4}");
+}
+
+/// Every corrected bond model still gives the same solution by the direct and the iterative
+/// path (a corrected operator is not homogeneous: the stencil must not be used).
+#[test]
+fn a_corrected_bond_model_is_not_applied_by_the_stencil() {
+    let mut direct = bar_with("bond", "energy", "discrete");
+    let mut cg = direct.clone();
+    direct["solver"] = json!({"type": "cholesky"});
+    cg["solver"] = json!({"type": "cg", "matrix_free": true, "rtol": 1e-12});
+    let solve = |v: &Value| Problem::from_json(&v.to_string()).unwrap().solve(&NoProgress).unwrap().u;
+    let (a, b) = (solve(&direct), solve(&cg));
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    // CG to 1e-12 relative residual; the bar's condition number ~1e4 bounds the error by 1e-8
+    assert!(diff <= 1e-8 * scale, "matrix-free CG vs Cholesky: {:e}", diff / scale);
+}
+
+fn error_of(v: &Value) -> String {
+    match Problem::from_json(&v.to_string()) {
+        Ok(_) => panic!("accepted: {v}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_surface_corrections_are_named_errors() {
+    let mut v = bar();
+    v["model"]["surface_correction"] = json!("volume");
+    let e = error_of(&v);
+    assert!(e.contains("model.surface_correction") && e.contains("position_aware"), "{e}");
+    let e = error_of(&bar_with("bond", "position_aware", "continuum"));
+    assert!(e.contains("model.surface_correction") && e.contains("LPS"), "{e}");
+    let mut cloud: Value =
+        serde_json::from_str(&std::fs::read_to_string(data("bracket-cloud-2d.json")).unwrap()).unwrap();
+    cloud["model"]["surface_correction"] = json!("energy");
+    let text = cloud.to_string();
+    let e = match Problem::from_json_in(&text, &data("")) {
+        Ok(_) => panic!("a cloud took a surface correction"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("model.surface_correction") && e.contains("point clouds"), "{e}");
+    let mut blend: Value =
+        serde_json::from_str(&std::fs::read_to_string(data("blend-point-load.json")).unwrap()).unwrap();
+    blend["model"]["surface_correction"] = json!("energy");
+    let e = error_of(&blend);
+    assert!(e.contains("surface_correction"), "{e}");
+}
