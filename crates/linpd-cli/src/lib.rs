@@ -101,7 +101,8 @@ enum Command {
     ///
     /// Studies: blend-patch, blend-point-load, blend-pd-size, blend-bridge-size,
     /// blend-load-location, blend-speedup, blend-speed-vs-error (Seleson, Beneddine &
-    /// Prudhomme 2013, Figs. 7-14); lps-tension-bar; dispersion, stability, md-pd (Seleson,
+    /// Prudhomme 2013, Figs. 7-14); lps-tension-bar; surface (surface corrections on a thin bar
+    /// and a cantilever); dispersion, stability, md-pd (Seleson,
     /// Parks, Gunzburger & Lehoucq 2009, section 4); coarsen-tent, coarsen-composite,
     /// coarsen-defect, coarsen-speed-vs-error (Silling 2010, Figs. 3, 5, 7, and a 2D
     /// speed-vs-error map).

@@ -4,6 +4,7 @@
 //! * `blend-*`: Seleson, Beneddine & Prudhomme (2013), section 5, Figs. 7-14, and a
 //!   speed-versus-error map (module `blend`);
 //! * `lps-tension-bar`: a 3D LPS tension bar against classical elasticity (module `lps`);
+//! * `surface`: the surface corrections on a thin tension bar and a cantilever (module `surface`);
 //! * `dispersion`, `stability`: Seleson, Parks, Gunzburger & Lehoucq (2009), sections 4.2-4.3,
 //!   Fig. 4.2 (module `dynamics`);
 //! * `md-pd`: the same paper, section 4.4, Figs. 4.3-4.6, Table 4.1 (module `md_pd`);
@@ -29,6 +30,7 @@ pub mod fixtures;
 mod lps;
 mod md_pd;
 mod out;
+mod surface;
 
 use clap::ValueEnum;
 use linpd_core::progress::{NoProgress, Progress};
@@ -97,6 +99,8 @@ pub enum Study {
     BlendSpeedVsError,
     /// LPS tension bar vs classical elasticity, with and without surface correction
     LpsTensionBar,
+    /// Surface corrections (none / energy / position_aware), bond and LPS: tension bar and cantilever vs h and delta/h
+    Surface,
     /// Seleson et al. 2009 sec. 4.2: omega(k) lattice vs continuum vs (4.8)/(4.9) vs measured (Verlet), N = 1, 5, 20; 2D/3D Bloch dispersion of bond/LPS
     Dispersion,
     /// Seleson et al. 2009 Fig. 4.2: (4.12) vs exact limit vs measured square-pulse blow-up over dx
@@ -179,6 +183,7 @@ impl Study {
             Study::BlendSpeedup => blend::speedup(dir, options.dense, report, progress),
             Study::BlendSpeedVsError => blend::speed_vs_error(dir, report, progress),
             Study::LpsTensionBar => lps::run(dir, report, progress),
+            Study::Surface => surface::run(dir, report, progress),
             Study::Dispersion => dynamics::run_dispersion(dir, report, progress),
             Study::Stability => dynamics::run_stability(dir, report, progress),
             Study::MdPd => md_pd::run(dir, report, progress),
@@ -215,6 +220,7 @@ mod tests {
                 "blend-speedup",
                 "blend-speed-vs-error",
                 "lps-tension-bar",
+                "surface",
                 "dispersion",
                 "stability",
                 "md-pd",
