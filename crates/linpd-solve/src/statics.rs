@@ -21,6 +21,7 @@ use crate::spec::{
     SolverSpec,
 };
 use crate::CgParams;
+use crate::CgError;
 use crate::{SolveError, SolveReport};
 use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::sparse::{diagonal, relative_residual, Csc, GeneralCsc, SymCsc, SYMMETRY_RTOL};
@@ -303,7 +304,18 @@ fn auto(
         .map_or(Some(PreconditionerKind::Jacobi), |(_, choice)| choice);
     let (u, mut report) = match (best, analyzed) {
         (None, Some(analysis)) => cholesky(a, f, analysis, progress)?,
-        (p, _) => assembled_cg(a, f, params, p.unwrap_or_default(), hints.geometry.as_ref(), progress)?,
+        (p, analyzed) => match assembled_cg(a, f, params, p.unwrap_or_default(), hints.geometry.as_ref(), progress) {
+            // CG stopped above rtol because rounding limits its attainable residual (an
+            // ill-conditioned system, e.g. the LPS cantilever of `linpd study surface`, where
+            // multigrid-PCG reached 1.12e-10 for rtol 1e-10): auto falls back to the direct
+            // solve it has analyzed (and says so) rather than fail where another solver works.
+            Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. })) if analyzed.is_some() => {
+                let (u, mut report) = cholesky(a, f, analyzed.expect("checked"), progress)?;
+                report.note = Some(format!("auto: the first choice failed ({e}); fell back to the Cholesky solve"));
+                (u, report)
+            }
+            other => other?,
+        },
     };
     report.auto = Some(line);
     Ok((u, report))
