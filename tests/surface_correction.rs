@@ -45,17 +45,17 @@ fn elongation_error(v: &Value) -> f64 {
 
 /// The numbers of the closing note of issue #14 (see docs/models.md, "Surface corrections"):
 /// uncorrected, LPS is 36.8 % too stiff and bond-based 80.2 % too soft (the issue's figures);
-/// with `energy` the bond model meets the issue's 5 % target (1.2 %; the peer's energy
-/// correction: 13 %), and LPS with either correction is 11.1 % too soft: better than uncorrected
-/// by 3.3x, but far from the 0.5 % target (see docs/models.md for why an energy-matching
-/// correction stops there). The bounds are the targets where met and the measured values
-/// rounded up by 0.5 % where not, so that a regression fails.
+/// with `energy` the bond model meets the issue's 5 % target (2.8 %; the peer's energy
+/// correction: 13 %), and LPS is 9.0 % (`energy`) and 9.5 % (`position_aware`) too soft: better
+/// than uncorrected by 4x, but far from the 0.5 % target (see docs/models.md for why an
+/// energy-matching correction stops there). The bounds are the target where met and the
+/// measured values +- 0.5 % where not, so that a regression either way fails.
 #[test]
 fn the_peridynamics_jl_tension_bar() {
     let cases = [
         ("lps", "none", "continuum", -0.368, 0.005),
-        ("lps", "energy", "continuum", 0.111, 0.005),
-        ("lps", "position_aware", "continuum", 0.1115, 0.005),
+        ("lps", "energy", "continuum", 0.0902, 0.005),
+        ("lps", "position_aware", "continuum", 0.0945, 0.005),
         ("bond", "none", "continuum", 0.802, 0.005),
     ];
     for (model, correction, normalize, expected, tol) in cases {
@@ -67,11 +67,9 @@ fn the_peridynamics_jl_tension_bar() {
     eprintln!("bond energy: {:+.2} %", 100.0 * bond);
     assert!(bond.abs() <= 0.05, "bond-based with energy: {bond:+.4} (target 5 %)");
     // with the discrete normalization (the interior reproduces K exactly) the bond model with
-    // `energy` is the LPS model with `position_aware` at nu = 1/4 (whose dilatation term
-    // vanishes): the same +11.1 %; the continuum normalization's 1.2 % includes its interior
-    // stiffening
+    // `energy` is +13.0 %: the continuum normalization's 2.8 % includes its interior stiffening
     let discrete = elongation_error(&bar_with("bond", "energy", "discrete"));
-    assert!((discrete - 0.1115).abs() <= 0.005, "bond energy, discrete normalization: {discrete:+.4}");
+    assert!((discrete - 0.130).abs() <= 0.005, "bond energy, discrete normalization: {discrete:+.4}");
 }
 
 /// Every corrected bond model still gives the same solution by the direct and the iterative
@@ -119,4 +117,44 @@ fn bad_surface_corrections_are_named_errors() {
     blend["model"]["surface_correction"] = json!("energy");
     let e = error_of(&blend);
     assert!(e.contains("surface_correction"), "{e}");
+}
+
+/// No loss in the interior: an affine field given on a layer all around a 2D plate is still the
+/// exact solution with a correction on (the layer is not a free surface, so no node is
+/// corrected), for the bond model with `energy` and LPS with either correction (layer one
+/// horizon thick for bonds, two for LPS, as without correction); 1e-11 relative
+/// (the uncorrected bond patch tests reach 1e-13..1e-12 with Cholesky on ~1e3 unknowns; LPS
+/// couples two horizons, whose larger condition number costs a digit).
+#[test]
+fn the_patch_test_holds_with_corrections_on() {
+    let h = [[1e-3, 2e-4], [5e-4, -3e-4]];
+    for (kind, correction) in [("bond", "energy"), ("lps", "energy"), ("lps", "position_aware")] {
+        let model = match kind {
+            "lps" => json!({"type": "lps", "horizon": 0.15, "bulk_modulus": 2.0, "shear_modulus": 1.0,
+                            "plane": "strain", "surface_correction": correction}),
+            _ => json!({"type": "bond", "horizon": 0.15, "plane": "strain", "surface_correction": correction,
+                        "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0}}),
+        };
+        // the LPS tangent couples two horizons (through a neighbour's dilatation), so its layer
+        // must be 2 delta thick for the body rows to see only full families
+        let layer = if kind == "lps" { 0.3 } else { 0.15 };
+        let v = json!({
+            "name": "patch", "dimension": 2,
+            "grid": {"min": [0.0, 0.0], "max": [1.0, 0.5], "spacing": 0.05, "layer": layer},
+            "model": model,
+            "constraints": [{"region": {"difference": ["all", {"box": {"min": [0.0, 0.0], "max": [1.0, 0.5]}}]},
+                             "displacement": {"value": [0.0, 0.0], "gradient": h}}],
+            "loads": [],
+            "solver": {"type": "cholesky"}
+        });
+        let s = Problem::from_json(&v.to_string()).unwrap().solve(&NoProgress).unwrap();
+        let mut worst = 0.0f64;
+        for (i, x) in s.x.iter().enumerate() {
+            for a in 0..2 {
+                let exact = h[a][0] * x[0] + h[a][1] * x[1];
+                worst = worst.max((s.u[2 * i + a] - exact).abs());
+            }
+        }
+        assert!(worst <= 1e-11 * 1e-3, "{kind} {correction}: affine field off by {worst:e}");
+    }
 }

@@ -27,6 +27,11 @@
 //! its partners' factors agree with its own; this is the price of a pairwise (bond-based) force
 //! and why LPS also offers a per-node, unaveraged correction (`position_aware`).
 //!
+//! Nodes of the grid's outer layer keep `phi = 1`: the layer is where volume constraints and
+//! loads go, not a free surface, and correcting it would change the rows of the body nodes next
+//! to it (an affine field given on a layer all around the body would no longer be the exact
+//! solution). A face that should be corrected as a free surface has no layer.
+//!
 //! The weights `beta` are geometric: the micromodulus shape and partial volume, no phase
 //! modulus and no defect factor, so material interfaces and weakened bonds are not "corrected";
 //! bonds cut by a defect (weight 0) are left out of the family, so crack faces are corrected
@@ -66,6 +71,10 @@ impl BondOperator {
         let fits: Vec<MomentFit> = (0..self.n_nodes())
             .into_par_iter()
             .map(|i| {
+                if grid.is_layer(i) {
+                    // the layer holds volume constraints and loads: not a free surface
+                    return MomentFit::identity(dim);
+                }
                 let bonds: Vec<([f64; 3], f64)> = self
                     .family()
                     .neighbors(i)

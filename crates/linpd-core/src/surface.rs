@@ -132,6 +132,11 @@ pub struct MomentFit {
 }
 
 impl MomentFit {
+    /// The fit that leaves every bond unchanged (`lambda = 0`).
+    pub fn identity(dim: usize) -> Self {
+        MomentFit { lambda: vec![0.0; n_moments(dim)], mismatch: 0.0, iterations: 0 }
+    }
+
     /// The factor `phi(n)` for the unit bond direction `n` (exactly 1 for an interior node).
     pub fn factor(&self, dim: usize, n: &[f64; 3]) -> f64 {
         if self.is_identity() {

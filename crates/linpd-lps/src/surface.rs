@@ -160,6 +160,10 @@ impl LpsModel {
         let fits: Vec<MomentFit> = (0..self.n_nodes())
             .into_par_iter()
             .map(|i| {
+                if self.grid.is_layer(i) {
+                    // the layer holds volume constraints and loads: not a free surface
+                    return MomentFit::identity(dim);
+                }
                 let bonds: Vec<([f64; 3], f64)> =
                     self.bonds(i).map(|(j, _, r)| (unit(i, j, r), omega_nu(r) * self.volumes[j] * r * r)).collect();
                 fit_moments(dim, &bonds, &target)

@@ -142,7 +142,11 @@ pub fn solve_assembled_with_progress(
         }
     };
     finite_vector("the solution", &u)?;
-    report.note = note;
+    // a note of the solver path (auto's fallback) comes first
+    report.note = match (report.note.take(), note) {
+        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+        (a, b) => a.or(b),
+    };
     report.timings.total = t0.elapsed().as_secs_f64();
     report.rel_residual = relative_residual(a, symmetric, &u, f);
     if !report.rel_residual.is_finite() {
