@@ -62,7 +62,8 @@ fn corrected_tangents_are_consistent_symmetric_and_keep_the_rigid_null_space() {
             let mut y = vec![0.0; n];
             m.apply_tangent(&u, &mut y);
             let au: Vec<f64> = ad.iter().map(|row| row.iter().zip(&u).map(|(a, b)| a * b).sum()).collect();
-            let mf = y.iter().zip(&au).fold(0.0f64, |x, (a, b)| x.max((a - b).abs())) / max_abs(&[au.clone()]);
+            let mf =
+                y.iter().zip(&au).fold(0.0f64, |x, (a, b)| x.max((a - b).abs())) / max_abs(std::slice::from_ref(&au));
             let half_uau = 0.5 * u.iter().zip(&au).map(|(a, b)| a * b).sum::<f64>();
             let w: f64 = m.linearized_energy_density(&u).iter().enumerate().map(|(i, w)| w * m.node_volume(i)).sum();
             let energy = (w - half_uau).abs() / half_uau.abs();

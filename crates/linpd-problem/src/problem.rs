@@ -1197,8 +1197,6 @@ pub(crate) fn bond_micromodulus(
     Ok(micromodulus)
 }
 
-/// Validates the lps keys (the model itself checks `m > 0` when it is built).
-#[allow(clippy::too_many_arguments)]
 /// `model.surface_correction` of a lattice scene: `position_aware` is LPS only (a bond-based
 /// force is pairwise, so a bond must have one stiffness seen from both ends).
 fn surface_correction_of(
@@ -1220,6 +1218,8 @@ fn surface_correction_of(
     })
 }
 
+/// Validates the lps keys (the model itself checks `m > 0` when it is built).
+#[allow(clippy::too_many_arguments)]
 fn lps_params(
     dim: usize,
     horizon: f64,

@@ -20,8 +20,8 @@ use crate::spec::{
     CholeskyOrdering, DofGeometry, MatrixFree, ModelInput, PreconditionerInput, PreconditionerKind, SolverId,
     SolverSpec,
 };
-use crate::CgParams;
 use crate::CgError;
+use crate::CgParams;
 use crate::{SolveError, SolveReport};
 use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::sparse::{diagonal, relative_residual, Csc, GeneralCsc, SymCsc, SYMMETRY_RTOL};
