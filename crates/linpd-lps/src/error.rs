@@ -38,7 +38,9 @@ pub enum LpsError {
         shear: f64,
     },
     /// The horizon is smaller than the lattice spacing (or not a positive finite number).
-    #[error("horizon delta = {horizon:e} must be >= the lattice spacing h = {spacing:e}")]
+    #[error(
+        "horizon delta = {horizon:e} must be >= the lattice spacing (mean node size of a point cloud) h = {spacing:e}"
+    )]
     Horizon {
         /// `delta`.
         horizon: f64,
@@ -62,4 +64,7 @@ pub enum LpsError {
     /// The family does not belong to the grid (wrong length or a bond without its reverse).
     #[error("bond family is inconsistent with the grid: {0}")]
     Family(String),
+    /// A surface correction was asked of a point-cloud model (they match a lattice interior).
+    #[error("the {0} surface correction matches the bulk of a lattice; a point-cloud model has none")]
+    NeedsLattice(&'static str),
 }

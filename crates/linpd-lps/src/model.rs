@@ -160,12 +160,17 @@ impl LpsParams {
     }
 }
 
-/// An LPS material on a lattice: the family, per-bond `omega`, `|xi|`, `nu` and per-node `m`.
+/// An LPS material on a lattice or a point cloud: the family, per-bond `omega`, `|xi|`, `nu`
+/// and per-node `m`.
 #[derive(Debug, Clone)]
 pub struct LpsModel {
-    pub(crate) grid: Grid,
+    /// The lattice (`None` for a point cloud, [`LpsModel::on_points`]).
+    pub(crate) grid: Option<Grid>,
+    /// Node positions.
+    pub(crate) positions: Vec<Point>,
     pub(crate) dim: usize,
     pub(crate) params: LpsParams,
+    /// Lattice indices of the nodes (empty for a point cloud): bond vectors are then exact.
     pub(crate) lattice: Vec<[i64; 3]>,
     pub(crate) family: BondFamily,
     /// Per bond (family order): `omega nu V_j`, the weight of every lattice sum.
@@ -240,7 +245,8 @@ impl LpsModel {
             }
         }
         Ok(LpsModel {
-            grid: grid.clone(),
+            grid: Some(grid.clone()),
+            positions: grid.positions(),
             dim,
             params: *params,
             lattice,
@@ -296,13 +302,84 @@ impl LpsModel {
         Ok(model)
     }
 
+    /// The model on a point cloud (issue #13): nodes at `positions` with volumes `volumes`,
+    /// families by a cell list ([`BondFamily::from_points`]), bond vectors from the positions,
+    /// and `defects` as in [`LpsModel::with_defects`]. The partial-volume factor uses the node
+    /// size `h_ij = (V_i^(1/d) + V_j^(1/d)) / 2` (a lattice's `h` when `V = h^d`, as for the
+    /// bond model on points). The horizon must be at least the mean node size `mean(V)^(1/d)`.
+    /// The lattice-based surface corrections and the nested-dissection ordering are not
+    /// available (the tangent is ordered by AMD).
+    pub fn on_points(
+        dim: usize,
+        positions: Vec<Point>,
+        volumes: &[f64],
+        params: &LpsParams,
+        defects: &[linpd_core::Defect],
+    ) -> Result<Self, LpsError> {
+        assert_eq!(positions.len(), volumes.len(), "one volume per node");
+        let n = positions.len();
+        let size: Vec<f64> = volumes.iter().map(|v| v.powf(1.0 / dim as f64)).collect();
+        let mean = if n == 0 { 0.0 } else { (volumes.iter().sum::<f64>() / n as f64).powf(1.0 / dim as f64) };
+        params.validate(dim, mean)?;
+        let delta = params.horizon;
+        let full = BondFamily::from_points(&positions, dim, delta);
+        let h_min = size.iter().fold(f64::INFINITY, |m, &s| m.min(s));
+        let tol = linpd_core::GEOMETRY_RTOL * h_min;
+        let factor = |i: usize, j: usize| -> f64 {
+            let (a, b) = (i.min(j), i.max(j));
+            defects.iter().filter(|d| d.crosses(&positions[a], &positions[b], tol)).map(|d| d.factor()).product()
+        };
+        use rayon::prelude::*;
+        let kept: Vec<(Vec<u32>, Vec<f64>)> = (0..n)
+            .into_par_iter()
+            .map(|i| full.neighbors(i).iter().map(|&j| (j, factor(i, j as usize))).filter(|&(_, f)| f > 0.0).unzip())
+            .collect();
+        let (lists, factors): (Vec<Vec<u32>>, Vec<Vec<f64>>) = kept.into_iter().unzip();
+        let family = BondFamily::from_lists(lists);
+        let mut wv = Vec::with_capacity(family.n_bonds());
+        let mut len = Vec::with_capacity(family.n_bonds());
+        let mut m = vec![0.0; n];
+        for (i, mi) in m.iter_mut().enumerate() {
+            for (&j, &f) in family.neighbors(i).iter().zip(&factors[i]) {
+                let j = j as usize;
+                let (a, b) = (&positions[i], &positions[j]);
+                let r = norm(&[b[0] - a[0], b[1] - a[1], b[2] - a[2]]);
+                let nu = if params.partial_volume { partial_volume(r, delta, 0.5 * (size[i] + size[j])) } else { 1.0 };
+                let w = params.influence.omega(r) * nu * volumes[j] * f;
+                *mi += w * r * r;
+                wv.push(w);
+                len.push(r);
+            }
+            if *mi <= 0.0 {
+                return Err(LpsError::ZeroWeightedVolume { node: i, position: positions[i] });
+            }
+        }
+        Ok(LpsModel {
+            grid: None,
+            positions,
+            dim,
+            params: *params,
+            lattice: Vec::new(),
+            family,
+            wv,
+            len,
+            m,
+            volume: mean.powi(dim as i32),
+            volumes: volumes.to_vec(),
+            kappa: params.kappa(dim),
+            a_g: LpsParams::deviatoric_factor(dim) * params.G,
+            surface: crate::SurfaceCorrection::None,
+            rev: Vec::new(),
+        })
+    }
+
     /// Spatial dimension `d`.
     pub fn dim(&self) -> usize {
         self.dim
     }
     /// Number of nodes.
     pub fn n_nodes(&self) -> usize {
-        self.lattice.len()
+        self.positions.len()
     }
     /// Number of DOFs `d * n`.
     pub fn n_dofs(&self) -> usize {
@@ -312,9 +389,9 @@ impl LpsModel {
     pub fn params(&self) -> &LpsParams {
         &self.params
     }
-    /// The lattice.
-    pub fn grid(&self) -> &Grid {
-        &self.grid
+    /// The lattice (`None` for a point-cloud model).
+    pub fn grid(&self) -> Option<&Grid> {
+        self.grid.as_ref()
     }
     /// The bond family.
     pub fn family(&self) -> &BondFamily {
@@ -335,13 +412,20 @@ impl LpsModel {
     }
     /// Reference positions.
     pub fn positions(&self) -> Vec<Point> {
-        self.grid.positions()
+        self.positions.clone()
     }
 
-    /// Exact lattice bond vector `xi = x_j - x_i = (k_j - k_i) h`.
+    /// Bond vector `xi = x_j - x_i`: on a lattice the exact `(k_j - k_i) h` (positions lose
+    /// digits to rounding), on a point cloud the difference of the positions.
     #[inline]
     pub fn bond_vector(&self, i: usize, j: usize) -> [f64; 3] {
-        lattice_vector(&self.lattice, self.grid.spacing(), i, j)
+        match &self.grid {
+            Some(g) => lattice_vector(&self.lattice, g.spacing(), i, j),
+            None => {
+                let (a, b) = (&self.positions[i], &self.positions[j]);
+                [b[0] - a[0], b[1] - a[1], b[2] - a[2]]
+            }
+        }
     }
 
     /// Per bond of node `i` (family order): `(j, omega nu V_j, |xi|)`.

@@ -22,7 +22,7 @@ impl Model for LpsModel {
         LpsModel::n_nodes(self)
     }
     fn position(&self, i: usize) -> Point {
-        self.grid().position(i)
+        self.positions[i]
     }
     fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
         self.family().neighbors(i).iter().for_each(|&j| f(j as usize));
@@ -37,9 +37,13 @@ impl Model for LpsModel {
     fn assemble_free(&self, dofs: &DofMap) -> Csc {
         restrict_to_free(&assemble_tangent(self), dofs)
     }
+    /// On a lattice nested dissection over the two-hop stencil; on a point cloud AMD.
     fn ordering(&self, dofs: &DofMap) -> Ordering {
-        let stencil = two_hop_stencil(&lattice_stencil(self.dim(), self.params().horizon / self.grid().spacing()));
-        Ordering::NestedDissection(nested_dissection(self.grid(), &stencil, dofs))
+        let Some(grid) = self.grid() else {
+            return Ordering::Amd;
+        };
+        let stencil = two_hop_stencil(&lattice_stencil(self.dim(), self.params().horizon / grid.spacing()));
+        Ordering::NestedDissection(nested_dissection(grid, &stencil, dofs))
     }
     fn matrix_free_unavailable(&self) -> Option<&'static str> {
         Some("the Jacobi diagonal needs the assembled tangent")

@@ -43,7 +43,7 @@
 //! tension-bar numbers in [`crate::tension`].
 
 use crate::model::norm;
-use crate::LpsModel;
+use crate::{LpsError, LpsModel};
 use linpd_core::family::lattice_stencil;
 use linpd_core::kernel::partial_volume;
 use linpd_core::surface::{fit_moments, moments, CorrectionSummary, MomentFit};
@@ -84,7 +84,8 @@ impl LpsModel {
     /// The weighted volume `m_0` of a full (interior) lattice family with this model's
     /// horizon, influence function and partial volumes.
     pub fn bulk_weighted_volume(&self) -> f64 {
-        let h = self.grid.spacing();
+        // the lattice spacing (or a point cloud's mean node size): `volume = h^d`
+        let h = self.volume.powf(1.0 / self.dim as f64);
         let delta = self.params.horizon;
         let mut m0 = 0.0;
         for k in lattice_stencil(self.dim, delta / h) {
@@ -98,8 +99,15 @@ impl LpsModel {
     }
 
     /// The model with `correction` applied ([`LpsModel::corrected`] without its summary).
+    ///
+    /// # Panics
+    /// On a point-cloud model with a correction other than [`SurfaceCorrection::None`] (use
+    /// [`LpsModel::corrected`] for the error).
     pub fn with_surface_correction(self, correction: SurfaceCorrection) -> Self {
-        self.corrected(correction).0
+        match self.corrected(correction) {
+            Ok((model, _)) => model,
+            Err(e) => panic!("{e}"),
+        }
     }
 
     /// The model with `correction` applied, and for the moment-matching corrections what it
@@ -108,8 +116,12 @@ impl LpsModel {
     /// sums of the model's current weights); [`SurfaceCorrection::Energy`] and
     /// [`SurfaceCorrection::PositionAware`] rescale the bond weights and must be applied to an
     /// uncorrected model (built by [`LpsModel::new`], [`LpsModel::with_family`] or
-    /// [`LpsModel::with_defects`]), once.
-    pub fn corrected(mut self, correction: SurfaceCorrection) -> (Self, Option<CorrectionSummary>) {
+    /// [`LpsModel::with_defects`]), once. Every correction but `None` needs a lattice
+    /// ([`LpsError::NeedsLattice`] on a point-cloud model).
+    pub fn corrected(mut self, correction: SurfaceCorrection) -> Result<(Self, Option<CorrectionSummary>), LpsError> {
+        if self.grid.is_none() && correction != SurfaceCorrection::None {
+            return Err(LpsError::NeedsLattice(correction.name()));
+        }
         let mut summary = None;
         match correction {
             SurfaceCorrection::None => {
@@ -133,7 +145,7 @@ impl LpsModel {
             }
         }
         self.surface = correction;
-        (self, summary)
+        Ok((self, summary))
     }
 
     /// The moment-matching corrections: the factors `phi_i` of every node from its geometric
@@ -142,7 +154,8 @@ impl LpsModel {
     /// recomputed from the new weights.
     fn match_moments(&mut self, per_node: bool) -> CorrectionSummary {
         let start = Instant::now();
-        let (dim, h, delta) = (self.dim, self.grid.spacing(), self.params.horizon);
+        let grid = self.grid.clone().expect("checked in `corrected`");
+        let (dim, h, delta) = (self.dim, grid.spacing(), self.params.horizon);
         let p = self.params;
         let omega_nu = |r: f64| p.influence.omega(r) * if p.partial_volume { partial_volume(r, delta, h) } else { 1.0 };
         let target = moments(
@@ -160,7 +173,7 @@ impl LpsModel {
         let fits: Vec<MomentFit> = (0..self.n_nodes())
             .into_par_iter()
             .map(|i| {
-                if self.grid.is_layer(i) {
+                if grid.is_layer(i) {
                     // the layer holds volume constraints and loads: not a free surface
                     return MomentFit::identity(dim);
                 }

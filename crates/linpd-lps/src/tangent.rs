@@ -127,15 +127,23 @@ impl LpsModel {
     }
 }
 
-/// The CSC pattern of the LPS tangent over all DOFs (both triangles), built in lattice units.
+/// The CSC pattern of the LPS tangent over all DOFs (both triangles): on a lattice built in
+/// lattice units (the offsets `O - O`), on a point cloud from the family (the two-hop
+/// neighbourhood `U_{k in {p} U F_p} ({k} U F_k)` of every column node `p`).
 #[derive(Debug, Clone)]
 pub struct TangentPattern {
     symbolic: SymbolicSparseColMat<usize>,
     /// `node_start[p]..node_start[p + 1]`: the values of node `p`'s `d` columns.
     node_start: Vec<usize>,
-    /// Offsets `O - O` sorted by node-number order (last axis slowest).
+    /// Lattice models: offsets `O - O` sorted by node-number order (last axis slowest), a
+    /// dense table from an offset in `[-2R, 2R]^3` to its index in `offsets` (or `usize::MAX`),
+    /// and `R`. `None` for point clouds (rows are found by binary search in the column).
+    lattice: Option<LatticeRows>,
+}
+
+#[derive(Debug, Clone)]
+struct LatticeRows {
     offsets: Vec<[i64; 3]>,
-    /// Dense table from an offset in `[-2R, 2R]^3` to its index in `offsets` (or `usize::MAX`).
     table: Vec<usize>,
     reach: i64,
 }
@@ -144,7 +152,9 @@ impl TangentPattern {
     /// Builds the pattern of `model`'s tangent.
     pub fn new(model: &LpsModel) -> Self {
         let n = model.n_nodes();
-        let d = model.dim;
+        let Some(grid) = model.grid.as_ref() else {
+            return Self::from_per_node(model, two_hop_rows(model), None);
+        };
         let lat = &model.lattice;
         let mut family_offsets: BTreeSet<[i64; 3]> = BTreeSet::new();
         family_offsets.insert([0, 0, 0]);
@@ -168,12 +178,17 @@ impl TangentPattern {
         for (idx, o) in offsets.iter().enumerate() {
             table[table_index(o, reach)] = idx;
         }
-        let grid = &model.grid;
         let rows_of = |p: usize| -> Vec<usize> {
             let l = lat[p];
             offsets.iter().filter_map(|o| grid.node_at([l[0] + o[0], l[1] + o[1], l[2] + o[2]])).collect()
         };
         let per_node: Vec<Vec<usize>> = (0..n).into_par_iter().map(rows_of).collect();
+        Self::from_per_node(model, per_node, Some(LatticeRows { offsets, table, reach }))
+    }
+
+    /// The CSC structure from the row nodes of every column node (ascending).
+    fn from_per_node(model: &LpsModel, per_node: Vec<Vec<usize>>, lattice: Option<LatticeRows>) -> Self {
+        let (n, d) = (model.n_nodes(), model.dim);
         let mut col_ptr = Vec::with_capacity(d * n + 1);
         let mut node_start = Vec::with_capacity(n + 1);
         col_ptr.push(0usize);
@@ -195,7 +210,13 @@ impl TangentPattern {
             }
         }
         let symbolic = SymbolicSparseColMat::new_checked(d * n, d * n, col_ptr, None, row_idx);
-        TangentPattern { symbolic, node_start, offsets, table, reach }
+        TangentPattern { symbolic, node_start, lattice }
+    }
+
+    /// The row nodes of column node `p` (ascending): every `d`-th row of its first column.
+    fn row_nodes(&self, p: usize, d: usize) -> impl Iterator<Item = usize> + '_ {
+        let col = self.symbolic.col_ptr()[d * p]..self.symbolic.col_ptr()[d * p + 1];
+        self.symbolic.row_idx()[col].iter().step_by(d).map(move |&r| r / d)
     }
 
     /// The symbolic CSC structure.
@@ -214,25 +235,38 @@ impl TangentPattern {
         let d = model.dim;
         let df = d as f64;
         let lat = &model.lattice;
-        let grid = &model.grid;
         let c = |k: usize| model.dilatation_coefficient(k);
         let g_self = model.g_self();
         for_each_node_slice(values, &self.node_start, |p, vals| {
-            let lp = lat[p];
-            // Row slot of each offset for this column node.
-            let mut slot = vec![usize::MAX; self.offsets.len()];
-            let mut nrows = 0;
-            for (idx, o) in self.offsets.iter().enumerate() {
-                if grid.node_at([lp[0] + o[0], lp[1] + o[1], lp[2] + o[2]]).is_some() {
-                    slot[idx] = nrows;
-                    nrows += 1;
+            let nrows = vals.len() / (d * d);
+            // The slot of row node q in this column: on a lattice through the offset table, on a
+            // point cloud by binary search in the column's sorted row nodes.
+            let (slot, cloud_rows) = match (&self.lattice, model.grid.as_ref()) {
+                (Some(l), Some(grid)) => {
+                    let lp = lat[p];
+                    let mut slot = vec![usize::MAX; l.offsets.len()];
+                    let mut k = 0;
+                    for (idx, o) in l.offsets.iter().enumerate() {
+                        if grid.node_at([lp[0] + o[0], lp[1] + o[1], lp[2] + o[2]]).is_some() {
+                            slot[idx] = k;
+                            k += 1;
+                        }
+                    }
+                    debug_assert_eq!(k, nrows);
+                    (slot, Vec::new())
                 }
-            }
-            debug_assert_eq!(vals.len(), d * d * nrows);
+                _ => (Vec::new(), self.row_nodes(p, d).collect::<Vec<usize>>()),
+            };
             let pos = |q: usize| -> usize {
-                let lq = lat[q];
-                let o = [lq[0] - lp[0], lq[1] - lp[1], lq[2] - lp[2]];
-                slot[self.table[table_index(&o, self.reach)]]
+                match &self.lattice {
+                    Some(l) => {
+                        let (lq, lp) = (lat[q], lat[p]);
+                        let o = [lq[0] - lp[0], lq[1] - lp[1], lq[2] - lp[2]];
+                        slot[l.table[table_index(&o, l.reach)]]
+                    }
+                    // every q reached below is in the two-hop neighbourhood the pattern holds
+                    None => cloud_rows.binary_search(&q).unwrap_or_else(|_| unreachable!("row {q} not in column {p}")),
+                }
             };
             // blocks[row][c][a] = A[(q, c), (p, a)].
             let mut blocks = vec![[[0.0f64; 3]; 3]; nrows];
@@ -298,4 +332,22 @@ pub fn assemble_tangent(model: &LpsModel) -> SparseColMat<usize, f64> {
     let mut values = vec![0.0; pattern.nnz()];
     pattern.fill(model, &mut values);
     SparseColMat::new(pattern.symbolic, values)
+}
+
+/// The two-hop row nodes of every column node of a point-cloud model: `p`, its family, and the
+/// families of its family members (ascending, unique).
+fn two_hop_rows(model: &LpsModel) -> Vec<Vec<usize>> {
+    (0..model.n_nodes())
+        .into_par_iter()
+        .map(|p| {
+            let mut rows: Vec<usize> = vec![p];
+            for &k in model.family.neighbors(p) {
+                rows.push(k as usize);
+                rows.extend(model.family.neighbors(k as usize).iter().map(|&q| q as usize));
+            }
+            rows.sort_unstable();
+            rows.dedup();
+            rows
+        })
+        .collect()
 }

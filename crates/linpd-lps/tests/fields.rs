@@ -117,7 +117,7 @@ fn uniform_dilation_gives_theta_d_epsilon() {
         let expected = d as f64 * eps;
         let corrected = m.surface_correction() != SurfaceCorrection::None;
         let reach = m.params().horizon;
-        let extent = m.grid().positions().iter().fold(0.0f64, |a, x| a.max(x[0]));
+        let extent = m.positions().iter().fold(0.0f64, |a, x| a.max(x[0]));
         for (i, x) in m.positions().iter().enumerate() {
             let interior = (0..d).all(|p| x[p] >= reach - 1e-12 && x[p] <= extent - reach + 1e-12);
             if corrected && !interior {

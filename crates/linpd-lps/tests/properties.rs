@@ -179,7 +179,7 @@ fn affine_field_gives_zero_force_two_horizons_from_the_surface() {
         let max_lin = lin.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let max_nl = nonlin.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         for i in 0..m.n_nodes() {
-            let k = m.grid().lattice_index(i);
+            let k = m.grid().unwrap().lattice_index(i);
             if (0..dim).all(|a| k[a] >= reach && k[a] <= top - reach) {
                 interior += 1;
                 for c in 0..dim {

@@ -278,7 +278,8 @@ pub fn mean_spacing(volumes: &[f64], dim: usize) -> f64 {
 }
 
 /// Validates a scene whose nodes come from a file (`"nodes"` instead of `"grid"`): bond models
-/// only for now; the bond weights use the nodes' own volumes ([`linpd_bond::BondOperator::on_points`]).
+/// (the bond weights use the nodes' own volumes, [`linpd_bond::BondOperator::on_points`]) and lps
+/// models ([`linpd_lps::LpsModel::on_points`]).
 pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, ProblemError> {
     let dim = raw.dimension;
     let spec = raw.nodes.as_ref().expect("called for scenes with nodes");
@@ -289,13 +290,10 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
     if raw.body.is_some() {
         return Err(ProblemError::invalid("body", "not used with \"nodes\" (the point cloud is the body)"));
     }
-    if kind != RawModelKind::Bond {
+    if !matches!(kind, RawModelKind::Bond | RawModelKind::Lps) {
         return Err(ProblemError::invalid(
             "nodes",
-            format!(
-                "point clouds take bond models for now, the scene has {} (lps, blend and ce need a grid)",
-                kind.name()
-            ),
+            format!("point clouds take bond and lps models, the scene has {} (blend and ce are 1D grids)", kind.name()),
         ));
     }
     if raw.dynamics.is_some() {
@@ -338,7 +336,6 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
             format!("horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing"),
         ));
     }
-    crate::memory::check_nodes(crate::memory::Path::BondAssembled, dim, cloud.positions.len(), ratio)?;
     let raw_model = raw.model.clone();
     if raw_model.surface_correction.is_some_and(|c| c != crate::raw::RawSurfaceCorrection::None) {
         return Err(ProblemError::invalid(
@@ -347,6 +344,10 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
              interior, and a cloud has no lattice (use \"none\", or a grid)",
         ));
     }
+    if kind == RawModelKind::Lps {
+        return lps_on_cloud(raw, cloud, horizon, ratio);
+    }
+    crate::memory::check_nodes(crate::memory::Path::BondAssembled, dim, cloud.positions.len(), ratio)?;
     let micromodulus =
         bond_micromodulus(dim, horizon, raw_model.micromodulus.as_ref(), raw_model.plane, raw_model.partial_volume)?;
     if micromodulus.normalization == linpd_core::Normalization::Discrete {
@@ -384,6 +385,50 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
             node_moduli,
             surface: linpd_lps::SurfaceCorrection::None,
         }),
+        constraints,
+        loads,
+        solver,
+        dynamics: None,
+    })
+}
+
+/// An lps scene on a point cloud ([`linpd_lps::LpsModel::on_points`]): the LPS keys as on a
+/// grid (no phases, no bond rule), defects, no surface correction (checked by the caller).
+fn lps_on_cloud(raw: RawProblem, cloud: Cloud, horizon: f64, ratio: f64) -> Result<Problem, ProblemError> {
+    let dim = raw.dimension;
+    crate::memory::check_nodes(crate::memory::Path::LpsAssembled, dim, cloud.positions.len(), ratio)?;
+    let m = &raw.model;
+    let params = crate::problem::lps_params(
+        dim,
+        horizon,
+        m.partial_volume,
+        m.plane,
+        m.bulk_modulus,
+        m.shear_modulus,
+        m.influence,
+        &m.material,
+    )?;
+    let material = crate::problem::material(&m.material, dim)?;
+    let nodes = cloud.into_nodes(dim);
+    if !material.defects.is_empty() {
+        let family = BondFamily::from_points(&nodes.positions, dim, horizon);
+        let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
+        if let Some(k) = material.defect_cutting_nothing_in(&family, &nodes.positions, tol) {
+            return Err(ProblemError::invalid(
+                format!("model.material.defects[{k}]"),
+                "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
+            ));
+        }
+    }
+    let (constraints, loads) = constraints_and_loads(&raw, dim, &nodes)?;
+    let solver = solver_spec(&raw.solver)?;
+    Ok(Problem {
+        output_dir: crate::problem::output_dir(raw.output.dir.as_deref(), &raw.name)?,
+        plot: raw.output.plot.unwrap_or(true),
+        slice: None,
+        name: raw.name,
+        nodes: Nodes::Cloud(nodes),
+        model: ModelSpec::Lps(params, material.defects, linpd_lps::SurfaceCorrection::None),
         constraints,
         loads,
         solver,

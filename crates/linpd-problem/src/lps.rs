@@ -35,7 +35,11 @@ impl Problem {
                 format!("an lps model is needed here, the scene has {}", self.model.name()),
             ));
         };
-        let model = LpsModel::with_defects(self.lattice()?, params, defects).map_err(|e| match e {
+        let built = match self.nodes.cloud() {
+            Some(c) => LpsModel::on_points(c.dim, c.positions.clone(), &c.volumes, params, defects),
+            None => LpsModel::with_defects(self.lattice()?, params, defects),
+        };
+        let model = built.map_err(|e| match e {
             // the usual cause with defects: one passes through the node (the crossing test is
             // closed, so every bond of that node touches it)
             e @ linpd_lps::LpsError::ZeroWeightedVolume { .. } if !defects.is_empty() => ProblemError::invalid(
@@ -44,20 +48,22 @@ impl Problem {
             ),
             e => ProblemError::invalid("model", e.to_string()),
         })?;
-        Ok(model.corrected(*surface))
+        model.corrected(*surface).map_err(|e| ProblemError::invalid("model.surface_correction", e.to_string()))
     }
 }
 
 /// Solves an lps scene.
 pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) -> Result<Solution, ProblemError> {
     let t0 = Instant::now();
-    let grid = p.lattice()?;
-    let multigrid = p.solver.uses_multigrid();
-    crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, params.horizon, multigrid)?;
+    let n = p.nodes.len();
+    // a point cloud was checked against memory when the scene was validated
+    if let Some(grid) = p.grid() {
+        let multigrid = p.solver.uses_multigrid();
+        crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, params.horizon, multigrid)?;
+    }
     progress.phase(&format!(
-        "building the LPS model: {} nodes, horizon/spacing = {:.3}",
-        grid.len(),
-        params.horizon / grid.spacing()
+        "building the LPS model: {n} nodes, horizon/spacing = {:.3}",
+        params.horizon / crate::problem::NodeSet::spacing(&p.nodes)
     ));
     let (model, correction) = p.lps_model_and_correction()?;
     if let Some(c) = &correction {
@@ -79,7 +85,7 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
         append_note(&mut report, note);
     }
     let balance = p.balance(&model, &u);
-    let volumes: Vec<f64> = (0..grid.len()).map(|n| model.node_volume(n)).collect();
+    let volumes: Vec<f64> = (0..n).map(|i| model.node_volume(i)).collect();
     let strain = Some(crate::nodal_strain(&model, &volumes, &u));
     let dilatation = Some(model.linearized_theta(&u));
     let strain_energy_density = Some(model.linearized_energy_density(&u));
@@ -88,7 +94,7 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
         dim: p.dim(),
         x: model.positions(),
         u,
-        is_layer: (0..grid.len()).map(|n| grid.is_layer(n)).collect(),
+        is_layer: (0..n).map(|i| p.nodes.is_layer(i)).collect(),
         volumes,
         n_bonds: model.family().n_bonds(),
         balance: Some(balance),

@@ -1220,7 +1220,7 @@ fn surface_correction_of(
 
 /// Validates the lps keys (the model itself checks `m > 0` when it is built).
 #[allow(clippy::too_many_arguments)]
-fn lps_params(
+pub(crate) fn lps_params(
     dim: usize,
     horizon: f64,
     partial_volume: bool,
