@@ -20,10 +20,14 @@
 //!   and Algorithm A's `SUM1 = D_1`, `SUM2 = D_2`, where the paper's identity
 //!   `(1/2) int C xi^2 = K` (eq. (7), used to write `D_2 = K (1 - beta/2) - ...` in (15)) now
 //!   reads `(1/2) sum_j mu_ij w_j (j dx)^2 = K_h(x_i)`, the horizon average of the bond moduli.
-//!   `K_h(x_i) = K(x_i)` whenever no phase interface lies within a horizon of `x_i`; otherwise
-//!   the local part is the CE limit of the heterogeneous PD operator (smeared over a horizon,
-//!   and dependent on the bond rule), which is what the Taylor expansion (12) of that operator
-//!   gives.
+//!   `K_h(x_i) = K(x_i)` because a transition row must see one modulus on its whole stencil
+//!   `[x_i - eps, x_i + eps]` ([`check_interfaces`]): at a phase interface `u'` jumps, the
+//!   Taylor expansion (12) of a transition row would be wrong there, and its local part would
+//!   be a horizon-smeared, bond-rule-dependent modulus (measured: an interface 0.01 = eps/2 past
+//!   a transition row moved a bar's displacements by 1.3 %). Interfaces may lie in the pure
+//!   PD rows' zone `[L2 + 2 eps, L3 - 2 eps]` and in the pure CE zones `x <= L1 - 2 eps`,
+//!   `x >= L4 + 2 eps`, or a phase may cover a whole transition zone (then `K_h = K_phase`
+//!   there and the blended rows are Algorithm A with that modulus).
 //! * **Pure CE rows** (`beta = 0` on the whole stencil, and every row of a coarse CE mesh):
 //!   classical elasticity `-(K(x) u')'` in divergence form, in force form
 //!
@@ -51,6 +55,9 @@
 //! whole stencil, the paper's set II (eq. (29)). That holds for defects in
 //! `[L2 + 2 eps, L3 - 2 eps]`, a horizon inside `Omega_PD^0 = (L2 + eps, L3 - eps)` (11);
 //! [`check_defects`] tests the rows themselves and refuses any other defect, naming it.
+//!
+//! The same reason keeps phase interfaces out of the stencils of transition rows (above);
+//! pure PD rows take any interface through `mu_ij`, pure CE rows through `k_{i+1/2}`.
 
 use crate::{BlendError, Mesh};
 use linpd_core::{Material, Region, GEOMETRY_RTOL};
@@ -141,6 +148,40 @@ impl<'a> BarMaterial<'a> {
         self.material.bond_factor(&[x, 0.0, 0.0], &[y, 0.0, 0.0], kx, ky, self.k_ref, self.tol)
     }
 
+    /// `K` on the closed interval `[a, b]` if it is one value there, else the first point of
+    /// `[a, b]` where it changes.
+    pub fn uniform_on(&self, a: f64, b: f64) -> Result<f64, f64> {
+        let k0 = self.modulus_at(a);
+        if self.material.phases.is_empty() {
+            return Ok(k0);
+        }
+        let lo = self.cuts.partition_point(|&c| c < a);
+        let hi = self.cuts.partition_point(|&c| c <= b);
+        let mut prev = a;
+        for &c in self.cuts[lo..hi.max(lo)].iter().chain(std::iter::once(&b)) {
+            // The piece before `c` and `c` itself (a node on a boundary takes the closed
+            // region's modulus).
+            if self.modulus_at(0.5 * (prev + c)) != k0 || self.modulus_at(c) != k0 {
+                return Err(c);
+            }
+            prev = c;
+        }
+        Ok(k0)
+    }
+
+    /// The index of a phase whose region has a boundary at `x` (the one an error names).
+    fn phase_with_boundary_at(&self, x: f64) -> usize {
+        self.material
+            .phases
+            .iter()
+            .position(|(r, _)| {
+                let mut b = Vec::new();
+                region_breakpoints(r, &mut b);
+                b.contains(&x)
+            })
+            .unwrap_or(0)
+    }
+
     /// Checks that every phase region holds some part of the bar `[0, length]` (a phase that
     /// holds none is a typo: it would change nothing).
     pub fn check_phases(&self, length: f64) -> Result<(), BlendError> {
@@ -160,6 +201,53 @@ impl<'a> BarMaterial<'a> {
         }
         Ok(())
     }
+}
+
+/// Refuses phase interfaces within the stencil `[x_i - eps, x_i + eps]` of a transition row
+/// (a row with both a nonlocal and a local share; see the module docs). Errors are named
+/// `material.phases[k].region`.
+pub fn check_interfaces(
+    mat: &BarMaterial,
+    mesh: &Mesh,
+    beta: &[f64],
+    n_side: usize,
+    eps: f64,
+    regions: &crate::Regions,
+) -> Result<(), BlendError> {
+    if mat.material.phases.is_empty() {
+        return Ok(());
+    }
+    for i in 0..mesh.len() {
+        let Some(k) = mesh.fine[i] else { continue };
+        let (mut any, mut all) = (false, beta[i] == 1.0);
+        for q in (1..=n_side as i64).flat_map(|j| [k - j, k + j]) {
+            match mesh.node_of_fine(q) {
+                Some(p) => {
+                    any |= beta[i] + beta[p] > 0.0;
+                    all &= beta[p] == 1.0;
+                }
+                None => all = false,
+            }
+        }
+        if !any || all {
+            continue;
+        }
+        let x = mesh.x[i];
+        if let Err(c) = mat.uniform_on(x - eps, x + eps) {
+            let (l1, l2, l3, l4) = (regions.l1, regions.l2, regions.l3, regions.l4);
+            return Err(BlendError::param(
+                format!("material.phases[{}].region", mat.phase_with_boundary_at(c)),
+                format!(
+                    "its boundary at x = {c} lies within a horizon of the transition row at x = {x} (a row with both PD and CE shares): the local terms of such a row are the Taylor expansion (12) of u, which the kink of u at a phase interface breaks. Keep interfaces out of [L1 - 2 eps, L2 + 2 eps] = [{}, {}] and [L3 - 2 eps, L4 + 2 eps] = [{}, {}], or let one phase cover a whole transition zone",
+                    l1 - 2.0 * eps,
+                    l2 + 2.0 * eps,
+                    l3 - 2.0 * eps,
+                    l4 + 2.0 * eps
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses every defect that is not inside the pure PD zone (see the module docs): for defect

@@ -1,6 +1,6 @@
 //! Assembly of the blended, pure CE (28) and pure PD (29) operators in force form.
 
-use crate::material::{check_defects, BarMaterial};
+use crate::material::{check_defects, check_interfaces, BarMaterial};
 use crate::{BlendError, Blending, Mesh, Regions};
 use linpd_core::{Kernel, Material, Micromodulus, Normalization};
 use rayon::prelude::*;
@@ -140,17 +140,21 @@ impl BlendParams {
         BarMaterial::new(&self.material, self.modulus, self.dx).check_phases(self.length)
     }
 
-    /// Checks where the material's defects lie for the model `kind` (see
-    /// [`crate::material::check_defects`]): only inside the pure PD zone of a blended model
-    /// (anywhere in the pure PD model, nowhere in the pure CE model).
-    pub fn check_defects(&self, kind: ModelKind) -> Result<(), BlendError> {
-        if self.material.defects.is_empty() {
+    /// Checks where the material's defects and phase interfaces lie for the model `kind`
+    /// ([`crate::material::check_defects`], [`crate::material::check_interfaces`]): defects
+    /// only inside the pure PD zone of a blended model (anywhere in the pure PD model, nowhere
+    /// in the pure CE model), interfaces nowhere within a horizon of a transition row.
+    pub fn check_material(&self, kind: ModelKind) -> Result<(), BlendError> {
+        if self.material.is_homogeneous() {
             return Ok(());
         }
         let (mesh, beta) = self.mesh_and_beta(kind)?;
-        let eps = self.n_side()? as f64 * self.dx;
+        let n_side = self.n_side()?;
+        let eps = n_side as f64 * self.dx;
         let zone = (self.regions.l2 + 2.0 * eps, self.regions.l3 - 2.0 * eps);
-        check_defects(&self.material, &mesh, &beta, self.n_side()?, eps, kind == ModelKind::PureCe, zone)
+        check_defects(&self.material, &mesh, &beta, n_side, eps, kind == ModelKind::PureCe, zone)?;
+        let mat = BarMaterial::new(&self.material, self.modulus, self.dx);
+        check_interfaces(&mat, &mesh, &beta, n_side, eps, &self.regions)
     }
 
     /// The nodes of model `kind` and `beta` at them.
@@ -254,7 +258,7 @@ impl BlendOperator {
     /// Assembles the operator of `kind` for `params`.
     pub fn assemble(params: &BlendParams, kind: ModelKind) -> Result<Self, BlendError> {
         params.validate()?;
-        params.check_defects(kind)?;
+        params.check_material(kind)?;
         let n_side = params.n_side()?;
         let dx = params.dx;
         let eps = n_side as f64 * dx;

@@ -108,7 +108,7 @@ pub(crate) fn scene(
         material,
     };
     let kind = if blended { ModelKind::Blended } else { ModelKind::PureCe };
-    params.validate().and_then(|()| params.check_defects(kind)).map_err(|e| match e {
+    params.validate().and_then(|()| params.check_material(kind)).map_err(|e| match e {
         linpd_blend::BlendError::Parameter { name, reason } if name == "horizon" => {
             ProblemError::invalid("model.horizon", reason)
         }
