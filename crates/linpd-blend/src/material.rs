@@ -130,8 +130,11 @@ impl<'a> BarMaterial<'a> {
         pts.push(a);
         pts.extend_from_slice(&self.cuts[lo..hi.max(lo)]);
         pts.push(b);
-        let pieces: Vec<(f64, f64)> =
-            pts.windows(2).filter(|w| w[1] > w[0]).map(|w| (w[1] - w[0], self.modulus_at(0.5 * (w[0] + w[1])))).collect();
+        let pieces: Vec<(f64, f64)> = pts
+            .windows(2)
+            .filter(|w| w[1] > w[0])
+            .map(|w| (w[1] - w[0], self.modulus_at(0.5 * (w[0] + w[1]))))
+            .collect();
         let first = pieces.first().map_or(self.k_ref, |p| p.1);
         if pieces.iter().all(|p| p.1 == first) {
             return first;
@@ -270,9 +273,8 @@ pub fn check_defects(
     let pure_pd = |i: usize| -> bool {
         let Some(k) = mesh.fine[i] else { return false };
         beta[i] == 1.0
-            && (1..=n_side as i64).all(|j| {
-                [k - j, k + j].iter().all(|&q| mesh.node_of_fine(q).is_some_and(|p| beta[p] == 1.0))
-            })
+            && (1..=n_side as i64)
+                .all(|j| [k - j, k + j].iter().all(|&q| mesh.node_of_fine(q).is_some_and(|p| beta[p] == 1.0)))
     };
     for (k, d) in material.defects.iter().enumerate() {
         let name = format!("material.defects[{k}]");

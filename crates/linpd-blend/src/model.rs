@@ -409,7 +409,8 @@ impl BlendOperator {
                     }
                 }
             }
-            let part = if end { LocalPart::End } else { LocalPart::Lattice { d1: d[1], d2: d[2], three_point: local3 } };
+            let part =
+                if end { LocalPart::End } else { LocalPart::Lattice { d1: d[1], d2: d[2], three_point: local3 } };
             (col, val, is_transition, part)
         };
         let rows: Vec<(Vec<usize>, Vec<f64>, bool, LocalPart)> = (0..n).into_par_iter().map(row).collect();

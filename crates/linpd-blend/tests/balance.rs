@@ -68,7 +68,8 @@ fn the_imbalance_is_the_column_sum_functional() {
     let (c, _) = column_sums(&op);
     let bound = op.len() as f64 * f64::EPSILON * 4.0 / p.dx;
     for (xp, small) in [(0.5, true), (0.2, false)] {
-        let s = solve_model(&p, ModelKind::Blended, 0.0, 0.0, &[Load::Point { x: xp, force: 1.0 }], BlendSolver::Auto).unwrap();
+        let s = solve_model(&p, ModelKind::Blended, 0.0, 0.0, &[Load::Point { x: xp, force: 1.0 }], BlendSolver::Auto)
+            .unwrap();
         let imbalance = s.reactions[0] + s.reactions[1] + s.applied;
         let cu: f64 = c.iter().zip(&s.u).map(|(c, u)| c * u).sum();
         let umax = s.u.iter().fold(0.0f64, |m, v| m.max(v.abs()));

@@ -27,7 +27,10 @@ fn heterogeneous() -> Material {
     Material {
         phases: vec![(interval(0.0, 0.05), 2.0), (interval(0.4, 0.45), 3.0), (interval(0.95, 1.0), 0.5)],
         rule: BondRule::Harmonic,
-        defects: vec![Defect::Point { x: 0.5 + dx / 2.0, factor: 0.1 }, Defect::Point { x: 0.6 + dx / 2.0, factor: 0.0 }],
+        defects: vec![
+            Defect::Point { x: 0.5 + dx / 2.0, factor: 0.1 },
+            Defect::Point { x: 0.6 + dx / 2.0, factor: 0.0 },
+        ],
     }
 }
 
@@ -120,10 +123,22 @@ fn rows_annihilate_constants_and_the_crack_cuts() {
 fn misplaced_defects_and_interfaces_are_refused() {
     let dx = 1.0 / 320.0;
     let cases = [
-        (Material { defects: vec![Defect::Point { x: 0.26, factor: 0.0 }], ..Material::default() }, "material.defects[0]: x = 0.26 is not in the pure PD zone"),
-        (Material { defects: vec![Defect::Point { x: 0.03, factor: 0.5 }], ..Material::default() }, "material.defects[0]: x = 0.03 is not in the pure PD zone"),
-        (Material { phases: vec![(interval(0.4, 0.6), 2.0), (interval(0.28, 0.35), 2.0)], ..Material::default() }, "material.phases[1].region: its boundary at x = 0.28"),
-        (Material { phases: vec![(interval(0.08, 0.5), 2.0)], ..Material::default() }, "material.phases[0].region: its boundary at x = 0.08"),
+        (
+            Material { defects: vec![Defect::Point { x: 0.26, factor: 0.0 }], ..Material::default() },
+            "material.defects[0]: x = 0.26 is not in the pure PD zone",
+        ),
+        (
+            Material { defects: vec![Defect::Point { x: 0.03, factor: 0.5 }], ..Material::default() },
+            "material.defects[0]: x = 0.03 is not in the pure PD zone",
+        ),
+        (
+            Material { phases: vec![(interval(0.4, 0.6), 2.0), (interval(0.28, 0.35), 2.0)], ..Material::default() },
+            "material.phases[1].region: its boundary at x = 0.28",
+        ),
+        (
+            Material { phases: vec![(interval(0.08, 0.5), 2.0)], ..Material::default() },
+            "material.phases[0].region: its boundary at x = 0.08",
+        ),
     ];
     for (material, expected) in cases {
         let e = match BlendOperator::assemble(&params(material), ModelKind::Blended) {

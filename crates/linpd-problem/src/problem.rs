@@ -557,17 +557,15 @@ impl Problem {
                 ));
             }
             match model_kind {
-                RawModelKind::Blend | RawModelKind::Ce => {
-                    ModelSpec::Blend(crate::blend::scene(
-                        model_kind,
-                        &raw,
-                        &grid,
-                        horizon,
-                        material,
-                        &constraints,
-                        &loads,
-                    )?)
-                }
+                RawModelKind::Blend | RawModelKind::Ce => ModelSpec::Blend(crate::blend::scene(
+                    model_kind,
+                    &raw,
+                    &grid,
+                    horizon,
+                    material,
+                    &constraints,
+                    &loads,
+                )?),
                 _ => {
                     // The amplitude now, not at the first solve: a modulus that overflows it
                     // (1e308) is a validation error naming the overflow.

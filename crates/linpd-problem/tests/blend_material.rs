@@ -74,7 +74,10 @@ fn far_bond(material: Value, loads: Value, left: (f64, f64), right: (f64, f64)) 
 }
 
 fn solve(v: &Value) -> Solution {
-    Problem::from_json(&v.to_string()).unwrap_or_else(|e| panic!("{e}")).solve(&NoProgress).unwrap_or_else(|e| panic!("{e}"))
+    Problem::from_json(&v.to_string())
+        .unwrap_or_else(|e| panic!("{e}"))
+        .solve(&NoProgress)
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn error_of(v: &Value) -> String {
@@ -151,7 +154,8 @@ fn two_phases_in_the_pd_zone_match_the_bond_model() {
 /// Tolerances 1e-10 (measured 9.5e-13 for the displacements, 1.2e-12 for the slopes).
 #[test]
 fn a_pre_crack_in_the_pd_zone_matches_the_bond_model() {
-    let loads = json!([{"type": "point", "at": [0.35], "force": [1.0]}, {"type": "point", "at": [0.65], "force": [-1.0]}]);
+    let loads =
+        json!([{"type": "point", "at": [0.35], "force": [1.0]}, {"type": "point", "at": [0.65], "force": [-1.0]}]);
     for factor in [0.0, 0.1] {
         let mat = json!({"defects": [{"point": 0.5 + DX / 2.0, "factor": factor}]});
         let b = solve(&far_blend(mat.clone(), loads.clone()));
@@ -223,8 +227,11 @@ fn phases_in_ce_zones_give_the_exact_piecewise_solution() {
     s3["model"]["ce_spacing"] = json!(8.0 * DX);
     s3["constraints"] = ends(0.0, 1.0);
 
-    let cases: [(&str, Value, Box<dyn Fn(f64) -> f64>); 3] =
-        [("ce point load", s1, Box::new(exact1)), ("ce body load", s2, Box::new(exact2)), ("coarse blend", s3, Box::new(exact3))];
+    let cases: [(&str, Value, Box<dyn Fn(f64) -> f64>); 3] = [
+        ("ce point load", s1, Box::new(exact1)),
+        ("ce body load", s2, Box::new(exact2)),
+        ("coarse blend", s3, Box::new(exact3)),
+    ];
     for (name, scene, exact) in cases {
         let s = solve(&scene);
         let e: Vec<f64> = s.x.iter().map(|x| exact(x[0])).collect();
@@ -265,12 +272,15 @@ fn blend_scenes_report_their_force_balance() {
     eprintln!("table 3 blend: imbalance {:e}, reactions {:?}", bal.relative_imbalance, bal.reaction);
     assert!(bal.relative_imbalance < 1e-10, "{:e}", bal.relative_imbalance);
 
-    let loads = json!([{"type": "point", "at": [0.35], "force": [1.0]}, {"type": "point", "at": [0.65], "force": [-1.0]}]);
+    let loads =
+        json!([{"type": "point", "at": [0.35], "force": [1.0]}, {"type": "point", "at": [0.65], "force": [-1.0]}]);
     let crack = solve(&far_blend(json!({"defects": [{"point": 0.5 + DX / 2.0, "factor": 0.0}]}), loads));
     let bal = crack.balance.as_ref().unwrap();
     eprintln!("crack: imbalance {:e}, reactions {:?}", bal.relative_imbalance, bal.constraints);
     assert!(bal.relative_imbalance <= 1e-12);
-    assert!((bal.constraints[0].reaction[0] + 1.0).abs() <= 1e-10 && (bal.constraints[1].reaction[0] - 1.0).abs() <= 1e-10);
+    assert!(
+        (bal.constraints[0].reaction[0] + 1.0).abs() <= 1e-10 && (bal.constraints[1].reaction[0] - 1.0).abs() <= 1e-10
+    );
 
     let bridge = solve(&table3("blend", json!({}), json!([{"type": "point", "at": [0.2], "force": [1.0]}])));
     let imbalance = bridge.balance.as_ref().unwrap().relative_imbalance;
@@ -284,7 +294,8 @@ fn blend_scenes_report_their_force_balance() {
 fn union_body_loads_load_each_node_once() {
     let union = json!({"union": [{"box": {"min": [0.1], "max": [0.5]}}, {"box": {"min": [0.3], "max": [0.6]}},
                                   {"box": {"min": [0.8], "max": [0.9]}}]});
-    let loads = json!([{"type": "body", "region": union, "density": [1.0]}, {"type": "point", "at": [0.7], "force": [0.5]}]);
+    let loads =
+        json!([{"type": "body", "region": union, "density": [1.0]}, {"type": "point", "at": [0.7], "force": [0.5]}]);
     let s = solve(&table3("ce", json!({}), loads));
     let bal = s.balance.as_ref().unwrap();
     assert_eq!(bal.loads.len(), 2);
@@ -301,20 +312,68 @@ fn bad_materials_are_named_errors() {
     let load = json!([{"type": "point", "at": [0.5], "force": [1.0]}]);
     let cases = [
         // In the bridge, in the transition rows next to the PD zone, in the CE zone.
-        ("blend", json!({"defects": [{"point": 0.2, "factor": 0.0}]}), "model.material.defects[0]: x = 0.2 is not in the pure PD zone"),
-        ("blend", json!({"defects": [{"point": 0.501, "factor": 0.0}, {"point": 0.32, "factor": 0.5}]}), "model.material.defects[1]: x = 0.32 is not in the pure PD zone"),
-        ("blend", json!({"defects": [{"point": 0.05, "factor": 0.1}]}), "model.material.defects[0]: x = 0.05 is not in the pure PD zone"),
-        ("ce", json!({"defects": [{"point": 0.501, "factor": 0.0}]}), "model.material.defects[0]: ce models have no bonds"),
-        ("blend", json!({"defects": [{"point": 1.5, "factor": 0.0}]}), "model.material.defects[0]: crosses no bond of the body"),
-        ("blend", json!({"defects": [{"segment": [[0.5, 0.0], [0.5, 1.0]], "factor": 0.0}]}), "model.material.defects[0]: a segment defect needs dimension 2"),
-        ("blend", json!({"phases": [{"region": {"box": {"min": [1.5], "max": [2.0]}}, "modulus": 2.0}]}), "model.material.phases[0].region: contains no point of the bar [0, 1]"),
-        ("ce", json!({"phases": [{"region": "all", "modulus": 1.0}, {"region": {"box": {"min": [-2.0], "max": [-1.0]}}, "modulus": 2.0}]}), "model.material.phases[1].region: contains no point of the bar"),
-        ("blend", json!({"phases": [{"phase": 1, "modulus": 2.0}]}), "model.material.phases[0].phase: phase numbers come from a point cloud"),
+        (
+            "blend",
+            json!({"defects": [{"point": 0.2, "factor": 0.0}]}),
+            "model.material.defects[0]: x = 0.2 is not in the pure PD zone",
+        ),
+        (
+            "blend",
+            json!({"defects": [{"point": 0.501, "factor": 0.0}, {"point": 0.32, "factor": 0.5}]}),
+            "model.material.defects[1]: x = 0.32 is not in the pure PD zone",
+        ),
+        (
+            "blend",
+            json!({"defects": [{"point": 0.05, "factor": 0.1}]}),
+            "model.material.defects[0]: x = 0.05 is not in the pure PD zone",
+        ),
+        (
+            "ce",
+            json!({"defects": [{"point": 0.501, "factor": 0.0}]}),
+            "model.material.defects[0]: ce models have no bonds",
+        ),
+        (
+            "blend",
+            json!({"defects": [{"point": 1.5, "factor": 0.0}]}),
+            "model.material.defects[0]: crosses no bond of the body",
+        ),
+        (
+            "blend",
+            json!({"defects": [{"segment": [[0.5, 0.0], [0.5, 1.0]], "factor": 0.0}]}),
+            "model.material.defects[0]: a segment defect needs dimension 2",
+        ),
+        (
+            "blend",
+            json!({"phases": [{"region": {"box": {"min": [1.5], "max": [2.0]}}, "modulus": 2.0}]}),
+            "model.material.phases[0].region: contains no point of the bar [0, 1]",
+        ),
+        (
+            "ce",
+            json!({"phases": [{"region": "all", "modulus": 1.0}, {"region": {"box": {"min": [-2.0], "max": [-1.0]}}, "modulus": 2.0}]}),
+            "model.material.phases[1].region: contains no point of the bar",
+        ),
+        (
+            "blend",
+            json!({"phases": [{"phase": 1, "modulus": 2.0}]}),
+            "model.material.phases[0].phase: phase numbers come from a point cloud",
+        ),
         // An interface in a bridge, and one in the CE zone within a horizon of a transition
         // row (L4 + eps = 0.93 < 0.95 < L4 + 2 eps).
-        ("blend", json!({"phases": [{"region": {"box": {"min": [0.2], "max": [0.5]}}, "modulus": 2.0}]}), "model.material.phases[0].region: its boundary at x = 0.2 lies within a horizon of the transition row"),
-        ("blend", json!({"phases": [{"region": {"box": {"min": [0.4], "max": [0.6]}}, "modulus": 2.0}, {"region": {"box": {"min": [0.95], "max": [1.0]}}, "modulus": 2.0}]}), "model.material.phases[1].region: its boundary at x = 0.95 lies within a horizon"),
-        ("blend", json!({"phases": [{"region": "all", "modulus": -1.0}]}), "model.material.phases[0].modulus: must be > 0"),
+        (
+            "blend",
+            json!({"phases": [{"region": {"box": {"min": [0.2], "max": [0.5]}}, "modulus": 2.0}]}),
+            "model.material.phases[0].region: its boundary at x = 0.2 lies within a horizon of the transition row",
+        ),
+        (
+            "blend",
+            json!({"phases": [{"region": {"box": {"min": [0.4], "max": [0.6]}}, "modulus": 2.0}, {"region": {"box": {"min": [0.95], "max": [1.0]}}, "modulus": 2.0}]}),
+            "model.material.phases[1].region: its boundary at x = 0.95 lies within a horizon",
+        ),
+        (
+            "blend",
+            json!({"phases": [{"region": "all", "modulus": -1.0}]}),
+            "model.material.phases[0].modulus: must be > 0",
+        ),
     ];
     for (kind, material, expected) in cases {
         let e = error_of(&table3(kind, material, load.clone()));
@@ -325,4 +384,3 @@ fn bad_materials_are_named_errors() {
     let e = error_of(&hog);
     assert!(e.starts_with("model.material: phases and defects are not available with the HOG model"), "{e}");
 }
-
