@@ -227,7 +227,8 @@ fn phases_in_ce_zones_give_the_exact_piecewise_solution() {
     s3["model"]["ce_spacing"] = json!(8.0 * DX);
     s3["constraints"] = ends(0.0, 1.0);
 
-    let cases: [(&str, Value, Box<dyn Fn(f64) -> f64>); 3] = [
+    type Exact = Box<dyn Fn(f64) -> f64>;
+    let cases: [(&str, Value, Exact); 3] = [
         ("ce point load", s1, Box::new(exact1)),
         ("ce body load", s2, Box::new(exact2)),
         ("coarse blend", s3, Box::new(exact3)),
