@@ -158,3 +158,43 @@ fn help_mentions_solve() {
     assert!(o.status.success(), "exit {:?}", o.status.code());
     assert!(stdout.contains("solve"), "stdout: {stdout}");
 }
+
+/// `data/blend-bar-crack.json` (issue #17 item 1): a blended bar with a pre-crack at 0.501 and
+/// a soft phase in its PD zone, a stiff phase in its left CE zone, and a point load on each
+/// side of the crack. From the CLI: each half's support carries its own load (reactions -1 and
+/// +1, balance to 1e-10: the loads are 6 horizons from the transitions, where the blended
+/// rows make no approximation), the stiff CE phase (K = 2) halves the slope on [0, 0.05]
+/// (u(0.05) = 0.025, exact CE), and the crack opens (> 0.7, the CE estimate 0.725). With the
+/// crack moved into a bridge the scene is refused, naming the defect, and nothing is written.
+#[test]
+fn blend_bar_crack_solves_and_a_misplaced_crack_is_refused() {
+    let dir = temp_dir("blend-crack");
+    let scene = data_dir().join("blend-bar-crack.json");
+    let out = dir.join("out");
+    let o = linpd(&["solve".as_ref(), scene.as_os_str(), "--out".as_ref(), out.as_os_str(), "-q".as_ref()]);
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(out.join("result.json")).unwrap()).unwrap();
+    let b = &r["balance"];
+    assert!(b["relative_imbalance"].as_f64().unwrap() < 1e-10, "{b}");
+    let reaction = |k: usize| b["constraints"][k]["reaction"][0].as_f64().unwrap();
+    assert!((reaction(0) + 1.0).abs() < 1e-10 && (reaction(1) - 1.0).abs() < 1e-10, "{b}");
+    let x: Vec<f64> = r["x"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    let u: Vec<f64> = r["u"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    let at = |p: f64| u[x.iter().position(|&v| (v - p).abs() < 1e-9).unwrap()];
+    assert!((at(0.05) - 0.025).abs() < 1e-10, "u(0.05) = {}", at(0.05));
+    let opening = at(0.5) - at(0.502);
+    assert!(opening > 0.7, "crack opening {opening}");
+
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let bad = text.replace("\"point\": 0.501", "\"point\": 0.15");
+    assert_ne!(bad, text, "test bug: the defect was not moved");
+    let bad_scene = dir.join("bad.json");
+    std::fs::write(&bad_scene, bad).unwrap();
+    let bad_out = dir.join("bad-out");
+    let o = linpd(&["solve".as_ref(), bad_scene.as_os_str(), "--out".as_ref(), bad_out.as_os_str()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(stderr.contains("model.material.defects[0]: x = 0.15 is not in the pure PD zone"), "stderr: {stderr}");
+    assert!(!bad_out.exists(), "output written for a refused scene");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -34,11 +34,30 @@
 //! Rows are multiplied by the node's dual cell length `V_i = (x_{i+1} - x_{i-1}) / 2`, so the
 //! right-hand side is a force (`f_i = b_i V_i`; a point load `b_i = delta_ip / dx` is `f_p = 1`)
 //! and both the PD part and the (non-uniform) CE part are symmetric. The only asymmetry left is
-//! in the local terms of transition rows (`tests/asymmetry_is_local.rs`).
+//! in the local terms of transition rows (`tests/properties.rs`).
+//!
+//! # Phases and defects
+//!
+//! [`BlendParams::material`] takes the bond model's phases, bond rule and defects: PD bonds get
+//! the bond model's factors, pure CE rows the divergence form `-(K(x) u')'` with the phase
+//! modulus, transition rows the Taylor expansion of the local share of the heterogeneous bonds;
+//! defects only where every row that sees them is pure PD ([`material`] has the equations and
+//! the reasons).
+//!
+//! # Force balance
+//!
+//! End rows hold the force of the local model on the end node's half cell, so `A u - f` at a
+//! Dirichlet node is its support's reaction ([`BlendSolution::reactions`]). The PD and CE parts
+//! have zero column sums; the transition rows do not (their local terms are not in divergence
+//! form), so `sum of reactions + sum of loads = 1^T A u` is not zero in general. It vanishes
+//! when `u` is quadratic on the stencils of the transition rows (then every blended row is the
+//! PD row, and Algorithm A makes no approximation, section 3.2): the imbalance measures the
+//! Taylor remainder (12) of the solution in the transition zones (`tests/balance.rs`).
 #![deny(missing_docs)]
 
 pub mod blending;
 pub mod error;
+pub mod material;
 pub mod mesh;
 pub mod model;
 pub mod solve;
@@ -48,4 +67,6 @@ pub use blending::{Blending, Regions};
 pub use error::BlendError;
 pub use mesh::Mesh;
 pub use model::{BlendOperator, BlendParams, LocalPart, ModelKind};
-pub use solve::{ce_exact_point_load, constraints_and_loads, solve_model, BlendSolution, BlendSolver, Load};
+pub use solve::{
+    ce_exact_point_load, constraints_and_loads, nodal_forces, solve_model, BlendSolution, BlendSolver, Load,
+};

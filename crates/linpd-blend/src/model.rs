@@ -1,7 +1,8 @@
 //! Assembly of the blended, pure CE (28) and pure PD (29) operators in force form.
 
+use crate::material::{check_defects, check_interfaces, BarMaterial};
 use crate::{BlendError, Blending, Mesh, Regions};
-use linpd_core::{Kernel, Micromodulus, Normalization};
+use linpd_core::{Kernel, Material, Micromodulus, Normalization};
 use rayon::prelude::*;
 
 /// Which model to assemble.
@@ -37,6 +38,10 @@ pub struct BlendParams {
     pub ce_spacing: Option<f64>,
     /// Use the PD/HOG model with `M = 4` (eq. (37)-(38)) instead of PD/CE (`M = 2`).
     pub hog: bool,
+    /// Phases (moduli `K(x)`; `modulus` is the reference `K_ref` outside them), bond rule and
+    /// point defects, as in the bond model; how each enters the blended rows is in
+    /// [`crate::material`]. Empty: homogeneous, Algorithm A as printed.
+    pub material: Material,
 }
 
 impl BlendParams {
@@ -53,6 +58,7 @@ impl BlendParams {
             blending,
             ce_spacing: None,
             hog: false,
+            material: Material::default(),
         }
     }
 
@@ -121,7 +127,66 @@ impl BlendParams {
                 return Err(BlendError::param("ce_spacing", "the HOG model (hog = true) needs a uniform mesh"));
             }
         }
-        Ok(())
+        self.material.validate(1).map_err(|e| BlendError::param("material", e.to_string()))?;
+        if self.hog && !self.material.is_homogeneous() {
+            // The pure HOG rows would be the Taylor limit of the heterogeneous PD operator
+            // (smeared over a horizon), not a local model with the phase modulus K(x): no
+            // such local operator is derived, so the combination is refused.
+            return Err(BlendError::param(
+                "material",
+                "phases and defects are not available with the HOG model (hog = true): its local rows have no divergence form to carry a phase modulus",
+            ));
+        }
+        BarMaterial::new(&self.material, self.modulus, self.dx).check_phases(self.length)
+    }
+
+    /// Checks where the material's defects and phase interfaces lie for the model `kind`
+    /// ([`crate::material::check_defects`], [`crate::material::check_interfaces`]): defects
+    /// only inside the pure PD zone of a blended model (anywhere in the pure PD model, nowhere
+    /// in the pure CE model), interfaces nowhere within a horizon of a transition row.
+    pub fn check_material(&self, kind: ModelKind) -> Result<(), BlendError> {
+        if self.material.is_homogeneous() {
+            return Ok(());
+        }
+        let (mesh, beta) = self.mesh_and_beta(kind)?;
+        let n_side = self.n_side()?;
+        let eps = n_side as f64 * self.dx;
+        let zone = (self.regions.l2 + 2.0 * eps, self.regions.l3 - 2.0 * eps);
+        check_defects(&self.material, &mesh, &beta, n_side, eps, kind == ModelKind::PureCe, zone)?;
+        let mat = BarMaterial::new(&self.material, self.modulus, self.dx);
+        check_interfaces(&mat, &mesh, &beta, n_side, eps, &self.regions)
+    }
+
+    /// The nodes of model `kind` and `beta` at them.
+    fn mesh_and_beta(&self, kind: ModelKind) -> Result<(Mesh, Vec<f64>), BlendError> {
+        let n_side = self.n_side()?;
+        let dx = self.dx;
+        let n_cells = (self.length / dx).round() as usize;
+        let eps = n_side as f64 * dx;
+        let tol = 1e-9 * dx;
+        let mesh = match kind {
+            ModelKind::PurePd => Mesh::uniform(-((n_side - 1) as f64) * dx, dx, n_cells + 2 * (n_side - 1)),
+            ModelKind::PureCe => Mesh::uniform(0.0, dx, n_cells),
+            ModelKind::Blended => match self.ce_spacing {
+                Some(h) if h > dx * (1.0 + 1e-9) => {
+                    let r = &self.regions;
+                    let k_lo = (((r.l1 - 2.0 * eps) / dx).floor() as i64).max(0);
+                    let k_hi = (((r.l4 + 2.0 * eps) / dx).ceil() as i64).min(n_cells as i64);
+                    Mesh::graded(0.0, dx, k_lo, k_hi, h, 0.0, self.length)
+                }
+                _ => Mesh::uniform(0.0, dx, n_cells),
+            },
+        };
+        let beta: Vec<f64> = mesh
+            .x
+            .iter()
+            .map(|&x| match kind {
+                ModelKind::PurePd => 1.0,
+                ModelKind::PureCe => 0.0,
+                ModelKind::Blended => self.blending.beta(x, &self.regions, tol),
+            })
+            .collect();
+        Ok((mesh, beta))
     }
 }
 
@@ -153,10 +218,12 @@ pub struct BlendOperator {
 pub enum LocalPart {
     /// An end row (carries a Dirichlet condition).
     End,
-    /// A pure CE row: `-K u''` by the (non-uniform) 3-point difference, nothing nonlocal.
+    /// A pure CE row: `-(K u')'` by the (non-uniform) 3-point difference, nothing nonlocal.
     Ce {
-        /// `K`.
-        k: f64,
+        /// Series modulus `k_{i-1/2}` of the interval to the left (`K` for a homogeneous bar).
+        k_left: f64,
+        /// Series modulus `k_{i+1/2}` of the interval to the right.
+        k_right: f64,
     },
     /// A lattice row: nonlocal terms plus `-(D1 u' + D2 u'' [+ ...])`.
     Lattice {
@@ -170,11 +237,18 @@ pub enum LocalPart {
 }
 
 impl LocalPart {
-    /// The second-derivative coefficient (0 for end rows).
-    pub fn d2(&self) -> f64 {
+    /// The second-derivative coefficient on the side of the interval to the right (`right`) or
+    /// left of the node (0 for end rows): `D2` of a lattice row, the face modulus of a CE row.
+    pub fn d2(&self, right: bool) -> f64 {
         match self {
             LocalPart::End => 0.0,
-            LocalPart::Ce { k } => *k,
+            LocalPart::Ce { k_left, k_right } => {
+                if right {
+                    *k_right
+                } else {
+                    *k_left
+                }
+            }
             LocalPart::Lattice { d2, .. } => *d2,
         }
     }
@@ -184,34 +258,18 @@ impl BlendOperator {
     /// Assembles the operator of `kind` for `params`.
     pub fn assemble(params: &BlendParams, kind: ModelKind) -> Result<Self, BlendError> {
         params.validate()?;
+        params.check_material(kind)?;
         let n_side = params.n_side()?;
         let dx = params.dx;
-        let n_cells = (params.length / dx).round() as usize;
         let eps = n_side as f64 * dx;
-        let tol = 1e-9 * dx;
-        let mesh = match kind {
-            ModelKind::PurePd => Mesh::uniform(-((n_side - 1) as f64) * dx, dx, n_cells + 2 * (n_side - 1)),
-            ModelKind::PureCe => Mesh::uniform(0.0, dx, n_cells),
-            ModelKind::Blended => match params.ce_spacing {
-                Some(h) if h > dx * (1.0 + 1e-9) => {
-                    let r = &params.regions;
-                    let _ = h;
-                    let k_lo = (((r.l1 - 2.0 * eps) / dx).floor() as i64).max(0);
-                    let k_hi = (((r.l4 + 2.0 * eps) / dx).ceil() as i64).min(n_cells as i64);
-                    Mesh::graded(0.0, dx, k_lo, k_hi, h, 0.0, params.length)
-                }
-                _ => Mesh::uniform(0.0, dx, n_cells),
-            },
+        let (mesh, beta) = params.mesh_and_beta(kind)?;
+        let mat = BarMaterial::new(&params.material, params.modulus, dx);
+        // K(x_i) at the nodes (the bond model's node moduli) for the bond factors.
+        let node_k: Vec<f64> = if params.material.phases.is_empty() {
+            vec![params.modulus; mesh.len()]
+        } else {
+            mesh.x.iter().map(|&x| mat.modulus_at(x)).collect()
         };
-        let beta: Vec<f64> = mesh
-            .x
-            .iter()
-            .map(|&x| match kind {
-                ModelKind::PurePd => 1.0,
-                ModelKind::PureCe => 0.0,
-                ModelKind::Blended => params.blending.beta(x, &params.regions, tol),
-            })
-            .collect();
         // Bond weights w_j = C(j dx) dx with C = c g normalized on the lattice (eq. (19)).
         let mm = Micromodulus {
             kernel: params.kernel.clone(),
@@ -222,7 +280,6 @@ impl BlendOperator {
         };
         let c = mm.amplitude(1, eps, dx).map_err(|e| BlendError::param("kernel", e.to_string()))?;
         let w: Vec<f64> = (1..=n_side).map(|j| c * params.kernel.shape(j as f64 * dx, eps) * dx).collect();
-        let k_ce = params.modulus;
         let m_order = if params.hog { 4 } else { 2 };
 
         let n = mesh.len();
@@ -234,49 +291,67 @@ impl BlendOperator {
             let mut acc = vec![0.0; width];
             let v_i = mesh.dual_length(i);
             let k = mesh.fine[i];
-            // Nonlocal shares a_j for j = -N..N (0 where the neighbour is missing).
+            // Nonlocal shares a_j for j = -N..N (0 where the neighbour is missing) and the
+            // bonds' material factors mu_j (crate::material; 1 for a homogeneous bar).
             let mut a = vec![0.0; 2 * n_side + 1];
+            let mut mu = vec![1.0; 2 * n_side + 1];
             let mut any = false;
             if let Some(k) = k {
                 for j in 1..=n_side as i64 {
                     for s in [-1i64, 1] {
+                        let slot = (n_side as i64 + s * j) as usize;
                         if let Some(q) = mesh.node_of_fine(k + s * j) {
                             let share = 0.5 * (beta[i] + beta[q]);
-                            a[(n_side as i64 + s * j) as usize] = share;
+                            a[slot] = share;
                             any |= share > 0.0;
+                            mu[slot] = mat.bond_factor(mesh.x[i], mesh.x[q], node_k[i], node_k[q]);
+                        } else if !mat.is_homogeneous() {
+                            // A bond leaving the domain is all local (a = 0): its modulus is
+                            // that of the point it would reach.
+                            let y = mesh.x[i] + (s * j) as f64 * dx;
+                            mu[slot] = mat.bond_factor(mesh.x[i], y, node_k[i], mat.modulus_at(y));
                         }
                     }
                 }
             }
             let pure_ce = !any && !params.hog;
-            if pure_ce {
-                // Non-uniform CE row (section 5.2.4), force form: symmetric.
-                let mut entries: Vec<(usize, f64)> = Vec::with_capacity(3);
-                if i > 0 && i + 1 < n {
-                    let (dl, dr) = (mesh.x[i] - mesh.x[i - 1], mesh.x[i + 1] - mesh.x[i]);
-                    entries.push((i - 1, -k_ce / dl));
-                    entries.push((i, k_ce / dl + k_ce / dr));
-                    entries.push((i + 1, -k_ce / dr));
-                } else {
-                    // End nodes carry Dirichlet conditions; keep the row nonsingular.
-                    entries.push((i, k_ce / v_i.max(dx)));
-                }
+            let end = i == 0 || i + 1 == n;
+            if end && kind != ModelKind::PurePd {
+                // End nodes carry the Dirichlet conditions, so the solve never uses their rows.
+                // They hold the force on the end node's half cell in the local model,
+                // k_{1/2} (u_0 - u_1) / (x_1 - x_0) (and mirrored), so that (A u - f) there is
+                // the support's reaction (crate::solve, BlendSolution::reactions).
+                let q = if i == 0 { 1 } else { n - 2 };
+                let kf = mat.face_modulus(mesh.x[i.min(q)], mesh.x[i.max(q)]);
+                let len = (mesh.x[q] - mesh.x[i]).abs();
+                let mut entries = [(i, kf / len), (q, -kf / len)];
+                entries.sort_by_key(|e| e.0);
                 for (q, v) in entries {
                     col.push(q);
                     val.push(v);
                 }
-                let part = if i > 0 && i + 1 < n { LocalPart::Ce { k: k_ce } } else { LocalPart::End };
-                return (col, val, false, part);
+                return (col, val, false, LocalPart::End);
+            }
+            if pure_ce {
+                // Non-uniform CE row (section 5.2.4) with the series face moduli of K(x)
+                // (crate::material), force form: symmetric.
+                let (dl, dr) = (mesh.x[i] - mesh.x[i - 1], mesh.x[i + 1] - mesh.x[i]);
+                let kl = mat.face_modulus(mesh.x[i - 1], mesh.x[i]);
+                let kr = mat.face_modulus(mesh.x[i], mesh.x[i + 1]);
+                col.extend([i - 1, i, i + 1]);
+                val.extend([-kl / dl, kl / dl + kr / dr, -kr / dr]);
+                return (col, val, false, LocalPart::Ce { k_left: kl, k_right: kr });
             }
             let k = k.expect("nonlocal rows lie on the fine lattice");
             let off = |o: i64| (o + n_side as i64 + 2) as usize;
-            // D_n = (1/n!) sum_j w_j (1 - a_j) xi_j^n  over j = +-1..+-N.
+            // D_n = (1/n!) sum_j mu_j w_j (1 - a_j) xi_j^n  over j = +-1..+-N.
             let mut d = [0.0f64; 5];
             let mut all_pd = true;
             for j in 1..=n_side as i64 {
                 for s in [-1i64, 1] {
                     let aj = a[(n_side as i64 + s * j) as usize];
-                    let wj = w[(j - 1) as usize];
+                    // mu = 1 multiplies exactly: a homogeneous bar is Algorithm A bit for bit.
+                    let wj = w[(j - 1) as usize] * mu[(n_side as i64 + s * j) as usize];
                     if aj > 0.0 {
                         acc[off(s * j)] -= wj * aj;
                         acc[off(0)] += wj * aj;
@@ -334,11 +409,8 @@ impl BlendOperator {
                     }
                 }
             }
-            let part = if i == 0 || i + 1 == n {
-                LocalPart::End
-            } else {
-                LocalPart::Lattice { d1: d[1], d2: d[2], three_point: local3 }
-            };
+            let part =
+                if end { LocalPart::End } else { LocalPart::Lattice { d1: d[1], d2: d[2], three_point: local3 } };
             (col, val, is_transition, part)
         };
         let rows: Vec<(Vec<usize>, Vec<f64>, bool, LocalPart)> = (0..n).into_par_iter().map(row).collect();
@@ -408,11 +480,11 @@ impl BlendOperator {
             // Subtract the assembled local part, leaving the nonlocal part.
             match self.local[i] {
                 LocalPart::End => {}
-                LocalPart::Ce { k } => {
+                LocalPart::Ce { k_left, k_right } => {
                     let (dl, dr) = (x[i] - x[i - 1], x[i + 1] - x[i]);
-                    add(&mut val, i, i - 1, k / dl)?;
-                    add(&mut val, i, i, -(k / dl + k / dr))?;
-                    add(&mut val, i, i + 1, k / dr)?;
+                    add(&mut val, i, i - 1, k_left / dl)?;
+                    add(&mut val, i, i, -(k_left / dl + k_right / dr))?;
+                    add(&mut val, i, i + 1, k_right / dr)?;
                 }
                 LocalPart::Lattice { d1, d2, three_point } => {
                     if !three_point {
@@ -429,10 +501,11 @@ impl BlendOperator {
         for i in 0..n - 1 {
             // An end row has no local part of its own: its face takes the neighbour's D2.
             let (l, r) = (self.local[i], self.local[i + 1]);
+            // (Two CE rows share the face modulus: (k + k)/2 = k exactly, the CE part is kept.)
             let (dl, dr) = match (l, r) {
-                (LocalPart::End, _) => (r.d2(), r.d2()),
-                (_, LocalPart::End) => (l.d2(), l.d2()),
-                _ => (l.d2(), r.d2()),
+                (LocalPart::End, _) => (r.d2(false), r.d2(false)),
+                (_, LocalPart::End) => (l.d2(true), l.d2(true)),
+                _ => (l.d2(true), r.d2(false)),
             };
             let kf = 0.5 * (dl + dr) / (x[i + 1] - x[i]);
             if kf == 0.0 {

@@ -37,6 +37,22 @@ pub enum Load {
     },
 }
 
+impl Load {
+    /// The nodes of `x` (ascending) this load puts a force on; `None` for a point load that
+    /// sits on no node (farther than `tol` from every one).
+    pub fn nodes(&self, x: &[f64], tol: f64) -> Option<Vec<usize>> {
+        match self {
+            Load::Point { x: xp, .. } => {
+                let i = x.partition_point(|&p| p < xp - tol);
+                (i < x.len() && (x[i] - xp).abs() <= tol).then(|| vec![i])
+            }
+            Load::Body { from, to, .. } => {
+                Some((0..x.len()).filter(|&i| x[i] >= from - tol && x[i] <= to + tol).collect())
+            }
+        }
+    }
+}
+
 /// Solver choice for the 1D models.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BlendSolver {
@@ -66,6 +82,12 @@ pub struct BlendSolution {
     pub transition: Vec<bool>,
     /// Accuracy and cost.
     pub report: SolveReport,
+    /// The reactions of the supports at `x <= 0` and `x >= L`: `sum (A u - f)` over their
+    /// Dirichlet nodes (the end rows of the blended and CE operators are the force on the end
+    /// node's half cell; see the crate docs on force balance).
+    pub reactions: [f64; 2],
+    /// The total applied force `sum_i f_i`.
+    pub applied: f64,
 }
 
 impl BlendSolution {
@@ -102,31 +124,30 @@ impl BlendSolver {
     }
 }
 
-/// The nodal forces of `loads` on the nodes of `op` (`tol`: how far from a node a point load
-/// may sit).
-fn load_vector(op: &BlendOperator, loads: &[Load], tol: f64) -> Result<Vec<f64>, BlendError> {
-    let x = &op.mesh.x;
+/// The nodal forces of `loads` on the nodes `x` (ascending; a node's share of a body load is
+/// `density` times its dual cell length `(x_{i+1} - x_{i-1}) / 2`); `tol` is how far from a
+/// node a point load may sit.
+pub fn nodal_forces(x: &[f64], loads: &[Load], tol: f64) -> Result<Vec<f64>, BlendError> {
     let n = x.len();
     let mut f = vec![0.0; n];
+    let dual = |i: usize| {
+        let left = if i > 0 { x[i] - x[i - 1] } else { 0.0 };
+        let right = if i + 1 < n { x[i + 1] - x[i] } else { 0.0 };
+        0.5 * (left + right)
+    };
     for (k, l) in loads.iter().enumerate() {
-        match l {
-            Load::Point { x: xp, force } => {
-                let i = x.partition_point(|&p| p < xp - tol);
-                if i >= n || (x[i] - xp).abs() > tol {
-                    return Err(BlendError::param(
-                        format!("loads[{k}].at"),
-                        format!("no node at x = {xp}: point loads must sit on a node"),
-                    ));
-                }
-                f[i] += force;
-            }
-            Load::Body { from, to, density } => {
-                for i in 0..n {
-                    if x[i] >= from - tol && x[i] <= to + tol {
-                        f[i] += density * op.mesh.dual_length(i);
-                    }
-                }
-            }
+        let Some(nodes) = l.nodes(x, tol) else {
+            let xp = if let Load::Point { x, .. } = l { *x } else { f64::NAN };
+            return Err(BlendError::param(
+                format!("loads[{k}].at"),
+                format!("no node at x = {xp}: point loads must sit on a node"),
+            ));
+        };
+        for i in nodes {
+            f[i] += match l {
+                Load::Point { force, .. } => *force,
+                Load::Body { density, .. } => density * dual(i),
+            };
         }
     }
     Ok(f)
@@ -146,10 +167,17 @@ pub fn constraints_and_loads(
     let n = op.len();
     let x = &op.mesh.x;
     let tol = 1e-9 * params.dx;
-    let f = load_vector(op, loads, tol)?;
+    let f = nodal_forces(x, loads, tol)?;
     // Dirichlet nodes and values.
     let mut fixed = Vec::new();
     if kind == ModelKind::PurePd {
+        if !params.material.defects.is_empty() {
+            // The boundary values come from the CE solution, which cannot hold a defect.
+            return Err(BlendError::param(
+                "material.defects",
+                "the pure PD reference takes its boundary values from the CE solution, which has no defects",
+            ));
+        }
         let ce = solve_model(params, ModelKind::PureCe, u_left, u_right, loads, BlendSolver::Auto)?;
         let m = ce.x.len();
         let slope_l = (ce.u[1] - ce.u[0]) / (ce.x[1] - ce.x[0]);
@@ -187,6 +215,15 @@ pub fn solve_model(
     let solved = linpd_solve::solve_model(&op, &bc, &f, &solver.spec(), &linpd_core::NoProgress)?;
     let mut report = solved.report;
     report.timings.assemble += t_asm;
+    // Reactions: A u - f at the Dirichlet nodes of each end (see the crate docs).
+    let mut au = vec![0.0; op.len()];
+    op.apply(&solved.u, &mut au);
+    let mut reactions = [0.0; 2];
+    for (i, &x) in op.mesh.x.iter().enumerate() {
+        if bc.dofs().is_constrained(i) {
+            reactions[usize::from(x > 0.5 * params.length)] += au[i] - f[i];
+        }
+    }
     Ok(BlendSolution {
         kind,
         x: op.mesh.x.clone(),
@@ -194,5 +231,7 @@ pub fn solve_model(
         beta: op.beta.clone(),
         transition: op.transition.clone(),
         report,
+        reactions,
+        applied: f.iter().sum(),
     })
 }

@@ -13,6 +13,12 @@
 //! the translations in its null space and `1^T A = 0` (symmetric bond-based and LPS operators),
 //! `sum_c R_c + sum_l F_l = 1^T A u = 0`: the reactions balance the applied loads. `A u` is one
 //! product of the model's full operator.
+//!
+//! 1D blend and CE scenes build theirs in [`crate::blend`] from the reactions of
+//! [`linpd_blend::BlendSolution`]: the same definition, with the end rows of the blended
+//! operator holding the local model's force on the end half cells. CE and pure-PD rows balance
+//! to round-off; the transition rows of a blended model balance only when the solution is
+//! quadratic on their stencils (the linpd-blend crate docs, "Force balance").
 
 use crate::problem::NodeSet;
 use crate::{Load, Problem};
@@ -118,6 +124,14 @@ impl Problem {
             }
             constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction });
         }
+        Balance::from_parts(d, loads, constraints)
+    }
+}
+
+impl Balance {
+    /// The totals and the relative imbalance of per-load and per-constraint entries with `d`
+    /// components.
+    pub(crate) fn from_parts(d: usize, loads: Vec<LoadBalance>, constraints: Vec<ConstraintBalance>) -> Balance {
         let applied: Vec<f64> = (0..d).map(|a| loads.iter().map(|l: &LoadBalance| l.force[a]).sum()).collect();
         let reaction: Vec<f64> =
             (0..d).map(|a| constraints.iter().map(|c: &ConstraintBalance| c.reaction[a]).sum()).collect();

@@ -6,13 +6,16 @@
 //! `model.horizon` and `model.micromodulus` give `eps` (a multiple of `dx`), the kernel and `K`
 //! (discrete normalization, the paper's `eps^2 -> N(N+1) dx^2`); constraints must fix exactly the
 //! end nodes `x = 0` and `x = L`; loads are point loads on nodes (`b_i = delta_ip / dx` is a
-//! unit force) or body-force densities on boxes.
+//! unit force) or body-force densities on boxes; `model.material` (phases, bond rule, defects)
+//! is the bond model's, entering the blended rows as [`linpd_blend::material`] derives.
+//! Solutions carry the force balance: per load its nodes and force, per constraint its
+//! reaction ([`linpd_blend::BlendSolution::reactions`]).
 
 use crate::raw::{RawBlending, RawModelKind, RawNormalize, RawProblem, RawSolverKind};
-use crate::{BlendScene, Constraint, Load, Problem, ProblemError, Solution};
+use crate::{Balance, BlendScene, Constraint, ConstraintBalance, Load, LoadBalance, Problem, ProblemError, Solution};
 use linpd_blend::{solve_model, BlendParams, BlendSolver, Blending, ModelKind, Regions};
 use linpd_core::progress::Progress;
-use linpd_core::{Grid, Region};
+use linpd_core::{Grid, Material, Region};
 
 /// Validates the blend-specific keys and translates constraints and loads.
 pub(crate) fn scene(
@@ -20,6 +23,7 @@ pub(crate) fn scene(
     raw: &RawProblem,
     grid: &Grid,
     horizon: f64,
+    material: Material,
     constraints: &[Constraint],
     loads: &[Load],
 ) -> Result<BlendScene, ProblemError> {
@@ -53,8 +57,9 @@ pub(crate) fn scene(
             format!("{name} models use the discrete normalization (eq. (19)): set \"discrete\""),
         ));
     }
-    // partial_volume, plane, material and (for ce) the blending keys are not keys of these
-    // models: rejected by `check_model_keys` before this point.
+    // partial_volume, plane and (for ce) the blending keys are not keys of these models:
+    // rejected by `check_model_keys` before this point. `material` was validated (paths,
+    // moduli, defect shapes) by `crate::problem::material`.
     let blended = kind == RawModelKind::Blend;
     let (regions, blending) = if blended {
         let r = m.regions.ok_or_else(|| {
@@ -100,8 +105,10 @@ pub(crate) fn scene(
         blending,
         ce_spacing: m.ce_spacing,
         hog: m.hog.unwrap_or(false),
+        material,
     };
-    params.validate().map_err(|e| match e {
+    let kind = if blended { ModelKind::Blended } else { ModelKind::PureCe };
+    params.validate().and_then(|()| params.check_material(kind)).map_err(|e| match e {
         linpd_blend::BlendError::Parameter { name, reason } if name == "horizon" => {
             ProblemError::invalid("model.horizon", reason)
         }
@@ -117,14 +124,17 @@ pub(crate) fn scene(
     // Dirichlet conditions: exactly the two end nodes.
     let n = grid.len();
     let (mut left, mut right) = (None, None);
+    let mut constraint_ends = vec![[false; 2]; constraints.len()];
     for (k, c) in constraints.iter().enumerate() {
         for node in c.region.nodes(grid) {
             let x = grid.position(node)[0];
             let v = c.displacement(&[x], 0);
             if node == 0 {
                 left = Some(v);
+                constraint_ends[k][0] = true;
             } else if node == n - 1 {
                 right = Some(v);
+                constraint_ends[k][1] = true;
             } else {
                 return Err(ProblemError::invalid(
                     format!("constraints[{k}].region"),
@@ -148,10 +158,14 @@ pub(crate) fn scene(
         }
     };
     let mut out = Vec::new();
+    let mut load_of = Vec::new();
+    let mut load_kinds = Vec::new();
     for (k, l) in loads.iter().enumerate() {
+        load_kinds.push(if matches!(l, Load::Point { .. }) { "point" } else { "body" });
         match l {
             Load::Point { node, force } => {
-                out.push(linpd_blend::Load::Point { x: grid.position(*node)[0], force: force[0] })
+                out.push(linpd_blend::Load::Point { x: grid.position(*node)[0], force: force[0] });
+                load_of.push(k);
             }
             Load::Body { region, density } => {
                 let boxes = match region {
@@ -173,11 +187,22 @@ pub(crate) fn scene(
                         ))
                     }
                 };
-                out.extend(boxes.into_iter().map(|(a, b)| linpd_blend::Load::Body {
-                    from: a,
-                    to: b,
-                    density: density[0],
-                }));
+                // A node in two boxes of a union is loaded once, as for lattice scenes: merge
+                // boxes that overlap or touch (closed intervals sharing a node).
+                let mut boxes: Vec<(f64, f64)> = boxes;
+                boxes.sort_by(|p, q| p.0.total_cmp(&q.0));
+                let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
+                let mut merged: Vec<(f64, f64)> = Vec::new();
+                for (a, b) in boxes {
+                    match merged.last_mut() {
+                        Some(last) if a <= last.1 + tol => last.1 = last.1.max(b),
+                        _ => merged.push((a, b)),
+                    }
+                }
+                for (a, b) in merged {
+                    out.push(linpd_blend::Load::Body { from: a, to: b, density: density[0] });
+                    load_of.push(k);
+                }
             }
             Load::Resultant { .. } => {
                 return Err(ProblemError::invalid(
@@ -198,14 +223,7 @@ pub(crate) fn scene(
             ))
         }
     };
-    Ok(BlendScene {
-        params,
-        kind: if blended { ModelKind::Blended } else { ModelKind::PureCe },
-        u_left,
-        u_right,
-        loads: out,
-        solver,
-    })
+    Ok(BlendScene { params, kind, u_left, u_right, loads: out, load_of, load_kinds, constraint_ends, solver })
 }
 
 /// Solves a blend scene.
@@ -217,13 +235,23 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Progress) -> Resu
         b.params.n_side().unwrap_or(0)
     ));
     let s = solve_model(&b.params, b.kind, b.u_left, b.u_right, &b.loads, b.solver).map_err(|e| match e {
-        linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
+        // Point loads are checked against the mesh here (a coarse CE mesh has fewer nodes than
+        // the grid): name the scene's load, not the blend load it became.
+        linpd_blend::BlendError::Parameter { name, reason } => match name
+            .strip_prefix("loads[")
+            .and_then(|r| r.split_once(']'))
+            .and_then(|(k, rest)| Some((b.load_of.get(k.parse::<usize>().ok()?)?, rest)))
+        {
+            Some((k, rest)) => ProblemError::invalid(format!("loads[{k}]{rest}"), reason),
+            None => ProblemError::invalid(name, reason),
+        },
         other => ProblemError::Blend(other),
     })?;
     progress.phase(&format!(
         "done: {} unknowns, solver {}, relative residual {:.2e}",
         s.report.n, s.report.solver, s.report.rel_residual
     ));
+    let balance = balance(b, &s);
     Ok(Solution {
         name: name.to_string(),
         dim: 1,
@@ -233,9 +261,43 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Progress) -> Resu
         volumes: Vec::new(),
         n_bonds: 0,
         report: s.report,
-        balance: None,
+        balance: Some(balance),
         strain_energy_density: None,
         strain: None,
         dilatation: None,
     })
+}
+
+/// The balance of a solved blend scene (the definitions of [`crate::balance`]): per scene load
+/// the mesh nodes it caught and its total force, per constraint the end nodes it holds (an end
+/// two constraints hold belongs to the first) and their reactions `A u - f`.
+fn balance(b: &BlendScene, s: &linpd_blend::BlendSolution) -> Balance {
+    let tol = 1e-9 * b.params.dx;
+    let mut loads: Vec<LoadBalance> =
+        b.load_kinds.iter().map(|&kind| LoadBalance { kind, nodes: 0, force: vec![0.0] }).collect();
+    for (l, &k) in b.loads.iter().zip(&b.load_of) {
+        // The loads were applied in the solve, so each one's nodes exist.
+        let nodes = l.nodes(&s.x, tol).unwrap_or_default();
+        let f = linpd_blend::nodal_forces(&s.x, std::slice::from_ref(l), tol).unwrap_or_default();
+        loads[k].nodes += nodes.len();
+        loads[k].force[0] += f.iter().sum::<f64>();
+    }
+    let mut owned = [false; 2];
+    let constraints = b
+        .constraint_ends
+        .iter()
+        .map(|ends| {
+            let mut reaction = 0.0;
+            let mut dofs = 0;
+            for e in 0..2 {
+                if ends[e] && !owned[e] {
+                    owned[e] = true;
+                    dofs += 1;
+                    reaction += s.reactions[e];
+                }
+            }
+            ConstraintBalance { nodes: ends.iter().filter(|&&h| h).count(), dofs, reaction: vec![reaction] }
+        })
+        .collect();
+    Balance::from_parts(1, loads, constraints)
 }

@@ -194,6 +194,13 @@ pub struct BlendScene {
     pub(crate) u_right: f64,
     /// Loads.
     pub(crate) loads: Vec<linpd_blend::Load>,
+    /// The scene load (`loads[k]`) each entry of `loads` comes from (a union of boxes gives
+    /// one body load per merged interval).
+    pub(crate) load_of: Vec<usize>,
+    /// Per scene load, its kind for the balance (`point`, `body`).
+    pub(crate) load_kinds: Vec<&'static str>,
+    /// Per constraint, whether it holds `x = 0` and `x = L`.
+    pub(crate) constraint_ends: Vec<[bool; 2]>,
     /// Solver.
     pub(crate) solver: linpd_blend::BlendSolver,
 }
@@ -554,9 +561,15 @@ impl Problem {
                 ));
             }
             match model_kind {
-                RawModelKind::Blend | RawModelKind::Ce => {
-                    ModelSpec::Blend(crate::blend::scene(model_kind, &raw, &grid, horizon, &constraints, &loads)?)
-                }
+                RawModelKind::Blend | RawModelKind::Ce => ModelSpec::Blend(crate::blend::scene(
+                    model_kind,
+                    &raw,
+                    &grid,
+                    horizon,
+                    material,
+                    &constraints,
+                    &loads,
+                )?),
                 _ => {
                     // The amplitude now, not at the first solve: a modulus that overflows it
                     // (1e308) is a validation error naming the overflow.

@@ -263,8 +263,9 @@ impl RawModelKind {
                 "blending_table",
                 "ce_spacing",
                 "hog",
+                "material",
             ],
-            RawModelKind::Ce => &["horizon", "micromodulus"],
+            RawModelKind::Ce => &["horizon", "micromodulus", "material"],
             RawModelKind::Coarsened => &["moduli"],
         }
     }

@@ -31,8 +31,8 @@ pub struct Solution {
     pub n_bonds: usize,
     /// Accuracy and cost.
     pub report: SolveReport,
-    /// Loads, constraints, reactions and the force balance (not for blend scenes, whose 1D
-    /// operator is solved by its own path).
+    /// Loads, constraints, reactions and the force balance (every static scene; for blend and
+    /// CE scenes built by `crate::blend` from the solution's end reactions).
     pub balance: Option<crate::Balance>,
     /// Strain energy density `W_i` per node (energy per volume; `sum_i W_i V_i = u.A u / 2`,
     /// [`crate::balance::nodal_energy`] for bond-based models,
