@@ -244,6 +244,11 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) ->
     let balance = p.balance(&c.model, &u);
     let volumes: Vec<f64> = (0..p.nodes.len()).map(|n| p.nodes.volume(n)).collect();
     let strain = Some(crate::nodal_strain(&c.model, &volumes, &u));
+    // an energy density only where K is the Hessian of an energy (symmetric)
+    let strain_energy_density = c.is_symmetric().then(|| {
+        let e = level_nodal_energy(c.model.stiffness(), p.dim(), &u);
+        e.iter().zip(&volumes).map(|(w, v)| w / v).collect()
+    });
     Ok(Solution {
         name: p.name.clone(),
         dim: p.dim(),
@@ -253,9 +258,40 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) ->
         volumes,
         n_bonds: c.n_bonds,
         balance: Some(balance),
-        strain_energy_density: None,
+        strain_energy_density,
         strain,
         dilatation: None,
         report,
     })
+}
+
+/// The strain energy `W_i V_i` of every node of a level with a **symmetric** `K`: as for the
+/// bond model ([`crate::balance::nodal_energy`]), with zero block-row sums (`K_ii = -sum_{j != i}
+/// K_ij`, true of every level by construction) and `K_ji = K_ij^T`,
+///
+/// ```text
+/// u.K u / 2 = -(1/4) sum_i sum_{j != i} (u_j - u_i)^T K_ji (u_j - u_i),
+/// ```
+///
+/// and node `i` takes its term: read from the `d` columns of node `i` (the blocks `K_ji`), so the
+/// values sum to `u.K u / 2`. An unsymmetric level (reciprocal but unsymmetric tensors, or
+/// non-reciprocal moduli) is not the Hessian of an energy, and gets no density.
+fn level_nodal_energy(k: &linpd_core::Csc, d: usize, u: &[f64]) -> Vec<f64> {
+    let (cp, ri, val) = (k.symbolic().col_ptr(), k.symbolic().row_idx(), k.val());
+    let n = u.len() / d;
+    (0..n)
+        .map(|i| {
+            let mut w = 0.0;
+            for b in 0..d {
+                let c = d * i + b;
+                for p in cp[c]..cp[c + 1] {
+                    let (j, a) = (ri[p] / d, ri[p] % d);
+                    if j != i {
+                        w -= 0.25 * (u[d * j + a] - u[d * i + a]) * val[p] * (u[d * j + b] - u[d * i + b]);
+                    }
+                }
+            }
+            w
+        })
+        .collect()
 }

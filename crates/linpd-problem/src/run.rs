@@ -36,8 +36,8 @@ pub struct Solution {
     pub balance: Option<crate::Balance>,
     /// Strain energy density `W_i` per node (energy per volume; `sum_i W_i V_i = u.A u / 2`,
     /// [`crate::balance::nodal_energy`] for bond-based models,
-    /// [`linpd_lps::LpsModel::linearized_energy_density`] for LPS): not for blend scenes and
-    /// coarsened levels.
+    /// [`linpd_lps::LpsModel::linearized_energy_density`] for LPS, the same split of `K`'s
+    /// blocks for symmetric coarsened levels): not for blend scenes and unsymmetric levels.
     pub strain_energy_density: Option<Vec<f64>>,
     /// Small-strain tensor per node, least squares over the node's partners
     /// ([`crate::fields`]): not for blend scenes.
