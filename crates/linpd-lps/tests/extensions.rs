@@ -329,17 +329,7 @@ fn per_node_volumes_keep_the_tangent_consistent() {
             (0..g.len()).any(|n| (m.node_volume(n) - g.volume()).abs() > 1e-3 * g.volume()),
             "dim {dim}: no cut cell"
         );
-        let (ad, _) = checked_tangent(&m, dim);
-        let n = ad.len();
-        let u = random_vec(n, 7);
-        let mut y = vec![0.0; n];
-        m.apply_tangent(&u, &mut y);
-        let au: Vec<f64> = ad.iter().map(|row| row.iter().zip(&u).map(|(a, b)| a * b).sum()).collect();
-        let diff = y.iter().zip(&au).fold(0.0f64, |x, (a, b)| x.max((a - b).abs()));
-        assert!(diff <= 1e-12 * max_abs(std::slice::from_ref(&au)), "dim {dim}: matrix-free {diff:e}");
-        let half_uau = 0.5 * u.iter().zip(&au).map(|(a, b)| a * b).sum::<f64>();
-        let w: f64 = m.linearized_energy_density(&u).iter().enumerate().map(|(i, w)| w * m.node_volume(i)).sum();
-        assert!((w - half_uau).abs() <= 1e-12 * half_uau.abs(), "dim {dim}: energy {w:e} vs {half_uau:e}");
+        check_consistency(&m, dim);
     }
 }
 
@@ -380,21 +370,27 @@ fn point_cloud_models_keep_the_tangent_consistent() {
         };
         let m = LpsModel::on_points(dim, positions, &volumes, &p, &[cut]).unwrap();
         assert!(m.grid().is_none());
-        let (ad, _) = checked_tangent(&m, dim);
-        let n = ad.len();
-        let u = random_vec(n, 7);
-        let mut y = vec![0.0; n];
-        m.apply_tangent(&u, &mut y);
-        let au: Vec<f64> = ad.iter().map(|row| row.iter().zip(&u).map(|(a, b)| a * b).sum()).collect();
-        let diff = y.iter().zip(&au).fold(0.0f64, |x, (a, b)| x.max((a - b).abs()));
-        assert!(diff <= 1e-12 * max_abs(std::slice::from_ref(&au)), "dim {dim}: matrix-free {diff:e}");
-        let half_uau = 0.5 * u.iter().zip(&au).map(|(a, b)| a * b).sum::<f64>();
-        let w: f64 = m.linearized_energy_density(&u).iter().enumerate().map(|(i, w)| w * m.node_volume(i)).sum();
-        assert!((w - half_uau).abs() <= 1e-12 * half_uau.abs(), "dim {dim}: energy {w:e} vs {half_uau:e}");
+        check_consistency(&m, dim);
         // no correction on a cloud: a named error, not a panic
         let e = m.corrected(SurfaceCorrection::Energy).unwrap_err().to_string();
         assert!(e.contains("lattice"), "{e}");
     }
+}
+
+/// [`checked_tangent`], then the matrix-free apply equals the assembled product (1e-12) and the
+/// volume-weighted energy densities sum to `u.A u / 2` (1e-12) on a random `u`.
+fn check_consistency(m: &LpsModel, dim: usize) {
+    let (ad, _) = checked_tangent(m, dim);
+    let n = ad.len();
+    let u = random_vec(n, 7);
+    let mut y = vec![0.0; n];
+    m.apply_tangent(&u, &mut y);
+    let au: Vec<f64> = ad.iter().map(|row| row.iter().zip(&u).map(|(a, b)| a * b).sum()).collect();
+    let diff = y.iter().zip(&au).fold(0.0f64, |x, (a, b)| x.max((a - b).abs()));
+    assert!(diff <= 1e-12 * max_abs(std::slice::from_ref(&au)), "dim {dim}: matrix-free {diff:e}");
+    let half_uau = 0.5 * u.iter().zip(&au).map(|(a, b)| a * b).sum::<f64>();
+    let w: f64 = m.linearized_energy_density(&u).iter().enumerate().map(|(i, w)| w * m.node_volume(i)).sum();
+    assert!((w - half_uau).abs() <= 1e-12 * half_uau.abs(), "dim {dim}: energy {w:e} vs {half_uau:e}");
 }
 
 /// The assembled tangent of `m` as a dense matrix and its largest entry, after checking that

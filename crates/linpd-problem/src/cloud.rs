@@ -360,8 +360,21 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
     let material = crate::problem::material_with_tags(&raw_model.material, dim, true)?;
     let nodes = cloud.into_nodes(dim);
     let node_moduli = tagged_moduli(&raw_model.material, &nodes, micromodulus.reference_modulus())?;
+    check_defects(&material, &nodes, horizon)?;
+    let model = ModelSpec::Bond(BondModel {
+        horizon,
+        micromodulus,
+        material,
+        node_moduli,
+        surface: linpd_lps::SurfaceCorrection::None,
+    });
+    cloud_problem(raw, nodes, model)
+}
+
+/// Every defect of a cloud scene must cut a bond of the cloud.
+fn check_defects(material: &linpd_core::Material, nodes: &LevelNodes, horizon: f64) -> Result<(), ProblemError> {
     if !material.defects.is_empty() {
-        let family = BondFamily::from_points(&nodes.positions, dim, horizon);
+        let family = BondFamily::from_points(&nodes.positions, nodes.dim, horizon);
         let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
         if let Some(k) = material.defect_cutting_nothing_in(&family, &nodes.positions, tol) {
             return Err(ProblemError::invalid(
@@ -370,7 +383,13 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
             ));
         }
     }
-    let (constraints, loads) = constraints_and_loads(&raw, dim, &nodes)?;
+    Ok(())
+}
+
+/// The problem of a cloud scene with its validated model: constraints, loads, solver and output
+/// as for a grid scene (no map slice, no dynamics).
+fn cloud_problem(raw: RawProblem, nodes: LevelNodes, model: ModelSpec) -> Result<Problem, ProblemError> {
+    let (constraints, loads) = constraints_and_loads(&raw, raw.dimension, &nodes)?;
     let solver = solver_spec(&raw.solver)?;
     Ok(Problem {
         output_dir: crate::problem::output_dir(raw.output.dir.as_deref(), &raw.name)?,
@@ -378,13 +397,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         slice: None,
         name: raw.name,
         nodes: Nodes::Cloud(nodes),
-        model: ModelSpec::Bond(BondModel {
-            horizon,
-            micromodulus,
-            material,
-            node_moduli,
-            surface: linpd_lps::SurfaceCorrection::None,
-        }),
+        model,
         constraints,
         loads,
         solver,
@@ -410,30 +423,8 @@ fn lps_on_cloud(raw: RawProblem, cloud: Cloud, horizon: f64, ratio: f64) -> Resu
     )?;
     let material = crate::problem::material(&m.material, dim)?;
     let nodes = cloud.into_nodes(dim);
-    if !material.defects.is_empty() {
-        let family = BondFamily::from_points(&nodes.positions, dim, horizon);
-        let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
-        if let Some(k) = material.defect_cutting_nothing_in(&family, &nodes.positions, tol) {
-            return Err(ProblemError::invalid(
-                format!("model.material.defects[{k}]"),
-                "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
-            ));
-        }
-    }
-    let (constraints, loads) = constraints_and_loads(&raw, dim, &nodes)?;
-    let solver = solver_spec(&raw.solver)?;
-    Ok(Problem {
-        output_dir: crate::problem::output_dir(raw.output.dir.as_deref(), &raw.name)?,
-        plot: raw.output.plot.unwrap_or(true),
-        slice: None,
-        name: raw.name,
-        nodes: Nodes::Cloud(nodes),
-        model: ModelSpec::Lps(params, material.defects, linpd_lps::SurfaceCorrection::None),
-        constraints,
-        loads,
-        solver,
-        dynamics: None,
-    })
+    check_defects(&material, &nodes, horizon)?;
+    cloud_problem(raw, nodes, ModelSpec::Lps(params, material.defects, linpd_lps::SurfaceCorrection::None))
 }
 
 #[cfg(test)]
