@@ -8,14 +8,15 @@
 //! W_i = (c / 4) sum_{j in F_i} g(|xi|) nu V_j |xi|^2 (n . eps . n)^2,      n = xi / |xi|,
 //! ```
 //!
-//! a contraction of the node's fourth bond moments `T_i` ([`linpd_core::surface`], eq. (S1),
-//! with `beta_ij = g(|xi|) nu V_j |xi|^2`). [`linpd_core::surface::fit_moments`] gives every node
-//! the factor `phi_i(n) = 1 + lambda_i . psi(n)` (a quartic form in the bond direction, (S2))
-//! closest to 1 that makes `T_i` equal to the interior lattice moments `T_0`, i.e. that gives the
-//! node the interior's energy density for **every** affine deformation (the "few affine
-//! states" of Le & Bobaru's energy method, all of them at once: the 15 (3D) or 5 (2D)
-//! independent ones). A bond joins two nodes with different factors; as in the energy method
-//! the bond gets the mean of its ends,
+//! a contraction of the node's fourth bond moments ([`linpd_core::surface`], eq. (S1), with
+//! `beta_ij = g(|xi|) nu V_j |xi|^2`). [`linpd_core::surface::fit_moments`] gives every node the
+//! positive factor `phi_i(n) = exp(lambda_i . psi(n))` of the bond direction ((S2)) that makes
+//! its even moments equal the interior lattice's, i.e. that gives the node the interior's energy
+//! density for the uniaxial strains and simple shears along the lattice axes and every
+//! combination of them (the "few affine states" of Le & Bobaru's energy method, 6 in 3D and 3 in
+//! 2D, matched at once; states coupling normal strains to shears cannot be matched at edges
+//! with positive factors). A bond joins two nodes with different factors; as in the energy
+//! method the bond gets the mean of its ends,
 //!
 //! ```text
 //! w_ij  ->  w_ij (phi_i(n_ij) + phi_j(n_ij)) / 2,                                        (S3)
@@ -120,6 +121,7 @@ impl BondOperator {
             factor_range: if corrected == 0 { [1.0, 1.0] } else { range },
             max_mismatch: fits.iter().fold(0.0, |m, f| m.max(f.mismatch)),
             max_iterations: fits.iter().map(|f| f.iterations).max().unwrap_or(0),
+            out_of_reach_nodes: fits.iter().filter(|f| f.out_of_reach).count(),
             seconds: start.elapsed().as_secs_f64(),
         };
         (self, summary)

@@ -129,12 +129,15 @@ pub struct MomentFit {
     pub mismatch: f64,
     /// Newton steps taken.
     pub iterations: usize,
+    /// True when no bounded positive factor matches the target and the fit is the regularized
+    /// one ([`fit_moments`]).
+    pub out_of_reach: bool,
 }
 
 impl MomentFit {
     /// The fit that leaves every bond unchanged (`lambda = 0`).
     pub fn identity(dim: usize) -> Self {
-        MomentFit { lambda: vec![0.0; n_moments(dim)], mismatch: 0.0, iterations: 0 }
+        MomentFit { lambda: vec![0.0; n_moments(dim)], mismatch: 0.0, iterations: 0, out_of_reach: false }
     }
 
     /// The factor `phi(n)` for the unit bond direction `n` (exactly 1 for an interior node).
@@ -154,9 +157,10 @@ impl MomentFit {
     }
 }
 
-/// `exp(x)`, capped at `exp(600)` so that a run-away fit cannot overflow.
+/// `exp(x)`, capped at `exp(+-600)` so that a run-away fit cannot overflow (the regularized
+/// refit of [`fit_moments`] replaces such fits).
 fn exponent_factor(x: f64) -> f64 {
-    x.min(600.0).exp()
+    x.clamp(-600.0, 600.0).exp()
 }
 
 /// Solves (S2) for one node: the positive factor `phi(n) = exp(lambda . psi(n))` whose bonds'
@@ -164,11 +168,21 @@ fn exponent_factor(x: f64) -> f64 {
 /// `L(lambda) = sum_j beta_j phi_j - lambda . target` (gradient `T(phi) - target`, Hessian the
 /// `phi`-weighted Gram matrix `sum_j beta_j phi_j psi_j psi_j^T`) from `lambda = 0`, with
 /// backtracking on `L`. `bonds` are `(unit direction, beta)` with `beta >= 0`.
+///
+/// **Out of reach.** When no positive factor matches the target (a family whose directions all
+/// lie in a narrow wedge: the tip of a corner sharper than about 60 degrees in 2D), the dual has
+/// no minimum and `lambda` runs away (measured: `|lambda| ~ 1e9` after 60 steps, deleting some
+/// bonds with factors `exp(-1e9)`). Then the fit is redone on the regularized dual
+/// `L + (rho/2) |lambda|^2` with `rho = 1` (in units of `|target|`), whose minimizer is bounded:
+/// the moments are matched as far as bounded factors allow, [`MomentFit::out_of_reach`] says
+/// so, and [`MomentFit::mismatch`] says by how much.
 pub fn fit_moments(dim: usize, bonds: &[([f64; 3], f64)], target: &[f64]) -> MomentFit {
     let k = n_moments(dim);
     assert_eq!(target.len(), k, "fit_moments: target length");
-    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     let scale = norm(target);
+    if scale == 0.0 {
+        return MomentFit::identity(dim);
+    }
     let psi: Vec<Vec<f64>> = bonds
         .iter()
         .map(|(n, _)| {
@@ -177,72 +191,113 @@ pub fn fit_moments(dim: usize, bonds: &[([f64; 3], f64)], target: &[f64]) -> Mom
             p
         })
         .collect();
-    // L, gradient and Hessian at lambda (all divided by |target| to keep them O(1)).
-    let eval = |lambda: &[f64]| -> (f64, Vec<f64>, Vec<f64>) {
-        let (mut l, mut g, mut hess) = (0.0, vec![0.0; k], vec![0.0; k * k]);
-        for ((_, beta), p) in bonds.iter().zip(&psi) {
-            let w = beta / scale * exponent_factor(lambda.iter().zip(p).map(|(a, b)| a * b).sum());
-            l += w;
+    let dual = Dual { bonds, psi: &psi, target, scale, k };
+    let first = dual.eval(&vec![0.0; k], 0.0);
+    if norm(&first.moment_residual) <= INTERIOR_RTOL {
+        return MomentFit { mismatch: norm(&first.moment_residual), ..MomentFit::identity(dim) };
+    }
+    let fit = dual.newton(0.0);
+    if fit.mismatch <= OUT_OF_REACH_RTOL {
+        return fit;
+    }
+    let bounded = dual.newton(1.0);
+    MomentFit { iterations: fit.iterations + bounded.iterations, out_of_reach: true, ..bounded }
+}
+
+/// A fit whose moments still miss by more than this (relative) after Newton on the plain dual
+/// is redone on the regularized dual ([`fit_moments`]).
+pub const OUT_OF_REACH_RTOL: f64 = 1e-8;
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// The dual of (S2) for one node, everything divided by `|target|` to keep it O(1).
+struct Dual<'a> {
+    bonds: &'a [([f64; 3], f64)],
+    psi: &'a [Vec<f64>],
+    target: &'a [f64],
+    scale: f64,
+    k: usize,
+}
+
+/// The dual's value, gradient and Hessian (lower triangle, row-major) at one `lambda`, and the
+/// moment residual `(T(phi) - target) / |target|` (the gradient without the regularization).
+struct DualAt {
+    value: f64,
+    gradient: Vec<f64>,
+    hessian: Vec<f64>,
+    moment_residual: Vec<f64>,
+}
+
+impl Dual<'_> {
+    fn eval(&self, lambda: &[f64], rho: f64) -> DualAt {
+        let k = self.k;
+        let (mut value, mut res, mut hessian) = (0.0, vec![0.0; k], vec![0.0; k * k]);
+        for ((_, beta), p) in self.bonds.iter().zip(self.psi) {
+            let w = beta / self.scale * exponent_factor(lambda.iter().zip(p).map(|(a, b)| a * b).sum());
+            value += w;
             for a in 0..k {
-                g[a] += w * p[a];
+                res[a] += w * p[a];
                 for b in 0..=a {
-                    hess[a * k + b] += w * p[a] * p[b];
+                    hessian[a * k + b] += w * p[a] * p[b];
                 }
             }
         }
         for a in 0..k {
-            l -= lambda[a] * target[a] / scale;
-            g[a] -= target[a] / scale;
+            value += -lambda[a] * self.target[a] / self.scale + 0.5 * rho * lambda[a] * lambda[a];
+            res[a] -= self.target[a] / self.scale;
+            hessian[a * k + a] += rho;
         }
-        (l, g, hess)
-    };
-    let mut lambda = vec![0.0; k];
-    if scale == 0.0 {
-        return MomentFit { lambda, mismatch: 0.0, iterations: 0 };
+        let gradient = res.iter().zip(lambda).map(|(r, l)| r + rho * l).collect();
+        DualAt { value, gradient, hessian, moment_residual: res }
     }
-    let (mut l, mut g, mut hess) = eval(&lambda);
-    if norm(&g) <= INTERIOR_RTOL {
-        return MomentFit { lambda, mismatch: norm(&g), iterations: 0 };
-    }
-    let mut iterations = 0;
-    while norm(&g) > FIT_RTOL && iterations < MAX_NEWTON {
-        iterations += 1;
-        // Newton step -H^+ g (pseudo-inverse: H is singular when the family's directions do not
-        // separate the monomials).
-        let eig = crate::eigen::symmetric_eigen(&hess, k);
-        let top = eig.values.iter().fold(0.0f64, |m, &v| m.max(v.abs()));
-        let mut step = vec![0.0; k];
-        for (s, &mu) in eig.values.iter().enumerate() {
-            if mu > 1e-14 * top {
-                let c = -(0..k).map(|a| eig.vector(a, s) * g[a]).sum::<f64>() / mu;
-                for (a, x) in step.iter_mut().enumerate() {
-                    *x += c * eig.vector(a, s);
+
+    /// Newton with backtracking from `lambda = 0` on the dual regularized by `rho`.
+    fn newton(&self, rho: f64) -> MomentFit {
+        let k = self.k;
+        let mut lambda = vec![0.0; k];
+        let mut at = self.eval(&lambda, rho);
+        let mut iterations = 0;
+        while norm(&at.gradient) > FIT_RTOL && iterations < MAX_NEWTON {
+            iterations += 1;
+            // Newton step -H^+ g (pseudo-inverse: H is singular when the family's directions do
+            // not separate the monomials).
+            let eig = crate::eigen::symmetric_eigen(&at.hessian, k);
+            let top = eig.values.iter().fold(0.0f64, |m, &v| m.max(v.abs()));
+            let mut step = vec![0.0; k];
+            for (s, &mu) in eig.values.iter().enumerate() {
+                if mu > 1e-14 * top {
+                    let c = -(0..k).map(|a| eig.vector(a, s) * at.gradient[a]).sum::<f64>() / mu;
+                    for (a, x) in step.iter_mut().enumerate() {
+                        *x += c * eig.vector(a, s);
+                    }
                 }
             }
-        }
-        let slope: f64 = step.iter().zip(&g).map(|(a, b)| a * b).sum();
-        if slope >= 0.0 {
-            break;
-        }
-        let mut t = 1.0;
-        let accepted = loop {
-            let trial: Vec<f64> = lambda.iter().zip(&step).map(|(a, b)| a + t * b).collect();
-            let (lt, gt, ht) = eval(&trial);
-            if lt <= l + 1e-4 * t * slope || norm(&gt) < norm(&g) {
-                lambda = trial;
-                (l, g, hess) = (lt, gt, ht);
-                break true;
+            let slope: f64 = step.iter().zip(&at.gradient).map(|(a, b)| a * b).sum();
+            if slope >= 0.0 {
+                break;
             }
-            t *= 0.5;
-            if t < 1e-10 {
-                break false;
+            let mut t = 1.0;
+            let accepted = loop {
+                let trial: Vec<f64> = lambda.iter().zip(&step).map(|(a, b)| a + t * b).collect();
+                let next = self.eval(&trial, rho);
+                if next.value <= at.value + 1e-4 * t * slope || norm(&next.gradient) < norm(&at.gradient) {
+                    lambda = trial;
+                    at = next;
+                    break true;
+                }
+                t *= 0.5;
+                if t < 1e-10 {
+                    break false;
+                }
+            };
+            if !accepted {
+                break;
             }
-        };
-        if !accepted {
-            break;
         }
+        MomentFit { lambda, mismatch: norm(&at.moment_residual), iterations, out_of_reach: false }
     }
-    MomentFit { lambda, mismatch: norm(&g), iterations }
 }
 
 /// The cost and effect of a surface correction, for the solve report.
@@ -258,6 +313,9 @@ pub struct CorrectionSummary {
     pub max_mismatch: f64,
     /// The most Newton steps one node's fit took.
     pub max_iterations: usize,
+    /// Nodes whose moments no bounded positive factor matches (sharp corners): fitted on the
+    /// regularized dual, their mismatch included in `max_mismatch`.
+    pub out_of_reach_nodes: usize,
     /// Wall time of computing and applying the factors.
     pub seconds: f64,
 }
@@ -268,13 +326,21 @@ impl CorrectionSummary {
     pub fn describe(&self) -> String {
         format!(
             "surface correction {}: {} nodes corrected, bond factors {:.3}..{:.3}, moments matched to {:.1e} \
-             (<= {} Newton steps), {:.3} s",
+             (<= {} Newton steps){}, {:.3} s",
             self.kind,
             self.corrected_nodes,
             self.factor_range[0],
             self.factor_range[1],
             self.max_mismatch,
             self.max_iterations,
+            if self.out_of_reach_nodes > 0 {
+                format!(
+                    "; {} nodes out of reach of positive factors (sharp corners), matched only partly",
+                    self.out_of_reach_nodes
+                )
+            } else {
+                String::new()
+            },
             self.seconds
         )
     }
@@ -345,6 +411,36 @@ mod tests {
         let fit = fit_moments(1, &[([1.0, 0.0, 0.0], 1.0), ([-1.0, 0.0, 0.0], 2.0)], &target);
         // Newton stops at FIT_RTOL of the moment: the factor is 2 to ~1e-13
         assert!((fit.factor(1, &[1.0, 0.0, 0.0]) - 2.0).abs() <= 1e-12);
+    }
+
+    /// The tip of a 45-degree wedge in 2D: bonds within [0, 45] degrees cannot carry the
+    /// interior's `n_x^2 n_y^2` and `n_y^4` with positive factors; the fit is the regularized
+    /// one, bounded (every factor within exp(+-10)), positive, and says it is out of reach.
+    #[test]
+    fn a_sharp_corner_is_fitted_bounded_and_flagged() {
+        let stencil = |keep: &dyn Fn(f64) -> bool| -> Vec<([f64; 3], f64)> {
+            crate::family::lattice_stencil(2, 3.0)
+                .into_iter()
+                .filter(|k| keep((k[1] as f64).atan2(k[0] as f64)))
+                .map(|k| {
+                    let v = [k[0] as f64, k[1] as f64, 0.0];
+                    let r = v[0].hypot(v[1]);
+                    (unit(v), r)
+                })
+                .collect()
+        };
+        let target = moments(2, stencil(&|_| true).iter().copied());
+        let wedge = stencil(&|a| (-1e-9..=std::f64::consts::FRAC_PI_4 + 1e-9).contains(&a));
+        let fit = fit_moments(2, &wedge, &target);
+        assert!(fit.out_of_reach && fit.mismatch > OUT_OF_REACH_RTOL, "{fit:?}");
+        for (n, _) in &wedge {
+            let f = fit.factor(2, n);
+            assert!(f > (-10.0f64).exp() && f < 10.0f64.exp(), "factor {f:e} at {n:?}");
+        }
+        // a right angle is within reach
+        let quarter = stencil(&|a| (-1e-9..=std::f64::consts::FRAC_PI_2 + 1e-9).contains(&a));
+        let fit = fit_moments(2, &quarter, &target);
+        assert!(!fit.out_of_reach && fit.mismatch <= FIT_RTOL, "{fit:?}");
     }
 
     #[test]

@@ -14,7 +14,11 @@
 //! In 3D `d kappa - a G / d = 3K - 5G` and `a G = 15 G`, the howto's formula; `F_i` is the
 //! howto's force density times `V_i`. `F = -dE/du` exactly (also on the lattice), because
 //! `sum_j omega e^d |xi| nu V_j = m theta / d - theta m / d = 0` removes the derivative of
-//! `theta` in the deviatoric term. `omega` is spherical, so `omega_+ = omega_-`.
+//! `theta` in the deviatoric term. `omega` is spherical, so `omega_+ = omega_-`, except with the
+//! `position_aware` correction ([`crate::surface`]): then each node has its own influence
+//! `omega_i(xi)`, the far end's term reads `omega_j` (the weight `w_ji` of the far end's family,
+//! read through the reverse-bond index) and `F = -dE/du` still holds term by term (each node's energy uses
+//! only its own `omega_i`).
 //!
 //! With a surface correction ([`crate::surface`]) `m_i` is no longer the lattice sum
 //! `m_i^lat = sum_j omega |xi|^2 nu V_j`, that cross term becomes `theta (m_i - m_i^lat) / d`,

@@ -60,11 +60,11 @@ pub enum SurfaceCorrection {
     BulkWeightedVolume,
     /// `omega_ij -> omega_ij (phi_i(n) + phi_j(n)) / 2` with the moment-matching factors of
     /// [`linpd_core::surface`]: a spherical (symmetric) influence function per bond, as the
-    /// bond-based `energy` correction (see "Moment-matching corrections" below).
+    /// bond-based `energy` correction ([`linpd_core::surface`]).
     Energy,
     /// `omega_i(xi) = phi_i(n) omega(|xi|)`: a per-node influence function whose fourth moments
     /// equal the interior's, so that every node's dilatation and energy are exact for every
-    /// affine deformation (see "Moment-matching corrections" below).
+    /// affine deformation whose strain is diagonal in the lattice axes ([`linpd_core::surface`]).
     PositionAware,
 }
 
@@ -84,8 +84,8 @@ impl LpsModel {
     /// The weighted volume `m_0` of a full (interior) lattice family with this model's
     /// horizon, influence function and partial volumes.
     pub fn bulk_weighted_volume(&self) -> f64 {
-        // the lattice spacing (or a point cloud's mean node size): `volume = h^d`
-        let h = self.volume.powf(1.0 / self.dim as f64);
+        // the lattice spacing (or a point cloud's mean node size, `volume = h^d`)
+        let h = self.grid.as_ref().map_or_else(|| self.volume.powf(1.0 / self.dim as f64), |g| g.spacing());
         let delta = self.params.horizon;
         let mut m0 = 0.0;
         for k in lattice_stencil(self.dim, delta / h) {
@@ -124,6 +124,15 @@ impl LpsModel {
         }
         let mut summary = None;
         match correction {
+            SurfaceCorrection::None | SurfaceCorrection::BulkWeightedVolume
+                if matches!(self.surface, SurfaceCorrection::Energy | SurfaceCorrection::PositionAware) =>
+            {
+                return Err(LpsError::Family(format!(
+                    "the {} surface correction rescaled the bond weights and cannot be undone or replaced; \
+                     build the model again",
+                    self.surface.name()
+                )));
+            }
             SurfaceCorrection::None => {
                 for i in 0..self.n_nodes() {
                     let o = self.family.bond_offset(i);
@@ -140,7 +149,14 @@ impl LpsModel {
                 self.m.iter_mut().for_each(|m| *m = m0);
             }
             SurfaceCorrection::Energy | SurfaceCorrection::PositionAware => {
-                debug_assert_eq!(self.surface, SurfaceCorrection::None, "corrections do not compose");
+                // the factors rescale the current weights: a second correction would compound them
+                if self.surface != SurfaceCorrection::None {
+                    return Err(LpsError::Family(format!(
+                        "the {} surface correction asked of a model that already has {} (corrections do not compose)",
+                        correction.name(),
+                        self.surface.name()
+                    )));
+                }
                 summary = Some(self.match_moments(correction == SurfaceCorrection::PositionAware));
             }
         }
@@ -223,6 +239,7 @@ impl LpsModel {
             factor_range: if range[0] > range[1] { [1.0, 1.0] } else { range },
             max_mismatch: fits.iter().fold(0.0, |m, f| m.max(f.mismatch)),
             max_iterations: fits.iter().map(|f| f.iterations).max().unwrap_or(0),
+            out_of_reach_nodes: fits.iter().filter(|f| f.out_of_reach).count(),
             seconds: start.elapsed().as_secs_f64(),
         }
     }

@@ -187,3 +187,15 @@ fn definite_without_the_first_layer(m: &LpsModel, ad: &[Vec<f64>]) -> bool {
     let a = faer::Mat::<f64>::from_fn(keep.len(), keep.len(), |r, c| ad[keep[r]][keep[c]]);
     a.llt(faer::Side::Lower).is_ok()
 }
+
+/// The moment-matching corrections rescale the weights: a second correction (or undoing one)
+/// is a named error, not a silent compounding of the factors.
+#[test]
+fn corrections_do_not_compose() {
+    let (dim, nodes, p) = variants()[3];
+    let (m, _) = LpsModel::new(&grid(dim, nodes), &p).unwrap().corrected(SurfaceCorrection::Energy).unwrap();
+    for again in [SurfaceCorrection::Energy, SurfaceCorrection::PositionAware, SurfaceCorrection::None] {
+        let e = m.clone().corrected(again).unwrap_err().to_string();
+        assert!(e.contains("energy"), "{e}");
+    }
+}

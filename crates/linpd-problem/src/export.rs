@@ -93,8 +93,10 @@ impl Problem {
                 system(&model, &self.dirichlet(), &self.load_vector()).map_err(static_error)
             }
             ModelSpec::Lps(params, ..) => {
-                let grid = self.lattice()?;
-                crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, params.horizon, false)?;
+                // a point cloud was checked against memory when the scene was validated
+                if let Some(grid) = self.grid() {
+                    crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, params.horizon, false)?;
+                }
                 let model = self.lps_model()?;
                 system(&model, &self.dirichlet(), &self.load_vector()).map_err(static_error)
             }

@@ -44,7 +44,7 @@ impl Problem {
             // closed, so every bond of that node touches it)
             e @ linpd_lps::LpsError::ZeroWeightedVolume { .. } if !defects.is_empty() => ProblemError::invalid(
                 "model.material.defects",
-                format!("{e}: a defect through a node cuts all its bonds; place defects between lattice rows"),
+                format!("{e}: a defect through a node cuts all its bonds; place defects between nodes"),
             ),
             e => ProblemError::invalid("model", e.to_string()),
         })?;

@@ -313,7 +313,10 @@ fn auto(
             // ill-conditioned system, e.g. the LPS cantilever of `linpd study surface`, where
             // multigrid-PCG reached 1.12e-10 for rtol 1e-10): auto falls back to the direct
             // solve it has analyzed (and says so) rather than fail where another solver works.
-            Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. })) if analyzed.is_some() => {
+            // (only when the estimate kept the factorization: not past the memory limit)
+            Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. }))
+                if analyzed.is_some() && chol.seconds.is_some() =>
+            {
                 let (u, mut report) = cholesky(a, f, analyzed.expect("checked"), progress)?;
                 report.note = Some(format!("auto: the first choice failed ({e}); fell back to the Cholesky solve"));
                 (u, report)
