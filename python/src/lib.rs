@@ -51,6 +51,11 @@ type Csc<'py> = (
     Bound<'py, PyArray1<f64>>,
 );
 
+/// `(n, block_size, free_dofs, rhs)` of [`NativeScene::row_info`].
+type RowInfo<'py> = (usize, usize, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>);
+/// `(indptr, indices, data)` of a block of rows.
+type Csr<'py> = (Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>);
+
 #[pymethods]
 impl NativeScene {
     /// Reads and validates a scene file.
@@ -132,22 +137,14 @@ impl NativeScene {
     }
 
     /// `(n, block_size, free_dofs, rhs)` of the row system (builds it on the first call).
-    fn row_info<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(usize, usize, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>)> {
+    fn row_info<'py>(&self, py: Python<'py>) -> PyResult<RowInfo<'py>> {
         let r = self.row_system(py)?;
         let bs = linpd_problem::petsc::whole_nodes_block_size(r.dim(), r.free_dofs());
         Ok((r.n(), bs, r.free_dofs().to_vec().into_pyarray(py), r.rhs().to_vec().into_pyarray(py)))
     }
 
     /// `(indptr, indices, data)` of rows `first..last` of `A_ff` with global column indices.
-    fn assemble_rows<'py>(
-        &self,
-        py: Python<'py>,
-        first: usize,
-        last: usize,
-    ) -> PyResult<(Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>)> {
+    fn assemble_rows<'py>(&self, py: Python<'py>, first: usize, last: usize) -> PyResult<Csr<'py>> {
         let r = self.row_system(py)?;
         let b = py.detach(|| r.rows(first, last)).map_err(err)?;
         Ok((b.indptr.into_pyarray(py), b.indices.into_pyarray(py), b.data.into_pyarray(py)))

@@ -152,8 +152,9 @@ impl ReducedSystem {
 
 /// `d` when the free DOFs (ascending, `d` per node) come in whole nodes, else 1.
 pub fn whole_nodes_block_size(dim: usize, free_dofs: &[usize]) -> usize {
-    let whole = free_dofs.len() % dim == 0
-        && free_dofs.chunks(dim).all(|c| c[0] % dim == 0 && c.iter().enumerate().all(|(a, &g)| g == c[0] + a));
+    let chunks = free_dofs.chunks_exact(dim);
+    let whole = chunks.remainder().is_empty()
+        && chunks.into_iter().all(|c| c[0] / dim * dim == c[0] && c.iter().enumerate().all(|(a, &g)| g == c[0] + a));
     if whole {
         dim
     } else {

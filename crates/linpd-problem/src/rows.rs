@@ -24,6 +24,9 @@ use linpd_core::{DofMap, Model};
 use linpd_solve::SolveReport;
 use rayon::prelude::*;
 
+/// One row of `A_ff`: its number and its `(column, value)` entries.
+type Row = (usize, Vec<(usize, f64)>);
+
 /// A scene's model with its Dirichlet split and reduced right-hand side, ready to hand out
 /// blocks of rows of `A_ff` ([`RowSystem::rows`]).
 pub struct RowSystem {
@@ -147,7 +150,7 @@ impl RowSystem {
         // the nodes of the range, in order (rows are node-major, so each node's rows are adjacent)
         let mut nodes: Vec<usize> = rows.iter().map(|g| g / d).collect();
         nodes.dedup();
-        let per_node: Vec<Vec<(usize, Vec<(usize, f64)>)>> = nodes
+        let per_node: Vec<Vec<Row>> = nodes
             .par_iter()
             .map(|&i| {
                 let mut block_row: Vec<Vec<(usize, f64)>> = vec![Vec::new(); d];
