@@ -86,6 +86,10 @@ enum Command {
         /// Output directory; replaced as a whole, only when the export succeeds.
         #[arg(long)]
         out: PathBuf,
+        /// File format: `mtx` (Matrix Market: K.mtx, f.mtx) or `petsc` (PETSc binary: K.petsc
+        /// with K.petsc.info giving the block size, f.petsc, coords.petsc for rigid-body modes).
+        #[arg(long, value_enum, default_value_t = ExportFormat::Mtx)]
+        format: ExportFormat,
         /// Print no progress messages (no phase lines, no progress bars).
         #[arg(long, short)]
         quiet: bool,
@@ -182,6 +186,16 @@ fn in_file(file: &std::path::Path, e: &ProblemError) -> String {
         ProblemError::Io { .. } => e.to_string(),
         _ => format!("{}: {e}", file.display()),
     }
+}
+
+/// File format of `linpd export`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ExportFormat {
+    /// Matrix Market (`K.mtx`, `f.mtx`), 1-based, readable by every sparse library.
+    Mtx,
+    /// PETSc binary (`K.petsc`, `f.petsc`, `coords.petsc`), read by MatLoad/VecLoad on any
+    /// number of ranks.
+    Petsc,
 }
 
 fn input(file: &std::path::Path) -> impl Fn(ProblemError) -> CliError + '_ {
@@ -311,15 +325,31 @@ fn run(cli: Cli) -> Result<(), CliError> {
             }
             Ok(())
         }
-        Command::Export { scene, out, quiet } => {
+        Command::Export { scene, out, format, quiet } => {
             let problem = Problem::from_path(&scene).map_err(input(&scene))?;
             let progress = Reporter::new(quiet);
             let identity = scene_identity(&problem, &scene)?;
             let staged = OutputDir::begin(&out).map_err(output)?;
             let system = problem.reduced_system(&progress).map_err(input(&scene))?;
-            progress.phase(&format!("writing K.mtx ({} entries), f.mtx, dofs.csv", system.nnz()));
-            system.write(staged.path()).map_err(output)?;
-            let files = staged.commit("export.json", system.to_json(), &identity).map_err(output)?;
+            let mut doc = system.to_json();
+            match format {
+                ExportFormat::Mtx => {
+                    progress.phase(&format!("writing K.mtx ({} entries), f.mtx, dofs.csv", system.nnz()));
+                    system.write(staged.path()).map_err(output)?;
+                }
+                ExportFormat::Petsc => {
+                    progress
+                        .phase(&format!("writing K.petsc ({} entries), f.petsc, coords.petsc, dofs.csv", system.nnz()));
+                    // coordinates of the scene's nodes (a blend scene's operator may have others:
+                    // then no coords.petsc)
+                    let nodes = problem.nodes();
+                    let x = (nodes.len() == system.n_nodes).then(|| nodes.positions());
+                    system.write_petsc(staged.path(), x.as_deref()).map_err(output)?;
+                    doc["format"] = system.petsc_format_json(x.is_some());
+                    doc["block_size"] = system.block_size().into();
+                }
+            }
+            let files = staged.commit("export.json", doc, &identity).map_err(output)?;
             say!(
                 "{}: {} unknowns ({} nodes x {} DOFs, {} constrained), {} stored entries of A_ff ({} model)",
                 problem.name(),

@@ -155,13 +155,19 @@ impl ReducedSystem {
         write_matrix_market(&paths[0], (n, n), entries, &about("stiffness A_ff")).map_err(written)?;
         let rhs = self.f.iter().enumerate().map(|(r, &v)| (r, 0, v));
         write_matrix_market(&paths[1], (n, 1), rhs, &about("right-hand side f_f - (A u_bar)_f")).map_err(written)?;
+        self.write_dofs_csv(dir)?;
+        Ok(paths)
+    }
+
+    /// Writes `dofs.csv` (`row,node,component`, 0-based) into `dir`; returns its path.
+    pub fn write_dofs_csv(&self, dir: &Path) -> Result<PathBuf, ProblemError> {
+        let path = dir.join(EXPORT_FILES[2]);
         let mut s = String::from("row,node,component\n");
         for (r, &g) in self.free_dofs.iter().enumerate() {
             let _ = writeln!(s, "{r},{},{}", g / self.dim, g % self.dim);
         }
-        std::fs::write(&paths[2], s)
-            .map_err(|source| ProblemError::Io { path: paths[2].display().to_string(), source })?;
-        Ok(paths)
+        std::fs::write(&path, s).map_err(|source| ProblemError::Io { path: path.display().to_string(), source })?;
+        Ok(path)
     }
 
     /// The main document `export.json` (without the `"run"` member [`crate::OutputDir::commit`]

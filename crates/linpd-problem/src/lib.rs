@@ -21,9 +21,11 @@ pub mod fields;
 pub(crate) mod lps;
 pub mod memory;
 pub mod output;
+pub mod petsc;
 pub mod pipeline;
 pub mod problem;
 pub mod raw;
+pub mod rows;
 pub mod run;
 pub mod vtu;
 
@@ -38,4 +40,5 @@ pub use linpd_core::sparse::restrict_to_free as reduce_to_free;
 pub use lps::CG_NEAR_INCOMPRESSIBLE_NU;
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
 pub use problem::{BlendScene, BondModel, Constraint, LevelNodes, Load, ModelSpec, Nodes, Problem, MAX_JSON_BYTES};
+pub use rows::{RowBlock, RowSystem};
 pub use run::Solution;

@@ -139,6 +139,13 @@ impl Pipeline {
         Self::from_raw(raw, base)
     }
 
+    /// Parses and validates pipeline text (e.g. a Python dict as JSON); relative paths in it
+    /// (the scene) are resolved against `base`.
+    pub fn from_json_in(text: &str, base: &Path) -> Result<Self, ProblemError> {
+        let raw: RawPipeline = crate::problem::parse_json(text)?;
+        Self::from_raw(raw, base)
+    }
+
     /// Validates the mirror; relative paths are resolved against `base`.
     pub fn from_raw(raw: RawPipeline, base: &Path) -> Result<Self, ProblemError> {
         if raw.name.trim().is_empty() {

@@ -214,7 +214,7 @@ impl Problem {
 
     /// The solution of a bond model (`n_bonds` bonds, cut ones included): balance and strain
     /// energy density from its blocks.
-    fn bond_solution(
+    pub(crate) fn bond_solution(
         &self,
         model: &dyn linpd_core::Model,
         n_bonds: usize,

@@ -35,8 +35,8 @@ pub use spec::{
     PreconditionerKind, SolverId, SolverSpec,
 };
 pub use statics::{
-    reduced_system, solve_assembled, solve_assembled_with_progress, solve_model, MatrixHints, StaticError,
-    StaticSolution,
+    reduced_rhs_checked, reduced_system, solve_assembled, solve_assembled_with_progress, solve_model, MatrixHints,
+    StaticError, StaticSolution,
 };
 
 /// A failed solve.

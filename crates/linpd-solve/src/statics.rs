@@ -508,6 +508,17 @@ pub fn reduced_system(
     Ok((a, rhs))
 }
 
+/// The reduced right-hand side `f_f - (A u_bar)_f` of [`reduced_system`], with its checks
+/// (something free, the support check, finite loads and result) but without assembling
+/// `A_ff`: for callers that assemble `A_ff` themselves a block of rows at a time (the
+/// distributed path of the Python package), so that the errors are those of a solve.
+pub fn reduced_rhs_checked(model: &dyn Model, bc: &Dirichlet, f: &[f64]) -> Result<Vec<f64>, StaticError> {
+    check_static(model, bc, f)?;
+    let rhs = bc.reduced_rhs(&ModelOperator(model), f);
+    finite_vector(REDUCED_LOAD, &rhs)?;
+    Ok(rhs)
+}
+
 /// Displacements over all DOFs and the report of their solve.
 #[derive(Debug, Clone)]
 pub struct StaticSolution {

@@ -1,0 +1,97 @@
+"""The measurements of docs/scale-out.md, in one run:
+
+    python3 python/bench/scale_out.py [--spacing-cells 47] [--ranks 1 2 4] [--out DIR]
+
+A 3D bond scene (the unit cube, `spacing = 1 / cells`, `horizon = 2 spacing`, clamped below, a
+resultant load on top; 345,600 DOFs and 324,864 unknowns for 47 cells) is solved by linpd's own
+solvers (`linpd solve`: CG with linpd's multigrid, CG with Jacobi) and by the PETSc driver
+(`mpiexec -n P python -m linpd.petsc`, CG + GAMG) at each P; printed as a Markdown table with
+iterations, phase times, relative residuals, per-rank peak RSS, and the agreement of every
+`u` with the multigrid solve's. Environment as for python/tests/check_petsc.py (`LINPD_BIN`,
+`LINPD_PETSC_PYTHON`, `PYTHONPATH` with petsc4py and the linpd wheel).
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def scene(cells: int, solver: dict) -> dict:
+    h = 1.0 / cells
+    return {
+        "name": "cube-scale-out-3d",
+        "dimension": 3,
+        "grid": {"min": [0, 0, 0], "max": [1, 1, 1], "spacing": h, "layer": {"z-": 2 * h}},
+        "model": {"type": "bond", "horizon": 2 * h,
+                  "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "continuum"}},
+        "constraints": [{"region": {"box": {"min": [-1, -1, -1], "max": [2, 2, 0]}},
+                         "displacement": {"value": [0, 0, 0]}}],
+        "loads": [{"type": "resultant", "region": {"box": {"min": [-1, -1, 1], "max": [2, 2, 2]}},
+                   "force": [1e-3, 0, -1e-3]}],
+        "solver": solver,
+        "output": {"plot": False},
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--spacing-cells", type=int, default=47)
+    ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 4])
+    ap.add_argument("--out", default=str(ROOT / "target" / "scale-out"))
+    ap.add_argument("--linpd-solvers", nargs="*", default=["multigrid", "jacobi"])
+    args = ap.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    binary = os.environ.get("LINPD_BIN", str(ROOT / "target" / "release" / "linpd"))
+    rows, u_ref = [], None
+    for pre in args.linpd_solvers:
+        path = out / f"scene-{pre}.json"
+        path.write_text(json.dumps(scene(args.spacing_cells, {"type": "cg", "preconditioner": pre})))
+        t = time.perf_counter()
+        p = subprocess.run([binary, "solve", str(path), "--out", str(out / pre), "-q"], capture_output=True, text=True)
+        wall = time.perf_counter() - t
+        assert p.returncode == 0, p.stderr
+        doc = json.loads((out / pre / "result.json").read_text())
+        s = doc["stats"]["solve"]
+        u = np.asarray(doc["u"], dtype=float)
+        u_ref = u if u_ref is None else u_ref
+        rows.append((f"linpd {s['solver']}", 1, s["n"], s["iterations"], s["timings"]["assemble"],
+                     s["timings"]["setup"], s["timings"]["solve"], wall, s["rel_residual"],
+                     [s["peak_rss_bytes"]], np.max(np.abs(u - u_ref)) / np.max(np.abs(u_ref))))
+    path = out / "scene-petsc.json"
+    path.write_text(json.dumps(scene(args.spacing_cells, {"type": "auto"})))
+    py = os.environ.get("LINPD_PETSC_PYTHON", "/usr/bin/python3")
+    for ranks in args.ranks:
+        cmd = ["mpiexec", "-n", str(ranks)] + (["--allow-run-as-root"] if os.geteuid() == 0 else [])
+        cmd += ["--oversubscribe", py, "-m", "linpd.petsc", str(path), "--out", str(out / f"petsc-{ranks}")]
+        t = time.perf_counter()
+        p = subprocess.run(cmd, capture_output=True, text=True)
+        wall = time.perf_counter() - t
+        assert p.returncode == 0, p.stdout + p.stderr
+        doc = json.loads((out / f"petsc-{ranks}" / "result.json").read_text())
+        s = doc["stats"]["solve"]
+        u = np.asarray(doc["u"], dtype=float)
+        rel = np.max(np.abs(u - u_ref)) / np.max(np.abs(u_ref)) if u_ref is not None else float("nan")
+        tm = s["timings"]
+        rows.append((s["solver"], ranks, s["n"], s["iterations"], tm["model"] + tm["assemble"], tm["setup"],
+                     tm["solve"], wall, s["rel_residual"], s["peak_rss_bytes_per_rank"], rel))
+    print("| solver | ranks | unknowns | iterations | model + assembly (s) | setup (s) | solve (s) | wall (s) "
+          "| rel. residual | peak RSS per rank (MiB) | max|du|/max|u| vs first |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        rss = ", ".join(f"{m / 2**20:.0f}" for m in r[9])
+        print(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:.2f} | {r[5]:.2f} | {r[6]:.2f} | {r[7]:.1f} | "
+              f"{r[8]:.1e} | {rss} | {r[10]:.1e} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,236 @@
+//! `linpd._linpd`: the native half of the `linpd` Python package (the Python half, `linpd/`,
+//! gives it its documented API: `linpd.Scene`, `linpd.coarsen`, `linpd.petsc`).
+//!
+//! Thin on purpose: every number comes from the Rust crates through the same functions the CLI
+//! calls (`Problem::from_path`, `Problem::reduced_system` of `linpd export`, `Problem::solve`
+//! of `linpd solve`, `Problem::row_system` for PETSc's per-rank rows), so the Python results are
+//! the CLI's bit for bit. Arrays cross as numpy arrays (copied once), documents as JSON text
+//! (parsed by the Python half), errors as `linpd.LinpdError` carrying linpd's message (the
+//! error's `Display`, e.g. `model.horizon: must be > 0, got -1e0`). Long computations release
+//! the GIL.
+
+use linpd_core::NoProgress;
+use linpd_problem::{OutputDir, Pipeline, Problem, ProblemError, RowSystem, RunIdentity};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+pyo3::create_exception!(_linpd, LinpdError, PyException, "An error of linpd; its message is linpd's own.");
+
+fn err(e: ProblemError) -> PyErr {
+    LinpdError::new_err(e.to_string())
+}
+
+/// A validated scene (see `linpd.Scene`).
+#[pyclass(frozen, module = "linpd._linpd")]
+struct NativeScene {
+    problem: Problem,
+    /// The scene file, when read from one (the run identity of `write_result`).
+    path: Option<PathBuf>,
+    /// Built on the first row request (the model, its DOF split and right-hand side).
+    rows: OnceLock<RowSystem>,
+}
+
+impl NativeScene {
+    fn row_system(&self, py: Python<'_>) -> PyResult<&RowSystem> {
+        if let Some(r) = self.rows.get() {
+            return Ok(r);
+        }
+        let built = py.detach(|| self.problem.row_system()).map_err(err)?;
+        Ok(self.rows.get_or_init(|| built))
+    }
+}
+
+type Csc<'py> = (
+    usize,
+    Bound<'py, PyArray1<usize>>,
+    Bound<'py, PyArray1<usize>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+);
+
+/// `(n, block_size, free_dofs, rhs)` of [`NativeScene::row_info`].
+type RowInfo<'py> = (usize, usize, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>);
+/// `(indptr, indices, data)` of a block of rows.
+type Csr<'py> = (Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>);
+
+#[pymethods]
+impl NativeScene {
+    /// Reads and validates a scene file.
+    #[staticmethod]
+    fn from_path(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let problem = py.detach(|| Problem::from_path(&path)).map_err(err)?;
+        Ok(NativeScene { problem, path: Some(path), rows: OnceLock::new() })
+    }
+
+    /// Validates scene text; relative file names in it start at `base_dir`.
+    #[staticmethod]
+    fn from_json(py: Python<'_>, text: &str, base_dir: PathBuf) -> PyResult<Self> {
+        let problem = py.detach(|| Problem::from_json_in(text, &base_dir)).map_err(err)?;
+        Ok(NativeScene { problem, path: None, rows: OnceLock::new() })
+    }
+
+    #[getter]
+    fn name(&self) -> String {
+        self.problem.name().to_string()
+    }
+    #[getter]
+    fn dim(&self) -> usize {
+        self.problem.dim()
+    }
+    #[getter]
+    fn n_nodes(&self) -> usize {
+        self.problem.nodes().len()
+    }
+    #[getter]
+    fn model_type(&self) -> &'static str {
+        self.problem.model().name()
+    }
+    #[getter]
+    fn output_dir(&self) -> String {
+        self.problem.output_dir().to_string()
+    }
+
+    /// `(n, col_ptr, row_idx, values, rhs)`: `A_ff` in CSC (as `linpd export` writes it) and
+    /// `f_f - (A u_bar)_f`.
+    fn reduced_system<'py>(&self, py: Python<'py>) -> PyResult<Csc<'py>> {
+        let s = py.detach(|| self.problem.reduced_system(&NoProgress)).map_err(err)?;
+        let n = s.n();
+        let (cp, ri, val) = (s.k.symbolic().col_ptr().to_vec(), s.k.symbolic().row_idx().to_vec(), s.k.val().to_vec());
+        Ok((n, cp.into_pyarray(py), ri.into_pyarray(py), val.into_pyarray(py), s.f.into_pyarray(py)))
+    }
+
+    /// `(node, component)` of every unknown, shape `(n, 2)`, from the DOF split of the
+    /// constraints (no assembly).
+    fn dofs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<usize>>> {
+        let d = self.problem.dim();
+        let (mask, _) = self.problem.constrained();
+        let rows: Vec<Vec<usize>> =
+            mask.iter().enumerate().filter(|(_, &c)| !c).map(|(g, _)| vec![g / d, g % d]).collect();
+        if rows.is_empty() {
+            return Ok(numpy::PyArray2::zeros(py, [0, 2], false));
+        }
+        PyArray2::from_vec2(py, &rows).map_err(|e| LinpdError::new_err(e.to_string()))
+    }
+
+    /// Node positions, shape `(nodes, d)`.
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let d = self.problem.dim();
+        let rows: Vec<Vec<f64>> = self.problem.nodes().positions().iter().map(|x| x[..d].to_vec()).collect();
+        PyArray2::from_vec2(py, &rows).map_err(|e| LinpdError::new_err(e.to_string()))
+    }
+
+    /// Node volumes, shape `(nodes,)`.
+    fn volumes<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let nodes = self.problem.nodes();
+        (0..nodes.len()).map(|n| nodes.volume(n)).collect::<Vec<_>>().into_pyarray(py)
+    }
+
+    /// `(u, result_json)`: the displacements over all DOFs (node-major) and `result.json`'s
+    /// document, from the same solve as `linpd solve`.
+    fn solve<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyArray1<f64>>, String)> {
+        let s = py.detach(|| self.problem.solve(&NoProgress)).map_err(err)?;
+        let doc = s.to_json().to_string();
+        Ok((s.u.into_pyarray(py), doc))
+    }
+
+    /// `(n, block_size, free_dofs, rhs)` of the row system (builds it on the first call).
+    fn row_info<'py>(&self, py: Python<'py>) -> PyResult<RowInfo<'py>> {
+        let r = self.row_system(py)?;
+        let bs = linpd_problem::petsc::whole_nodes_block_size(r.dim(), r.free_dofs());
+        Ok((r.n(), bs, r.free_dofs().to_vec().into_pyarray(py), r.rhs().to_vec().into_pyarray(py)))
+    }
+
+    /// `(indptr, indices, data)` of rows `first..last` of `A_ff` with global column indices.
+    fn assemble_rows<'py>(&self, py: Python<'py>, first: usize, last: usize) -> PyResult<Csr<'py>> {
+        let r = self.row_system(py)?;
+        let b = py.detach(|| r.rows(first, last)).map_err(err)?;
+        Ok((b.indptr.into_pyarray(py), b.indices.into_pyarray(py), b.data.into_pyarray(py)))
+    }
+
+    /// `u = u_bar + u_f` over all DOFs from the free values `u_free` (row order).
+    fn expand<'py>(&self, py: Python<'py>, u_free: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let u_free = u_free.as_slice()?;
+        let n = self.row_system(py)?.n();
+        if u_free.len() != n {
+            return Err(LinpdError::new_err(format!("u_free has {} values, the scene has {n} unknowns", u_free.len())));
+        }
+        Ok(self.problem.dirichlet().expand(u_free).into_pyarray(py))
+    }
+
+    /// Writes `u.csv`, `result.vtu` and `result.json` into `out` (all or none, as `linpd
+    /// solve`) for displacements `u` over all DOFs solved elsewhere; `report_json` replaces
+    /// `stats.solve`. Returns the paths written.
+    fn write_result(
+        &self,
+        py: Python<'_>,
+        u: PyReadonlyArray1<'_, f64>,
+        report_json: &str,
+        out: PathBuf,
+    ) -> PyResult<Vec<String>> {
+        let u = u.as_slice()?.to_vec();
+        let report: serde_json::Value =
+            serde_json::from_str(report_json).map_err(|e| LinpdError::new_err(format!("report_json: {e}")))?;
+        let r = self.row_system(py)?;
+        let identity = match &self.path {
+            Some(p) => RunIdentity::of_inputs(&[p.as_path()]),
+            None => RunIdentity::of_inputs(&[]),
+        }
+        .map_err(err)?;
+        py.detach(|| {
+            let staged = OutputDir::begin(&out)?;
+            let placeholder = linpd_solve::SolveReport::new(linpd_solve::SolverId::Lu, r.n(), 0);
+            let solution = self.problem.solution_from(r, u, placeholder)?;
+            solution.write(staged.path())?;
+            let mut doc = solution.to_json();
+            doc["stats"]["solve"] = report;
+            staged.commit("result.json", doc, &identity)
+        })
+        .map(|paths| paths.iter().map(|p| p.display().to_string()).collect())
+        .map_err(err)
+    }
+}
+
+/// Runs a coarsening pipeline (file or JSON text with `base_dir`) into `out` (default: the
+/// pipeline's output directory), as `linpd coarsen`; returns `(output_dir, summary_json)`.
+#[pyfunction]
+#[pyo3(signature = (path=None, text=None, base_dir=None, out=None))]
+fn coarsen(
+    py: Python<'_>,
+    path: Option<PathBuf>,
+    text: Option<String>,
+    base_dir: Option<PathBuf>,
+    out: Option<PathBuf>,
+) -> PyResult<(String, String)> {
+    py.detach(|| {
+        let (p, inputs) = match (&path, &text) {
+            (Some(path), None) => (Pipeline::from_path(path)?, vec![path.clone()]),
+            (None, Some(text)) => {
+                (Pipeline::from_json_in(text, base_dir.as_deref().unwrap_or(Path::new(".")))?, vec![])
+            }
+            _ => return Err(ProblemError::invalid("pipeline", "give a path or JSON text")),
+        };
+        let mut inputs = inputs;
+        inputs.push(p.scene_path.clone());
+        let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+        let identity = RunIdentity::of_inputs(&inputs)?;
+        let staged = OutputDir::begin(&out.clone().unwrap_or_else(|| p.output_dir.clone()))?;
+        let r = p.run(staged.path(), &NoProgress)?;
+        let dir = staged.target().display().to_string();
+        let summary = r.summary_json();
+        staged.commit("summary.json", summary.clone(), &identity)?;
+        Ok((dir, summary.to_string()))
+    })
+    .map_err(err)
+}
+
+#[pymodule]
+fn _linpd(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("LinpdError", m.py().get_type::<LinpdError>())?;
+    m.add_class::<NativeScene>()?;
+    m.add_function(wrap_pyfunction!(coarsen, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,174 @@
+"""The Python package against the linpd command line (issue #16, item 1).
+
+* ``Scene.stiffness()``, ``rhs()`` and ``dofs()`` equal the files of ``linpd export`` (read with
+  scipy's Matrix Market reader) **exactly**: the same Rust function builds both, and the
+  Matrix Market values are printed as the shortest decimals that read back to the same bits;
+* ``Scene.assemble_rows(first, last)`` (built from the rows' own nodes, not from the assembled
+  matrix) equals ``stiffness()[first:last]``: same pattern, values to a sum-order rounding
+  bound (see ``test_assemble_rows_equals_stiffness``);
+* ``Scene.solve()`` equals ``linpd solve``'s ``result.json`` (see ``test_solve_equals_cli``);
+* bad scenes raise ``LinpdError`` with linpd's message; ``coarsen`` runs a pipeline as
+  ``linpd coarsen`` does.
+
+The ``linpd`` binary is ``$LINPD_BIN`` when set (``scripts/test`` sets it), else
+``cargo run --release --``.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.io
+import scipy.sparse
+
+import linpd
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT / "data"
+
+
+def linpd_cli(*args: str) -> subprocess.CompletedProcess:
+    binary = os.environ.get("LINPD_BIN")
+    cmd = [binary] if binary else ["cargo", "run", "--release", "--quiet", "--"]
+    return subprocess.run(cmd + list(args), cwd=ROOT, capture_output=True, text=True)
+
+
+def cli_ok(*args: str) -> None:
+    p = linpd_cli(*args)
+    assert p.returncode == 0, f"linpd {' '.join(args)}: {p.stderr}"
+
+
+def sorted_coo(m):
+    """(rows, cols, values) of every stored entry, sorted by row then column."""
+    c = scipy.sparse.coo_matrix(m)
+    order = np.lexsort((c.col, c.row))
+    return c.row[order], c.col[order], c.data[order]
+
+
+# one scene per model family that exports: bond on a lattice in 1D/2D/3D, a point cloud, LPS,
+# the 1D blend (unsymmetric)
+EXPORTED = ["bar-point-load.json", "plate-hole-2d.json", "cantilever-3d.json", "bracket-cloud-2d.json",
+            "lps-plate-2d.json", "blend-point-load.json"]
+
+
+@pytest.mark.parametrize("name", EXPORTED)
+def test_stiffness_rhs_dofs_equal_export(name, tmp_path):
+    out = tmp_path / "export"
+    cli_ok("export", str(DATA / name), "--out", str(out), "-q")
+    scene = linpd.Scene(DATA / name)
+    k = scene.stiffness()
+    assert isinstance(k, scipy.sparse.csr_matrix)
+    want = scipy.io.mmread(str(out / "K.mtx"))
+    assert k.shape == want.shape
+    # every stored entry, explicit zeros included, same position, same bits
+    for got_part, want_part in zip(sorted_coo(k), sorted_coo(want)):
+        np.testing.assert_array_equal(got_part, want_part)
+    f = scipy.io.mmread(str(out / "f.mtx"))
+    f = np.asarray(f.todense() if scipy.sparse.issparse(f) else f).reshape(-1)
+    np.testing.assert_array_equal(scene.rhs(), f)
+    dofs = np.loadtxt(out / "dofs.csv", delimiter=",", skiprows=1, dtype=np.int64).reshape(-1, 3)
+    np.testing.assert_array_equal(scene.dofs(), dofs[:, 1:])
+    np.testing.assert_array_equal(dofs[:, 0], np.arange(k.shape[0]))
+
+
+@pytest.mark.parametrize("name", ["bar-point-load.json", "plate-hole-2d.json", "cantilever-3d.json",
+                                  "bracket-cloud-2d.json", "plate-crack-2d.json"])
+def test_assemble_rows_equals_stiffness(name):
+    """Rows from their own nodes against the assembled matrix, over splits into 1..5 blocks
+    (odd sizes, so that blocks also start inside a node's rows). The pattern is equal; the
+    values are sums over a node's bonds in possibly another order, so they may differ by
+    rounding: at most ``m eps sum_j |terms|`` with ``m`` (about 30-120) bonds per node, below
+    ``1e-13 max|K|`` here; a wrong bond, sign or component changes an entry by O(max|K|)."""
+    scene = linpd.Scene(DATA / name)
+    k = scene.stiffness()
+    n = k.shape[0]
+    scale = abs(k).max()
+    for parts in [1, 2, 3, 5]:
+        cuts = [0] + sorted({(n * p) // parts + (p % 2) for p in range(1, parts)}) + [n]
+        for first, last in zip(cuts[:-1], cuts[1:]):
+            indptr, indices, data = scene.assemble_rows(first, last)
+            assert indptr[0] == 0 and len(indptr) == last - first + 1
+            got = scipy.sparse.csr_matrix((data, indices, indptr), shape=(last - first, n))
+            want = k[first:last]
+            # The assembled pattern also stores the bonds a defect cuts (factor 0) as explicit
+            # zeros, which the block rows leave out: compare the nonzero entries.
+            got.eliminate_zeros()
+            want = want.copy()
+            want.eliminate_zeros()
+            g, w = sorted_coo(got), sorted_coo(want)
+            np.testing.assert_array_equal(g[0], w[0])
+            np.testing.assert_array_equal(g[1], w[1])
+            assert np.max(np.abs(g[2] - w[2]), initial=0.0) <= 1e-13 * scale, (name, first, last)
+            assert all(np.all(np.diff(indices[indptr[r]:indptr[r + 1]]) > 0) for r in range(last - first))
+
+
+@pytest.mark.parametrize("name", ["bar-point-load.json", "plate-hole-2d.json", "cantilever-3d.json"])
+def test_solve_equals_cli(name, tmp_path):
+    """The same solve as ``linpd solve`` (same scene, solver, code): ``u`` to 1e-12 of max|u|.
+    Cholesky and the parallel matvecs are deterministic per run, so the two agree to a few
+    ulps; 1e-12 leaves room for a different thread count and still catches any wrong DOF."""
+    out = tmp_path / "solve"
+    cli_ok("solve", str(DATA / name), "--out", str(out), "-q")
+    doc = json.loads((out / "result.json").read_text())
+    scene = linpd.Scene(DATA / name)
+    r = scene.solve()
+    d = scene.dim
+    u_cli = np.asarray(doc["u"], dtype=float).reshape(-1, d)
+    assert r["u"].shape == (scene.n_nodes, d)
+    assert np.max(np.abs(r["u"] - u_cli)) <= 1e-12 * np.max(np.abs(u_cli))
+    assert r["report"]["solver"] == doc["stats"]["solve"]["solver"]
+    assert r["report"]["rel_residual"] < 1e-8
+    np.testing.assert_array_equal(np.asarray(doc["x"], dtype=float).reshape(-1, d), scene.positions())
+    assert r["balance"] is not None and r["stats"]["bonds"] == doc["stats"]["bonds"]
+
+
+def test_positions_volumes_and_dict_scene():
+    text = json.loads((DATA / "plate-hole-2d.json").read_text())
+    a, b = linpd.Scene(DATA / "plate-hole-2d.json"), linpd.Scene(text)
+    np.testing.assert_array_equal(a.positions(), b.positions())
+    np.testing.assert_array_equal(a.volumes(), b.volumes())
+    assert a.positions().shape == (a.n_nodes, 2) and a.volumes().shape == (a.n_nodes,)
+    assert np.all(a.volumes() > 0)
+
+
+def test_bad_scenes_raise_linpd_message(tmp_path):
+    doc = json.loads((DATA / "bar-point-load.json").read_text())
+    doc["model"]["horizon"] = -1.0
+    with pytest.raises(linpd.LinpdError, match=r"model\.horizon: must be > 0"):
+        linpd.Scene(doc)
+    # the CLI says the same
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(doc))
+    p = linpd_cli("validate", str(bad))
+    assert p.returncode != 0 and "model.horizon: must be > 0" in p.stderr
+    with pytest.raises(linpd.LinpdError, match="no-such-scene.json"):
+        linpd.Scene(tmp_path / "no-such-scene.json")
+    with pytest.raises(linpd.LinpdError, match="unknown field"):
+        linpd.Scene({**json.loads((DATA / "bar-point-load.json").read_text()), "colour": "red"})
+    with pytest.raises(TypeError):
+        linpd.Scene(42)
+    # row assembly: LPS has no per-node block rows; a range outside the unknowns
+    with pytest.raises(linpd.LinpdError, match="bond models only"):
+        linpd.Scene(DATA / "lps-plate-2d.json").assemble_rows(0, 1)
+    bar = linpd.Scene(DATA / "bar-point-load.json")
+    n = bar.stiffness().shape[0]
+    with pytest.raises(linpd.LinpdError, match="not a range"):
+        bar.assemble_rows(0, n + 1)
+
+
+def test_coarsen_matches_cli(tmp_path):
+    pipeline = DATA / "coarsen-plate-2d.pipeline.json"
+    cli_ok("coarsen", str(pipeline), "--out", str(tmp_path / "cli"), "-q")
+    want = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    got = linpd.coarsen(pipeline, out=tmp_path / "py")
+    assert Path(got["output_dir"]) == tmp_path / "py"
+    assert [(l["level"], l["nodes"], l["bonds"]) for l in got["levels"]] == \
+        [(l["level"], l["nodes"], l["bonds"]) for l in want["levels"]]
+    assert len(got["levels"]) >= 2
+    assert sorted(p.name for p in (tmp_path / "py").iterdir()) == sorted(p.name for p in (tmp_path / "cli").iterdir())
+    with pytest.raises(linpd.LinpdError):
+        linpd.coarsen({"name": "x"})
