@@ -44,7 +44,10 @@ impl Problem {
             // closed, so every bond of that node touches it)
             e @ linpd_lps::LpsError::ZeroWeightedVolume { .. } if !defects.is_empty() => ProblemError::invalid(
                 "model.material.defects",
-                format!("{e}: a defect through a node cuts all its bonds; place defects between nodes"),
+                format!(
+                    "{e}: a defect through a node cuts all its bonds; place defects between {}",
+                    if self.nodes.cloud().is_some() { "nodes" } else { "lattice rows" }
+                ),
             ),
             e => ProblemError::invalid("model", e.to_string()),
         })?;
