@@ -39,12 +39,9 @@
 //! like other free surfaces.
 
 use crate::BondOperator;
-use linpd_core::family::lattice_stencil;
 use linpd_core::kernel::partial_volume;
-use linpd_core::surface::{fit_moments, moments, CorrectionSummary, MomentFit};
+use linpd_core::surface::{family_factors, CorrectionSummary};
 use linpd_core::{Grid, Micromodulus};
-use rayon::prelude::*;
-use std::time::Instant;
 
 impl BondOperator {
     /// The operator with the `energy` surface correction (S3) applied to its weights. `grid`,
@@ -56,74 +53,19 @@ impl BondOperator {
         horizon: f64,
         micromodulus: &Micromodulus,
     ) -> (Self, CorrectionSummary) {
-        let start = Instant::now();
-        let dim = self.dim();
         let h = grid.spacing();
         let nu = |r: f64| if micromodulus.partial_volume { partial_volume(r, horizon, h) } else { 1.0 };
         let beta = |r: f64, v: f64| micromodulus.kernel.shape(r, horizon) * nu(r) * v * r * r;
-        let target = moments(
-            dim,
-            lattice_stencil(dim, horizon / h).into_iter().map(|k| {
-                let xi = [k[0] as f64 * h, k[1] as f64 * h, k[2] as f64 * h];
-                let r = (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]).sqrt();
-                ([xi[0] / r, xi[1] / r, xi[2] / r], beta(r, grid.volume()))
-            }),
-        );
-        let fits: Vec<MomentFit> = (0..self.n_nodes())
-            .into_par_iter()
-            .map(|i| {
-                if grid.is_layer(i) {
-                    // the layer holds volume constraints and loads: not a free surface
-                    return MomentFit::identity(dim);
-                }
-                let bonds: Vec<([f64; 3], f64)> = self
-                    .family()
-                    .neighbors(i)
-                    .iter()
-                    .zip(self.weights(i))
-                    .filter(|(_, &w)| w > 0.0)
-                    .map(|(&j, _)| {
-                        let j = j as usize;
-                        let xi = self.bond_vector(i, j);
-                        let r = (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]).sqrt();
-                        (self.unit(i, j), beta(r, grid.node_volume(j)))
-                    })
-                    .collect();
-                fit_moments(dim, &bonds, &target)
+        let bond = |i: usize, b: usize| {
+            // a bond cut by a defect (weight 0) is not part of the family's geometry
+            let j = self.family().neighbors(i)[b] as usize;
+            (self.weights(i)[b] > 0.0).then(|| {
+                let xi = self.bond_vector(i, j);
+                (self.unit(i, j), (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]).sqrt())
             })
-            .collect();
-        let offsets: Vec<usize> = (0..=self.n_nodes()).map(|i| self.family().bond_offset(i)).collect();
-        let mut weights = std::mem::take(&mut self.weights);
-        let range = weights
-            .par_iter_mut()
-            .enumerate()
-            .fold(
-                || [f64::INFINITY, f64::NEG_INFINITY],
-                |mut range, (b, w)| {
-                    let i = offsets.partition_point(|&o| o <= b) - 1;
-                    let j = self.family().neighbors(i)[b - offsets[i]] as usize;
-                    if fits[i].is_identity() && fits[j].is_identity() {
-                        return range;
-                    }
-                    let n = self.unit(i, j);
-                    let f = 0.5 * (fits[i].factor(dim, &n) + fits[j].factor(dim, &n));
-                    *w *= f;
-                    range = [range[0].min(f), range[1].max(f)];
-                    range
-                },
-            )
-            .reduce(|| [f64::INFINITY, f64::NEG_INFINITY], |a, b| [a[0].min(b[0]), a[1].max(b[1])]);
-        self.weights = weights;
-        let corrected = fits.iter().filter(|f| !f.is_identity()).count();
-        let summary = CorrectionSummary {
-            kind: "energy",
-            corrected_nodes: corrected,
-            factor_range: if corrected == 0 { [1.0, 1.0] } else { range },
-            max_mismatch: fits.iter().fold(0.0, |m, f| m.max(f.mismatch)),
-            max_iterations: fits.iter().map(|f| f.iterations).max().unwrap_or(0),
-            out_of_reach_nodes: fits.iter().filter(|f| f.out_of_reach).count(),
-            seconds: start.elapsed().as_secs_f64(),
         };
+        let (factors, summary) = family_factors(self.dim(), grid, self.family(), horizon, beta, bond, false, "energy");
+        self.weights.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
         (self, summary)
     }
 }

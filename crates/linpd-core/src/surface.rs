@@ -300,6 +300,93 @@ impl Dual<'_> {
     }
 }
 
+/// The factors of a moment-matching correction for every bond of a lattice family (flat, in
+/// family order), and the summary for the report: the one implementation behind the bond
+/// `energy` correction and the LPS `energy` / `position_aware` corrections.
+///
+/// * `beta(r, v)`: the geometric weight of a bond of length `r` whose far node has volume `v`
+///   (it includes `r^2`); the target `T_0` is the sum over the full lattice stencil with the
+///   bulk cell volume;
+/// * `bond(i, b)`: the unit vector and length of node `i`'s `b`-th bond, or `None` for a bond
+///   that does not count (cut by a defect); it gets factor 1;
+/// * nodes of the grid's layer keep factor 1 (the layer holds constraints and loads, it is not
+///   a free surface);
+/// * `per_node`: node `i`'s bonds get `phi_i(n)` (a per-node influence function); otherwise a
+///   bond gets the mean of its ends' factors, `(phi_i(n) + phi_j(n)) / 2`, the same from both ends.
+#[allow(clippy::too_many_arguments)]
+pub fn family_factors(
+    dim: usize,
+    grid: &crate::Grid,
+    family: &crate::BondFamily,
+    horizon: f64,
+    beta: impl Fn(f64, f64) -> f64 + Sync,
+    bond: impl Fn(usize, usize) -> Option<([f64; 3], f64)> + Sync,
+    per_node: bool,
+    kind: &'static str,
+) -> (Vec<f64>, CorrectionSummary) {
+    use rayon::prelude::*;
+    let start = std::time::Instant::now();
+    let h = grid.spacing();
+    let target = moments(
+        dim,
+        crate::family::lattice_stencil(dim, horizon / h).into_iter().map(|k| {
+            let xi = [k[0] as f64 * h, k[1] as f64 * h, k[2] as f64 * h];
+            let r = norm(&xi);
+            ([xi[0] / r, xi[1] / r, xi[2] / r], beta(r, grid.volume()))
+        }),
+    );
+    let fits: Vec<MomentFit> = (0..family.len())
+        .into_par_iter()
+        .map(|i| {
+            if grid.is_layer(i) {
+                return MomentFit::identity(dim);
+            }
+            let bonds: Vec<([f64; 3], f64)> = family
+                .neighbors(i)
+                .iter()
+                .enumerate()
+                .filter_map(|(b, &j)| bond(i, b).map(|(n, r)| (n, beta(r, grid.node_volume(j as usize)))))
+                .collect();
+            fit_moments(dim, &bonds, &target)
+        })
+        .collect();
+    let per_bond: Vec<Vec<f64>> = (0..family.len())
+        .into_par_iter()
+        .map(|i| {
+            let fi = &fits[i];
+            family
+                .neighbors(i)
+                .iter()
+                .enumerate()
+                .map(|(b, &j)| {
+                    let fj = &fits[j as usize];
+                    match bond(i, b) {
+                        Some(_) if fi.is_identity() && (per_node || fj.is_identity()) => 1.0,
+                        Some((n, _)) if per_node => fi.factor(dim, &n),
+                        Some((n, _)) => 0.5 * (fi.factor(dim, &n) + fj.factor(dim, &n)),
+                        None => 1.0,
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let factors: Vec<f64> = per_bond.into_iter().flatten().collect();
+    let range = factors
+        .iter()
+        .filter(|&&f| f != 1.0)
+        .fold([f64::INFINITY, f64::NEG_INFINITY], |r, &f| [r[0].min(f), r[1].max(f)]);
+    let summary = CorrectionSummary {
+        kind,
+        corrected_nodes: fits.iter().filter(|f| !f.is_identity()).count(),
+        factor_range: if range[0] > range[1] { [1.0, 1.0] } else { range },
+        max_mismatch: fits.iter().fold(0.0, |m, f| m.max(f.mismatch)),
+        max_iterations: fits.iter().map(|f| f.iterations).max().unwrap_or(0),
+        out_of_reach_nodes: fits.iter().filter(|f| f.out_of_reach).count(),
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    (factors, summary)
+}
+
 /// The cost and effect of a surface correction, for the solve report.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CorrectionSummary {

@@ -46,9 +46,7 @@ use crate::model::norm;
 use crate::{LpsError, LpsModel};
 use linpd_core::family::lattice_stencil;
 use linpd_core::kernel::partial_volume;
-use linpd_core::surface::{fit_moments, moments, CorrectionSummary, MomentFit};
-use rayon::prelude::*;
-use std::time::Instant;
+use linpd_core::surface::{family_factors, CorrectionSummary};
 
 /// The surface correction of an LPS model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -169,79 +167,31 @@ impl LpsModel {
     /// `w_ij *= phi_i(n_ij)` (`per_node`) or `w_ij *= (phi_i(n_ij) + phi_j(n_ij)) / 2`, and `m`
     /// recomputed from the new weights.
     fn match_moments(&mut self, per_node: bool) -> CorrectionSummary {
-        let start = Instant::now();
         let grid = self.grid.clone().expect("checked in `corrected`");
-        let (dim, h, delta) = (self.dim, grid.spacing(), self.params.horizon);
+        let (h, delta) = (grid.spacing(), self.params.horizon);
         let p = self.params;
-        let omega_nu = |r: f64| p.influence.omega(r) * if p.partial_volume { partial_volume(r, delta, h) } else { 1.0 };
-        let target = moments(
-            dim,
-            lattice_stencil(dim, delta / h).into_iter().map(|k| {
-                let xi = [k[0] as f64 * h, k[1] as f64 * h, k[2] as f64 * h];
-                let r = norm(&xi);
-                ([xi[0] / r, xi[1] / r, xi[2] / r], omega_nu(r) * self.volume * r * r)
-            }),
-        );
-        let unit = |i: usize, j: usize, r: f64| {
-            let xi = self.bond_vector(i, j);
-            [xi[0] / r, xi[1] / r, xi[2] / r]
+        let beta = |r: f64, v: f64| {
+            p.influence.omega(r) * if p.partial_volume { partial_volume(r, delta, h) } else { 1.0 } * v * r * r
         };
-        let fits: Vec<MomentFit> = (0..self.n_nodes())
-            .into_par_iter()
-            .map(|i| {
-                if grid.is_layer(i) {
-                    // the layer holds volume constraints and loads: not a free surface
-                    return MomentFit::identity(dim);
-                }
-                let bonds: Vec<([f64; 3], f64)> =
-                    self.bonds(i).map(|(j, _, r)| (unit(i, j, r), omega_nu(r) * self.volumes[j] * r * r)).collect();
-                fit_moments(dim, &bonds, &target)
-            })
-            .collect();
-        let factors: Vec<Vec<f64>> = (0..self.n_nodes())
-            .into_par_iter()
-            .map(|i| {
-                self.bonds(i)
-                    .map(|(j, _, r)| {
-                        if fits[i].is_identity() && (per_node || fits[j].is_identity()) {
-                            return 1.0;
-                        }
-                        let n = unit(i, j, r);
-                        if per_node {
-                            fits[i].factor(dim, &n)
-                        } else {
-                            0.5 * (fits[i].factor(dim, &n) + fits[j].factor(dim, &n))
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        let mut range = [f64::INFINITY, f64::NEG_INFINITY];
-        for (i, f) in factors.iter().enumerate() {
+        let bond = |i: usize, b: usize| {
+            let j = self.family.neighbors(i)[b] as usize;
+            let r = self.len[self.family.bond_offset(i) + b];
+            let xi = self.bond_vector(i, j);
+            Some(([xi[0] / r, xi[1] / r, xi[2] / r], r))
+        };
+        let kind = if per_node { "position_aware" } else { "energy" };
+        let (factors, summary) = family_factors(self.dim, &grid, &self.family, delta, beta, bond, per_node, kind);
+        self.wv.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
+        // Algorithm 3 again with the new weights: m_i = sum_j w_ij |xi|^2
+        for i in 0..self.n_nodes() {
             let o = self.family.bond_offset(i);
-            let mut mi = 0.0;
-            for (b, &fb) in f.iter().enumerate() {
-                if fb != 1.0 {
-                    range = [range[0].min(fb), range[1].max(fb)];
-                }
-                self.wv[o + b] *= fb;
-                mi += self.wv[o + b] * self.len[o + b] * self.len[o + b];
-            }
-            self.m[i] = mi;
+            let nb = self.family.neighbors(i).len();
+            self.m[i] = (o..o + nb).map(|b| self.wv[b] * self.len[b] * self.len[b]).sum();
         }
         if per_node {
             self.index_reverse_bonds();
         }
-        let corrected = fits.iter().filter(|f| !f.is_identity()).count();
-        CorrectionSummary {
-            kind: if per_node { "position_aware" } else { "energy" },
-            corrected_nodes: corrected,
-            factor_range: if range[0] > range[1] { [1.0, 1.0] } else { range },
-            max_mismatch: fits.iter().fold(0.0, |m, f| m.max(f.mismatch)),
-            max_iterations: fits.iter().map(|f| f.iterations).max().unwrap_or(0),
-            out_of_reach_nodes: fits.iter().filter(|f| f.out_of_reach).count(),
-            seconds: start.elapsed().as_secs_f64(),
-        }
+        summary
     }
 
     /// The surface correction in effect.

@@ -11,17 +11,10 @@ use linpd_lps::{
     TensionBar,
 };
 
-const H: f64 = 0.1;
+use common::H;
 
 fn variants() -> Vec<(usize, usize, LpsParams)> {
-    let p = |ratio: f64, influence, pv, plane| LpsParams {
-        K: 2.0,
-        G: 0.5,
-        horizon: ratio * H,
-        influence,
-        partial_volume: pv,
-        plane,
-    };
+    let p = common::params;
     vec![
         (3, 5, p(2.0, Influence::InverseDistance, true, None)),
         (3, 5, p(2.0, Influence::Constant, false, None)),

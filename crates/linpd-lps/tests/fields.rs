@@ -16,22 +16,15 @@
 //! `properties.rs`).
 
 use linpd_core::{Defect, Grid, Placement};
-use linpd_lps::{Influence, LpsModel, LpsParams, PlaneModel, SurfaceCorrection};
+use linpd_lps::{Influence, LpsModel, PlaneModel, SurfaceCorrection};
 
 mod common;
 use common::random_vec;
 
-const H: f64 = 0.1;
+use common::H;
 
 fn models() -> Vec<(&'static str, LpsModel)> {
-    let params = |ratio: f64, influence, pv, plane| LpsParams {
-        K: 2.0,
-        G: 0.5,
-        horizon: ratio * H,
-        influence,
-        partial_volume: pv,
-        plane,
-    };
+    let params = common::params;
     let grid = |dim: usize, nodes: usize| {
         Grid::new(&vec![0.0; dim], &vec![(nodes - 1) as f64 * H; dim], H, 0.0, Placement::Vertex).unwrap()
     };

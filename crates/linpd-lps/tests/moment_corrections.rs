@@ -9,19 +9,12 @@ use common::{dense, max_abs, random_vec};
 use linpd_core::{Grid, Placement};
 use linpd_lps::{assemble_tangent, fd_tangent, Influence, LpsModel, LpsParams, PlaneModel, SurfaceCorrection};
 
-const H: f64 = 0.1;
+use common::H;
 
 /// (dim, nodes per side, params): delta = 3h with both influence functions, and the smallest
 /// 3D horizon in use (delta = 2h, whose corner families have 7 bond directions).
 fn variants() -> Vec<(usize, usize, LpsParams)> {
-    let p = |ratio: f64, influence, pv, plane| LpsParams {
-        K: 2.0,
-        G: 0.5,
-        horizon: ratio * H,
-        influence,
-        partial_volume: pv,
-        plane,
-    };
+    let p = common::params;
     vec![
         (3, 7, p(3.0, Influence::InverseDistance, true, None)),
         (3, 5, p(2.0, Influence::InverseDistance, true, None)),

@@ -2,6 +2,16 @@
 #![allow(dead_code)]
 
 use faer::sparse::SparseColMat;
+use linpd_lps::{Influence, LpsParams, PlaneModel};
+
+/// Lattice spacing of the test grids.
+pub const H: f64 = 0.1;
+
+/// The LPS parameters of the tests: K = 2, G = 0.5 (the dilatation term active), horizon
+/// `ratio * H`.
+pub fn params(ratio: f64, influence: Influence, partial_volume: bool, plane: Option<PlaneModel>) -> LpsParams {
+    LpsParams { K: 2.0, G: 0.5, horizon: ratio * H, influence, partial_volume, plane }
+}
 
 /// Dense copy of a CSC matrix (small test matrices only).
 pub fn dense(a: &SparseColMat<usize, f64>) -> Vec<Vec<f64>> {
