@@ -43,10 +43,10 @@
 //! ```
 //!
 //! and a cell gets `C_e vol_e = sum_{corners i} D_i / n_i` (`n_i` the number of complete cells at
-//! node `i`). A node of the grid's layer (which holds supports and loads and stands for the
-//! body beyond it, not for a free surface) counts the mirror image of each bond whose mirror
-//! partner is missing, i.e. it gets the bulk `D`: rows next to the layer are then exact for
-//! affine fields (the patch test). In the bulk `C_e` is the PD model's elasticity tensor (`lambda = mu` in 3D and 2D
+//! node `i`). A support node of the grid's layer (the layer stands for the body beyond it, not
+//! for a free surface) counts the mirror image of each bond whose mirror partner is missing,
+//! i.e. it gets the bulk `D`: rows next to a supporting layer are then exact for affine fields
+//! (the patch test). In the bulk `C_e` is the PD model's elasticity tensor (`lambda = mu` in 3D and 2D
 //! plane... the Cauchy relations of bond-based PD); near a free surface `D_i` sums a truncated
 //! family, so the local model is as soft there as the PD model is for affine fields. Why finite
 //! elements and not the Taylor expansion of the whole family with one-sided differences (the
@@ -202,7 +202,8 @@ type Stencil1 = Vec<(i64, f64)>;
 
 impl LatticeBlend {
     /// Builds the blended model from the bond model `op` on `grid` (its `horizon`) and `beta`
-    /// per node.
+    /// per node. `mirrored[i]`: node `i` stands for the body beyond it (a support in the grid's
+    /// layer), so its element moduli are the bulk ones (see the module docs).
     /// `regular[i]` says node `i`'s family has one bond factor (no defect, no interface within
     /// its horizon); `None` means a homogeneous material (every node regular).
     pub fn new(
@@ -211,6 +212,7 @@ impl LatticeBlend {
         horizon: f64,
         beta: Vec<f64>,
         regular: Option<&[bool]>,
+        mirrored: &[bool],
     ) -> Result<Self, BlendError> {
         let d = op.dim();
         let n = op.n_nodes();
@@ -219,6 +221,9 @@ impl LatticeBlend {
         }
         if beta.len() != n {
             return Err(BlendError::param("beta", format!("{} values for {n} nodes", beta.len())));
+        }
+        if mirrored.len() != n {
+            return Err(BlendError::param("mirrored", format!("{} values for {n} nodes", mirrored.len())));
         }
         if let Some(i) = beta.iter().position(|b| !(0.0..=1.0).contains(b)) {
             return Err(BlendError::param("beta", format!("beta = {} at node {i} is not in [0, 1]", beta[i])));
@@ -234,7 +239,7 @@ impl LatticeBlend {
                 if !needs_local[i] && !cell_neighbours(grid, i).any(|j| needs_local[j]) {
                     return t;
                 }
-                let layer = grid.is_layer(i);
+                let layer = mirrored[i];
                 let k = grid.lattice_index(i);
                 for (&j, &w) in family.neighbors(i).iter().zip(op.weights(i)) {
                     let j = j as usize;

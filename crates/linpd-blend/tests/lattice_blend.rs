@@ -63,7 +63,7 @@ fn interior(g: &Grid, r: i64) -> Vec<usize> {
 fn beta_one_everywhere_is_the_bond_model() {
     for dim in [2, 3] {
         let (g, op, horizon) = setting(dim, if dim == 2 { 16 } else { 8 });
-        let blend = LatticeBlend::new(&op, &g, horizon, vec![1.0; g.len()], None).unwrap();
+        let blend = LatticeBlend::new(&op, &g, horizon, vec![1.0; g.len()], None, &vec![false; g.len()]).unwrap();
         let dofs = full_dofs(&op);
         let a = op.assemble_free(&dofs);
         let b = blend.assemble_free(&dofs);
@@ -87,7 +87,7 @@ fn affine_and_quadratic_fields_match_the_pd_rows() {
         let (g, op, horizon) = setting(dim, n);
         let h = g.spacing();
         let beta = beta_left(&g, 0.4, 4.0 * h, profile);
-        let blend = LatticeBlend::new(&op, &g, horizon, beta, None).unwrap();
+        let blend = LatticeBlend::new(&op, &g, horizon, beta, None, &vec![false; g.len()]).unwrap();
         let z = blend.zones();
         assert!(z.pd > 0 && z.transition > 0 && z.local > 0, "{dim}D {profile:?}: {z:?}");
         let scale = max_abs(&op.assemble_free(&full_dofs(&op)));
@@ -135,7 +135,8 @@ fn patch_test_affine_boundary_data_give_the_affine_field() {
         let horizon = 3.0 * h;
         let op = BondOperator::on_grid(&g, horizon, &micromodulus(), &Material::default()).unwrap();
         let beta = beta_left(&g, 0.35, 3.0 * h, Profile::Cubic);
-        let blend = LatticeBlend::new(&op, &g, horizon, beta, None).unwrap();
+        let layer: Vec<bool> = (0..g.len()).map(|i| g.is_layer(i)).collect();
+        let blend = LatticeBlend::new(&op, &g, horizon, beta, None, &layer).unwrap();
         let z = blend.zones();
         assert!(z.pd > 0 && z.transition > 0 && z.local > 0, "{dim}D: {z:?}");
         let constrained: Vec<bool> = (0..dim * g.len()).map(|k| g.is_layer(k / dim)).collect();
@@ -161,7 +162,7 @@ fn patch_test_affine_boundary_data_give_the_affine_field() {
 fn local_zone_is_symmetric_and_transitions_are_not() {
     let (g, op, horizon) = setting(2, 20);
     let dofs = full_dofs(&op);
-    let local = LatticeBlend::new(&op, &g, horizon, vec![0.0; g.len()], None).unwrap();
+    let local = LatticeBlend::new(&op, &g, horizon, vec![0.0; g.len()], None, &vec![false; g.len()]).unwrap();
     assert!(local.asymmetry(&dofs) <= 1e-14, "local zone: asymmetry {:e}", local.asymmetry(&dofs));
     let z = local.zones();
     assert_eq!((z.pd, z.transition, z.local), (0, 0, g.len()));
@@ -185,7 +186,7 @@ fn local_zone_is_symmetric_and_transitions_are_not() {
         assert!(err <= 1e3 * f64::EPSILON * max_abs(local.stiffness()), "rigid mode {mode}: |A u| = {err:e}");
     }
     let beta = beta_left(&g, 0.5, 3.0 * g.spacing(), Profile::Linear);
-    let blended = LatticeBlend::new(&op, &g, horizon, beta, None).unwrap();
+    let blended = LatticeBlend::new(&op, &g, horizon, beta, None, &vec![false; g.len()]).unwrap();
     assert!(blended.asymmetry(&dofs) > 1e-3, "transitions: asymmetry {:e}", blended.asymmetry(&dofs));
 }
 
@@ -201,7 +202,7 @@ fn a_defect_within_reach_of_a_local_share_is_refused() {
     let hom = BondOperator::on_grid(&g, horizon, &micromodulus(), &Material::default()).unwrap();
     let regular: Vec<bool> = (0..g.len()).map(|i| op.weights(i) == hom.weights(i)).collect();
     let beta = beta_left(&g, 0.5, 3.0 * g.spacing(), Profile::Linear);
-    let err = LatticeBlend::new(&op, &g, horizon, beta, Some(&regular)).unwrap_err().to_string();
+    let err = LatticeBlend::new(&op, &g, horizon, beta, Some(&regular), &vec![false; g.len()]).unwrap_err().to_string();
     assert!(err.contains("model.blend.pd_regions") && err.contains("defect"), "{err}");
     // with the crack more than a horizon inside the PD region (x < 0.9) it builds: the
     // crack at x = 0.7 cuts bonds of nodes up to x = 0.85, and nodes from x = 0.75 on reach
@@ -213,7 +214,7 @@ fn a_defect_within_reach_of_a_local_share_is_refused() {
     let op = BondOperator::on_grid(&g, horizon, &micromodulus(), &material).unwrap();
     let regular: Vec<bool> = (0..g.len()).map(|i| op.weights(i) == hom.weights(i)).collect();
     let beta = beta_left(&g, 0.9, 3.0 * g.spacing(), Profile::Linear);
-    if let Err(e) = LatticeBlend::new(&op, &g, horizon, beta, Some(&regular)) {
+    if let Err(e) = LatticeBlend::new(&op, &g, horizon, beta, Some(&regular), &vec![false; g.len()]) {
         panic!("crack in the PD region: {e}");
     }
 }
