@@ -1149,15 +1149,19 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
             "only the cg solver can run matrix-free; set \"type\": \"cg\"",
         ));
     }
-    if (raw.rtol.is_some() || raw.max_iter.is_some()) && !(is_cg || raw.kind == RawSolverKind::Auto) {
-        return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg solver only"));
+    let krylov = is_cg || raw.kind == RawSolverKind::Gmres;
+    if (raw.rtol.is_some() || raw.max_iter.is_some()) && !(krylov || raw.kind == RawSolverKind::Auto) {
+        return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg and gmres solvers only"));
     }
     let preconditioner = match raw.preconditioner {
         None | Some(RawPreconditioner::Jacobi) => PreconditionerKind::Jacobi,
         Some(RawPreconditioner::Multigrid) => PreconditionerKind::Multigrid,
     };
-    if raw.preconditioner.is_some() && !is_cg {
-        return Err(ProblemError::invalid("solver.preconditioner", "only the cg solver takes a preconditioner"));
+    if raw.preconditioner.is_some() && !krylov {
+        return Err(ProblemError::invalid(
+            "solver.preconditioner",
+            "only the cg and gmres solvers take a preconditioner",
+        ));
     }
     Ok(match raw.kind {
         RawSolverKind::Auto => SolverSpec::Auto(cg),
@@ -1165,6 +1169,7 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
         RawSolverKind::Lu => SolverSpec::Lu,
         RawSolverKind::Dense => SolverSpec::Dense,
         RawSolverKind::Cg => SolverSpec::Cg { params: cg, preconditioner, matrix_free: raw.matrix_free },
+        RawSolverKind::Gmres => SolverSpec::Gmres { params: cg, preconditioner },
     })
 }
 

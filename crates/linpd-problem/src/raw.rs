@@ -774,6 +774,8 @@ pub enum RawSolverKind {
     Lu,
     /// Jacobi-PCG.
     Cg,
+    /// Restarted GMRES (any `A`), Jacobi or multigrid preconditioned.
+    Gmres,
     /// Dense Cholesky.
     Dense,
 }
