@@ -103,12 +103,8 @@ impl Problem {
                             let in_box = (0..d).all(|a| kk[a] >= lo[a] && kk[a] < lo[a] + counts[a] as i64);
                             match grid.node_at(kk) {
                                 None if in_box => return true,
-                                None => {}
-                                Some(j) => {
-                                    if loaded[j] != loaded[i] || constrained[j] != constrained[i] {
-                                        return true;
-                                    }
-                                }
+                                Some(j) if loaded[j] != loaded[i] || constrained[j] != constrained[i] => return true,
+                                _ => {}
                             }
                         }
                     }
