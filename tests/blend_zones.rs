@@ -113,7 +113,7 @@ fn auto_zones_cover_holes_and_point_loads() {
                                  {"ball": {"center": [0.3, 0.5], "radius": 0.1}}]},
         "model": {"type": "bond", "horizon": 0.06, "plane": "stress",
                   "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "continuum"},
-                  "pd_regions": "auto"},
+                  "pd_regions": "auto", "auto_radius": 1.0},
         "constraints": [{"region": {"box": {"min": [-1.0, -1.0], "max": [0.0, 2.0]}}, "displacement": {"value": [0.0, 0.0]}}],
         "loads": [{"type": "point", "at": [0.76, 0.5], "force": [0.0, -1e-3]}],
         "output": {"dir": "out/auto-hole-load"}

@@ -160,6 +160,10 @@ pub struct LatticeBlend {
     positions: Vec<Point>,
     beta: Vec<f64>,
     k: Csc,
+    /// The SPD companion of `A` that preconditions it: the nonlocal shares `a_ij` (symmetric)
+    /// plus the elements weighted per cell by the mean `1 - beta` of their corners (an energy,
+    /// so symmetric and positive semi-definite), without the transition terms.
+    m: Csc,
     asymmetry: f64,
     partners: BondFamily,
     zones: Zones,
@@ -271,11 +275,13 @@ impl LatticeBlend {
             format!("node {i} at {:?} (beta = {:.3})", &x[..d], beta[i])
         };
 
-        let rows: Vec<Result<BlockRow, BlendError>> = (0..n)
+        // rows of A and of its SPD companion M (see `LatticeBlend::m`)
+        type Rows = (BlockRow, BlockRow);
+        let rows: Vec<Result<Rows, BlendError>> = (0..n)
             .into_par_iter()
             .map_init(
-                || RowBuilder::new(n),
-                |rb, i| {
+                || (RowBuilder::new(n), RowBuilder::new(n)),
+                |(rb, mb), i| {
                     let bi = beta[i];
                     let mut s = Vec::new();
                     for (&j, &w) in family.neighbors(i).iter().zip(op.weights(i)) {
@@ -288,6 +294,8 @@ impl LatticeBlend {
                                     let v = a_ij * w * e[a] * e[b];
                                     rb.at(i)[a * 3 + b] += v;
                                     rb.at(j)[a * 3 + b] -= v;
+                                    mb.at(i)[a * 3 + b] += v;
+                                    mb.at(j)[a * 3 + b] -= v;
                                 }
                             }
                         }
@@ -338,11 +346,19 @@ impl LatticeBlend {
                             element_row(d, h, i, &cell, &d_tensor, &n_cells, 1.0 - bi, rb);
                         }
                     }
-                    Ok(rb.take())
+                    // M: the elements weighted per cell by the mean local share of its corners
+                    for cell in cells_at(grid, i) {
+                        let w_e = cell.iter().map(|&c| 1.0 - beta[c]).sum::<f64>() / cell.len() as f64;
+                        if w_e > 0.0 {
+                            element_row(d, h, i, &cell, &d_tensor, &n_cells, w_e, mb);
+                        }
+                    }
+                    Ok((rb.take(), mb.take()))
                 },
             )
             .collect();
-        let rows: Vec<BlockRow> = rows.into_iter().collect::<Result<_, _>>()?;
+        let (rows, m_rows): (Vec<BlockRow>, Vec<BlockRow>) =
+            rows.into_iter().collect::<Result<Vec<Rows>, _>>()?.into_iter().unzip();
 
         let (mut pd, mut transition, mut local) = (0, 0, 0);
         for i in 0..n {
@@ -384,6 +400,7 @@ impl LatticeBlend {
             l.dedup();
         }
         let k = csr_to_csc(d * n, &row_ptr, &col, &val);
+        let m = block_rows_to_csc(d, &m_rows);
         let asymmetry = linpd_core::sparse::relative_asymmetry(&k);
         let nnz_pd = d * d * (n + family.n_bonds());
         let zones = Zones { pd, transition, local, nnz: k.val().len(), nnz_pd };
@@ -394,6 +411,7 @@ impl LatticeBlend {
             positions: op.positions().to_vec(),
             beta,
             k,
+            m,
             asymmetry,
             partners: BondFamily::from_lists(both),
             zones,
@@ -413,6 +431,25 @@ impl LatticeBlend {
     pub fn stiffness(&self) -> &Csc {
         &self.k
     }
+}
+
+/// CSC over all DOFs of `d x d` block rows (one per node, sorted by node).
+fn block_rows_to_csc(d: usize, rows: &[BlockRow]) -> Csc {
+    let mut row_ptr = Vec::with_capacity(d * rows.len() + 1);
+    row_ptr.push(0);
+    let (mut col, mut val) = (Vec::new(), Vec::new());
+    for row in rows {
+        for a in 0..d {
+            for (j, blk) in row {
+                for b in 0..d {
+                    col.push(d * j + b);
+                    val.push(blk[a * 3 + b]);
+                }
+            }
+            row_ptr.push(col.len());
+        }
+    }
+    csr_to_csc(d * rows.len(), &row_ptr, &col, &val)
 }
 
 /// The complete lattice cells with node `i` as a corner: each as its `2^d` corner nodes in the
@@ -653,10 +690,13 @@ impl Model for LatticeBlend {
         let stencil = lattice_stencil(self.dim, self.ratio);
         Ordering::NestedDissection(nested_dissection(&self.grid, &stencil, dofs))
     }
+    /// The energy form `M` (see the field's docs): always SPD on a supported body, unlike the
+    /// symmetric part of `A`, which was indefinite on a plate with a hole (its multigrid and
+    /// Cholesky setups failed).
     fn spd_approximation(&self, dofs: &DofMap) -> Option<linpd_core::SpdApproximation> {
         Some(linpd_core::SpdApproximation {
-            matrix: linpd_core::sparse::symmetric_part(&self.assemble_free(dofs)),
-            kind: linpd_core::SpdApproximationKind::SymmetricPart,
+            matrix: linpd_core::sparse::restrict_to_free(&self.m, dofs),
+            kind: linpd_core::SpdApproximationKind::EnergyForm,
         })
     }
     fn matrix_free_unavailable(&self) -> Option<&'static str> {

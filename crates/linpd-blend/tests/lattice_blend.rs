@@ -218,3 +218,31 @@ fn a_defect_within_reach_of_a_local_share_is_refused() {
         panic!("crack in the PD region: {e}");
     }
 }
+
+/// The SPD companion that preconditions the blend: symmetric, the bond model where `beta = 1`,
+/// the elements where `beta = 0`, and positive definite on a supported body (a Cholesky runs).
+#[test]
+fn energy_form_is_symmetric_and_positive_definite() {
+    let (g, op, horizon) = setting(2, 20);
+    let dofs = full_dofs(&op);
+    let none = vec![false; g.len()];
+    let pd = LatticeBlend::new(&op, &g, horizon, vec![1.0; g.len()], None, &none).unwrap();
+    let m = pd.spd_approximation(&dofs).unwrap().matrix;
+    let a = pd.assemble_free(&dofs);
+    let diff = m.val().iter().zip(a.val()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    assert!(diff <= 64.0 * f64::EPSILON * max_abs(&a), "beta = 1: |M - A| = {diff:e}");
+    let local = LatticeBlend::new(&op, &g, horizon, vec![0.0; g.len()], None, &none).unwrap();
+    let m = local.spd_approximation(&dofs).unwrap().matrix;
+    let a = local.assemble_free(&dofs);
+    let diff = m.val().iter().zip(a.val()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    assert!(diff <= 64.0 * f64::EPSILON * max_abs(&a), "beta = 0: |M - A| = {diff:e}");
+    // blended, clamped on the left three columns: M symmetric and SPD
+    let beta = beta_left(&g, 0.5, 3.0 * g.spacing(), Profile::Constant(0.5));
+    let blend = LatticeBlend::new(&op, &g, horizon, beta, None, &none).unwrap();
+    let constrained: Vec<bool> = (0..2 * g.len()).map(|k| g.position(k / 2)[0] < 0.15).collect();
+    let dofs = DofMap::new(2, &constrained);
+    let m = blend.spd_approximation(&dofs).unwrap().matrix;
+    assert!(linpd_core::sparse::relative_asymmetry(&m) <= 1e-14);
+    let chol = linpd_solve::Cholesky::analyze_with_ordering(&m, None).unwrap();
+    assert!(chol.factor(&m).is_ok(), "M is not positive definite");
+}

@@ -44,6 +44,9 @@ pub enum SpdApproximationKind {
     DivergenceForm,
     /// The symmetric part `(A_ff + A_ff^T) / 2`.
     SymmetricPart,
+    /// An energy (symmetric positive semi-definite by construction) close to `A`: the 2D/3D
+    /// blended model's shares and elements without its transition terms.
+    EnergyForm,
 }
 
 /// An SPD matrix `M_ff` close to an unsymmetric `A_ff`: GMRES preconditioned with its

@@ -118,14 +118,15 @@ pub enum PdRegions {
     },
 }
 
-/// Default `model.auto_radius`, in horizons. Measured on the edge-cracked plate (42,849 nodes,
-/// `delta = 3h`, docs/models.md): radius 1 / 2 / 3 horizons gave 5.9e-4 / 5.8e-4 / 5.7e-4 of
-/// max |u| against pure PD (transition 1 horizon) at 0.405x / 0.436x / 0.468x its stored
-/// entries: the error left is not set by the radius (it is the free surfaces', see there), so
-/// the cheapest radius.
-pub const AUTO_RADIUS: f64 = 1.0;
-/// Default `model.transition` with `"pd_regions": "auto"`, in horizons (2 horizons: 5.2e-4 at
-/// 0.436x, same table).
+/// Default `model.auto_radius`, in horizons, from `linpd study blend-2d` (docs/studies/blend-2d,
+/// transition 1 horizon, linear): at radius 2 the error against pure PD is <= 6.4e-4 of max |u|
+/// on the edge-cracked plate (41,607 and 92,407 nodes) and <= 4.5e-4 on the plate with a hole
+/// (19,650 and 43,536 nodes) at 0.39x-0.46x the entries; radius 1 leaves 1.5e-3 on the hole,
+/// radius 0.5 2.6e-2 (the roller support's edge), radius 3 gains < 10 % for +7 % entries.
+pub const AUTO_RADIUS: f64 = 2.0;
+/// Default `model.transition` with `"pd_regions": "auto"`, in horizons (docs/models.md: on the
+/// centre-cracked plate 2 horizons gave 5.2e-4 against 5.9e-4 for 1, at 0.436x against 0.405x
+/// the entries).
 pub const AUTO_TRANSITION: f64 = 1.0;
 
 impl BondModel {

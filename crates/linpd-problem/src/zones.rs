@@ -56,8 +56,15 @@ impl Problem {
                     .collect()
             }
             PdRegions::Auto { radius } => {
-                let features = self.features(regular.as_deref(), &constrained)?;
-                dilate(grid, &features, *radius)
+                let (hard, soft) = self.features(regular.as_deref(), &constrained)?;
+                // a node beside a defect, an interface or a removed site may have no local share
+                // at all (its family and difference stencils cross them): its whole family must
+                // be PD, so those features get at least one horizon
+                let mut inside = dilate(grid, &hard, radius.max(b.horizon));
+                for (i, x) in dilate(grid, &soft, *radius).into_iter().enumerate() {
+                    inside[i] |= x;
+                }
+                inside
             }
         };
         let beta = beta_from_zone(grid, &inside, zone.transition, zone.profile);
@@ -80,20 +87,23 @@ impl Problem {
     /// * it is constrained and a box neighbour is not, or the other way round (the edges of
     ///   supports, where the local and the nonlocal boundary conditions differ most).
     ///
-    /// `Err` when there is none: nothing to refine around.
-    fn features(&self, regular: Option<&[bool]>, constrained: &[bool]) -> Result<Vec<bool>, ProblemError> {
+    /// Returned as `(hard, soft)`: the first two kinds, which no local share may reach, and the
+    /// last two. `Err` when there is none: nothing to refine around.
+    fn features(&self, regular: Option<&[bool]>, constrained: &[bool]) -> Result<(Vec<bool>, Vec<bool>), ProblemError> {
         let grid = self.lattice()?;
         let d = grid.dim();
         let f = self.load_vector();
         let loaded: Vec<bool> = (0..grid.len()).map(|i| (0..d).any(|a| f[d * i + a] != 0.0)).collect();
         let counts = grid.counts();
         let lo = grid.lattice_index(0);
-        let features: Vec<bool> = (0..grid.len())
+        // 0: none, 1: soft, 2: hard
+        let kind: Vec<u8> = (0..grid.len())
             .into_par_iter()
             .map(|i| {
                 if regular.is_some_and(|r| !r[i]) {
-                    return true;
+                    return 2;
                 }
+                let mut soft = false;
                 let k = grid.lattice_index(i);
                 let span = |a: usize| if a < d { -1i64..=1 } else { 0..=0 };
                 for o2 in span(2) {
@@ -102,24 +112,24 @@ impl Problem {
                             let kk = [k[0] + o0, k[1] + o1, k[2] + o2];
                             let in_box = (0..d).all(|a| kk[a] >= lo[a] && kk[a] < lo[a] + counts[a] as i64);
                             match grid.node_at(kk) {
-                                None if in_box => return true,
-                                Some(j) if loaded[j] != loaded[i] || constrained[j] != constrained[i] => return true,
+                                None if in_box => return 2,
+                                Some(j) if loaded[j] != loaded[i] || constrained[j] != constrained[i] => soft = true,
                                 _ => {}
                             }
                         }
                     }
                 }
-                false
+                u8::from(soft)
             })
             .collect();
-        if !features.iter().any(|&x| x) {
+        if kind.iter().all(|&k| k == 0) {
             return Err(ProblemError::invalid(
                 "model.pd_regions",
                 "\"auto\" found nothing to refine around (no defect, material interface, hole, load edge or \
                  support edge): give the regions, or drop pd_regions",
             ));
         }
-        Ok(features)
+        Ok((kind.iter().map(|&k| k == 2).collect(), kind.iter().map(|&k| k == 1).collect()))
     }
 }
 

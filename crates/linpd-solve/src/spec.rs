@@ -331,6 +331,7 @@ impl fmt::Display for SolverId {
             }
             SolverId::Gmres(GmresPreconditioner::DivergenceForm) => write!(f, "cholesky(divergence form)+gmres"),
             SolverId::Gmres(GmresPreconditioner::SymmetricPart) => write!(f, "cholesky(sym part)+gmres"),
+            SolverId::Gmres(GmresPreconditioner::EnergyForm) => write!(f, "cholesky(energy form)+gmres"),
             SolverId::GmresIterative(p) => write!(f, "gmres-{}", p.name()),
         }
     }
