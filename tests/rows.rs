@@ -99,9 +99,52 @@ fn check_problem(name: &str, p: &Problem, rtol: f64) -> bool {
         }
     }
     eprintln!("{name}: {n} rows, worst difference {measured:.1e} max|A_ff|, asymmetry {:.1e}", rows.asymmetry());
+    blocks_match_apply(name, rows.model());
     let symmetric = relative_asymmetry(&sys.k) <= SYMMETRY_RTOL;
     assert_eq!(rows.is_symmetric(), symmetric, "{name}: symmetry flag (asymmetry {:e})", rows.asymmetry());
     symmetric
+}
+
+/// The contract of `Model::for_each_block` over all DOFs (constrained rows too): each coupled
+/// node once, the node itself included, and `sum_j A_ij u_j = (A u)_i` for a seeded random `u`
+/// to `1e-13 max|A u|` (the apply sums the same products in another order, and for LPS in its
+/// factored form: `|F|^2` terms per entry, see the module docs).
+fn blocks_match_apply(name: &str, model: &dyn linpd::core::Model) {
+    let (d, n) = (model.dim(), model.n_nodes());
+    let mut s = 0x9e3779b97f4a7c15u64;
+    let u: Vec<f64> = (0..d * n)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        })
+        .collect();
+    let mut au = vec![0.0; d * n];
+    model.apply(&u, &mut au);
+    let scale = au.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut worst = 0.0f64;
+    for i in 0..n {
+        let mut seen = Vec::new();
+        let mut y = [0.0f64; 3];
+        assert!(model.for_each_block(i, &mut |j, b| {
+            seen.push(j);
+            for a in 0..d {
+                for c in 0..d {
+                    y[a] += b[a * d + c] * u[d * j + c];
+                }
+            }
+        }));
+        let k = seen.len();
+        seen.sort_unstable();
+        seen.dedup();
+        assert_eq!(seen.len(), k, "{name}: node {i} offered a partner twice");
+        assert!(seen.binary_search(&i).is_ok(), "{name}: node {i} offered no diagonal block");
+        for a in 0..d {
+            worst = worst.max((y[a] - au[d * i + a]).abs());
+        }
+    }
+    assert!(worst <= 1e-13 * scale, "{name}: block rows times u differ from A u by {worst:e} (max|A u| {scale:e})");
 }
 
 /// `Problem::solution_from` with `linpd solve`'s displacements and report is `linpd solve`'s
