@@ -126,6 +126,17 @@ impl Problem {
             }
         };
         let m = model.model();
+        // every model above has block rows; a model added without them is named, not mis-assembled
+        if m.n_nodes() > 0 && !m.for_each_block(0, &mut |_, _| {}) {
+            return Err(ProblemError::invalid(
+                "model.type",
+                format!(
+                    "the {} model has no per-node block rows (Model::for_each_block), so its rows cannot be assembled \
+                     apart: use `linpd solve` or `linpd export`",
+                    m.kind()
+                ),
+            ));
+        }
         let rhs = linpd_solve::reduced_rhs_checked(m, &bc, &f).map_err(|e| match &model {
             RowModel::Blend(..) => crate::export::blend_error(e.into()),
             _ => static_error(e),
@@ -258,7 +269,7 @@ impl RowSystem {
                         }
                     }
                 });
-                debug_assert!(offered, "every model of a row system has block rows");
+                debug_assert!(offered, "row_system checked that the model has block rows");
                 (0..d)
                     .filter_map(|a| dofs.free(d * i + a).filter(|r| (first..last).contains(r)).map(|r| (r, a)))
                     .map(|(r, a)| {
