@@ -57,6 +57,7 @@
 
 pub mod blending;
 pub mod error;
+pub mod lattice;
 pub mod material;
 pub mod mesh;
 pub mod model;
@@ -65,6 +66,7 @@ mod static_model;
 
 pub use blending::{Blending, Regions};
 pub use error::BlendError;
+pub use lattice::{beta_from_zone, LatticeBlend, Profile, Zones};
 pub use mesh::Mesh;
 pub use model::{BlendOperator, BlendParams, LocalPart, ModelKind};
 pub use solve::{

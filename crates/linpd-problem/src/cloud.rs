@@ -344,6 +344,12 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
              interior, and a cloud has no lattice (use \"none\", or a grid)",
         ));
     }
+    if raw_model.pd_regions.is_some() {
+        return Err(ProblemError::invalid(
+            "model.pd_regions",
+            "not available on point clouds: the local model is built from the lattice's cells (use a grid)",
+        ));
+    }
     if kind == RawModelKind::Lps {
         return lps_on_cloud(raw, cloud, horizon, ratio);
     }
@@ -367,6 +373,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         material,
         node_moduli,
         surface: linpd_lps::SurfaceCorrection::None,
+        zone: None,
     });
     cloud_problem(raw, nodes, model)
 }

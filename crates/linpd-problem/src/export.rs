@@ -87,6 +87,11 @@ impl Problem {
                 let model = self.operator()?;
                 system(&model, &self.dirichlet(), &self.load_vector()).map_err(static_error)
             }
+            ModelSpec::Bond(b) if b.zone.is_some() => {
+                crate::memory::check_solver(crate::memory::Path::BondAssembled, self.lattice()?, b.horizon, false)?;
+                let model = self.lattice_blend()?;
+                system(&model, &self.dirichlet(), &self.load_vector()).map_err(static_error)
+            }
             ModelSpec::Bond(b) => {
                 crate::memory::check_solver(crate::memory::Path::BondAssembled, self.lattice()?, b.horizon, false)?;
                 let model = self.lattice_model()?;

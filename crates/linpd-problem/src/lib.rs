@@ -28,6 +28,7 @@ pub mod raw;
 pub mod rows;
 pub mod run;
 pub mod vtu;
+pub mod zones;
 
 pub use atomic::{OutputDir, RunIdentity};
 pub use balance::{Balance, ConstraintBalance, LoadBalance};
@@ -39,6 +40,8 @@ pub use fields::{nodal_strain, NodalStrain};
 pub use linpd_core::sparse::restrict_to_free as reduce_to_free;
 pub use lps::CG_NEAR_INCOMPRESSIBLE_NU;
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
-pub use problem::{BlendScene, BondModel, Constraint, LevelNodes, Load, ModelSpec, Nodes, Problem, MAX_JSON_BYTES};
+pub use problem::{
+    BlendScene, BondModel, Constraint, LevelNodes, Load, ModelSpec, Nodes, PdZone, Problem, MAX_JSON_BYTES,
+};
 pub use rows::{RowBlock, RowSystem};
 pub use run::Solution;

@@ -91,6 +91,19 @@ pub struct BondModel {
     pub(crate) node_moduli: Option<Vec<f64>>,
     /// `model.surface_correction`: `None` or `Energy` ([`linpd_bond::surface`]).
     pub(crate) surface: SurfaceCorrection,
+    /// `model.pd_regions` with its transition: the 2D/3D blended model.
+    pub(crate) zone: Option<PdZone>,
+}
+
+/// `model.pd_regions`, `transition`, `transition_profile`: where the blended model is PD.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PdZone {
+    /// The PD regions (`beta = 1` on the nodes inside any of them).
+    pub regions: Vec<Region>,
+    /// The transition's width.
+    pub transition: f64,
+    /// How `beta` falls across it.
+    pub profile: linpd_blend::Profile,
 }
 
 impl BondModel {
@@ -485,12 +498,22 @@ impl Problem {
             influence,
             material,
             surface_correction,
+            pd_regions,
+            transition,
+            transition_profile,
+            transition_value,
             // The blend keys are read by `crate::blend::scene`.
             ..
         } = raw.model.clone();
         if matches!(model_kind, RawModelKind::Blend | RawModelKind::Ce) && dim != 1 {
             let name = if model_kind == RawModelKind::Ce { "ce" } else { "blend" };
-            return Err(ProblemError::invalid("dimension", format!("{name} models are 1D, got dimension {dim}")));
+            return Err(ProblemError::invalid(
+                "dimension",
+                format!(
+                    "{name} models are 1D, got dimension {dim}; in 2D and 3D a bond model blends PD with local \
+                     elasticity through \"pd_regions\" and \"transition\""
+                ),
+            ));
         }
         if !(horizon.is_finite() && horizon > 0.0) {
             return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));
@@ -575,7 +598,21 @@ impl Problem {
                     // (1e308) is a validation error naming the overflow.
                     micromodulus.amplitude(dim, horizon, grid.spacing()).map_err(|e| core("model", e))?;
                     let surface = surface_correction_of(model_kind, surface_correction)?;
-                    ModelSpec::Bond(BondModel { horizon, micromodulus, material, node_moduli: None, surface })
+                    let zone = pd_zone(
+                        &grid,
+                        pd_regions.as_deref(),
+                        transition,
+                        transition_profile,
+                        transition_value,
+                        surface,
+                    )?;
+                    if zone.is_some() && raw.dynamics.is_some() {
+                        return Err(ProblemError::invalid(
+                            "model.pd_regions",
+                            "the blended model is static: remove pd_regions for dynamics",
+                        ));
+                    }
+                    ModelSpec::Bond(BondModel { horizon, micromodulus, material, node_moduli: None, surface, zone })
                 }
             }
         };
@@ -1112,15 +1149,19 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
             "only the cg solver can run matrix-free; set \"type\": \"cg\"",
         ));
     }
-    if (raw.rtol.is_some() || raw.max_iter.is_some()) && !(is_cg || raw.kind == RawSolverKind::Auto) {
-        return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg solver only"));
+    let krylov = is_cg || raw.kind == RawSolverKind::Gmres;
+    if (raw.rtol.is_some() || raw.max_iter.is_some()) && !(krylov || raw.kind == RawSolverKind::Auto) {
+        return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg and gmres solvers only"));
     }
     let preconditioner = match raw.preconditioner {
         None | Some(RawPreconditioner::Jacobi) => PreconditionerKind::Jacobi,
         Some(RawPreconditioner::Multigrid) => PreconditionerKind::Multigrid,
     };
-    if raw.preconditioner.is_some() && !is_cg {
-        return Err(ProblemError::invalid("solver.preconditioner", "only the cg solver takes a preconditioner"));
+    if raw.preconditioner.is_some() && !krylov {
+        return Err(ProblemError::invalid(
+            "solver.preconditioner",
+            "only the cg and gmres solvers take a preconditioner",
+        ));
     }
     Ok(match raw.kind {
         RawSolverKind::Auto => SolverSpec::Auto(cg),
@@ -1128,6 +1169,7 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
         RawSolverKind::Lu => SolverSpec::Lu,
         RawSolverKind::Dense => SolverSpec::Dense,
         RawSolverKind::Cg => SolverSpec::Cg { params: cg, preconditioner, matrix_free: raw.matrix_free },
+        RawSolverKind::Gmres => SolverSpec::Gmres { params: cg, preconditioner },
     })
 }
 
@@ -1208,6 +1250,90 @@ pub(crate) fn bond_micromodulus(
     let micromodulus = micromodulus(mm, horizon, plane, partial_volume)?;
     micromodulus.validate(dim).map_err(|e| core("model.micromodulus", e))?;
     Ok(micromodulus)
+}
+
+/// `model.pd_regions` and its transition keys on a bond model of a 2D/3D lattice.
+fn pd_zone(
+    grid: &Grid,
+    regions: Option<&[RawRegion]>,
+    transition: Option<f64>,
+    profile: Option<crate::raw::RawBlending>,
+    value: Option<f64>,
+    surface: SurfaceCorrection,
+) -> Result<Option<PdZone>, ProblemError> {
+    use crate::raw::RawBlending as B;
+    let Some(raw_regions) = regions else {
+        for (key, given) in [
+            ("transition", transition.is_some()),
+            ("transition_profile", profile.is_some()),
+            ("transition_value", value.is_some()),
+        ] {
+            if given {
+                return Err(ProblemError::invalid(format!("model.{key}"), "belongs to pd_regions, which is missing"));
+            }
+        }
+        return Ok(None);
+    };
+    let dim = grid.dim();
+    if dim == 1 {
+        return Err(ProblemError::invalid(
+            "model.pd_regions",
+            "2D and 3D only: a 1D blend is `\"type\": \"blend\"` (Algorithm A with L1..L4)",
+        ));
+    }
+    if surface != SurfaceCorrection::None {
+        return Err(ProblemError::invalid(
+            "model.pd_regions",
+            "not with a surface correction yet (the local model's moduli come from the uncorrected bonds)",
+        ));
+    }
+    if raw_regions.is_empty() {
+        return Err(ProblemError::invalid("model.pd_regions", "empty: give at least one region"));
+    }
+    let h = grid.spacing();
+    let width = transition.ok_or_else(|| {
+        ProblemError::invalid("model", "missing field `transition` (the width of the PD-to-local transition)")
+    })?;
+    if !(width.is_finite() && width >= h * (1.0 - linpd_core::GEOMETRY_RTOL)) {
+        return Err(ProblemError::invalid(
+            "model.transition",
+            format!("{width:e} is narrower than the grid spacing {h:e}: a transition needs at least one node"),
+        ));
+    }
+    let mut out = Vec::with_capacity(raw_regions.len());
+    for (k, r) in raw_regions.iter().enumerate() {
+        let path = format!("model.pd_regions[{k}]");
+        let region = region(&path, r, dim)?;
+        let tol = linpd_core::GEOMETRY_RTOL * h;
+        if !(0..grid.len()).any(|i| !grid.is_layer(i) && region.contains(&grid.position(i), dim, tol)) {
+            return Err(ProblemError::invalid(path, "holds no node of the body (outside it, or in a hole)"));
+        }
+        out.push(region);
+    }
+    let profile = match (profile, value) {
+        (None | Some(B::Linear), None) => linpd_blend::Profile::Linear,
+        (Some(B::Cubic), None) => linpd_blend::Profile::Cubic,
+        (Some(B::Constant), v) => {
+            let v = v.unwrap_or(0.5);
+            if !(v > 0.0 && v < 1.0) {
+                return Err(ProblemError::invalid("model.transition_value", format!("{v:e} is not in (0, 1)")));
+            }
+            linpd_blend::Profile::Constant(v)
+        }
+        (Some(B::Piecewise), _) => {
+            return Err(ProblemError::invalid(
+                "model.transition_profile",
+                "piecewise is a 1D blend profile: use linear, cubic or constant",
+            ))
+        }
+        (_, Some(_)) => {
+            return Err(ProblemError::invalid(
+                "model.transition_value",
+                "only with \"transition_profile\": \"constant\"",
+            ))
+        }
+    };
+    Ok(Some(PdZone { regions: out, transition: width, profile }))
 }
 
 /// `model.surface_correction` of a lattice scene: `position_aware` is LPS only (a bond-based

@@ -241,9 +241,18 @@ impl RawModelKind {
     /// model type and the types that do take it ([`RawModel::check_keys`]).
     pub fn keys(self) -> &'static [&'static str] {
         match self {
-            RawModelKind::Bond => {
-                &["horizon", "partial_volume", "plane", "micromodulus", "material", "surface_correction"]
-            }
+            RawModelKind::Bond => &[
+                "horizon",
+                "partial_volume",
+                "plane",
+                "micromodulus",
+                "material",
+                "surface_correction",
+                "pd_regions",
+                "transition",
+                "transition_profile",
+                "transition_value",
+            ],
             RawModelKind::Lps => &[
                 "horizon",
                 "partial_volume",
@@ -321,6 +330,19 @@ pub struct RawModel {
     /// Bond and LPS: `none` (default), `energy` or (LPS) `position_aware`.
     #[serde(default)]
     pub surface_correction: Option<RawSurfaceCorrection>,
+    /// Bond on a 2D/3D lattice: the regions modelled by PD; elsewhere local elasticity, blended
+    /// across a transition ([`linpd_blend::lattice`]).
+    #[serde(default)]
+    pub pd_regions: Option<Vec<RawRegion>>,
+    /// Bond with `pd_regions`: the transition's width (length units, at least the spacing).
+    #[serde(default)]
+    pub transition: Option<f64>,
+    /// Bond with `pd_regions`: `linear` (default), `cubic` or `constant`.
+    #[serde(default)]
+    pub transition_profile: Option<RawBlending>,
+    /// Bond with `pd_regions` and a constant profile: its value (default 0.5).
+    #[serde(default)]
+    pub transition_value: Option<f64>,
     /// Blend: `[L1, L2, L3, L4]`.
     #[serde(default)]
     pub regions: Option<[f64; 4]>,
@@ -358,6 +380,10 @@ impl RawModel {
             ("influence", self.influence.is_some()),
             ("material", material),
             ("surface_correction", self.surface_correction.is_some()),
+            ("pd_regions", self.pd_regions.is_some()),
+            ("transition", self.transition.is_some()),
+            ("transition_profile", self.transition_profile.is_some()),
+            ("transition_value", self.transition_value.is_some()),
             ("regions", self.regions.is_some()),
             ("blending", self.blending.is_some()),
             ("blending_value", self.blending_value.is_some()),
@@ -748,6 +774,8 @@ pub enum RawSolverKind {
     Lu,
     /// Jacobi-PCG.
     Cg,
+    /// Restarted GMRES (any `A`), Jacobi or multigrid preconditioned.
+    Gmres,
     /// Dense Cholesky.
     Dense,
 }

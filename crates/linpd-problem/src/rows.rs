@@ -112,6 +112,13 @@ impl Problem {
                 let n_bonds = op.family().n_bonds();
                 (RowModel::Bond(Box::new(op), n_bonds), self.dirichlet(), self.load_vector())
             }
+            ModelSpec::Bond(b) if b.zone.is_some() => {
+                return Err(ProblemError::invalid(
+                    "model.pd_regions",
+                    "row-block assembly (the distributed path) does not take blended scenes yet: the blended \
+                     model is assembled whole; use `linpd solve` or `linpd export`",
+                ))
+            }
             ModelSpec::Bond(_) => {
                 let model = self.lattice_model()?;
                 let n_bonds = model.operator().family().n_bonds();

@@ -48,7 +48,7 @@ pub struct Solution {
 
 impl Problem {
     /// The bond model of the scene, or an error naming the scene's model type.
-    fn bond_model(&self) -> Result<&crate::BondModel, ProblemError> {
+    pub(crate) fn bond_model(&self) -> Result<&crate::BondModel, ProblemError> {
         self.model.bond().ok_or_else(|| {
             ProblemError::invalid(
                 "model.type",
@@ -166,6 +166,9 @@ impl Problem {
             self.nodes.len(),
             self.model.horizon().unwrap_or(f64::NAN) / self.lattice()?.spacing()
         ));
+        if self.bond_model()?.zone.is_some() {
+            return crate::zones::solve(self, t0, progress);
+        }
         let (model, correction) = self.lattice_model_and_correction()?;
         if let Some(c) = &correction {
             progress.phase(&c.describe());

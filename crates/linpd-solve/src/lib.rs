@@ -66,6 +66,14 @@ pub enum SolveError {
     /// CG did not converge or broke down.
     #[error(transparent)]
     Cg(#[from] CgError),
+    /// GMRES did not converge or broke down.
+    #[error("gmres ({preconditioner}): {source}")]
+    Gmres {
+        /// The preconditioner's name.
+        preconditioner: &'static str,
+        /// What happened.
+        source: GmresError,
+    },
     /// The system is too large for the dense solver.
     #[error("dense solver refused: {n} unknowns (limit {limit}); use cholesky or cg")]
     TooLargeForDense {

@@ -183,6 +183,14 @@ pub enum SolverSpec {
         /// Apply the model without assembling it.
         matrix_free: bool,
     },
+    /// Restarted GMRES (right-preconditioned, on the assembled `A_ff`, symmetric or not) to
+    /// `params.rtol` of the true residual, at most `params.max_iter` iterations.
+    Gmres {
+        /// Tolerance and iteration limit.
+        params: CgParams,
+        /// Jacobi, or multigrid built from `A_ff` itself.
+        preconditioner: PreconditionerKind,
+    },
 }
 
 impl Default for SolverSpec {
@@ -200,7 +208,11 @@ impl SolverSpec {
     /// Whether the solve asked for the multigrid preconditioner (`auto` may pick it too; its
     /// cost model decides after the assembly).
     pub fn uses_multigrid(&self) -> bool {
-        matches!(self, SolverSpec::Cg { preconditioner: PreconditionerKind::Multigrid, .. })
+        matches!(
+            self,
+            SolverSpec::Cg { preconditioner: PreconditionerKind::Multigrid, .. }
+                | SolverSpec::Gmres { preconditioner: PreconditionerKind::Multigrid, .. }
+        )
     }
 
     /// The solver `auto` stands for before looking at the matrix (other specs are returned
@@ -230,6 +242,9 @@ impl fmt::Display for SolverSpec {
                 params.rtol,
                 params.max_iter
             ),
+            SolverSpec::Gmres { params, preconditioner } => {
+                write!(f, "gmres ({}, rtol {:e}, max_iter {})", preconditioner.name(), params.rtol, params.max_iter)
+            }
         }
     }
 }
@@ -285,6 +300,8 @@ pub enum SolverId {
     },
     /// GMRES preconditioned by a Cholesky factor.
     Gmres(GmresPreconditioner),
+    /// GMRES with an iterative preconditioner.
+    GmresIterative(PreconditionerKind),
 }
 
 impl fmt::Display for SolverId {
@@ -314,6 +331,7 @@ impl fmt::Display for SolverId {
             }
             SolverId::Gmres(GmresPreconditioner::DivergenceForm) => write!(f, "cholesky(divergence form)+gmres"),
             SolverId::Gmres(GmresPreconditioner::SymmetricPart) => write!(f, "cholesky(sym part)+gmres"),
+            SolverId::GmresIterative(p) => write!(f, "gmres-{}", p.name()),
         }
     }
 }

@@ -111,6 +111,9 @@ pub fn solve_assembled_with_progress(
             SolverSpec::Cg { params, preconditioner, matrix_free: _ } => {
                 assembled_cg(a, f, params, *preconditioner, hints.geometry.as_ref(), progress)?
             }
+            SolverSpec::Gmres { params, preconditioner } => {
+                assembled_gmres(a, f, params, *preconditioner, hints.geometry.as_ref(), progress)?
+            }
         }
     } else {
         match (&resolved, &hints.spd) {
@@ -123,6 +126,14 @@ pub fn solve_assembled_with_progress(
                 (u, report)
             }
             (SolverSpec::Lu, _) => lu(a, f, &hints.ordering, progress)?,
+            (SolverSpec::Gmres { params, preconditioner }, spd) => {
+                // the preconditioner from the SPD approximation (the symmetric part by default)
+                let m = match spd {
+                    Some(spd) => spd.matrix.clone(),
+                    None => linpd_core::sparse::symmetric_part(a),
+                };
+                assembled_gmres_with(a, &m, f, params, *preconditioner, hints.geometry.as_ref(), progress)?
+            }
             (_, Some(spd)) if matches!(spec, SolverSpec::Auto(_)) => {
                 match spd_gmres(a, f, spd, &hints.ordering, progress) {
                     Ok(solved) => solved,
@@ -257,6 +268,51 @@ fn assembled_cg(
     let sym = SymCsc(a);
     let op: &dyn LinearOperator = m_inv.operator_copy().unwrap_or(&sym);
     let info = pcg_with_progress(&op, &m_inv, f, &mut u, params, progress)?;
+    report.timings.solve = t.elapsed().as_secs_f64();
+    report.iterations = Some(info.iterations);
+    Ok((u, report))
+}
+
+/// Restarted GMRES (restart 50) on the assembled `A_ff`, right-preconditioned by Jacobi or by
+/// multigrid built from `A_ff` itself.
+fn assembled_gmres(
+    a: &Csc,
+    f: &[f64],
+    params: &CgParams,
+    preconditioner: PreconditionerKind,
+    geometry: Option<&DofGeometry>,
+    progress: &dyn Progress,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    assembled_gmres_with(a, a, f, params, preconditioner, geometry, progress)
+}
+
+/// [`assembled_gmres`] with the preconditioner built from `m` instead of `a`: for an
+/// unsymmetric `A` the SPD approximation `M` (the smoothed-aggregation hierarchy and its
+/// coarsest Cholesky need a symmetric matrix; the Galerkin coarse levels of the blended `A`
+/// itself came out singular on the bundled crack plate).
+fn assembled_gmres_with(
+    a: &Csc,
+    m: &Csc,
+    f: &[f64],
+    params: &CgParams,
+    preconditioner: PreconditionerKind,
+    geometry: Option<&DofGeometry>,
+    progress: &dyn Progress,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    let mut report = SolveReport::new(SolverId::GmresIterative(preconditioner), a.nrows(), a.val().len());
+    let t = Instant::now();
+    let diag = diagonal(m);
+    let task = Task::start(progress, &format!("{} preconditioner setup", preconditioner.name()), None);
+    let m_inv =
+        preconditioner.build(&PreconditionerInput { diagonal: &diag, matrix: Some(m), geometry, model: None })?;
+    drop(task);
+    report.timings.setup = t.elapsed().as_secs_f64();
+    report.preconditioner = m_inv.summary();
+    let t = Instant::now();
+    let mut u = vec![0.0; a.nrows()];
+    let gp = GmresParams { rtol: params.rtol, restart: 50, max_iter: params.max_iter };
+    let info = gmres_with_progress(&GeneralCsc(a), &m_inv, f, &mut u, &gp, progress)
+        .map_err(|source| SolveError::Gmres { preconditioner: preconditioner.name(), source })?;
     report.timings.solve = t.elapsed().as_secs_f64();
     report.iterations = Some(info.iterations);
     Ok((u, report))
@@ -607,7 +663,9 @@ pub fn solve_model(
             let a = assemble_checked(model, dofs, &rhs, progress)?;
             let t_asm = t.elapsed().as_secs_f64();
             let spd = match spec {
-                SolverSpec::Auto(_) if asymmetry > SYMMETRY_RTOL => model.spd_approximation(dofs),
+                SolverSpec::Auto(_) | SolverSpec::Gmres { .. } if asymmetry > SYMMETRY_RTOL => {
+                    model.spd_approximation(dofs)
+                }
                 _ => None,
             };
             let n_side = match spec {
@@ -622,7 +680,9 @@ pub fn solve_model(
             };
             // Only multilevel preconditioners read the geometry: build it when one may run.
             let geometry = match spec {
-                SolverSpec::Cg { preconditioner, .. } if *preconditioner != PreconditionerKind::Jacobi => {
+                SolverSpec::Cg { preconditioner, .. } | SolverSpec::Gmres { preconditioner, .. }
+                    if *preconditioner != PreconditionerKind::Jacobi =>
+                {
                     Some(DofGeometry::of(model, dofs))
                 }
                 SolverSpec::Auto(_) if d >= 2 => Some(DofGeometry::of(model, dofs)),

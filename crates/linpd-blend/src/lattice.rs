@@ -1,0 +1,665 @@
+//! The blended PD / local-elasticity model in 2D and 3D on a lattice: Algorithm A of Seleson,
+//! Beneddine & Prudhomme (2013) carried to `d` dimensions for the bond-based model.
+//!
+//! # The model
+//!
+//! A blending function `beta_i` in `[0, 1]` per node (1 in the PD regions, 0 in the local zone,
+//! a profile across a transition of given width). The bond-based row in force form is
+//! `(A u)_i = sum_j w_ij e e^T (u_i - u_j)` (`w_ij` the bond model's weights, `V_i V_j`
+//! included). As in eq. (15) each bond is split into a nonlocal share
+//! `a_ij = (beta_i + beta_j) / 2` and a local share `1 - a_ij`, and the local share is written
+//!
+//! ```text
+//! 1 - a_ij = (1 - beta_i) + (beta_i - beta_j) / 2 .
+//! ```
+//!
+//! The first part is the same for every bond of node `i`: the whole family's local share,
+//! replaced by **the local model's row** scaled by `1 - beta_i`. The second part is odd in the
+//! bond's direction across a transition and vanishes where `beta` is constant on the family; it
+//! is replaced by its second-order Taylor expansion, as Algorithm A does with its `SUM1`, `SUM2`:
+//!
+//! ```text
+//! (A u)_i = sum_j a_ij w_ij e e^T (u_i - u_j)                                    nonlocal share
+//!         + (1 - beta_i) (K_loc u)_i                                              local model
+//!         - M1_i : grad u(x_i) - M2_i : grad grad u(x_i)                         transition terms
+//! (M1_i)_abc  = sum_j s_ij e_a e_b xi_c,   (M2_i)_abcd = (1/2) sum_j s_ij e_a e_b xi_c xi_d,
+//! s_ij = (beta_i - beta_j) / 2 w_ij,
+//! ```
+//!
+//! (`u_j - u_i = grad u xi + (1/2) grad grad u : xi xi + ...` in each bond), with `grad u` and
+//! `grad grad u` by second-order differences on the lattice: central where both neighbours
+//! exist, one-sided three-point otherwise, mixed second derivatives as products of first
+//! differences; all are exact for quadratic fields.
+//!
+//! # The local model
+//!
+//! Trilinear (bilinear in 2D) finite elements on the lattice's cells (the boxes of `2^d`
+//! neighbouring nodes), full `2^d`-point Gauss quadrature, with per-cell moduli chosen so that
+//! **the local energy of every affine field equals the PD energy, node by node**: the PD energy
+//! of `u = G x` is `sum_i (1/2) G : D_i : G` with
+//!
+//! ```text
+//! (D_i)_abcd = (1/2) sum_j w_ij e_a xi_b e_c xi_d        (the bond energy w (e.G xi)^2 / 2, half per end)
+//! ```
+//!
+//! and a cell gets `C_e vol_e = sum_{corners i} D_i / n_i` (`n_i` the number of complete cells at
+//! node `i`). A support node of the grid's layer (the layer stands for the body beyond it, not
+//! for a free surface) counts the mirror image of each bond whose mirror partner is missing,
+//! i.e. it gets the bulk `D`: rows next to a supporting layer are then exact for affine fields
+//! (the patch test). In the bulk `C_e` is the PD model's elasticity tensor (`lambda = mu` in 3D and 2D
+//! plane... the Cauchy relations of bond-based PD); near a free surface `D_i` sums a truncated
+//! family, so the local model is as soft there as the PD model is for affine fields. Why finite
+//! elements and not the Taylor expansion of the whole family with one-sided differences (the
+//! literal reading of Algorithm A): that operator is not in divergence form, and at free
+//! surfaces its first-moment terms `M1` are `O(w / h)`; measured on a 60 x 60 plate in tension
+//! (`delta = 3h`) it made the whole plate 15 % softer than PD, where the elements, which are
+//! conservative and carry the traction-free condition naturally, differ by 2 %.
+//!
+//! # Properties (tested in `tests/lattice_blend.rs`)
+//!
+//! * Where `beta = 1` on a node's family, its row is the bond model's row, bit for bit.
+//! * Every row is exact for affine fields (the nonlocal share plus the transition terms give
+//!   `beta_i` times the PD row, the elements give `1 - beta_i` times zero in the bulk), and rows
+//!   whose node has a full family and complete cells are exact for quadratic fields (the
+//!   elements' stencil with the PD's tensor is exact there): the blended rows equal the PD rows.
+//! * Where `beta = 0` on the family, the row is the element row: `A` is symmetric there; the
+//!   transition rows are not (the `1 - beta_i` row scaling and the Taylor terms), so the solvers
+//!   see an unsymmetric `A` (GMRES or LU; see docs/solvers.md).
+//! * The local model cannot hold a pre-crack, a defect or a material interface: nodes whose row
+//!   has a local share must have a family with one bond factor (all weights the homogeneous
+//!   weights times one number), and the cells they use must have such corners; anything else is
+//!   a named error telling to cover the feature with `pd_regions`.
+
+use crate::BlendError;
+use linpd_bond::BondOperator;
+use linpd_core::family::lattice_stencil;
+use linpd_core::sparse::{csr_to_csc, Csc};
+use linpd_core::{nested_dissection, BondFamily, DofMap, Grid, Model, Ordering, Point};
+use rayon::prelude::*;
+
+/// How `beta` falls from 1 at a PD region's boundary to 0 at the transition's outer edge, as a
+/// function of `s = distance / width` in `[0, 1]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Profile {
+    /// `1 - s`.
+    Linear,
+    /// `1 - (3 s^2 - 2 s^3)` (C^1 at both ends).
+    Cubic,
+    /// A constant `value` across the transition.
+    Constant(f64),
+}
+
+impl Profile {
+    /// `beta` at `s = distance / width` (`s <= 0`: inside a PD region; `s >= 1`: local).
+    pub fn beta(self, s: f64) -> f64 {
+        if s <= 0.0 {
+            return 1.0;
+        }
+        if s >= 1.0 {
+            return 0.0;
+        }
+        match self {
+            Profile::Linear => 1.0 - s,
+            Profile::Cubic => 1.0 - s * s * (3.0 - 2.0 * s),
+            Profile::Constant(v) => v,
+        }
+    }
+}
+
+/// `beta` per node: 1 on the nodes in `inside`, `profile(dist / width)` elsewhere, `dist` the
+/// distance to the nearest node of `inside` (searched in the lattice box of radius `width`).
+pub fn beta_from_zone(grid: &Grid, inside: &[bool], width: f64, profile: Profile) -> Vec<f64> {
+    let d = grid.dim();
+    let h = grid.spacing();
+    let r = (width / h).ceil() as i64;
+    let offsets = lattice_stencil(d, width / h);
+    (0..grid.len())
+        .into_par_iter()
+        .map(|i| {
+            if inside[i] {
+                return 1.0;
+            }
+            let k = grid.lattice_index(i);
+            let mut best = f64::INFINITY;
+            for o in &offsets {
+                if o.iter().any(|c| c.abs() > r) {
+                    continue;
+                }
+                if let Some(j) = grid.node_at([k[0] + o[0], k[1] + o[1], k[2] + o[2]]) {
+                    if inside[j] {
+                        let n2 = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]) as f64;
+                        best = best.min(n2.sqrt() * h);
+                    }
+                }
+            }
+            profile.beta(best / width)
+        })
+        .collect()
+}
+
+/// Node counts of the three zones and the stored entries saved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct Zones {
+    /// Nodes whose row is the PD row (`beta = 1` on the node and its family).
+    pub pd: usize,
+    /// Nodes with both shares.
+    pub transition: usize,
+    /// Nodes whose row is the local model's (`beta = 0` on the node and its family).
+    pub local: usize,
+    /// Stored entries of the blended `A` over all DOFs.
+    pub nnz: usize,
+    /// Stored entries the bond model's `A` would have on the same lattice.
+    pub nnz_pd: usize,
+}
+
+/// The blended model on a lattice, assembled over all DOFs (see the module docs).
+#[derive(Debug, Clone)]
+pub struct LatticeBlend {
+    grid: Grid,
+    dim: usize,
+    positions: Vec<Point>,
+    beta: Vec<f64>,
+    k: Csc,
+    asymmetry: f64,
+    partners: BondFamily,
+    zones: Zones,
+    /// Largest lattice offset of a coupling, per the nested dissection's reach.
+    ratio: f64,
+}
+
+/// A `d x d` block row: `(node, block)` with the block row-major in a 3 x 3 array.
+type BlockRow = Vec<(usize, [f64; 9])>;
+
+/// Accumulates blocks of one row by node (a dense slot per node, reset after each row).
+struct RowBuilder {
+    slot: Vec<u32>,
+    row: BlockRow,
+}
+
+impl RowBuilder {
+    fn new(n: usize) -> Self {
+        RowBuilder { slot: vec![u32::MAX; n], row: Vec::new() }
+    }
+    fn at(&mut self, j: usize) -> &mut [f64; 9] {
+        if self.slot[j] == u32::MAX {
+            self.slot[j] = self.row.len() as u32;
+            self.row.push((j, [0.0; 9]));
+        }
+        &mut self.row[self.slot[j] as usize].1
+    }
+    fn take(&mut self) -> BlockRow {
+        for (j, _) in &self.row {
+            self.slot[*j] = u32::MAX;
+        }
+        let mut row = std::mem::take(&mut self.row);
+        row.sort_unstable_by_key(|e| e.0);
+        row
+    }
+}
+
+/// A difference stencil along one axis: `(offset, weight)` pairs.
+type Stencil1 = Vec<(i64, f64)>;
+
+impl LatticeBlend {
+    /// Builds the blended model from the bond model `op` on `grid` (its `horizon`) and `beta`
+    /// per node. `mirrored[i]`: node `i` stands for the body beyond it (a support in the grid's
+    /// layer), so its element moduli are the bulk ones (see the module docs).
+    /// `regular[i]` says node `i`'s family has one bond factor (no defect, no interface within
+    /// its horizon); `None` means a homogeneous material (every node regular).
+    pub fn new(
+        op: &BondOperator,
+        grid: &Grid,
+        horizon: f64,
+        beta: Vec<f64>,
+        regular: Option<&[bool]>,
+        mirrored: &[bool],
+    ) -> Result<Self, BlendError> {
+        let d = op.dim();
+        let n = op.n_nodes();
+        if d < 2 {
+            return Err(BlendError::param("model.blend", "2D and 3D only (1D blends are `\"type\": \"blend\"`)"));
+        }
+        if beta.len() != n {
+            return Err(BlendError::param("beta", format!("{} values for {n} nodes", beta.len())));
+        }
+        if mirrored.len() != n {
+            return Err(BlendError::param("mirrored", format!("{} values for {n} nodes", mirrored.len())));
+        }
+        if let Some(i) = beta.iter().position(|b| !(0.0..=1.0).contains(b)) {
+            return Err(BlendError::param("beta", format!("beta = {} at node {i} is not in [0, 1]", beta[i])));
+        }
+        let h = grid.spacing();
+        let family = op.family();
+        // D_i for the element moduli, only where a local share may read it
+        let needs_local: Vec<bool> = (0..n).map(|i| beta[i] < 1.0).collect();
+        let d_tensor: Vec<[f64; 81]> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let mut t = [0.0; 81];
+                if !needs_local[i] && !cell_neighbours(grid, i).any(|j| needs_local[j]) {
+                    return t;
+                }
+                let layer = mirrored[i];
+                let k = grid.lattice_index(i);
+                for (&j, &w) in family.neighbors(i).iter().zip(op.weights(i)) {
+                    let j = j as usize;
+                    let xi = op.bond_vector(i, j);
+                    let e = op.unit(i, j);
+                    // a layer node stands for the body beyond it: its family's missing half
+                    // is the mirror image of the bonds it has
+                    let kj = grid.lattice_index(j);
+                    let mirror = [0, 1, 2].map(|a| 2 * k[a] - kj[a]);
+                    let f = if layer && grid.node_at(mirror).is_none() { 1.0 } else { 0.5 };
+                    for a in 0..d {
+                        for b in 0..d {
+                            let ab = f * w * e[a] * xi[b];
+                            for c in 0..d {
+                                for dd in 0..d {
+                                    t[((a * 3 + b) * 3 + c) * 3 + dd] += ab * e[c] * xi[dd];
+                                }
+                            }
+                        }
+                    }
+                }
+                t
+            })
+            .collect();
+        let n_cells: Vec<u8> = (0..n).map(|i| cells_at(grid, i).count() as u8).collect();
+        let is_regular = |i: usize| regular.is_none_or(|r| r[i]);
+        let describe = |i: usize| {
+            let x = grid.position(i);
+            format!("node {i} at {:?} (beta = {:.3})", &x[..d], beta[i])
+        };
+
+        let rows: Vec<Result<BlockRow, BlendError>> = (0..n)
+            .into_par_iter()
+            .map_init(
+                || RowBuilder::new(n),
+                |rb, i| {
+                    let bi = beta[i];
+                    let mut s = Vec::new();
+                    for (&j, &w) in family.neighbors(i).iter().zip(op.weights(i)) {
+                        let j = j as usize;
+                        let a_ij = 0.5 * (bi + beta[j]);
+                        let e = op.unit(i, j);
+                        if a_ij > 0.0 {
+                            for a in 0..d {
+                                for b in 0..d {
+                                    let v = a_ij * w * e[a] * e[b];
+                                    rb.at(i)[a * 3 + b] += v;
+                                    rb.at(j)[a * 3 + b] -= v;
+                                }
+                            }
+                        }
+                        if beta[j] != bi {
+                            s.push((j, 0.5 * (bi - beta[j]) * w));
+                        }
+                    }
+                    let local = bi < 1.0;
+                    if (local || !s.is_empty()) && !is_regular(i) {
+                        return Err(BlendError::param(
+                            "model.blend.pd_regions",
+                            format!(
+                                "{}: its row has a local share but a defect or a material interface is within its \
+                                 horizon, which local elasticity cannot represent; extend pd_regions (with the transition) \
+                                 to keep every defect and interface more than a horizon from beta < 1",
+                                describe(i)
+                            ),
+                        ));
+                    }
+                    if !s.is_empty() {
+                        transition_terms(op, grid, i, &s, rb).map_err(|why| {
+                            BlendError::param("model.blend.pd_regions", format!("{}: {why}", describe(i)))
+                        })?;
+                    }
+                    if local {
+                        if n_cells[i] == 0 {
+                            return Err(BlendError::param(
+                                "model.blend.pd_regions",
+                                format!(
+                                    "{}: has a local share but is the corner of no complete lattice cell (a body \
+                                     thinner than two nodes there): extend pd_regions to cover it",
+                                    describe(i)
+                                ),
+                            ));
+                        }
+                        for cell in cells_at(grid, i) {
+                            if let Some(c) = cell.iter().find(|&&c| !is_regular(c)) {
+                                return Err(BlendError::param(
+                                    "model.blend.pd_regions",
+                                    format!(
+                                        "{}: its local elements reach {} near a defect or a material interface; \
+                                         extend pd_regions to cover it",
+                                        describe(i),
+                                        describe(*c)
+                                    ),
+                                ));
+                            }
+                            element_row(d, h, i, &cell, &d_tensor, &n_cells, 1.0 - bi, rb);
+                        }
+                    }
+                    Ok(rb.take())
+                },
+            )
+            .collect();
+        let rows: Vec<BlockRow> = rows.into_iter().collect::<Result<_, _>>()?;
+
+        let (mut pd, mut transition, mut local) = (0, 0, 0);
+        for i in 0..n {
+            let all = |v: f64| beta[i] == v && family.neighbors(i).iter().all(|&j| beta[j as usize] == v);
+            if all(1.0) {
+                pd += 1;
+            } else if all(0.0) {
+                local += 1;
+            } else {
+                transition += 1;
+            }
+        }
+        // CSR over all DOFs, then CSC
+        let mut row_ptr = Vec::with_capacity(d * n + 1);
+        row_ptr.push(0);
+        let (mut col, mut val) = (Vec::new(), Vec::new());
+        let mut lists = Vec::with_capacity(n);
+        for (i, row) in rows.iter().enumerate() {
+            for a in 0..d {
+                for (j, blk) in row {
+                    for b in 0..d {
+                        col.push(d * j + b);
+                        val.push(blk[a * 3 + b]);
+                    }
+                }
+                row_ptr.push(col.len());
+            }
+            lists.push(row.iter().map(|e| e.0 as u32).filter(|&j| j as usize != i).collect::<Vec<_>>());
+        }
+        // the interaction graph in both directions (the transition rows are not symmetric)
+        let mut both = lists.clone();
+        for (i, l) in lists.iter().enumerate() {
+            for &j in l {
+                both[j as usize].push(i as u32);
+            }
+        }
+        for l in &mut both {
+            l.sort_unstable();
+            l.dedup();
+        }
+        let k = csr_to_csc(d * n, &row_ptr, &col, &val);
+        let asymmetry = linpd_core::sparse::relative_asymmetry(&k);
+        let nnz_pd = d * d * (n + family.n_bonds());
+        let zones = Zones { pd, transition, local, nnz: k.val().len(), nnz_pd };
+        let ratio = (horizon / h).max(2.0);
+        Ok(LatticeBlend {
+            grid: grid.clone(),
+            dim: d,
+            positions: op.positions().to_vec(),
+            beta,
+            k,
+            asymmetry,
+            partners: BondFamily::from_lists(both),
+            zones,
+            ratio,
+        })
+    }
+
+    /// `beta` per node.
+    pub fn beta(&self) -> &[f64] {
+        &self.beta
+    }
+    /// The zone counts and stored entries.
+    pub fn zones(&self) -> Zones {
+        self.zones
+    }
+    /// `A` over all DOFs.
+    pub fn stiffness(&self) -> &Csc {
+        &self.k
+    }
+}
+
+/// The complete lattice cells with node `i` as a corner: each as its `2^d` corner nodes in the
+/// order of the bits of the corner number (bit `a` set: `+1` along axis `a`).
+fn cells_at(grid: &Grid, i: usize) -> impl Iterator<Item = Vec<usize>> + '_ {
+    let d = grid.dim();
+    let k = grid.lattice_index(i);
+    (0..1usize << d).filter_map(move |lower| {
+        // the cell whose lowest corner is k - (bits of `lower`)
+        let base: [i64; 3] = [0, 1, 2].map(|a| if a < d && lower >> a & 1 == 1 { k[a] - 1 } else { k[a] });
+        (0..1usize << d)
+            .map(|c| grid.node_at([0, 1, 2].map(|a| if a < d && c >> a & 1 == 1 { base[a] + 1 } else { base[a] })))
+            .collect::<Option<Vec<usize>>>()
+    })
+}
+
+/// The nodes sharing a complete cell with `i` (`i` included).
+fn cell_neighbours(grid: &Grid, i: usize) -> impl Iterator<Item = usize> + '_ {
+    cells_at(grid, i).flatten()
+}
+
+/// Adds `scale` times row `i` of the element matrix of `cell` (corner nodes in bit order).
+#[allow(clippy::too_many_arguments)]
+fn element_row(
+    d: usize,
+    h: f64,
+    i: usize,
+    cell: &[usize],
+    d_tensor: &[[f64; 81]],
+    n_cells: &[u8],
+    scale: f64,
+    rb: &mut RowBuilder,
+) {
+    // C_e vol_e = sum over corners of D / n_cells
+    let mut e = [0.0; 81];
+    for &c in cell {
+        let f = 1.0 / n_cells[c] as f64;
+        for (x, y) in e.iter_mut().zip(&d_tensor[c]) {
+            *x += f * y;
+        }
+    }
+    let r = cell.iter().position(|&c| c == i).expect("i is a corner");
+    let nc = 1usize << d;
+    let g = 0.5 / 3f64.sqrt();
+    let wg = 1.0 / nc as f64;
+    // shape function gradient of corner c at Gauss point p (reference coordinates t in [0, 1]^d)
+    let grad = |c: usize, t: &[f64; 3]| -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for q in 0..d {
+            let mut v = 1.0 / h;
+            for a in 0..d {
+                let bit = c >> a & 1 == 1;
+                v *= if a == q {
+                    if bit {
+                        1.0
+                    } else {
+                        -1.0
+                    }
+                } else if bit {
+                    t[a]
+                } else {
+                    1.0 - t[a]
+                };
+            }
+            out[q] = v;
+        }
+        out
+    };
+    for p in 0..nc {
+        let t: [f64; 3] = [0, 1, 2].map(|a| if a < d { 0.5 + if p >> a & 1 == 1 { g } else { -g } } else { 0.0 });
+        let gr = grad(r, &t);
+        for (l, &node) in cell.iter().enumerate() {
+            let gl = grad(l, &t);
+            let blk = rb.at(node);
+            // K[(r,a),(l,b)] = w_g sum_{q,t} dN_r/dx_q E_{a q b t} dN_l/dx_t
+            for a in 0..d {
+                for b in 0..d {
+                    let mut v = 0.0;
+                    for q in 0..d {
+                        for tt in 0..d {
+                            v += gr[q] * e[((a * 3 + q) * 3 + b) * 3 + tt] * gl[tt];
+                        }
+                    }
+                    blk[a * 3 + b] += scale * wg * v;
+                }
+            }
+        }
+    }
+}
+
+/// First and second difference stencils of node `i` along axis `c` (offsets in lattice steps,
+/// weights with `1/h` and `1/h^2`): central where both neighbours exist, else one-sided over
+/// three nodes. `Err` when neither fits.
+fn axis_stencils(grid: &Grid, i: usize, c: usize) -> Result<(Stencil1, Stencil1), String> {
+    let h = grid.spacing();
+    let k = grid.lattice_index(i);
+    let has = |o: i64| {
+        let mut kk = k;
+        kk[c] += o;
+        grid.node_at(kk).is_some()
+    };
+    if has(-1) && has(1) {
+        return Ok((
+            vec![(-1, -0.5 / h), (1, 0.5 / h)],
+            vec![(-1, 1.0 / (h * h)), (0, -2.0 / (h * h)), (1, 1.0 / (h * h))],
+        ));
+    }
+    for s in [1i64, -1] {
+        if has(s) && has(2 * s) {
+            let sf = s as f64;
+            return Ok((
+                vec![(0, -1.5 * sf / h), (s, 2.0 * sf / h), (2 * s, -0.5 * sf / h)],
+                vec![(0, 1.0 / (h * h)), (s, -2.0 / (h * h)), (2 * s, 1.0 / (h * h))],
+            ));
+        }
+    }
+    Err(format!(
+        "its transition terms need a difference along axis {c}, but the lattice has fewer than three nodes in a row \
+         there; widen pd_regions or the body"
+    ))
+}
+
+/// Adds `-M1_i : grad u - M2_i : grad grad u` for the transition shares `s` = `(j, s_ij)`.
+fn transition_terms(
+    op: &BondOperator,
+    grid: &Grid,
+    i: usize,
+    s: &[(usize, f64)],
+    rb: &mut RowBuilder,
+) -> Result<(), String> {
+    let d = op.dim();
+    let mut m1 = [0.0; 27];
+    let mut m2 = [0.0; 81];
+    for &(j, sij) in s {
+        let xi = op.bond_vector(i, j);
+        let e = op.unit(i, j);
+        for a in 0..d {
+            for b in 0..d {
+                let ab = sij * e[a] * e[b];
+                for c in 0..d {
+                    m1[(a * 3 + b) * 3 + c] += ab * xi[c];
+                    for dd in 0..d {
+                        m2[((a * 3 + b) * 3 + c) * 3 + dd] += 0.5 * ab * xi[c] * xi[dd];
+                    }
+                }
+            }
+        }
+    }
+    let stencils: Vec<(Stencil1, Stencil1)> = (0..d).map(|c| axis_stencils(grid, i, c)).collect::<Result<_, _>>()?;
+    let k = grid.lattice_index(i);
+    let node = |off: [i64; 3]| -> Result<usize, String> {
+        grid.node_at([k[0] + off[0], k[1] + off[1], k[2] + off[2]]).ok_or_else(|| {
+            format!(
+                "its transition terms need the node at lattice offset {:?}, which the body lacks; widen pd_regions",
+                &off[..d]
+            )
+        })
+    };
+    let along = |c: usize, o: i64| {
+        let mut off = [0i64; 3];
+        off[c] = o;
+        off
+    };
+    // coefficient of u_{node, b} in row component a: -(M1_abc g^c + M2_abcd h^cd)
+    for c in 0..d {
+        for &(o, wgt) in &stencils[c].0 {
+            let j = node(along(c, o))?;
+            let blk = rb.at(j);
+            for a in 0..d {
+                for b in 0..d {
+                    blk[a * 3 + b] -= m1[(a * 3 + b) * 3 + c] * wgt;
+                }
+            }
+        }
+        for dd in 0..d {
+            if c == dd {
+                for &(o, wgt) in &stencils[c].1 {
+                    let j = node(along(c, o))?;
+                    let blk = rb.at(j);
+                    for a in 0..d {
+                        for b in 0..d {
+                            blk[a * 3 + b] -= m2[((a * 3 + b) * 3 + c) * 3 + c] * wgt;
+                        }
+                    }
+                }
+            } else {
+                for &(o1, w1) in &stencils[c].0 {
+                    for &(o2, w2) in &stencils[dd].0 {
+                        let mut off = along(c, o1);
+                        off[dd] += o2;
+                        let j = node(off)?;
+                        let blk = rb.at(j);
+                        for a in 0..d {
+                            for b in 0..d {
+                                blk[a * 3 + b] -= m2[((a * 3 + b) * 3 + c) * 3 + dd] * w1 * w2;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+impl Model for LatticeBlend {
+    fn kind(&self) -> &'static str {
+        "blend"
+    }
+    fn dim(&self) -> usize {
+        self.dim
+    }
+    fn n_nodes(&self) -> usize {
+        self.positions.len()
+    }
+    fn position(&self, i: usize) -> Point {
+        self.positions[i]
+    }
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        self.partners.neighbors(i).iter().for_each(|&j| f(j as usize));
+    }
+    fn apply(&self, u: &[f64], y: &mut [f64]) {
+        linpd_core::sparse::matvec(&self.k, u, y)
+    }
+    fn diagonal(&self) -> Vec<f64> {
+        linpd_core::sparse::diagonal(&self.k)
+    }
+    fn assemble_free(&self, dofs: &DofMap) -> Csc {
+        linpd_core::sparse::restrict_to_free(&self.k, dofs)
+    }
+    /// That of the full `A` (a bound for `A_ff`).
+    fn asymmetry(&self, _dofs: &DofMap) -> f64 {
+        self.asymmetry
+    }
+    /// Nested dissection over the bond stencil (the elements' and the differences' couplings
+    /// reach at most two lattice steps along an axis, inside it for `delta >= 2h`).
+    fn ordering(&self, dofs: &DofMap) -> Ordering {
+        let stencil = lattice_stencil(self.dim, self.ratio);
+        Ordering::NestedDissection(nested_dissection(&self.grid, &stencil, dofs))
+    }
+    fn spd_approximation(&self, dofs: &DofMap) -> Option<linpd_core::SpdApproximation> {
+        Some(linpd_core::SpdApproximation {
+            matrix: linpd_core::sparse::symmetric_part(&self.assemble_free(dofs)),
+            kind: linpd_core::SpdApproximationKind::SymmetricPart,
+        })
+    }
+    fn matrix_free_unavailable(&self) -> Option<&'static str> {
+        Some("the blended model is assembled")
+    }
+}
