@@ -30,6 +30,9 @@
 //! * **1D blend/CE**: the rows of the stored CSR operator (banded, `O(n eps / dx)` entries),
 //!   nothing more.
 //!
+//! Refused, naming why: bond scenes with `model.pd_regions` (the 2D/3D blended model of
+//! `linpd_blend::lattice`), which is assembled whole and has no block rows yet.
+//!
 //! The models that are not symmetric (blend, CE-blend, unsymmetric coarsened levels) report it
 //! ([`RowSystem::is_symmetric`]: the model's [`linpd_core::Model::asymmetry`] against
 //! [`linpd_core::sparse::SYMMETRY_RTOL`], as the static solve decides between CG and GMRES/LU),
