@@ -88,7 +88,7 @@ impl LpsModel {
     /// one copy of the per-node formulas of the module docs: the assembly
     /// ([`TangentPattern::fill`]) and the block rows ([`linpd_core::Model::for_each_block`],
     /// through the symmetry of `A`) both sum these terms.
-    pub(crate) fn column_terms(
+    pub fn column_terms(
         &self,
         p: usize,
         g_self: impl Fn(usize) -> [f64; 3],
