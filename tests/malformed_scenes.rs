@@ -278,7 +278,12 @@ fn cases() -> Vec<Case> {
             "model.micromodulus.kernel",
             "unknown variant `cubic`, expected one of `constant`",
         ),
-        parse("unknown solver", e1(set("solver", "type", json!("gmres"))), "solver.type", "unknown variant `gmres`"),
+        parse(
+            "unknown solver",
+            e1(set("solver", "type", json!("bicgstab"))),
+            "solver.type",
+            "unknown variant `bicgstab`",
+        ),
         parse(
             "unknown region shape",
             e1(set("constraints/0", "region", json!({"circle": {"center": [0.0], "radius": 1.0}}))),
@@ -553,7 +558,7 @@ fn cases() -> Vec<Case> {
             "rtol with a direct solver",
             e1(set("", "solver", json!({"type": "lu", "rtol": 1e-8}))),
             "solver",
-            "rtol and max_iter apply to the cg solver only",
+            "rtol and max_iter apply to the cg and gmres solvers only",
         ),
         // --- fails at solve time ---
         Case {
@@ -726,7 +731,7 @@ fn cases() -> Vec<Case> {
             "preconditioner on a direct solver",
             e1(set("", "solver", json!({"type": "cholesky", "preconditioner": "jacobi"}))),
             "solver.preconditioner",
-            "only the cg solver takes a preconditioner",
+            "only the cg and gmres solvers take a preconditioner",
         ),
         parse(
             "unknown preconditioner",

@@ -257,7 +257,7 @@ mod tests {
         // (row, col, value) column by column; (3, 2) has no (2, 3)
         let entries =
             [(0, 0, 4.0), (1, 0, 1.5), (0, 1, 1.5), (1, 1, 3.0), (2, 1, -2.0), (1, 2, -2.5), (3, 2, 0.25), (3, 3, 5.0)];
-        let mut dense = vec![[0.0f64; 4]; 4];
+        let mut dense = [[0.0f64; 4]; 4];
         for &(r, c, v) in &entries {
             dense[r][c] += v;
         }

@@ -41,7 +41,7 @@ pub use linpd_core::sparse::restrict_to_free as reduce_to_free;
 pub use lps::CG_NEAR_INCOMPRESSIBLE_NU;
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
 pub use problem::{
-    BlendScene, BondModel, Constraint, LevelNodes, Load, ModelSpec, Nodes, PdZone, Problem, MAX_JSON_BYTES,
+    BlendScene, BondModel, Constraint, LevelNodes, Load, ModelSpec, Nodes, PdRegions, PdZone, Problem, MAX_JSON_BYTES,
 };
 pub use rows::{RowBlock, RowSystem};
 pub use run::Solution;

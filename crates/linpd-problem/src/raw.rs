@@ -249,6 +249,7 @@ impl RawModelKind {
                 "material",
                 "surface_correction",
                 "pd_regions",
+                "auto_radius",
                 "transition",
                 "transition_profile",
                 "transition_value",
@@ -333,7 +334,10 @@ pub struct RawModel {
     /// Bond on a 2D/3D lattice: the regions modelled by PD; elsewhere local elasticity, blended
     /// across a transition ([`linpd_blend::lattice`]).
     #[serde(default)]
-    pub pd_regions: Option<Vec<RawRegion>>,
+    pub pd_regions: Option<RawPdRegions>,
+    /// Bond with `"pd_regions": "auto"`: the PD zone's radius around each feature, in horizons.
+    #[serde(default)]
+    pub auto_radius: Option<f64>,
     /// Bond with `pd_regions`: the transition's width (length units, at least the spacing).
     #[serde(default)]
     pub transition: Option<f64>,
@@ -381,6 +385,7 @@ impl RawModel {
             ("material", material),
             ("surface_correction", self.surface_correction.is_some()),
             ("pd_regions", self.pd_regions.is_some()),
+            ("auto_radius", self.auto_radius.is_some()),
             ("transition", self.transition.is_some()),
             ("transition_profile", self.transition_profile.is_some()),
             ("transition_value", self.transition_value.is_some()),
@@ -425,6 +430,43 @@ pub enum RawInfluence {
     InverseDistance,
     /// `omega = 1`.
     Constant,
+}
+
+/// `model.pd_regions`: a list of regions or `"auto"`. Deserialized by hand (a string or a
+/// sequence) rather than as an untagged enum, which would lose the JSON path of an error inside
+/// a region.
+#[derive(Debug, Clone)]
+pub enum RawPdRegions {
+    /// Around every feature of the scene.
+    Auto,
+    /// These regions.
+    Regions(Vec<RawRegion>),
+}
+
+impl<'de> Deserialize<'de> for RawPdRegions {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = RawPdRegions;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                write!(f, "\"auto\" or a list of regions")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Self::Value, E> {
+                match v {
+                    "auto" => Ok(RawPdRegions::Auto),
+                    other => Err(E::invalid_value(serde::de::Unexpected::Str(other), &self)),
+                }
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+                let mut out = Vec::new();
+                while let Some(r) = seq.next_element::<RawRegion>()? {
+                    out.push(r);
+                }
+                Ok(RawPdRegions::Regions(out))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 /// `model.surface_correction`.

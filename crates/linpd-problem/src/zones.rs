@@ -6,11 +6,14 @@
 //! node counts of the three zones and the stored entries against the pure bond model's.
 
 use crate::run::append_note;
+use crate::PdRegions;
 use crate::{Problem, ProblemError, Solution};
 use linpd_blend::{beta_from_zone, LatticeBlend};
 use linpd_bond::BondOperator;
+use linpd_core::family::lattice_stencil;
 use linpd_core::progress::Progress;
-use linpd_core::{Material, GEOMETRY_RTOL};
+use linpd_core::{Grid, Material, GEOMETRY_RTOL};
+use rayon::prelude::*;
 use std::time::Instant;
 
 impl Problem {
@@ -21,14 +24,6 @@ impl Problem {
         let grid = self.lattice()?;
         let op = self.operator()?;
         let dim = grid.dim();
-        let tol = GEOMETRY_RTOL * grid.spacing();
-        let inside: Vec<bool> = (0..grid.len())
-            .map(|i| {
-                let x = grid.position(i);
-                zone.regions.iter().any(|r| r.contains(&x, dim, tol))
-            })
-            .collect();
-        let beta = beta_from_zone(grid, &inside, zone.transition, zone.profile);
         // with phases or defects, a node is regular when its bonds carry the homogeneous weights
         // times one factor (no defect and no interface within its horizon)
         let regular = if b.material.is_homogeneous() {
@@ -48,13 +43,100 @@ impl Problem {
                     .collect::<Vec<bool>>(),
             )
         };
-        // supports in the layer stand for the body beyond them
         let (mask, _) = self.constrained();
-        let mirrored: Vec<bool> =
-            (0..grid.len()).map(|i| grid.is_layer(i) && (0..dim).any(|a| mask[dim * i + a])).collect();
+        let constrained: Vec<bool> = (0..grid.len()).map(|i| (0..dim).any(|a| mask[dim * i + a])).collect();
+        let inside = match &zone.regions {
+            PdRegions::Given(regions) => {
+                let tol = GEOMETRY_RTOL * grid.spacing();
+                (0..grid.len())
+                    .map(|i| {
+                        let x = grid.position(i);
+                        regions.iter().any(|r| r.contains(&x, dim, tol))
+                    })
+                    .collect()
+            }
+            PdRegions::Auto { radius } => {
+                let features = self.features(regular.as_deref(), &constrained)?;
+                dilate(grid, &features, *radius)
+            }
+        };
+        let beta = beta_from_zone(grid, &inside, zone.transition, zone.profile);
+        // supports in the layer stand for the body beyond them
+        let mirrored: Vec<bool> = (0..grid.len()).map(|i| grid.is_layer(i) && constrained[i]).collect();
         LatticeBlend::new(&op, grid, b.horizon, beta, regular.as_deref(), &mirrored)
             .map_err(|e| ProblemError::invalid("model", e.to_string()))
     }
+
+    /// The nodes `"pd_regions": "auto"` refines around: where the solution is rough or the
+    /// local model cannot go. A node is a feature when
+    /// * its family is not regular (a defect cuts a bond of it, or a material interface is
+    ///   within its horizon),
+    /// * a lattice neighbour (the `3^d` box) inside the grid's box was removed by the scene's
+    ///   `body` (a hole, a notch, or a face of the body cut from the box: stress
+    ///   concentrations; the grid box's own faces are free surfaces that the local model's
+    ///   softened elements carry, measured in docs/models.md),
+    /// * it is loaded and a box neighbour is not, or the other way round (point loads, the
+    ///   edges of loaded regions), or
+    /// * it is constrained and a box neighbour is not, or the other way round (the edges of
+    ///   supports, where the local and the nonlocal boundary conditions differ most).
+    ///
+    /// `Err` when there is none: nothing to refine around.
+    fn features(&self, regular: Option<&[bool]>, constrained: &[bool]) -> Result<Vec<bool>, ProblemError> {
+        let grid = self.lattice()?;
+        let d = grid.dim();
+        let f = self.load_vector();
+        let loaded: Vec<bool> = (0..grid.len()).map(|i| (0..d).any(|a| f[d * i + a] != 0.0)).collect();
+        let counts = grid.counts();
+        let lo = grid.lattice_index(0);
+        let features: Vec<bool> = (0..grid.len())
+            .into_par_iter()
+            .map(|i| {
+                if regular.is_some_and(|r| !r[i]) {
+                    return true;
+                }
+                let k = grid.lattice_index(i);
+                let span = |a: usize| if a < d { -1i64..=1 } else { 0..=0 };
+                for o2 in span(2) {
+                    for o1 in span(1) {
+                        for o0 in span(0) {
+                            let kk = [k[0] + o0, k[1] + o1, k[2] + o2];
+                            let in_box = (0..d).all(|a| kk[a] >= lo[a] && kk[a] < lo[a] + counts[a] as i64);
+                            match grid.node_at(kk) {
+                                None if in_box => return true,
+                                Some(j) if loaded[j] != loaded[i] || constrained[j] != constrained[i] => return true,
+                                _ => {}
+                            }
+                        }
+                    }
+                }
+                false
+            })
+            .collect();
+        if !features.iter().any(|&x| x) {
+            return Err(ProblemError::invalid(
+                "model.pd_regions",
+                "\"auto\" found nothing to refine around (no defect, material interface, hole, load edge or \
+                 support edge): give the regions, or drop pd_regions",
+            ));
+        }
+        Ok(features)
+    }
+}
+
+/// The nodes within `radius` of a node of `features` (inclusive).
+fn dilate(grid: &Grid, features: &[bool], radius: f64) -> Vec<bool> {
+    let h = grid.spacing();
+    let offsets = lattice_stencil(grid.dim(), radius / h);
+    let mut inside = features.to_vec();
+    for i in (0..grid.len()).filter(|&i| features[i]) {
+        let k = grid.lattice_index(i);
+        for o in &offsets {
+            if let Some(j) = grid.node_at([k[0] + o[0], k[1] + o[1], k[2] + o[2]]) {
+                inside[j] = true;
+            }
+        }
+    }
+    inside
 }
 
 /// Solves a blended scene (called by [`Problem::solve`] with the time the solve started).

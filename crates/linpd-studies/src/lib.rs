@@ -5,6 +5,7 @@
 //!   speed-versus-error map (module `blend`);
 //! * `lps-tension-bar`: a 3D LPS tension bar against classical elasticity (module `lps`);
 //! * `surface`: the surface corrections on a thin tension bar and a cantilever (module `surface`);
+//! * `blend-2d`: the 2D/3D blended model with auto zones against pure PD (module `blend2d`);
 //! * `dispersion`, `stability`: Seleson, Parks, Gunzburger & Lehoucq (2009), sections 4.2-4.3,
 //!   Fig. 4.2 (module `dynamics`);
 //! * `md-pd`: the same paper, section 4.4, Figs. 4.3-4.6, Table 4.1 (module `md_pd`);
@@ -24,6 +25,7 @@
 #![deny(missing_docs)]
 
 mod blend;
+mod blend2d;
 mod coarsen;
 mod dynamics;
 pub mod fixtures;
@@ -101,6 +103,9 @@ pub enum Study {
     LpsTensionBar,
     /// Surface corrections (none / energy / position_aware), bond and LPS: tension bar and cantilever vs h and delta/h
     Surface,
+    /// 2D/3D blended PD / local elasticity (auto zones) vs pure PD: edge crack, hole, notched block; error vs entries and time
+    #[value(name = "blend-2d")]
+    Blend2d,
     /// Seleson et al. 2009 sec. 4.2: omega(k) lattice vs continuum vs (4.8)/(4.9) vs measured (Verlet), N = 1, 5, 20; 2D/3D Bloch dispersion of bond/LPS
     Dispersion,
     /// Seleson et al. 2009 Fig. 4.2: (4.12) vs exact limit vs measured square-pulse blow-up over dx
@@ -184,6 +189,7 @@ impl Study {
             Study::BlendSpeedVsError => blend::speed_vs_error(dir, report, progress),
             Study::LpsTensionBar => lps::run(dir, report, progress),
             Study::Surface => surface::run(dir, report, progress),
+            Study::Blend2d => blend2d::run(dir, report, progress),
             Study::Dispersion => dynamics::run_dispersion(dir, report, progress),
             Study::Stability => dynamics::run_stability(dir, report, progress),
             Study::MdPd => md_pd::run(dir, report, progress),
@@ -221,6 +227,7 @@ mod tests {
                 "blend-speed-vs-error",
                 "lps-tension-bar",
                 "surface",
+                "blend-2d",
                 "dispersion",
                 "stability",
                 "md-pd",
