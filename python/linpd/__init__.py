@@ -8,7 +8,9 @@ command line, so a :class:`Scene` gives the CLI's results bit for bit:
 * :meth:`Scene.solve` is ``linpd solve`` (the ``result.json`` document, with ``u`` as an
   array of shape ``(nodes, d)``);
 * :meth:`Scene.assemble_rows` computes a contiguous block of rows of ``A_ff`` without the
-  others: each MPI rank of the PETSc driver (``python -m linpd.petsc``) assembles only its own.
+  others, for every static model (bond, LPS, coarsened levels, 1D blend/CE): each MPI rank of
+  the PETSc driver (``python -m linpd.petsc``) assembles only its own; :meth:`Scene.is_symmetric`
+  tells whether ``A_ff`` is symmetric (the driver picks CG or GMRES by it).
 
 Errors are :class:`LinpdError` with linpd's message (the JSON path and the reason, e.g.
 ``model.horizon: must be > 0, got -1e0``).
@@ -121,11 +123,27 @@ class Scene:
         column indices (``indptr[0] == 0``), computed from those rows' nodes only: the rest of
         the matrix is never assembled. Equal to ``stiffness()[first:last]``.
 
-        Bond models (lattice or point cloud) only; other models raise :class:`LinpdError`
-        saying so. The first call builds the model (bonds, constraints, right-hand side) and
+        Every static model: bond (lattice or point cloud: a node's bonds), LPS (its tangent
+        couples nodes two horizons apart; a row is summed from the families of its node and of
+        that node's partners), coarsened levels (rows of the stored ``K``) and the 1D blend/CE
+        models (rows of the stored operator). Entries that are explicit zeros in
+        :meth:`stiffness` (bonds a defect cuts, the LPS lattice pattern's structural zeros) may
+        be absent. The first call builds the model (bonds, constraints, right-hand side) and
         checks it as a solve would.
         """
         return self._native.assemble_rows(int(first), int(last))
+
+    def is_symmetric(self) -> bool:
+        """Whether ``A_ff`` is symmetric: :meth:`asymmetry` at most linpd's ``SYMMETRY_RTOL``
+        (1e-12), the test by which ``linpd solve`` chooses between CG/Cholesky and GMRES/LU.
+        False for the blended 1D model and for coarsened levels with an unsymmetric ``K``.
+        Builds the row system on the first call, as :meth:`assemble_rows`."""
+        return self._native.row_symmetry()[0]
+
+    def asymmetry(self) -> float:
+        """``max |A_ff - A_ff^T| / max |A_ff|`` as the model bounds it (a coarsened level
+        reports that of its whole ``K``; bond and LPS models are symmetric by construction, 0)."""
+        return self._native.row_symmetry()[1]
 
     def row_info(self) -> Tuple[int, int, np.ndarray, np.ndarray]:
         """``(n, block_size, free_dofs, rhs)`` for row-block assembly: the number of unknowns,
@@ -135,7 +153,8 @@ class Scene:
 
     def expand(self, u_free: np.ndarray) -> np.ndarray:
         """Displacements over all DOFs (``d * nodes``, node-major) from the unknowns' values:
-        the prescribed values at constrained DOFs, ``u_free`` at the others."""
+        the prescribed values at constrained DOFs, ``u_free`` at the others. The nodes are the
+        model's: for a blend scene with a coarse CE mesh (``ce_spacing``) the mesh's nodes."""
         return self._native.expand(np.ascontiguousarray(u_free, dtype=np.float64))
 
     def write_result(self, u: np.ndarray, report: Dict[str, Any], out: PathLike) -> list:

@@ -17,17 +17,34 @@ Each rank
 3. attaches the rigid-body modes (``MatNullSpaceCreateRigidBody`` of the nodes' coordinates)
    as the near-null space GAMG builds its coarse spaces from;
 4. solves with ``-ksp_type cg -pc_type gamg -ksp_rtol 1e-10 -ksp_norm_type unpreconditioned``
-   (``rtol`` bounds the true residual, as linpd's CG) unless the options say otherwise; every PETSc option on the command line is passed
-   through (``-ksp_monitor``, ``-pc_type hypre``, ``-log_view``, ...).
+   when ``A_ff`` is symmetric (:meth:`linpd.Scene.is_symmetric`: bond and LPS models, pure CE,
+   symmetric coarsened levels), and with ``-ksp_type gmres -ksp_gmres_restart 100 -ksp_pc_side
+   right`` when it is not (the 1D blended PD/CE model, coarsened levels with an unsymmetric
+   ``K``): GMRES minimizes the true residual with the preconditioner on the right, so ``rtol``
+   bounds ``||f - A u|| / ||f||`` as for CG (linpd's own CG checks the same quantity). Every PETSc
+   option on the command line is passed through and overrides these defaults (``-ksp_monitor``,
+   ``-pc_type hypre``, ``-log_view``, ...; a GMRES-family ``-ksp_type`` gets the right side unless
+   ``-ksp_pc_side`` is given).
+
+The preconditioner is GAMG (with the rigid-body near-null space in 2D/3D), except for
+unsymmetric 1D scenes (the blended model), which get BoomerAMG (``-pc_type hypre``) when PETSc
+has hypre. Measured here (PETSc 3.18.5, 2 ranks, ``-ksp_rtol 1e-12``, GMRES iterations, GAMG vs
+BoomerAMG): ``data/blend-point-load.json`` 40 vs 8, ``data/blend-bar-crack.json`` 42 vs 9, and
+``data/blend-coarse-ce.json`` (PD spacing 1e-4 beside CE elements of 0.0256) 1374 iterations and
+31 s (restart 200; 3197 iterations with restart 1000) vs 10 iterations and 0.2 s: GAMG's
+aggregation does not cope with that graded, unsymmetric 1D operator. The unsymmetric coarsened plate levels of
+``data/coarsen-plate-2d.pipeline.json`` need 18 and 12 GMRES + GAMG iterations, so a restart of
+100 leaves a margin of five while bounding GMRES's memory to 100 vectors. Without hypre the 1D
+blend falls back to GAMG (slow but convergent on the bundled scenes).
 
 Rank 0 gathers ``u`` and writes ``result.json``, ``u.csv`` and ``result.vtu`` into the scene's
 output directory (or ``--out DIR``), as ``linpd solve`` does (no plots), with ``stats.solve``
 holding the KSP's type, iterations, converged reason, the relative residual
-``||f - A u|| / ||f||`` recomputed after the solve, the timings and every rank's peak resident
-memory.
+``||f - A u|| / ||f||`` recomputed after the solve, the timings, every rank's peak resident
+memory and whether ``A_ff`` is symmetric.
 
-Models without per-node block rows (LPS, coarsened levels, 1D blend/CE) are refused with
-linpd's message: their rows would need the whole matrix on every rank.
+Every static model assembles its own rows (bond, LPS, coarsened levels, 1D blend/CE; see
+``docs/scale-out.md`` for what each costs per rank).
 """
 
 from __future__ import annotations
@@ -42,6 +59,12 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 USAGE = "usage: python -m linpd.petsc SCENE.json [--out DIR] [PETSc options]"
+
+# The KSP types that take -ksp_gmres_restart and need the preconditioner on the right for an
+# unpreconditioned norm.
+GMRES_FAMILY = ("gmres", "lgmres", "dgmres", "pgmres")
+# GMRES's restart for unsymmetric scenes (see the module docstring).
+GMRES_RESTART = 100
 
 
 def _split_args(argv: List[str]) -> Tuple[Optional[str], Optional[str], List[str]]:
@@ -76,6 +99,14 @@ def _node_range(n_blocks: int, size: int, rank: int) -> Tuple[int, int]:
     return first, first + q + (1 if rank < r else 0)
 
 
+def _default_pc(PETSc, symmetric: bool, d: int) -> str:
+    """GAMG, except BoomerAMG (hypre) for unsymmetric 1D scenes when PETSc has hypre (see the
+    module docstring for the measurements)."""
+    if not symmetric and d == 1 and PETSc.Sys.hasExternalPackage("hypre"):
+        return "hypre"
+    return "gamg"
+
+
 def main(argv: Optional[List[str]] = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     scene_path, out, petsc_args = _split_args(argv)
@@ -105,6 +136,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         try:
             scene = linpd.Scene(scene_path)
             n, bs, free_dofs, rhs = scene.row_info()
+            symmetric = scene.is_symmetric()
             if n >= 2**31 and PETSc.IntType == np.int32:
                 error = f"{n} unknowns need a PETSc built with 64-bit indices (docs/scale-out.md)"
         except linpd.LinpdError as e:
@@ -148,11 +180,17 @@ def main(argv: Optional[List[str]] = None) -> int:
     del positions
 
     # 4. the KSP: defaults first, then the command line's options override them
-    # only bond models have block rows (row_info refuses the others), and their A_ff is symmetric
     ksp = PETSc.KSP().create(comm=comm)
     ksp.setOperators(A)
-    ksp.setType("cg")
-    ksp.getPC().setType("gamg")
+    default_type = "cg" if symmetric else "gmres"
+    ksp.setType(default_type)
+    ksp.getPC().setType(_default_pc(PETSc, symmetric, d))
+    opts = PETSc.Options()
+    if opts.getString("ksp_type", default_type) in GMRES_FAMILY:
+        ksp.setGMRESRestart(GMRES_RESTART)
+        # GMRES minimizes the unpreconditioned residual only with the preconditioner on the right
+        if not opts.hasName("ksp_pc_side"):
+            ksp.setPCSide(PETSc.PC.Side.RIGHT)
     # rtol on the true residual ||f - A u|| / ||f||, as linpd's own CG (PETSc's CG default is
     # the preconditioned residual, which stops earlier or later depending on the preconditioner)
     ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
@@ -199,6 +237,8 @@ def main(argv: Optional[List[str]] = None) -> int:
             "ksp_converged_reason": int(reason),
             "ranks": size,
             "block_size": bs,
+            "symmetric": bool(symmetric),
+            "asymmetry": float(scene.asymmetry()),
             "near_null_space": "rigid-body modes" if near_null else None,
             "timings": {
                 "model": t_model,

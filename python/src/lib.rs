@@ -143,6 +143,13 @@ impl NativeScene {
         Ok((r.n(), bs, r.free_dofs().to_vec().into_pyarray(py), r.rhs().to_vec().into_pyarray(py)))
     }
 
+    /// `(symmetric, asymmetry)` of `A_ff`: the model's bound on `max |A_ff - A_ff^T| / max
+    /// |A_ff|` and whether it is within `SYMMETRY_RTOL` (builds the row system on the first call).
+    fn row_symmetry(&self, py: Python<'_>) -> PyResult<(bool, f64)> {
+        let r = self.row_system(py)?;
+        Ok((r.is_symmetric(), r.asymmetry()))
+    }
+
     /// `(indptr, indices, data)` of rows `first..last` of `A_ff` with global column indices.
     fn assemble_rows<'py>(&self, py: Python<'py>, first: usize, last: usize) -> PyResult<Csr<'py>> {
         let r = self.row_system(py)?;
@@ -150,14 +157,12 @@ impl NativeScene {
         Ok((b.indptr.into_pyarray(py), b.indices.into_pyarray(py), b.data.into_pyarray(py)))
     }
 
-    /// `u = u_bar + u_f` over all DOFs from the free values `u_free` (row order).
+    /// `u = u_bar + u_f` over all DOFs of the row system's model from the free values `u_free`
+    /// (row order; for a blend scene with a coarse CE mesh the DOFs are the mesh's).
     fn expand<'py>(&self, py: Python<'py>, u_free: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let u_free = u_free.as_slice()?;
-        let n = self.row_system(py)?.n();
-        if u_free.len() != n {
-            return Err(LinpdError::new_err(format!("u_free has {} values, the scene has {n} unknowns", u_free.len())));
-        }
-        Ok(self.problem.dirichlet().expand(u_free).into_pyarray(py))
+        let u = self.row_system(py)?.expand(u_free).map_err(err)?;
+        Ok(u.into_pyarray(py))
     }
 
     /// Writes `u.csv`, `result.vtu` and `result.json` into `out` (all or none, as `linpd

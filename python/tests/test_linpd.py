@@ -4,8 +4,9 @@
   scipy's Matrix Market reader) **exactly**: the same Rust function builds both, and the
   Matrix Market values are printed as the shortest decimals that read back to the same bits;
 * ``Scene.assemble_rows(first, last)`` (built from the rows' own nodes, not from the assembled
-  matrix) equals ``stiffness()[first:last]``: same pattern, values to a sum-order rounding
-  bound (see ``test_assemble_rows_equals_stiffness``);
+  matrix) equals ``stiffness()[first:last]`` and ``linpd export``'s ``K.mtx`` for every model
+  (bond, LPS, coarsened, blend): values to a sum-order rounding bound (see
+  ``test_assemble_rows_equals_stiffness``); ``Scene.is_symmetric()`` is the export's symmetry;
 * ``Scene.solve()`` equals ``linpd solve``'s ``result.json`` (see ``test_solve_equals_cli``);
 * bad scenes raise ``LinpdError`` with linpd's message; ``coarsen`` runs a pipeline as
   ``linpd coarsen`` does.
@@ -75,16 +76,16 @@ def test_stiffness_rhs_dofs_equal_export(name, tmp_path):
     np.testing.assert_array_equal(dofs[:, 0], np.arange(k.shape[0]))
 
 
-@pytest.mark.parametrize("name", ["bar-point-load.json", "plate-hole-2d.json", "cantilever-3d.json",
-                                  "bracket-cloud-2d.json", "plate-crack-2d.json"])
-def test_assemble_rows_equals_stiffness(name):
-    """Rows from their own nodes against the assembled matrix, over splits into 1..5 blocks
-    (odd sizes, so that blocks also start inside a node's rows). The pattern is equal; the
-    values are sums over a node's bonds in possibly another order, so they may differ by
-    rounding: at most ``m eps sum_j |terms|`` with ``m`` (about 30-120) bonds per node, below
-    ``1e-13 max|K|`` here; a wrong bond, sign or component changes an entry by O(max|K|)."""
-    scene = linpd.Scene(DATA / name)
-    k = scene.stiffness()
+def check_rows(scene, k, name):
+    """Rows from their own nodes against the assembled matrix ``k``, over splits into 1..5
+    blocks (odd sizes, so that blocks also start inside a node's rows). Every stored row entry
+    is in ``k``'s pattern (which may hold more explicit zeros: bonds a defect cuts, the LPS
+    lattice pattern's structural zeros); the values are sums over a node's bonds (LPS: up to
+    ``2 |F|^2`` terms from the families of a node and its partners) in possibly another order,
+    so they may differ by rounding, ``|F|^2 eps max|term|``, below ``1e-13 max|K|`` (measured:
+    at most 7e-17 in tests/rows.rs); a wrong bond, sign or component changes an entry by
+    O(max|K|). Coarsened and blend rows are copies of stored entries: the bound holds with 0."""
+    k = scipy.sparse.csr_matrix(k)
     n = k.shape[0]
     scale = abs(k).max()
     for parts in [1, 2, 3, 5]:
@@ -92,18 +93,70 @@ def test_assemble_rows_equals_stiffness(name):
         for first, last in zip(cuts[:-1], cuts[1:]):
             indptr, indices, data = scene.assemble_rows(first, last)
             assert indptr[0] == 0 and len(indptr) == last - first + 1
+            assert all(np.all(np.diff(indices[indptr[r]:indptr[r + 1]]) > 0) for r in range(last - first))
             got = scipy.sparse.csr_matrix((data, indices, indptr), shape=(last - first, n))
             want = k[first:last]
-            # The assembled pattern also stores the bonds a defect cuts (factor 0) as explicit
-            # zeros, which the block rows leave out: compare the nonzero entries.
-            got.eliminate_zeros()
-            want = want.copy()
-            want.eliminate_zeros()
-            g, w = sorted_coo(got), sorted_coo(want)
-            np.testing.assert_array_equal(g[0], w[0])
-            np.testing.assert_array_equal(g[1], w[1])
-            assert np.max(np.abs(g[2] - w[2]), initial=0.0) <= 1e-13 * scale, (name, first, last)
-            assert all(np.all(np.diff(indices[indptr[r]:indptr[r + 1]]) > 0) for r in range(last - first))
+            # every entry handed out is stored in the assembled pattern (0/1 patterns: the
+            # product keeps the common entries)
+            g1, w1 = got.copy(), want.copy()
+            g1.data[:] = 1.0
+            w1.data[:] = 1.0
+            assert g1.multiply(w1).nnz == g1.nnz, (name, first, last)
+            diff = abs(got - want).max() if got.nnz + want.nnz else 0.0
+            assert diff <= 1e-13 * scale, (name, first, last, diff / scale)
+
+
+@pytest.mark.parametrize("name", ["bar-point-load.json", "plate-hole-2d.json", "cantilever-3d.json",
+                                  "bracket-cloud-2d.json", "plate-crack-2d.json", "lps-plate-2d.json"])
+def test_assemble_rows_equals_stiffness(name):
+    scene = linpd.Scene(DATA / name)
+    check_rows(scene, scene.stiffness(), name)
+
+
+@pytest.fixture(scope="module")
+def coarsened_level(tmp_path_factory):
+    """Level 1 of ``data/coarsen-plate-2d.pipeline.json`` (its K is unsymmetric in its diagonal
+    blocks, docs/coarsening.md) as a scene file, written once for this module (about 3 s)."""
+    out = tmp_path_factory.mktemp("level")
+    pipeline = json.loads((DATA / "coarsen-plate-2d.pipeline.json").read_text())
+    pipeline["solve"] = False
+    pipeline["levels"] = pipeline["levels"][:1]
+    linpd.coarsen(pipeline, out=out / "levels", base_dir=DATA)
+    scene = json.loads((DATA / "coarsen-plate-2d.json").read_text())
+    scene.pop("grid")
+    scene["name"] = "coarsen-plate-2d-level-1"
+    scene["model"] = {"type": "coarsened", "moduli": str(out / "levels" / "level-1.mtx")}
+    scene["output"] = {"dir": str(out / "out"), "plot": False}
+    path = out / "level-1-scene.json"
+    path.write_text(json.dumps(scene))
+    return path
+
+
+# LPS on a lattice, on a point cloud, with a position-aware surface correction; the 1D blend
+# (unsymmetric) and with a pre-crack; pure CE
+# (the coarse CE mesh, data/blend-coarse-ce.json, is in tests/rows.rs: 5M entries, slow here)
+ROW_SCENES = ["lps-plate-2d.json", "bracket-cloud-lps-2d.json", "surface-bar-3d.json", "blend-point-load.json",
+              "blend-bar-crack.json", "ce-point-load.json"]
+
+
+@pytest.mark.parametrize("name", ROW_SCENES + ["coarsened"])
+def test_assemble_rows_equals_export(name, tmp_path, coarsened_level):
+    """``assemble_rows`` against ``linpd export``'s ``K.mtx`` (read by scipy) and
+    ``is_symmetric()`` against ``export.json``'s symmetry, for the models whose rows are not
+    bond rows; the right-hand side of ``row_info`` is ``f.mtx``."""
+    path = coarsened_level if name == "coarsened" else DATA / name
+    out = tmp_path / "export"
+    cli_ok("export", str(path), "--out", str(out), "-q")
+    scene = linpd.Scene(path)
+    check_rows(scene, scipy.io.mmread(str(out / "K.mtx")), name)
+    f = scipy.io.mmread(str(out / "f.mtx"))
+    f = np.asarray(f.todense() if scipy.sparse.issparse(f) else f).reshape(-1)
+    np.testing.assert_array_equal(scene.row_info()[3], f)
+    meta = json.loads((out / "export.json").read_text())
+    symmetric = scene.is_symmetric()
+    assert symmetric == meta["symmetric"], (name, scene.asymmetry(), meta["asymmetry"])
+    # the blended model and the level are unsymmetric, the others symmetric
+    assert symmetric == (not (name.startswith("blend") or name == "coarsened")), (name, scene.asymmetry())
 
 
 @pytest.mark.parametrize("name", ["bar-point-load.json", "plate-hole-2d.json", "cantilever-3d.json"])
@@ -151,9 +204,7 @@ def test_bad_scenes_raise_linpd_message(tmp_path):
         linpd.Scene({**json.loads((DATA / "bar-point-load.json").read_text()), "colour": "red"})
     with pytest.raises(TypeError):
         linpd.Scene(42)
-    # row assembly: LPS has no per-node block rows; a range outside the unknowns
-    with pytest.raises(linpd.LinpdError, match="bond models only"):
-        linpd.Scene(DATA / "lps-plate-2d.json").assemble_rows(0, 1)
+    # row assembly: a range outside the unknowns
     bar = linpd.Scene(DATA / "bar-point-load.json")
     n = bar.stiffness().shape[0]
     with pytest.raises(linpd.LinpdError, match="not a range"):

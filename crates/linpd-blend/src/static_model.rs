@@ -13,6 +13,22 @@ use linpd_core::sparse::{csr_to_csc, symmetric_part, Csc};
 use linpd_core::{DofMap, Model, Ordering, Point, SpdApproximation, SpdApproximationKind};
 
 impl BlendOperator {
+    /// The reactions of the supports at `x <= L/2` and `x > L/2` for displacements `u`: `sum (A
+    /// u - f)` over the constrained nodes of `dofs` on each side (the end rows are the force on
+    /// the end node's half cell; see the crate docs on force balance), for a solution computed
+    /// elsewhere (the distributed path).
+    pub fn end_reactions(&self, dofs: &DofMap, f: &[f64], u: &[f64], length: f64) -> [f64; 2] {
+        let mut au = vec![0.0; self.len()];
+        self.apply(u, &mut au);
+        let mut reactions = [0.0; 2];
+        for (i, &x) in self.mesh.x.iter().enumerate() {
+            if dofs.is_constrained(i) {
+                reactions[usize::from(x > 0.5 * length)] += au[i] - f[i];
+            }
+        }
+        reactions
+    }
+
     /// The CSR rows and columns of the free DOFs of `dofs`, as a CSC matrix.
     fn restrict(&self, row_ptr: &[usize], col: &[usize], val: &[f64], dofs: &DofMap) -> Csc {
         let (mut rp, mut c, mut v) = (vec![0usize], Vec::new(), Vec::new());
@@ -97,6 +113,15 @@ impl Model for BlendOperator {
                 kind: SpdApproximationKind::SymmetricPart,
             },
         })
+    }
+    /// Row `i` of the stored CSR operator (`d = 1`: a block is an entry): its columns are
+    /// unique and include `i` (the row builder keeps the diagonal even when 0), so the rows of
+    /// `A_ff` on demand cost nothing beyond the operator every rank builds.
+    fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
+        for p in self.row_ptr[i]..self.row_ptr[i + 1] {
+            f(self.col[p], &[self.val[p]]);
+        }
+        true
     }
     fn describe_node(&self, i: usize) -> String {
         format!("node {i} at x = {}", self.mesh.x[i])

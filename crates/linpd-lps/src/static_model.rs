@@ -45,6 +45,15 @@ impl Model for LpsModel {
         let stencil = two_hop_stencil(&lattice_stencil(self.dim(), self.params().horizon / grid.spacing()));
         Ordering::NestedDissection(nested_dissection(grid, &stencil, dofs))
     }
+    /// [`LpsModel::tangent_block_row`]: every node within two hops, from the families of `i`
+    /// and of its partners.
+    fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
+        self.tangent_block_row(i, f);
+        true
+    }
+    /// Still refused with block rows available: the Jacobi diagonal (and the streamed
+    /// multigrid's finest level) would need them, `O(n |F|^2 d^2)` per setup, and the scene
+    /// validation, the memory estimates and the tests of a matrix-free LPS path do not exist.
     fn matrix_free_unavailable(&self) -> Option<&'static str> {
         Some("the Jacobi diagonal needs the assembled tangent")
     }

@@ -34,7 +34,15 @@
 //! lattice units, rows ascending, with structural zeros kept so that it does not depend on
 //! values. Values are filled in parallel over column nodes: for column `p`, the bonds of `p`
 //! give the pair blocks and every `k in {p} U F_p` adds `C_k g_k[q] g_k[p]^T` to rows
-//! `q in {k} U F_k`. Cost `O(n |F|^2 d^2)`; no matrix product is formed.
+//! `q in {k} U F_k`. Cost `O(n |F|^2 d^2)`; no matrix product is formed. The terms of one
+//! column are [`LpsModel::column_terms`]'s, the one copy of these formulas.
+//!
+//! # Block rows on demand
+//!
+//! A rank of a distributed solve needs block rows, not columns: `A` is symmetric, so block row
+//! `i` is column `i`'s terms transposed ([`LpsModel::tangent_block_row`], the model's
+//! [`linpd_core::Model::for_each_block`]), computed from the families of `i` and of its
+//! partners: `O(|F|^2 d^2)` per node and nothing else held.
 //!
 //! The matrix-free apply uses the factored form: first `theta_k = g_k . u` for all `k`
 //! (the linearized dilatation), then `y_p = (A_pair u)_p + sum_{k in {p} U F_p} C_k theta_k
@@ -57,20 +65,110 @@ impl LpsModel {
 
     /// `g_k[k] = -(d/m_k) sum_q omega nu V_q xi_kq` for every node (zero for full families).
     fn g_self(&self) -> Vec<[f64; 3]> {
+        (0..self.n_nodes()).into_par_iter().map(|k| self.g_self_at(k)).collect()
+    }
+
+    /// `g_k[k]` of one node, from its family alone.
+    fn g_self_at(&self, k: usize) -> [f64; 3] {
         let d = self.dim as f64;
-        (0..self.n_nodes())
-            .into_par_iter()
-            .map(|k| {
-                let mut s = [0.0; 3];
-                for (q, w, _) in self.bonds(k) {
-                    let xi = self.bond_vector(k, q);
-                    for a in 0..3 {
-                        s[a] -= d / self.m[k] * w * xi[a];
-                    }
+        let mut s = [0.0; 3];
+        for (q, w, _) in self.bonds(k) {
+            let xi = self.bond_vector(k, q);
+            for a in 0..3 {
+                s[a] -= d / self.m[k] * w * xi[a];
+            }
+        }
+        s
+    }
+
+    /// The terms of block column `p` of the tangent, from the families of `p` and of its
+    /// partners only: `add(q, s, x, y)` for every term `A[(q, c), (p, a)] += s x[c] y[a]`, `q`
+    /// in the two-hop neighbourhood `U_{k in {p} U F_p} ({k} U F_k)`. `g_self(k)` is `g_k[k]`
+    /// (precomputed for all nodes by the assembly, computed on demand by the block rows). The
+    /// one copy of the per-node formulas of the module docs: the assembly
+    /// ([`TangentPattern::fill`]) and the block rows ([`linpd_core::Model::for_each_block`],
+    /// through the symmetry of `A`) both sum these terms.
+    pub fn column_terms(
+        &self,
+        p: usize,
+        g_self: impl Fn(usize) -> [f64; 3],
+        mut add: impl FnMut(usize, f64, &[f64; 3], &[f64; 3]),
+    ) {
+        let df = self.dim as f64;
+        let c = |k: usize| self.dilatation_coefficient(k);
+        let v = self.volumes[p];
+        // Pair part.
+        for (j, w, w_jp, r) in self.bond_pairs(p) {
+            let xi = self.bond_vector(p, j);
+            let w_far = far(w_jp, v, self.volumes[j]);
+            let s = v * self.a_g * (w / self.m[p] + w_far / self.m[j]) / (r * r);
+            add(p, s, &xi, &xi);
+            add(j, -s, &xi, &xi);
+        }
+        // Dilatation part: k = p, then k in F_p.
+        let gp = g_self(p);
+        add(p, c(p), &gp, &gp);
+        for (q, w, _) in self.bonds(p) {
+            let xi = self.bond_vector(p, q);
+            let g = df / self.m[p] * w;
+            add(q, c(p) * g, &xi, &gp);
+        }
+        for (k, _, w_kp, _) in self.bond_pairs(p) {
+            // g_k[p] = (d/m_k) w_kp xi_kp = -(d/m_k) w_kp xi_pk, w_kp = omega_k nu V_p.
+            let xi_pk = self.bond_vector(p, k);
+            let gkp_s = -df / self.m[k] * w_kp;
+            let gkp = [gkp_s * xi_pk[0], gkp_s * xi_pk[1], gkp_s * xi_pk[2]];
+            add(k, c(k), &g_self(k), &gkp);
+            for (q, w, _) in self.bonds(k) {
+                let xi = self.bond_vector(k, q);
+                let g = df / self.m[k] * w;
+                add(q, c(k) * g, &xi, &gkp);
+            }
+        }
+    }
+
+    /// Block row `i` of the tangent, `f(j, A_ij)` (row-major `d x d`) for every node `j` of the
+    /// two-hop neighbourhood `{i} U F_i U_{k in F_i} F_k` (ascending, `j = i` included, each
+    /// once), from the families of `i` and of its partners only: `O(|F|^2 d^2)` operations and
+    /// `O(|F|^2)` memory, nothing assembled. `A` is symmetric (the Hessian of an energy), so
+    /// block row `i` is block column `i` transposed: the terms of column `i`
+    /// ([`LpsModel::column_terms`], the assembly's own formulas) give `A[(j, c), (i, a)]`,
+    /// stored here as `A[(i, a), (j, c)]`. The entries equal the assembled tangent's up to the
+    /// rounding of the same sums taken from the other end (`A_ij` is summed in column `i` here,
+    /// in column `j` by the assembly).
+    pub fn tangent_block_row(&self, i: usize, mut f: impl FnMut(usize, &[f64])) {
+        let d = self.dim;
+        let family = &self.family;
+        let fam_i = family.neighbors(i);
+        let mut nodes: Vec<usize> = vec![i];
+        for &k in fam_i {
+            nodes.push(k as usize);
+            nodes.extend(family.neighbors(k as usize).iter().map(|&q| q as usize));
+        }
+        nodes.sort_unstable();
+        nodes.dedup();
+        // g_k[k] of i and of its partners (the only k the terms of column i read), once each
+        let g: Vec<[f64; 3]> =
+            std::iter::once(i).chain(fam_i.iter().map(|&k| k as usize)).map(|k| self.g_self_at(k)).collect();
+        let g_of = |k: usize| -> [f64; 3] {
+            if k == i {
+                return g[0];
+            }
+            // every k asked for is a partner of i (families are sorted)
+            g[1 + fam_i.binary_search(&(k as u32)).unwrap_or_else(|_| unreachable!("{k} is not a partner of {i}"))]
+        };
+        let mut blocks = vec![[0.0f64; 9]; nodes.len()];
+        self.column_terms(i, g_of, |q, s, x, y| {
+            let r = nodes.binary_search(&q).unwrap_or_else(|_| unreachable!("{q} is not within two hops of {i}"));
+            for a in 0..d {
+                for c in 0..d {
+                    blocks[r][a * d + c] += s * x[c] * y[a];
                 }
-                s
-            })
-            .collect()
+            }
+        });
+        for (j, b) in nodes.iter().zip(&blocks) {
+            f(*j, &b[..d * d]);
+        }
     }
 
     /// Linearized dilatation `theta_k = g_k . u` of every node.
@@ -233,9 +331,7 @@ impl TangentPattern {
     pub fn fill(&self, model: &LpsModel, values: &mut [f64]) {
         assert_eq!(values.len(), self.nnz(), "values length");
         let d = model.dim;
-        let df = d as f64;
         let lat = &model.lattice;
-        let c = |k: usize| model.dilatation_coefficient(k);
         let g_self = model.g_self();
         for_each_node_slice(values, &self.node_start, |p, vals| {
             let nrows = vals.len() / (d * d);
@@ -270,43 +366,18 @@ impl TangentPattern {
             };
             // blocks[row][c][a] = A[(q, c), (p, a)].
             let mut blocks = vec![[[0.0f64; 3]; 3]; nrows];
-            let add = |blocks: &mut [[[f64; 3]; 3]], r: usize, s: f64, x: &[f64; 3], y: &[f64; 3]| {
-                for cc in 0..d {
-                    for a in 0..d {
-                        blocks[r][cc][a] += s * x[cc] * y[a];
+            model.column_terms(
+                p,
+                |k| g_self[k],
+                |q, s, x, y| {
+                    let r = pos(q);
+                    for cc in 0..d {
+                        for a in 0..d {
+                            blocks[r][cc][a] += s * x[cc] * y[a];
+                        }
                     }
-                }
-            };
-            let sp = pos(p);
-            let v = model.volumes[p];
-            // Pair part.
-            for (j, w, w_jp, r) in model.bond_pairs(p) {
-                let xi = model.bond_vector(p, j);
-                let w_far = far(w_jp, v, model.volumes[j]);
-                let s = v * model.a_g * (w / model.m[p] + w_far / model.m[j]) / (r * r);
-                add(&mut blocks, sp, s, &xi, &xi);
-                add(&mut blocks, pos(j), -s, &xi, &xi);
-            }
-            // Dilatation part: k = p, then k in F_p.
-            let gp = g_self[p];
-            add(&mut blocks, sp, c(p), &g_self[p], &gp);
-            for (q, w, _) in model.bonds(p) {
-                let xi = model.bond_vector(p, q);
-                let g = df / model.m[p] * w;
-                add(&mut blocks, pos(q), c(p) * g, &xi, &gp);
-            }
-            for (k, _, w_kp, _) in model.bond_pairs(p) {
-                // g_k[p] = (d/m_k) w_kp xi_kp = -(d/m_k) w_kp xi_pk, w_kp = omega_k nu V_p.
-                let xi_pk = model.bond_vector(p, k);
-                let gkp_s = -df / model.m[k] * w_kp;
-                let gkp = [gkp_s * xi_pk[0], gkp_s * xi_pk[1], gkp_s * xi_pk[2]];
-                add(&mut blocks, pos(k), c(k), &g_self[k], &gkp);
-                for (q, w, _) in model.bonds(k) {
-                    let xi = model.bond_vector(k, q);
-                    let g = df / model.m[k] * w;
-                    add(&mut blocks, pos(q), c(k) * g, &xi, &gkp);
-                }
-            }
+                },
+            );
             let len = d * nrows;
             for (r, b) in blocks.iter().enumerate() {
                 for a in 0..d {

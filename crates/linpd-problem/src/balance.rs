@@ -159,7 +159,9 @@ impl Balance {
 /// and node `i` takes its term of the outer sum: half of the energy of each of its bonds (for
 /// the bond-based model `A_ij = -w_ij e e^T`, so `W_i V_i = (1/4) sum_j w_ij (e . (u_j -
 /// u_i))^2`, never negative, and a rigid motion gives 0). The values sum to `u.A u / 2`.
-/// `None` for models without blocks (LPS and coarsened levels).
+/// `None` for models without blocks. Used for the bond models; LPS scenes report
+/// [`linpd_lps::LpsModel::linearized_energy_density`] and coarsened levels the same split read
+/// from the columns of `K` (both have blocks too, for the distributed path's rows).
 pub fn nodal_energy(model: &dyn Model, u: &[f64]) -> Option<Vec<f64>> {
     use rayon::prelude::*;
     let d = model.dim();

@@ -251,12 +251,17 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Progress) -> Resu
         "done: {} unknowns, solver {}, relative residual {:.2e}",
         s.report.n, s.report.solver, s.report.rel_residual
     ));
+    Ok(solution(name, b, s))
+}
+
+/// The [`Solution`] of a solved blend scene (here or elsewhere, [`crate::RowSystem`]).
+pub(crate) fn solution(name: &str, b: &BlendScene, s: linpd_blend::BlendSolution) -> Solution {
     let balance = balance(b, &s);
-    Ok(Solution {
+    Solution {
         name: name.to_string(),
         dim: 1,
         x: s.x.iter().map(|&x| [x, 0.0, 0.0]).collect(),
-        u: s.u.clone(),
+        u: s.u,
         is_layer: vec![false; s.x.len()],
         volumes: Vec::new(),
         n_bonds: 0,
@@ -265,7 +270,7 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Progress) -> Resu
         strain_energy_density: None,
         strain: None,
         dilatation: None,
-    })
+    }
 }
 
 /// The balance of a solved blend scene (the definitions of [`crate::balance`]): per scene load

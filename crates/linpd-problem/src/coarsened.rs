@@ -241,6 +241,12 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) ->
         // say which quantity is unsymmetric, beside the solver's generic note
         crate::run::append_note(&mut report, format!("K is {}", c.symmetry()));
     }
+    Ok(solution(p, c, u, report))
+}
+
+/// The [`Solution`] of a coarsened scene for displacements `u` over all DOFs (solved here or
+/// elsewhere, [`crate::RowSystem`]).
+pub(crate) fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: linpd_solve::SolveReport) -> Solution {
     let balance = p.balance(&c.model, &u);
     let volumes: Vec<f64> = (0..p.nodes.len()).map(|n| p.nodes.volume(n)).collect();
     let strain = Some(crate::nodal_strain(&c.model, &volumes, &u));
@@ -249,7 +255,7 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) ->
         let e = level_nodal_energy(c.model.stiffness(), p.dim(), &u);
         e.iter().zip(&volumes).map(|(w, v)| w / v).collect()
     });
-    Ok(Solution {
+    Solution {
         name: p.name.clone(),
         dim: p.dim(),
         x: p.nodes.positions(),
@@ -262,7 +268,7 @@ pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) ->
         strain,
         dilatation: None,
         report,
-    })
+    }
 }
 
 /// The strain energy `W_i V_i` of every node of a level with a **symmetric** `K`: as for the

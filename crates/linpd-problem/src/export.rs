@@ -107,16 +107,29 @@ impl Problem {
             }
             ModelSpec::Coarsened(c) => system(c.model(), &self.dirichlet(), &self.load_vector()).map_err(static_error),
             ModelSpec::Blend(b) => {
-                let blend = |e| match e {
-                    linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
-                    other => ProblemError::Blend(other),
-                };
-                let op = linpd_blend::BlendOperator::assemble(&b.params, b.kind).map_err(blend)?;
-                let (bc, f) = linpd_blend::constraints_and_loads(&op, &b.params, b.kind, b.u_left, b.u_right, &b.loads)
-                    .map_err(blend)?;
-                system(&op, &bc, &f).map_err(|e| blend(e.into()))
+                let (op, bc, f) = blend_system(b)?;
+                system(&op, &bc, &f).map_err(|e| blend_error(e.into()))
             }
         }
+    }
+}
+
+/// A blend scene's operator, prescribed displacements and nodal forces, as its solve builds
+/// them ([`linpd_blend::constraints_and_loads`]).
+pub(crate) fn blend_system(
+    b: &crate::BlendScene,
+) -> Result<(linpd_blend::BlendOperator, Dirichlet, Vec<f64>), ProblemError> {
+    let op = linpd_blend::BlendOperator::assemble(&b.params, b.kind).map_err(blend_error)?;
+    let (bc, f) = linpd_blend::constraints_and_loads(&op, &b.params, b.kind, b.u_left, b.u_right, &b.loads)
+        .map_err(blend_error)?;
+    Ok((op, bc, f))
+}
+
+/// A blend error as a scene error (a parameter's name is its JSON path).
+pub(crate) fn blend_error(e: linpd_blend::BlendError) -> ProblemError {
+    match e {
+        linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
+        other => ProblemError::Blend(other),
     }
 }
 

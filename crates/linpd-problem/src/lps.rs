@@ -87,12 +87,19 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
         progress.phase(&format!("warning: {note}"));
         append_note(&mut report, note);
     }
-    let balance = p.balance(&model, &u);
+    Ok(solution(p, &model, u, report))
+}
+
+/// The [`Solution`] of an lps scene for displacements `u` over all DOFs (solved here or
+/// elsewhere, [`crate::RowSystem`]): balance, strain, dilatation and energy density.
+pub(crate) fn solution(p: &Problem, model: &LpsModel, u: Vec<f64>, report: linpd_solve::SolveReport) -> Solution {
+    let n = p.nodes.len();
+    let balance = p.balance(model, &u);
     let volumes: Vec<f64> = (0..n).map(|i| model.node_volume(i)).collect();
-    let strain = Some(crate::nodal_strain(&model, &volumes, &u));
+    let strain = Some(crate::nodal_strain(model, &volumes, &u));
     let dilatation = Some(model.linearized_theta(&u));
     let strain_energy_density = Some(model.linearized_energy_density(&u));
-    Ok(Solution {
+    Solution {
         name: p.name.clone(),
         dim: p.dim(),
         x: model.positions(),
@@ -105,5 +112,5 @@ pub(crate) fn solve(p: &Problem, params: &LpsParams, progress: &dyn Progress) ->
         strain,
         dilatation,
         report,
-    })
+    }
 }

@@ -9,32 +9,80 @@
 //! `free_dofs[r]`), so that no rank holds the whole matrix.
 //!
 //! Row `r` with `free_dofs[r] = d i + a` is row `a` of block row `i` of `A`, restricted to the
-//! free columns. [`linpd_core::Model::for_each_block`] computes a block row from the model's
-//! bonds without assembling anything else; bond models (on a lattice or a point cloud) offer it.
-//! LPS, coarsened and 1D blend/CE models do not: [`Problem::row_system`] says so.
+//! free columns. [`linpd_core::Model::for_each_block`] computes a block row on demand; every
+//! static model offers it, at these costs per rank (`|F|` partners per node, `n` nodes):
 //!
-//! What each rank still holds whole: the model's bond family and weights (about `12` bytes per
-//! bond, a tenth of the assembled matrix's `d^2 (8 + 4)` bytes per bond block in PETSc's AIJ) and
-//! the vectors over all DOFs that the right-hand side `f_f - (A u_bar)_f` needs; see
-//! `docs/scale-out.md` for the plan that removes them (per-rank geometry).
+//! * **bond** (lattice or point cloud): from node `i`'s bonds, `O(|F| d^2)` per node. Held whole
+//!   on every rank: the bond family and weights (about `12` bytes per bond, a tenth of the
+//!   assembled matrix's `d^2 (8 + 4)` bytes per bond block in PETSc's AIJ);
+//! * **LPS**: the tangent couples nodes two horizons apart (the dilatation of a common
+//!   partner); block row `i` is summed from the families of `i` and of its partners
+//!   ([`linpd_lps::LpsModel::tangent_block_row`], the assembly's own per-node formulas),
+//!   `O(|F|^2 d^2)` per node, about `|F|` times a bond row, and `O(|F|^2)` scratch. Held whole:
+//!   the family, per-bond weights and lengths (`20` bytes per bond) and `m` per node; the rows
+//!   themselves are about `|F|` times denser than the bond model's (the two-hop stencil);
+//! * **coarsened** levels: read from the stored `K` (held whole on every rank, it is read from
+//!   one file; the level is the coarse end of a hierarchy). A symmetric `K` gives its rows as
+//!   its columns; an unsymmetric one gets a transposed copy built on the first row request
+//!   (one more `16` bytes per stored entry, one `O(nnz)` pass), see
+//!   [`linpd_core::AssembledModel`]. The row system holds its own copy of the level's model
+//!   (one more `K`);
+//! * **1D blend/CE**: the rows of the stored CSR operator (banded, `O(n eps / dx)` entries),
+//!   nothing more.
+//!
+//! Refused, naming why: bond scenes with `model.pd_regions` (the 2D/3D blended model of
+//! `linpd_blend::lattice`), which is assembled whole and has no block rows yet.
+//!
+//! The models that are not symmetric (blend, CE-blend, unsymmetric coarsened levels) report it
+//! ([`RowSystem::is_symmetric`]: the model's [`linpd_core::Model::asymmetry`] against
+//! [`linpd_core::sparse::SYMMETRY_RTOL`], as the static solve decides between CG and GMRES/LU),
+//! so that the PETSc driver picks GMRES for them.
+//!
+//! Every rank also holds the vectors over all DOFs that the right-hand side
+//! `f_f - (A u_bar)_f` needs; see `docs/scale-out.md` for the plan that removes them
+//! (per-rank geometry).
 
 use crate::run::static_error;
 use crate::{ModelSpec, Problem, ProblemError, Solution};
+use linpd_core::sparse::SYMMETRY_RTOL;
 use linpd_core::{DofMap, Model};
-use linpd_solve::SolveReport;
+use linpd_solve::{Dirichlet, SolveReport};
 use rayon::prelude::*;
 
 /// One row of `A_ff`: its number and its `(column, value)` entries.
 type Row = (usize, Vec<(usize, f64)>);
 
+/// The scene's model as the row system holds it: what [`Problem::solution_from`] needs beside
+/// the model.
+enum RowModel {
+    /// A bond model (lattice or point cloud) and its bond count as `linpd solve` reports it.
+    Bond(Box<dyn Model + Send + Sync>, usize),
+    Lps(linpd_lps::LpsModel),
+    /// A copy of the level's model (the scene's [`crate::CoarsenedModel`] has the rest).
+    Coarsened(linpd_core::AssembledModel),
+    /// The 1D operator and its nodal forces (for the end reactions).
+    Blend(linpd_blend::BlendOperator, Vec<f64>),
+}
+
+impl RowModel {
+    fn model(&self) -> &dyn Model {
+        match self {
+            RowModel::Bond(m, _) => m.as_ref(),
+            RowModel::Lps(m) => m,
+            RowModel::Coarsened(m) => m,
+            RowModel::Blend(m, _) => m,
+        }
+    }
+}
+
 /// A scene's model with its Dirichlet split and reduced right-hand side, ready to hand out
 /// blocks of rows of `A_ff` ([`RowSystem::rows`]).
 pub struct RowSystem {
-    model: Box<dyn Model + Send + Sync>,
-    n_bonds: usize,
-    dofs: DofMap,
+    model: RowModel,
+    bc: Dirichlet,
     free_dofs: Vec<usize>,
     rhs: Vec<f64>,
+    asymmetry: f64,
 }
 
 /// Rows `first..last` of `A_ff` in CSR form with global (reduced) column indices: row
@@ -54,16 +102,18 @@ pub struct RowBlock {
 }
 
 impl Problem {
-    /// The scene's model and reduced right-hand side for row-block assembly, with the checks
-    /// of a solve (support, finite loads): every error a solve of this scene would raise before
-    /// its solver runs is raised here. Bond models only (see the module docs).
+    /// The scene's model (built as `linpd solve` builds it) and reduced right-hand side for
+    /// row-block assembly, with the checks of a solve (support, finite loads): every error a
+    /// solve of this scene would raise before its solver runs is raised here. Every static
+    /// model type (see the module docs for what each costs).
     pub fn row_system(&self) -> Result<RowSystem, ProblemError> {
-        // `n_bonds` as `linpd solve` counts them (cut bonds included)
-        let (model, n_bonds): (Box<dyn Model + Send + Sync>, usize) = match &self.model {
+        // One arm per model type, as in `Problem::solve` and `Problem::reduced_system`.
+        let (model, bc, f) = match &self.model {
+            // `n_bonds` as `linpd solve` counts them (cut bonds included)
             ModelSpec::Bond(_) if self.nodes.cloud().is_some() => {
                 let op = self.operator()?;
                 let n_bonds = op.family().n_bonds();
-                (Box::new(op), n_bonds)
+                (RowModel::Bond(Box::new(op), n_bonds), self.dirichlet(), self.load_vector())
             }
             ModelSpec::Bond(b) if b.zone.is_some() => {
                 return Err(ProblemError::invalid(
@@ -75,43 +125,80 @@ impl Problem {
             ModelSpec::Bond(_) => {
                 let model = self.lattice_model()?;
                 let n_bonds = model.operator().family().n_bonds();
-                (Box::new(model), n_bonds)
+                (RowModel::Bond(Box::new(model), n_bonds), self.dirichlet(), self.load_vector())
             }
-            other => {
-                return Err(ProblemError::invalid(
-                    "model.type",
-                    format!(
-                    "row-block assembly (the distributed path) is available for bond models only, the scene has {}: \
-                         its model has no per-node block rows yet; use `linpd solve` or `linpd export`",
-                    other.name()
-                ),
-                ))
+            // no memory check: nothing is assembled whole (the check is the assembled tangent's)
+            ModelSpec::Lps(..) => (RowModel::Lps(self.lps_model()?), self.dirichlet(), self.load_vector()),
+            ModelSpec::Coarsened(c) => (RowModel::Coarsened(c.model().clone()), self.dirichlet(), self.load_vector()),
+            ModelSpec::Blend(b) => {
+                let (op, bc, f) = crate::export::blend_system(b)?;
+                (RowModel::Blend(op, f.clone()), bc, f)
             }
         };
-        let bc = self.dirichlet();
-        let rhs = linpd_solve::reduced_rhs_checked(model.as_ref(), &bc, &self.load_vector()).map_err(static_error)?;
-        let dofs = bc.dofs().clone();
-        let free_dofs = dofs.free_dofs();
-        Ok(RowSystem { model, n_bonds, dofs, free_dofs, rhs })
+        let m = model.model();
+        // every model above has block rows; a model added without them is named, not mis-assembled
+        if m.n_nodes() > 0 && !m.for_each_block(0, &mut |_, _| {}) {
+            return Err(ProblemError::invalid(
+                "model.type",
+                format!(
+                    "the {} model has no per-node block rows (Model::for_each_block), so its rows cannot be assembled \
+                     apart: use `linpd solve` or `linpd export`",
+                    m.kind()
+                ),
+            ));
+        }
+        let rhs = linpd_solve::reduced_rhs_checked(m, &bc, &f).map_err(|e| match &model {
+            RowModel::Blend(..) => crate::export::blend_error(e.into()),
+            _ => static_error(e),
+        })?;
+        let asymmetry = m.asymmetry(bc.dofs());
+        let free_dofs = bc.dofs().free_dofs();
+        Ok(RowSystem { model, bc, free_dofs, rhs, asymmetry })
     }
 
-    /// The [`Solution`] of a bond scene for displacements `u` over all DOFs computed elsewhere
-    /// (by PETSc): the balance, strain energy density and strain `linpd solve` reports, with
-    /// `report` as the solve's report. `u` must have `d * nodes` entries.
+    /// The [`Solution`] `linpd solve` would write for displacements `u` over all DOFs computed
+    /// elsewhere (by PETSc), with `report` as the solve's report: the balance and the fields of
+    /// the scene's model (bond: strain and energy density from the blocks; LPS: also the
+    /// dilatation; coarsened: the level's fields; blend/CE: the end reactions). `u` must have
+    /// one value per DOF of `system` ([`RowSystem::dofs`]).
     pub fn solution_from(
         &self,
         system: &RowSystem,
         u: Vec<f64>,
         report: SolveReport,
     ) -> Result<Solution, ProblemError> {
-        let model = system.model.as_ref();
-        if u.len() != system.dofs.n_dofs() {
-            return Err(ProblemError::invalid(
-                "u",
-                format!("has {} values, the scene has {} DOFs", u.len(), system.dofs.n_dofs()),
-            ));
+        let n_dofs = system.dofs().n_dofs();
+        if u.len() != n_dofs {
+            return Err(ProblemError::invalid("u", format!("has {} values, the scene has {n_dofs} DOFs", u.len())));
         }
-        self.bond_solution(model, system.n_bonds, u, report)
+        match (&system.model, &self.model) {
+            (RowModel::Bond(model, n_bonds), ModelSpec::Bond(_)) => {
+                self.bond_solution(model.as_ref(), *n_bonds, u, report)
+            }
+            (RowModel::Lps(model), ModelSpec::Lps(..)) => Ok(crate::lps::solution(self, model, u, report)),
+            (RowModel::Coarsened(_), ModelSpec::Coarsened(c)) => Ok(crate::coarsened::solution(self, c, u, report)),
+            (RowModel::Blend(op, f), ModelSpec::Blend(b)) => {
+                let s = linpd_blend::BlendSolution {
+                    kind: b.kind,
+                    x: op.mesh.x.clone(),
+                    reactions: op.end_reactions(system.dofs(), f, &u, b.params.length),
+                    applied: f.iter().sum(),
+                    u,
+                    beta: op.beta.clone(),
+                    transition: op.transition.clone(),
+                    report,
+                };
+                Ok(crate::blend::solution(&self.name, b, s))
+            }
+            _ => Err(ProblemError::invalid(
+                "rows",
+                format!(
+                    "the row system holds a {} model, the scene has {}: build it with this scene's row_system",
+                    system.model().kind(),
+                    self.model.name()
+                ),
+            )),
+        }
     }
 }
 
@@ -122,19 +209,39 @@ impl RowSystem {
     }
     /// Dimension `d`.
     pub fn dim(&self) -> usize {
-        self.model.dim()
+        self.model().dim()
     }
     /// The model.
     pub fn model(&self) -> &dyn Model {
-        self.model.as_ref()
+        self.model.model()
     }
     /// The full DOF (`d * node + component`) of every row.
     pub fn free_dofs(&self) -> &[usize] {
         &self.free_dofs
     }
-    /// The free/constrained split.
+    /// The free/constrained split (of the model's nodes: for a blend scene with a coarse CE
+    /// mesh these are the mesh's nodes, not the grid's).
     pub fn dofs(&self) -> &DofMap {
-        &self.dofs
+        self.bc.dofs()
+    }
+    /// `u = u_bar + u_f` over all DOFs from the values `u_free` of the unknowns (row order).
+    pub fn expand(&self, u_free: &[f64]) -> Result<Vec<f64>, ProblemError> {
+        if u_free.len() != self.n() {
+            return Err(ProblemError::invalid(
+                "u_free",
+                format!("has {} values, the scene has {} unknowns", u_free.len(), self.n()),
+            ));
+        }
+        Ok(self.bc.expand(u_free))
+    }
+    /// `max |A_ff - A_ff^T| / max |A_ff|` as the model bounds it ([`Model::asymmetry`]).
+    pub fn asymmetry(&self) -> f64 {
+        self.asymmetry
+    }
+    /// Whether `A_ff` is symmetric to [`SYMMETRY_RTOL`] (the static solve's test: CG when it
+    /// is, GMRES or LU when it is not).
+    pub fn is_symmetric(&self) -> bool {
+        self.asymmetry <= SYMMETRY_RTOL
     }
     /// The reduced right-hand side `f_f - (A u_bar)_f`.
     pub fn rhs(&self) -> &[f64] {
@@ -142,8 +249,9 @@ impl RowSystem {
     }
 
     /// Rows `first..last` of `A_ff` (see [`RowBlock`]), computed from the block rows of their
-    /// nodes only. Every entry of those block rows at a free column is stored, zeros included
-    /// (the pattern of [`crate::ReducedSystem`]'s matrix for bond models).
+    /// nodes only. Every entry of the blocks the model offers at a free column is stored, zeros
+    /// included; the assembled matrix of [`crate::ReducedSystem`] may store more explicit zeros
+    /// (bonds a defect cuts; the LPS lattice pattern's structural zeros).
     pub fn rows(&self, first: usize, last: usize) -> Result<RowBlock, ProblemError> {
         let n = self.n();
         if first > last || last > n {
@@ -161,18 +269,19 @@ impl RowSystem {
             .par_iter()
             .map(|&i| {
                 let mut block_row: Vec<Vec<(usize, f64)>> = vec![Vec::new(); d];
-                let offered = self.model.for_each_block(i, &mut |j, b| {
+                let dofs = self.dofs();
+                let offered = self.model().for_each_block(i, &mut |j, b| {
                     for c in 0..d {
-                        if let Some(col) = self.dofs.free(d * j + c) {
+                        if let Some(col) = dofs.free(d * j + c) {
                             for (a, row) in block_row.iter_mut().enumerate() {
                                 row.push((col, b[a * d + c]));
                             }
                         }
                     }
                 });
-                debug_assert!(offered, "row_system admits models with block rows only");
+                debug_assert!(offered, "row_system checked that the model has block rows");
                 (0..d)
-                    .filter_map(|a| self.dofs.free(d * i + a).filter(|r| (first..last).contains(r)).map(|r| (r, a)))
+                    .filter_map(|a| dofs.free(d * i + a).filter(|r| (first..last).contains(r)).map(|r| (r, a)))
                     .map(|(r, a)| {
                         let mut row = std::mem::take(&mut block_row[a]);
                         row.sort_unstable_by_key(|e| e.0);

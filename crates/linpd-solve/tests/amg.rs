@@ -398,9 +398,38 @@ fn matrix_free_hierarchy_is_the_assembled_one() {
 }
 
 /// A model without stiffness blocks (the default of `Model::for_each_block`) cannot have a
-/// matrix-free finest level: an input error naming the model, not a panic.
+/// matrix-free finest level: an input error naming the model, not a panic. (`AssembledModel`
+/// has blocks, read from its `K`; the wrapper below hides them.)
 #[test]
 fn matrix_free_needs_the_model_blocks() {
+    use linpd_core::Model;
+    struct NoBlocks(linpd_core::AssembledModel);
+    impl Model for NoBlocks {
+        fn kind(&self) -> &'static str {
+            "blockless"
+        }
+        fn dim(&self) -> usize {
+            self.0.dim()
+        }
+        fn n_nodes(&self) -> usize {
+            self.0.n_nodes()
+        }
+        fn position(&self, i: usize) -> linpd_core::Point {
+            self.0.position(i)
+        }
+        fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+            self.0.for_each_partner(i, f)
+        }
+        fn apply(&self, u: &[f64], y: &mut [f64]) {
+            self.0.apply(u, y)
+        }
+        fn diagonal(&self) -> Vec<f64> {
+            self.0.diagonal()
+        }
+        fn assemble_free(&self, dofs: &DofMap) -> linpd_core::sparse::Csc {
+            self.0.assemble_free(dofs)
+        }
+    }
     let (op, dofs, _) = lattice_model(2, 6, 2.0, [0.0; 3], &Material::default(), |k, _| k[0] < 2, [0.0; 3]);
     let k = linpd_core::AssembledModel::new(
         "coarsened",
@@ -408,7 +437,10 @@ fn matrix_free_needs_the_model_blocks() {
         op.positions().to_vec(),
         assemble(&op, &DofMap::all_free(op.n_nodes(), 2)),
     );
+    // with its blocks the assembled model runs matrix-free
+    Amg::matrix_free(&k, &dofs, &linpd_core::ModelOperator(&k), &AmgParams::default()).unwrap();
+    let k = NoBlocks(k);
     let full = linpd_core::ModelOperator(&k);
     let e = Amg::matrix_free(&k, &dofs, &full, &AmgParams::default()).unwrap_err();
-    assert!(matches!(&e, AmgError::Input(m) if m.contains("coarsened model does not provide")), "{e}");
+    assert!(matches!(&e, AmgError::Input(m) if m.contains("blockless model does not provide")), "{e}");
 }
