@@ -371,23 +371,11 @@ impl LatticeBlend {
                 transition += 1;
             }
         }
-        // CSR over all DOFs, then CSC
-        let mut row_ptr = Vec::with_capacity(d * n + 1);
-        row_ptr.push(0);
-        let (mut col, mut val) = (Vec::new(), Vec::new());
-        let mut lists = Vec::with_capacity(n);
-        for (i, row) in rows.iter().enumerate() {
-            for a in 0..d {
-                for (j, blk) in row {
-                    for b in 0..d {
-                        col.push(d * j + b);
-                        val.push(blk[a * 3 + b]);
-                    }
-                }
-                row_ptr.push(col.len());
-            }
-            lists.push(row.iter().map(|e| e.0 as u32).filter(|&j| j as usize != i).collect::<Vec<_>>());
-        }
+        let lists: Vec<Vec<u32>> = rows
+            .iter()
+            .enumerate()
+            .map(|(i, row)| row.iter().map(|e| e.0 as u32).filter(|&j| j as usize != i).collect())
+            .collect();
         // the interaction graph in both directions (the transition rows are not symmetric)
         let mut both = lists.clone();
         for (i, l) in lists.iter().enumerate() {
@@ -399,7 +387,7 @@ impl LatticeBlend {
             l.sort_unstable();
             l.dedup();
         }
-        let k = csr_to_csc(d * n, &row_ptr, &col, &val);
+        let k = block_rows_to_csc(d, &rows);
         let m = block_rows_to_csc(d, &m_rows);
         let asymmetry = linpd_core::sparse::relative_asymmetry(&k);
         let nnz_pd = d * d * (n + family.n_bonds());

@@ -163,24 +163,9 @@ pub fn symmetric_part(a: &Csc) -> Csc {
 pub fn relative_asymmetry(a: &Csc) -> f64 {
     let n = a.ncols();
     let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
-    // A^T column by column: tp/tr/tv, rows ascending in each column
-    let mut tp = vec![0usize; n + 1];
-    for &r in ri {
-        tp[r + 1] += 1;
-    }
-    for i in 0..n {
-        tp[i + 1] += tp[i];
-    }
-    let mut next = tp.clone();
-    let (mut tr, mut tv) = (vec![0usize; ri.len()], vec![0.0; ri.len()]);
-    for j in 0..n {
-        for p in cp[j]..cp[j + 1] {
-            let q = next[ri[p]];
-            tr[q] = j;
-            tv[q] = v[p];
-            next[ri[p]] += 1;
-        }
-    }
+    // A^T column by column (A's CSC arrays read as the CSR of A^T), rows ascending
+    let t = csr_to_csc(n, cp, ri, v);
+    let (tp, tr, tv) = (t.symbolic().col_ptr(), t.symbolic().row_idx(), t.val());
     // duplicates summed: a sorted column as (row, value) runs
     fn summed(mut e: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
         e.sort_unstable_by_key(|x| x.0);

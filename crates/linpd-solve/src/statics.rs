@@ -287,9 +287,9 @@ fn assembled_gmres(
 }
 
 /// [`assembled_gmres`] with the preconditioner built from `m` instead of `a`: for an
-/// unsymmetric `A` the SPD approximation `M` (the smoothed-aggregation hierarchy and its
-/// coarsest Cholesky need a symmetric matrix; the Galerkin coarse levels of the blended `A`
-/// itself came out singular on the bundled crack plate).
+/// unsymmetric `A` its SPD approximation `M` (the smoothed-aggregation hierarchy, its Chebyshev
+/// smoother and its coarsest Cholesky need a symmetric positive definite matrix; the Galerkin
+/// coarse levels of the blended `A` itself came out singular on the bundled crack plate).
 fn assembled_gmres_with(
     a: &Csc,
     m: &Csc,
