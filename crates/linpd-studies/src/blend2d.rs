@@ -187,7 +187,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
     plot(
         dir,
         "error_vs_entries",
-        "Blended PD / local elasticity (auto zones, radius 0.5..3 horizons, linear transition)",
+        "Blend vs pure PD: auto zones, radius 0.5..3 horizons",
         "stored entries / pure PD's",
         "max |u_blend - u_PD| / max |u_PD|",
         cost_series,
