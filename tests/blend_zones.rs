@@ -98,18 +98,22 @@ fn auto_zones_cover_the_crack_and_the_support_edges() {
     let (b, p) = (solve(&auto), solve(&pd));
     let umax = p.u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let err = b.u.iter().zip(&p.u).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max) / umax;
+    // measured 1.07e-3 on these 11,449 nodes (below the 40k: the zones of radius 2 +
+    // transition 1 horizon are 9 lattice steps wide here); at 41,607 nodes the study's edge
+    // crack gives 6.4e-4. The bound is the explicit zones' (above).
     assert!(err <= 1.2e-3, "auto: max |u_blend - u_pd| / max |u_pd| = {err:e}");
 }
 
-/// Auto zones around a hole, a point load and the faces of a `body` (the grid box's own faces
-/// are not features; a body's are).
+/// Auto zones around a hole, a point load and a corner cut off by the `body` (which removes the
+/// box's first site, so the box must not be read from node 0); the grid box's own faces are not
+/// features: nodes beside them, the free layer included, stay local.
 #[test]
 fn auto_zones_cover_holes_and_point_loads() {
     let scene = serde_json::json!({
         "name": "auto-hole-load",
         "dimension": 2,
         "grid": {"min": [0.0, 0.0], "max": [1.0, 1.0], "spacing": 0.02, "layer": 0.06},
-        "body": {"difference": [{"box": {"min": [0.0, 0.0], "max": [1.0, 1.0]}},
+        "body": {"difference": [{"difference": ["all", {"ball": {"center": [-0.06, -0.06], "radius": 0.1}}]},
                                  {"ball": {"center": [0.3, 0.5], "radius": 0.1}}]},
         "model": {"type": "bond", "horizon": 0.06, "plane": "stress",
                   "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "continuum"},
@@ -131,8 +135,10 @@ fn auto_zones_cover_holes_and_point_loads() {
         // beyond radius + transition = 2 horizons from every feature: the hole, the load and
         // (with a `body`) the body's faces
         let m = 0.125;
-        // (features are the nodes beside a removed site or a loaded node: up to sqrt(2) h beyond)
-        if r_hole > 0.1 + 0.03 + m && r_load > 0.03 + m && x[0] > m && x[0] < 1.0 - m && x[1] > m && x[1] < 1.0 - m {
+        // (features are the nodes beside a removed site or a loaded node: up to sqrt(2) h beyond;
+        // the support's edge is x = 0; the box's other faces are no features)
+        let r_corner = ((x[0] + 0.06).powi(2) + (x[1] + 0.06).powi(2)).sqrt();
+        if r_hole > 0.1 + 0.03 + m && r_load > 0.03 + m && r_corner > 0.1 + 0.03 + m && x[0] > m {
             assert_eq!(blend.beta()[i], 0.0, "node at {:?} should be local", &x[..2]);
         }
     }
@@ -160,9 +166,9 @@ fn gmres_agrees_with_the_direct_solvers() {
             let err = s.u.iter().zip(&reference.u).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / umax;
             assert!(err <= 1e-8, "{direct} vs gmres-{pc}: {err:e}");
             assert_eq!(s.report.solver.to_string(), format!("gmres-{pc}"));
-            // multigrid keeps GMRES short: measured 30-50 iterations on these 11k nodes
+            // multigrid keeps GMRES short: measured 31 (blend) and 17 (bond) iterations
             if pc == "multigrid" {
-                assert!(s.report.iterations.unwrap() <= 80, "{:?}", s.report.iterations);
+                assert!(s.report.iterations.unwrap() <= 45, "{:?}", s.report.iterations);
             }
         }
     }

@@ -74,7 +74,7 @@ use crate::BlendError;
 use linpd_bond::BondOperator;
 use linpd_core::family::lattice_stencil;
 use linpd_core::sparse::{csr_to_csc, Csc};
-use linpd_core::{nested_dissection, BondFamily, DofMap, Grid, Model, Ordering, Point};
+use linpd_core::{nested_dissection, AssembledModel, DofMap, Grid, Model, Ordering, Point};
 use rayon::prelude::*;
 
 /// How `beta` falls from 1 at a PD region's boundary to 0 at the transition's outer edge, as a
@@ -111,7 +111,6 @@ impl Profile {
 pub fn beta_from_zone(grid: &Grid, inside: &[bool], width: f64, profile: Profile) -> Vec<f64> {
     let d = grid.dim();
     let h = grid.spacing();
-    let r = (width / h).ceil() as i64;
     let offsets = lattice_stencil(d, width / h);
     (0..grid.len())
         .into_par_iter()
@@ -122,9 +121,6 @@ pub fn beta_from_zone(grid: &Grid, inside: &[bool], width: f64, profile: Profile
             let k = grid.lattice_index(i);
             let mut best = f64::INFINITY;
             for o in &offsets {
-                if o.iter().any(|c| c.abs() > r) {
-                    continue;
-                }
                 if let Some(j) = grid.node_at([k[0] + o[0], k[1] + o[1], k[2] + o[2]]) {
                     if inside[j] {
                         let n2 = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]) as f64;
@@ -156,16 +152,14 @@ pub struct Zones {
 #[derive(Debug, Clone)]
 pub struct LatticeBlend {
     grid: Grid,
-    dim: usize,
-    positions: Vec<Point>,
     beta: Vec<f64>,
-    k: Csc,
+    /// `A` over all DOFs, with the product, diagonal, restriction, asymmetry (computed once) and
+    /// interaction graph of any stored stiffness.
+    a: AssembledModel,
     /// The SPD companion of `A` that preconditions it: the nonlocal shares `a_ij` (symmetric)
     /// plus the elements weighted per cell by the mean `1 - beta` of their corners (an energy,
     /// so symmetric and positive semi-definite), without the transition terms.
     m: Csc,
-    asymmetry: f64,
-    partners: BondFamily,
     zones: Zones,
     /// Largest lattice offset of a coupling, per the nested dissection's reach.
     ratio: f64,
@@ -371,37 +365,16 @@ impl LatticeBlend {
                 transition += 1;
             }
         }
-        let lists: Vec<Vec<u32>> = rows
-            .iter()
-            .enumerate()
-            .map(|(i, row)| row.iter().map(|e| e.0 as u32).filter(|&j| j as usize != i).collect())
-            .collect();
-        // the interaction graph in both directions (the transition rows are not symmetric)
-        let mut both = lists.clone();
-        for (i, l) in lists.iter().enumerate() {
-            for &j in l {
-                both[j as usize].push(i as u32);
-            }
-        }
-        for l in &mut both {
-            l.sort_unstable();
-            l.dedup();
-        }
         let k = block_rows_to_csc(d, &rows);
         let m = block_rows_to_csc(d, &m_rows);
-        let asymmetry = linpd_core::sparse::relative_asymmetry(&k);
         let nnz_pd = d * d * (n + family.n_bonds());
         let zones = Zones { pd, transition, local, nnz: k.val().len(), nnz_pd };
         let ratio = (horizon / h).max(2.0);
         Ok(LatticeBlend {
             grid: grid.clone(),
-            dim: d,
-            positions: op.positions().to_vec(),
             beta,
-            k,
+            a: AssembledModel::new("blend", d, op.positions().to_vec(), k),
             m,
-            asymmetry,
-            partners: BondFamily::from_lists(both),
             zones,
             ratio,
         })
@@ -417,7 +390,7 @@ impl LatticeBlend {
     }
     /// `A` over all DOFs.
     pub fn stiffness(&self) -> &Csc {
-        &self.k
+        self.a.stiffness()
     }
 }
 
@@ -643,39 +616,42 @@ fn transition_terms(
     Ok(())
 }
 
+/// `A`'s own methods are those of the stored matrix ([`AssembledModel`]); the blend adds the
+/// lattice ordering, its SPD companion and no block rows (its energy is not defined: `A` is not
+/// symmetric).
 impl Model for LatticeBlend {
     fn kind(&self) -> &'static str {
         "blend"
     }
     fn dim(&self) -> usize {
-        self.dim
+        self.a.dim()
     }
     fn n_nodes(&self) -> usize {
-        self.positions.len()
+        self.a.n_nodes()
     }
     fn position(&self, i: usize) -> Point {
-        self.positions[i]
+        self.a.position(i)
     }
     fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
-        self.partners.neighbors(i).iter().for_each(|&j| f(j as usize));
+        self.a.for_each_partner(i, f)
     }
     fn apply(&self, u: &[f64], y: &mut [f64]) {
-        linpd_core::sparse::matvec(&self.k, u, y)
+        self.a.apply(u, y)
     }
     fn diagonal(&self) -> Vec<f64> {
-        linpd_core::sparse::diagonal(&self.k)
+        self.a.diagonal()
     }
     fn assemble_free(&self, dofs: &DofMap) -> Csc {
-        linpd_core::sparse::restrict_to_free(&self.k, dofs)
+        self.a.assemble_free(dofs)
     }
     /// That of the full `A` (a bound for `A_ff`).
-    fn asymmetry(&self, _dofs: &DofMap) -> f64 {
-        self.asymmetry
+    fn asymmetry(&self, dofs: &DofMap) -> f64 {
+        self.a.asymmetry(dofs)
     }
     /// Nested dissection over the bond stencil (the elements' and the differences' couplings
     /// reach at most two lattice steps along an axis, inside it for `delta >= 2h`).
     fn ordering(&self, dofs: &DofMap) -> Ordering {
-        let stencil = lattice_stencil(self.dim, self.ratio);
+        let stencil = lattice_stencil(self.a.dim(), self.ratio);
         Ordering::NestedDissection(nested_dissection(&self.grid, &stencil, dofs))
     }
     /// The energy form `M` (see the field's docs): always SPD on a supported body, unlike the

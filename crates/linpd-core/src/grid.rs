@@ -371,6 +371,12 @@ impl Grid {
         idx
     }
 
+    /// Whether lattice index `idx` lies in the lattice box (layers included), node or not: a
+    /// site inside the box without a node was removed by a body.
+    pub fn box_contains(&self, idx: [i64; 3]) -> bool {
+        (0..3).all(|a| idx[a] >= self.lo[a] && idx[a] < self.lo[a] + self.counts[a] as i64)
+    }
+
     /// Node number of a lattice index, or `None` outside the grid.
     pub fn node_at(&self, idx: [i64; 3]) -> Option<usize> {
         let mut n = 0usize;

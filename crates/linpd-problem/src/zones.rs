@@ -94,8 +94,6 @@ impl Problem {
         let d = grid.dim();
         let f = self.load_vector();
         let loaded: Vec<bool> = (0..grid.len()).map(|i| (0..d).any(|a| f[d * i + a] != 0.0)).collect();
-        let counts = grid.counts();
-        let lo = grid.lattice_index(0);
         // 0: none, 1: soft, 2: hard
         let kind: Vec<u8> = (0..grid.len())
             .into_par_iter()
@@ -110,9 +108,8 @@ impl Problem {
                     for o1 in span(1) {
                         for o0 in span(0) {
                             let kk = [k[0] + o0, k[1] + o1, k[2] + o2];
-                            let in_box = (0..d).all(|a| kk[a] >= lo[a] && kk[a] < lo[a] + counts[a] as i64);
                             match grid.node_at(kk) {
-                                None if in_box => return 2,
+                                None if grid.box_contains(kk) => return 2,
                                 Some(j) if loaded[j] != loaded[i] || constrained[j] != constrained[i] => soft = true,
                                 _ => {}
                             }
