@@ -20,8 +20,8 @@ fn bar() -> Value {
 
 /// The bar with `model` replaced by the LPS model (K, G from E, nu) or the bond model
 /// (inverse-distance micromodulus normalized to the bulk modulus by the continuum integral, as
-/// Peridynamics.jl does), with `correction`.
-fn bar_with(model: &str, correction: &str, normalize: &str) -> Value {
+/// Peridynamics.jl does), with `correction` matched to `target` (`None`: the default).
+fn bar_with(model: &str, correction: &str, normalize: &str, target: Option<&str>) -> Value {
     let mut v = bar();
     let k = 200e9 / (3.0 * (1.0 - 2.0 * 0.25));
     v["model"] = match model {
@@ -30,6 +30,9 @@ fn bar_with(model: &str, correction: &str, normalize: &str) -> Value {
         _ => json!({"type": "bond", "horizon": 0.1005, "surface_correction": correction,
                     "micromodulus": {"kernel": "inverse_distance", "modulus": k, "normalize": normalize}}),
     };
+    if let Some(t) = target {
+        v["model"]["surface_target"] = json!(t);
+    }
     v
 }
 
@@ -43,40 +46,112 @@ fn elongation_error(v: &Value) -> f64 {
     mean / (2e6 * 1.0 / (200e9 * 0.01)) - 1.0
 }
 
-/// The numbers of the closing note of issue #14 (see docs/models.md, "Surface corrections"):
-/// uncorrected, LPS is 36.8 % too stiff and bond-based 80.2 % too soft (the issue's figures);
-/// with `energy` the bond model meets the issue's 5 % target (2.8 %; the peer's energy
-/// correction: 13 %), and LPS is 9.0 % (`energy`) and 9.5 % (`position_aware`) too soft: better
-/// than uncorrected by 4x, but far from the 0.5 % target (see docs/models.md for why an
-/// energy-matching correction stops there). The bounds are the target where met and the
-/// measured values +- 0.5 % where not, so that a regression either way fails.
+/// The issue's measure: the mean x-displacement of the loaded points against `F l / (E A)`.
+/// The exact classical bar loaded by the same body force on its last cell `[l/2 - h, l/2]` and
+/// measured at that cell's centre reads `1 - 5h/8` of it (-2.08 % at `h = 1/30`), so an exact
+/// model would show -2.08 % here.
+///
+/// Measured (issue #14; docs/models.md, "Surface corrections"): uncorrected, LPS is 36.8 % too
+/// stiff and bond-based 80.2 % too soft (the issue's figures). With the classical target (the
+/// default) LPS `position_aware` is -2.64 % (0.57 % stiffer than the exact bar), LPS `energy`
+/// -3.06 %, bond `energy` +0.66 % (the issue's 5 % target; the peer's energy correction 13 %);
+/// the 0.5 % target for LPS is missed by 2.1 points, 2.08 of which are the measure's own offset.
+/// With the lattice target the corrected models converge to the lattice's cubic anisotropy
+/// instead (LPS +9.0 / +9.5 %, bond +2.8 %). Bounds: the target where met, the measured value
+/// +- 0.5 % (points) where not, so that a regression either way fails.
 #[test]
 fn the_peridynamics_jl_tension_bar() {
     let cases = [
-        ("lps", "none", "continuum", -0.368, 0.005),
-        ("lps", "energy", "continuum", 0.0902, 0.005),
-        ("lps", "position_aware", "continuum", 0.0945, 0.005),
-        ("bond", "none", "continuum", 0.802, 0.005),
+        ("lps", "none", None, -0.368),
+        ("lps", "energy", None, -0.0306),
+        ("lps", "position_aware", None, -0.0264),
+        ("bond", "none", None, 0.802),
+        ("lps", "energy", Some("lattice"), 0.0902),
+        ("lps", "position_aware", Some("lattice"), 0.0945),
+        ("bond", "energy", Some("lattice"), 0.028),
     ];
-    for (model, correction, normalize, expected, tol) in cases {
-        let e = elongation_error(&bar_with(model, correction, normalize));
-        eprintln!("{model} {correction}: {:+.2} %", 100.0 * e);
-        assert!((e - expected).abs() <= tol, "{model} {correction}: {e:+.4} (expected {expected:+.4})");
+    for (model, correction, target, expected) in cases {
+        let e = elongation_error(&bar_with(model, correction, "continuum", target));
+        eprintln!("{model} {correction} {target:?}: {:+.2} %", 100.0 * e);
+        assert!((e - expected).abs() <= 0.005, "{model} {correction} {target:?}: {e:+.4} (expected {expected:+.4})");
     }
-    let bond = elongation_error(&bar_with("bond", "energy", "continuum"));
+    let bond = elongation_error(&bar_with("bond", "energy", "continuum", None));
     eprintln!("bond energy: {:+.2} %", 100.0 * bond);
     assert!(bond.abs() <= 0.05, "bond-based with energy: {bond:+.4} (target 5 %)");
-    // with the discrete normalization (the interior reproduces K exactly) the bond model with
-    // `energy` is +13.0 %: the continuum normalization's 2.8 % includes its interior stiffening
-    let discrete = elongation_error(&bar_with("bond", "energy", "discrete"));
+    // with the lattice target and the discrete normalization (the interior reproduces K
+    // exactly) the bond model is +13.0 %: the continuum normalization's 2.8 % includes its
+    // interior stiffening
+    let discrete = elongation_error(&bar_with("bond", "energy", "discrete", Some("lattice")));
     assert!((discrete - 0.130).abs() <= 0.005, "bond energy, discrete normalization: {discrete:+.4}");
+}
+
+/// With the classical target every bond-based node stores the classical energy of the scene's
+/// modulus whatever the normalization: the continuum and the discrete normalization give the
+/// same corrected weights (`c phi` is the same product), hence the same solution to round-off
+/// (Cholesky on 810 unknowns, condition ~1e4: 1e-11 relative).
+#[test]
+fn the_classical_target_makes_the_bond_normalization_irrelevant() {
+    let solve = |v: &Value| Problem::from_json(&v.to_string()).unwrap().solve(&NoProgress).unwrap().u;
+    let a = solve(&bar_with("bond", "energy", "continuum", None));
+    let b = solve(&bar_with("bond", "energy", "discrete", None));
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(diff <= 1e-11 * scale, "continuum vs discrete normalization: {:e}", diff / scale);
+    // and without the correction they differ by the normalizations' ratio (~10 % at 3.015 h)
+    let c = solve(&bar_with("bond", "none", "continuum", None));
+    let d = solve(&bar_with("bond", "none", "discrete", None));
+    let diff = c.iter().zip(&d).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(diff > 1e-2 * scale, "uncorrected normalizations agree: {:e}", diff / scale);
+}
+
+/// The issue's cantilever: 1 x 0.1 x 0.1, clamped through three held layers at x < 0, tip
+/// plane loaded in -z, `h = 0.01`, `delta = 3h`, `nu = 1/4`; tip plane's mean deflection
+/// against Timoshenko `P L^3/(3EI) + P L/(kappa G A)` at the tip plane's `x = L` with Cowper's
+/// `kappa = 10(1 + nu)/(12 + 11 nu)` (0.8475). Measured: LPS `energy` +1.02 % (the issue's 3 %
+/// target: met); bond `energy` +9.70 % (missed: in bending the strain varies across a horizon
+/// and a surface node's one-sided family sees it shifted inwards, an odd-moment effect no
+/// positive factor removes; docs/models.md). Bounds: the target where met, the measured value
+/// +- 0.5 points where not.
+#[test]
+fn the_cantilever_at_h_0_01() {
+    let (e, p, nu, h) = (1.0, 1e-5, 0.25, 0.01);
+    for (kind, expected, tol) in [("lps", 0.0, 0.03), ("bond", 0.097, 0.005)] {
+        let model = match kind {
+            "lps" => json!({"type": "lps", "horizon": 3.0 * h, "bulk_modulus": e / 1.5, "shear_modulus": e / 2.5,
+                            "surface_correction": "energy"}),
+            _ => json!({"type": "bond", "horizon": 3.0 * h, "surface_correction": "energy",
+                        "micromodulus": {"kernel": "inverse_distance", "modulus": e / 1.5, "normalize": "continuum"}}),
+        };
+        let v = json!({
+            "name": "cantilever", "dimension": 3,
+            "grid": {"min": [0.0, -0.05, -0.05], "max": [1.0, 0.05, 0.05], "spacing": h,
+                     "placement": "cell", "layer": {"x-": 3.0 * h}},
+            "model": model,
+            "constraints": [{"region": {"box": {"min": [-1.0, -1.0, -1.0], "max": [0.0, 1.0, 1.0]}},
+                             "displacement": {"value": [0.0, 0.0, 0.0]}}],
+            "loads": [{"type": "resultant", "region": {"box": {"min": [1.0 - h, -1.0, -1.0], "max": [2.0, 1.0, 1.0]}},
+                       "force": [0.0, 0.0, -p]}],
+            "solver": {"type": "cg", "preconditioner": "multigrid", "rtol": 1e-9}
+        });
+        let s = Problem::from_json(&v.to_string()).unwrap().solve(&NoProgress).unwrap();
+        let x_tip = s.x.iter().fold(f64::NEG_INFINITY, |m, x| m.max(x[0]));
+        let tip: Vec<usize> = (0..s.x.len()).filter(|&i| s.x[i][0] > x_tip - 1e-9).collect();
+        assert_eq!(tip.len(), 100);
+        let w = -tip.iter().map(|&i| s.u[3 * i + 2]).sum::<f64>() / tip.len() as f64;
+        let (g, i, a) = (e / (2.0 * (1.0 + nu)), 0.1f64.powi(4) / 12.0, 0.01);
+        let kappa = 10.0 * (1.0 + nu) / (12.0 + 11.0 * nu);
+        let timoshenko = p * x_tip.powi(3) / (3.0 * e * i) + p * x_tip / (kappa * g * a);
+        let err = w / timoshenko - 1.0;
+        eprintln!("cantilever {kind} energy: {:+.2} %", 100.0 * err);
+        assert!((err - expected).abs() <= tol, "{kind}: {err:+.4} (expected {expected:+.4} +- {tol})");
+    }
 }
 
 /// Every corrected bond model still gives the same solution by the direct and the iterative
 /// path (a corrected operator is not homogeneous: the stencil must not be used).
 #[test]
 fn a_corrected_bond_model_is_not_applied_by_the_stencil() {
-    let mut direct = bar_with("bond", "energy", "discrete");
+    let mut direct = bar_with("bond", "energy", "discrete", None);
     let mut cg = direct.clone();
     direct["solver"] = json!({"type": "cholesky"});
     cg["solver"] = json!({"type": "cg", "matrix_free": true, "rtol": 1e-12});
@@ -101,8 +176,14 @@ fn bad_surface_corrections_are_named_errors() {
     v["model"]["surface_correction"] = json!("volume");
     let e = error_of(&v);
     assert!(e.contains("model.surface_correction") && e.contains("position_aware"), "{e}");
-    let e = error_of(&bar_with("bond", "position_aware", "continuum"));
+    let e = error_of(&bar_with("bond", "position_aware", "continuum", None));
     assert!(e.contains("model.surface_correction") && e.contains("LPS"), "{e}");
+    let mut v = bar();
+    v["model"]["surface_target"] = json!("bulk");
+    let e = error_of(&v);
+    assert!(e.contains("model.surface_target") && e.contains("classical"), "{e}");
+    let e = error_of(&bar_with("lps", "none", "continuum", Some("lattice")));
+    assert!(e.contains("model.surface_target") && e.contains("surface_correction"), "{e}");
     let mut cloud: Value =
         serde_json::from_str(&std::fs::read_to_string(data("bracket-cloud-2d.json")).unwrap()).unwrap();
     cloud["model"]["surface_correction"] = json!("energy");

@@ -40,18 +40,23 @@
 
 use crate::BondOperator;
 use linpd_core::kernel::partial_volume;
-use linpd_core::surface::{family_factors, CorrectionSummary};
-use linpd_core::{Grid, Micromodulus};
+use linpd_core::surface::{family_factors, CorrectionSummary, SurfaceTarget};
+use linpd_core::{Grid, Micromodulus, Normalization};
 
 impl BondOperator {
     /// The operator with the `energy` surface correction (S3) applied to its weights. `grid`,
     /// `horizon` and `micromodulus` must be the ones the operator was built with
-    /// ([`BondOperator::on_grid`]); the target moments are those of the full lattice stencil.
+    /// ([`BondOperator::on_grid`]). With [`SurfaceTarget::Classical`] the target is the isotropic
+    /// tensor (S4) whose trace is the moment the micromodulus was normalized with (the exact
+    /// integral for [`Normalization::Continuum`], the lattice sum otherwise), so every node
+    /// stores the classical energy of the scene's modulus; with [`SurfaceTarget::Lattice`] the
+    /// full lattice stencil's moments.
     pub fn with_energy_correction(
         mut self,
         grid: &Grid,
         horizon: f64,
         micromodulus: &Micromodulus,
+        target: SurfaceTarget,
     ) -> (Self, CorrectionSummary) {
         let h = grid.spacing();
         let nu = |r: f64| if micromodulus.partial_volume { partial_volume(r, horizon, h) } else { 1.0 };
@@ -64,7 +69,12 @@ impl BondOperator {
                 (self.unit(i, j), (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]).sqrt())
             })
         };
-        let (factors, summary) = family_factors(self.dim(), grid, self.family(), horizon, beta, bond, false, "energy");
+        let trace = match micromodulus.normalization {
+            Normalization::Continuum => Some(micromodulus.continuum_moment(self.dim(), horizon)),
+            _ => None,
+        };
+        let (factors, summary) =
+            family_factors(self.dim(), grid, self.family(), horizon, beta, bond, false, "energy", target, trace);
         self.weights.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
         (self, summary)
     }

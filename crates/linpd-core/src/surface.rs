@@ -54,16 +54,76 @@
 //! family: the two sums differ only by summation order) the multipliers are exactly zero and every
 //! factor is exactly 1.
 //!
-//! # What is matched against what
+//! # What is matched against what: the classical or the lattice target
 //!
-//! The target is the interior **lattice** moment `T_0` (the full stencil with the bulk cell
-//! volume), not the isotropic continuum tensor: the interior of a lattice model is then left
-//! alone (its small cubic anisotropy, a discretization error of the bulk, is not the surface's
-//! business), and a surface node's response to the states above equals the interior's, i.e. the
-//! classical energy to the accuracy with which the bulk reproduces it. The weights `beta` are
-//! geometric (no material modulus, no defect weakening): a material interface is not a surface
-//! and must not be corrected; a bond cut by a defect (factor 0) is missing from the family, so
-//! crack faces are corrected like any other free surface.
+//! [`SurfaceTarget::Classical`] (the default) matches every node to the moments of classical
+//! isotropic elasticity, the integrals of (S1) over a ball (`int n_a^4 dOmega = 3 int n_a^2
+//! n_b^2 dOmega`):
+//!
+//! ```text
+//! 3D:  T*[a a a a] = tr / 5,     T*[a a b b] = tr / 15
+//! 2D:  T*[a a a a] = 3 tr / 8,   T*[a a b b] = tr / 8                                     (S4)
+//! 1D:  T* = tr
+//! ```
+//!
+//! with `tr = sum_ab T[a a b b] = sum_j beta_ij` the moment that fixes the bulk modulus (the
+//! model's normalization: the exact integral `int g |xi|^2 dV` for a continuum-normalized
+//! micromodulus, the full stencil's lattice sum otherwise; LPS divides by the node's own `m_i`,
+//! so only the shape matters). A cubic lattice's interior family is **not** isotropic: with
+//! `omega = 1/|xi|` and `delta = 3h` in 3D its `T_0[xxxx] / (3 T_0[xxyy]) = 0.868`, which makes the
+//! LPS interior 11 % too soft in uniaxial stress along an axis (`E_x = 0.891 E` at `nu = 1/4`);
+//! corrected to the lattice target, thin bars then converge to that error instead of to the
+//! classical solution (`linpd study surface`, docs/models.md). With the classical target the
+//! interior nodes get a factor too: one function `phi_0(n)` of the bond direction, the same for
+//! every node with a full family (computed once from the stencil; bit for bit the same on every
+//! such node and on the grid's layer), which removes the lattice's cubic anisotropy from (S1).
+//!
+//! [`SurfaceTarget::Lattice`] matches the interior **lattice** moments `T_0` (the full stencil
+//! with the bulk cell volume): the interior is left exactly unchanged (factors exactly 1) and a
+//! surface node's response equals the interior's, cubic anisotropy included.
+//!
+//! The weights `beta` are geometric (no material modulus, no defect weakening): a material
+//! interface is not a surface and must not be corrected; a bond cut by a defect (factor 0) is
+//! missing from the family, so crack faces are corrected like any other free surface.
+
+/// What the corrected moments (S1) are matched to (module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SurfaceTarget {
+    /// The isotropic moments of classical elasticity (S4): every node, interior included, gets
+    /// the classical energy for the states of (S1).
+    #[default]
+    Classical,
+    /// The interior lattice's moments: interior nodes keep factor exactly 1.
+    Lattice,
+}
+
+impl SurfaceTarget {
+    /// The name used in scene files (`model.surface_target`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SurfaceTarget::Classical => "classical",
+            SurfaceTarget::Lattice => "lattice",
+        }
+    }
+}
+
+/// The isotropic moments (S4) with trace `tr`, in the order of [`monomials`].
+pub fn isotropic_moments(dim: usize, tr: f64) -> Vec<f64> {
+    match dim {
+        1 => vec![tr],
+        2 => vec![3.0 * tr / 8.0, 3.0 * tr / 8.0, tr / 8.0],
+        _ => vec![tr / 5.0, tr / 5.0, tr / 5.0, tr / 15.0, tr / 15.0, tr / 15.0],
+    }
+}
+
+/// The trace `sum_ab T[a a b b] = sum_j beta_j` of moments (S1) (`sum_a n_a^2 = 1`).
+pub fn moment_trace(dim: usize, t: &[f64]) -> f64 {
+    match dim {
+        1 => t[0],
+        2 => t[0] + t[1] + 2.0 * t[2],
+        _ => t[0] + t[1] + t[2] + 2.0 * (t[3] + t[4] + t[5]),
+    }
+}
 
 /// Exponents `(a1, a2, a3)` of the even degree-4 monomials `n_x^a1 n_y^a2 n_z^a3`, per
 /// dimension: the moments of the uniaxial strains `e_a (x) e_a` (`n_a^4`) and of the simple
@@ -305,8 +365,12 @@ impl Dual<'_> {
 /// `energy` correction and the LPS `energy` / `position_aware` corrections.
 ///
 /// * `beta(r, v)`: the geometric weight of a bond of length `r` whose far node has volume `v`
-///   (it includes `r^2`); the target `T_0` is the sum over the full lattice stencil with the
-///   bulk cell volume;
+///   (it includes `r^2`); `T_0` is the sum over the full lattice stencil with the bulk cell
+///   volume;
+/// * `target`: [`SurfaceTarget::Lattice`] matches `T_0`; [`SurfaceTarget::Classical`] the
+///   isotropic moments (S4) with trace `trace` (`None`: the trace of `T_0`). Nodes whose family
+///   is full (moments equal to `T_0` to [`INTERIOR_RTOL`]) and the layer's nodes all get the one
+///   fit of the full stencil (the identity for the lattice target);
 /// * `bond(i, b)`: the unit vector and length of node `i`'s `b`-th bond, or `None` for a bond
 ///   that does not count (cut by a defect); it gets factor 1;
 /// * nodes of the grid's layer keep factor 1 (the layer holds constraints and loads, it is not
@@ -323,23 +387,36 @@ pub fn family_factors(
     bond: impl Fn(usize, usize) -> Option<([f64; 3], f64)> + Sync,
     per_node: bool,
     kind: &'static str,
+    target: SurfaceTarget,
+    trace: Option<f64>,
 ) -> (Vec<f64>, CorrectionSummary) {
     use rayon::prelude::*;
     let start = std::time::Instant::now();
     let h = grid.spacing();
-    let target = moments(
-        dim,
-        crate::family::lattice_stencil(dim, horizon / h).into_iter().map(|k| {
+    let stencil: Vec<([f64; 3], f64)> = crate::family::lattice_stencil(dim, horizon / h)
+        .into_iter()
+        .map(|k| {
             let xi = [k[0] as f64 * h, k[1] as f64 * h, k[2] as f64 * h];
             let r = norm(&xi);
             ([xi[0] / r, xi[1] / r, xi[2] / r], beta(r, grid.volume()))
-        }),
-    );
-    let fits: Vec<MomentFit> = (0..family.len())
+        })
+        .collect();
+    let lattice = moments(dim, stencil.iter().copied());
+    let goal = match target {
+        SurfaceTarget::Lattice => lattice.clone(),
+        SurfaceTarget::Classical => isotropic_moments(dim, trace.unwrap_or_else(|| moment_trace(dim, &lattice))),
+    };
+    // the full family's fit (the identity for the lattice target), shared by every full family
+    let bulk = fit_moments(dim, &stencil, &goal);
+    let full = |t: &[f64]| {
+        let d: Vec<f64> = t.iter().zip(&lattice).map(|(a, b)| a - b).collect();
+        norm(&d) <= INTERIOR_RTOL * norm(&lattice)
+    };
+    let fits: Vec<(MomentFit, bool)> = (0..family.len())
         .into_par_iter()
         .map(|i| {
             if grid.is_layer(i) {
-                return MomentFit::identity(dim);
+                return (bulk.clone(), false);
             }
             let bonds: Vec<([f64; 3], f64)> = family
                 .neighbors(i)
@@ -347,9 +424,14 @@ pub fn family_factors(
                 .enumerate()
                 .filter_map(|(b, &j)| bond(i, b).map(|(n, r)| (n, beta(r, grid.node_volume(j as usize)))))
                 .collect();
-            fit_moments(dim, &bonds, &target)
+            if full(&moments(dim, bonds.iter().copied())) {
+                return (bulk.clone(), false);
+            }
+            (fit_moments(dim, &bonds, &goal), true)
         })
         .collect();
+    let surface_nodes = fits.iter().filter(|f| f.1).count();
+    let fits: Vec<MomentFit> = fits.into_iter().map(|f| f.0).collect();
     let per_bond: Vec<Vec<f64>> = (0..family.len())
         .into_par_iter()
         .map(|i| {
@@ -375,9 +457,15 @@ pub fn family_factors(
         .iter()
         .filter(|&&f| f != 1.0)
         .fold([f64::INFINITY, f64::NEG_INFINITY], |r, &f| [r[0].min(f), r[1].max(f)]);
+    let bulk_range = stencil.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |r, (n, _)| {
+        let f = bulk.factor(dim, n);
+        [r[0].min(f), r[1].max(f)]
+    });
     let summary = CorrectionSummary {
         kind,
-        corrected_nodes: fits.iter().filter(|f| !f.is_identity()).count(),
+        target,
+        corrected_nodes: surface_nodes,
+        interior_factor_range: bulk_range,
         factor_range: if range[0] > range[1] { [1.0, 1.0] } else { range },
         max_mismatch: fits.iter().fold(0.0, |m, f| m.max(f.mismatch)),
         max_iterations: fits.iter().map(|f| f.iterations).max().unwrap_or(0),
@@ -392,8 +480,13 @@ pub fn family_factors(
 pub struct CorrectionSummary {
     /// Which correction (`"energy"`, `"position_aware"`).
     pub kind: &'static str,
-    /// Nodes whose factors differ from 1 (the others have a full family).
+    /// What the moments were matched to.
+    pub target: SurfaceTarget,
+    /// Nodes with a truncated family, fitted one by one (the others share the full family's fit).
     pub corrected_nodes: usize,
+    /// The full family's factors `phi_0(n)` over the stencil's directions (exactly `[1, 1]`
+    /// for the lattice target; the lattice's cubic anisotropy removed for the classical one).
+    pub interior_factor_range: [f64; 2],
     /// The smallest and largest bond factor applied.
     pub factor_range: [f64; 2],
     /// The largest relative moment mismatch left after a fit (0 when every node matched).
@@ -408,13 +501,17 @@ pub struct CorrectionSummary {
 }
 
 impl CorrectionSummary {
-    /// One line for reports: `surface correction energy: 1234 nodes corrected, factors
-    /// 0.81..2.4, moments matched to 3e-15, 0.02 s`.
+    /// One line for reports: `surface correction energy (classical target): interior factors
+    /// 0.87..1.13, 1234 surface nodes fitted, bond factors 0.81..2.4, moments matched to 3e-15,
+    /// 0.02 s`.
     pub fn describe(&self) -> String {
         format!(
-            "surface correction {}: {} nodes corrected, bond factors {:.3}..{:.3}, moments matched to {:.1e} \
-             (<= {} Newton steps){}, {:.3} s",
+            "surface correction {} ({} target): interior factors {:.3}..{:.3}, {} surface nodes fitted, \
+             bond factors {:.3}..{:.3}, moments matched to {:.1e} (<= {} Newton steps){}, {:.3} s",
             self.kind,
+            self.target.name(),
+            self.interior_factor_range[0],
+            self.interior_factor_range[1],
             self.corrected_nodes,
             self.factor_range[0],
             self.factor_range[1],
@@ -489,6 +586,71 @@ mod tests {
             assert!(fit.iterations <= 12, "{} Newton steps", fit.iterations);
             let min = bonds.iter().map(|(n, _)| fit.factor(3, n)).fold(f64::INFINITY, f64::min);
             assert!(min > 0.0);
+        }
+    }
+
+    /// (S4) are the sphere's (circle's) averages of the monomials: uniform in the azimuth
+    /// (exact for trigonometric polynomials of degree < 128), Gauss-Legendre in `z = cos t`
+    /// (the azimuthal average is a polynomial of degree 4 in `z`: exact), so only round-off.
+    #[test]
+    fn isotropic_moments_are_the_averages_over_directions() {
+        let iso = isotropic_moments(3, 1.0);
+        for (k, e) in iso.iter().enumerate() {
+            let ring = |z: f64| -> f64 {
+                let s = (1.0 - z * z).max(0.0).sqrt();
+                (0..128)
+                    .map(|b| {
+                        let p = 2.0 * std::f64::consts::PI * b as f64 / 128.0;
+                        let mut psi = [0.0; 6];
+                        monomials(3, &[s * p.cos(), s * p.sin(), z], &mut psi);
+                        psi[k] / 128.0
+                    })
+                    .sum()
+            };
+            let mean = 0.5 * crate::kernel::gauss_legendre(ring, &[-1.0, 1.0], |_| 1);
+            assert!((mean - e).abs() <= 1e-15, "{mean} vs {e}");
+        }
+        let circle: Vec<f64> = (0..3)
+            .map(|k| {
+                (0..256)
+                    .map(|b| {
+                        let p = 2.0 * std::f64::consts::PI * b as f64 / 256.0;
+                        let mut psi = [0.0; 3];
+                        monomials(2, &[p.cos(), p.sin(), 0.0], &mut psi);
+                        psi[k] / 256.0
+                    })
+                    .sum()
+            })
+            .collect();
+        for (m, e) in circle.iter().zip(isotropic_moments(2, 1.0)) {
+            // the uniform rule on the circle is exact for degree < 256
+            assert!((m - e).abs() <= 1e-15, "{m} vs {e}");
+        }
+        assert_eq!(moment_trace(3, &iso), 1.0);
+        assert_eq!(moment_trace(2, &isotropic_moments(2, 1.0)), 1.0);
+    }
+
+    /// The classical target (S4): the full 3D stencil, a half space, an edge and a corner all
+    /// fit it with positive factors; the full stencil needs a non-trivial factor (its cubic
+    /// anisotropy, `T_0[xxxx] / (3 T_0[xxyy]) = 0.868` at radius 3 with `beta = |k|`).
+    #[test]
+    fn every_family_fits_the_isotropic_target() {
+        let full = stencil(|_| true);
+        let lattice = moments(3, full.iter().copied());
+        assert!((lattice[0] / (3.0 * lattice[3]) - 0.8677).abs() < 1e-4, "{lattice:?}");
+        let target = isotropic_moments(3, moment_trace(3, &lattice));
+        for keep in [
+            Box::new(|_: &[i64; 3]| true) as Box<dyn Fn(&[i64; 3]) -> bool>,
+            Box::new(|k: &[i64; 3]| k[0] >= 0),
+            Box::new(|k: &[i64; 3]| k[0] >= 0 && k[1] >= 0),
+            Box::new(|k: &[i64; 3]| k[0] >= 0 && k[1] >= 0 && k[2] >= 0),
+        ] {
+            let bonds = stencil(keep);
+            let fit = fit_moments(3, &bonds, &target);
+            assert!(!fit.is_identity() && !fit.out_of_reach && fit.mismatch <= FIT_RTOL, "{fit:?}");
+            let corrected = moments(3, bonds.iter().map(|&(n, b)| (n, b * fit.factor(3, &n))));
+            let err = corrected.iter().zip(&target).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            assert!(err <= FIT_RTOL * 3.0 * norm(&target), "moment error {err:e}");
         }
     }
 

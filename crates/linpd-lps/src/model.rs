@@ -373,6 +373,13 @@ impl LpsModel {
         })
     }
 
+    /// The weights `omega(|xi|) nu V_j` of node `i`'s bonds in family order, times the factors
+    /// of a moment-matching surface correction ([`crate::surface`]).
+    pub fn bond_weights(&self, i: usize) -> &[f64] {
+        let o = self.family.bond_offset(i);
+        &self.wv[o..o + self.family.neighbors(i).len()]
+    }
+
     /// Spatial dimension `d`.
     pub fn dim(&self) -> usize {
         self.dim

@@ -46,7 +46,7 @@ use crate::model::norm;
 use crate::{LpsError, LpsModel};
 use linpd_core::family::lattice_stencil;
 use linpd_core::kernel::partial_volume;
-use linpd_core::surface::{family_factors, CorrectionSummary};
+use linpd_core::surface::{family_factors, CorrectionSummary, SurfaceTarget};
 
 /// The surface correction of an LPS model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -116,7 +116,20 @@ impl LpsModel {
     /// uncorrected model (built by [`LpsModel::new`], [`LpsModel::with_family`] or
     /// [`LpsModel::with_defects`]), once. Every correction but `None` needs a lattice
     /// ([`LpsError::NeedsLattice`] on a point-cloud model).
-    pub fn corrected(mut self, correction: SurfaceCorrection) -> Result<(Self, Option<CorrectionSummary>), LpsError> {
+    pub fn corrected(self, correction: SurfaceCorrection) -> Result<(Self, Option<CorrectionSummary>), LpsError> {
+        self.corrected_to(correction, SurfaceTarget::default())
+    }
+
+    /// [`LpsModel::corrected`] with the moments of [`SurfaceCorrection::Energy`] and
+    /// [`SurfaceCorrection::PositionAware`] matched to `target` ([`linpd_core::surface`]: the
+    /// isotropic classical moments, or the interior lattice's, which leaves interior nodes
+    /// exactly unchanged). LPS divides by each node's own `m_i`, so only the moments' shape
+    /// matters, not their trace. The other corrections ignore `target`.
+    pub fn corrected_to(
+        mut self,
+        correction: SurfaceCorrection,
+        target: SurfaceTarget,
+    ) -> Result<(Self, Option<CorrectionSummary>), LpsError> {
         if self.grid.is_none() && correction != SurfaceCorrection::None {
             return Err(LpsError::NeedsLattice(correction.name()));
         }
@@ -155,7 +168,7 @@ impl LpsModel {
                         self.surface.name()
                     )));
                 }
-                summary = Some(self.match_moments(correction == SurfaceCorrection::PositionAware));
+                summary = Some(self.match_moments(correction == SurfaceCorrection::PositionAware, target));
             }
         }
         self.surface = correction;
@@ -166,7 +179,7 @@ impl LpsModel {
     /// weights `beta_ij = omega nu V_j |xi|^2` against the full lattice stencil's, then
     /// `w_ij *= phi_i(n_ij)` (`per_node`) or `w_ij *= (phi_i(n_ij) + phi_j(n_ij)) / 2`, and `m`
     /// recomputed from the new weights.
-    fn match_moments(&mut self, per_node: bool) -> CorrectionSummary {
+    fn match_moments(&mut self, per_node: bool, target: SurfaceTarget) -> CorrectionSummary {
         let grid = self.grid.clone().expect("checked in `corrected`");
         let (h, delta) = (grid.spacing(), self.params.horizon);
         let p = self.params;
@@ -180,7 +193,8 @@ impl LpsModel {
             Some(([xi[0] / r, xi[1] / r, xi[2] / r], r))
         };
         let kind = if per_node { "position_aware" } else { "energy" };
-        let (factors, summary) = family_factors(self.dim, &grid, &self.family, delta, beta, bond, per_node, kind);
+        let (factors, summary) =
+            family_factors(self.dim, &grid, &self.family, delta, beta, bond, per_node, kind, target, None);
         self.wv.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
         // Algorithm 3 again with the new weights: m_i = sum_j w_ij |xi|^2
         for i in 0..self.n_nodes() {

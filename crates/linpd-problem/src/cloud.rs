@@ -337,9 +337,10 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         ));
     }
     let raw_model = raw.model.clone();
-    if raw_model.surface_correction.is_some_and(|c| c != crate::raw::RawSurfaceCorrection::None) {
+    let correction = raw_model.surface_correction.is_some_and(|c| c != crate::raw::RawSurfaceCorrection::None);
+    if correction || raw_model.surface_target.is_some() {
         return Err(ProblemError::invalid(
-            "model.surface_correction",
+            if correction { "model.surface_correction" } else { "model.surface_target" },
             "not available on point clouds yet: the correction matches each node's bond moments to a lattice \
              interior, and a cloud has no lattice (use \"none\", or a grid)",
         ));
@@ -372,7 +373,7 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         micromodulus,
         material,
         node_moduli,
-        surface: linpd_lps::SurfaceCorrection::None,
+        surface: crate::problem::Surface::default(),
         zone: None,
     });
     cloud_problem(raw, nodes, model)
@@ -431,7 +432,7 @@ fn lps_on_cloud(raw: RawProblem, cloud: Cloud, horizon: f64, ratio: f64) -> Resu
     let material = crate::problem::material(&m.material, dim)?;
     let nodes = cloud.into_nodes(dim);
     check_defects(&material, &nodes, horizon)?;
-    cloud_problem(raw, nodes, ModelSpec::Lps(params, material.defects, linpd_lps::SurfaceCorrection::None))
+    cloud_problem(raw, nodes, ModelSpec::Lps(params, material.defects, crate::problem::Surface::default()))
 }
 
 #[cfg(test)]

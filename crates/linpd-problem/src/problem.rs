@@ -6,6 +6,7 @@ use linpd_core::{
     BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point,
     Region,
 };
+use linpd_core::surface::SurfaceTarget;
 use linpd_lps::SurfaceCorrection;
 use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
 use std::path::Path;
@@ -89,10 +90,19 @@ pub struct BondModel {
     /// Per-node moduli of a point cloud whose phases name phase numbers (overrides the
     /// material's region phases; `None` otherwise).
     pub(crate) node_moduli: Option<Vec<f64>>,
-    /// `model.surface_correction`: `None` or `Energy` ([`linpd_bond::surface`]).
-    pub(crate) surface: SurfaceCorrection,
+    /// `model.surface_correction` (`None` or `Energy`, [`linpd_bond::surface`]) and its target.
+    pub(crate) surface: Surface,
     /// `model.pd_regions` with its transition: the 2D/3D blended model.
     pub(crate) zone: Option<PdZone>,
+}
+
+/// `model.surface_correction` and `model.surface_target` ([`linpd_core::surface`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Surface {
+    /// Which correction.
+    pub correction: SurfaceCorrection,
+    /// What its moments are matched to (ignored without a correction).
+    pub target: SurfaceTarget,
 }
 
 /// `model.pd_regions`, `transition`, `transition_profile`: where the blended model is PD.
@@ -153,7 +163,7 @@ pub enum ModelSpec {
     Bond(BondModel),
     /// `"type": "lps"`: the linearized LPS solid ([`linpd_lps::LpsModel`]), the defects
     /// (pre-cracks) of its material and its surface correction.
-    Lps(linpd_lps::LpsParams, Vec<Defect>, SurfaceCorrection),
+    Lps(linpd_lps::LpsParams, Vec<Defect>, Surface),
     /// `"type": "blend"` and `"type": "ce"`: the 1D blended PD/CE model; `constraints` and
     /// `loads` have been translated into it.
     Blend(BlendScene),
@@ -521,6 +531,7 @@ impl Problem {
             influence,
             material,
             surface_correction,
+            surface_target,
             pd_regions,
             auto_radius,
             transition,
@@ -596,7 +607,7 @@ impl Problem {
                     "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
                 ));
             }
-            ModelSpec::Lps(params, material.defects, surface_correction_of(model_kind, surface_correction)?)
+            ModelSpec::Lps(params, material.defects, surface_of(model_kind, surface_correction, surface_target)?)
         } else {
             // Bond, blend and ce models: a micromodulus.
             let micromodulus = bond_micromodulus(dim, horizon, mm.as_ref(), plane, partial_volume)?;
@@ -621,7 +632,7 @@ impl Problem {
                     // The amplitude now, not at the first solve: a modulus that overflows it
                     // (1e308) is a validation error naming the overflow.
                     micromodulus.amplitude(dim, horizon, grid.spacing()).map_err(|e| core("model", e))?;
-                    let surface = surface_correction_of(model_kind, surface_correction)?;
+                    let surface = surface_of(model_kind, surface_correction, surface_target)?;
                     let zone = pd_zone(
                         &grid,
                         horizon,
@@ -1288,7 +1299,7 @@ fn pd_zone(
     transition: Option<f64>,
     profile: Option<crate::raw::RawBlending>,
     value: Option<f64>,
-    surface: SurfaceCorrection,
+    surface: Surface,
 ) -> Result<Option<PdZone>, ProblemError> {
     use crate::raw::RawBlending as B;
     let Some(raw_regions) = regions else {
@@ -1311,7 +1322,7 @@ fn pd_zone(
             "2D and 3D only: a 1D blend is `\"type\": \"blend\"` (Algorithm A with L1..L4)",
         ));
     }
-    if surface != SurfaceCorrection::None {
+    if surface.correction != SurfaceCorrection::None {
         return Err(ProblemError::invalid(
             "model.pd_regions",
             "not with a surface correction yet (the local model's moduli come from the uncorrected bonds)",
@@ -1389,8 +1400,30 @@ fn pd_zone(
     Ok(Some(PdZone { regions, transition: width, profile }))
 }
 
-/// `model.surface_correction` of a lattice scene: `position_aware` is LPS only (a bond-based
-/// force is pairwise, so a bond must have one stiffness seen from both ends).
+/// `model.surface_correction` and `model.surface_target` of a lattice scene: `position_aware`
+/// is LPS only (a bond-based force is pairwise, so a bond must have one stiffness seen from both
+/// ends); a target needs a correction.
+fn surface_of(
+    kind: RawModelKind,
+    raw: Option<crate::raw::RawSurfaceCorrection>,
+    target: Option<crate::raw::RawSurfaceTarget>,
+) -> Result<Surface, ProblemError> {
+    use crate::raw::RawSurfaceTarget as T;
+    let correction = surface_correction_of(kind, raw)?;
+    let target = match target {
+        None | Some(T::Classical) => SurfaceTarget::Classical,
+        Some(T::Lattice) => SurfaceTarget::Lattice,
+    };
+    if target != SurfaceTarget::default() && correction == SurfaceCorrection::None {
+        return Err(ProblemError::invalid(
+            "model.surface_target",
+            "says what a surface correction matches; set model.surface_correction to \"energy\" or \"position_aware\"",
+        ));
+    }
+    Ok(Surface { correction, target })
+}
+
+/// `model.surface_correction` of a lattice scene.
 fn surface_correction_of(
     kind: RawModelKind,
     raw: Option<crate::raw::RawSurfaceCorrection>,

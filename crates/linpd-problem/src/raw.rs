@@ -248,6 +248,7 @@ impl RawModelKind {
                 "micromodulus",
                 "material",
                 "surface_correction",
+                "surface_target",
                 "pd_regions",
                 "auto_radius",
                 "transition",
@@ -263,6 +264,7 @@ impl RawModelKind {
                 "influence",
                 "material",
                 "surface_correction",
+                "surface_target",
             ],
             RawModelKind::Blend => &[
                 "horizon",
@@ -331,6 +333,9 @@ pub struct RawModel {
     /// Bond and LPS: `none` (default), `energy` or (LPS) `position_aware`.
     #[serde(default)]
     pub surface_correction: Option<RawSurfaceCorrection>,
+    /// Bond and LPS with a surface correction: `classical` (default) or `lattice`.
+    #[serde(default)]
+    pub surface_target: Option<RawSurfaceTarget>,
     /// Bond on a 2D/3D lattice: the regions modelled by PD; elsewhere local elasticity, blended
     /// across a transition ([`linpd_blend::lattice`]).
     #[serde(default)]
@@ -384,6 +389,7 @@ impl RawModel {
             ("influence", self.influence.is_some()),
             ("material", material),
             ("surface_correction", self.surface_correction.is_some()),
+            ("surface_target", self.surface_target.is_some()),
             ("pd_regions", self.pd_regions.is_some()),
             ("auto_radius", self.auto_radius.is_some()),
             ("transition", self.transition.is_some()),
@@ -479,6 +485,16 @@ pub enum RawSurfaceCorrection {
     Energy,
     /// Moment matching with a per-node influence function (LPS).
     PositionAware,
+}
+
+/// `model.surface_target`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawSurfaceTarget {
+    /// The isotropic moments of classical elasticity.
+    Classical,
+    /// The interior lattice's moments.
+    Lattice,
 }
 
 /// `model.blending`.

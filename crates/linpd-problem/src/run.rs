@@ -68,9 +68,10 @@ impl Problem {
     pub fn operator_and_correction(&self) -> Result<(BondOperator, Option<CorrectionSummary>), ProblemError> {
         let op = self.uncorrected_operator()?;
         let b = self.bond_model()?;
-        Ok(match b.surface {
+        Ok(match b.surface.correction {
             SurfaceCorrection::Energy => {
-                let (op, summary) = op.with_energy_correction(self.lattice()?, b.horizon, &b.micromodulus);
+                let (op, summary) =
+                    op.with_energy_correction(self.lattice()?, b.horizon, &b.micromodulus, b.surface.target);
                 (op, Some(summary))
             }
             _ => (op, None),
