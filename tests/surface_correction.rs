@@ -201,8 +201,9 @@ fn bad_surface_corrections_are_named_errors() {
 }
 
 /// No loss in the interior: an affine field given on a layer all around a 2D plate is still the
-/// exact solution with a correction on (the layer is not a free surface, so no node is
-/// corrected), for the bond model with `energy` and LPS with either correction (layer one
+/// exact solution with a correction on (the layer is not a free surface, so every node gets the
+/// full family's factor: with the default classical target one function of the direction, the
+/// same on every node, which keeps every family symmetric), for the bond model with `energy` and LPS with either correction (layer one
 /// horizon thick for bonds, two for LPS, as without correction); 1e-11 relative
 /// (the uncorrected bond patch tests reach 1e-13..1e-12 with Cholesky on ~1e3 unknowns; LPS
 /// couples two horizons, whose larger condition number costs a digit).

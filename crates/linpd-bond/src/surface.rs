@@ -11,7 +11,8 @@
 //! a contraction of the node's fourth bond moments ([`linpd_core::surface`], eq. (S1), with
 //! `beta_ij = g(|xi|) nu V_j |xi|^2`). [`linpd_core::surface::fit_moments`] gives every node the
 //! positive factor `phi_i(n) = exp(lambda_i . psi(n))` of the bond direction ((S2)) that makes
-//! its even moments equal the interior lattice's, i.e. that gives the node the interior's energy
+//! its even moments equal the target's (the classical isotropic moments (S4) by default, or the
+//! interior lattice's), i.e. that gives the node the classical (or the interior's) energy
 //! density for the uniaxial strains and simple shears along the lattice axes and every
 //! combination of them (the "few affine states" of Le & Bobaru's energy method, 6 in 3D and 3 in
 //! 2D, matched at once; states coupling normal strains to shears cannot be matched at edges
@@ -28,8 +29,9 @@
 //! its partners' factors agree with its own; this is the price of a pairwise (bond-based) force
 //! and why LPS also offers a per-node, unaveraged correction (`position_aware`).
 //!
-//! Nodes of the grid's outer layer keep `phi = 1`: the layer is where volume constraints and
-//! loads go, not a free surface, and correcting it would change the rows of the body nodes next
+//! Nodes of the grid's outer layer keep the full family's factor (`phi_0`, exactly 1 for the
+//! lattice target): the layer is where volume constraints and loads go, not a free surface, and
+//! correcting it as one would change the rows of the body nodes next
 //! to it (an affine field given on a layer all around the body would no longer be the exact
 //! solution). A face that should be corrected as a free surface has no layer.
 //!

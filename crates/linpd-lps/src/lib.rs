@@ -52,9 +52,9 @@ pub mod tension;
 
 pub use error::LpsError;
 pub use fd::fd_tangent;
+pub use linpd_core::surface::SurfaceTarget;
 pub use linpd_core::PlaneModel;
 pub use model::{Influence, LpsModel, LpsParams};
-pub use linpd_core::surface::SurfaceTarget;
 pub use surface::SurfaceCorrection;
 pub use tangent::{assemble_tangent, TangentPattern};
 pub use tension::{tension_bar, TensionBar, TensionError, TensionResult};

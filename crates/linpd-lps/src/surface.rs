@@ -61,8 +61,9 @@ pub enum SurfaceCorrection {
     /// bond-based `energy` correction ([`linpd_core::surface`]).
     Energy,
     /// `omega_i(xi) = phi_i(n) omega(|xi|)`: a per-node influence function whose fourth moments
-    /// equal the interior's, so that every node's dilatation and energy are exact for every
-    /// affine deformation whose strain is diagonal in the lattice axes ([`linpd_core::surface`]).
+    /// equal the target's, so that every node's dilatation and energy are exact (classical, or
+    /// the interior's with the lattice target) for every affine deformation whose strain is
+    /// diagonal in the lattice axes ([`linpd_core::surface`]).
     PositionAware,
 }
 
@@ -176,7 +177,7 @@ impl LpsModel {
     }
 
     /// The moment-matching corrections: the factors `phi_i` of every node from its geometric
-    /// weights `beta_ij = omega nu V_j |xi|^2` against the full lattice stencil's, then
+    /// weights `beta_ij = omega nu V_j |xi|^2` against `target` ([`linpd_core::surface`]), then
     /// `w_ij *= phi_i(n_ij)` (`per_node`) or `w_ij *= (phi_i(n_ij) + phi_j(n_ij)) / 2`, and `m`
     /// recomputed from the new weights.
     fn match_moments(&mut self, per_node: bool, target: SurfaceTarget) -> CorrectionSummary {

@@ -589,7 +589,10 @@ impl Problem {
             .ok_or_else(|| ProblemError::invalid("dynamics", "only bond models have explicit dynamics"))?;
         // the infinite chain's limit holds for the uncorrected bar only: a surface correction
         // stiffens the bonds at free ends (measured 27-45 % above the chain's omega_max^2)
-        if self.dim() == 1 && bond.material.is_homogeneous() && bond.surface.correction == linpd_lps::SurfaceCorrection::None {
+        if self.dim() == 1
+            && bond.material.is_homogeneous()
+            && bond.surface.correction == linpd_lps::SurfaceCorrection::None
+        {
             let chain = Chain::new(self.lattice()?.spacing(), bond.horizon, &bond.micromodulus)
                 .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
             let l = lattice_limit(&chain, rho);

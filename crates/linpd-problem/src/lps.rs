@@ -51,7 +51,9 @@ impl Problem {
             ),
             e => ProblemError::invalid("model", e.to_string()),
         })?;
-        model.corrected_to(surface.correction, surface.target).map_err(|e| ProblemError::invalid("model.surface_correction", e.to_string()))
+        model
+            .corrected_to(surface.correction, surface.target)
+            .map_err(|e| ProblemError::invalid("model.surface_correction", e.to_string()))
     }
 }
 

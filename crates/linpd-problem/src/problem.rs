@@ -2,11 +2,11 @@
 
 use crate::raw::*;
 use crate::ProblemError;
+use linpd_core::surface::SurfaceTarget;
 use linpd_core::{
     BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point,
     Region,
 };
-use linpd_core::surface::SurfaceTarget;
 use linpd_lps::SurfaceCorrection;
 use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
 use std::path::Path;
