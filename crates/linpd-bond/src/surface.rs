@@ -24,10 +24,23 @@
 //! ```
 //!
 //! which keeps `w_ij = w_ji` (so `A` stays symmetric, its block rows sum to zero and the rigid
-//! motions stay in its null space) and leaves every bond between two interior nodes exactly
-//! unchanged (both factors are exactly 1). The mean makes the node's energy exact only where
-//! its partners' factors agree with its own; this is the price of a pairwise (bond-based) force
-//! and why LPS also offers a per-node, unaveraged correction (`position_aware`).
+//! motions stay in its null space) and gives every bond between two interior nodes the same
+//! factor (`phi_0`; exactly 1 for the lattice target). The mean makes the node's energy exact
+//! only where its partners' factors agree with its own: a node on a face, whose partners lie
+//! deeper and have smaller factors, keeps too little. LPS restores each node's scale by dividing
+//! by its own weighted volume `m_i`; a bond model has none, so the correction does it explicitly
+//! ((S5), [`linpd_core::surface::FactorRule::MeanOfEndsScaled`]):
+//!
+//! ```text
+//! r_i = tr T* / sum_j beta_ij f_ij,     f_ij = (phi_i(n_ij) + phi_j(n_ij)) / 2,
+//! w_ij  ->  w_ij f_ij (r_i + r_j) / 2,                                                     (S5)
+//! ```
+//!
+//! still symmetric in the pair, `r_i = 1` (exactly) for nodes whose partners all carry the
+//! full family's factor. Measured (`linpd study surface`, docs/models.md): on a 1 x 0.1 x 0.1
+//! cantilever at `h = 0.01` the bond model with (S3) alone is 9.7 % too soft, with (S5) 2.5 %;
+//! on the tension bar +0.7 % and -0.3 %. (S5) raises the bonds between two face nodes most,
+//! whose midpoints lie on the face, where bending strains are largest.
 //!
 //! Nodes of the grid's outer layer keep the full family's factor (`phi_0`, exactly 1 for the
 //! lattice target): the layer is where volume constraints and loads go, not a free surface, and
@@ -42,7 +55,7 @@
 
 use crate::BondOperator;
 use linpd_core::kernel::partial_volume;
-use linpd_core::surface::{family_factors, CorrectionSummary, SurfaceTarget};
+use linpd_core::surface::{family_factors, CorrectionSummary, FactorRule::MeanOfEndsScaled, SurfaceTarget};
 use linpd_core::{Grid, Micromodulus, Normalization};
 
 impl BondOperator {
@@ -75,8 +88,18 @@ impl BondOperator {
             Normalization::Continuum => Some(micromodulus.continuum_moment(self.dim(), horizon)),
             _ => None,
         };
-        let (factors, summary) =
-            family_factors(self.dim(), grid, self.family(), horizon, beta, bond, false, "energy", target, trace);
+        let (factors, summary) = family_factors(
+            self.dim(),
+            grid,
+            self.family(),
+            horizon,
+            beta,
+            bond,
+            MeanOfEndsScaled,
+            "energy",
+            target,
+            trace,
+        );
         self.weights.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
         (self, summary)
     }

@@ -82,6 +82,14 @@
 //! with the bulk cell volume): the interior is left exactly unchanged (factors exactly 1) and a
 //! surface node's response equals the interior's, cubic anisotropy included.
 //!
+//! # From node factors to bond factors
+//!
+//! [`FactorRule`]: a per-node influence function (LPS `position_aware`: node `i` uses
+//! `phi_i(n)` in its own sums), the mean of the ends `(phi_i + phi_j) / 2` (S3) (LPS `energy`,
+//! a symmetric influence function; LPS divides by each node's own weighted volume, which fixes
+//! the scale the mean loses), or (S3) followed by the mean of the ends' trace ratios (S5)
+//! (bond-based `energy`: `linpd_bond::surface`).
+//!
 //! The weights `beta` are geometric (no material modulus, no defect weakening): a material
 //! interface is not a surface and must not be corrected; a bond cut by a defect (factor 0) is
 //! missing from the family, so crack faces are corrected like any other free surface.
@@ -375,8 +383,7 @@ impl Dual<'_> {
 ///   that does not count (cut by a defect); it gets factor 1;
 /// * nodes of the grid's layer keep factor 1 (the layer holds constraints and loads, it is not
 ///   a free surface);
-/// * `per_node`: node `i`'s bonds get `phi_i(n)` (a per-node influence function); otherwise a
-///   bond gets the mean of its ends' factors, `(phi_i(n) + phi_j(n)) / 2`, the same from both ends.
+/// * `rule`: how a bond's factor is made from its ends' ([`FactorRule`]).
 #[allow(clippy::too_many_arguments)]
 pub fn family_factors(
     dim: usize,
@@ -385,7 +392,7 @@ pub fn family_factors(
     horizon: f64,
     beta: impl Fn(f64, f64) -> f64 + Sync,
     bond: impl Fn(usize, usize) -> Option<([f64; 3], f64)> + Sync,
-    per_node: bool,
+    rule: FactorRule,
     kind: &'static str,
     target: SurfaceTarget,
     trace: Option<f64>,
@@ -432,7 +439,8 @@ pub fn family_factors(
         .collect();
     let surface_nodes = fits.iter().filter(|f| f.1).count();
     let fits: Vec<MomentFit> = fits.into_iter().map(|f| f.0).collect();
-    let per_bond: Vec<Vec<f64>> = (0..family.len())
+    let per_node = rule == FactorRule::OwnEnd;
+    let mut per_bond: Vec<Vec<f64>> = (0..family.len())
         .into_par_iter()
         .map(|i| {
             let fi = &fits[i];
@@ -452,6 +460,9 @@ pub fn family_factors(
                 .collect()
         })
         .collect();
+    if rule == FactorRule::MeanOfEndsScaled {
+        scale_by_traces(grid, family, &beta, &bond, moment_trace(dim, &goal), &mut per_bond);
+    }
     let factors: Vec<f64> = per_bond.into_iter().flatten().collect();
     let range = factors
         .iter()
@@ -473,6 +484,60 @@ pub fn family_factors(
         seconds: start.elapsed().as_secs_f64(),
     };
     (factors, summary)
+}
+
+/// (S5): every node's trace ratio `r_i = tr T* / sum_j beta_ij f_ij` under the bond factors
+/// `f_ij` of (S3) (1 on the layer, and snapped to 1 within [`INTERIOR_RTOL`] so that interior
+/// nodes stay bit for bit alike), then `f_ij *= (r_i + r_j) / 2`.
+fn scale_by_traces(
+    grid: &crate::Grid,
+    family: &crate::BondFamily,
+    beta: &(impl Fn(f64, f64) -> f64 + Sync),
+    bond: &(impl Fn(usize, usize) -> Option<([f64; 3], f64)> + Sync),
+    trace: f64,
+    per_bond: &mut [Vec<f64>],
+) {
+    use rayon::prelude::*;
+    let ratio: Vec<f64> = (0..family.len())
+        .into_par_iter()
+        .map(|i| {
+            if grid.is_layer(i) {
+                return 1.0;
+            }
+            let m: f64 = family
+                .neighbors(i)
+                .iter()
+                .enumerate()
+                .filter_map(|(b, &j)| bond(i, b).map(|(_, r)| beta(r, grid.node_volume(j as usize)) * per_bond[i][b]))
+                .sum();
+            let r = trace / m;
+            if m <= 0.0 || (r - 1.0).abs() <= INTERIOR_RTOL {
+                1.0
+            } else {
+                r
+            }
+        })
+        .collect();
+    per_bond.par_iter_mut().enumerate().for_each(|(i, factors)| {
+        for (b, &j) in family.neighbors(i).iter().enumerate() {
+            if bond(i, b).is_some() {
+                factors[b] *= 0.5 * (ratio[i] + ratio[j as usize]);
+            }
+        }
+    });
+}
+
+/// How [`family_factors`] makes a bond's factor from its two ends' factors `phi_i`, `phi_j`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FactorRule {
+    /// `phi_i(n)` in node `i`'s sums (a per-node influence function: LPS `position_aware`).
+    OwnEnd,
+    /// The mean of the ends, `(phi_i(n) + phi_j(n)) / 2` (S3), the same from both ends (LPS
+    /// `energy`: each node's own weighted volume `m_i` then sets its scale).
+    MeanOfEnds,
+    /// (S3), then scaled by the mean of the ends' trace ratios (S5) (bond-based `energy`: a
+    /// bond model has no `m_i` of its own to do it).
+    MeanOfEndsScaled,
 }
 
 /// The cost and effect of a surface correction, for the solve report.

@@ -46,7 +46,7 @@ use crate::model::norm;
 use crate::{LpsError, LpsModel};
 use linpd_core::family::lattice_stencil;
 use linpd_core::kernel::partial_volume;
-use linpd_core::surface::{family_factors, CorrectionSummary, SurfaceTarget};
+use linpd_core::surface::{family_factors, CorrectionSummary, FactorRule, SurfaceTarget};
 
 /// The surface correction of an LPS model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -193,9 +193,10 @@ impl LpsModel {
             let xi = self.bond_vector(i, j);
             Some(([xi[0] / r, xi[1] / r, xi[2] / r], r))
         };
-        let kind = if per_node { "position_aware" } else { "energy" };
+        let (kind, rule) =
+            if per_node { ("position_aware", FactorRule::OwnEnd) } else { ("energy", FactorRule::MeanOfEnds) };
         let (factors, summary) =
-            family_factors(self.dim, &grid, &self.family, delta, beta, bond, per_node, kind, target, None);
+            family_factors(self.dim, &grid, &self.family, delta, beta, bond, rule, kind, target, None);
         self.wv.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
         // Algorithm 3 again with the new weights: m_i = sum_j w_ij |xi|^2
         for i in 0..self.n_nodes() {
