@@ -33,15 +33,17 @@ fn grid(dim: usize, nodes: usize) -> Grid {
 
 const CORRECTIONS: [SurfaceCorrection; 2] = [SurfaceCorrection::Energy, SurfaceCorrection::PositionAware];
 
-/// The tangent is the central-difference Jacobian of the corrected nonlinear force (1e-7 of
+/// For both targets, the tangent is the central-difference Jacobian of the corrected nonlinear force (1e-7 of
 /// max|A|, the bound of the uncorrected model's test: FD truncation with eps = 1e-6 h), symmetric
 /// (1e-12), equal to the matrix-free apply (1e-12), positive semi-definite with exactly the
 /// rigid motions (6 in 3D, 3 in 2D) in its null space, and `sum_i V_i W_i = u.A u / 2` (1e-12).
 #[test]
 fn corrected_tangents_are_consistent_symmetric_and_keep_the_rigid_null_space() {
     for (dim, nodes, p) in variants() {
-        for c in CORRECTIONS {
-            let (m, summary) = LpsModel::new(&grid(dim, nodes), &p).unwrap().corrected(c).unwrap();
+        for (c, target) in
+            CORRECTIONS.iter().flat_map(|&c| [(c, SurfaceTarget::Classical), (c, SurfaceTarget::Lattice)])
+        {
+            let (m, summary) = LpsModel::new(&grid(dim, nodes), &p).unwrap().corrected_to(c, target).unwrap();
             let summary = summary.unwrap();
             let a = assemble_tangent(&m);
             let scale = a.val().iter().fold(0.0f64, |x, v| x.max(v.abs()));
