@@ -110,44 +110,52 @@ impl StencilOperator {
         let wide = std::arch::is_x86_feature_detected!("avx2");
         #[cfg(not(target_arch = "x86_64"))]
         let wide = false;
-        y.par_chunks_mut(D * n0).enumerate().with_min_len(4).for_each_init(
-            || vec![0.0; D * n0],
-            |acc, (row, yr)| {
-                let (j1, j2) = ((row % n1) as i64, (row / n1) as i64);
-                acc.iter_mut().for_each(|v| *v = 0.0);
-                for (k, block) in self.offsets.iter().zip(&blocks) {
-                    let (s1, s2) = (j1 + k[1], j2 + k[2]);
-                    if s1 < 0 || s1 >= n1 as i64 || s2 < 0 || s2 >= n2 as i64 {
-                        continue;
+        // rows in parallel, and long rows (1D bars) cut into segments of at most SEGMENT nodes
+        y.par_chunks_mut(D * n0).enumerate().for_each(|(row, yr)| {
+            let (j1, j2) = ((row % n1) as i64, (row / n1) as i64);
+            yr.par_chunks_mut(D * SEGMENT).enumerate().for_each_init(
+                || vec![0.0; D * SEGMENT],
+                |acc, (segment, ys)| {
+                    let (x0, len) = (segment * SEGMENT, ys.len() / D);
+                    acc.iter_mut().for_each(|v| *v = 0.0);
+                    for (k, block) in self.offsets.iter().zip(&blocks) {
+                        let (s1, s2) = (j1 + k[1], j2 + k[2]);
+                        if s1 < 0 || s1 >= n1 as i64 || s2 < 0 || s2 >= n2 as i64 {
+                            continue;
+                        }
+                        // nodes x of this segment with x + k0 inside the source row
+                        let lo = ((-k[0]).max(0) as usize).max(x0);
+                        let hi = ((n0 as i64 - k[0]).min(n0 as i64).max(0) as usize).min(x0 + len);
+                        if lo >= hi {
+                            continue;
+                        }
+                        let own = row * n0;
+                        let src = (s1 as usize + n1 * s2 as usize) * n0;
+                        let shift = (src as i64 + k[0]) as usize;
+                        let rows = RowPair { soa: &soa, nodes, own: own + lo, src: shift + lo, len: hi - lo };
+                        #[cfg(target_arch = "x86_64")]
+                        if wide {
+                            // SAFETY: AVX2 was detected at run time just above.
+                            unsafe { accumulate_avx2::<D>(&rows, block, acc, lo - x0, SEGMENT) };
+                            continue;
+                        }
+                        let _ = wide;
+                        accumulate::<D>(&rows, block, acc, lo - x0, SEGMENT);
                     }
-                    // nodes x of this row with x + k0 inside the source row
-                    let lo = (-k[0]).max(0) as usize;
-                    let hi = (n0 as i64 - k[0]).min(n0 as i64).max(0) as usize;
-                    if lo >= hi {
-                        continue;
+                    for x in 0..len {
+                        for a in 0..D {
+                            ys[D * x + a] = acc[a * SEGMENT + x];
+                        }
                     }
-                    let own = row * n0;
-                    let src = (s1 as usize + n1 * s2 as usize) * n0;
-                    let shift = (src as i64 + k[0]) as usize;
-                    let rows = RowPair { soa: &soa, nodes, own: own + lo, src: shift + lo, len: hi - lo };
-                    #[cfg(target_arch = "x86_64")]
-                    if wide {
-                        // SAFETY: AVX2 was detected at run time just above.
-                        unsafe { accumulate_avx2::<D>(&rows, block, acc, lo, n0) };
-                        continue;
-                    }
-                    let _ = wide;
-                    accumulate::<D>(&rows, block, acc, lo, n0);
-                }
-                for x in 0..n0 {
-                    for a in 0..D {
-                        yr[D * x + a] = acc[a * n0 + x];
-                    }
-                }
-            },
-        );
+                },
+            );
+        });
     }
 }
+
+/// Longest stretch of a lattice row one task of [`StencilOperator::apply`] computes (rows of 2D
+/// and 3D lattices are shorter; a 1D bar is one row and is cut into such segments).
+const SEGMENT: usize = 1024;
 
 /// The stretch `own..own + len` of a row and the stretch `src..src + len` of the row it is
 /// bonded to by one offset, in the structure-of-arrays copy of `u`.
@@ -159,10 +167,10 @@ struct RowPair<'a> {
     len: usize,
 }
 
-/// `acc[a][lo + x] += sum_b K[a][b] (u_b[own + x] - u_b[src + x])` for `x < len`: the
-/// innermost loop of [`StencilOperator::apply`], over contiguous memory (vectorizes).
+/// `acc[a * stride + lo + x] += sum_b K[a][b] (u_b[own + x] - u_b[src + x])` for `x < len`:
+/// the innermost loop of [`StencilOperator::apply`], over contiguous memory (vectorizes).
 #[inline(always)]
-fn accumulate<const D: usize>(rows: &RowPair, k: &[f64; 6], acc: &mut [f64], lo: usize, n0: usize) {
+fn accumulate<const D: usize>(rows: &RowPair, k: &[f64; 6], acc: &mut [f64], lo: usize, stride: usize) {
     let len = rows.len;
     let comp = |a: usize, start: usize| &rows.soa[a * rows.nodes + start..a * rows.nodes + start + len];
     match D {
@@ -175,7 +183,7 @@ fn accumulate<const D: usize>(rows: &RowPair, k: &[f64; 6], acc: &mut [f64], lo:
         }
         2 => {
             let (xi, xj, yi, yj) = (comp(0, rows.own), comp(0, rows.src), comp(1, rows.own), comp(1, rows.src));
-            let (ax, rest) = acc.split_at_mut(n0);
+            let (ax, rest) = acc.split_at_mut(stride);
             let (ax, ay) = (&mut ax[lo..lo + len], &mut rest[lo..lo + len]);
             for x in 0..len {
                 let (dx, dy) = (xi[x] - xj[x], yi[x] - yj[x]);
@@ -187,8 +195,8 @@ fn accumulate<const D: usize>(rows: &RowPair, k: &[f64; 6], acc: &mut [f64], lo:
             let (xi, xj) = (comp(0, rows.own), comp(0, rows.src));
             let (yi, yj) = (comp(1, rows.own), comp(1, rows.src));
             let (zi, zj) = (comp(2, rows.own), comp(2, rows.src));
-            let (ax, rest) = acc.split_at_mut(n0);
-            let (ay, az) = rest.split_at_mut(n0);
+            let (ax, rest) = acc.split_at_mut(stride);
+            let (ay, az) = rest.split_at_mut(stride);
             let (ax, ay, az) = (&mut ax[lo..lo + len], &mut ay[lo..lo + len], &mut az[lo..lo + len]);
             for x in 0..len {
                 let (dx, dy, dz) = (xi[x] - xj[x], yi[x] - yj[x], zi[x] - zj[x]);
@@ -206,6 +214,6 @@ fn accumulate<const D: usize>(rows: &RowPair, k: &[f64; 6], acc: &mut [f64], lo:
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn accumulate_avx2<const D: usize>(rows: &RowPair, k: &[f64; 6], acc: &mut [f64], lo: usize, n0: usize) {
-    accumulate::<D>(rows, k, acc, lo, n0)
+unsafe fn accumulate_avx2<const D: usize>(rows: &RowPair, k: &[f64; 6], acc: &mut [f64], lo: usize, stride: usize) {
+    accumulate::<D>(rows, k, acc, lo, stride)
 }

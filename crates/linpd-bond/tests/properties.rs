@@ -101,6 +101,34 @@ fn stencil_apply_equals_bond_apply_on_a_homogeneous_lattice() {
     }
 }
 
+/// Rows longer than the stencil apply's segment (1D bars, long 2D rows) are cut into segments
+/// computed apart: the seams must not change the product (1e-13 relative, as above).
+#[test]
+fn stencil_apply_is_seamless_across_row_segments() {
+    for (dim, max) in [(1, vec![299.9]), (2, vec![249.9, 0.9])] {
+        let g = Grid::new(&vec![0.0; dim], &max, 0.1, 0.0, Placement::Vertex).unwrap();
+        assert!(g.counts()[0] > 2048, "the row must span several segments");
+        let mm = Micromodulus {
+            kernel: Kernel::InverseDistance,
+            normalization: Normalization::Continuum,
+            modulus: 3.0,
+            plane: Some(PlaneModel::Strain),
+            partial_volume: true,
+        };
+        let o = BondOperator::on_grid(&g, 0.3, &mm, &Material::default()).unwrap();
+        let st = StencilOperator::new(&g, 0.3, &mm).unwrap();
+        let n = o.n_dofs();
+        let u: Vec<f64> = (0..n).map(|k| (k as f64 * 0.37).sin()).collect();
+        let (mut y1, mut y2) = (vec![0.0; n], vec![0.0; n]);
+        o.apply(&u, &mut y1);
+        st.apply(&u, &mut y2);
+        let s = y1.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        for k in 0..n {
+            assert!((y1[k] - y2[k]).abs() <= 1e-13 * s, "dim {dim} dof {k}: {} vs {}", y1[k], y2[k]);
+        }
+    }
+}
+
 #[test]
 fn stiffness_is_minus_the_jacobian_of_the_pmb_force() {
     // Central differences of the nonlinear PMB force: truncation O(eps^2 |F'''|) and round-off
