@@ -74,6 +74,9 @@ pub enum SolveError {
         /// What happened.
         source: GmresError,
     },
+    /// No offered solver fits this system (memory, missing geometry).
+    #[error("no solver fits: {0}")]
+    NoSolverFits(String),
     /// The system is too large for the dense solver.
     #[error("dense solver refused: {n} unknowns (limit {limit}); use cholesky or cg")]
     TooLargeForDense {

@@ -134,10 +134,40 @@ pub fn solve_assembled_with_progress(
                 };
                 assembled_gmres_with(a, &m, f, params, *preconditioner, hints.geometry.as_ref(), progress)?
             }
-            (_, Some(spd)) if matches!(spec, SolverSpec::Auto(_)) => {
-                match spd_gmres(a, f, spd, &hints.ordering, progress) {
+            (SolverSpec::Auto(params), Some(spd)) => {
+                // A factor too large for memory (or a 3D system past the limit of the symmetric
+                // `auto`): GMRES + multigrid from the SPD approximation, no factorization. LU
+                // would fill at least as much as the Cholesky of M.
+                let too_large = if hints.dim == 3 && n > AUTO_3D_CHOLESKY_LIMIT {
+                    Err(SpdGmres::TooLarge(format!("3D with {n} > {AUTO_3D_CHOLESKY_LIMIT} unknowns")))
+                } else {
+                    spd_gmres(a, f, spd, &hints.ordering, progress)
+                };
+                match too_large {
                     Ok(solved) => solved,
-                    Err(why) => {
+                    Err(SpdGmres::TooLarge(why)) if hints.geometry.is_some() => {
+                        let excluded = format!("auto: {} excluded ({why})", SolverId::Gmres(spd.kind));
+                        note = Some(format!("{excluded}: gmres + multigrid instead"));
+                        assembled_gmres_with(
+                            a,
+                            &spd.matrix,
+                            f,
+                            params,
+                            PreconditionerKind::Multigrid,
+                            hints.geometry.as_ref(),
+                            progress,
+                        )
+                        .map_err(|e| {
+                            SolveError::NoSolverFits(format!("{excluded}, and gmres + multigrid failed: {e}"))
+                        })?
+                    }
+                    Err(SpdGmres::TooLarge(why)) => {
+                        return Err(SolveError::NoSolverFits(format!(
+                            "{} excluded ({why}) and no multigrid geometry for an iterative solve",
+                            SolverId::Gmres(spd.kind)
+                        )))
+                    }
+                    Err(SpdGmres::Failed(why)) => {
                         note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
                         lu(a, f, &hints.ordering, progress)?
                     }
@@ -414,13 +444,22 @@ fn lu(a: &Csc, f: &[f64], ordering: &Ordering, progress: &dyn Progress) -> Resul
 /// backward-stable direct solve achieves (a fixed relative residual such as 1e-13 is out of
 /// reach when kappa ~ 1e8, as for 10^4 nodes of a 1D model), with `||A||_2` bounded by
 /// `sqrt(||A||_1 ||A||_inf)` and `x` the preconditioner's solution.
+/// Why [`spd_gmres`] was not used.
+enum SpdGmres {
+    /// The factor of `M` would not fit in memory ([`cost::cholesky`]), or the system is past
+    /// the 3D limit: no factorization is tried.
+    TooLarge(String),
+    /// The factorization or GMRES failed.
+    Failed(String),
+}
+
 fn spd_gmres(
     a: &Csc,
     f: &[f64],
     spd: &SpdApproximation,
     ordering: &Ordering,
     progress: &dyn Progress,
-) -> Result<(Vec<f64>, SolveReport), String> {
+) -> Result<(Vec<f64>, SolveReport), SpdGmres> {
     let n = a.nrows();
     let mut report = SolveReport::new(SolverId::Gmres(spd.kind), n, a.val().len());
     let m = &spd.matrix;
@@ -434,10 +473,14 @@ fn spd_gmres(
         Ordering::NestedDissection(p) => Some(p.as_slice()),
     };
     let t = Instant::now();
-    let chol = Cholesky::analyze_with_ordering(m, perm).map_err(|e| e.to_string())?;
+    let chol = Cholesky::analyze_with_ordering(m, perm).map_err(|e| SpdGmres::Failed(e.to_string()))?;
     report.timings.symbolic = t.elapsed().as_secs_f64();
+    // the symbolic analysis knows the factor's size: refuse what would not fit in memory
+    if let cost::Estimate { seconds: None, why, .. } = cost::cholesky(&chol, SolverId::Gmres(spd.kind).to_string()) {
+        return Err(SpdGmres::TooLarge(why));
+    }
     let t = Instant::now();
-    let factor = chol.factor(m).map_err(|e| e.to_string())?;
+    let factor = chol.factor(m).map_err(|e| SpdGmres::Failed(e.to_string()))?;
     report.timings.numeric = t.elapsed().as_secs_f64();
     report.nnz_factor = Some(chol.nnz_factor());
     let t = Instant::now();
@@ -447,7 +490,7 @@ fn spd_gmres(
     let rtol = (16.0 * f64::EPSILON * norm_a * norm(&x) / norm(f).max(f64::MIN_POSITIVE)).clamp(1e-15, 1e-8);
     let params = GmresParams { rtol, restart: 40, max_iter: 200 };
     let info = gmres_with_progress(&GeneralCsc(a), &FactorPreconditioner(factor), f, &mut x, &params, progress)
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| SpdGmres::Failed(e.to_string()))?;
     report.iterations = Some(info.iterations);
     report.timings.solve = t.elapsed().as_secs_f64();
     Ok((x, report))

@@ -75,3 +75,31 @@ fn cg_true_residual_checked() {
     }
     assert!(refused > 0, "no rtol was out of reach: the test no longer exercises the true-residual check");
 }
+
+/// Restarted GMRES on the cyclic shift (`A e_i = e_{i+1}`, `b = e_0`) makes no progress at all
+/// while its Krylov dimension is below `n` (the classic stagnation example: every `x` in
+/// `span{b, A b, ..}` of dimension `< n` leaves `||b - A x|| >= ||b||`). The run must stop after
+/// `STAGNATION_CYCLES` restarts, long before `max_iter`, saying it stagnated.
+#[test]
+fn gmres_stops_when_restarts_stagnate() {
+    use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+    use linpd_solve::krylov::gmres::STAGNATION_CYCLES;
+    let n = 40;
+    let col_ptr: Vec<usize> = (0..=n).collect();
+    let rows: Vec<usize> = (0..n).map(|i| (i + 1) % n).collect();
+    let a = SparseColMat::new(SymbolicSparseColMat::new_checked(n, n, col_ptr, None, rows), vec![1.0; n]);
+    let mut b = vec![0.0; n];
+    b[0] = 1.0;
+    let params = GmresParams { rtol: 1e-10, restart: 10, max_iter: 100_000 };
+    let mut x = vec![0.0; n];
+    let e = gmres(&linpd_solve::GeneralCsc(&a), &Identity, &b, &mut x, &params).unwrap_err();
+    assert!(e.stagnated, "{e}");
+    assert_eq!(e.iterations, STAGNATION_CYCLES * params.restart, "{e}");
+    assert!((e.rel_residual - 1.0).abs() < 1e-12, "{e}");
+    assert!(e.to_string().contains("stagnated"), "{e}");
+    // with a Krylov space of dimension n the same system is solved in n iterations
+    let full = GmresParams { rtol: 1e-10, restart: n, max_iter: 1000 };
+    let mut x = vec![0.0; n];
+    let info = gmres(&linpd_solve::GeneralCsc(&a), &Identity, &b, &mut x, &full).unwrap();
+    assert_eq!(info.iterations, n);
+}

@@ -4,6 +4,13 @@
 //! true residual `b - A x` (no preconditioned-norm surprises). Modified Gram-Schmidt with one
 //! reorthogonalization pass; Givens rotations on the Hessenberg matrix. The true residual is
 //! recomputed at each restart and at exit.
+//!
+//! **Stagnation.** A weak preconditioner can leave restarted GMRES creeping (or stuck: restarted
+//! GMRES may stall for good on an indefinite or strongly non-normal `A M^{-1}`), and a generous
+//! `max_iter` then runs for hours. A run stops with [`GmresError::stagnated`] when the true
+//! residual at a restart is not below half the one [`STAGNATION_CYCLES`] restarts earlier
+//! (measured: the 3D blended notched block at 32^3 nodes, with a transition zone over half the
+//! body, stayed at 9.4e-6 after 300 iterations with the energy form's multigrid).
 
 use crate::precond::Preconditioner;
 use linpd_core::progress::{NoProgress, Progress, Task};
@@ -36,9 +43,20 @@ pub struct GmresInfo {
     pub rel_residual: f64,
 }
 
+/// Restart cycles over which the true residual must at least halve ([`GmresError::stagnated`]).
+pub const STAGNATION_CYCLES: usize = 4;
+
 /// GMRES did not reach the target.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("GMRES did not converge in {iterations} iterations: relative residual {rel_residual:e} > {rtol:e}")]
+#[error(
+    "GMRES {} in {iterations} iterations: relative residual {rel_residual:e} > {rtol:e}",
+    if *stagnated {
+        "stagnated (the residual did not halve over the last 4 restart cycles: the preconditioner is too weak for \
+         this operator)"
+    } else {
+        "did not converge"
+    }
+)]
 pub struct GmresError {
     /// Iterations taken.
     pub iterations: usize,
@@ -46,6 +64,8 @@ pub struct GmresError {
     pub rel_residual: f64,
     /// Target.
     pub rtol: f64,
+    /// Stopped before `max_iter` because the residual stopped falling (module docs).
+    pub stagnated: bool,
 }
 
 fn norm(v: &[f64]) -> f64 {
@@ -98,6 +118,8 @@ pub fn gmres_with_progress(
     let mut it = 0;
     let mut z = vec![0.0; n];
     let mut w = vec![0.0; n];
+    // the true residual at every restart
+    let mut history: Vec<f64> = Vec::new();
     loop {
         let r = residual(a, b, x);
         let beta = norm(&r);
@@ -105,10 +127,16 @@ pub fn gmres_with_progress(
         if beta <= params.rtol * bnorm {
             return Ok(GmresInfo { iterations: it, rel_residual: beta / bnorm });
         }
+        let fail =
+            move |stagnated| GmresError { iterations: it, rel_residual: beta / bnorm, rtol: params.rtol, stagnated };
         // A non-finite residual (overflow) never recovers: stop rather than iterate on NaN.
         if it >= params.max_iter || !beta.is_finite() {
-            return Err(GmresError { iterations: it, rel_residual: beta / bnorm, rtol: params.rtol });
+            return Err(fail(false));
         }
+        if history.len() >= STAGNATION_CYCLES && beta > 0.5 * history[history.len() - STAGNATION_CYCLES] {
+            return Err(fail(true));
+        }
+        history.push(beta);
         let mut v: Vec<Vec<f64>> = vec![r.iter().map(|ri| ri / beta).collect()];
         let mut h = vec![vec![0.0; m]; m + 1];
         let (mut cs, mut sn) = (vec![0.0; m], vec![0.0; m]);
@@ -154,7 +182,7 @@ pub fn gmres_with_progress(
         }
         if k == 0 {
             // No direction made progress: restarting would repeat this cycle forever.
-            return Err(GmresError { iterations: it, rel_residual: beta / bnorm, rtol: params.rtol });
+            return Err(fail(true));
         }
         // y = H^{-1} g (upper triangular k x k); x += M^{-1} V y.
         let mut y = vec![0.0; k];
