@@ -134,7 +134,12 @@ pub fn solve_assembled_with_progress(
                 };
                 assembled_gmres_with(a, &m, f, params, *preconditioner, hints.geometry.as_ref(), progress)?
             }
-            (SolverSpec::Auto(params), Some(spd)) => {
+            // `auto` asked (in 1D it resolves to a direct solver name, hence `spec`, not `resolved`)
+            (_, Some(spd)) if matches!(spec, SolverSpec::Auto(_)) => {
+                let params = match spec {
+                    SolverSpec::Auto(params) => params.clone(),
+                    _ => CgParams::default(),
+                };
                 // A factor too large for memory (or a 3D system past the limit of the symmetric
                 // `auto`): GMRES + multigrid from the SPD approximation, no factorization. LU
                 // would fill at least as much as the Cholesky of M.
@@ -152,7 +157,7 @@ pub fn solve_assembled_with_progress(
                             a,
                             &spd.matrix,
                             f,
-                            params,
+                            &params,
                             PreconditionerKind::Multigrid,
                             hints.geometry.as_ref(),
                             progress,
