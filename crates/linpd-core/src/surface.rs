@@ -50,9 +50,10 @@
 //! (`sum_a n_a^4 + 2 sum_{a<b} n_a^2 n_b^2 = 1`), so a uniform scalar correction is one case.
 //! `phi` is even in `n`, so both ends of a bond evaluate it on the same direction.
 //!
-//! **Interior nodes are left exactly unchanged**: when `|T_0 - T_i| <= 1e-12 |T_0|` (a full
-//! family: the two sums differ only by summation order) the multipliers are exactly zero and every
-//! factor is exactly 1.
+//! **Interior nodes are all corrected alike**: when `|T_0 - T_i| <= 1e-12 |T_0|` (a full family:
+//! the two sums differ only by summation order) the node takes the full stencil's fit, computed
+//! once, so every interior node has the same factors bit for bit (exactly 1 for the lattice
+//! target below).
 //!
 //! # What is matched against what: the classical or the lattice target
 //!
@@ -142,8 +143,8 @@ const EXPONENTS_2D: [[i32; 3]; 3] = [[4, 0, 0], [0, 4, 0], [2, 2, 0]];
 /// And in 1D (`n_x^4 = 1`: the factor is a scalar per node).
 const EXPONENTS_1D: [[i32; 3]; 1] = [[4, 0, 0]];
 
-/// Relative mismatch `|T_0 - T_i| / |T_0|` below which a family counts as full and keeps
-/// factors exactly 1 (summation-order round-off of the two sums is `~ n_bonds eps`).
+/// Relative mismatch `|T_0 - T_i| / |T_0|` below which a family counts as full and takes the
+/// full stencil's fit (summation-order round-off of the two sums is `~ n_bonds eps`).
 pub const INTERIOR_RTOL: f64 = 1e-12;
 
 /// Newton's iteration for (S2) stops when the moments match to this relative accuracy.
@@ -208,7 +209,7 @@ impl MomentFit {
         MomentFit { lambda: vec![0.0; n_moments(dim)], mismatch: 0.0, iterations: 0, out_of_reach: false }
     }
 
-    /// The factor `phi(n)` for the unit bond direction `n` (exactly 1 for an interior node).
+    /// The factor `phi(n)` for the unit bond direction `n` (exactly 1 for the identity fit).
     pub fn factor(&self, dim: usize, n: &[f64; 3]) -> f64 {
         if self.is_identity() {
             return 1.0;
