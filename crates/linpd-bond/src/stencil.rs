@@ -17,8 +17,9 @@ pub struct StencilOperator {
     dim: usize,
     counts: [usize; 3],
     offsets: Vec<[i64; 3]>,
-    weights: Vec<f64>,
-    units: Vec<[f64; 3]>,
+    /// `K_s = w_s e_s e_s^T` per offset, upper triangle row by row (xx, xy, xz, yy, yz, zz in
+    /// 3D; xx, xy, yy in 2D; x in 1D).
+    blocks: Vec<[f64; 6]>,
 }
 
 impl StencilOperator {
@@ -28,7 +29,7 @@ impl StencilOperator {
         let h = grid.spacing();
         micromodulus.validate(dim)?;
         if !grid.is_full() || !grid.has_uniform_volumes() {
-            // the linear offsets below index every lattice site
+            // the row-wise apply indexes every lattice site
             return Err(CoreError::param(
                 "grid",
                 "the stencil operator needs the full lattice box with volumes h^d; a body removed nodes or cut their cells",
@@ -41,15 +42,25 @@ impl StencilOperator {
             return Err(CoreError::param("horizon", "gives no bonds"));
         }
         let vol = grid.volume();
-        let mut weights = Vec::new();
-        let mut units = Vec::new();
-        for k in &offsets {
-            let r = h * ((k[0] * k[0] + k[1] * k[1] + k[2] * k[2]) as f64).sqrt();
-            let nu = if micromodulus.partial_volume { partial_volume(r, horizon, h) } else { 1.0 };
-            weights.push(c * micromodulus.kernel.shape(r, horizon) * nu * vol * vol);
-            units.push([k[0] as f64 * h / r, k[1] as f64 * h / r, k[2] as f64 * h / r]);
-        }
-        Ok(StencilOperator { dim, counts, offsets, weights, units })
+        let blocks = offsets
+            .iter()
+            .map(|k| {
+                let r = h * ((k[0] * k[0] + k[1] * k[1] + k[2] * k[2]) as f64).sqrt();
+                let nu = if micromodulus.partial_volume { partial_volume(r, horizon, h) } else { 1.0 };
+                let w = c * micromodulus.kernel.shape(r, horizon) * nu * vol * vol;
+                let e = [k[0] as f64 * h / r, k[1] as f64 * h / r, k[2] as f64 * h / r];
+                let mut block = [0.0; 6];
+                let mut p = 0;
+                for a in 0..dim {
+                    for b in a..dim {
+                        block[p] = w * e[a] * e[b];
+                        p += 1;
+                    }
+                }
+                block
+            })
+            .collect();
+        Ok(StencilOperator { dim, counts, offsets, blocks })
     }
 
     /// Number of DOFs.
@@ -89,23 +100,6 @@ impl StencilOperator {
                 *v = u[D * i + a];
             }
         });
-        // the blocks K_s, upper triangle row by row (xx, xy, xz, yy, yz, zz in 3D)
-        let blocks: Vec<[f64; 6]> = self
-            .units
-            .iter()
-            .zip(&self.weights)
-            .map(|(e, w)| {
-                let mut k = [0.0; 6];
-                let mut p = 0;
-                for a in 0..D {
-                    for b in a..D {
-                        k[p] = w * e[a] * e[b];
-                        p += 1;
-                    }
-                }
-                k
-            })
-            .collect();
         #[cfg(target_arch = "x86_64")]
         let wide = std::arch::is_x86_feature_detected!("avx2");
         #[cfg(not(target_arch = "x86_64"))]
@@ -118,7 +112,7 @@ impl StencilOperator {
                 |acc, (segment, ys)| {
                     let (x0, len) = (segment * SEGMENT, ys.len() / D);
                     acc.iter_mut().for_each(|v| *v = 0.0);
-                    for (k, block) in self.offsets.iter().zip(&blocks) {
+                    for (k, block) in self.offsets.iter().zip(&self.blocks) {
                         let (s1, s2) = (j1 + k[1], j2 + k[2]);
                         if s1 < 0 || s1 >= n1 as i64 || s2 < 0 || s2 >= n2 as i64 {
                             continue;

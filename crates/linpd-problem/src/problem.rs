@@ -1410,16 +1410,17 @@ fn surface_of(
 ) -> Result<Surface, ProblemError> {
     use crate::raw::RawSurfaceTarget as T;
     let correction = surface_correction_of(kind, raw)?;
-    let target = match target {
-        None | Some(T::Classical) => SurfaceTarget::Classical,
-        Some(T::Lattice) => SurfaceTarget::Lattice,
-    };
-    if target != SurfaceTarget::default() && correction == SurfaceCorrection::None {
+    // any target given (the default included) needs a correction, as on point clouds
+    if target.is_some() && correction == SurfaceCorrection::None {
         return Err(ProblemError::invalid(
             "model.surface_target",
             "says what a surface correction matches; set model.surface_correction to \"energy\" or \"position_aware\"",
         ));
     }
+    let target = match target {
+        None | Some(T::Classical) => SurfaceTarget::Classical,
+        Some(T::Lattice) => SurfaceTarget::Lattice,
+    };
     Ok(Surface { correction, target })
 }
 

@@ -442,13 +442,6 @@ fn lu(a: &Csc, f: &[f64], ordering: &Ordering, progress: &dyn Progress) -> Resul
     Ok((u, report))
 }
 
-/// GMRES on the unsymmetric `A` preconditioned by the Cholesky factor of the SPD `M`
-/// (`Err`: why it could not be used).
-///
-/// GMRES stops at a normwise backward error of 16 eps, `||r|| <= 16 eps ||A|| ||x||`, what a
-/// backward-stable direct solve achieves (a fixed relative residual such as 1e-13 is out of
-/// reach when kappa ~ 1e8, as for 10^4 nodes of a 1D model), with `||A||_2` bounded by
-/// `sqrt(||A||_1 ||A||_inf)` and `x` the preconditioner's solution.
 /// Why [`spd_gmres`] was not used.
 enum SpdGmres {
     /// The factor of `M` would not fit in memory ([`cost::cholesky`]), or the system is past
@@ -458,6 +451,13 @@ enum SpdGmres {
     Failed(String),
 }
 
+/// GMRES on the unsymmetric `A` preconditioned by the Cholesky factor of the SPD `M`
+/// (`Err`: why it could not be used).
+///
+/// GMRES stops at a normwise backward error of 16 eps, `||r|| <= 16 eps ||A|| ||x||`, what a
+/// backward-stable direct solve achieves (a fixed relative residual such as 1e-13 is out of
+/// reach when kappa ~ 1e8, as for 10^4 nodes of a 1D model), with `||A||_2` bounded by
+/// `sqrt(||A||_1 ||A||_inf)` and `x` the preconditioner's solution.
 fn spd_gmres(
     a: &Csc,
     f: &[f64],
