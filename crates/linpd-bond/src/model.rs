@@ -114,25 +114,19 @@ impl Model for BondOperator {
         let d = BondOperator::dim(self);
         let mut diag = [0.0; 9];
         let mut block = [0.0; 9];
-        let bonds = || self.family().neighbors(i).iter().zip(self.weights(i)).filter(|(_, &w)| w > 0.0);
-        for (&j, &w) in bonds() {
-            let e = self.unit(i, j as usize);
-            for a in 0..d {
-                for c in 0..d {
-                    diag[a * d + c] += w * e[a] * e[c];
-                }
-            }
-        }
-        f(i, &diag[..d * d]);
-        for (&j, &w) in bonds() {
+        // One pass over the bonds: the off-diagonal blocks as they come, their sum (the
+        // diagonal block) last.
+        for (&j, &w) in self.family().neighbors(i).iter().zip(self.weights(i)).filter(|(_, &w)| w > 0.0) {
             let e = self.unit(i, j as usize);
             for a in 0..d {
                 for c in 0..d {
                     block[a * d + c] = -w * e[a] * e[c];
+                    diag[a * d + c] -= block[a * d + c];
                 }
             }
             f(j as usize, &block[..d * d]);
         }
+        f(i, &diag[..d * d]);
         true
     }
 }

@@ -196,19 +196,23 @@ impl LevelMatrix for Streamed<'_> {
         let _ = self.nnz.set(nnz);
         (ptr, idx)
     }
-    /// Also counts the entries of `A_ff` the first time (when the strength pass did not).
+    /// Also counts the entries of `A_ff` the first time (when the strength pass did not), in
+    /// the product's symbolic pass.
     fn mul(&self, b: &Vbr) -> Vbr {
         let entries = std::sync::atomic::AtomicUsize::new(0);
-        let row = |bi: usize, f: &mut dyn FnMut(usize, &[f64])| {
+        // `new` checked that the model has blocks.
+        let pattern = |bi: usize, f: &mut dyn FnMut(usize)| {
             let mut count = 0;
-            // `new` checked that the model has blocks.
             let _ = self.for_each_block(bi, &mut |bj, block| {
                 count += block.len();
-                f(bj, block)
+                f(bj)
             });
             entries.fetch_add(count, std::sync::atomic::Ordering::Relaxed);
         };
-        let c = mul_rows(&self.rptr, &self.groups, &row, b);
+        let row = |bi: usize, f: &mut dyn FnMut(usize, &[f64])| {
+            let _ = self.for_each_block(bi, f);
+        };
+        let c = mul_rows(&self.rptr, &self.groups, &pattern, &row, b);
         let _ = self.nnz.set(entries.into_inner());
         c
     }

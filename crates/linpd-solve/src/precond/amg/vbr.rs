@@ -53,7 +53,7 @@ pub(crate) fn make_groups(bptr: &[usize], voff: &[usize]) -> Vec<usize> {
 }
 
 /// Splits `y` at the scalar rows `bounds[k]` (ascending, `bounds[0] = 0`, last = `y.len()`).
-pub(crate) fn split_at_bounds(mut y: &mut [f64], bounds: impl Iterator<Item = usize>) -> Vec<&mut [f64]> {
+pub(crate) fn split_at_bounds<T>(mut y: &mut [T], bounds: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
     let mut out = Vec::new();
     let mut at = 0;
     for b in bounds.skip(1) {
@@ -63,24 +63,6 @@ pub(crate) fn split_at_bounds(mut y: &mut [f64], bounds: impl Iterator<Item = us
         at = b;
     }
     out
-}
-
-/// One block row of a product, built in a row-local accumulator.
-struct RowAcc {
-    /// `marker[K]`: index in `cols` of column block `K`, or `usize::MAX`.
-    marker: Vec<usize>,
-    cols: Vec<u32>,
-    offs: Vec<usize>,
-    buf: Vec<f64>,
-}
-
-/// Output of a group of block rows of a product (concatenated afterwards).
-#[derive(Default)]
-struct Part {
-    blocks_per_row: Vec<usize>,
-    bidx: Vec<u32>,
-    sizes: Vec<usize>,
-    val: Vec<f64>,
 }
 
 impl Vbr {
@@ -440,122 +422,144 @@ impl Vbr {
     /// stored block rows.
     pub fn mul(&self, bm: &Vbr) -> Vbr {
         debug_assert_eq!(self.cptr, bm.rptr);
+        let pattern = |bi: usize, f: &mut dyn FnMut(usize)| {
+            for &bj in &self.bidx[self.bptr[bi]..self.bptr[bi + 1]] {
+                f(bj as usize);
+            }
+        };
         let row = |bi: usize, f: &mut dyn FnMut(usize, &[f64])| {
             for a in self.bptr[bi]..self.bptr[bi + 1] {
                 f(self.bidx[a] as usize, &self.val[self.voff[a]..self.voff[a + 1]]);
             }
         };
-        mul_rows(&self.rptr, &self.groups, &row, bm)
+        mul_rows(&self.rptr, &self.groups, &pattern, &row, bm)
     }
 }
 
-/// `C = A B` row block by row block, with a dense block accumulator per touched column block
-/// (Gustavson's algorithm on blocks). Block row `bi` of `A` (scalar rows `rptr[bi]..rptr[bi +
-/// 1]`) is whatever `row(bi, f)` passes to `f(bj, A_{bi bj})` (row-major blocks, each `bj`
-/// once): stored blocks, or blocks computed on demand for a finest level that is never
-/// stored. The row blocks are split into the parallel `groups` (boundaries).
-pub(crate) fn mul_rows<R>(rptr: &[usize], groups: &[usize], row: &R, bm: &Vbr) -> Vbr
+/// `C = A B` block row by block row (Gustavson's algorithm on blocks) in the two passes of
+/// sparse matrix products: a symbolic pass finds the column blocks of each block row of `C`,
+/// its arrays are allocated once, and a numeric pass accumulates every block row in place.
+/// Block row `bi` of `A` (scalar rows `rptr[bi]..rptr[bi + 1]`) is what `row(bi, f)` passes to
+/// `f(bj, A_{bi bj})` (row-major blocks, each `bj` once): stored blocks, or blocks computed on
+/// demand for a finest level that is never stored; `pattern(bi, f)` passes the same `bj`
+/// without the values. The row blocks are split into the parallel `groups` (boundaries).
+///
+/// Why two passes: `C` is large (`A P` of a 3D lattice with 123 partners: 1.1 GB at 10^6
+/// unknowns). Built per group and then concatenated, it was written twice and its pages were
+/// first touched by one thread, which on this project's virtual machine cost 3 of the 6 s of
+/// that product and 1 GB of extra peak memory (docs/solvers.md); the symbolic pass costs a
+/// few percent of the numeric one.
+pub(crate) fn mul_rows<P, R>(rptr: &[usize], groups: &[usize], pattern: &P, row: &R, bm: &Vbr) -> Vbr
 where
+    P: Fn(usize, &mut dyn FnMut(usize)) + Sync,
     R: Fn(usize, &mut dyn FnMut(usize, &[f64])) + Sync,
 {
     let nbc = bm.n_col_blocks();
     let g = groups;
-    let parts: Vec<Part> = (0..g.len() - 1)
+    let block_cols = |bj: usize| &bm.bidx[bm.bptr[bj]..bm.bptr[bj + 1]];
+    // Symbolic pass: the column blocks of every block row, ascending.
+    let patterns: Vec<(Vec<usize>, Vec<u32>)> = (0..g.len() - 1)
         .into_par_iter()
         .map_init(
-            || RowAcc { marker: vec![usize::MAX; nbc], cols: Vec::new(), offs: Vec::new(), buf: Vec::new() },
-            |acc, k| {
-                let mut part = Part::default();
+            || vec![false; nbc],
+            |seen, k| {
+                let mut counts = Vec::with_capacity(g[k + 1] - g[k]);
+                let mut cols = Vec::new();
                 for bi in g[k]..g[k + 1] {
-                    mul_row(rptr[bi + 1] - rptr[bi], |f| row(bi, f), bm, acc, &mut part);
+                    let start = cols.len();
+                    pattern(bi, &mut |bj| {
+                        for &bk in block_cols(bj) {
+                            if !seen[bk as usize] {
+                                seen[bk as usize] = true;
+                                cols.push(bk);
+                            }
+                        }
+                    });
+                    let row_cols = &mut cols[start..];
+                    row_cols.sort_unstable();
+                    for &bk in row_cols.iter() {
+                        seen[bk as usize] = false;
+                    }
+                    counts.push(row_cols.len());
                 }
-                part
+                (counts, cols)
             },
         )
         .collect();
     let nbr = rptr.len() - 1;
-    let total_blocks: usize = parts.iter().map(|p| p.bidx.len()).sum();
-    let total_vals: usize = parts.iter().map(|p| p.val.len()).sum();
     let mut bptr = Vec::with_capacity(nbr + 1);
     bptr.push(0);
-    let mut bidx = Vec::with_capacity(total_blocks);
-    let mut voff = Vec::with_capacity(total_blocks + 1);
-    voff.push(0);
-    let mut val = Vec::with_capacity(total_vals);
-    for p in parts {
-        for c in p.blocks_per_row {
+    let mut bidx = Vec::with_capacity(patterns.iter().map(|p| p.1.len()).sum());
+    for (counts, cols) in &patterns {
+        for c in counts {
             bptr.push(bptr.last().unwrap() + c);
         }
-        bidx.extend_from_slice(&p.bidx);
-        for s in p.sizes {
-            voff.push(voff.last().unwrap() + s);
-        }
-        val.extend_from_slice(&p.val);
+        bidx.extend_from_slice(cols);
     }
+    drop(patterns);
+    let mut voff = Vec::with_capacity(bidx.len() + 1);
+    voff.push(0);
+    for bi in 0..nbr {
+        let r = rptr[bi + 1] - rptr[bi];
+        for &bk in &bidx[bptr[bi]..bptr[bi + 1]] {
+            let ck = bm.cptr[bk as usize + 1] - bm.cptr[bk as usize];
+            voff.push(voff.last().unwrap() + r * ck);
+        }
+    }
+    // Numeric pass, each group into its own range of the values. Each block row is zeroed
+    // before it is accumulated: `vec!` maps the zero page lazily, and a page first read
+    // (`+=`) and then written faults twice and flushes the other cores' TLBs, which doubled
+    // the system time of a 10^6-unknown setup (a write-first page faults once).
+    let mut val = vec![0.0; *voff.last().unwrap()];
+    let ranges = split_at_bounds(&mut val, g.iter().map(|&b| voff[bptr[b]]));
+    ranges.into_par_iter().enumerate().for_each_init(
+        || vec![0usize; nbc],
+        |slot, (k, vals)| {
+            let base = voff[bptr[g[k]]];
+            for bi in g[k]..g[k + 1] {
+                // Where each column block of this row sits in `vals`.
+                for b in bptr[bi]..bptr[bi + 1] {
+                    slot[bidx[b] as usize] = voff[b] - base;
+                }
+                vals[voff[bptr[bi]] - base..voff[bptr[bi + 1]] - base].fill(0.0);
+                let r = rptr[bi + 1] - rptr[bi];
+                row(bi, &mut |bj, av| mul_block_row(r, bj, av, bm, slot, vals));
+            }
+        },
+    );
     Vbr::new(rptr.to_vec(), bm.cptr.clone(), bptr, bidx, voff, val)
 }
 
-/// One block row (`r` scalar rows) of `A B`: `for_each_block` passes the blocks of the row
-/// of `A` to its argument.
-fn mul_row(
-    r: usize,
-    for_each_block: impl FnOnce(&mut dyn FnMut(usize, &[f64])),
-    bm: &Vbr,
-    acc: &mut RowAcc,
-    part: &mut Part,
-) {
-    acc.cols.clear();
-    acc.offs.clear();
-    acc.buf.clear();
-    for_each_block(&mut |bj: usize, av: &[f64]| {
-        let cj = bm.rptr[bj + 1] - bm.rptr[bj];
-        for b in bm.bptr[bj]..bm.bptr[bj + 1] {
-            let bk = bm.bidx[b] as usize;
-            let ck = bm.cptr[bk + 1] - bm.cptr[bk];
-            let slot = if acc.marker[bk] == usize::MAX {
-                acc.marker[bk] = acc.cols.len();
-                acc.cols.push(bk as u32);
-                acc.offs.push(acc.buf.len());
-                acc.buf.resize(acc.buf.len() + r * ck, 0.0);
-                acc.cols.len() - 1
-            } else {
-                acc.marker[bk]
-            };
-            let o = acc.offs[slot];
-            let out = &mut acc.buf[o..o + r * ck];
-            let bv = &bm.val[bm.voff[b]..bm.voff[b + 1]];
-            match (r, cj, ck) {
-                (3, 3, 6) => block_mul::<3, 3, 6>(av, bv, out),
-                (3, 3, 3) => block_mul::<3, 3, 3>(av, bv, out),
-                (2, 2, 3) => block_mul::<2, 2, 3>(av, bv, out),
-                (6, 3, 6) => block_mul::<6, 3, 6>(av, bv, out),
-                (6, 6, 6) => block_mul::<6, 6, 6>(av, bv, out),
-                (3, 2, 3) => block_mul::<3, 2, 3>(av, bv, out),
-                _ => {
-                    for i in 0..r {
-                        for s in 0..cj {
-                            let x = av[i * cj + s];
-                            let brow = &bv[s * ck..(s + 1) * ck];
-                            for (o, &y) in out[i * ck..(i + 1) * ck].iter_mut().zip(brow) {
-                                *o += x * y;
-                            }
+/// `C_{bi K} += A_{bi bj} B_{bj K}` for the blocks `K` of block row `bj` of `B`: `A_{bi bj}`
+/// is `av` (`r` rows), and `C_{bi K}` starts at `vals[slot[K]]`.
+#[inline]
+fn mul_block_row(r: usize, bj: usize, av: &[f64], bm: &Vbr, slot: &[usize], vals: &mut [f64]) {
+    let cj = bm.rptr[bj + 1] - bm.rptr[bj];
+    for b in bm.bptr[bj]..bm.bptr[bj + 1] {
+        let bk = bm.bidx[b] as usize;
+        let ck = bm.cptr[bk + 1] - bm.cptr[bk];
+        let o = slot[bk];
+        let out = &mut vals[o..o + r * ck];
+        let bv = &bm.val[bm.voff[b]..bm.voff[b + 1]];
+        match (r, cj, ck) {
+            (3, 3, 6) => block_mul::<3, 3, 6>(av, bv, out),
+            (3, 3, 3) => block_mul::<3, 3, 3>(av, bv, out),
+            (2, 2, 3) => block_mul::<2, 2, 3>(av, bv, out),
+            (6, 3, 6) => block_mul::<6, 3, 6>(av, bv, out),
+            (6, 6, 6) => block_mul::<6, 6, 6>(av, bv, out),
+            (3, 2, 3) => block_mul::<3, 2, 3>(av, bv, out),
+            _ => {
+                for i in 0..r {
+                    for s in 0..cj {
+                        let x = av[i * cj + s];
+                        let brow = &bv[s * ck..(s + 1) * ck];
+                        for (o, &y) in out[i * ck..(i + 1) * ck].iter_mut().zip(brow) {
+                            *o += x * y;
                         }
                     }
                 }
             }
         }
-    });
-    // Emit the blocks in ascending column-block order.
-    let mut order: Vec<usize> = (0..acc.cols.len()).collect();
-    order.sort_unstable_by_key(|&s| acc.cols[s]);
-    part.blocks_per_row.push(order.len());
-    for s in order {
-        let bk = acc.cols[s] as usize;
-        let ck = bm.cptr[bk + 1] - bm.cptr[bk];
-        part.bidx.push(bk as u32);
-        part.sizes.push(r * ck);
-        part.val.extend_from_slice(&acc.buf[acc.offs[s]..acc.offs[s] + r * ck]);
-        acc.marker[bk] = usize::MAX;
     }
 }
 
