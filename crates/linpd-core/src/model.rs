@@ -167,27 +167,84 @@ pub struct AssembledModel {
     labels: Option<(&'static str, Vec<usize>)>,
 }
 
+/// The interaction graph of `K` over `n` nodes of `dim` DOFs: `j` is in the list of `i`, and
+/// `i` in that of `j`, when `K_ij` or `K_ji` (`i != j`) has a nonzero entry; each list sorted,
+/// without repeats. In parallel over the column blocks (`K_ij != 0` seen from column node `j`),
+/// the other direction by a counting sort over those lists, then one merge per node.
+fn block_partners(k: &Csc, dim: usize, n: usize) -> Vec<Vec<u32>> {
+    use rayon::prelude::*;
+    let (cp, ri, val) = (k.symbolic().col_ptr(), k.symbolic().row_idx(), k.val());
+    // by_col[j]: the nodes i != j with K_ij != 0
+    let by_col: Vec<Vec<u32>> = (0..n)
+        .into_par_iter()
+        .map(|j| {
+            let mut l: Vec<u32> = (dim * j..dim * (j + 1))
+                .flat_map(|c| cp[c]..cp[c + 1])
+                .filter(|&p| val[p] != 0.0 && ri[p] / dim != j)
+                .map(|p| (ri[p] / dim) as u32)
+                .collect();
+            l.sort_unstable();
+            l.dedup();
+            l
+        })
+        .collect();
+    // by_row[i]: the nodes j with i in by_col[j], ascending (j visited in order)
+    let mut start = vec![0usize; n + 1];
+    for &i in by_col.iter().flatten() {
+        start[i as usize + 1] += 1;
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut next = start.clone();
+    let mut by_row = vec![0u32; start[n]];
+    for (j, l) in by_col.iter().enumerate() {
+        for &i in l {
+            by_row[next[i as usize]] = j as u32;
+            next[i as usize] += 1;
+        }
+    }
+    by_col
+        .par_iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let b = &by_row[start[i]..start[i + 1]];
+            let mut out = Vec::with_capacity(a.len().max(b.len()));
+            let (mut p, mut q) = (0, 0);
+            while p < a.len() || q < b.len() {
+                let next = match (a.get(p), b.get(q)) {
+                    (Some(&x), Some(&y)) if x == y => {
+                        p += 1;
+                        q += 1;
+                        x
+                    }
+                    (Some(&x), Some(&y)) if x < y => {
+                        p += 1;
+                        x
+                    }
+                    (Some(&x), None) => {
+                        p += 1;
+                        x
+                    }
+                    (_, Some(&y)) => {
+                        q += 1;
+                        y
+                    }
+                    (None, None) => unreachable!("the loop condition"),
+                };
+                out.push(next);
+            }
+            out
+        })
+        .collect()
+}
+
 impl AssembledModel {
     /// `K` (`dim * positions.len()` square) on the nodes at `positions`; `kind` names the model
     /// in messages.
     pub fn new(kind: &'static str, dim: usize, positions: Vec<Point>, k: Csc) -> Self {
         assert_eq!(k.nrows(), dim * positions.len(), "K size");
-        let n = positions.len();
-        let mut lists = vec![Vec::<u32>::new(); n];
-        let (cp, ri, val) = (k.symbolic().col_ptr(), k.symbolic().row_idx(), k.val());
-        for c in 0..k.ncols() {
-            for p in cp[c]..cp[c + 1] {
-                let (i, j) = (ri[p] / dim, c / dim);
-                if i != j && val[p] != 0.0 {
-                    lists[i].push(j as u32);
-                    lists[j].push(i as u32);
-                }
-            }
-        }
-        for l in &mut lists {
-            l.sort_unstable();
-            l.dedup();
-        }
+        let lists = block_partners(&k, dim, positions.len());
         AssembledModel {
             kind,
             dim,
@@ -297,5 +354,54 @@ impl Model for AssembledModel {
             Some((label, numbers)) => format!("node {i} at {x:?} ({label} {})", numbers[i]),
             None => format!("node {i} at {x:?}"),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+
+    /// The parallel interaction graph against its definition (pairs of nodes with a nonzero
+    /// entry in either block), on an unsymmetric pattern with explicit zeros, 2 DOFs a node.
+    #[test]
+    fn block_partners_is_the_symmetrized_block_pattern() {
+        let (dim, n) = (2, 7);
+        let nd = dim * n;
+        // a pseudo-random unsymmetric pattern, some stored entries exactly zero
+        let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); nd];
+        for c in 0..nd {
+            for r in 0..nd {
+                let h = (r * 31 + c * 17 + r * c) % 11;
+                if r == c || h < 3 {
+                    cols[c].push((r, if h == 2 && r != c { 0.0 } else { 1.0 + h as f64 }));
+                }
+            }
+        }
+        let mut col_ptr = vec![0usize];
+        let (mut rows, mut vals) = (Vec::new(), Vec::new());
+        for col in &cols {
+            for &(r, v) in col {
+                rows.push(r);
+                vals.push(v);
+            }
+            col_ptr.push(rows.len());
+        }
+        let k = SparseColMat::new(SymbolicSparseColMat::new_checked(nd, nd, col_ptr, None, rows), vals);
+        let mut expected = vec![std::collections::BTreeSet::new(); n];
+        for (c, col) in cols.iter().enumerate() {
+            for &(r, v) in col {
+                let (i, j) = (r / dim, c / dim);
+                if i != j && v != 0.0 {
+                    expected[i].insert(j as u32);
+                    expected[j].insert(i as u32);
+                }
+            }
+        }
+        let got = block_partners(&k, dim, n);
+        for i in 0..n {
+            assert_eq!(got[i], expected[i].iter().copied().collect::<Vec<_>>(), "node {i}");
+        }
+        assert!(expected.iter().any(|e| !e.is_empty()), "the pattern couples nodes");
     }
 }
