@@ -88,30 +88,48 @@ fn auto_uses_the_scenes_cg_parameters_when_it_picks_cg() {
     }
 }
 
-/// `auto` decides by the cost model and says how: on the small 2D plate (3.5k unknowns) sparse
-/// Cholesky is estimated cheapest, on the 3D cube (28k) Jacobi-PCG (the 3D factor's fill; the
-/// multigrid setup does not pay at this size), on a 101^2 plate with `delta = 2h` (21k)
-/// multigrid-PCG (measured there: 0.34 s against 0.60 s for Cholesky and 1.26 s for Jacobi);
-/// every estimate is in the report.
+/// The 101^2 plate of the `auto` tests (`delta = 2h`, 21k unknowns), with `material` when given.
+fn plate_101(material: Option<serde_json::Value>) -> Problem {
+    let mut scene = serde_json::json!({
+        "name": "plate-101", "dimension": 2,
+        "grid": {"min": [0.0, 0.0], "max": [1.0, 1.0], "spacing": 0.01, "layer": 0.02},
+        "model": {"type": "bond", "horizon": 0.02, "plane": "stress",
+                  "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "discrete"}},
+        "constraints": [{"region": {"box": {"min": [-1.0, -1.0], "max": [0.0, 2.0]}}, "displacement": {"value": [0.0, 0.0]}}],
+        "loads": [{"type": "body", "region": {"box": {"min": [1.0, -1.0], "max": [2.0, 2.0]}}, "density": [0.0, -1.0]}],
+        "output": {"plot": false}
+    });
+    if let Some(m) = material {
+        scene["model"]["material"] = m;
+    }
+    Problem::from_json(&scene.to_string()).unwrap()
+}
+
+/// A bundled scene with `material` added to its model.
+fn with_material(name: &str, material: serde_json::Value) -> Problem {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name);
+    let mut scene: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    scene["model"]["material"] = material;
+    scene["output"] = serde_json::json!({"plot": false});
+    Problem::from_json(&scene.to_string()).unwrap()
+}
+
+/// `auto` decides by the cost model and says how, on assembled models: on the small 2D plate
+/// (3.5k unknowns) sparse Cholesky is estimated cheapest, on the 3D cube (28k) Jacobi-PCG (the
+/// 3D factor's fill; the multigrid setup does not pay at this size), on a 101^2 plate with
+/// `delta = 2h` (21k) multigrid-PCG (measured there: 0.34 s against 0.60 s for Cholesky and
+/// 1.26 s for Jacobi); every estimate is in the report. The cube and the 101^2 plate carry a
+/// weakened-bond defect here: homogeneous, they have a stencil apply and `auto` runs
+/// matrix-free multigrid instead (next test).
 #[test]
 fn auto_picks_by_estimated_cost_and_reports_the_estimates() {
-    let plate_101 = Problem::from_json(
-        &serde_json::json!({
-            "name": "plate-101", "dimension": 2,
-            "grid": {"min": [0.0, 0.0], "max": [1.0, 1.0], "spacing": 0.01, "layer": 0.02},
-            "model": {"type": "bond", "horizon": 0.02, "plane": "stress",
-                      "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "discrete"}},
-            "constraints": [{"region": {"box": {"min": [-1.0, -1.0], "max": [0.0, 2.0]}}, "displacement": {"value": [0.0, 0.0]}}],
-            "loads": [{"type": "body", "region": {"box": {"min": [1.0, -1.0], "max": [2.0, 2.0]}}, "density": [0.0, -1.0]}],
-            "output": {"plot": false}
-        })
-        .to_string(),
-    )
-    .unwrap();
+    let defect_2d = serde_json::json!({"defects": [{"segment": [[-1.0, 0.505], [0.3, 0.505]], "factor": 0.5}]});
+    let defect_3d = serde_json::json!({"defects": [{"plane": {"point": [0.0, 0.0, 0.53], "normal": [0.0, 0.0, 1.0],
+        "extent": {"box": {"min": [-1.0, -1.0, 0.0], "max": [0.3, 2.0, 1.0]}}}, "factor": 0.5}]});
     let cases = [
         ("plate-tension-2d", scene("plate-tension-2d.json"), "cholesky-nd"),
-        ("cube-compression-3d", scene("cube-compression-3d.json"), "cg-jacobi"),
-        ("plate-101", plate_101, "cg-multigrid"),
+        ("cube-compression-3d + defect", with_material("cube-compression-3d.json", defect_3d), "cg-jacobi"),
+        ("plate-101 + defect", plate_101(Some(defect_2d)), "cg-multigrid"),
     ];
     for (name, p, expect) in cases {
         let s = p.solve(&linpd::core::NoProgress).unwrap();
@@ -120,6 +138,29 @@ fn auto_picks_by_estimated_cost_and_reports_the_estimates() {
         for candidate in ["cholesky-nd est.", "cg-jacobi est.", "cg-multigrid est."] {
             assert!(line.contains(candidate), "{name}: {line}");
         }
+    }
+}
+
+/// On a homogeneous bond lattice from 20k unknowns `auto` runs multigrid-CG matrix-free (the
+/// stencil apply, the finest level's blocks computed on demand: faster than every assembled
+/// solver in the bench) and says why; its solution agrees with the sparse Cholesky's within
+/// `kappa * rtol` (`kappa <= ~1e4` for these stiffnesses, `(L/h)^2`; `rtol` 1e-8: 1e-4).
+#[test]
+fn auto_runs_matrix_free_multigrid_on_homogeneous_lattices() {
+    for (name, make) in [
+        ("plate-101", (|| plate_101(None)) as fn() -> Problem),
+        ("cube-compression-3d", || scene("cube-compression-3d.json")),
+    ] {
+        let s = make().solve(&linpd::core::NoProgress).unwrap();
+        assert_eq!(s.report.solver.to_string(), "cg-multigrid-matrix-free-stencil", "{name}: {:?}", s.report.auto);
+        let line = s.report.auto.clone().unwrap_or_default();
+        assert!(line.contains("matrix-free multigrid-CG, no assembly"), "{name}: {line}");
+        assert!(s.report.rel_residual <= 1e-8, "{name}: residual {:e}", s.report.rel_residual);
+        let mut direct = make();
+        direct.set_solver(linpd::solve::SolverSpec::Cholesky);
+        let exact = direct.solve(&linpd::core::NoProgress).unwrap();
+        let err = s.u.iter().zip(&exact.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(err <= 1e-4 * max_abs(&exact.u), "{name}: {err:e} against max |u| {:e}", max_abs(&exact.u));
     }
 }
 
@@ -217,6 +258,26 @@ fn auto_falls_back_to_cholesky_when_cg_cannot_reach_its_target() {
             assert!(r.rel_residual < 1e-9, "{:e}", r.rel_residual);
         }
         other => assert!(r.rel_residual <= 1e-15, "{other}: {:e}", r.rel_residual),
+    }
+}
+
+/// The matrix-free `auto` does not fail where the assembled one works: with rtol 1e-15 on the
+/// homogeneous 101^2 plate, matrix-free multigrid-CG stops above the target by rounding, and
+/// `auto` assembles and chooses again (the cost model, then the Cholesky fallback), saying so.
+#[test]
+fn matrix_free_auto_falls_back_to_the_assembled_choice() {
+    let mut p = plate_101(None);
+    p.set_solver(SolverSpec::Auto(CgParams { rtol: 1e-15, ..CgParams::default() }));
+    let s = p.solve(&linpd::core::NoProgress).expect("auto must not fail here");
+    let r = &s.report;
+    match r.solver.to_string() {
+        id if id.ends_with("matrix-free-stencil") => assert!(r.rel_residual <= 1e-15, "{id}: {:e}", r.rel_residual),
+        id => {
+            let note = r.note.as_deref().unwrap_or("");
+            assert!(note.contains("matrix-free multigrid-CG failed"), "{id}: {note}");
+            assert!(r.auto.as_deref().unwrap_or("").contains("cholesky-nd est."), "{id}: {:?}", r.auto);
+            assert!(r.rel_residual < 1e-9, "{id}: {:e}", r.rel_residual);
+        }
     }
 }
 

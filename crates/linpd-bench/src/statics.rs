@@ -78,9 +78,9 @@ fn solvers(dim: usize, n: usize, direct_max_3d: usize) -> Vec<(&'static str, Sol
         SolverSpec::Cg { params: params.clone(), preconditioner: PreconditionerKind::Jacobi, matrix_free: mf },
     )];
     v.extend(crate::multigrid_solver(&params, mf));
-    if dim == 3 && !mf {
+    if !mf {
         // The matrix-free finest level beside the assembled one: same iterations, the memory
-        // and time of not storing A.
+        // and time of not storing A (what `auto` runs on these lattices).
         let spec =
             SolverSpec::Cg { params: params.clone(), preconditioner: PreconditionerKind::Multigrid, matrix_free: true };
         v.push(("cg-multigrid-mf", spec));
