@@ -173,3 +173,58 @@ fn gmres_agrees_with_the_direct_solvers() {
         }
     }
 }
+
+/// Auto zones around a material interface (a stiffer right half of a 2 x 0.5 plate): every node within a horizon
+/// of the interface is PD (its family is not regular: bonds cross it), and nodes beyond the
+/// radius, the transition and a horizon of margin from the interface and from the support and
+/// load edges are local. `auto` with nothing to refine around is a named error.
+#[test]
+fn auto_zones_cover_material_interfaces_and_need_a_feature() {
+    let scene = |edit: &dyn Fn(&mut Value)| {
+        let mut v = serde_json::json!({
+            "name": "auto-interface",
+            "dimension": 2,
+            "grid": {"min": [0.0, 0.0], "max": [2.0, 0.5], "spacing": 0.02, "layer": {"x-": 0.06, "x+": 0.06}},
+            "model": {"type": "bond", "horizon": 0.06, "plane": "stress",
+                      "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "continuum"},
+                      "material": {"phases": [{"region": {"box": {"min": [1.0, -1.0], "max": [3.0, 2.0]}}, "modulus": 2.0}]},
+                      "pd_regions": "auto", "auto_radius": 1.0},
+            "constraints": [{"region": {"box": {"min": [-1.0, -1.0], "max": [0.0, 2.0]}}, "displacement": {"value": [0.0, 0.0]}}],
+            "loads": [{"type": "body", "region": {"box": {"min": [2.0, -1.0], "max": [3.0, 2.0]}}, "density": [1.0, 0.0]}],
+            "output": {"plot": false}
+        });
+        edit(&mut v);
+        Problem::from_json(&v.to_string()).unwrap()
+    };
+    let p = scene(&|_| {});
+    let blend = p.lattice_blend().unwrap();
+    let grid = p.grid().unwrap();
+    let (mut pd, mut local) = (0, 0);
+    for i in 0..grid.len() {
+        let x = grid.position(i);
+        let to_interface = (x[0] - 1.0).abs();
+        if to_interface < 0.06 {
+            assert_eq!(blend.beta()[i], 1.0, "node at {:?} beside the interface", &x[..2]);
+            pd += 1;
+        }
+        // radius 1 + transition 1 horizon + a horizon of margin (the features are the nodes
+        // whose family crosses the interface, up to a horizon from it)
+        let m = 4.0 * 0.06;
+        if to_interface > m && x[0] > m && x[0] < 2.0 - m {
+            assert_eq!(blend.beta()[i], 0.0, "node at {:?} should be local", &x[..2]);
+            local += 1;
+        }
+    }
+    assert!(pd > 0 && local > 0, "{pd} PD and {local} local nodes checked");
+    let s = p.solve(&NoProgress).unwrap();
+    assert!(s.report.rel_residual < 1e-8);
+
+    // every node held: no support edge, no load, no defect, no interface
+    let bare = scene(&|v| {
+        v["model"].as_object_mut().unwrap().remove("material");
+        v.as_object_mut().unwrap().remove("loads");
+        v["constraints"][0]["region"]["box"]["max"][0] = serde_json::json!(3.0);
+    });
+    let e = bare.lattice_blend().expect_err("nothing to refine around").to_string();
+    assert!(e.contains("model.pd_regions") && e.contains("nothing to refine around"), "{e}");
+}

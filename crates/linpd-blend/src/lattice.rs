@@ -185,12 +185,16 @@ impl RowBuilder {
         }
         &mut self.row[self.slot[j] as usize].1
     }
+    /// The row, sorted by node, in a vector of its exact size; the builder keeps its buffer
+    /// for the next row (taking the buffer itself made every row regrow from empty, ~8
+    /// reallocations of up to 10 KB for a 3D row of 123 blocks).
     fn take(&mut self) -> BlockRow {
         for (j, _) in &self.row {
             self.slot[*j] = u32::MAX;
         }
-        let mut row = std::mem::take(&mut self.row);
-        row.sort_unstable_by_key(|e| e.0);
+        self.row.sort_unstable_by_key(|e| e.0);
+        let row = self.row.clone();
+        self.row.clear();
         row
     }
 }
