@@ -447,8 +447,8 @@ impl Vbr {
 /// Why two passes: `C` is large (`A P` of a 3D lattice with 123 partners: 1.1 GB at 10^6
 /// unknowns). Built per group and then concatenated, it was written twice and its pages were
 /// first touched by one thread, which on this project's virtual machine cost 3 of the 6 s of
-/// that product and 1 GB of extra peak memory (docs/solvers.md); the symbolic pass costs a
-/// few percent of the numeric one.
+/// that product and 1 GB of extra peak memory (docs/solvers.md). The symbolic pass costs one
+/// more reading of `A`'s blocks (computing them again on a matrix-free level) and no flops.
 pub(crate) fn mul_rows<P, R>(rptr: &[usize], groups: &[usize], pattern: &P, row: &R, bm: &Vbr) -> Vbr
 where
     P: Fn(usize, &mut dyn FnMut(usize)) + Sync,
