@@ -418,7 +418,9 @@ fn block_rows_to_csc(d: usize, rows: &[BlockRow]) -> Csc {
         }
     }
     let n = rows.len();
-    let chunk = n.div_ceil(4 * rayon::current_num_threads()).max(1);
+    // a few chunks per thread for balance, at most 16: each holds a count per node
+    let chunks = (4 * rayon::current_num_threads()).min(16);
+    let chunk = n.div_ceil(chunks).max(1);
     // per chunk, its blocks in each column node; then (in place) its first slot there
     let mut slot: Vec<Vec<usize>> = rows
         .par_chunks(chunk)

@@ -748,6 +748,7 @@ pub fn solve_model(
             let why = "the model applies A by a stencil and computes its block rows (a homogeneous bond \
                        lattice): matrix-free multigrid-CG, no assembly (the fastest solver at every size of \
                        docs/solvers.md's bench)";
+            let t = Instant::now();
             match matrix_free_cg(model, dofs, &rhs, params, PreconditionerKind::Multigrid, progress) {
                 Ok((u, mut report)) => {
                     report.auto = Some(why.into());
@@ -756,11 +757,15 @@ pub fn solve_model(
                 // As the assembled `auto` does when CG stalls above rtol (rounding): the
                 // assembled choice, which can fall back to a direct solve.
                 Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. })) => {
+                    let attempt = t.elapsed().as_secs_f64();
                     let (u, mut report) = assembled_solve(model, dofs, &rhs, spec, asymmetry, progress, &at_dof)?;
                     report.note = Some(format!(
-                        "auto: matrix-free multigrid-CG failed ({e}); assembled and chose again{}",
+                        "auto: matrix-free multigrid-CG failed ({e}; {attempt:.3} s, counted in the solver's \
+                         total); assembled and chose again{}",
                         report.note.take().map(|n| format!("; {n}")).unwrap_or_default()
                     ));
+                    // the failed attempt is solver time, not assembly
+                    report.timings.total += attempt;
                     (u, report)
                 }
                 Err(e) => return Err(at_dof(e)),
