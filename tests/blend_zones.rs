@@ -228,3 +228,36 @@ fn auto_zones_cover_material_interfaces_and_need_a_feature() {
     let e = bare.lattice_blend().expect_err("nothing to refine around").to_string();
     assert!(e.contains("model.pd_regions") && e.contains("nothing to refine around"), "{e}");
 }
+
+/// `auto` on a 2D blend from 20k unknowns runs GMRES + multigrid from the energy form (faster
+/// than the Cholesky of `M` there: `AUTO_GMRES_MULTIGRID_2D`) and says so; its solution agrees
+/// with sparse LU within `kappa * rtol` (`kappa <= ~1e4`, `(L/h)^2`; auto's `rtol` 1e-10: 1e-6).
+/// Below 20k unknowns `auto` keeps the Cholesky of `M` (the 11k-node plate above).
+#[test]
+fn auto_runs_gmres_multigrid_on_large_2d_blends() {
+    let n = 110.0;
+    let h = 1.0 / n;
+    let d = 3.0 * h;
+    let scene = serde_json::json!({
+        "name": "edge-crack-110", "dimension": 2,
+        "grid": {"min": [0.0, 0.0], "max": [1.0, 1.0], "spacing": h, "layer": {"y-": d, "y+": d}},
+        "model": {"type": "bond", "horizon": d, "plane": "strain",
+                  "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "continuum"},
+                  "material": {"defects": [{"segment": [[-1.0, 0.5 + h / 4.0], [0.4, 0.5 + h / 4.0]], "factor": 0.0}]},
+                  "pd_regions": "auto"},
+        "constraints": [
+            {"region": {"box": {"min": [-1.0, -1.0], "max": [2.0, 0.0]}}, "displacement": {"value": [0.0, 0.0]}},
+            {"region": {"box": {"min": [-1.0, 1.0], "max": [2.0, 2.0]}}, "displacement": {"value": [0.0, 0.01]}}],
+        "output": {"plot": false}
+    });
+    let s = solve(&scene);
+    assert!(s.report.n >= 20_000, "{} unknowns", s.report.n);
+    assert_eq!(s.report.solver.to_string(), "gmres-multigrid", "{:?}", s.report.note);
+    assert!(s.report.note.as_deref().unwrap_or("").contains("auto: gmres + multigrid"), "{:?}", s.report.note);
+    let mut lu = scene.clone();
+    lu["solver"] = serde_json::json!({"type": "lu"});
+    let reference = solve(&lu);
+    let umax = reference.u.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let err = s.u.iter().zip(&reference.u).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / umax;
+    assert!(err <= 1e-6, "auto vs lu: {err:e}");
+}

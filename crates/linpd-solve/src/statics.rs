@@ -66,10 +66,11 @@ impl MatrixHints {
 /// is recomputed with the symmetric product for symmetric `A`, the general one otherwise.
 ///
 /// An unsymmetric `A` is solved by sparse LU whatever was asked (with a `note` in the report
-/// when something else was), except: `dense` runs a dense LU, and `auto` with an SPD
-/// approximation `M` ([`MatrixHints::spd`]) runs GMRES preconditioned by the Cholesky factor of
-/// `M`, falling back to sparse LU (with a note) if `M` is not positive definite or GMRES does
-/// not converge.
+/// when something else was), except: `dense` runs a dense LU, `gmres` runs GMRES, and `auto`
+/// with an SPD approximation `M` ([`MatrixHints::spd`]) runs GMRES preconditioned by multigrid
+/// from `M` (2D from [`AUTO_GMRES_MULTIGRID_2D`] unknowns, and where the factor of `M` would not
+/// fit) or by the Cholesky factor of `M`, each falling back to the next (with a note) if it
+/// fails: multigrid to the Cholesky of `M`, the Cholesky of `M` to sparse LU.
 pub fn solve_assembled(
     a: &Csc,
     f: &[f64],
@@ -141,41 +142,70 @@ pub fn solve_assembled_with_progress(
                     SolverSpec::Auto(params) => params.clone(),
                     _ => CgParams::default(),
                 };
-                // A factor too large for memory (or a 3D system past the limit of the symmetric
-                // `auto`): GMRES + multigrid from the SPD approximation, no factorization. LU
-                // would fill at least as much as the Cholesky of M.
-                let too_large = if hints.dim == 3 && n > AUTO_3D_CHOLESKY_LIMIT {
-                    Err(SpdGmres::TooLarge(format!("3D with {n} > {AUTO_3D_CHOLESKY_LIMIT} unknowns")))
-                } else {
-                    spd_gmres(a, f, spd, &hints.ordering, progress)
+                // 2D from AUTO_GMRES_MULTIGRID_2D unknowns: GMRES + multigrid from the SPD
+                // approximation first (measured faster than the Cholesky of M, see the
+                // constant), the Cholesky of M only if GMRES fails (stagnation, max_iter).
+                let first = (hints.dim == 2 && n >= AUTO_GMRES_MULTIGRID_2D && hints.geometry.is_some()).then(|| {
+                    let mg = PreconditionerKind::Multigrid;
+                    assembled_gmres_with(a, &spd.matrix, f, &params, mg, hints.geometry.as_ref(), progress)
+                });
+                let failed = match first {
+                    Some(Ok(solved)) => Ok(solved),
+                    Some(Err(e)) => Err(Some(e.to_string())),
+                    None => Err(None),
                 };
-                match too_large {
-                    Ok(solved) => solved,
-                    Err(SpdGmres::TooLarge(why)) if hints.geometry.is_some() => {
-                        let excluded = format!("auto: {} excluded ({why})", SolverId::Gmres(spd.kind));
-                        note = Some(format!("{excluded}: gmres + multigrid instead"));
-                        assembled_gmres_with(
-                            a,
-                            &spd.matrix,
-                            f,
-                            &params,
-                            PreconditionerKind::Multigrid,
-                            hints.geometry.as_ref(),
-                            progress,
-                        )
-                        .map_err(|e| {
-                            SolveError::NoSolverFits(format!("{excluded}, and gmres + multigrid failed: {e}"))
-                        })?
+                match failed {
+                    Ok(solved) => {
+                        note = Some(format!(
+                            "auto: gmres + multigrid from the SPD approximation {:?} (2D, {n} >= \
+                             {AUTO_GMRES_MULTIGRID_2D} unknowns)",
+                            spd.kind
+                        ));
+                        solved
                     }
-                    Err(SpdGmres::TooLarge(why)) => {
-                        return Err(SolveError::NoSolverFits(format!(
-                            "{} excluded ({why}) and no multigrid geometry for an iterative solve",
-                            SolverId::Gmres(spd.kind)
-                        )))
-                    }
-                    Err(SpdGmres::Failed(why)) => {
-                        note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
-                        lu(a, f, &hints.ordering, progress)?
+                    Err(failed) => {
+                        // A factor too large for memory (or a 3D system past the limit of the symmetric
+                        // `auto`): GMRES + multigrid from the SPD approximation, no factorization. LU
+                        // would fill at least as much as the Cholesky of M.
+                        let too_large = if hints.dim == 3 && n > AUTO_3D_CHOLESKY_LIMIT {
+                            Err(SpdGmres::TooLarge(format!("3D with {n} > {AUTO_3D_CHOLESKY_LIMIT} unknowns")))
+                        } else {
+                            spd_gmres(a, f, spd, &hints.ordering, progress)
+                        };
+                        let solved = match too_large {
+                            Ok(solved) => solved,
+                            Err(SpdGmres::TooLarge(why)) if hints.geometry.is_some() => {
+                                let excluded = format!("auto: {} excluded ({why})", SolverId::Gmres(spd.kind));
+                                note = Some(format!("{excluded}: gmres + multigrid instead"));
+                                assembled_gmres_with(
+                                    a,
+                                    &spd.matrix,
+                                    f,
+                                    &params,
+                                    PreconditionerKind::Multigrid,
+                                    hints.geometry.as_ref(),
+                                    progress,
+                                )
+                                .map_err(|e| {
+                                    SolveError::NoSolverFits(format!("{excluded}, and gmres + multigrid failed: {e}"))
+                                })?
+                            }
+                            Err(SpdGmres::TooLarge(why)) => {
+                                return Err(SolveError::NoSolverFits(format!(
+                                    "{} excluded ({why}) and no multigrid geometry for an iterative solve",
+                                    SolverId::Gmres(spd.kind)
+                                )))
+                            }
+                            Err(SpdGmres::Failed(why)) => {
+                                note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
+                                lu(a, f, &hints.ordering, progress)?
+                            }
+                        };
+                        if let Some(why) = failed {
+                            let then = note.take().map(|n| format!("; {n}")).unwrap_or_default();
+                            note = Some(format!("auto: gmres + multigrid failed ({why}), the next choice ran{then}"));
+                        }
+                        solved
                     }
                 }
             }
@@ -358,6 +388,16 @@ fn assembled_gmres_with(
 /// the fill of nested dissection grows as `n^(4/3)` and at 100k unknowns with `delta = 3h`
 /// (a 32^3 cube) it is already ~1e9 entries, past [`cost::CHOLESKY_MEMORY_LIMIT`].
 pub const AUTO_3D_CHOLESKY_LIMIT: usize = 100_000;
+
+/// From this many unknowns `auto` solves an unsymmetric 2D system with an SPD approximation `M`
+/// (the lattice blends) by GMRES + multigrid from `M` before trying the Cholesky factor of `M`.
+/// Measured on the edge-cracked blend of `linpd study blend-2d` (radius 2; solver seconds,
+/// GMRES + multigrid to rtol 1e-10 against the Cholesky of `M` + GMRES): 20k unknowns 0.073 s
+/// against 0.178 s, 80k 0.37 against 0.81, 180k 0.58 against 1.92, 320k 1.21 against 4.07 (the
+/// factor's triangular solves make each of its 14 GMRES iterations dearer than the 29 of the
+/// multigrid). Not in 3D, where GMRES + multigrid stagnated on a small notched block (the
+/// transition terms `M` leaves out are a large part of the body there: docs/solvers.md).
+pub const AUTO_GMRES_MULTIGRID_2D: usize = 20_000;
 
 /// `auto` on a symmetric `A` in 2D/3D: the cheapest of sparse Cholesky, Jacobi-PCG and (when
 /// the DOF geometry is known) multigrid-PCG by [`crate::cost`]; the report's `auto` field lists
