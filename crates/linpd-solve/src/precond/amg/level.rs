@@ -33,6 +33,9 @@ pub(crate) trait LevelMatrix: Sync {
     fn strong_neighbours(&self, theta: f64) -> (Vec<usize>, Vec<u32>);
     /// `A B` for a block matrix `B` whose row blocks are the column blocks of `A`.
     fn mul(&self, b: &Vbr) -> Vbr;
+    /// The Galerkin product `R A P` with `R = P^T` ([`super::vbr::galerkin_rows`]: `A P` is
+    /// never stored).
+    fn galerkin(&self, p: &Vbr, r: &Vbr) -> Vbr;
 }
 
 impl LevelMatrix for Vbr {
@@ -59,5 +62,8 @@ impl LevelMatrix for Vbr {
     }
     fn mul(&self, b: &Vbr) -> Vbr {
         Vbr::mul(self, b)
+    }
+    fn galerkin(&self, p: &Vbr, r: &Vbr) -> Vbr {
+        Vbr::galerkin(self, p, r)
     }
 }

@@ -34,9 +34,10 @@
 //!    underestimate it by 5%, 15 by 1%, 20 and 40 agree to 3 digits; cubes converge faster;
 //!    a step is one product with `A_l`, a third of an AMG-PCG iteration on level 0): one Jacobi step lowers the energy of
 //!    the coarse basis functions (VMB96 eq. (3.6)).
-//! 5. **Galerkin coarse operator** `A_{l+1} = P^T A P`, computed as `R (A P)` with the
-//!    explicit transpose `R = P^T`, both sparse products of dense blocks (rayon over block
-//!    rows, Gustavson's row-by-row accumulation).
+//! 5. **Galerkin coarse operator** `A_{l+1} = P^T A P` with the explicit transpose `R = P^T`:
+//!    the block rows of `A P` are computed one at a time (Gustavson's accumulation on dense
+//!    blocks) and added into `R`'s rows right away, one range of rows per thread, so that
+//!    `A P` (the largest array of the setup) is never stored (`vbr::galerkin_rows`).
 //!
 //! The coarsest matrix (at most [`AmgParams::max_coarse`] = 2000 rows by default; a level-1
 //! matrix of 2328 rows and 836k entries factors in 0.1 s) is factored by the sparse Cholesky
@@ -556,9 +557,7 @@ impl<'a> Amg<'a> {
             times.smooth += t.elapsed().as_secs_f64();
             let t = Instant::now();
             let r = p.transpose();
-            let ap = amat.mul(&p);
-            let ac = r.mul(&ap);
-            drop(ap);
+            let ac = amat.galerkin(&p, &r);
             times.galerkin += t.elapsed().as_secs_f64();
             if ac.val.iter().any(|v| !v.is_finite()) {
                 return Err(AmgError::NonFinite { level: l + 1 });

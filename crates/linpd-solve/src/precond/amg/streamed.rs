@@ -7,7 +7,7 @@
 //! docs/solvers.md).
 
 use super::level::LevelMatrix;
-use super::vbr::{make_groups, mul_rows, Vbr};
+use super::vbr::{galerkin_rows, make_groups, mul_rows, Vbr};
 use crate::bc::ReducedOperator;
 use linpd_core::{DofMap, LinearOperator, Model};
 use rayon::prelude::*;
@@ -215,5 +215,16 @@ impl LevelMatrix for Streamed<'_> {
         let c = mul_rows(&self.rptr, &self.groups, &pattern, &row, b);
         let _ = self.nnz.set(entries.into_inner());
         c
+    }
+    /// From the blocks computed on demand, like [`LevelMatrix::mul`] (after it: the entries
+    /// are counted by then).
+    fn galerkin(&self, p: &Vbr, r: &Vbr) -> Vbr {
+        let pattern = |bi: usize, f: &mut dyn FnMut(usize)| {
+            let _ = self.for_each_block(bi, &mut |bj, _| f(bj));
+        };
+        let row = |bi: usize, f: &mut dyn FnMut(usize, &[f64])| {
+            let _ = self.for_each_block(bi, f);
+        };
+        galerkin_rows(&self.rptr, &self.groups, &pattern, &row, p, r)
     }
 }

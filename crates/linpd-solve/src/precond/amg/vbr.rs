@@ -434,6 +434,22 @@ impl Vbr {
         };
         mul_rows(&self.rptr, &self.groups, &pattern, &row, bm)
     }
+
+    /// `R A P` with `R = P^T` ([`galerkin_rows`] over the stored block rows).
+    pub fn galerkin(&self, p: &Vbr, r: &Vbr) -> Vbr {
+        debug_assert_eq!(self.cptr, p.rptr);
+        let pattern = |bi: usize, f: &mut dyn FnMut(usize)| {
+            for &bj in &self.bidx[self.bptr[bi]..self.bptr[bi + 1]] {
+                f(bj as usize);
+            }
+        };
+        let row = |bi: usize, f: &mut dyn FnMut(usize, &[f64])| {
+            for a in self.bptr[bi]..self.bptr[bi + 1] {
+                f(self.bidx[a] as usize, &self.val[self.voff[a]..self.voff[a + 1]]);
+            }
+        };
+        galerkin_rows(&self.rptr, &self.groups, &pattern, &row, p, r)
+    }
 }
 
 /// `C = A B` block row by block row (Gustavson's algorithm on blocks) in the two passes of
@@ -456,47 +472,8 @@ where
 {
     let nbc = bm.n_col_blocks();
     let g = groups;
-    let block_cols = |bj: usize| &bm.bidx[bm.bptr[bj]..bm.bptr[bj + 1]];
-    // Symbolic pass: the column blocks of every block row, ascending.
-    let patterns: Vec<(Vec<usize>, Vec<u32>)> = (0..g.len() - 1)
-        .into_par_iter()
-        .map_init(
-            || vec![false; nbc],
-            |seen, k| {
-                let mut counts = Vec::with_capacity(g[k + 1] - g[k]);
-                let mut cols = Vec::new();
-                for bi in g[k]..g[k + 1] {
-                    let start = cols.len();
-                    pattern(bi, &mut |bj| {
-                        for &bk in block_cols(bj) {
-                            if !seen[bk as usize] {
-                                seen[bk as usize] = true;
-                                cols.push(bk);
-                            }
-                        }
-                    });
-                    let row_cols = &mut cols[start..];
-                    row_cols.sort_unstable();
-                    for &bk in row_cols.iter() {
-                        seen[bk as usize] = false;
-                    }
-                    counts.push(row_cols.len());
-                }
-                (counts, cols)
-            },
-        )
-        .collect();
+    let (bptr, bidx) = product_pattern(rptr.len() - 1, groups, pattern, bm);
     let nbr = rptr.len() - 1;
-    let mut bptr = Vec::with_capacity(nbr + 1);
-    bptr.push(0);
-    let mut bidx = Vec::with_capacity(patterns.iter().map(|p| p.1.len()).sum());
-    for (counts, cols) in &patterns {
-        for c in counts {
-            bptr.push(bptr.last().unwrap() + c);
-        }
-        bidx.extend_from_slice(cols);
-    }
-    drop(patterns);
     let mut voff = Vec::with_capacity(bidx.len() + 1);
     voff.push(0);
     for bi in 0..nbr {
@@ -528,6 +505,200 @@ where
         },
     );
     Vbr::new(rptr.to_vec(), bm.cptr.clone(), bptr, bidx, voff, val)
+}
+
+/// The symbolic pass of [`mul_rows`] and [`galerkin_rows`]: the column blocks of every block
+/// row of `A B` (`nbr` block rows of `A`, each described by `pattern`), ascending, as a block
+/// row pointer and the column blocks.
+fn product_pattern<P>(nbr: usize, groups: &[usize], pattern: &P, bm: &Vbr) -> (Vec<usize>, Vec<u32>)
+where
+    P: Fn(usize, &mut dyn FnMut(usize)) + Sync,
+{
+    let g = groups;
+    let block_cols = |bj: usize| &bm.bidx[bm.bptr[bj]..bm.bptr[bj + 1]];
+    let patterns: Vec<(Vec<usize>, Vec<u32>)> = (0..g.len() - 1)
+        .into_par_iter()
+        .map_init(
+            || vec![false; bm.n_col_blocks()],
+            |seen, k| {
+                let mut counts = Vec::with_capacity(g[k + 1] - g[k]);
+                let mut cols = Vec::new();
+                for bi in g[k]..g[k + 1] {
+                    let start = cols.len();
+                    pattern(bi, &mut |bj| {
+                        for &bk in block_cols(bj) {
+                            if !seen[bk as usize] {
+                                seen[bk as usize] = true;
+                                cols.push(bk);
+                            }
+                        }
+                    });
+                    let row_cols = &mut cols[start..];
+                    row_cols.sort_unstable();
+                    for &bk in row_cols.iter() {
+                        seen[bk as usize] = false;
+                    }
+                    counts.push(row_cols.len());
+                }
+                (counts, cols)
+            },
+        )
+        .collect();
+    let mut bptr = Vec::with_capacity(nbr + 1);
+    bptr.push(0);
+    let mut bidx = Vec::with_capacity(patterns.iter().map(|p| p.1.len()).sum());
+    for (counts, cols) in &patterns {
+        for c in counts {
+            bptr.push(bptr.last().unwrap() + c);
+        }
+        bidx.extend_from_slice(cols);
+    }
+    (bptr, bidx)
+}
+
+/// The Galerkin product `A_c = R (A P)` with `R = P^T` (`r`), without storing `A P`: the
+/// rows of `A` (described as in [`mul_rows`]) are cut into one contiguous range per thread;
+/// each thread computes the block rows of `A P` of its range one at a time into a buffer it
+/// reuses and adds `P_{iI}^T (A P)_{iJ}` for every block `P_{iI}` of row `i` of `P` into its
+/// own copy of `A_c` (pattern known beforehand: the block rows of `R` times the pattern of
+/// `A P`), and the copies are summed.
+///
+/// Why: `A P` is the setup's largest array (1.1 GB for a 3D lattice with 123 partners at 10^6
+/// unknowns, 18x the 60 MB of `A_c`), and on this project's virtual machine writing fresh
+/// memory costs more than the flops (docs/solvers.md). Same flops as `R.mul(&A.mul(P))`; the
+/// sums run in another order (equal to round-off, tested).
+pub(crate) fn galerkin_rows<P, R>(rptr: &[usize], groups: &[usize], pattern: &P, row: &R, p: &Vbr, r: &Vbr) -> Vbr
+where
+    P: Fn(usize, &mut dyn FnMut(usize)) + Sync,
+    R: Fn(usize, &mut dyn FnMut(usize, &[f64])) + Sync,
+{
+    let nbr = rptr.len() - 1;
+    let ncb = p.n_col_blocks();
+    // The pattern of A P, then that of A_c: row I is the union of the rows i of A P with
+    // R_{Ii} != 0.
+    let (ap_ptr, ap_idx) = product_pattern(nbr, groups, pattern, p);
+    let ap_cols = |i: usize| &ap_idx[ap_ptr[i]..ap_ptr[i + 1]];
+    let coarse_rows: Vec<Vec<u32>> = (0..ncb)
+        .into_par_iter()
+        .map_init(
+            || vec![false; ncb],
+            |seen, bi| {
+                let mut cols = Vec::new();
+                for &i in &r.bidx[r.bptr[bi]..r.bptr[bi + 1]] {
+                    for &bj in ap_cols(i as usize) {
+                        if !seen[bj as usize] {
+                            seen[bj as usize] = true;
+                            cols.push(bj);
+                        }
+                    }
+                }
+                cols.sort_unstable();
+                for &bj in &cols {
+                    seen[bj as usize] = false;
+                }
+                cols
+            },
+        )
+        .collect();
+    let size = |bk: usize| p.cptr[bk + 1] - p.cptr[bk];
+    let mut c_ptr = Vec::with_capacity(ncb + 1);
+    c_ptr.push(0);
+    let mut c_idx = Vec::with_capacity(coarse_rows.iter().map(Vec::len).sum());
+    let mut c_off = vec![0usize];
+    for (bi, cols) in coarse_rows.iter().enumerate() {
+        for &bj in cols {
+            c_off.push(c_off.last().unwrap() + size(bi) * size(bj as usize));
+        }
+        c_idx.extend_from_slice(cols);
+        c_ptr.push(c_idx.len());
+    }
+    drop(coarse_rows);
+    let nnz_c = *c_off.last().unwrap();
+    // One range of fine rows per thread, each into its own copy of A_c.
+    let threads = rayon::current_num_threads().max(1);
+    let copies: Vec<Vec<f64>> = (0..threads)
+        .into_par_iter()
+        .map(|t| {
+            let mut acc = vec![0.0; nnz_c];
+            // write first (see `mul_rows`): the copy's pages fault once
+            acc.fill(0.0);
+            let mut slot = vec![0usize; ncb];
+            let mut ap = Vec::new();
+            for i in nbr * t / threads..nbr * (t + 1) / threads {
+                // (A P)_i into `ap`, its blocks in the order of `ap_cols(i)`
+                let ri = rptr[i + 1] - rptr[i];
+                let mut len = 0;
+                for &bk in ap_cols(i) {
+                    slot[bk as usize] = len;
+                    len += ri * size(bk as usize);
+                }
+                ap.clear();
+                ap.resize(len, 0.0);
+                row(i, &mut |bj, av| mul_block_row(ri, bj, av, p, &slot, &mut ap));
+                // A_c[I, J] += P_{iI}^T (A P)_{iJ}: both column lists ascend, and those of
+                // (A P)_i are in row I of A_c, so one merge walk finds them
+                for b in p.bptr[i]..p.bptr[i + 1] {
+                    let bi = p.bidx[b] as usize;
+                    let pv = &p.val[p.voff[b]..p.voff[b + 1]];
+                    let ki = size(bi);
+                    let mut q = c_ptr[bi];
+                    let mut at = 0;
+                    for &bj in ap_cols(i) {
+                        while c_idx[q] != bj {
+                            q += 1;
+                        }
+                        let kj = size(bj as usize);
+                        let out = &mut acc[c_off[q]..c_off[q] + ki * kj];
+                        let apv = &ap[at..at + ri * kj];
+                        at += ri * kj;
+                        match (ri, ki, kj) {
+                            (3, 6, 6) => block_tmul::<3, 6, 6>(pv, apv, out),
+                            (2, 3, 3) => block_tmul::<2, 3, 3>(pv, apv, out),
+                            (6, 6, 6) => block_tmul::<6, 6, 6>(pv, apv, out),
+                            (3, 3, 3) => block_tmul::<3, 3, 3>(pv, apv, out),
+                            _ => {
+                                for s in 0..ri {
+                                    for a in 0..ki {
+                                        let x = pv[s * ki + a];
+                                        for (o, &y) in
+                                            out[a * kj..(a + 1) * kj].iter_mut().zip(&apv[s * kj..(s + 1) * kj])
+                                        {
+                                            *o += x * y;
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            acc
+        })
+        .collect();
+    let mut val = vec![0.0; nnz_c];
+    val.par_chunks_mut(1 << 14).enumerate().for_each(|(k, out)| {
+        let at = k << 14;
+        for (o, v) in out.iter_mut().enumerate() {
+            *v = copies.iter().map(|c| c[at + o]).sum();
+        }
+    });
+    Vbr::new(p.cptr.clone(), p.cptr.clone(), c_ptr, c_idx, c_off, val)
+}
+
+/// `out += A^T B` for row-major `S x R` `A` and `S x K` `B` (`out` is `R x K`).
+#[inline(always)]
+fn block_tmul<const S: usize, const R: usize, const K: usize>(a: &[f64], b: &[f64], out: &mut [f64]) {
+    let a: &[f64] = &a[..S * R];
+    let b: &[f64] = &b[..S * K];
+    let out: &mut [f64] = &mut out[..R * K];
+    for s in 0..S {
+        for i in 0..R {
+            let x = a[s * R + i];
+            for k in 0..K {
+                out[i * K + k] += x * b[s * K + k];
+            }
+        }
+    }
 }
 
 /// `C_{bi K} += A_{bi bj} B_{bj K}` for the blocks `K` of block row `bj` of `B`: `A_{bi bj}`
@@ -588,6 +759,56 @@ fn block_mul<const R: usize, const S: usize, const K: usize>(a: &[f64], b: &[f64
             let x = a[i * S + s];
             for k in 0..K {
                 out[i * K + k] += x * b[s * K + k];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A pseudo-random block matrix: row blocks of `rsz`, column blocks of `csz`, block
+    /// `(I, J)` stored when `(I * 7 + J * 3) % 5 < 2` (and on the diagonal when square).
+    fn random(rsz: &[usize], csz: &[usize], seed: usize) -> Vbr {
+        let ptr = |sz: &[usize]| {
+            std::iter::once(0).chain(sz.iter().scan(0, |a, s| Some(*a + s).inspect(|v| *a = *v))).collect::<Vec<_>>()
+        };
+        let (rptr, cptr) = (ptr(rsz), ptr(csz));
+        let (mut bptr, mut bidx, mut voff, mut val) = (vec![0], Vec::new(), vec![0], Vec::new());
+        for (i, &r) in rsz.iter().enumerate() {
+            for (j, &c) in csz.iter().enumerate() {
+                if (i * 7 + j * 3 + seed) % 5 < 2 || (rsz.len() == csz.len() && i == j) {
+                    bidx.push(j as u32);
+                    val.extend((0..r * c).map(|k| (((i + 1) * (j + 2) * (k + 3) + seed) % 17) as f64 / 17.0 - 0.4));
+                    voff.push(val.len());
+                }
+            }
+            bptr.push(bidx.len());
+        }
+        Vbr::new(rptr, cptr, bptr, bidx, voff, val)
+    }
+
+    /// The fused Galerkin product equals `R (A P)` (same pattern, values to round-off: the
+    /// same products summed in another order), on 1 and 2 threads, with mixed block sizes
+    /// (the generic kernels) and the `3 x 3` / `3 x 6` lattice sizes (the fixed ones). Tolerance
+    /// 1e-14 of the largest entry: sums of a few dozen products of entries below 1, eps 1.1e-16.
+    #[test]
+    fn galerkin_is_r_times_a_times_p() {
+        let mixed: Vec<usize> = (0..23).map(|i| [3, 2, 3, 1][i % 4]).collect();
+        for (rows, coarse) in [(vec![3; 40], vec![6; 9]), (mixed, (0..7).map(|i| [6, 3, 5][i % 3]).collect())] {
+            let a = random(&rows, &rows, 1);
+            let p = random(&rows, &coarse, 2);
+            let r = p.transpose();
+            let expected = r.mul(&a.mul(&p));
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let got = pool.install(|| a.galerkin(&p, &r));
+                assert_eq!((&got.bptr, &got.bidx, &got.voff), (&expected.bptr, &expected.bidx, &expected.voff));
+                let scale = expected.val.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                let diff = got.val.iter().zip(&expected.val).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+                assert!(diff <= 1e-14 * scale, "{threads} threads: {diff:e} of {scale:e}");
+                assert!(scale > 0.0);
             }
         }
     }
