@@ -614,8 +614,10 @@ where
     }
     drop(coarse_rows);
     let nnz_c = *c_off.last().unwrap();
-    // One range of fine rows per thread, each into its own copy of A_c.
-    let threads = rayon::current_num_threads().max(1);
+    // One range of fine rows per thread, each into its own copy of A_c (at most 8 copies:
+    // the copies, not A P, then bound the memory).
+    debug_assert_eq!(r.bptr.len(), ncb + 1, "r is P^T");
+    let threads = rayon::current_num_threads().clamp(1, 8);
     let copies: Vec<Vec<f64>> = (0..threads)
         .into_par_iter()
         .map(|t| {
@@ -646,6 +648,7 @@ where
                     for &bj in ap_cols(i) {
                         while c_idx[q] != bj {
                             q += 1;
+                            debug_assert!(q < c_ptr[bi + 1], "(A P)_i has a column outside row I of A_c");
                         }
                         let kj = size(bj as usize);
                         let out = &mut acc[c_off[q]..c_off[q] + ki * kj];
@@ -675,11 +678,14 @@ where
             acc
         })
         .collect();
-    let mut val = vec![0.0; nnz_c];
+    // the sum, into the first copy
+    let mut copies = copies.into_iter();
+    let mut val = copies.next().unwrap_or_default();
+    let rest: Vec<Vec<f64>> = copies.collect();
     val.par_chunks_mut(1 << 14).enumerate().for_each(|(k, out)| {
         let at = k << 14;
         for (o, v) in out.iter_mut().enumerate() {
-            *v = copies.iter().map(|c| c[at + o]).sum();
+            *v += rest.iter().map(|c| c[at + o]).sum::<f64>();
         }
     });
     Vbr::new(p.cptr.clone(), p.cptr.clone(), c_ptr, c_idx, c_off, val)
