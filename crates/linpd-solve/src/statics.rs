@@ -142,72 +142,7 @@ pub fn solve_assembled_with_progress(
                     SolverSpec::Auto(params) => params.clone(),
                     _ => CgParams::default(),
                 };
-                // 2D from AUTO_GMRES_MULTIGRID_2D unknowns: GMRES + multigrid from the SPD
-                // approximation first (measured faster than the Cholesky of M, see the
-                // constant), the Cholesky of M only if GMRES fails (stagnation, max_iter).
-                let first = (hints.dim == 2 && n >= AUTO_GMRES_MULTIGRID_2D && hints.geometry.is_some()).then(|| {
-                    let mg = PreconditionerKind::Multigrid;
-                    assembled_gmres_with(a, &spd.matrix, f, &params, mg, hints.geometry.as_ref(), progress)
-                });
-                let failed = match first {
-                    Some(Ok(solved)) => Ok(solved),
-                    Some(Err(e)) => Err(Some(e.to_string())),
-                    None => Err(None),
-                };
-                match failed {
-                    Ok(solved) => {
-                        note = Some(format!(
-                            "auto: gmres + multigrid from the SPD approximation {:?} (2D, {n} >= \
-                             {AUTO_GMRES_MULTIGRID_2D} unknowns)",
-                            spd.kind
-                        ));
-                        solved
-                    }
-                    Err(failed) => {
-                        // A factor too large for memory (or a 3D system past the limit of the symmetric
-                        // `auto`): GMRES + multigrid from the SPD approximation, no factorization. LU
-                        // would fill at least as much as the Cholesky of M.
-                        let too_large = if hints.dim == 3 && n > AUTO_3D_CHOLESKY_LIMIT {
-                            Err(SpdGmres::TooLarge(format!("3D with {n} > {AUTO_3D_CHOLESKY_LIMIT} unknowns")))
-                        } else {
-                            spd_gmres(a, f, spd, &hints.ordering, progress)
-                        };
-                        let solved = match too_large {
-                            Ok(solved) => solved,
-                            Err(SpdGmres::TooLarge(why)) if hints.geometry.is_some() => {
-                                let excluded = format!("auto: {} excluded ({why})", SolverId::Gmres(spd.kind));
-                                note = Some(format!("{excluded}: gmres + multigrid instead"));
-                                assembled_gmres_with(
-                                    a,
-                                    &spd.matrix,
-                                    f,
-                                    &params,
-                                    PreconditionerKind::Multigrid,
-                                    hints.geometry.as_ref(),
-                                    progress,
-                                )
-                                .map_err(|e| {
-                                    SolveError::NoSolverFits(format!("{excluded}, and gmres + multigrid failed: {e}"))
-                                })?
-                            }
-                            Err(SpdGmres::TooLarge(why)) => {
-                                return Err(SolveError::NoSolverFits(format!(
-                                    "{} excluded ({why}) and no multigrid geometry for an iterative solve",
-                                    SolverId::Gmres(spd.kind)
-                                )))
-                            }
-                            Err(SpdGmres::Failed(why)) => {
-                                note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
-                                lu(a, f, &hints.ordering, progress)?
-                            }
-                        };
-                        if let Some(why) = failed {
-                            let then = note.take().map(|n| format!("; {n}")).unwrap_or_default();
-                            note = Some(format!("auto: gmres + multigrid failed ({why}), the next choice ran{then}"));
-                        }
-                        solved
-                    }
-                }
+                auto_unsymmetric(a, f, spd, &params, hints, progress, &mut note)?
             }
             (s, _) => {
                 note = Some(format!(
@@ -481,6 +416,78 @@ fn lu(a: &Csc, f: &[f64], ordering: &Ordering, progress: &dyn Progress) -> Resul
     // faer does not expose the LU fill; the stored entries of A are a lower bound.
     report.nnz_factor = Some(a.val().len());
     Ok((u, report))
+}
+
+/// `auto` on an unsymmetric `A` with an SPD approximation `M` (`note` says what ran and why):
+/// GMRES + multigrid from `M` in 2D from [`AUTO_GMRES_MULTIGRID_2D`] unknowns (measured faster
+/// than the Cholesky of `M`, see the constant); else, or when that fails (stagnation,
+/// `max_iter`), GMRES with the Cholesky factor of `M`, GMRES + multigrid where that factor would
+/// not fit (or in 3D past [`AUTO_3D_CHOLESKY_LIMIT`]: LU would fill at least as much), sparse LU
+/// when the factorization or GMRES fails.
+fn auto_unsymmetric(
+    a: &Csc,
+    f: &[f64],
+    spd: &SpdApproximation,
+    params: &CgParams,
+    hints: &MatrixHints,
+    progress: &dyn Progress,
+    note: &mut Option<String>,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    let n = a.nrows();
+    let multigrid = || {
+        assembled_gmres_with(
+            a,
+            &spd.matrix,
+            f,
+            params,
+            PreconditionerKind::Multigrid,
+            hints.geometry.as_ref(),
+            progress,
+        )
+    };
+    let mut failed = None;
+    if hints.dim == 2 && n >= AUTO_GMRES_MULTIGRID_2D && hints.geometry.is_some() {
+        match multigrid() {
+            Ok(solved) => {
+                *note = Some(format!(
+                    "auto: gmres + multigrid from the SPD approximation {:?} (2D, {n} >= {AUTO_GMRES_MULTIGRID_2D} \
+                     unknowns)",
+                    spd.kind
+                ));
+                return Ok(solved);
+            }
+            Err(e) => failed = Some(e.to_string()),
+        }
+    }
+    let factored = if hints.dim == 3 && n > AUTO_3D_CHOLESKY_LIMIT {
+        Err(SpdGmres::TooLarge(format!("3D with {n} > {AUTO_3D_CHOLESKY_LIMIT} unknowns")))
+    } else {
+        spd_gmres(a, f, spd, &hints.ordering, progress)
+    };
+    let solved = match factored {
+        Ok(solved) => solved,
+        Err(SpdGmres::TooLarge(why)) if hints.geometry.is_some() => {
+            let excluded = format!("auto: {} excluded ({why})", SolverId::Gmres(spd.kind));
+            *note = Some(format!("{excluded}: gmres + multigrid instead"));
+            multigrid()
+                .map_err(|e| SolveError::NoSolverFits(format!("{excluded}, and gmres + multigrid failed: {e}")))?
+        }
+        Err(SpdGmres::TooLarge(why)) => {
+            return Err(SolveError::NoSolverFits(format!(
+                "{} excluded ({why}) and no multigrid geometry for an iterative solve",
+                SolverId::Gmres(spd.kind)
+            )))
+        }
+        Err(SpdGmres::Failed(why)) => {
+            *note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
+            lu(a, f, &hints.ordering, progress)?
+        }
+    };
+    if let Some(why) = failed {
+        let then = note.take().map(|n| format!("; {n}")).unwrap_or_default();
+        *note = Some(format!("auto: gmres + multigrid failed ({why}), the next choice ran{then}"));
+    }
+    Ok(solved)
 }
 
 /// Why [`spd_gmres`] was not used.

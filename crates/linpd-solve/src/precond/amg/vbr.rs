@@ -418,10 +418,13 @@ impl Vbr {
         Vbr::new(self.cptr.clone(), self.rptr.clone(), bptr, bidx, voff, val)
     }
 
-    /// `C = A B` (the column blocks of `A` are the row blocks of `B`): [`mul_rows`] over the
-    /// stored block rows.
-    pub fn mul(&self, bm: &Vbr) -> Vbr {
-        debug_assert_eq!(self.cptr, bm.rptr);
+    /// The stored block rows as the `pattern` and `row` descriptions of [`mul_rows`] and
+    /// [`galerkin_rows`].
+    #[allow(clippy::type_complexity)]
+    fn block_rows(
+        &self,
+    ) -> (impl Fn(usize, &mut dyn FnMut(usize)) + Sync + '_, impl Fn(usize, &mut dyn FnMut(usize, &[f64])) + Sync + '_)
+    {
         let pattern = |bi: usize, f: &mut dyn FnMut(usize)| {
             for &bj in &self.bidx[self.bptr[bi]..self.bptr[bi + 1]] {
                 f(bj as usize);
@@ -432,22 +435,21 @@ impl Vbr {
                 f(self.bidx[a] as usize, &self.val[self.voff[a]..self.voff[a + 1]]);
             }
         };
+        (pattern, row)
+    }
+
+    /// `C = A B` (the column blocks of `A` are the row blocks of `B`): [`mul_rows`] over the
+    /// stored block rows.
+    pub fn mul(&self, bm: &Vbr) -> Vbr {
+        debug_assert_eq!(self.cptr, bm.rptr);
+        let (pattern, row) = self.block_rows();
         mul_rows(&self.rptr, &self.groups, &pattern, &row, bm)
     }
 
     /// `R A P` with `R = P^T` ([`galerkin_rows`] over the stored block rows).
     pub fn galerkin(&self, p: &Vbr, r: &Vbr) -> Vbr {
         debug_assert_eq!(self.cptr, p.rptr);
-        let pattern = |bi: usize, f: &mut dyn FnMut(usize)| {
-            for &bj in &self.bidx[self.bptr[bi]..self.bptr[bi + 1]] {
-                f(bj as usize);
-            }
-        };
-        let row = |bi: usize, f: &mut dyn FnMut(usize, &[f64])| {
-            for a in self.bptr[bi]..self.bptr[bi + 1] {
-                f(self.bidx[a] as usize, &self.val[self.voff[a]..self.voff[a + 1]]);
-            }
-        };
+        let (pattern, row) = self.block_rows();
         galerkin_rows(&self.rptr, &self.groups, &pattern, &row, p, r)
     }
 }
@@ -472,7 +474,8 @@ where
 {
     let nbc = bm.n_col_blocks();
     let g = groups;
-    let (bptr, bidx) = product_pattern(rptr.len() - 1, groups, pattern, bm);
+    let block_cols = |j: usize| &bm.bidx[bm.bptr[j]..bm.bptr[j + 1]];
+    let (bptr, bidx) = product_pattern(rptr.len() - 1, groups, pattern, nbc, &block_cols);
     let nbr = rptr.len() - 1;
     let mut voff = Vec::with_capacity(bidx.len() + 1);
     voff.push(0);
@@ -508,18 +511,25 @@ where
 }
 
 /// The symbolic pass of [`mul_rows`] and [`galerkin_rows`]: the column blocks of every block
-/// row of `A B` (`nbr` block rows of `A`, each described by `pattern`), ascending, as a block
-/// row pointer and the column blocks.
-fn product_pattern<P>(nbr: usize, groups: &[usize], pattern: &P, bm: &Vbr) -> (Vec<usize>, Vec<u32>)
+/// row of `A B` (`nbr` block rows of `A`, each described by `pattern`, split into the parallel
+/// `groups`), ascending, as a block row pointer and the column blocks; `block_cols(j)` lists the
+/// column blocks of row `j` of `B` (of `n_col_blocks`), ascending.
+fn product_pattern<'b, P, B>(
+    nbr: usize,
+    groups: &[usize],
+    pattern: &P,
+    n_col_blocks: usize,
+    block_cols: &B,
+) -> (Vec<usize>, Vec<u32>)
 where
     P: Fn(usize, &mut dyn FnMut(usize)) + Sync,
+    B: Fn(usize) -> &'b [u32] + Sync,
 {
     let g = groups;
-    let block_cols = |bj: usize| &bm.bidx[bm.bptr[bj]..bm.bptr[bj + 1]];
     let patterns: Vec<(Vec<usize>, Vec<u32>)> = (0..g.len() - 1)
         .into_par_iter()
         .map_init(
-            || vec![false; bm.n_col_blocks()],
+            || vec![false; n_col_blocks],
             |seen, k| {
                 let mut counts = Vec::with_capacity(g[k + 1] - g[k]);
                 let mut cols = Vec::new();
@@ -576,43 +586,21 @@ where
     let ncb = p.n_col_blocks();
     // The pattern of A P, then that of A_c: row I is the union of the rows i of A P with
     // R_{Ii} != 0.
-    let (ap_ptr, ap_idx) = product_pattern(nbr, groups, pattern, p);
+    let p_cols = |j: usize| &p.bidx[p.bptr[j]..p.bptr[j + 1]];
+    let (ap_ptr, ap_idx) = product_pattern(nbr, groups, pattern, ncb, &p_cols);
     let ap_cols = |i: usize| &ap_idx[ap_ptr[i]..ap_ptr[i + 1]];
-    let coarse_rows: Vec<Vec<u32>> = (0..ncb)
-        .into_par_iter()
-        .map_init(
-            || vec![false; ncb],
-            |seen, bi| {
-                let mut cols = Vec::new();
-                for &i in &r.bidx[r.bptr[bi]..r.bptr[bi + 1]] {
-                    for &bj in ap_cols(i as usize) {
-                        if !seen[bj as usize] {
-                            seen[bj as usize] = true;
-                            cols.push(bj);
-                        }
-                    }
-                }
-                cols.sort_unstable();
-                for &bj in &cols {
-                    seen[bj as usize] = false;
-                }
-                cols
-            },
-        )
-        .collect();
+    let r_rows = |bi: usize, f: &mut dyn FnMut(usize)| {
+        r.bidx[r.bptr[bi]..r.bptr[bi + 1]].iter().for_each(|&i| f(i as usize));
+    };
+    let (c_ptr, c_idx) = product_pattern(ncb, &r.groups, &r_rows, ncb, &ap_cols);
     let size = |bk: usize| p.cptr[bk + 1] - p.cptr[bk];
-    let mut c_ptr = Vec::with_capacity(ncb + 1);
-    c_ptr.push(0);
-    let mut c_idx = Vec::with_capacity(coarse_rows.iter().map(Vec::len).sum());
-    let mut c_off = vec![0usize];
-    for (bi, cols) in coarse_rows.iter().enumerate() {
-        for &bj in cols {
+    let mut c_off = Vec::with_capacity(c_idx.len() + 1);
+    c_off.push(0usize);
+    for bi in 0..ncb {
+        for &bj in &c_idx[c_ptr[bi]..c_ptr[bi + 1]] {
             c_off.push(c_off.last().unwrap() + size(bi) * size(bj as usize));
         }
-        c_idx.extend_from_slice(cols);
-        c_ptr.push(c_idx.len());
     }
-    drop(coarse_rows);
     let nnz_c = *c_off.last().unwrap();
     // One range of fine rows per thread, each into its own copy of A_c (at most 8 copies:
     // the copies, not A P, then bound the memory).
