@@ -174,7 +174,7 @@ fn malformed_pipelines_fail_with_the_cause_and_write_nothing() {
                 r#"{{"name": "b", "scene": "{}", "levels": [{{"every": 2, "radius": 0.1}}]}}"#,
                 root().join("data/blend-point-load.json").display()
             ),
-            "not blend/ce",
+            "coarsening is not available for blend models",
         ),
         (
             format!(

@@ -10,7 +10,7 @@
 //! catches any wrong volume factor or sign (those change `u` by O(1)). The 6x6 plate (60 free
 //! DOFs) is as well conditioned; the same bound applies.
 
-use linpd::problem::{ModelSpec, ModuliFile, Problem};
+use linpd::problem::{CoarsenedModel, ModuliFile, Problem};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -158,7 +158,7 @@ fn bar_1d_cli_and_library_match_a_dense_solve() {
 
     // Library (the relative moduli path resolves against the scene's directory).
     let p = Problem::from_path(&scene).unwrap();
-    let ModelSpec::Coarsened(c) = p.model() else { panic!("expected a coarsened scene") };
+    let c = p.model().downcast::<CoarsenedModel>().expect("expected a coarsened scene");
     assert_eq!((p.dim(), c.level(), p.nodes().len()), (1, 1, 41));
     assert!(c.is_symmetric());
     let s = p.solve(&linpd::core::NoProgress).unwrap();
@@ -271,7 +271,7 @@ fn unsymmetric_moduli_take_the_lu_path() {
     m.write(&dir.join("level-2")).unwrap();
     let p = write_scene(&dir, "auto", &plate_scene("auto"));
     let problem = Problem::from_path(&p).unwrap();
-    let ModelSpec::Coarsened(c) = problem.model() else { panic!() };
+    let c = problem.model().downcast::<CoarsenedModel>().expect("a coarsened scene");
     assert!(!c.is_symmetric());
     let s = problem.solve(&linpd::core::NoProgress).unwrap();
     assert_eq!(s.report.solver, linpd::solve::SolverId::Lu);
@@ -350,7 +350,7 @@ fn item_7_a_level_loaded_back_reproduces_the_pipeline() {
     obj.insert("output".into(), json!({"dir": dir.join("scene-out").to_string_lossy(), "plot": false}));
     let path = write_scene(&dir, "level-2-scene", &scene);
     let p = Problem::from_path(&path).unwrap();
-    let ModelSpec::Coarsened(c) = p.model() else { panic!("expected a coarsened scene") };
+    let c = p.model().downcast::<CoarsenedModel>().expect("expected a coarsened scene");
     assert_eq!(c.level(), 2);
     let s = p.solve(&linpd::core::NoProgress).unwrap();
 

@@ -129,7 +129,7 @@ fn malformed_dynamics_sections_name_the_path() {
     let mut v = set("dt_safety", json!(1.2));
     v["dynamics"]["allow_unstable"] = json!(true);
     match Problem::from_json(&v.to_string()).unwrap().run_dynamics(&linpd::core::NoProgress) {
-        Err(ProblemError::Solve(m)) => assert!(m.contains("diverged"), "{m}"),
+        Err(e @ ProblemError::Dynamics(_)) => assert!(e.to_string().contains("diverged"), "{e}"),
         Ok(r) => assert!(r.max_total_drift() > 1e3, "1.2 dt_max must blow up in 400 steps"),
         Err(e) => panic!("{e}"),
     }

@@ -7,7 +7,7 @@
 //!
 //! Set `LINPD_PRINT_ERRORS=1` to print every message (useful when reviewing the wording).
 
-use linpd::problem::{ModelSpec, ModuliFile, Problem, ProblemError};
+use linpd::problem::{CoarsenedModel, ModuliFile, Problem, ProblemError};
 use serde_json::{json, Value};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -663,6 +663,7 @@ fn cases() -> Vec<Case> {
             "blend in 2D",
             e2(|v| {
                 v["model"]["type"] = json!("blend");
+                v["model"].as_object_mut().unwrap().remove("partial_volume");
                 v["model"]["regions"] = json!([0.1, 0.2, 0.3, 0.4]);
                 v["model"]["blending"] = json!("cubic");
                 v["model"].as_object_mut().unwrap().remove("plane");
@@ -674,6 +675,7 @@ fn cases() -> Vec<Case> {
             "blend without regions",
             e1(|v| {
                 v["model"]["type"] = json!("blend");
+                v["model"].as_object_mut().unwrap().remove("partial_volume");
                 v["model"]["blending"] = json!("cubic");
                 v["grid"]["layer"] = json!(0.0);
                 v["constraints"] = json!([{"region": {"box": {"min": [0.0], "max": [0.0]}}, "displacement": {"value": [0.0]}},
@@ -686,6 +688,7 @@ fn cases() -> Vec<Case> {
             "blend regions not ordered",
             e1(|v| {
                 v["model"]["type"] = json!("blend");
+                v["model"].as_object_mut().unwrap().remove("partial_volume");
                 v["model"]["blending"] = json!("linear");
                 v["model"]["regions"] = json!([0.3, 0.2, 0.6, 0.8]);
                 v["grid"]["layer"] = json!(0.0);
@@ -699,6 +702,7 @@ fn cases() -> Vec<Case> {
             "blend with a layer",
             e1(|v| {
                 v["model"]["type"] = json!("blend");
+                v["model"].as_object_mut().unwrap().remove("partial_volume");
                 v["model"]["blending"] = json!("linear");
                 v["model"]["regions"] = json!([0.2, 0.3, 0.6, 0.8]);
             }),
@@ -717,6 +721,7 @@ fn cases() -> Vec<Case> {
             "blend with a cg solver",
             e1(|v| {
                 v["model"]["type"] = json!("blend");
+                v["model"].as_object_mut().unwrap().remove("partial_volume");
                 v["model"]["blending"] = json!("linear");
                 v["model"]["regions"] = json!([0.2, 0.3, 0.6, 0.8]);
                 v["grid"]["layer"] = json!(0.0);
@@ -756,13 +761,14 @@ fn cases() -> Vec<Case> {
                                     "shear_modulus": 1.0, "regions": [0.1, 0.2, 0.3, 0.4], "blending": "linear",
                                     "ce_spacing": 0.1});
             }),
-            "model.regions",
+            "model.blending",
             "not a key of lps models",
         ),
         parse(
             "ce with a blending value",
             e1(|v| {
                 v["model"]["type"] = json!("ce");
+                v["model"].as_object_mut().unwrap().remove("partial_volume");
                 v["model"]["blending_value"] = json!(0.3);
             }),
             "model.blending_value",
@@ -772,6 +778,7 @@ fn cases() -> Vec<Case> {
             "ce with a blending table",
             e1(|v| {
                 v["model"]["type"] = json!("ce");
+                v["model"].as_object_mut().unwrap().remove("partial_volume");
                 v["model"]["blending_table"] = json!({"s": [0.0, 1.0], "beta": [0.0, 1.0]});
             }),
             "model.blending_table",
@@ -781,6 +788,7 @@ fn cases() -> Vec<Case> {
             "blend with a plane",
             e1(|v| {
                 v["model"]["type"] = json!("blend");
+                v["model"].as_object_mut().unwrap().remove("partial_volume");
                 v["model"]["plane"] = json!("stress");
             }),
             "model.plane",
@@ -954,7 +962,7 @@ fn base_scenes_are_valid_and_solve() {
 #[test]
 fn coarsened_scenes_are_problems_without_a_lattice() {
     let p = Problem::from_json(&base_coarsened().to_string()).unwrap();
-    assert!(matches!(p.model(), ModelSpec::Coarsened(_)));
+    assert!(p.model().downcast::<CoarsenedModel>().is_some());
     assert!(p.grid().is_none());
     assert_eq!(p.model().name(), "coarsened");
     // Lattice-only operations say why they cannot run.

@@ -9,7 +9,7 @@ use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use linpd_core::progress::Progress;
-use linpd_problem::{ModelSpec, OutputDir, Problem, ProblemError, RunIdentity};
+use linpd_problem::{OutputDir, Problem, ProblemError, RunIdentity};
 use linpd_studies::{Study, StudyOptions};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -209,10 +209,8 @@ fn output(e: ProblemError) -> CliError {
 /// The identity of a run of `scene`: its bytes' hash and, for a coarsened level, the moduli
 /// file's (see [`RunIdentity`]).
 fn scene_identity(problem: &Problem, scene: &Path) -> Result<RunIdentity, CliError> {
-    let mut inputs = vec![scene];
-    if let ModelSpec::Coarsened(c) = problem.model() {
-        inputs.push(c.moduli_path());
-    }
+    let others = problem.model().inputs();
+    let inputs: Vec<&Path> = std::iter::once(scene).chain(others.iter().map(PathBuf::as_path)).collect();
     RunIdentity::of_inputs(&inputs).map_err(input(scene))
 }
 
@@ -369,30 +367,13 @@ fn run(cli: Cli) -> Result<(), CliError> {
             let p = Problem::from_path(&scene).map_err(input(&scene))?;
             let (mask, _) = p.constrained();
             let constrained = mask.iter().filter(|&&m| m).count();
-            match (p.model(), p.grid()) {
-                (ModelSpec::Coarsened(c), _) => say!(
-                    "{}: valid; coarsened level {} from {}, dimension {}, {} nodes, {} bonded pairs, K {}, {} constrained DOFs, {} loads",
-                    p.name(),
-                    c.level(),
-                    c.moduli_path().display(),
-                    p.dim(),
-                    p.nodes().len(),
-                    c.n_bonds(),
-                    c.symmetry(),
-                    constrained,
-                    p.loads().len()
-                )?,
-                (model, grid) => say!(
-                    "{}: valid; {} model, dimension {}, {} nodes, horizon/spacing = {:.4}, {} constrained DOFs, {} loads",
-                    p.name(),
-                    model.name(),
-                    p.dim(),
-                    p.nodes().len(),
-                    model.horizon().unwrap_or(f64::NAN) / grid.map_or(f64::NAN, |g| g.spacing()),
-                    constrained,
-                    p.loads().len()
-                )?,
-            }
+            say!(
+                "{}: valid; {}, {} constrained DOFs, {} loads",
+                p.name(),
+                p.model().summary(&p),
+                constrained,
+                p.loads().len()
+            )?;
             Ok(())
         }
         Command::Coarsen { pipeline, out, quiet } => {

@@ -14,7 +14,7 @@
 //! `sum_c R_c + sum_l F_l = 1^T A u = 0`: the reactions balance the applied loads. `A u` is one
 //! product of the model's full operator.
 //!
-//! 1D blend and CE scenes build theirs in [`crate::blend`] from the reactions of
+//! 1D blend and CE scenes build theirs in [`crate::models::blend_1d`] from the reactions of
 //! [`linpd_blend::BlendSolution`]: the same definition, with the end rows of the blended
 //! operator holding the local model's force on the end half cells. CE and pure-PD rows balance
 //! to round-off; the transition rows of a blended model balance only when the solution is

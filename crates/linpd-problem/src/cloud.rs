@@ -19,9 +19,9 @@
 //! The file is read in a stream (its size is capped at [`MAX_CLOUD_BYTES`]), so no count in it
 //! decides an allocation.
 
-use crate::problem::{bond_micromodulus, constraints_and_loads, solver_spec, LevelNodes};
-use crate::raw::{RawModelKind, RawProblem};
-use crate::{BondModel, ModelSpec, Nodes, Problem, ProblemError};
+use crate::models::registry::Context;
+use crate::problem::LevelNodes;
+use crate::ProblemError;
 use linpd_core::{BondFamily, Point};
 use std::path::Path;
 
@@ -226,7 +226,7 @@ impl Cloud {
 /// regions), `reference` where none does. `None` when every phase is a region (the material
 /// then applies them). A phase number that no node carries is an error (a typo would
 /// otherwise leave the material silently homogeneous).
-fn tagged_moduli(
+pub(crate) fn tagged_moduli(
     raw: &crate::raw::RawMaterial,
     nodes: &LevelNodes,
     reference: f64,
@@ -277,36 +277,21 @@ pub fn mean_spacing(volumes: &[f64], dim: usize) -> f64 {
     (volumes.iter().sum::<f64>() / volumes.len() as f64).powf(1.0 / dim as f64)
 }
 
-/// Validates a scene whose nodes come from a file (`"nodes"` instead of `"grid"`): bond models
-/// (the bond weights use the nodes' own volumes, [`linpd_bond::BondOperator::on_points`]) and lps
-/// models ([`linpd_lps::LpsModel::on_points`]).
-pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, ProblemError> {
+/// The nodes of a scene whose nodes come from a file (`"nodes"` instead of `"grid"`), checked
+/// against the horizon and the memory of `path`; and their mean spacing ([`mean_spacing`]).
+pub(crate) fn cloud_nodes(
+    cx: &Context,
+    horizon: f64,
+    path: crate::memory::Path,
+) -> Result<(LevelNodes, f64), ProblemError> {
+    let raw = cx.raw;
     let dim = raw.dimension;
     let spec = raw.nodes.as_ref().expect("called for scenes with nodes");
-    let kind = raw.model.kind;
     if raw.grid.is_some() {
         return Err(ProblemError::invalid("grid", "give either \"grid\" or \"nodes\", not both"));
     }
     if raw.body.is_some() {
         return Err(ProblemError::invalid("body", "not used with \"nodes\" (the point cloud is the body)"));
-    }
-    if !matches!(kind, RawModelKind::Bond | RawModelKind::Lps) {
-        return Err(ProblemError::invalid(
-            "nodes",
-            format!("point clouds take bond and lps models, the scene has {} (blend and ce are 1D grids)", kind.name()),
-        ));
-    }
-    if raw.dynamics.is_some() {
-        return Err(ProblemError::invalid(
-            "dynamics",
-            "explicit dynamics needs a grid (not available on point clouds yet)",
-        ));
-    }
-    if raw.solver.matrix_free {
-        return Err(ProblemError::invalid(
-            "solver.matrix_free",
-            "the matrix-free stencil operator needs a grid; point clouds are solved assembled",
-        ));
     }
     if raw.output.slice.is_some() {
         return Err(ProblemError::invalid(
@@ -315,15 +300,9 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         ));
     }
     let cloud = match (&spec.csv, &spec.vtk) {
-        (Some(f), None) => read_csv(&base_dir.join(f), dim, "nodes.csv")?,
-        (None, Some(f)) => crate::vtu::read_cloud(&base_dir.join(f), dim, "nodes.vtk")?,
+        (Some(f), None) => read_csv(&cx.base_dir.join(f), dim, "nodes.csv")?,
+        (None, Some(f)) => crate::vtu::read_cloud(&cx.base_dir.join(f), dim, "nodes.vtk")?,
         _ => return Err(ProblemError::invalid("nodes", "give exactly one of \"csv\" or \"vtk\"")),
-    };
-    let Some(horizon) = raw.model.horizon else {
-        return Err(ProblemError::invalid(
-            "model",
-            "missing field `horizon` (model.horizon is required for bond models)",
-        ));
     };
     if !(horizon.is_finite() && horizon > 0.0) {
         return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));
@@ -336,103 +315,33 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
             format!("horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing"),
         ));
     }
-    let raw_model = raw.model.clone();
-    let correction = raw_model.surface_correction.is_some_and(|c| c != crate::raw::RawSurfaceCorrection::None);
-    if correction || raw_model.surface_target.is_some() {
-        return Err(ProblemError::invalid(
-            if correction { "model.surface_correction" } else { "model.surface_target" },
-            "not available on point clouds yet: the correction matches each node's bond moments to a lattice \
-             interior, and a cloud has no lattice (use \"none\", or a grid)",
-        ));
-    }
-    if raw_model.pd_regions.is_some() {
-        return Err(ProblemError::invalid(
-            "model.pd_regions",
-            "not available on point clouds: the local model is built from the lattice's cells (use a grid)",
-        ));
-    }
-    if kind == RawModelKind::Lps {
-        return lps_on_cloud(raw, cloud, horizon, ratio);
-    }
-    crate::memory::check_nodes(crate::memory::Path::BondAssembled, dim, cloud.positions.len(), ratio)?;
-    let micromodulus =
-        bond_micromodulus(dim, horizon, raw_model.micromodulus.as_ref(), raw_model.plane, raw_model.partial_volume)?;
-    if micromodulus.normalization == linpd_core::Normalization::Discrete {
-        return Err(ProblemError::invalid(
-            "model.micromodulus.normalize",
-            "\"discrete\" sums over a lattice stencil; point clouds take \"continuum\" or an amplitude",
-        ));
-    }
-    micromodulus.amplitude(dim, horizon, h).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
-    let material = crate::problem::material_with_tags(&raw_model.material, dim, true)?;
-    let nodes = cloud.into_nodes(dim);
-    let node_moduli = tagged_moduli(&raw_model.material, &nodes, micromodulus.reference_modulus())?;
-    check_defects(&material, &nodes, horizon)?;
-    let model = ModelSpec::Bond(BondModel {
-        horizon,
-        micromodulus,
-        material,
-        node_moduli,
-        surface: crate::problem::Surface::default(),
-        zone: None,
-    });
-    cloud_problem(raw, nodes, model)
+    crate::memory::check_nodes(path, dim, cloud.positions.len(), ratio)?;
+    Ok((cloud.into_nodes(dim), h))
+}
+
+/// The refusal of a surface correction (`correction`) or target on a point cloud.
+pub(crate) fn no_surface_correction(correction: bool) -> ProblemError {
+    ProblemError::invalid(
+        if correction { "model.surface_correction" } else { "model.surface_target" },
+        "not available on point clouds yet: the correction matches each node's bond moments to a lattice \
+         interior, and a cloud has no lattice (use \"none\", or a grid)",
+    )
 }
 
 /// Every defect of a cloud scene must cut a bond of the cloud.
-fn check_defects(material: &linpd_core::Material, nodes: &LevelNodes, horizon: f64) -> Result<(), ProblemError> {
+pub(crate) fn check_defects(
+    material: &linpd_core::Material,
+    nodes: &LevelNodes,
+    horizon: f64,
+) -> Result<(), ProblemError> {
     if !material.defects.is_empty() {
         let family = BondFamily::from_points(&nodes.positions, nodes.dim, horizon);
         let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
         if let Some(k) = material.defect_cutting_nothing_in(&family, &nodes.positions, tol) {
-            return Err(ProblemError::invalid(
-                format!("model.material.defects[{k}]"),
-                "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
-            ));
+            return Err(crate::models::bond::defect_cuts_nothing(k));
         }
     }
     Ok(())
-}
-
-/// The problem of a cloud scene with its validated model: constraints, loads, solver and output
-/// as for a grid scene (no map slice, no dynamics).
-fn cloud_problem(raw: RawProblem, nodes: LevelNodes, model: ModelSpec) -> Result<Problem, ProblemError> {
-    let (constraints, loads) = constraints_and_loads(&raw, raw.dimension, &nodes)?;
-    let solver = solver_spec(&raw.solver)?;
-    Ok(Problem {
-        output_dir: crate::problem::output_dir(raw.output.dir.as_deref(), &raw.name)?,
-        plot: raw.output.plot.unwrap_or(true),
-        slice: None,
-        name: raw.name,
-        nodes: Nodes::Cloud(nodes),
-        model,
-        constraints,
-        loads,
-        solver,
-        dynamics: None,
-    })
-}
-
-/// An lps scene on a point cloud ([`linpd_lps::LpsModel::on_points`]): the LPS keys as on a
-/// grid (no phases, no bond rule), defects, no surface correction (checked by the caller).
-fn lps_on_cloud(raw: RawProblem, cloud: Cloud, horizon: f64, ratio: f64) -> Result<Problem, ProblemError> {
-    let dim = raw.dimension;
-    crate::memory::check_nodes(crate::memory::Path::LpsAssembled, dim, cloud.positions.len(), ratio)?;
-    let m = &raw.model;
-    let params = crate::problem::lps_params(
-        dim,
-        horizon,
-        m.partial_volume,
-        m.plane,
-        m.bulk_modulus,
-        m.shear_modulus,
-        m.influence,
-        &m.material,
-    )?;
-    let material = crate::problem::material(&m.material, dim)?;
-    let nodes = cloud.into_nodes(dim);
-    check_defects(&material, &nodes, horizon)?;
-    cloud_problem(raw, nodes, ModelSpec::Lps(params, material.defects, crate::problem::Surface::default()))
 }
 
 #[cfg(test)]

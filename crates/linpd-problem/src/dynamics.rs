@@ -14,7 +14,8 @@
 //!
 //! Errors name the JSON path: `dynamics.dt: must be > 0, got 0`.
 
-use crate::raw::{RawDynamics, RawInitial, RawInitialKind, RawModelKind};
+use crate::models::Capability;
+use crate::raw::{RawDynamics, RawInitial, RawInitialKind};
 use crate::{Problem, ProblemError};
 use linpd_core::progress::Progress;
 use linpd_core::Point;
@@ -208,20 +209,14 @@ fn check_run_size(
     .map_err(|e| ProblemError::invalid("dynamics.output_every", e.to_string()))
 }
 
-/// Validates `dynamics` (shape was checked by serde).
+/// Validates `dynamics` (shape was checked by serde; whether the model has explicit dynamics
+/// by its [`Capability::Dynamics`]).
 pub(crate) fn validate(
     raw: &RawDynamics,
     dim: usize,
     n_nodes: usize,
     horizon_ratio: f64,
-    kind: RawModelKind,
 ) -> Result<Dynamics, ProblemError> {
-    if kind != RawModelKind::Bond {
-        return Err(ProblemError::invalid(
-            "dynamics",
-            format!("only \"type\": \"bond\" models have explicit dynamics (model.type is {kind:?})").to_lowercase(),
-        ));
-    }
     let step = match (raw.dt, raw.dt_safety) {
         (Some(_), Some(_)) => {
             return Err(ProblemError::invalid("dynamics", "give exactly one of dt and dt_safety, got both"))
@@ -559,7 +554,7 @@ impl Problem {
     /// The velocity-Verlet stability limit of the scene (see the module docs).
     pub fn stability_limit(&self) -> Result<StabilityLimit, ProblemError> {
         let dynamics = self.dynamics_section()?;
-        let op = self.operator()?;
+        let op = self.model.dynamics_operator(self)?;
         self.limit_of(&op, dynamics, &linpd_core::NoProgress)
     }
 
@@ -583,17 +578,14 @@ impl Problem {
     ) -> Result<StabilityLimit, ProblemError> {
         let t0 = Instant::now();
         let rho = dynamics.density;
-        let bond = self
-            .model
-            .bond()
-            .ok_or_else(|| ProblemError::invalid("dynamics", "only bond models have explicit dynamics"))?;
+        let bond = self.bond_model()?;
         // the infinite chain's limit holds for the uncorrected bar only: a surface correction
         // stiffens the bonds at free ends (measured 27-45 % above the chain's omega_max^2)
         if self.dim() == 1
-            && bond.material.is_homogeneous()
-            && bond.surface.correction == linpd_lps::SurfaceCorrection::None
+            && bond.material().is_homogeneous()
+            && bond.surface().correction == linpd_lps::SurfaceCorrection::None
         {
-            let chain = Chain::new(self.lattice()?.spacing(), bond.horizon, &bond.micromodulus)
+            let chain = Chain::new(self.lattice()?.spacing(), bond.horizon(), bond.micromodulus())
                 .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
             let l = lattice_limit(&chain, rho);
             return Ok(StabilityLimit {
@@ -623,9 +615,7 @@ impl Problem {
     /// stable-time-step estimate (power iteration, 2D/3D) and of the time steps.
     pub fn run_dynamics(&self, progress: &dyn Progress) -> Result<DynamicsRun, ProblemError> {
         let dynamics = self.dynamics_section()?;
-        if self.model.bond().is_none() {
-            return Err(ProblemError::invalid("dynamics", "only bond models have explicit dynamics"));
-        }
+        self.model.require(Capability::Dynamics)?;
         let t0 = Instant::now();
         let d = self.dim();
         let grid = self.lattice()?;
@@ -634,7 +624,7 @@ impl Problem {
             "building bonds: {n_nodes} nodes, horizon/spacing = {:.3}",
             self.model.horizon().unwrap_or(f64::NAN) / grid.spacing()
         ));
-        let op = self.operator()?;
+        let op = self.model.dynamics_operator(self)?;
         progress.phase(&format!(
             "estimating the stable time step ({} free DOFs)",
             d * n_nodes - self.constrained().0.iter().filter(|m| **m).count()
@@ -701,7 +691,7 @@ impl Problem {
                 snapshots.push(s.u.to_vec());
                 ControlFlow::Continue(())
             })
-            .map_err(|e| ProblemError::Solve(format!("dynamics: {e}")))?;
+            .map_err(ProblemError::Dynamics)?;
         let wall_seconds = t1.elapsed().as_secs_f64();
         progress.phase(&format!("done: t = {:.6e} in {wall_seconds:.3} s", info.t));
         Ok(DynamicsRun {

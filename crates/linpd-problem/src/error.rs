@@ -62,8 +62,21 @@ pub enum ProblemError {
         source: linpd_coarsen::CoarsenError,
     },
     /// The explicit dynamics failed (diverged, ...).
-    #[error("solver: {0}")]
-    Solve(String),
+    #[error("solver: dynamics: {0}")]
+    Dynamics(linpd_dynamics::DynamicsError),
+    /// The scene asks its model for what the model does not offer (a command, a solver or a
+    /// section): which model, which capability and why ([`crate::models::Capability`]).
+    #[error("{path}: {capability} is not available for {model} models: {reason}")]
+    Unavailable {
+        /// The scene key that asks for it (`model.type` when a command does).
+        path: String,
+        /// The model, as [`crate::models::SceneModel::describe`] names it.
+        model: String,
+        /// What it lacks.
+        capability: crate::models::Capability,
+        /// Why, and what to do instead.
+        reason: String,
+    },
 }
 
 impl ProblemError {

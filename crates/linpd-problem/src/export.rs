@@ -12,9 +12,10 @@
 //! solve's assembled path calls: the same matrix (every stored entry, explicit zeros included:
 //! the pattern a factorization sees), the same checks and the same error messages. A scene
 //! whose solver is matrix-free CG gets `A_ff` assembled by [`linpd_core::Model::assemble_free`],
-//! the operator that CG applies without storing it. 1D blend and CE scenes export the operator
-//! of their own solve ([`linpd_blend::constraints_and_loads`]); dynamics scenes export their
-//! static problem (what `linpd solve` solves).
+//! the operator that CG applies without storing it. Every model builds the system as for its
+//! solve ([`crate::models::SceneModel::system`]; 1D blend and CE scenes: the operator of their
+//! own solve, [`linpd_blend::constraints_and_loads`]); dynamics scenes export their static
+//! problem (what `linpd solve` solves). A model without [`Capability::Export`] is refused.
 //!
 //! # Files ([`ReducedSystem::write`])
 //!
@@ -31,13 +32,12 @@
 //! `export.json` (written last by [`crate::OutputDir::commit`]) holds the sizes, the symmetry
 //! and the run's identity (the scene's hash, the files and their sizes).
 
-use crate::run::static_error;
-use crate::{ModelSpec, Problem, ProblemError};
+use crate::models::{Capability, Purpose};
+use crate::{Problem, ProblemError};
 use linpd_coarsen::io::{write_matrix_market, IoError};
 use linpd_core::progress::Progress;
 use linpd_core::sparse::{relative_asymmetry, Csc};
-use linpd_core::{DofMap, Model};
-use linpd_solve::Dirichlet;
+use linpd_core::DofMap;
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -68,68 +68,20 @@ impl Problem {
     /// The reduced system the static solve of this scene factors or iterates (see the module
     /// docs); the errors are those of [`Problem::solve`] before its solver runs.
     pub fn reduced_system(&self, progress: &dyn Progress) -> Result<ReducedSystem, ProblemError> {
-        let system = |model: &dyn Model, bc: &Dirichlet, f: &[f64]| {
-            let (k, f) = linpd_solve::reduced_system(model, bc, f, progress)?;
-            Ok::<_, linpd_solve::StaticError>(ReducedSystem {
-                name: self.name.clone(),
-                model: model.kind(),
-                dim: model.dim(),
-                n_nodes: model.n_nodes(),
-                k,
-                f,
-                free_dofs: bc.dofs().free_dofs(),
-            })
-        };
-        // One arm per model type, as in `Problem::solve`.
-        match &self.model {
-            // a point cloud: the operator on its points (checked for memory at validation)
-            ModelSpec::Bond(_) if self.nodes.cloud().is_some() => {
-                let model = self.operator()?;
-                system(&model, &self.dirichlet(), &self.load_vector()).map_err(static_error)
-            }
-            ModelSpec::Bond(b) if b.zone.is_some() => {
-                crate::memory::check_solver(crate::memory::Path::BondAssembled, self.lattice()?, b.horizon, false)?;
-                let model = self.lattice_blend()?;
-                system(&model, &self.dirichlet(), &self.load_vector()).map_err(static_error)
-            }
-            ModelSpec::Bond(b) => {
-                crate::memory::check_solver(crate::memory::Path::BondAssembled, self.lattice()?, b.horizon, false)?;
-                let model = self.lattice_model()?;
-                system(&model, &self.dirichlet(), &self.load_vector()).map_err(static_error)
-            }
-            ModelSpec::Lps(params, ..) => {
-                // a point cloud was checked against memory when the scene was validated
-                if let Some(grid) = self.grid() {
-                    crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, params.horizon, false)?;
-                }
-                let model = self.lps_model()?;
-                system(&model, &self.dirichlet(), &self.load_vector()).map_err(static_error)
-            }
-            ModelSpec::Coarsened(c) => system(c.model(), &self.dirichlet(), &self.load_vector()).map_err(static_error),
-            ModelSpec::Blend(b) => {
-                let (op, bc, f) = blend_system(b)?;
-                system(&op, &bc, &f).map_err(|e| blend_error(e.into()))
-            }
-        }
-    }
-}
-
-/// A blend scene's operator, prescribed displacements and nodal forces, as its solve builds
-/// them ([`linpd_blend::constraints_and_loads`]).
-pub(crate) fn blend_system(
-    b: &crate::BlendScene,
-) -> Result<(linpd_blend::BlendOperator, Dirichlet, Vec<f64>), ProblemError> {
-    let op = linpd_blend::BlendOperator::assemble(&b.params, b.kind).map_err(blend_error)?;
-    let (bc, f) = linpd_blend::constraints_and_loads(&op, &b.params, b.kind, b.u_left, b.u_right, &b.loads)
-        .map_err(blend_error)?;
-    Ok((op, bc, f))
-}
-
-/// A blend error as a scene error (a parameter's name is its JSON path).
-pub(crate) fn blend_error(e: linpd_blend::BlendError) -> ProblemError {
-    match e {
-        linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
-        other => ProblemError::Blend(other),
+        self.model.require(Capability::Export)?;
+        let s = self.model.system(self, Purpose::Assembled, progress)?;
+        let model = s.model();
+        let (k, f) =
+            linpd_solve::reduced_system(model, &s.bc, &s.f, progress).map_err(|e| self.model.static_error(e))?;
+        Ok(ReducedSystem {
+            name: self.name.clone(),
+            model: model.kind(),
+            dim: model.dim(),
+            n_nodes: model.n_nodes(),
+            k,
+            f,
+            free_dofs: s.bc.dofs().free_dofs(),
+        })
     }
 }
 

@@ -17,12 +17,11 @@
 //! the coarsest nodes stand for `v^M` of the body, so the total force is `density` times the
 //! loaded volume at every level, as a user loading a coarse model expects.
 
+use crate::models::Capability;
 use crate::{Load, Problem, ProblemError};
-use linpd_bond::{assemble, BondOperator};
 use linpd_coarsen::io::ModuliFile;
 use linpd_coarsen::{check_retained, coarsen_with_progress, retain_every, LevelModel, Options, Radius, StepReport};
 use linpd_core::progress::{Progress, Task};
-use linpd_core::DofMap;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -157,9 +156,11 @@ impl Pipeline {
         let scene_path = base.join(&raw.scene);
         let scene =
             Problem::from_path(&scene_path).map_err(|e| inv("scene", format!("{}: {e}", scene_path.display())))?;
-        if matches!(scene.model, crate::ModelSpec::Blend(_)) {
-            return Err(inv("scene", "coarsening supports bond and lps models, not blend/ce"));
-        }
+        // a model without level-0 stiffness is refused by name now, not after the first level
+        scene
+            .model()
+            .require(Capability::Coarsen)
+            .map_err(|e| inv("scene", format!("{}: {e}", scene_path.display())))?;
         let mut levels = Vec::new();
         for (i, l) in raw.levels.iter().enumerate() {
             let p = |k: &str| format!("levels[{i}].{k}");
@@ -231,19 +232,16 @@ impl Pipeline {
     }
 }
 
-/// The level-0 model of a scene: the assembled bond operator or LPS tangent.
+/// The level-0 model of a scene: the stiffness its model assembles over all DOFs
+/// ([`crate::models::SceneModel::level0_stiffness`]: the bond operator, the LPS tangent), on
+/// the scene's lattice. A model without [`Capability::Coarsen`] (the blended model of
+/// `pd_regions`, point clouds, 1D blends, levels) is refused by name.
 pub fn level0_model(p: &Problem) -> Result<LevelModel, ProblemError> {
-    let d = p.dim();
+    p.model().require(Capability::Coarsen)?;
+    let k = p.model().level0_stiffness(p)?;
     let grid = p.lattice()?;
     let n = grid.len();
-    let k = if let crate::ModelSpec::Lps(..) = &p.model {
-        let m = p.lps_model()?;
-        linpd_lps::assemble_tangent(&m)
-    } else {
-        let op: BondOperator = p.operator()?;
-        assemble(&op, &DofMap::all_free(n, d))
-    };
-    LevelModel::from_stiffness(d, grid.positions(), (0..n).map(|i| grid.node_volume(i)).collect(), &k)
+    LevelModel::from_stiffness(p.dim(), grid.positions(), (0..n).map(|i| grid.node_volume(i)).collect(), &k)
         .map_err(|e| inv("model", e.to_string()))
 }
 

@@ -1,15 +1,16 @@
 //! The validated scene: [`Problem::from_json`] turns text into typed, checked objects.
 
+use crate::models::registry::Context;
+use crate::models::{Capability, Registry, SceneModel};
 use crate::raw::*;
 use crate::ProblemError;
-use linpd_core::surface::SurfaceTarget;
 use linpd_core::{
     BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point,
     Region,
 };
-use linpd_lps::SurfaceCorrection;
 use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
 use std::path::Path;
+use std::sync::Arc;
 
 /// An affine displacement `u = value + gradient x` on some components of a node set.
 #[derive(Debug, Clone, PartialEq)]
@@ -78,129 +79,6 @@ pub enum Load {
     },
 }
 
-/// The bond-based model.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BondModel {
-    /// Horizon.
-    pub(crate) horizon: f64,
-    /// Micromodulus.
-    pub(crate) micromodulus: Micromodulus,
-    /// Material.
-    pub(crate) material: Material,
-    /// Per-node moduli of a point cloud whose phases name phase numbers (overrides the
-    /// material's region phases; `None` otherwise).
-    pub(crate) node_moduli: Option<Vec<f64>>,
-    /// `model.surface_correction` (`None` or `Energy`, [`linpd_bond::surface`]) and its target.
-    pub(crate) surface: Surface,
-    /// `model.pd_regions` with its transition: the 2D/3D blended model.
-    pub(crate) zone: Option<PdZone>,
-}
-
-/// `model.surface_correction` and `model.surface_target` ([`linpd_core::surface`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Surface {
-    /// Which correction.
-    pub correction: SurfaceCorrection,
-    /// What its moments are matched to (ignored without a correction).
-    pub target: SurfaceTarget,
-}
-
-/// `model.pd_regions`, `transition`, `transition_profile`: where the blended model is PD.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PdZone {
-    /// The PD regions (`beta = 1` on the nodes inside any of them).
-    pub regions: PdRegions,
-    /// The transition's width.
-    pub transition: f64,
-    /// How `beta` falls across it.
-    pub profile: linpd_blend::Profile,
-}
-
-/// The PD regions of a blended scene.
-#[derive(Debug, Clone, PartialEq)]
-pub enum PdRegions {
-    /// Given regions.
-    Given(Vec<Region>),
-    /// Every node within `radius` (a length) of a feature of the scene ([`crate::zones`]).
-    Auto {
-        /// The radius, `auto_radius` horizons.
-        radius: f64,
-    },
-}
-
-/// Default `model.auto_radius`, in horizons, from `linpd study blend-2d` (docs/studies/blend-2d,
-/// transition 1 horizon, linear): at radius 2 the error against pure PD is <= 6.4e-4 of max |u|
-/// on the edge-cracked plate (41,607 and 92,407 nodes) and <= 4.5e-4 on the plate with a hole
-/// (19,650 and 43,536 nodes) at 0.39x-0.46x the entries; radius 1 leaves 1.5e-3 on the hole,
-/// radius 0.5 2.6e-2 (the roller support's edge), radius 3 gains < 10 % for +7 % entries.
-pub const AUTO_RADIUS: f64 = 2.0;
-/// Default `model.transition` with `"pd_regions": "auto"`, in horizons (docs/models.md: on the
-/// centre-cracked plate 2 horizons gave 5.2e-4 against 5.9e-4 for 1, at 0.436x against 0.405x
-/// the entries).
-pub const AUTO_TRANSITION: f64 = 1.0;
-
-impl BondModel {
-    /// Horizon.
-    pub fn horizon(&self) -> f64 {
-        self.horizon
-    }
-    /// Micromodulus.
-    pub fn micromodulus(&self) -> &Micromodulus {
-        &self.micromodulus
-    }
-    /// Material.
-    pub fn material(&self) -> &Material {
-        &self.material
-    }
-}
-
-/// The validated model of a lattice scene: one variant per `model.type`, each holding only
-/// what that model reads (its keys are [`RawModelKind::keys`]).
-#[derive(Debug, Clone)]
-#[allow(clippy::large_enum_variant)]
-pub enum ModelSpec {
-    /// `"type": "bond"`: bond-based linear PD ([`linpd_bond::LatticeBondModel`]).
-    Bond(BondModel),
-    /// `"type": "lps"`: the linearized LPS solid ([`linpd_lps::LpsModel`]), the defects
-    /// (pre-cracks) of its material and its surface correction.
-    Lps(linpd_lps::LpsParams, Vec<Defect>, Surface),
-    /// `"type": "blend"` and `"type": "ce"`: the 1D blended PD/CE model; `constraints` and
-    /// `loads` have been translated into it.
-    Blend(BlendScene),
-    /// `"type": "coarsened"`: a level written by `linpd coarsen`, read from its moduli file
-    /// ([`crate::coarsened`]); its nodes are [`Nodes::Level`].
-    Coarsened(crate::coarsened::CoarsenedModel),
-}
-
-impl ModelSpec {
-    /// The horizon `delta` (a coarsened level has none: its reach varies per node).
-    pub fn horizon(&self) -> Option<f64> {
-        match self {
-            ModelSpec::Bond(b) => Some(b.horizon),
-            ModelSpec::Lps(l, ..) => Some(l.horizon),
-            ModelSpec::Blend(b) => Some(b.params.horizon),
-            ModelSpec::Coarsened(_) => None,
-        }
-    }
-    /// The bond model, if this is one.
-    pub fn bond(&self) -> Option<&BondModel> {
-        match self {
-            ModelSpec::Bond(b) => Some(b),
-            _ => None,
-        }
-    }
-    /// The scene-file name of the model type.
-    pub fn name(&self) -> &'static str {
-        match self {
-            ModelSpec::Bond(_) => "bond",
-            ModelSpec::Lps(..) => "lps",
-            ModelSpec::Blend(b) if b.kind == linpd_blend::ModelKind::PureCe => "ce",
-            ModelSpec::Blend(_) => "blend",
-            ModelSpec::Coarsened(_) => "coarsened",
-        }
-    }
-}
-
 /// A validated scene. Its fields are private: every value in it has passed validation, and
 /// only the solver may be changed afterwards ([`Problem::set_solver`]).
 #[derive(Debug, Clone)]
@@ -209,8 +87,8 @@ pub struct Problem {
     pub(crate) name: String,
     /// The nodes: a lattice, or a coarsened level's nodes.
     pub(crate) nodes: Nodes,
-    /// The model (one variant per model type).
-    pub(crate) model: ModelSpec,
+    /// The model ([`crate::models`]).
+    pub(crate) model: Arc<dyn SceneModel>,
     /// Volume constraints.
     pub(crate) constraints: Vec<Constraint>,
     /// Loads.
@@ -227,68 +105,7 @@ pub struct Problem {
     pub(crate) dynamics: Option<crate::dynamics::Dynamics>,
 }
 
-/// A 1D blended (or pure CE) problem: Seleson, Beneddine & Prudhomme (2013).
-#[derive(Debug, Clone)]
-pub struct BlendScene {
-    /// Operator parameters.
-    pub(crate) params: linpd_blend::BlendParams,
-    /// Blended or pure CE.
-    pub(crate) kind: linpd_blend::ModelKind,
-    /// `u(0)`.
-    pub(crate) u_left: f64,
-    /// `u(L)`.
-    pub(crate) u_right: f64,
-    /// Loads.
-    pub(crate) loads: Vec<linpd_blend::Load>,
-    /// The scene load (`loads[k]`) each entry of `loads` comes from (a union of boxes gives
-    /// one body load per merged interval).
-    pub(crate) load_of: Vec<usize>,
-    /// Per scene load, its kind for the balance (`point`, `body`).
-    pub(crate) load_kinds: Vec<&'static str>,
-    /// Per constraint, whether it holds `x = 0` and `x = L`.
-    pub(crate) constraint_ends: Vec<[bool; 2]>,
-    /// Solver.
-    pub(crate) solver: linpd_blend::BlendSolver,
-}
-
-impl BlendScene {
-    /// Operator parameters.
-    pub fn params(&self) -> &linpd_blend::BlendParams {
-        &self.params
-    }
-    /// Blended or pure CE.
-    pub fn kind(&self) -> linpd_blend::ModelKind {
-        self.kind
-    }
-    /// `u(0)`.
-    pub fn u_left(&self) -> f64 {
-        self.u_left
-    }
-    /// `u(L)`.
-    pub fn u_right(&self) -> f64 {
-        self.u_right
-    }
-    /// Loads.
-    pub fn loads(&self) -> &[linpd_blend::Load] {
-        &self.loads
-    }
-    /// Solver.
-    pub fn solver(&self) -> linpd_blend::BlendSolver {
-        self.solver
-    }
-}
-
-/// The allocation path of a lattice scene for the memory guard ([`crate::memory`]).
-fn memory_path(kind: RawModelKind, matrix_free: bool, dynamics: bool) -> crate::memory::Path {
-    use crate::memory::Path;
-    match kind {
-        RawModelKind::Lps => Path::LpsAssembled,
-        _ if matrix_free || dynamics => Path::BondMatrixFree,
-        _ => Path::BondAssembled,
-    }
-}
-
-fn core(path: &str, e: CoreError) -> ProblemError {
+pub(crate) fn core(path: &str, e: CoreError) -> ProblemError {
     match e {
         CoreError::Parameter { name, reason } => ProblemError::invalid(format!("{path}.{name}"), reason),
         other => ProblemError::invalid(path, other.to_string()),
@@ -355,11 +172,6 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
     Ok(out)
 }
 
-/// The one check of which model type takes which key ([`RawModelKind::keys`]).
-pub(crate) fn check_model_keys(model: &RawModel) -> Result<(), ProblemError> {
-    model.check_keys().map_err(|(key, reason)| ProblemError::invalid(format!("model.{key}"), reason))
-}
-
 /// Parses scene text into the serde mirror; syntax and shape errors carry line, column and path.
 /// Largest scene or pipeline file read: 16 MiB. A scene is a few hundred bytes of keys (node
 /// data lives in the files it names), so anything larger is a wrong file, and the limit keeps
@@ -403,28 +215,51 @@ pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, ProblemError> {
             "this is a coarsening pipeline (it has \"scene\" and \"levels\"), not a scene: run it with `linpd coarsen FILE`",
         ));
     }
-    parse_json(text)
+    let mut raw: RawProblem = parse_json(text)?;
+    raw.model.locate(text);
+    Ok(raw)
 }
 
 /// Parses one JSON document (scene or pipeline) into `T`; syntax and shape errors carry line,
 /// column and path, and text after the document is an error (not silently ignored).
 pub(crate) fn parse_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, ProblemError> {
+    parse_json_at(text, "", (1, 1))
+}
+
+/// [`parse_json`] of a section of a document: `text` starts at line and column `at` of the
+/// document, under the JSON path `prefix` (`model`), and errors say so.
+pub(crate) fn parse_json_at<T: serde::de::DeserializeOwned>(
+    text: &str,
+    prefix: &str,
+    at: (usize, usize),
+) -> Result<T, ProblemError> {
+    // a position in `text` as a position in the document
+    let place = |line: usize, column: usize| (at.0 + line - 1, if line == 1 { at.1 + column - 1 } else { column });
+    let under = |path: String| match (prefix, path.as_str()) {
+        ("", _) => path,
+        (p, ".") => p.to_string(),
+        (p, _) => format!("{p}.{path}"),
+    };
     let de = &mut serde_json::Deserializer::from_str(text);
     let value = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
         let path = e.path().to_string();
         let inner = e.into_inner();
+        let (line, column) = place(inner.line(), inner.column());
         ProblemError::Parse {
-            path: known_path(&path),
+            path: under(known_path(&path)),
             message: strip_position(&inner.to_string()),
-            line: inner.line(),
-            column: inner.column(),
+            line,
+            column,
         }
     })?;
-    de.end().map_err(|e| ProblemError::Parse {
-        path: ".".into(),
-        message: "trailing text after the JSON document".into(),
-        line: e.line(),
-        column: e.column(),
+    de.end().map_err(|e| {
+        let (line, column) = place(e.line(), e.column());
+        ProblemError::Parse {
+            path: under(".".into()),
+            message: "trailing text after the JSON document".into(),
+            line,
+            column,
+        }
     })?;
     Ok(value)
 }
@@ -447,6 +282,70 @@ pub(crate) fn output_dir(dir: Option<&str>, name: &str) -> Result<String, Proble
         )),
         None => Ok(format!("out/{name}")),
     }
+}
+
+/// The lattice of a scene with a `grid` (and optionally a `body`), checked against the
+/// horizon and the memory of `path` before anything per node is allocated.
+pub(crate) fn lattice(cx: &Context, horizon: f64, path: crate::memory::Path) -> Result<Grid, ProblemError> {
+    let (raw, dim) = (cx.raw, cx.dim());
+    let Some(raw_grid) = &raw.grid else {
+        return Err(ProblemError::invalid("grid", format!("required for model type {}", raw.model.kind())));
+    };
+    check_len("grid.min", &raw_grid.min, dim)?;
+    check_len("grid.max", &raw_grid.max, dim)?;
+    let placement = match raw_grid.placement {
+        RawPlacement::Vertex => Placement::Vertex,
+        RawPlacement::Cell => Placement::Cell,
+    };
+    let layers = raw_grid.layers(dim).map_err(|(path, reason)| ProblemError::invalid(path, reason))?;
+    let grid = Grid::with_layers(&raw_grid.min, &raw_grid.max, raw_grid.spacing, layers, placement)
+        .map_err(|e| core("grid", e))?;
+    // the body is applied after the memory check below: its site tables cost 5 bytes per
+    // lattice site, and the check on the full box is an upper bound for the body
+    let body = raw.body.as_ref().map(|b| region("body", b, dim)).transpose()?;
+    check_horizon(horizon, grid.spacing(), dim)?;
+    // Refuse scenes that cannot fit before anything per node is allocated (the regions below
+    // already walk every node).
+    crate::memory::check(path, &grid, horizon)?;
+    let cut = raw.boundary_volumes == Some(crate::raw::RawBoundaryVolumes::Cut);
+    Ok(match &body {
+        None if cut => {
+            return Err(ProblemError::invalid("boundary_volumes", "\"cut\" needs a \"body\" whose boundary cuts cells"))
+        }
+        None => grid,
+        Some(body) => {
+            let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
+            let inside = |x: &Point| body.contains(x, dim, tol);
+            let kept = grid.with_body(inside).map_err(|e| core("body", e))?;
+            if cut {
+                kept.with_cut_volumes(inside)
+            } else {
+                kept
+            }
+        }
+    })
+}
+
+/// A horizon of at least one lattice spacing (`sqrt 2` in 2D and 3D: shorter bonds only along
+/// the axes leave zero-energy shear modes).
+fn check_horizon(horizon: f64, spacing: f64, dim: usize) -> Result<(), ProblemError> {
+    if !(horizon.is_finite() && horizon > 0.0) {
+        return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));
+    }
+    let ratio = horizon / spacing;
+    if ratio < 1.0 - linpd_core::GEOMETRY_RTOL {
+        return Err(ProblemError::invalid(
+            "model.horizon",
+            format!("horizon/spacing = {ratio:e} gives no bonds (the horizon must be at least one spacing)"),
+        ));
+    }
+    if dim > 1 && ratio < std::f64::consts::SQRT_2 * (1.0 - linpd_core::GEOMETRY_RTOL) {
+        return Err(ProblemError::invalid(
+            "model.horizon",
+            format!("horizon/spacing = {ratio:e} bonds only along the axes, which leaves zero-energy shear modes; use horizon >= sqrt(2) * spacing"),
+        ));
+    }
+    Ok(())
 }
 
 impl Problem {
@@ -475,6 +374,20 @@ impl Problem {
     /// Validates the serde mirror; relative file names in it (a coarsened model's `moduli`)
     /// start at `base_dir`, the scene file's directory.
     pub fn from_raw_in(raw: RawProblem, base_dir: &Path) -> Result<Self, ProblemError> {
+        Self::from_raw_with(raw, base_dir, &Registry::default())
+    }
+
+    /// Parses and validates scene text with the model types of `registry` (linpd's and, e.g.,
+    /// a test's own); relative file names start at `base_dir`.
+    pub fn from_json_with(text: &str, base_dir: &Path, registry: &Registry) -> Result<Self, ProblemError> {
+        Self::from_raw_with(parse_raw(text)?, base_dir, registry)
+    }
+
+    /// [`Problem::from_raw_in`] with the model types of `registry`: the sections every scene
+    /// has (name, dimension, solver, output, dynamics) here, the nodes, model, constraints and
+    /// loads by the model type ([`crate::models::ModelType::validate`]); a scene that asks a
+    /// model for what it lacks (`solver.matrix_free`, `dynamics`) is refused by name.
+    pub fn from_raw_with(raw: RawProblem, base_dir: &Path, registry: &Registry) -> Result<Self, ProblemError> {
         let dim = raw.dimension;
         if !(1..=3).contains(&dim) {
             return Err(ProblemError::invalid("dimension", format!("must be 1, 2 or 3, got {dim}")));
@@ -482,188 +395,37 @@ impl Problem {
         if raw.name.trim().is_empty() {
             return Err(ProblemError::invalid("name", "must not be empty"));
         }
-        let model_kind = raw.model.kind;
-        check_model_keys(&raw.model)?;
-        if model_kind == RawModelKind::Coarsened {
-            return crate::coarsened::from_raw(raw, base_dir);
+        let model_type = registry.resolve(&raw.model)?;
+        let v = model_type.validate(&Context { raw: &raw, base_dir })?;
+        let mut model = v.model;
+        if raw.solver.matrix_free {
+            model.require(Capability::MatrixFree)?;
         }
-        if raw.nodes.is_some() {
-            return crate::cloud::from_raw(raw, base_dir);
+        if raw.dynamics.is_some() {
+            model.require(Capability::Dynamics)?;
         }
-        let Some(raw_grid) = &raw.grid else {
-            return Err(ProblemError::invalid("grid", format!("required for model type {}", model_kind.name())));
-        };
-        if raw.body.is_some() && matches!(model_kind, RawModelKind::Blend | RawModelKind::Ce) {
-            return Err(ProblemError::invalid(
-                "body",
-                format!("{} models live on the whole interval (0, L) of the grid: no body", model_kind.name()),
-            ));
-        }
-        check_len("grid.min", &raw_grid.min, dim)?;
-        check_len("grid.max", &raw_grid.max, dim)?;
-        let placement = match raw_grid.placement {
-            RawPlacement::Vertex => Placement::Vertex,
-            RawPlacement::Cell => Placement::Cell,
-        };
-        let layers = raw_grid.layers(dim).map_err(|(path, reason)| ProblemError::invalid(path, reason))?;
-        let grid = Grid::with_layers(&raw_grid.min, &raw_grid.max, raw_grid.spacing, layers, placement)
-            .map_err(|e| core("grid", e))?;
-        // the body is applied after the memory check below: its site tables cost 5 bytes per
-        // lattice site, and the check on the full box is an upper bound for the body
-        let body = raw.body.as_ref().map(|b| region("body", b, dim)).transpose()?;
-        // Optional in the mirror only because coarsened models have none; the wording matches
-        // serde's so that the message reads the same as before.
-        let Some(horizon) = raw.model.horizon else {
-            return Err(ProblemError::invalid(
-                "model",
-                format!("missing field `horizon` (model.horizon is required for {} models)", model_kind.name()),
-            ));
-        };
-        let RawModel {
-            kind: _,
-            horizon: _,
-            moduli: _,
-            partial_volume,
-            plane,
-            micromodulus: mm,
-            bulk_modulus,
-            shear_modulus,
-            influence,
-            material,
-            surface_correction,
-            surface_target,
-            pd_regions,
-            auto_radius,
-            transition,
-            transition_profile,
-            transition_value,
-            // The blend keys are read by `crate::blend::scene`.
-            ..
-        } = raw.model.clone();
-        if matches!(model_kind, RawModelKind::Blend | RawModelKind::Ce) && dim != 1 {
-            let name = if model_kind == RawModelKind::Ce { "ce" } else { "blend" };
-            return Err(ProblemError::invalid(
-                "dimension",
-                format!(
-                    "{name} models are 1D, got dimension {dim}; in 2D and 3D a bond model blends PD with local \
-                     elasticity through \"pd_regions\" and \"transition\""
-                ),
-            ));
-        }
-        if !(horizon.is_finite() && horizon > 0.0) {
-            return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));
-        }
-        let ratio = horizon / grid.spacing();
-        if ratio < 1.0 - linpd_core::GEOMETRY_RTOL {
-            return Err(ProblemError::invalid(
-                "model.horizon",
-                format!("horizon/spacing = {ratio:e} gives no bonds (the horizon must be at least one spacing)"),
-            ));
-        }
-        if dim > 1 && ratio < std::f64::consts::SQRT_2 * (1.0 - linpd_core::GEOMETRY_RTOL) {
-            return Err(ProblemError::invalid(
-                "model.horizon",
-                format!("horizon/spacing = {ratio:e} bonds only along the axes, which leaves zero-energy shear modes; use horizon >= sqrt(2) * spacing"),
-            ));
-        }
-        // Refuse scenes that cannot fit before anything per node is allocated (the regions
-        // below already walk every node).
-        crate::memory::check(memory_path(model_kind, raw.solver.matrix_free, raw.dynamics.is_some()), &grid, horizon)?;
-        let cut = raw.boundary_volumes == Some(crate::raw::RawBoundaryVolumes::Cut);
-        let grid = match &body {
-            None if cut => {
-                return Err(ProblemError::invalid(
-                    "boundary_volumes",
-                    "\"cut\" needs a \"body\" whose boundary cuts cells",
-                ))
-            }
-            None => grid,
-            Some(body) => {
-                let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
-                let inside = |x: &Point| body.contains(x, dim, tol);
-                let kept = grid.with_body(inside).map_err(|e| core("body", e))?;
-                if cut {
-                    kept.with_cut_volumes(inside)
-                } else {
-                    kept
-                }
-            }
-        };
-        let (constraints, loads) = constraints_and_loads(&raw, dim, &grid)?;
+        let (constraints, loads) = constraints_and_loads(&raw, dim, &v.nodes)?;
+        model.bind(&raw, &v.nodes, &constraints, &loads)?;
+        let model: Arc<dyn SceneModel> = Arc::from(model);
         let solver = solver_spec(&raw.solver)?;
-        let model = if model_kind == RawModelKind::Lps {
-            if raw.solver.matrix_free {
-                return Err(ProblemError::invalid(
-                    "solver.matrix_free",
-                    "not available for lps models yet (the Jacobi diagonal needs the assembled tangent)",
-                ));
-            }
-            let params =
-                lps_params(dim, horizon, partial_volume, plane, bulk_modulus, shear_modulus, influence, &material)?;
-            let material = self::material(&material, dim)?;
-            if let Some(k) = material.defect_cutting_nothing(&grid, horizon) {
-                return Err(ProblemError::invalid(
-                    format!("model.material.defects[{k}]"),
-                    "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
-                ));
-            }
-            ModelSpec::Lps(params, material.defects, surface_of(model_kind, surface_correction, surface_target)?)
-        } else {
-            // Bond, blend and ce models: a micromodulus.
-            let micromodulus = bond_micromodulus(dim, horizon, mm.as_ref(), plane, partial_volume)?;
-            let material = self::material(&material, dim)?;
-            if let Some(k) = material.defect_cutting_nothing(&grid, horizon) {
-                return Err(ProblemError::invalid(
-                    format!("model.material.defects[{k}]"),
-                    "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
-                ));
-            }
-            match model_kind {
-                RawModelKind::Blend | RawModelKind::Ce => ModelSpec::Blend(crate::blend::scene(
-                    model_kind,
-                    &raw,
-                    &grid,
-                    horizon,
-                    material,
-                    &constraints,
-                    &loads,
-                )?),
-                _ => {
-                    // The amplitude now, not at the first solve: a modulus that overflows it
-                    // (1e308) is a validation error naming the overflow.
-                    micromodulus.amplitude(dim, horizon, grid.spacing()).map_err(|e| core("model", e))?;
-                    let surface = surface_of(model_kind, surface_correction, surface_target)?;
-                    let zone = pd_zone(
-                        &grid,
-                        horizon,
-                        pd_regions.as_ref(),
-                        auto_radius,
-                        transition,
-                        transition_profile,
-                        transition_value,
-                        surface,
-                    )?;
-                    if zone.is_some() && raw.dynamics.is_some() {
-                        return Err(ProblemError::invalid(
-                            "model.pd_regions",
-                            "the blended model is static: remove pd_regions for dynamics",
-                        ));
-                    }
-                    ModelSpec::Bond(BondModel { horizon, micromodulus, material, node_moduli: None, surface, zone })
-                }
-            }
-        };
         let dynamics = match &raw.dynamics {
             None => None,
-            Some(d) => Some(crate::dynamics::validate(d, dim, grid.len(), ratio, model_kind)?),
+            Some(d) => {
+                let ratio = model.horizon().unwrap_or(f64::NAN) / v.nodes.spacing();
+                Some(crate::dynamics::validate(d, dim, v.nodes.len(), ratio)?)
+            }
+        };
+        let slice = match &v.nodes {
+            Nodes::Lattice(grid) => output_slice(&raw, grid)?,
+            _ => None,
         };
         Ok(Problem {
             dynamics,
             output_dir: output_dir(raw.output.dir.as_deref(), &raw.name)?,
             plot: raw.output.plot.unwrap_or(true),
-            slice: output_slice(&raw, &grid)?,
+            slice,
             name: raw.name,
-            nodes: Nodes::Lattice(grid),
+            nodes: v.nodes,
             model,
             constraints,
             loads,
@@ -690,12 +452,12 @@ impl Problem {
     /// The lattice, or an error for models without one.
     pub(crate) fn lattice(&self) -> Result<&Grid, ProblemError> {
         self.nodes.lattice().ok_or_else(|| {
-            ProblemError::invalid("model.type", format!("{} models have no lattice here", self.model.name()))
+            ProblemError::invalid("model.type", format!("{} models have no lattice here", self.model.describe()))
         })
     }
     /// The model.
-    pub fn model(&self) -> &ModelSpec {
-        &self.model
+    pub fn model(&self) -> &dyn SceneModel {
+        self.model.as_ref()
     }
     /// Volume constraints.
     pub fn constraints(&self) -> &[Constraint] {
@@ -879,6 +641,9 @@ impl NodeSet for Nodes {
             Nodes::Lattice(g) => g.select(r),
             Nodes::Level(l) | Nodes::Cloud(l) => l.select(r),
         }
+    }
+    fn body_box(&self) -> Option<(Vec<f64>, Vec<f64>)> {
+        self.lattice().and_then(NodeSet::body_box)
     }
 }
 
@@ -1287,222 +1052,6 @@ pub(crate) fn bond_micromodulus(
     let micromodulus = micromodulus(mm, horizon, plane, partial_volume)?;
     micromodulus.validate(dim).map_err(|e| core("model.micromodulus", e))?;
     Ok(micromodulus)
-}
-
-/// `model.pd_regions` and its transition keys on a bond model of a 2D/3D lattice.
-#[allow(clippy::too_many_arguments)]
-fn pd_zone(
-    grid: &Grid,
-    horizon: f64,
-    regions: Option<&RawPdRegions>,
-    auto_radius: Option<f64>,
-    transition: Option<f64>,
-    profile: Option<crate::raw::RawBlending>,
-    value: Option<f64>,
-    surface: Surface,
-) -> Result<Option<PdZone>, ProblemError> {
-    use crate::raw::RawBlending as B;
-    let Some(raw_regions) = regions else {
-        for (key, given) in [
-            ("auto_radius", auto_radius.is_some()),
-            ("transition", transition.is_some()),
-            ("transition_profile", profile.is_some()),
-            ("transition_value", value.is_some()),
-        ] {
-            if given {
-                return Err(ProblemError::invalid(format!("model.{key}"), "belongs to pd_regions, which is missing"));
-            }
-        }
-        return Ok(None);
-    };
-    let dim = grid.dim();
-    if dim == 1 {
-        return Err(ProblemError::invalid(
-            "model.pd_regions",
-            "2D and 3D only: a 1D blend is `\"type\": \"blend\"` (Algorithm A with L1..L4)",
-        ));
-    }
-    if surface.correction != SurfaceCorrection::None {
-        return Err(ProblemError::invalid(
-            "model.pd_regions",
-            "not with a surface correction yet (the local model's moduli come from the uncorrected bonds)",
-        ));
-    }
-    let auto = matches!(raw_regions, RawPdRegions::Auto);
-    if auto_radius.is_some() && !auto {
-        return Err(ProblemError::invalid("model.auto_radius", "only with \"pd_regions\": \"auto\""));
-    }
-    let h = grid.spacing();
-    let width = match transition {
-        Some(w) => w,
-        None if auto => AUTO_TRANSITION * horizon,
-        None => {
-            return Err(ProblemError::invalid(
-                "model",
-                "missing field `transition` (the width of the PD-to-local transition)",
-            ))
-        }
-    };
-    if !(width.is_finite() && width >= h * (1.0 - linpd_core::GEOMETRY_RTOL)) {
-        return Err(ProblemError::invalid(
-            "model.transition",
-            format!("{width:e} is narrower than the grid spacing {h:e}: a transition needs at least one node"),
-        ));
-    }
-    let regions = match raw_regions {
-        RawPdRegions::Auto => {
-            let k = auto_radius.unwrap_or(AUTO_RADIUS);
-            if !(k.is_finite() && k >= 0.0) {
-                return Err(ProblemError::invalid("model.auto_radius", format!("must be >= 0 horizons, got {k:e}")));
-            }
-            PdRegions::Auto { radius: k * horizon }
-        }
-        RawPdRegions::Regions(raw_regions) => {
-            if raw_regions.is_empty() {
-                return Err(ProblemError::invalid("model.pd_regions", "empty: give at least one region, or \"auto\""));
-            }
-            let mut out = Vec::with_capacity(raw_regions.len());
-            for (k, r) in raw_regions.iter().enumerate() {
-                let path = format!("model.pd_regions[{k}]");
-                let region = region(&path, r, dim)?;
-                let tol = linpd_core::GEOMETRY_RTOL * h;
-                if !(0..grid.len()).any(|i| !grid.is_layer(i) && region.contains(&grid.position(i), dim, tol)) {
-                    return Err(ProblemError::invalid(path, "holds no node of the body (outside it, or in a hole)"));
-                }
-                out.push(region);
-            }
-            PdRegions::Given(out)
-        }
-    };
-    let profile = match (profile, value) {
-        (None | Some(B::Linear), None) => linpd_blend::Profile::Linear,
-        (Some(B::Cubic), None) => linpd_blend::Profile::Cubic,
-        (Some(B::Constant), v) => {
-            let v = v.unwrap_or(0.5);
-            if !(v > 0.0 && v < 1.0) {
-                return Err(ProblemError::invalid("model.transition_value", format!("{v:e} is not in (0, 1)")));
-            }
-            linpd_blend::Profile::Constant(v)
-        }
-        (Some(B::Piecewise), _) => {
-            return Err(ProblemError::invalid(
-                "model.transition_profile",
-                "piecewise is a 1D blend profile: use linear, cubic or constant",
-            ))
-        }
-        (_, Some(_)) => {
-            return Err(ProblemError::invalid(
-                "model.transition_value",
-                "only with \"transition_profile\": \"constant\"",
-            ))
-        }
-    };
-    Ok(Some(PdZone { regions, transition: width, profile }))
-}
-
-/// `model.surface_correction` and `model.surface_target` of a lattice scene: `position_aware`
-/// is LPS only (a bond-based force is pairwise, so a bond must have one stiffness seen from both
-/// ends); a target needs a correction.
-fn surface_of(
-    kind: RawModelKind,
-    raw: Option<crate::raw::RawSurfaceCorrection>,
-    target: Option<crate::raw::RawSurfaceTarget>,
-) -> Result<Surface, ProblemError> {
-    use crate::raw::RawSurfaceTarget as T;
-    let correction = surface_correction_of(kind, raw)?;
-    // any target given (the default included) needs a correction, as on point clouds
-    if target.is_some() && correction == SurfaceCorrection::None {
-        return Err(ProblemError::invalid(
-            "model.surface_target",
-            "says what a surface correction matches; set model.surface_correction to \"energy\" or \"position_aware\"",
-        ));
-    }
-    let target = match target {
-        None | Some(T::Classical) => SurfaceTarget::Classical,
-        Some(T::Lattice) => SurfaceTarget::Lattice,
-    };
-    Ok(Surface { correction, target })
-}
-
-/// `model.surface_correction` of a lattice scene.
-fn surface_correction_of(
-    kind: RawModelKind,
-    raw: Option<crate::raw::RawSurfaceCorrection>,
-) -> Result<SurfaceCorrection, ProblemError> {
-    use crate::raw::RawSurfaceCorrection as R;
-    Ok(match raw {
-        None | Some(R::None) => SurfaceCorrection::None,
-        Some(R::Energy) => SurfaceCorrection::Energy,
-        Some(R::PositionAware) if kind == RawModelKind::Lps => SurfaceCorrection::PositionAware,
-        Some(R::PositionAware) => {
-            return Err(ProblemError::invalid(
-                "model.surface_correction",
-                "\"position_aware\" gives each node its own influence function, an LPS (state-based) correction; \
-                 bond models take \"none\" or \"energy\"",
-            ))
-        }
-    })
-}
-
-/// Validates the lps keys (the model itself checks `m > 0` when it is built).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn lps_params(
-    dim: usize,
-    horizon: f64,
-    partial_volume: bool,
-    plane: Option<RawPlane>,
-    bulk: Option<f64>,
-    shear: Option<f64>,
-    influence: Option<RawInfluence>,
-    material: &RawMaterial,
-) -> Result<linpd_lps::LpsParams, ProblemError> {
-    if dim == 1 {
-        return Err(ProblemError::invalid("dimension", "lps models are 2D or 3D"));
-    }
-    if !material.phases.is_empty() || material.bond_rule.is_some() {
-        return Err(ProblemError::invalid(
-            "model.material",
-            "lps models take defects (pre-cracks) but no phases or bond_rule yet: one K and G per scene",
-        ));
-    }
-    let k = bulk.ok_or_else(|| ProblemError::invalid("model.bulk_modulus", "missing"))?;
-    let g = shear.ok_or_else(|| ProblemError::invalid("model.shear_modulus", "missing"))?;
-    if !(k.is_finite() && k > 0.0) {
-        return Err(ProblemError::invalid("model.bulk_modulus", format!("must be > 0, got {k:e}")));
-    }
-    if !(g.is_finite() && g > 0.0) {
-        return Err(ProblemError::invalid("model.shear_modulus", format!("must be > 0, got {g:e}")));
-    }
-    let plane = match (dim, plane) {
-        (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
-        (2, Some(RawPlane::Strain)) => Some(PlaneModel::Strain),
-        (2, None) => {
-            return Err(ProblemError::invalid("model.plane", "2D lps scenes need \"plane\": \"stress\" or \"strain\""))
-        }
-        (_, Some(_)) => return Err(ProblemError::invalid("model.plane", "only meaningful in 2D")),
-        (_, None) => None,
-    };
-    let influence = match influence {
-        None | Some(RawInfluence::InverseDistance) => linpd_lps::Influence::InverseDistance,
-        Some(RawInfluence::Constant) => linpd_lps::Influence::Constant,
-    };
-    let params = linpd_lps::LpsParams { K: k, G: g, horizon, influence, partial_volume, plane };
-    // Overflow first: `G = 1e308` would otherwise read as "Poisson ratio = NaN".
-    if let Some((what, value)) = params.overflow(dim) {
-        let key = if g >= k { "model.shear_modulus" } else { "model.bulk_modulus" };
-        return Err(ProblemError::invalid(
-            key,
-            format!("K = {k:e} and G = {g:e} overflow: the derived constant {what} = {value:e}; use smaller units for the moduli"),
-        ));
-    }
-    let nu = params.poisson_ratio();
-    if !(nu > -1.0 && nu < 0.5) {
-        return Err(ProblemError::invalid(
-            "model.shear_modulus",
-            format!("Poisson ratio (3K - 2G)/(2(3K + G)) = {nu} is outside (-1, 1/2)"),
-        ));
-    }
-    Ok(params)
 }
 
 fn micromodulus(

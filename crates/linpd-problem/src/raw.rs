@@ -1,5 +1,6 @@
 //! The plain serde mirror of a scene file. Every struct denies unknown keys; meaning and
-//! consistency are checked later, in [`crate::Problem::from_raw`]. Keys are documented in
+//! consistency are checked later, in [`crate::Problem::from_raw`] (the `model` section by its
+//! model type, [`crate::models`]). Keys are documented in
 //! `docs/problem-format.md`.
 
 use serde::Deserialize;
@@ -16,8 +17,8 @@ pub struct RawProblem {
     /// nodes file).
     #[serde(default)]
     pub grid: Option<RawGrid>,
-    /// The material model.
-    pub model: RawModel,
+    /// The material model (parsed by its type, [`crate::models`]).
+    pub model: RawModelJson,
     /// Volume constraints.
     #[serde(default)]
     pub constraints: Vec<RawConstraint>,
@@ -215,216 +216,53 @@ pub enum RawPlacement {
     Cell,
 }
 
-/// `model.type`.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum RawModelKind {
-    /// Bond-based linear PD.
-    Bond,
-    /// 1D blended PD / classical elasticity (Seleson, Beneddine & Prudhomme 2013).
-    Blend,
-    /// 1D classical elasticity, eq. (28) of the same paper.
-    Ce,
-    /// Linearized state-based LPS (2D plane stress/strain, 3D).
-    Lps,
-    /// A coarsened level model read from a moduli file (`linpd_coarsen::io`).
-    Coarsened,
+/// `model`: its JSON text, kept as written (with its position in the scene file) until the
+/// model type it names parses it into its own struct ([`crate::models::registry`]): each type
+/// owns its keys.
+#[derive(Debug, Clone)]
+pub struct RawModelJson {
+    text: Box<serde_json::value::RawValue>,
+    /// 1-based line and column of the section's first byte in the scene file.
+    at: (usize, usize),
 }
 
-impl RawModelKind {
-    /// Every model type, in the order of the docs.
-    pub const ALL: [RawModelKind; 5] =
-        [RawModelKind::Bond, RawModelKind::Lps, RawModelKind::Blend, RawModelKind::Ce, RawModelKind::Coarsened];
-
-    /// The keys of `model` this type takes besides `type`: THE table of which model takes
-    /// which key. A key present in a scene and missing here is an error naming the key, the
-    /// model type and the types that do take it ([`RawModel::check_keys`]).
-    pub fn keys(self) -> &'static [&'static str] {
-        match self {
-            RawModelKind::Bond => &[
-                "horizon",
-                "partial_volume",
-                "plane",
-                "micromodulus",
-                "material",
-                "surface_correction",
-                "surface_target",
-                "pd_regions",
-                "auto_radius",
-                "transition",
-                "transition_profile",
-                "transition_value",
-            ],
-            RawModelKind::Lps => &[
-                "horizon",
-                "partial_volume",
-                "plane",
-                "bulk_modulus",
-                "shear_modulus",
-                "influence",
-                "material",
-                "surface_correction",
-                "surface_target",
-            ],
-            RawModelKind::Blend => &[
-                "horizon",
-                "micromodulus",
-                "regions",
-                "blending",
-                "blending_value",
-                "blending_table",
-                "ce_spacing",
-                "hog",
-                "material",
-            ],
-            RawModelKind::Ce => &["horizon", "micromodulus", "material"],
-            RawModelKind::Coarsened => &["moduli"],
-        }
-    }
-
-    /// The name used in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            RawModelKind::Bond => "bond",
-            RawModelKind::Blend => "blend",
-            RawModelKind::Ce => "ce",
-            RawModelKind::Lps => "lps",
-            RawModelKind::Coarsened => "coarsened",
-        }
+impl<'de> Deserialize<'de> for RawModelJson {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Ok(RawModelJson { text: Deserialize::deserialize(d)?, at: (1, 1) })
     }
 }
 
-/// `model`. A plain struct with a `type` field rather than a serde-tagged enum: serde buffers
-/// tagged enums before choosing the variant, which loses the JSON path and position of errors
-/// inside them (`model.micromodulus.kernal` would be reported at `model`).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawModel {
-    /// The model.
-    #[serde(rename = "type")]
-    pub kind: RawModelKind,
-    /// Horizon `delta` (required by every model except `coarsened`; checked in validation).
-    #[serde(default)]
-    pub horizon: Option<f64>,
-    /// Coarsened: the Matrix Market moduli file (relative paths start at the scene's directory).
-    #[serde(default)]
-    pub moduli: Option<String>,
-    /// Partial-volume scaling at the horizon edge.
-    #[serde(default)]
-    pub partial_volume: bool,
-    /// 2D assumption: `stress` or `strain`.
-    #[serde(default)]
-    pub plane: Option<RawPlane>,
-    /// Kernel and normalization (bond, blend and ce models).
-    #[serde(default)]
-    pub micromodulus: Option<RawMicromodulus>,
-    /// LPS: bulk modulus `K`.
-    #[serde(default)]
-    pub bulk_modulus: Option<f64>,
-    /// LPS: shear modulus `G`.
-    #[serde(default)]
-    pub shear_modulus: Option<f64>,
-    /// LPS: influence function, `inverse_distance` (default) or `constant`.
-    #[serde(default)]
-    pub influence: Option<RawInfluence>,
-    /// Phases, bond rule, defects.
-    #[serde(default)]
-    pub material: RawMaterial,
-    /// Bond and LPS: `none` (default), `energy` or (LPS) `position_aware`.
-    #[serde(default)]
-    pub surface_correction: Option<RawSurfaceCorrection>,
-    /// Bond and LPS with a surface correction: `classical` (default) or `lattice`.
-    #[serde(default)]
-    pub surface_target: Option<RawSurfaceTarget>,
-    /// Bond on a 2D/3D lattice: the regions modelled by PD; elsewhere local elasticity, blended
-    /// across a transition ([`linpd_blend::lattice`]).
-    #[serde(default)]
-    pub pd_regions: Option<RawPdRegions>,
-    /// Bond with `"pd_regions": "auto"`: the PD zone's radius around each feature, in horizons.
-    #[serde(default)]
-    pub auto_radius: Option<f64>,
-    /// Bond with `pd_regions`: the transition's width (length units, at least the spacing).
-    #[serde(default)]
-    pub transition: Option<f64>,
-    /// Bond with `pd_regions`: `linear` (default), `cubic` or `constant`.
-    #[serde(default)]
-    pub transition_profile: Option<RawBlending>,
-    /// Bond with `pd_regions` and a constant profile: its value (default 0.5).
-    #[serde(default)]
-    pub transition_value: Option<f64>,
-    /// Blend: `[L1, L2, L3, L4]`.
-    #[serde(default)]
-    pub regions: Option<[f64; 4]>,
-    /// Blend: `constant`, `linear`, `cubic` or `piecewise`.
-    #[serde(default)]
-    pub blending: Option<RawBlending>,
-    /// Blend with constant blending: the bridge value (default 0.5).
-    #[serde(default)]
-    pub blending_value: Option<f64>,
-    /// Blend with piecewise blending: `{"s": [...], "beta": [...]}`.
-    #[serde(default)]
-    pub blending_table: Option<RawBlendingTable>,
-    /// Blend: coarse CE spacing (a power-of-two multiple of the grid spacing).
-    #[serde(default)]
-    pub ce_spacing: Option<f64>,
-    /// Blend: the PD / higher-order-gradient model (M = 4) instead of PD / CE.
-    #[serde(default)]
-    pub hog: Option<bool>,
-}
-
-impl RawModel {
-    /// The keys given in the scene (`partial_volume` counts when true, `material` when it is not
-    /// the default).
-    pub fn present_keys(&self) -> Vec<&'static str> {
-        let m = &self.material;
-        let material = !m.phases.is_empty() || m.bond_rule.is_some() || !m.defects.is_empty();
-        [
-            ("horizon", self.horizon.is_some()),
-            ("moduli", self.moduli.is_some()),
-            ("partial_volume", self.partial_volume),
-            ("plane", self.plane.is_some()),
-            ("micromodulus", self.micromodulus.is_some()),
-            ("bulk_modulus", self.bulk_modulus.is_some()),
-            ("shear_modulus", self.shear_modulus.is_some()),
-            ("influence", self.influence.is_some()),
-            ("material", material),
-            ("surface_correction", self.surface_correction.is_some()),
-            ("surface_target", self.surface_target.is_some()),
-            ("pd_regions", self.pd_regions.is_some()),
-            ("auto_radius", self.auto_radius.is_some()),
-            ("transition", self.transition.is_some()),
-            ("transition_profile", self.transition_profile.is_some()),
-            ("transition_value", self.transition_value.is_some()),
-            ("regions", self.regions.is_some()),
-            ("blending", self.blending.is_some()),
-            ("blending_value", self.blending_value.is_some()),
-            ("blending_table", self.blending_table.is_some()),
-            ("ce_spacing", self.ce_spacing.is_some()),
-            ("hog", self.hog.is_some()),
-        ]
-        .into_iter()
-        .filter_map(|(key, given)| given.then_some(key))
-        .collect()
+impl RawModelJson {
+    /// The section as `T`: errors carry the JSON path under `model` and the line and column in
+    /// the scene file.
+    pub fn parse<T: serde::de::DeserializeOwned>(&self) -> Result<T, crate::ProblemError> {
+        crate::problem::parse_json_at(self.text.get(), "model", self.at)
     }
 
-    /// Rejects the first given key that this model type does not take
-    /// ([`RawModelKind::keys`]): `(key, message)` with the message naming the types that take it.
-    pub fn check_keys(&self) -> Result<(), (&'static str, String)> {
-        let kind = self.kind;
-        for key in self.present_keys() {
-            if kind.keys().contains(&key) {
-                continue;
-            }
-            let takers: Vec<&str> =
-                RawModelKind::ALL.iter().filter(|k| k.keys().contains(&key)).map(|k| k.name()).collect();
-            let takers = match takers.as_slice() {
-                [] => "no model".to_string(),
-                [one] => format!("only {one} models"),
-                [init @ .., last] => format!("only {} and {last} models", init.join(", ")),
-            };
-            return Err((key, format!("not a key of {} models ({takers} take it); remove it", kind.name())));
+    /// `model.type` as written (empty when it is not a string).
+    pub fn kind(&self) -> String {
+        #[derive(Deserialize)]
+        struct Kind {
+            #[serde(rename = "type")]
+            kind: String,
         }
-        Ok(())
+        serde_json::from_str::<Kind>(self.text.get()).map(|k| k.kind).unwrap_or_default()
+    }
+
+    /// Records where the section starts in `document`, the text it was parsed from.
+    pub(crate) fn locate(&mut self, document: &str) {
+        #[derive(Deserialize)]
+        struct Locate<'a> {
+            #[serde(borrow)]
+            model: &'a serde_json::value::RawValue,
+        }
+        if let Ok(l) = serde_json::from_str::<Locate>(document) {
+            let offset = l.model.get().as_ptr() as usize - document.as_ptr() as usize;
+            let before = &document.as_bytes()[..offset];
+            let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+            let column = offset - before.iter().rposition(|&b| b == b'\n').map_or(0, |k| k + 1) + 1;
+            self.at = (line, column);
+        }
     }
 }
 

@@ -42,44 +42,23 @@
 //! `f_f - (A u_bar)_f` needs; see `docs/scale-out.md` for the plan that removes them
 //! (per-rank geometry).
 
-use crate::run::static_error;
-use crate::{ModelSpec, Problem, ProblemError, Solution};
+use crate::models::{Capability, Purpose, System};
+use crate::{Problem, ProblemError, Solution};
 use linpd_core::sparse::SYMMETRY_RTOL;
 use linpd_core::{DofMap, Model};
-use linpd_solve::{Dirichlet, SolveReport};
+use linpd_solve::SolveReport;
 use rayon::prelude::*;
 
 /// One row of `A_ff`: its number and its `(column, value)` entries.
 type Row = (usize, Vec<(usize, f64)>);
 
-/// The scene's model as the row system holds it: what [`Problem::solution_from`] needs beside
-/// the model.
-enum RowModel {
-    /// A bond model (lattice or point cloud) and its bond count as `linpd solve` reports it.
-    Bond(Box<dyn Model + Send + Sync>, usize),
-    Lps(linpd_lps::LpsModel),
-    /// A copy of the level's model (the scene's [`crate::CoarsenedModel`] has the rest).
-    Coarsened(linpd_core::AssembledModel),
-    /// The 1D operator and its nodal forces (for the end reactions).
-    Blend(linpd_blend::BlendOperator, Vec<f64>),
-}
-
-impl RowModel {
-    fn model(&self) -> &dyn Model {
-        match self {
-            RowModel::Bond(m, _) => m.as_ref(),
-            RowModel::Lps(m) => m,
-            RowModel::Coarsened(m) => m,
-            RowModel::Blend(m, _) => m,
-        }
-    }
-}
-
 /// A scene's model with its Dirichlet split and reduced right-hand side, ready to hand out
 /// blocks of rows of `A_ff` ([`RowSystem::rows`]).
 pub struct RowSystem {
-    model: RowModel,
-    bc: Dirichlet,
+    /// The system the scene's model built (with what its solution needs).
+    system: System,
+    /// The scene (`name`) and model type it was built for.
+    built_for: (String, &'static str),
     free_dofs: Vec<usize>,
     rhs: Vec<f64>,
     asymmetry: f64,
@@ -104,39 +83,13 @@ pub struct RowBlock {
 impl Problem {
     /// The scene's model (built as `linpd solve` builds it) and reduced right-hand side for
     /// row-block assembly, with the checks of a solve (support, finite loads): every error a
-    /// solve of this scene would raise before its solver runs is raised here. Every static
-    /// model type (see the module docs for what each costs).
+    /// solve of this scene would raise before its solver runs is raised here. Every model with
+    /// [`Capability::BlockRows`] (see the module docs for what each costs).
     pub fn row_system(&self) -> Result<RowSystem, ProblemError> {
-        // One arm per model type, as in `Problem::solve` and `Problem::reduced_system`.
-        let (model, bc, f) = match &self.model {
-            // `n_bonds` as `linpd solve` counts them (cut bonds included)
-            ModelSpec::Bond(_) if self.nodes.cloud().is_some() => {
-                let op = self.operator()?;
-                let n_bonds = op.family().n_bonds();
-                (RowModel::Bond(Box::new(op), n_bonds), self.dirichlet(), self.load_vector())
-            }
-            ModelSpec::Bond(b) if b.zone.is_some() => {
-                return Err(ProblemError::invalid(
-                    "model.pd_regions",
-                    "row-block assembly (the distributed path) does not take blended scenes yet: the blended \
-                     model is assembled whole; use `linpd solve` or `linpd export`",
-                ))
-            }
-            ModelSpec::Bond(_) => {
-                let model = self.lattice_model()?;
-                let n_bonds = model.operator().family().n_bonds();
-                (RowModel::Bond(Box::new(model), n_bonds), self.dirichlet(), self.load_vector())
-            }
-            // no memory check: nothing is assembled whole (the check is the assembled tangent's)
-            ModelSpec::Lps(..) => (RowModel::Lps(self.lps_model()?), self.dirichlet(), self.load_vector()),
-            ModelSpec::Coarsened(c) => (RowModel::Coarsened(c.model().clone()), self.dirichlet(), self.load_vector()),
-            ModelSpec::Blend(b) => {
-                let (op, bc, f) = crate::export::blend_system(b)?;
-                (RowModel::Blend(op, f.clone()), bc, f)
-            }
-        };
-        let m = model.model();
-        // every model above has block rows; a model added without them is named, not mis-assembled
+        self.model.require(Capability::BlockRows)?;
+        let system = self.model.system(self, Purpose::Rows, &linpd_core::NoProgress)?;
+        let m = system.model();
+        // a model that claims block rows and has none is named, not mis-assembled
         if m.n_nodes() > 0 && !m.for_each_block(0, &mut |_, _| {}) {
             return Err(ProblemError::invalid(
                 "model.type",
@@ -147,20 +100,17 @@ impl Problem {
                 ),
             ));
         }
-        let rhs = linpd_solve::reduced_rhs_checked(m, &bc, &f).map_err(|e| match &model {
-            RowModel::Blend(..) => crate::export::blend_error(e.into()),
-            _ => static_error(e),
-        })?;
-        let asymmetry = m.asymmetry(bc.dofs());
-        let free_dofs = bc.dofs().free_dofs();
-        Ok(RowSystem { model, bc, free_dofs, rhs, asymmetry })
+        let rhs = linpd_solve::reduced_rhs_checked(m, &system.bc, &system.f).map_err(|e| self.model.static_error(e))?;
+        let asymmetry = m.asymmetry(system.bc.dofs());
+        let free_dofs = system.bc.dofs().free_dofs();
+        let built_for = (self.name.clone(), self.model.name());
+        Ok(RowSystem { system, built_for, free_dofs, rhs, asymmetry })
     }
 
     /// The [`Solution`] `linpd solve` would write for displacements `u` over all DOFs computed
     /// elsewhere (by PETSc), with `report` as the solve's report: the balance and the fields of
-    /// the scene's model (bond: strain and energy density from the blocks; LPS: also the
-    /// dilatation; coarsened: the level's fields; blend/CE: the end reactions). `u` must have
-    /// one value per DOF of `system` ([`RowSystem::dofs`]).
+    /// the scene's model ([`crate::models::SceneModel::solution`]). `u` must have one value per
+    /// DOF of `system` ([`RowSystem::dofs`]), which this scene must have built.
     pub fn solution_from(
         &self,
         system: &RowSystem,
@@ -171,34 +121,20 @@ impl Problem {
         if u.len() != n_dofs {
             return Err(ProblemError::invalid("u", format!("has {} values, the scene has {n_dofs} DOFs", u.len())));
         }
-        match (&system.model, &self.model) {
-            (RowModel::Bond(model, n_bonds), ModelSpec::Bond(_)) => {
-                self.bond_solution(model.as_ref(), *n_bonds, u, report)
-            }
-            (RowModel::Lps(model), ModelSpec::Lps(..)) => Ok(crate::lps::solution(self, model, u, report)),
-            (RowModel::Coarsened(_), ModelSpec::Coarsened(c)) => Ok(crate::coarsened::solution(self, c, u, report)),
-            (RowModel::Blend(op, f), ModelSpec::Blend(b)) => {
-                let s = linpd_blend::BlendSolution {
-                    kind: b.kind,
-                    x: op.mesh.x.clone(),
-                    reactions: op.end_reactions(system.dofs(), f, &u, b.params.length),
-                    applied: f.iter().sum(),
-                    u,
-                    beta: op.beta.clone(),
-                    transition: op.transition.clone(),
-                    report,
-                };
-                Ok(crate::blend::solution(&self.name, b, s))
-            }
-            _ => Err(ProblemError::invalid(
+        if system.built_for != (self.name.clone(), self.model.name()) {
+            return Err(ProblemError::invalid(
                 "rows",
                 format!(
-                    "the row system holds a {} model, the scene has {}: build it with this scene's row_system",
-                    system.model().kind(),
-                    self.model.name()
+                    "the row system was built for the {} scene {:?}, this is the {} scene {:?}: build it with this \
+                     scene's row_system",
+                    system.built_for.1,
+                    system.built_for.0,
+                    self.model.name(),
+                    self.name
                 ),
-            )),
+            ));
         }
+        self.model.solution(self, &system.system, u, report)
     }
 }
 
@@ -213,7 +149,7 @@ impl RowSystem {
     }
     /// The model.
     pub fn model(&self) -> &dyn Model {
-        self.model.model()
+        self.system.model()
     }
     /// The full DOF (`d * node + component`) of every row.
     pub fn free_dofs(&self) -> &[usize] {
@@ -222,7 +158,7 @@ impl RowSystem {
     /// The free/constrained split (of the model's nodes: for a blend scene with a coarse CE
     /// mesh these are the mesh's nodes, not the grid's).
     pub fn dofs(&self) -> &DofMap {
-        self.bc.dofs()
+        self.system.bc.dofs()
     }
     /// `u = u_bar + u_f` over all DOFs from the values `u_free` of the unknowns (row order).
     pub fn expand(&self, u_free: &[f64]) -> Result<Vec<f64>, ProblemError> {
@@ -232,7 +168,7 @@ impl RowSystem {
                 format!("has {} values, the scene has {} unknowns", u_free.len(), self.n()),
             ));
         }
-        Ok(self.bc.expand(u_free))
+        Ok(self.system.bc.expand(u_free))
     }
     /// `max |A_ff - A_ff^T| / max |A_ff|` as the model bounds it ([`Model::asymmetry`]).
     pub fn asymmetry(&self) -> f64 {

@@ -1,14 +1,20 @@
-//! From a validated [`Problem`] to a [`Solution`]: build the model, then the one static solve
-//! of linpd-solve ([`linpd_solve::solve_model`]: support check, Dirichlet elimination
+//! From a validated [`Problem`] to a [`Solution`]: the scene's model ([`crate::models`])
+//! builds its system, then the one static solve of linpd-solve ([`linpd_solve::solve_model`]: support check, Dirichlet elimination
 //! `A_ff u_f = f_f - (A u_bar)_f`, assembled or matrix-free solve, report).
 
+use crate::models::bond::BondModel;
+use crate::models::bond_lattice::BondLatticeModel;
+use crate::models::lattice_blend::LatticeBlendModel;
+use crate::models::lps::LpsSceneModel;
+use crate::models::Capability;
 use crate::problem::NodeSet;
-use crate::{ModelSpec, Problem, ProblemError};
+use crate::{Problem, ProblemError};
+use linpd_blend::LatticeBlend;
 use linpd_bond::{BondOperator, LatticeBondModel};
 use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
 use linpd_core::Point;
-use linpd_lps::SurfaceCorrection;
+use linpd_lps::LpsModel;
 use linpd_solve::{solve_model, Dirichlet, SolveReport, StaticError};
 use std::time::Instant;
 
@@ -32,7 +38,7 @@ pub struct Solution {
     /// Accuracy and cost.
     pub report: SolveReport,
     /// Loads, constraints, reactions and the force balance (every static scene; for blend and
-    /// CE scenes built by `crate::blend` from the solution's end reactions).
+    /// CE scenes built by [`crate::models::blend_1d`] from the solution's end reactions).
     pub balance: Option<crate::Balance>,
     /// Strain energy density `W_i` per node (energy per volume; `sum_i W_i V_i = u.A u / 2`,
     /// [`crate::balance::nodal_energy`] for bond-based models,
@@ -48,11 +54,21 @@ pub struct Solution {
 
 impl Problem {
     /// The bond model of the scene, or an error naming the scene's model type.
-    pub(crate) fn bond_model(&self) -> Result<&crate::BondModel, ProblemError> {
+    pub(crate) fn bond_model(&self) -> Result<&BondModel, ProblemError> {
         self.model.bond().ok_or_else(|| {
             ProblemError::invalid(
                 "model.type",
-                format!("a bond model is needed here, the scene has {}", self.model.name()),
+                format!("a bond model is needed here, the scene has {}", self.model.describe()),
+            )
+        })
+    }
+
+    /// The scene's model as `T` ([`crate::models`]), or an error naming what was needed.
+    fn model_as<T: 'static>(&self, what: &str) -> Result<&T, ProblemError> {
+        self.model.downcast::<T>().ok_or_else(|| {
+            ProblemError::invalid(
+                "model.type",
+                format!("{what} is needed here, the scene has {}", self.model.describe()),
             )
         })
     }
@@ -66,33 +82,34 @@ impl Problem {
     /// [`Problem::operator`] and, when the scene has a surface correction, what it did and
     /// cost (for the solve report).
     pub fn operator_and_correction(&self) -> Result<(BondOperator, Option<CorrectionSummary>), ProblemError> {
-        let op = self.uncorrected_operator()?;
-        let b = self.bond_model()?;
-        Ok(match b.surface.correction {
-            SurfaceCorrection::Energy => {
-                let (op, summary) =
-                    op.with_energy_correction(self.lattice()?, b.horizon, &b.micromodulus, b.surface.target);
-                (op, Some(summary))
-            }
-            _ => (op, None),
-        })
+        self.bond_model()?.operator(&self.nodes)
     }
 
-    fn uncorrected_operator(&self) -> Result<BondOperator, ProblemError> {
-        let b = self.bond_model()?;
-        let op = match self.nodes.cloud() {
-            Some(c) => BondOperator::on_points(
-                c.dim,
-                c.positions.clone(),
-                &c.volumes,
-                b.horizon,
-                &b.micromodulus,
-                &b.material,
-                b.node_moduli.as_deref(),
-            ),
-            None => BondOperator::on_grid(self.lattice()?, b.horizon, &b.micromodulus, &b.material),
-        };
-        op.map_err(|e| ProblemError::invalid("model", e.to_string()))
+    /// The bond model of the scene on its lattice.
+    pub fn lattice_model(&self) -> Result<LatticeBondModel, ProblemError> {
+        self.lattice_model_and_correction().map(|(m, _)| m)
+    }
+
+    /// [`Problem::lattice_model`] and what its surface correction did and cost.
+    pub fn lattice_model_and_correction(&self) -> Result<(LatticeBondModel, Option<CorrectionSummary>), ProblemError> {
+        self.model_as::<BondLatticeModel>("a bond model on a grid")?.build(self)
+    }
+
+    /// The scene's blended model (a bond model with `pd_regions`).
+    pub fn lattice_blend(&self) -> Result<LatticeBlend, ProblemError> {
+        self.model_as::<LatticeBlendModel>("a bond model with pd_regions")?.build(self)
+    }
+
+    /// The LPS model of an lps scene, with the defects of its material and its surface
+    /// correction.
+    pub fn lps_model(&self) -> Result<LpsModel, ProblemError> {
+        self.lps_model_and_correction().map(|(m, _)| m)
+    }
+
+    /// [`Problem::lps_model`] and, with a moment-matching surface correction, what it did and
+    /// cost (for the solve report).
+    pub fn lps_model_and_correction(&self) -> Result<(LpsModel, Option<CorrectionSummary>), ProblemError> {
+        self.model_as::<LpsSceneModel>("an lps model")?.build(self)
     }
 
     /// Constrained-DOF mask and the prescribed full displacement `u_bar`.
@@ -128,84 +145,26 @@ impl Problem {
         Dirichlet::new(self.dim(), &mask, ubar)
     }
 
-    /// The bond model of the scene on its lattice.
-    pub fn lattice_model(&self) -> Result<LatticeBondModel, ProblemError> {
-        self.lattice_model_and_correction().map(|(m, _)| m)
-    }
-
-    /// [`Problem::lattice_model`] and what its surface correction did and cost.
-    pub fn lattice_model_and_correction(&self) -> Result<(LatticeBondModel, Option<CorrectionSummary>), ProblemError> {
-        let b = self.bond_model()?;
-        let (op, summary) = self.operator_and_correction()?;
-        // the stencil applies the uncorrected lattice operator only
-        let homogeneous = (b.material.is_homogeneous() && summary.is_none()).then(|| b.micromodulus.clone());
-        Ok((LatticeBondModel::new(op, self.lattice()?.clone(), b.horizon, homogeneous), summary))
-    }
-
-    /// Solves the static problem. `progress` receives one line per phase and the tasks of the assembly and the solver.
+    /// Solves the static problem ([`crate::models::SceneModel::solve`]). `progress` receives one
+    /// line per phase and the tasks of the assembly and the solver.
     pub fn solve(&self, progress: &dyn Progress) -> Result<Solution, ProblemError> {
-        // One arm per model type: a new model adds its variant here.
-        match &self.model {
-            ModelSpec::Blend(b) => return crate::blend::solve(&self.name, b, progress),
-            ModelSpec::Lps(params, ..) => return crate::lps::solve(self, params, progress),
-            ModelSpec::Coarsened(c) => return crate::coarsened::solve(self, c, progress),
-            ModelSpec::Bond(_) => {}
-        }
-        if self.nodes.cloud().is_some() {
-            return self.solve_cloud(progress);
-        }
-        // Checked again here: the solver may have changed since validation (`set_solver`).
-        let path = match self.solver {
-            linpd_solve::SolverSpec::Cg { matrix_free: true, .. } => crate::memory::Path::BondMatrixFree,
-            _ => crate::memory::Path::BondAssembled,
-        };
-        let multigrid = self.solver.uses_multigrid();
-        crate::memory::check_solver(path, self.lattice()?, self.bond_model()?.horizon, multigrid)?;
-        let t0 = Instant::now();
-        progress.phase(&format!(
-            "building bonds: {} nodes, horizon/spacing = {:.3}",
-            self.nodes.len(),
-            self.model.horizon().unwrap_or(f64::NAN) / self.lattice()?.spacing()
-        ));
-        if self.bond_model()?.zone.is_some() {
-            return crate::zones::solve(self, t0, progress);
-        }
-        let (model, correction) = self.lattice_model_and_correction()?;
-        if let Some(c) = &correction {
-            progress.phase(&c.describe());
-        }
-        let (u, mut report) = self.timed_solve(&model, t0, progress)?;
-        if let Some(c) = correction {
-            append_note(&mut report, c.describe());
-        }
-        let n_bonds = model.operator().family().n_bonds();
-        self.bond_solution(&model, n_bonds, u, report)
-    }
-}
-
-impl Problem {
-    /// The bond model on a point cloud: the operator with its AMD ordering
-    /// ([`linpd_core::Model`] for [`BondOperator`]), always assembled.
-    fn solve_cloud(&self, progress: &dyn Progress) -> Result<Solution, ProblemError> {
-        let t0 = Instant::now();
-        progress.phase(&format!("building bonds: {} nodes of the point cloud", self.nodes.len()));
-        let model = self.operator()?;
-        let (u, report) = self.timed_solve(&model, t0, progress)?;
-        let n_bonds = model.family().n_bonds();
-        self.bond_solution(&model, n_bonds, u, report)
+        self.model.require(Capability::StaticSolve)?;
+        self.model.solve(self, progress)
     }
 
-    /// The one static solve of a model built since `t0`: the building time is counted as
-    /// assembly in the report, and the end is announced with the residual.
+    /// The one static solve of `model` built since `t0` with prescribed displacements `bc` and
+    /// nodal forces `f`: the building time is counted as assembly in the report, and the end is
+    /// announced with the residual.
     pub(crate) fn timed_solve(
         &self,
         model: &dyn linpd_core::Model,
+        bc: &Dirichlet,
+        f: &[f64],
         t0: Instant,
         progress: &dyn Progress,
     ) -> Result<(Vec<f64>, SolveReport), ProblemError> {
         let t_build = t0.elapsed().as_secs_f64();
-        let solved =
-            solve_model(model, &self.dirichlet(), &self.load_vector(), &self.solver, progress).map_err(static_error)?;
+        let solved = solve_model(model, bc, f, &self.solver, progress).map_err(|e| self.model.static_error(e))?;
         let mut report = solved.report;
         report.timings.assemble += t_build;
         progress.phase(&format!(
@@ -214,36 +173,6 @@ impl Problem {
             report.rel_residual
         ));
         Ok((solved.u, report))
-    }
-
-    /// The solution of a bond model (`n_bonds` bonds, cut ones included): balance and strain
-    /// energy density from its blocks.
-    pub(crate) fn bond_solution(
-        &self,
-        model: &dyn linpd_core::Model,
-        n_bonds: usize,
-        u: Vec<f64>,
-        report: SolveReport,
-    ) -> Result<Solution, ProblemError> {
-        let balance = self.balance(model, &u);
-        let volumes: Vec<f64> = (0..self.nodes.len()).map(|n| self.nodes.volume(n)).collect();
-        let strain_energy_density =
-            crate::balance::nodal_energy(model, &u).map(|e| e.iter().zip(&volumes).map(|(w, v)| w / v).collect());
-        let strain = Some(crate::nodal_strain(model, &volumes, &u));
-        Ok(Solution {
-            name: self.name.clone(),
-            dim: self.dim(),
-            x: (0..model.n_nodes()).map(|i| model.position(i)).collect(),
-            u,
-            is_layer: (0..self.nodes.len()).map(|n| self.nodes.is_layer(n)).collect(),
-            volumes,
-            n_bonds,
-            balance: Some(balance),
-            strain_energy_density,
-            strain,
-            dilatation: None,
-            report,
-        })
     }
 }
 

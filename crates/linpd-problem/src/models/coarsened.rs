@@ -1,5 +1,5 @@
 //! `"type": "coarsened"` scenes: a coarsened level model read from a moduli file
-//! ([`linpd_coarsen::io`]), one more [`crate::ModelSpec`] variant of the same [`crate::Problem`],
+//! ([`linpd_coarsen::io`]), one more model ([`super::SceneModel`]) of the same [`crate::Problem`],
 //! with the same constraints, loads, solvers and outputs as the lattice models.
 //!
 //! The level's nodes (positions `x_i`, volumes `v_i`) come from the nodes file beside the
@@ -11,20 +11,24 @@
 //! ```
 //!
 //! and equilibrium is `K u = f` with `f_i` the point forces plus `b v_i` for a body-force density
-//! `b`. Constraints are eliminated as in [`crate::run`]: `u = u_bar + u_f`,
+//! `b`. Constraints are eliminated as for every model ([`linpd_solve::solve_model`]): `u = u_bar + u_f`,
 //! `K_ff u_f = f_f - (K u_bar)_f`. Before factorizing, the bonded-pair graph is checked for
 //! rigid motions the constraints leave free ([`linpd_core::check_support`]), so a floating body
 //! is reported by its nodes rather than as a zero pivot. `K` is symmetric when
 //! `C(x, q) = C(q, x)^T`; then the solve is a sparse Cholesky (or the scene's solver), otherwise
 //! a sparse LU, and the report's `solver` says why.
 
-use crate::problem::{constraints_and_loads, solver_spec, LevelNodes, Nodes};
-use crate::raw::{RawModelKind, RawProblem};
-use crate::{ModelSpec, Problem, ProblemError, Solution};
+use super::registry::{struct_fields, Context, ModelType, Validated};
+use super::{Capability, Purpose, SceneModel, System};
+use crate::problem::{LevelNodes, Nodes};
+use crate::{Problem, ProblemError, Solution};
 use linpd_core::progress::Progress;
 use linpd_core::AssembledModel;
-
+use linpd_solve::SolveReport;
+use serde::Deserialize;
+use std::any::Any;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 pub use linpd_coarsen::io::{IoError, ModuliFile};
@@ -40,8 +44,9 @@ pub struct CoarsenedModel {
     pub(crate) moduli_path: PathBuf,
     /// Index of each node in the level-0 model.
     pub(crate) level0: Vec<usize>,
-    /// The level as a model: its nodal stiffness `K` (`dim * n` square, CSC).
-    pub(crate) model: AssembledModel,
+    /// The level as a model: its nodal stiffness `K` (`dim * n` square, CSC), shared with the
+    /// systems built from it.
+    pub(crate) model: Arc<AssembledModel>,
     /// Bonded pairs: nonzero off-diagonal blocks of `K` (each pair counted from both ends when
     /// both directions are stored).
     pub(crate) n_bonds: usize,
@@ -119,25 +124,42 @@ impl CoarsenedModel {
     }
 }
 
-/// Validates a parsed scene whose `model.type` is `coarsened`; relative moduli paths start at
-/// `base_dir` (the scene file's directory).
-pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, ProblemError> {
+/// The keys of a coarsened model.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCoarsened {
+    /// `"coarsened"`.
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// The Matrix Market moduli file (relative paths start at the scene's directory).
+    #[serde(default)]
+    pub moduli: Option<String>,
+}
+
+/// The coarsened model type.
+pub struct CoarsenedType;
+
+/// The registry entry.
+pub static COARSENED: CoarsenedType = CoarsenedType;
+
+impl ModelType for CoarsenedType {
+    fn name(&self) -> &'static str {
+        "coarsened"
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        struct_fields::<RawCoarsened>()
+    }
+    fn validate(&self, cx: &Context) -> Result<Validated, ProblemError> {
+        let keys: RawCoarsened = cx.model_keys()?;
+        validate(cx, &keys)
+    }
+}
+
+/// Validates a scene whose `model.type` is `coarsened`: reads the level and builds its `K`.
+fn validate(cx: &Context, keys: &RawCoarsened) -> Result<Validated, ProblemError> {
     let t0 = Instant::now();
-    let dim = raw.dimension;
-    if !(1..=3).contains(&dim) {
-        return Err(ProblemError::invalid("dimension", format!("must be 1, 2 or 3, got {dim}")));
-    }
-    if raw.name.trim().is_empty() {
-        return Err(ProblemError::invalid("name", "must not be empty"));
-    }
-    if raw.model.kind != RawModelKind::Coarsened {
-        return Err(ProblemError::invalid(
-            "model.type",
-            format!("expected \"coarsened\", got \"{}\"", raw.model.kind.name()),
-        ));
-    }
-    crate::problem::check_model_keys(&raw.model)?;
-    let moduli = &raw.model.moduli;
+    let (raw, dim, base_dir) = (cx.raw, cx.dim(), cx.base_dir);
+    let moduli = &keys.moduli;
     let moduli = moduli.as_ref().ok_or_else(|| {
         ProblemError::invalid(
             "model.moduli",
@@ -166,16 +188,10 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
             ),
         ));
     }
-    if raw.dynamics.is_some() {
+    if raw.nodes.is_some() {
         return Err(ProblemError::invalid(
-            "dynamics",
-            "explicit dynamics is not available for coarsened models (bond models only)",
-        ));
-    }
-    if raw.solver.matrix_free {
-        return Err(ProblemError::invalid(
-            "solver.matrix_free",
-            "not available for coarsened models (K is read assembled)",
+            "nodes",
+            "not used by a coarsened model (its nodes come from its nodes file)",
         ));
     }
     let file = ModuliFile::read(&moduli_path).map_err(|e| ProblemError::invalid("model.moduli", e.to_string()))?;
@@ -197,8 +213,6 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
             format!("{}: the level has no nodes", moduli_path.display()),
         ));
     }
-    let (constraints, loads) = constraints_and_loads(&raw, dim, &nodes)?;
-    let solver = solver_spec(&raw.solver)?;
     let model = AssembledModel::new("coarsened", dim, file.positions.clone(), file.stiffness())
         .with_labels("level-0 node", file.level0.clone());
     let asymmetry = model.stiffness_asymmetry();
@@ -211,45 +225,77 @@ pub(crate) fn from_raw(raw: RawProblem, base_dir: &Path) -> Result<Problem, Prob
         level: file.level,
         moduli_path,
         level0: file.level0,
-        model,
+        model: Arc::new(model),
         n_bonds: pairs.len(),
         asymmetry,
         reciprocity,
         build_seconds: t0.elapsed().as_secs_f64(),
     };
-    Ok(Problem {
-        output_dir: crate::problem::output_dir(raw.output.dir.as_deref(), &raw.name)?,
-        plot: raw.output.plot.unwrap_or(true),
-        slice: None,
-        name: raw.name,
-        nodes: Nodes::Level(nodes),
-        model: ModelSpec::Coarsened(coarsened),
-        constraints,
-        loads,
-        solver,
-        dynamics: None,
-    })
+    Ok(Validated { nodes: Nodes::Level(nodes), model: Box::new(coarsened) })
 }
 
-/// Solves `K u = f` with the constraints eliminated ([`linpd_solve::solve_model`]: sparse LU
-/// when `K` is unsymmetric, whatever the scene asked).
-pub(crate) fn solve(p: &Problem, c: &CoarsenedModel, progress: &dyn Progress) -> Result<Solution, ProblemError> {
-    let (u, mut report) = p.timed_solve(&c.model, Instant::now(), progress)?;
-    // the level was read (its K built) at validation
-    report.timings.assemble += c.build_seconds;
-    if !c.is_symmetric() {
-        // say which quantity is unsymmetric, beside the solver's generic note
-        crate::run::append_note(&mut report, format!("K is {}", c.symmetry()));
+impl SceneModel for CoarsenedModel {
+    fn name(&self) -> &'static str {
+        "coarsened"
     }
-    Ok(solution(p, c, u, report))
+    fn horizon(&self) -> Option<f64> {
+        None
+    }
+    fn lacks(&self, capability: Capability) -> Option<String> {
+        match capability {
+            Capability::MatrixFree => Some("not available for coarsened models (K is read assembled)".into()),
+            Capability::Dynamics => {
+                Some("explicit dynamics is not available for coarsened models (bond models only)".into())
+            }
+            Capability::Coarsen => Some(
+                "a pipeline coarsens its scene's model level after level; add a level to the pipeline instead of \
+                 coarsening a level file"
+                    .into(),
+            ),
+            _ => None,
+        }
+    }
+    fn summary(&self, p: &Problem) -> String {
+        format!(
+            "coarsened level {} from {}, dimension {}, {} nodes, {} bonded pairs, K {}",
+            self.level,
+            self.moduli_path.display(),
+            p.dim(),
+            p.nodes().len(),
+            self.n_bonds,
+            self.symmetry()
+        )
+    }
+    fn inputs(&self) -> Vec<PathBuf> {
+        vec![self.moduli_path.clone()]
+    }
+    /// The level was read (its `K` built) at validation: counted as assembly.
+    fn system(&self, p: &Problem, _: Purpose, _: &dyn Progress) -> Result<System, ProblemError> {
+        // say which quantity is unsymmetric, beside the solver's generic note
+        let notes = if self.is_symmetric() { Vec::new() } else { vec![format!("K is {}", self.symmetry())] };
+        Ok(System {
+            model: self.model.clone(),
+            bc: p.dirichlet(),
+            f: p.load_vector(),
+            n_bonds: self.n_bonds,
+            notes,
+            built_before: self.build_seconds,
+        })
+    }
+    fn solution(&self, p: &Problem, _: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
+        Ok(solution(p, self, u, report))
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
 }
 
 /// The [`Solution`] of a coarsened scene for displacements `u` over all DOFs (solved here or
 /// elsewhere, [`crate::RowSystem`]).
-pub(crate) fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: linpd_solve::SolveReport) -> Solution {
-    let balance = p.balance(&c.model, &u);
+fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: SolveReport) -> Solution {
+    let balance = p.balance(c.model.as_ref(), &u);
     let volumes: Vec<f64> = (0..p.nodes.len()).map(|n| p.nodes.volume(n)).collect();
-    let strain = Some(crate::nodal_strain(&c.model, &volumes, &u));
+    let strain = Some(crate::nodal_strain(c.model.as_ref(), &volumes, &u));
     // an energy density only where K is the Hessian of an energy (symmetric)
     let strain_energy_density = c.is_symmetric().then(|| {
         let e = level_nodal_energy(c.model.stiffness(), p.dim(), &u);

@@ -1,0 +1,112 @@
+//! The bond model on a point cloud (`"nodes"`): [`linpd_bond::BondOperator::on_points`], the
+//! bond weights from the nodes' own volumes, always assembled (AMD ordering).
+
+use super::bond::{self, BondModel, RawBond};
+use super::registry::{Context, Validated};
+use super::{Capability, Purpose, SceneModel, System};
+use crate::cloud::{check_defects, cloud_nodes, tagged_moduli};
+use crate::problem::{bond_micromodulus, material_with_tags, Nodes};
+use crate::raw::RawSurfaceCorrection;
+use crate::{Problem, ProblemError, Solution};
+use linpd_core::progress::Progress;
+use linpd_solve::SolveReport;
+use std::any::Any;
+use std::sync::Arc;
+
+/// A bond scene on a point cloud.
+#[derive(Debug, Clone)]
+pub struct BondCloudModel {
+    /// Its parameters.
+    pub bond: BondModel,
+}
+
+/// Validates a bond scene whose nodes come from a file.
+pub(crate) fn validate(cx: &Context, raw: &RawBond) -> Result<Validated, ProblemError> {
+    let dim = cx.dim();
+    refuse_lattice_keys(raw)?;
+    let (nodes, h) = cloud_nodes(cx, raw.horizon, crate::memory::Path::BondAssembled)?;
+    let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, raw.partial_volume)?;
+    if micromodulus.normalization == linpd_core::Normalization::Discrete {
+        return Err(ProblemError::invalid(
+            "model.micromodulus.normalize",
+            "\"discrete\" sums over a lattice stencil; point clouds take \"continuum\" or an amplitude",
+        ));
+    }
+    micromodulus.amplitude(dim, raw.horizon, h).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
+    let material = material_with_tags(&raw.material, dim, true)?;
+    let node_moduli = tagged_moduli(&raw.material, &nodes, micromodulus.reference_modulus())?;
+    check_defects(&material, &nodes, raw.horizon)?;
+    let bond = BondModel::on_cloud(raw, micromodulus, material, node_moduli);
+    Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(BondCloudModel { bond }) })
+}
+
+/// The keys that need a lattice: a surface correction and `pd_regions`.
+fn refuse_lattice_keys(raw: &RawBond) -> Result<(), ProblemError> {
+    let correction = raw.surface_correction.is_some_and(|c| c != RawSurfaceCorrection::None);
+    if correction || raw.surface_target.is_some() {
+        return Err(crate::cloud::no_surface_correction(correction));
+    }
+    if raw.pd_regions.is_some() {
+        return Err(ProblemError::invalid(
+            "model.pd_regions",
+            "not available on point clouds: the local model is built from the lattice's cells (use a grid)",
+        ));
+    }
+    Ok(())
+}
+
+impl SceneModel for BondCloudModel {
+    fn name(&self) -> &'static str {
+        "bond"
+    }
+    fn describe(&self) -> String {
+        "bond (point cloud)".into()
+    }
+    fn horizon(&self) -> Option<f64> {
+        Some(self.bond.horizon)
+    }
+    fn lacks(&self, capability: Capability) -> Option<String> {
+        match capability {
+            Capability::MatrixFree => {
+                Some("the matrix-free stencil operator needs a grid; point clouds are solved assembled".into())
+            }
+            Capability::Dynamics => Some("explicit dynamics needs a grid (not available on point clouds yet)".into()),
+            Capability::Coarsen => Some(
+                "coarsening retains every k-th node of a lattice (levels[].every); point clouds are not coarsened yet"
+                    .into(),
+            ),
+            _ => None,
+        }
+    }
+    fn summary(&self, p: &Problem) -> String {
+        let h = p.nodes().cloud().map_or(f64::NAN, |c| crate::cloud::mean_spacing(&c.volumes, c.dim));
+        format!(
+            "bond model on a point cloud, dimension {}, {} nodes, horizon/mean spacing = {:.4}",
+            p.dim(),
+            p.nodes().len(),
+            self.bond.horizon / h
+        )
+    }
+    /// A point cloud was checked against memory when the scene was validated.
+    fn system(&self, p: &Problem, _: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
+        progress.phase(&format!("building bonds: {} nodes of the point cloud", p.nodes().len()));
+        let (op, _) = self.bond.operator(p.nodes())?;
+        Ok(System {
+            n_bonds: op.family().n_bonds(),
+            model: Arc::new(op),
+            bc: p.dirichlet(),
+            f: p.load_vector(),
+            notes: Vec::new(),
+            built_before: 0.0,
+        })
+    }
+    fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
+        Ok(bond::solution(p, s.model(), s.n_bonds, u, report))
+    }
+    fn bond(&self) -> Option<&BondModel> {
+        Some(&self.bond)
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}

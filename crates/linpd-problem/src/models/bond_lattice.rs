@@ -1,0 +1,85 @@
+//! The bond model on a grid ([`linpd_bond::LatticeBondModel`]): assembled or matrix-free
+//! (the lattice stencil), block rows, export, coarsening and explicit dynamics.
+
+use super::bond::{self, BondModel};
+use super::{Capability, Purpose, SceneModel, System};
+use crate::memory::Path;
+use crate::{Problem, ProblemError, Solution};
+use linpd_bond::LatticeBondModel;
+use linpd_core::progress::Progress;
+use linpd_core::surface::CorrectionSummary;
+use linpd_core::DofMap;
+use linpd_solve::{SolveReport, SolverSpec};
+use std::any::Any;
+use std::sync::Arc;
+
+/// A bond scene on a grid.
+#[derive(Debug, Clone)]
+pub struct BondLatticeModel {
+    /// Its parameters.
+    pub bond: BondModel,
+}
+
+impl BondLatticeModel {
+    /// The model on the scene's lattice and what its surface correction did and cost.
+    pub fn build(&self, p: &Problem) -> Result<(LatticeBondModel, Option<CorrectionSummary>), ProblemError> {
+        let b = &self.bond;
+        let (op, summary) = b.operator(p.nodes())?;
+        // the stencil applies the uncorrected lattice operator only
+        let homogeneous = (b.material.is_homogeneous() && summary.is_none()).then(|| b.micromodulus.clone());
+        Ok((LatticeBondModel::new(op, p.lattice()?.clone(), b.horizon, homogeneous), summary))
+    }
+}
+
+/// The memory check of a bond model on a lattice before it is built for `purpose` (the
+/// solver may have changed since validation: [`Problem::set_solver`]).
+pub(crate) fn check_memory(p: &Problem, horizon: f64, purpose: Purpose) -> Result<(), ProblemError> {
+    let (path, multigrid) = match (purpose, p.solver()) {
+        (Purpose::Rows, _) => return Ok(()),
+        (Purpose::Assembled, _) => (Path::BondAssembled, false),
+        (Purpose::Solve, s @ SolverSpec::Cg { matrix_free: true, .. }) => (Path::BondMatrixFree, s.uses_multigrid()),
+        (Purpose::Solve, s) => (Path::BondAssembled, s.uses_multigrid()),
+    };
+    crate::memory::check_solver(path, p.lattice()?, horizon, multigrid)
+}
+
+impl SceneModel for BondLatticeModel {
+    fn name(&self) -> &'static str {
+        "bond"
+    }
+    fn horizon(&self) -> Option<f64> {
+        Some(self.bond.horizon)
+    }
+    fn lacks(&self, _: Capability) -> Option<String> {
+        None
+    }
+    fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
+        check_memory(p, self.bond.horizon, purpose)?;
+        progress.phase(&bond::building(p, self.bond.horizon));
+        let (model, correction) = self.build(p)?;
+        Ok(System {
+            n_bonds: model.operator().family().n_bonds(),
+            model: Arc::new(model),
+            bc: p.dirichlet(),
+            f: p.load_vector(),
+            notes: correction.map(|c| c.describe()).into_iter().collect(),
+            built_before: 0.0,
+        })
+    }
+    fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
+        Ok(bond::solution(p, s.model(), s.n_bonds, u, report))
+    }
+    fn level0_stiffness(&self, p: &Problem) -> Result<linpd_core::Csc, ProblemError> {
+        let (op, _) = self.bond.operator(p.nodes())?;
+        Ok(linpd_bond::assemble(&op, &DofMap::all_free(p.nodes().len(), p.dim())))
+    }
+    fn dynamics_operator(&self, p: &Problem) -> Result<linpd_bond::BondOperator, ProblemError> {
+        Ok(self.bond.operator(p.nodes())?.0)
+    }
+    fn bond(&self) -> Option<&BondModel> {
+        Some(&self.bond)
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}

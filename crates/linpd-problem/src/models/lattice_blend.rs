@@ -1,0 +1,373 @@
+//! Bond scenes with `model.pd_regions`: the 2D/3D blended PD / local-elasticity model of
+//! [`linpd_blend::lattice`] (PD inside the regions, local elasticity beyond the transition).
+//!
+//! `beta` is 1 on the nodes inside any PD region and falls with the transition profile over
+//! the distance (between nodes) to the nearest such node. The solve report's note gives the
+//! node counts of the three zones and the stored entries against the pure bond model's.
+//!
+//! The blended operator is unsymmetric and assembled whole: no matrix-free solve, no block
+//! rows (yet), no explicit dynamics. It is not coarsened either: Silling's coarsening condenses
+//! a nonlocal model whose every node interacts through bonds, and the local zone's element
+//! rows are already the coarse description there (coarsen the pure bond scene instead).
+
+use super::bond::{self, BondModel, RawBond, Surface};
+use super::bond_lattice::check_memory;
+use super::{Capability, Purpose, SceneModel, System};
+use crate::problem::region;
+use crate::{Problem, ProblemError, Solution};
+use linpd_blend::{beta_from_zone, LatticeBlend};
+use linpd_bond::BondOperator;
+use linpd_core::family::lattice_stencil;
+use linpd_core::progress::Progress;
+use linpd_core::{Grid, Material, Region, GEOMETRY_RTOL};
+use linpd_lps::SurfaceCorrection;
+use linpd_solve::SolveReport;
+use rayon::prelude::*;
+use std::any::Any;
+use std::sync::Arc;
+
+/// A bond scene with `pd_regions`: the bond model and where it is PD.
+#[derive(Debug, Clone)]
+pub struct LatticeBlendModel {
+    /// The bond model's parameters.
+    pub bond: BondModel,
+    /// The PD regions and the transition.
+    pub zone: PdZone,
+}
+
+/// `model.pd_regions`, `transition`, `transition_profile`: where the blended model is PD.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PdZone {
+    /// The PD regions (`beta = 1` on the nodes inside any of them).
+    pub regions: PdRegions,
+    /// The transition's width.
+    pub transition: f64,
+    /// How `beta` falls across it.
+    pub profile: linpd_blend::Profile,
+}
+
+/// The PD regions of a blended scene.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PdRegions {
+    /// Given regions.
+    Given(Vec<Region>),
+    /// Every node within `radius` (a length) of a feature of the scene ([`LatticeBlendModel::build`]).
+    Auto {
+        /// The radius, `auto_radius` horizons.
+        radius: f64,
+    },
+}
+
+/// Default `model.auto_radius`, in horizons, from `linpd study blend-2d` (docs/studies/blend-2d,
+/// transition 1 horizon, linear): at radius 2 the error against pure PD is <= 6.4e-4 of max |u|
+/// on the edge-cracked plate (41,607 and 92,407 nodes) and <= 4.5e-4 on the plate with a hole
+/// (19,650 and 43,536 nodes) at 0.39x-0.46x the entries; radius 1 leaves 1.5e-3 on the hole,
+/// radius 0.5 2.6e-2 (the roller support's edge), radius 3 gains < 10 % for +7 % entries.
+pub const AUTO_RADIUS: f64 = 2.0;
+/// Default `model.transition` with `"pd_regions": "auto"`, in horizons (docs/models.md: on the
+/// centre-cracked plate 2 horizons gave 5.2e-4 against 5.9e-4 for 1, at 0.436x against 0.405x
+/// the entries).
+pub const AUTO_TRANSITION: f64 = 1.0;
+
+/// `model.pd_regions` and its transition keys on a bond model of a 2D/3D lattice.
+pub(crate) fn zone(grid: &Grid, raw: &RawBond, surface: Surface) -> Result<Option<PdZone>, ProblemError> {
+    use crate::raw::{RawBlending as B, RawPdRegions};
+    let (horizon, regions, auto_radius, transition) =
+        (raw.horizon, raw.pd_regions.as_ref(), raw.auto_radius, raw.transition);
+    let (profile, value) = (raw.transition_profile, raw.transition_value);
+    let Some(raw_regions) = regions else {
+        for (key, given) in [
+            ("auto_radius", auto_radius.is_some()),
+            ("transition", transition.is_some()),
+            ("transition_profile", profile.is_some()),
+            ("transition_value", value.is_some()),
+        ] {
+            if given {
+                return Err(ProblemError::invalid(format!("model.{key}"), "belongs to pd_regions, which is missing"));
+            }
+        }
+        return Ok(None);
+    };
+    let dim = grid.dim();
+    if dim == 1 {
+        return Err(ProblemError::invalid(
+            "model.pd_regions",
+            "2D and 3D only: a 1D blend is `\"type\": \"blend\"` (Algorithm A with L1..L4)",
+        ));
+    }
+    if surface.correction != SurfaceCorrection::None {
+        return Err(ProblemError::invalid(
+            "model.pd_regions",
+            "not with a surface correction yet (the local model's moduli come from the uncorrected bonds)",
+        ));
+    }
+    let auto = matches!(raw_regions, RawPdRegions::Auto);
+    if auto_radius.is_some() && !auto {
+        return Err(ProblemError::invalid("model.auto_radius", "only with \"pd_regions\": \"auto\""));
+    }
+    let h = grid.spacing();
+    let width = match transition {
+        Some(w) => w,
+        None if auto => AUTO_TRANSITION * horizon,
+        None => {
+            return Err(ProblemError::invalid(
+                "model",
+                "missing field `transition` (the width of the PD-to-local transition)",
+            ))
+        }
+    };
+    if !(width.is_finite() && width >= h * (1.0 - linpd_core::GEOMETRY_RTOL)) {
+        return Err(ProblemError::invalid(
+            "model.transition",
+            format!("{width:e} is narrower than the grid spacing {h:e}: a transition needs at least one node"),
+        ));
+    }
+    let regions = match raw_regions {
+        RawPdRegions::Auto => {
+            let k = auto_radius.unwrap_or(AUTO_RADIUS);
+            if !(k.is_finite() && k >= 0.0) {
+                return Err(ProblemError::invalid("model.auto_radius", format!("must be >= 0 horizons, got {k:e}")));
+            }
+            PdRegions::Auto { radius: k * horizon }
+        }
+        RawPdRegions::Regions(raw_regions) => {
+            if raw_regions.is_empty() {
+                return Err(ProblemError::invalid("model.pd_regions", "empty: give at least one region, or \"auto\""));
+            }
+            let mut out = Vec::with_capacity(raw_regions.len());
+            for (k, r) in raw_regions.iter().enumerate() {
+                let path = format!("model.pd_regions[{k}]");
+                let region = region(&path, r, dim)?;
+                let tol = linpd_core::GEOMETRY_RTOL * h;
+                if !(0..grid.len()).any(|i| !grid.is_layer(i) && region.contains(&grid.position(i), dim, tol)) {
+                    return Err(ProblemError::invalid(path, "holds no node of the body (outside it, or in a hole)"));
+                }
+                out.push(region);
+            }
+            PdRegions::Given(out)
+        }
+    };
+    let profile = match (profile, value) {
+        (None | Some(B::Linear), None) => linpd_blend::Profile::Linear,
+        (Some(B::Cubic), None) => linpd_blend::Profile::Cubic,
+        (Some(B::Constant), v) => {
+            let v = v.unwrap_or(0.5);
+            if !(v > 0.0 && v < 1.0) {
+                return Err(ProblemError::invalid("model.transition_value", format!("{v:e} is not in (0, 1)")));
+            }
+            linpd_blend::Profile::Constant(v)
+        }
+        (Some(B::Piecewise), _) => {
+            return Err(ProblemError::invalid(
+                "model.transition_profile",
+                "piecewise is a 1D blend profile: use linear, cubic or constant",
+            ))
+        }
+        (_, Some(_)) => {
+            return Err(ProblemError::invalid(
+                "model.transition_value",
+                "only with \"transition_profile\": \"constant\"",
+            ))
+        }
+    };
+    Ok(Some(PdZone { regions, transition: width, profile }))
+}
+
+impl LatticeBlendModel {
+    /// The scene's blended model.
+    pub fn build(&self, p: &Problem) -> Result<LatticeBlend, ProblemError> {
+        let (b, zone) = (&self.bond, &self.zone);
+        let grid = p.lattice()?;
+        let (op, _) = b.operator(p.nodes())?;
+        let dim = grid.dim();
+        // with phases or defects, a node is regular when its bonds carry the homogeneous weights
+        // times one factor (no defect and no interface within its horizon)
+        let regular = if b.material.is_homogeneous() {
+            None
+        } else {
+            let hom = BondOperator::on_grid(grid, b.horizon, &b.micromodulus, &Material::default())
+                .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
+            Some(
+                (0..grid.len())
+                    .map(|i| {
+                        let (w, w0) = (op.weights(i), hom.weights(i));
+                        w.len() == w0.len() && {
+                            let f = w[0] / w0[0];
+                            w.iter().zip(w0).all(|(a, b)| (a - f * b).abs() <= 1e-12 * a.abs().max(f * b.abs()))
+                        }
+                    })
+                    .collect::<Vec<bool>>(),
+            )
+        };
+        let (mask, _) = p.constrained();
+        let constrained: Vec<bool> = (0..grid.len()).map(|i| (0..dim).any(|a| mask[dim * i + a])).collect();
+        let inside = match &zone.regions {
+            PdRegions::Given(regions) => {
+                let tol = GEOMETRY_RTOL * grid.spacing();
+                (0..grid.len())
+                    .map(|i| {
+                        let x = grid.position(i);
+                        regions.iter().any(|r| r.contains(&x, dim, tol))
+                    })
+                    .collect()
+            }
+            PdRegions::Auto { radius } => {
+                let (hard, soft) = features(p, regular.as_deref(), &constrained)?;
+                // a node beside a defect, an interface or a removed site may have no local share
+                // at all (its family and difference stencils cross them): its whole family must
+                // be PD, so those features get at least one horizon
+                let mut inside = dilate(grid, &hard, radius.max(b.horizon));
+                for (i, x) in dilate(grid, &soft, *radius).into_iter().enumerate() {
+                    inside[i] |= x;
+                }
+                inside
+            }
+        };
+        let beta = beta_from_zone(grid, &inside, zone.transition, zone.profile);
+        // supports in the layer stand for the body beyond them
+        let mirrored: Vec<bool> = (0..grid.len()).map(|i| grid.is_layer(i) && constrained[i]).collect();
+        LatticeBlend::new(&op, grid, b.horizon, beta, regular.as_deref(), &mirrored)
+            .map_err(|e| ProblemError::invalid("model", e.to_string()))
+    }
+}
+
+/// The nodes `"pd_regions": "auto"` refines around: where the solution is rough or the
+/// local model cannot go. A node is a feature when
+/// * its family is not regular (a defect cuts a bond of it, or a material interface is
+///   within its horizon),
+/// * a lattice neighbour (the `3^d` box) inside the grid's box was removed by the scene's
+///   `body` (a hole, a notch, or a face of the body cut from the box: stress
+///   concentrations; the grid box's own faces are free surfaces that the local model's
+///   softened elements carry, measured in docs/models.md),
+/// * it is loaded and a box neighbour is not, or the other way round (point loads, the
+///   edges of loaded regions), or
+/// * it is constrained and a box neighbour is not, or the other way round (the edges of
+///   supports, where the local and the nonlocal boundary conditions differ most).
+///
+/// Returned as `(hard, soft)`: the first two kinds, which no local share may reach, and the
+/// last two. `Err` when there is none: nothing to refine around.
+fn features(
+    p: &Problem,
+    regular: Option<&[bool]>,
+    constrained: &[bool],
+) -> Result<(Vec<bool>, Vec<bool>), ProblemError> {
+    let grid = p.lattice()?;
+    let d = grid.dim();
+    let f = p.load_vector();
+    let loaded: Vec<bool> = (0..grid.len()).map(|i| (0..d).any(|a| f[d * i + a] != 0.0)).collect();
+    // 0: none, 1: soft, 2: hard
+    let kind: Vec<u8> = (0..grid.len())
+        .into_par_iter()
+        .map(|i| {
+            if regular.is_some_and(|r| !r[i]) {
+                return 2;
+            }
+            let mut soft = false;
+            let k = grid.lattice_index(i);
+            let span = |a: usize| if a < d { -1i64..=1 } else { 0..=0 };
+            for o2 in span(2) {
+                for o1 in span(1) {
+                    for o0 in span(0) {
+                        let kk = [k[0] + o0, k[1] + o1, k[2] + o2];
+                        match grid.node_at(kk) {
+                            None if grid.box_contains(kk) => return 2,
+                            Some(j) if loaded[j] != loaded[i] || constrained[j] != constrained[i] => soft = true,
+                            _ => {}
+                        }
+                    }
+                }
+            }
+            u8::from(soft)
+        })
+        .collect();
+    if kind.iter().all(|&k| k == 0) {
+        return Err(ProblemError::invalid(
+            "model.pd_regions",
+            "\"auto\" found nothing to refine around (no defect, material interface, hole, load edge or \
+                 support edge): give the regions, or drop pd_regions",
+        ));
+    }
+    Ok((kind.iter().map(|&k| k == 2).collect(), kind.iter().map(|&k| k == 1).collect()))
+}
+
+/// The nodes within `radius` of a node of `features` (inclusive).
+fn dilate(grid: &Grid, features: &[bool], radius: f64) -> Vec<bool> {
+    let h = grid.spacing();
+    let offsets = lattice_stencil(grid.dim(), radius / h);
+    let mut inside = features.to_vec();
+    for i in (0..grid.len()).filter(|&i| features[i]) {
+        let k = grid.lattice_index(i);
+        for o in &offsets {
+            if let Some(j) = grid.node_at([k[0] + o[0], k[1] + o[1], k[2] + o[2]]) {
+                inside[j] = true;
+            }
+        }
+    }
+    inside
+}
+
+impl SceneModel for LatticeBlendModel {
+    fn name(&self) -> &'static str {
+        "bond"
+    }
+    fn describe(&self) -> String {
+        "bond with pd_regions (the blended model)".into()
+    }
+    fn horizon(&self) -> Option<f64> {
+        Some(self.bond.horizon)
+    }
+    fn lacks(&self, capability: Capability) -> Option<String> {
+        match capability {
+            Capability::MatrixFree => {
+                Some("the blended model is unsymmetric and assembled whole: use \"gmres\" or \"auto\"".into())
+            }
+            Capability::BlockRows => Some(
+                "row-block assembly (the distributed path) does not take blended scenes yet: the blended model is \
+                 assembled whole; use `linpd solve` or `linpd export`"
+                    .into(),
+            ),
+            Capability::Coarsen => Some(
+                "Silling's coarsening condenses a nonlocal bond model, and the blended model's local zone is already \
+                 its coarse description: coarsen the scene without pd_regions"
+                    .into(),
+            ),
+            Capability::Dynamics => Some("the blended model is static: remove pd_regions for dynamics".into()),
+            _ => None,
+        }
+    }
+    fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
+        check_memory(p, self.bond.horizon, purpose)?;
+        progress.phase(&bond::building(p, self.bond.horizon));
+        progress.phase(&format!("building the blended model: {} nodes", p.nodes().len()));
+        let model = self.build(p)?;
+        let z = model.zones();
+        let describe = format!(
+            "blend: {} PD, {} transition, {} local nodes; {} stored entries, {:.3}x the bond model's {}",
+            z.pd,
+            z.transition,
+            z.local,
+            z.nnz,
+            z.nnz as f64 / z.nnz_pd as f64,
+            z.nnz_pd
+        );
+        // the bond model's directed bonds, from its stored entries d^2 (n + bonds)
+        let d = p.dim();
+        Ok(System {
+            n_bonds: z.nnz_pd / (d * d) - p.nodes().len(),
+            model: Arc::new(model),
+            bc: p.dirichlet(),
+            f: p.load_vector(),
+            notes: vec![describe],
+            built_before: 0.0,
+        })
+    }
+    fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
+        Ok(bond::solution(p, s.model(), s.n_bonds, u, report))
+    }
+    fn bond(&self) -> Option<&BondModel> {
+        Some(&self.bond)
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}

@@ -1,0 +1,304 @@
+//! `"type": "lps"`: the linearized state-based LPS solid ([`linpd_lps::LpsModel`], crates/linpd-lps)
+//! on a grid or a point cloud, with the same volume constraints, loads and solvers as the
+//! bond-based model: pre-cracks (defects), `energy` and `position_aware` surface corrections
+//! (grids only). Its ordering, reach and support graph are documented in linpd-lps.
+
+use super::bond::{surface_of, Surface};
+use super::registry::{struct_fields, Context, ModelType, Validated};
+use super::{solve_system, Capability, Purpose, SceneModel, System};
+use crate::cloud::{check_defects, cloud_nodes, no_surface_correction};
+use crate::problem::{material, NodeSet, Nodes};
+use crate::raw::{RawInfluence, RawMaterial, RawPlane, RawSurfaceCorrection, RawSurfaceTarget};
+use crate::{Problem, ProblemError, Solution};
+use linpd_core::progress::Progress;
+use linpd_core::surface::CorrectionSummary;
+use linpd_core::{Defect, PlaneModel};
+use linpd_lps::{LpsModel, LpsParams};
+use linpd_solve::SolveReport;
+use serde::Deserialize;
+use std::any::Any;
+use std::sync::Arc;
+
+/// From this Poisson ratio on, a CG solve of an LPS scene carries a conditioning warning in
+/// its report's `note`: measured on the 3D bar of `data/lps-tension-3d.json` (1701 nodes,
+/// delta = 2h) under three loadings, CG with the default rtol 1e-10 against Cholesky
+/// (docs/solvers.md, "Near-incompressible LPS"): below 0.499 the error in `u` stays within
+/// 4x the residual, at 0.499 it is 12x (a digit lost) and the iterations grow 10x; from 0.4993
+/// the true residual stalls above 1e-10 on one loading (an error since CG checks it).
+pub const CG_NEAR_INCOMPRESSIBLE_NU: f64 = 0.499;
+
+/// The keys of an lps model (`docs/problem-format.md`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLps {
+    /// `"lps"`.
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// Horizon `delta`.
+    pub horizon: f64,
+    /// Partial-volume scaling at the horizon edge.
+    #[serde(default)]
+    pub partial_volume: bool,
+    /// 2D assumption: `stress` or `strain`.
+    #[serde(default)]
+    pub plane: Option<RawPlane>,
+    /// Bulk modulus `K`.
+    #[serde(default)]
+    pub bulk_modulus: Option<f64>,
+    /// Shear modulus `G`.
+    #[serde(default)]
+    pub shear_modulus: Option<f64>,
+    /// Influence function, `inverse_distance` (default) or `constant`.
+    #[serde(default)]
+    pub influence: Option<RawInfluence>,
+    /// Defects (pre-cracks); no phases yet.
+    #[serde(default)]
+    pub material: RawMaterial,
+    /// `none` (default), `energy` or `position_aware`.
+    #[serde(default)]
+    pub surface_correction: Option<RawSurfaceCorrection>,
+    /// With a surface correction: `classical` (default) or `lattice`.
+    #[serde(default)]
+    pub surface_target: Option<RawSurfaceTarget>,
+}
+
+/// The lps model type.
+pub struct LpsType;
+
+/// The registry entry.
+pub static LPS: LpsType = LpsType;
+
+impl ModelType for LpsType {
+    fn name(&self) -> &'static str {
+        "lps"
+    }
+    fn fields(&self) -> &'static [&'static str] {
+        struct_fields::<RawLps>()
+    }
+    fn validate(&self, cx: &Context) -> Result<Validated, ProblemError> {
+        let raw: RawLps = cx.model_keys()?;
+        let dim = cx.dim();
+        if cx.raw.nodes.is_some() {
+            let correction = raw.surface_correction.is_some_and(|c| c != RawSurfaceCorrection::None);
+            if correction || raw.surface_target.is_some() {
+                return Err(no_surface_correction(correction));
+            }
+            let (nodes, _) = cloud_nodes(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
+            let params = params(dim, &raw)?;
+            let material = material(&raw.material, dim)?;
+            check_defects(&material, &nodes, raw.horizon)?;
+            let model = LpsSceneModel { params, defects: material.defects, surface: Surface::default(), cloud: true };
+            return Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(model) });
+        }
+        let grid = crate::problem::lattice(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
+        let params = params(dim, &raw)?;
+        let material = material(&raw.material, dim)?;
+        if let Some(k) = material.defect_cutting_nothing(&grid, raw.horizon) {
+            return Err(super::bond::defect_cuts_nothing(k));
+        }
+        let surface = surface_of(true, raw.surface_correction, raw.surface_target)?;
+        let model = LpsSceneModel { params, defects: material.defects, surface, cloud: false };
+        Ok(Validated { nodes: Nodes::Lattice(grid), model: Box::new(model) })
+    }
+}
+
+/// Validates the lps keys (the model itself checks `m > 0` when it is built).
+fn params(dim: usize, raw: &RawLps) -> Result<LpsParams, ProblemError> {
+    let (horizon, partial_volume, plane, material) = (raw.horizon, raw.partial_volume, raw.plane, &raw.material);
+    let (bulk, shear, influence) = (raw.bulk_modulus, raw.shear_modulus, raw.influence);
+    if dim == 1 {
+        return Err(ProblemError::invalid("dimension", "lps models are 2D or 3D"));
+    }
+    if !material.phases.is_empty() || material.bond_rule.is_some() {
+        return Err(ProblemError::invalid(
+            "model.material",
+            "lps models take defects (pre-cracks) but no phases or bond_rule yet: one K and G per scene",
+        ));
+    }
+    let k = bulk.ok_or_else(|| ProblemError::invalid("model.bulk_modulus", "missing"))?;
+    let g = shear.ok_or_else(|| ProblemError::invalid("model.shear_modulus", "missing"))?;
+    if !(k.is_finite() && k > 0.0) {
+        return Err(ProblemError::invalid("model.bulk_modulus", format!("must be > 0, got {k:e}")));
+    }
+    if !(g.is_finite() && g > 0.0) {
+        return Err(ProblemError::invalid("model.shear_modulus", format!("must be > 0, got {g:e}")));
+    }
+    let plane = match (dim, plane) {
+        (2, Some(RawPlane::Stress)) => Some(PlaneModel::Stress),
+        (2, Some(RawPlane::Strain)) => Some(PlaneModel::Strain),
+        (2, None) => {
+            return Err(ProblemError::invalid("model.plane", "2D lps scenes need \"plane\": \"stress\" or \"strain\""))
+        }
+        (_, Some(_)) => return Err(ProblemError::invalid("model.plane", "only meaningful in 2D")),
+        (_, None) => None,
+    };
+    let influence = match influence {
+        None | Some(RawInfluence::InverseDistance) => linpd_lps::Influence::InverseDistance,
+        Some(RawInfluence::Constant) => linpd_lps::Influence::Constant,
+    };
+    let params = linpd_lps::LpsParams { K: k, G: g, horizon, influence, partial_volume, plane };
+    // Overflow first: `G = 1e308` would otherwise read as "Poisson ratio = NaN".
+    if let Some((what, value)) = params.overflow(dim) {
+        let key = if g >= k { "model.shear_modulus" } else { "model.bulk_modulus" };
+        return Err(ProblemError::invalid(
+            key,
+            format!("K = {k:e} and G = {g:e} overflow: the derived constant {what} = {value:e}; use smaller units for the moduli"),
+        ));
+    }
+    let nu = params.poisson_ratio();
+    if !(nu > -1.0 && nu < 0.5) {
+        return Err(ProblemError::invalid(
+            "model.shear_modulus",
+            format!("Poisson ratio (3K - 2G)/(2(3K + G)) = {nu} is outside (-1, 1/2)"),
+        ));
+    }
+    Ok(params)
+}
+
+/// An lps scene: the LPS parameters, the defects (pre-cracks) of its material and its surface
+/// correction.
+#[derive(Debug, Clone)]
+pub struct LpsSceneModel {
+    /// `K`, `G`, the horizon, the influence function, ...
+    pub params: LpsParams,
+    /// Pre-cracks.
+    pub defects: Vec<Defect>,
+    /// The surface correction and its target.
+    pub surface: Surface,
+    /// On a point cloud.
+    cloud: bool,
+}
+
+impl LpsSceneModel {
+    /// The LPS model on the scene's nodes and, with a moment-matching surface correction, what it
+    /// did and cost (for the solve report).
+    pub fn build(&self, p: &Problem) -> Result<(LpsModel, Option<CorrectionSummary>), ProblemError> {
+        let (params, defects, surface) = (&self.params, &self.defects, &self.surface);
+        let built = match p.nodes().cloud() {
+            Some(c) => LpsModel::on_points(c.dim, c.positions.clone(), &c.volumes, params, defects),
+            None => LpsModel::with_defects(p.lattice()?, params, defects),
+        };
+        let model = built.map_err(|e| match e {
+            // the usual cause with defects: one passes through the node (the crossing test is
+            // closed, so every bond of that node touches it)
+            e @ linpd_lps::LpsError::ZeroWeightedVolume { .. } if !defects.is_empty() => ProblemError::invalid(
+                "model.material.defects",
+                format!(
+                    "{e}: a defect through a node cuts all its bonds; place defects between {}",
+                    if p.nodes().cloud().is_some() { "nodes" } else { "lattice rows" }
+                ),
+            ),
+            e => ProblemError::invalid("model", e.to_string()),
+        })?;
+        model
+            .corrected_to(surface.correction, surface.target)
+            .map_err(|e| ProblemError::invalid("model.surface_correction", e.to_string()))
+    }
+}
+
+impl SceneModel for LpsSceneModel {
+    fn name(&self) -> &'static str {
+        "lps"
+    }
+    fn describe(&self) -> String {
+        if self.cloud {
+            "lps (point cloud)".into()
+        } else {
+            "lps".into()
+        }
+    }
+    fn horizon(&self) -> Option<f64> {
+        Some(self.params.horizon)
+    }
+    fn lacks(&self, capability: Capability) -> Option<String> {
+        match capability {
+            Capability::MatrixFree => {
+                Some("not available for lps models yet (the Jacobi diagonal needs the assembled tangent)".into())
+            }
+            Capability::Dynamics => {
+                Some("explicit dynamics steps the bond operator (linpd-dynamics); lps models are static here".into())
+            }
+            Capability::Coarsen if self.cloud => Some(
+                "coarsening retains every k-th node of a lattice (levels[].every); point clouds are not coarsened yet"
+                    .into(),
+            ),
+            _ => None,
+        }
+    }
+    fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
+        // a point cloud was checked against memory when the scene was validated; rows assemble
+        // nothing whole
+        if let (Some(grid), Purpose::Solve | Purpose::Assembled) = (p.grid(), purpose) {
+            let multigrid = purpose == Purpose::Solve && p.solver().uses_multigrid();
+            crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, self.params.horizon, multigrid)?;
+        }
+        progress.phase(&format!(
+            "building the LPS model: {} nodes, horizon/spacing = {:.3}",
+            p.nodes().len(),
+            self.params.horizon / p.nodes().spacing()
+        ));
+        let (model, correction) = self.build(p)?;
+        let notes: Vec<String> = correction.map(|c| c.describe()).into_iter().collect();
+        if purpose == Purpose::Solve {
+            progress.phase("the LPS tangent couples nodes up to 2 horizons apart");
+        }
+        Ok(System {
+            n_bonds: model.family().n_bonds(),
+            model: Arc::new(model),
+            bc: p.dirichlet(),
+            f: p.load_vector(),
+            notes,
+            built_before: 0.0,
+        })
+    }
+    fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
+        let model = s.model.as_any().downcast_ref::<LpsModel>().expect("the system of an lps scene holds an LpsModel");
+        Ok(solution(p, model, u, report))
+    }
+    /// The static solve, with a warning in the report when CG solved a near-incompressible solid.
+    fn solve(&self, p: &Problem, progress: &dyn Progress) -> Result<Solution, ProblemError> {
+        let mut s = solve_system(self, p, progress)?;
+        let nu = self.params.poisson_ratio();
+        if nu >= CG_NEAR_INCOMPRESSIBLE_NU && matches!(s.report.solver, linpd_solve::SolverId::Cg { .. }) {
+            let note = format!(
+                "near-incompressible LPS (nu = {nu}): from nu = {CG_NEAR_INCOMPRESSIBLE_NU} CG was measured to lose a digit \
+                 against the direct solver at the same residual, to need 10x the iterations and, from nu = 0.4993, to stop \
+                 above rtol 1e-10 (docs/solvers.md); the cholesky solver is the safer choice"
+            );
+            progress.phase(&format!("warning: {note}"));
+            crate::run::append_note(&mut s.report, note);
+        }
+        Ok(s)
+    }
+    fn level0_stiffness(&self, p: &Problem) -> Result<linpd_core::Csc, ProblemError> {
+        Ok(linpd_lps::assemble_tangent(&self.build(p)?.0))
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+/// The [`Solution`] of an lps scene for displacements `u` over all DOFs (solved here or
+/// elsewhere, [`crate::RowSystem`]): balance, strain, dilatation and energy density.
+pub(crate) fn solution(p: &Problem, model: &LpsModel, u: Vec<f64>, report: SolveReport) -> Solution {
+    let n = p.nodes.len();
+    let balance = p.balance(model, &u);
+    let volumes: Vec<f64> = (0..n).map(|i| model.node_volume(i)).collect();
+    let strain = Some(crate::nodal_strain(model, &volumes, &u));
+    let dilatation = Some(model.linearized_theta(&u));
+    let strain_energy_density = Some(model.linearized_energy_density(&u));
+    Solution {
+        name: p.name.clone(),
+        dim: p.dim(),
+        x: model.positions(),
+        u,
+        is_layer: (0..n).map(|i| p.nodes.is_layer(i)).collect(),
+        volumes,
+        n_bonds: model.family().n_bonds(),
+        balance: Some(balance),
+        strain_energy_density,
+        strain,
+        dilatation,
+        report,
+    }
+}
