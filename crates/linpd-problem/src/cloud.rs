@@ -319,6 +319,10 @@ pub(crate) fn cloud_nodes(
     Ok((cloud.into_nodes(dim), h))
 }
 
+/// Why a model on a point cloud lacks [`crate::Capability::Coarsen`].
+pub(crate) const NOT_COARSENED: &str =
+    "coarsening retains every k-th node of a lattice (levels[].every); point clouds are not coarsened yet";
+
 /// The refusal of a surface correction (`correction`) or target on a point cloud.
 pub(crate) fn no_surface_correction(correction: bool) -> ProblemError {
     ProblemError::invalid(

@@ -25,12 +25,11 @@
 //!   one file; the level is the coarse end of a hierarchy). A symmetric `K` gives its rows as
 //!   its columns; an unsymmetric one gets a transposed copy built on the first row request
 //!   (one more `16` bytes per stored entry, one `O(nnz)` pass), see
-//!   [`linpd_core::AssembledModel`]. The row system holds its own copy of the level's model
-//!   (one more `K`);
+//!   [`linpd_core::AssembledModel`]. The row system shares the scene's `K` (no copy);
 //! * **1D blend/CE**: the rows of the stored CSR operator (banded, `O(n eps / dx)` entries),
 //!   nothing more.
 //!
-//! Refused, naming why: bond scenes with `model.pd_regions` (the 2D/3D blended model of
+//! Refused by name ([`Capability::BlockRows`]): bond scenes with `model.pd_regions` (the 2D/3D blended model of
 //! `linpd_blend::lattice`), which is assembled whole and has no block rows yet.
 //!
 //! The models that are not symmetric (blend, CE-blend, unsymmetric coarsened levels) report it

@@ -149,6 +149,10 @@ impl Problem {
     /// line per phase and the tasks of the assembly and the solver.
     pub fn solve(&self, progress: &dyn Progress) -> Result<Solution, ProblemError> {
         self.model.require(Capability::StaticSolve)?;
+        // the solver may have changed since validation ([`Problem::set_solver`])
+        if let linpd_solve::SolverSpec::Cg { matrix_free: true, .. } = self.solver {
+            self.model.require(Capability::MatrixFree)?;
+        }
         self.model.solve(self, progress)
     }
 

@@ -351,7 +351,7 @@ impl BlendScene {
 
     /// The scene's loads as blend loads: point loads on nodes, body loads on boxes (a union of
     /// boxes gives one load per merged interval).
-    fn loads(name: &str, grid: &Grid, loads: &[Load]) -> Result<BlendLoads, ProblemError> {
+    fn translate_loads(name: &str, grid: &Grid, loads: &[Load]) -> Result<BlendLoads, ProblemError> {
         let mut out = Vec::new();
         let mut load_of = Vec::new();
         let mut load_kinds = Vec::new();
@@ -428,12 +428,16 @@ impl BlendScene {
     pub fn kind(&self) -> ModelKind {
         self.kind
     }
-    /// `u(0)` and `u(L)`.
-    pub fn ends_values(&self) -> (f64, f64) {
-        (self.u_left, self.u_right)
+    /// `u(0)`.
+    pub fn u_left(&self) -> f64 {
+        self.u_left
+    }
+    /// `u(L)`.
+    pub fn u_right(&self) -> f64 {
+        self.u_right
     }
     /// Loads.
-    pub fn blend_loads(&self) -> &[linpd_blend::Load] {
+    pub fn loads(&self) -> &[linpd_blend::Load] {
         &self.loads
     }
     /// Solver.
@@ -469,7 +473,7 @@ impl SceneModel for BlendScene {
         let grid = nodes.lattice().expect("a blend scene is on a lattice");
         let name = self.name();
         (self.u_left, self.u_right, self.constraint_ends) = Self::ends(name, grid, constraints)?;
-        (self.loads, self.load_of, self.load_kinds) = Self::loads(name, grid, loads)?;
+        (self.loads, self.load_of, self.load_kinds) = Self::translate_loads(name, grid, loads)?;
         // the scene's solver as one of the blend's own (here, after the capability checks: a
         // matrix-free cg is refused by name first)
         self.solver = match raw.solver.kind {

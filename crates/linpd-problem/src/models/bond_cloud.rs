@@ -71,10 +71,7 @@ impl SceneModel for BondCloudModel {
                 Some("the matrix-free stencil operator needs a grid; point clouds are solved assembled".into())
             }
             Capability::Dynamics => Some("explicit dynamics needs a grid (not available on point clouds yet)".into()),
-            Capability::Coarsen => Some(
-                "coarsening retains every k-th node of a lattice (levels[].every); point clouds are not coarsened yet"
-                    .into(),
-            ),
+            Capability::Coarsen => Some(crate::cloud::NOT_COARSENED.into()),
             _ => None,
         }
     }

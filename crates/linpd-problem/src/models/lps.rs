@@ -218,10 +218,7 @@ impl SceneModel for LpsSceneModel {
             Capability::Dynamics => {
                 Some("explicit dynamics steps the bond operator (linpd-dynamics); lps models are static here".into())
             }
-            Capability::Coarsen if self.cloud => Some(
-                "coarsening retains every k-th node of a lattice (levels[].every); point clouds are not coarsened yet"
-                    .into(),
-            ),
+            Capability::Coarsen if self.cloud => Some(crate::cloud::NOT_COARSENED.into()),
             _ => None,
         }
     }
