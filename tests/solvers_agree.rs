@@ -3,6 +3,7 @@
 
 use linpd::bond::{BondOperator, Pattern};
 use linpd::core::{BondRule, DofMap, Material, Region};
+use linpd::problem::models::bond_lattice::BondLatticeModel;
 use linpd::problem::Problem;
 use linpd::solve::{solve_assembled, CgParams, Cholesky, MatrixHints, PreconditionerKind, SolverSpec};
 
@@ -47,7 +48,7 @@ fn second_material_reuses_pattern_and_symbolic_factorization() {
     let mut material = Material::default();
     material.phases.push((Region::Box { min: vec![0.3, 0.1], max: vec![0.6, 0.4] }, 5.0));
     material.rule = BondRule::Min;
-    let bond = p.model().bond().expect("plate-tension-2d is a bond scene");
+    let bond = &p.model().downcast::<BondLatticeModel>().expect("plate-tension-2d is a bond scene").bond;
     let op2 = BondOperator::on_grid(p.grid().expect("a lattice scene"), bond.horizon(), bond.micromodulus(), &material)
         .unwrap();
     assert_eq!(op1.family(), op2.family());

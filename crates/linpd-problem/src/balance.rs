@@ -20,8 +20,6 @@
 //! to round-off; the transition rows of a blended model balance only when the solution is
 //! quadratic on their stencils (the linpd-blend crate docs, "Force balance").
 
-use crate::problem::NodeSet;
-use crate::{Load, Problem};
 use linpd_core::Model;
 use serde::Serialize;
 
@@ -62,70 +60,6 @@ pub struct Balance {
     /// component (0 when there is no force at all): round-off for the bond-based and LPS
     /// operators.
     pub relative_imbalance: f64,
-}
-
-impl Problem {
-    /// Adds the nodal forces of `load` to `f` (full DOFs); returns the nodes it loaded.
-    pub(crate) fn add_load(&self, load: &Load, f: &mut [f64]) -> usize {
-        let d = self.dim();
-        // f_i = density v_i (body), or force v_i / sum_j v_j (resultant)
-        let (region, vector, resultant) = match load {
-            Load::Point { node, force } => {
-                (0..d).for_each(|a| f[d * node + a] += force[a]);
-                return 1;
-            }
-            Load::Body { region, density } => (region, density, false),
-            Load::Resultant { region, force } => (region, force, true),
-        };
-        let nodes = self.nodes.select(region);
-        let per_volume = if resultant { 1.0 / nodes.iter().map(|&n| self.nodes.volume(n)).sum::<f64>() } else { 1.0 };
-        for &node in &nodes {
-            let v = self.nodes.volume(node) * per_volume;
-            (0..d).for_each(|a| f[d * node + a] += vector[a] * v);
-        }
-        nodes.len()
-    }
-
-    /// The balance of the solution `u` of this scene on `model` (its full operator).
-    pub(crate) fn balance(&self, model: &dyn Model, u: &[f64]) -> Balance {
-        let d = self.dim();
-        let n = d * self.nodes.len();
-        let mut f = vec![0.0; n];
-        let mut loads = Vec::new();
-        for l in &self.loads {
-            let mut fl = vec![0.0; n];
-            let nodes = self.add_load(l, &mut fl);
-            let force: Vec<f64> = (0..d).map(|a| fl.iter().skip(a).step_by(d).sum()).collect();
-            f.iter_mut().zip(&fl).for_each(|(t, x)| *t += x);
-            let kind = match l {
-                Load::Point { .. } => "point",
-                Load::Body { .. } => "body",
-                Load::Resultant { .. } => "resultant",
-            };
-            loads.push(LoadBalance { kind, nodes, force });
-        }
-        let mut au = vec![0.0; n];
-        model.apply(u, &mut au);
-        let mut owner = vec![usize::MAX; n];
-        let mut constraints = Vec::new();
-        for (k, c) in self.constraints.iter().enumerate() {
-            let nodes = self.nodes.select(&c.region);
-            let mut reaction = vec![0.0; d];
-            let mut dofs = 0;
-            for &node in &nodes {
-                for &a in &c.components {
-                    let dof = d * node + a;
-                    if owner[dof] == usize::MAX {
-                        owner[dof] = k;
-                        dofs += 1;
-                        reaction[a] += au[dof] - f[dof];
-                    }
-                }
-            }
-            constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction });
-        }
-        Balance::from_parts(d, loads, constraints)
-    }
 }
 
 impl Balance {

@@ -19,8 +19,7 @@
 //! The file is read in a stream (its size is capped at [`MAX_CLOUD_BYTES`]), so no count in it
 //! decides an allocation.
 
-use crate::models::registry::Context;
-use crate::problem::LevelNodes;
+use crate::nodes::LevelNodes;
 use crate::ProblemError;
 use linpd_core::{BondFamily, Point};
 use std::path::Path;
@@ -221,131 +220,10 @@ impl Cloud {
     }
 }
 
-/// The modulus of every node when some phase names a phase number (`{"phase": k, "modulus":
-/// K}`): the phases in order, a later one overriding an earlier one where both apply (as for
-/// regions), `reference` where none does. `None` when every phase is a region (the material
-/// then applies them). A phase number that no node carries is an error (a typo would
-/// otherwise leave the material silently homogeneous).
-pub(crate) fn tagged_moduli(
-    raw: &crate::raw::RawMaterial,
-    nodes: &LevelNodes,
-    reference: f64,
-) -> Result<Option<Vec<f64>>, ProblemError> {
-    if raw.phases.iter().all(|ph| ph.phase.is_none()) {
-        return Ok(None);
-    }
-    let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
-    let mut moduli = vec![reference; nodes.positions.len()];
-    for (k, ph) in raw.phases.iter().enumerate() {
-        match (&ph.region, ph.phase) {
-            (Some(r), _) => {
-                let r = crate::problem::region(&format!("model.material.phases[{k}].region"), r, nodes.dim)?;
-                for (n, x) in nodes.positions.iter().enumerate() {
-                    if r.contains(x, nodes.dim, tol) {
-                        moduli[n] = ph.modulus;
-                    }
-                }
-            }
-            (None, Some(tag)) => {
-                if nodes.phase.is_empty() {
-                    return Err(ProblemError::invalid(
-                        format!("model.material.phases[{k}].phase"),
-                        "the node file has no `phase` column",
-                    ));
-                }
-                let mut any = false;
-                for (n, _) in nodes.phase.iter().enumerate().filter(|(_, &p)| p == tag) {
-                    moduli[n] = ph.modulus;
-                    any = true;
-                }
-                if !any {
-                    return Err(ProblemError::invalid(
-                        format!("model.material.phases[{k}].phase"),
-                        format!("no node of the cloud has phase {tag}"),
-                    ));
-                }
-            }
-            (None, None) => unreachable!("checked by material_with_tags"),
-        }
-    }
-    Ok(Some(moduli))
-}
-
 /// The mean node spacing `(sum_i V_i / n)^(1/d)` of a cloud: the scale of its horizon checks
 /// and memory estimate (a lattice's spacing `h` when the cloud is one).
 pub fn mean_spacing(volumes: &[f64], dim: usize) -> f64 {
     (volumes.iter().sum::<f64>() / volumes.len() as f64).powf(1.0 / dim as f64)
-}
-
-/// The nodes of a scene whose nodes come from a file (`"nodes"` instead of `"grid"`), checked
-/// against the horizon and the memory of `path`; and their mean spacing ([`mean_spacing`]).
-pub(crate) fn cloud_nodes(
-    cx: &Context,
-    horizon: f64,
-    path: crate::memory::Path,
-) -> Result<(LevelNodes, f64), ProblemError> {
-    let raw = cx.raw;
-    let dim = raw.dimension;
-    let spec = raw.nodes.as_ref().expect("called for scenes with nodes");
-    if raw.grid.is_some() {
-        return Err(ProblemError::invalid("grid", "give either \"grid\" or \"nodes\", not both"));
-    }
-    if raw.body.is_some() {
-        return Err(ProblemError::invalid("body", "not used with \"nodes\" (the point cloud is the body)"));
-    }
-    if raw.output.slice.is_some() {
-        return Err(ProblemError::invalid(
-            "output.slice",
-            "point clouds get no map (their nodes are not on a lattice)",
-        ));
-    }
-    let cloud = match (&spec.csv, &spec.vtk) {
-        (Some(f), None) => read_csv(&cx.base_dir.join(f), dim, "nodes.csv")?,
-        (None, Some(f)) => crate::vtu::read_cloud(&cx.base_dir.join(f), dim, "nodes.vtk")?,
-        _ => return Err(ProblemError::invalid("nodes", "give exactly one of \"csv\" or \"vtk\"")),
-    };
-    if !(horizon.is_finite() && horizon > 0.0) {
-        return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));
-    }
-    let h = mean_spacing(&cloud.volumes, dim);
-    let ratio = horizon / h;
-    if ratio < 1.0 {
-        return Err(ProblemError::invalid(
-            "model.horizon",
-            format!("horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing"),
-        ));
-    }
-    crate::memory::check_nodes(path, dim, cloud.positions.len(), ratio)?;
-    Ok((cloud.into_nodes(dim), h))
-}
-
-/// Why a model on a point cloud lacks [`crate::Capability::Coarsen`].
-pub(crate) const NOT_COARSENED: &str =
-    "coarsening retains every k-th node of a lattice (levels[].every); point clouds are not coarsened yet";
-
-/// The refusal of a surface correction (`correction`) or target on a point cloud.
-pub(crate) fn no_surface_correction(correction: bool) -> ProblemError {
-    ProblemError::invalid(
-        if correction { "model.surface_correction" } else { "model.surface_target" },
-        "not available on point clouds yet: the correction matches each node's bond moments to a lattice \
-         interior, and a cloud has no lattice (use \"none\", or a grid)",
-    )
-}
-
-/// Every defect of a cloud scene must cut a bond of the cloud.
-pub(crate) fn check_defects(
-    material: &linpd_core::Material,
-    nodes: &LevelNodes,
-    horizon: f64,
-) -> Result<(), ProblemError> {
-    if !material.defects.is_empty() {
-        let family = BondFamily::from_points(&nodes.positions, nodes.dim, horizon);
-        let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
-        if let Some(k) = material.defect_cutting_nothing_in(&family, &nodes.positions, tol) {
-            return Err(crate::models::bond::defect_cuts_nothing(k));
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

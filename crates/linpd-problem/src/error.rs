@@ -65,7 +65,7 @@ pub enum ProblemError {
     #[error("solver: dynamics: {0}")]
     Dynamics(linpd_dynamics::DynamicsError),
     /// The scene asks its model for what the model does not offer (a command, a solver or a
-    /// section): which model, which capability and why ([`crate::models::Capability`]).
+    /// section): which model, which capability and why ([`crate::capability::Capability`]).
     #[error("{path}: {capability} is not available for {model} models: {reason}")]
     Unavailable {
         /// The scene key that asks for it (`model.type` when a command does).
@@ -73,7 +73,7 @@ pub enum ProblemError {
         /// The model, as [`crate::models::SceneModel::describe`] names it.
         model: String,
         /// What it lacks.
-        capability: crate::models::Capability,
+        capability: crate::capability::Capability,
         /// Why, and what to do instead.
         reason: String,
     },

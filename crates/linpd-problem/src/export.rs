@@ -33,7 +33,8 @@
 //! and the run's identity (the scene's hash, the files and their sizes).
 
 use crate::models::{Capability, Purpose};
-use crate::{Problem, ProblemError};
+use crate::scene::Problem;
+use crate::ProblemError;
 use linpd_coarsen::io::{write_matrix_market, IoError};
 use linpd_core::progress::Progress;
 use linpd_core::sparse::{relative_asymmetry, Csc};

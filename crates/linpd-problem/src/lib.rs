@@ -11,37 +11,53 @@
 //! The key reference is `docs/problem-format.md`.
 #![deny(missing_docs)]
 
+// In layers, each using only those above it (no module cycle): files and formats; the
+// scene's parts; the scene and its model's interface; the models; the commands.
 pub mod atomic;
+pub mod capability;
+pub mod error;
+pub mod fields;
+pub mod json;
+pub mod memory;
+pub mod output;
+pub mod petsc;
+pub mod raw;
+
 pub mod balance;
 pub mod cloud;
 pub mod dynamics;
-pub mod error;
-pub mod export;
-pub mod fields;
-pub mod memory;
+pub mod nodes;
+pub mod solution;
+pub mod validate;
+pub mod vtu;
+
+pub mod scene;
+
 pub mod models;
-pub mod output;
-pub mod petsc;
+
+pub mod dynamics_run;
+pub mod export;
 pub mod pipeline;
-pub mod problem;
-pub mod raw;
 pub mod rows;
 pub mod run;
-pub mod vtu;
 
 pub use atomic::{OutputDir, RunIdentity};
 pub use balance::{Balance, ConstraintBalance, LoadBalance};
-pub use dynamics::{Dynamics, DynamicsRun, Initial, TimeStep};
+pub use capability::Capability;
+pub use dynamics::{Dynamics, Initial, TimeStep};
+pub use dynamics_run::{DynamicsRun, StabilityLimit};
 pub use error::ProblemError;
 pub use export::ReducedSystem;
 pub use fields::{nodal_strain, NodalStrain};
+pub use json::MAX_JSON_BYTES;
 pub use linpd_core::sparse::restrict_to_free as reduce_to_free;
-pub use models::bond::{BondModel, Surface};
+pub use models::bond_model::{BondModel, Surface};
 pub use models::coarsened::{CoarsenedModel, ModuliFile};
 pub use models::lattice_blend::{PdRegions, PdZone};
 pub use models::lps::CG_NEAR_INCOMPRESSIBLE_NU;
-pub use models::{Capability, ModelType, Registry, SceneModel};
+pub use models::{ModelType, Registry};
+pub use nodes::{LevelNodes, Nodes};
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
-pub use problem::{Constraint, LevelNodes, Load, Nodes, Problem, MAX_JSON_BYTES};
 pub use rows::{RowBlock, RowSystem};
-pub use run::Solution;
+pub use scene::{Constraint, Load, Problem, SceneModel};
+pub use solution::Solution;

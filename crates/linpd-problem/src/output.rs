@@ -4,7 +4,8 @@
 //! ([`write_vtu`]) and ParaView collection writer ([`write_pvd`]) that `linpd run`'s snapshots
 //! share.
 
-use crate::{ProblemError, Solution};
+use crate::solution::Solution;
+use crate::ProblemError;
 use serde_json::json;
 use std::io::Write;
 use std::path::Path;

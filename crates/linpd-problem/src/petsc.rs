@@ -25,7 +25,8 @@
 //! binding, is not on crates.io), and the format is the few lines above. [`read_mat`] and
 //! [`read_vec`] read it back, checking the class ids, the sizes and the file length.
 
-use crate::{ProblemError, ReducedSystem};
+use crate::export::ReducedSystem;
+use crate::ProblemError;
 use linpd_core::Point;
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -18,7 +18,9 @@
 //! loaded volume at every level, as a user loading a coarse model expects.
 
 use crate::models::Capability;
-use crate::{Load, Problem, ProblemError};
+use crate::scene::Load;
+use crate::scene::Problem;
+use crate::ProblemError;
 use linpd_coarsen::io::ModuliFile;
 use linpd_coarsen::{check_retained, coarsen_with_progress, retain_every, LevelModel, Options, Radius, StepReport};
 use linpd_core::progress::{Progress, Task};
@@ -132,8 +134,8 @@ fn inv(path: impl Into<String>, reason: impl Into<String>) -> ProblemError {
 impl Pipeline {
     /// Reads and validates a pipeline file (and its scene).
     pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
-        let text = crate::problem::read_json_file(path)?;
-        let raw: RawPipeline = crate::problem::parse_json(&text)?;
+        let text = crate::json::read_json_file(path)?;
+        let raw: RawPipeline = crate::json::parse_json(&text)?;
         let base = path.parent().unwrap_or(Path::new("."));
         Self::from_raw(raw, base)
     }
@@ -141,7 +143,7 @@ impl Pipeline {
     /// Parses and validates pipeline text (e.g. a Python dict as JSON); relative paths in it
     /// (the scene) are resolved against `base`.
     pub fn from_json_in(text: &str, base: &Path) -> Result<Self, ProblemError> {
-        let raw: RawPipeline = crate::problem::parse_json(text)?;
+        let raw: RawPipeline = crate::json::parse_json(text)?;
         Self::from_raw(raw, base)
     }
 
@@ -218,7 +220,7 @@ impl Pipeline {
             levels.push(LevelSpec { retain, radius });
         }
         let output_dir =
-            PathBuf::from(crate::problem::output_dir(raw.output.as_ref().map(|o| o.dir.as_str()), &raw.name)?);
+            PathBuf::from(crate::validate::output_dir(raw.output.as_ref().map(|o| o.dir.as_str()), &raw.name)?);
         Ok(Self {
             name: raw.name,
             scene,

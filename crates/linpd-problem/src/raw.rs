@@ -236,7 +236,7 @@ impl RawModelJson {
     /// The section as `T`: errors carry the JSON path under `model` and the line and column in
     /// the scene file.
     pub fn parse<T: serde::de::DeserializeOwned>(&self) -> Result<T, crate::ProblemError> {
-        crate::problem::parse_json_at(self.text.get(), "model", self.at)
+        crate::json::parse_json_at(self.text.get(), "model", self.at)
     }
 
     /// `model.type` as written (empty when it is not a string).
@@ -689,4 +689,16 @@ pub struct RawOutput {
     /// 3D: the lattice plane the map shows, `{"x"|"y"|"z": value}` (default: the middle z plane).
     #[serde(default)]
     pub slice: Option<std::collections::BTreeMap<String, f64>>,
+}
+
+pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, crate::ProblemError> {
+    if crate::json::is_pipeline(text) {
+        return Err(crate::ProblemError::invalid(
+            ".",
+            "this is a coarsening pipeline (it has \"scene\" and \"levels\"), not a scene: run it with `linpd coarsen FILE`",
+        ));
+    }
+    let mut raw: RawProblem = crate::json::parse_json(text)?;
+    raw.model.locate(text);
+    Ok(raw)
 }

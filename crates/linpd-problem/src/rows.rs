@@ -42,7 +42,9 @@
 //! (per-rank geometry).
 
 use crate::models::{Capability, Purpose, System};
-use crate::{Problem, ProblemError, Solution};
+use crate::scene::Problem;
+use crate::solution::Solution;
+use crate::ProblemError;
 use linpd_core::sparse::SYMMETRY_RTOL;
 use linpd_core::{DofMap, Model};
 use linpd_solve::SolveReport;

@@ -15,11 +15,19 @@
 //! The model has its own solvers ([`linpd_blend::solve_model`]: `auto`, `lu`, `dense`): no CG,
 //! no matrix-free solve, no coarsening, no explicit dynamics, no point clouds.
 
-use super::registry::{struct_fields, Context, ModelType, Validated};
+use super::registry::{struct_fields, ModelType, Validated};
 use super::{Capability, Purpose, SceneModel, System};
-use crate::problem::{bond_micromodulus, material, Nodes};
+use crate::balance::Balance;
+use crate::balance::ConstraintBalance;
+use crate::balance::LoadBalance;
+use crate::nodes::Nodes;
 use crate::raw::{RawBlending, RawBlendingTable, RawMaterial, RawMicromodulus, RawNormalize, RawSolverKind};
-use crate::{Balance, Constraint, ConstraintBalance, Load, LoadBalance, Problem, ProblemError, Solution};
+use crate::scene::Constraint;
+use crate::scene::Load;
+use crate::scene::Problem;
+use crate::solution::Solution;
+use crate::validate::{bond_micromodulus, defect_cuts_nothing, kernel_of, material, Context};
+use crate::ProblemError;
 use linpd_blend::{solve_model, BlendOperator, BlendParams, BlendSolver, Blending, ModelKind, Regions};
 use linpd_core::progress::Progress;
 use linpd_core::{Grid, Material, Region};
@@ -155,11 +163,11 @@ impl ModelType for Blend1dType {
                 ),
             ));
         }
-        let grid = crate::problem::lattice(cx, raw.horizon, crate::memory::Path::BondAssembled)?;
+        let grid = crate::validate::lattice(cx, raw.horizon, crate::memory::Path::BondAssembled)?;
         bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), None, false)?;
         let material = material(&raw.material, dim)?;
         if let Some(k) = material.defect_cutting_nothing(&grid, raw.horizon) {
-            return Err(super::bond::defect_cuts_nothing(k));
+            return Err(defect_cuts_nothing(k));
         }
         let scene = BlendScene::new(self.kind, cx, &raw, material)?;
         Ok(Validated { nodes: Nodes::Lattice(grid), model: Box::new(scene) })
@@ -281,7 +289,7 @@ impl BlendScene {
             dx: grid_raw.spacing,
             horizon,
             modulus: mm.modulus.unwrap_or(1.0),
-            kernel: Problem::kernel_of(mm, horizon)?,
+            kernel: kernel_of(mm, horizon)?,
             regions,
             blending,
             ce_spacing: m.ce_spacing,

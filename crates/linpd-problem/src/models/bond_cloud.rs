@@ -1,13 +1,18 @@
 //! The bond model on a point cloud (`"nodes"`): [`linpd_bond::BondOperator::on_points`], the
 //! bond weights from the nodes' own volumes, always assembled (AMD ordering).
 
-use super::bond::{self, BondModel, RawBond};
-use super::registry::{Context, Validated};
+use super::bond_model::{self, BondModel, RawBond};
+use super::registry::Validated;
 use super::{Capability, Purpose, SceneModel, System};
-use crate::cloud::{check_defects, cloud_nodes, tagged_moduli};
-use crate::problem::{bond_micromodulus, material_with_tags, Nodes};
+use crate::nodes::{LevelNodes, Nodes};
 use crate::raw::RawSurfaceCorrection;
-use crate::{Problem, ProblemError, Solution};
+use crate::scene::Problem;
+use crate::solution::Solution;
+use crate::validate::{
+    bond_micromodulus, check_defects, cloud_nodes, material_with_tags, no_surface_correction, region, Context,
+    NOT_COARSENED,
+};
+use crate::ProblemError;
 use linpd_core::progress::Progress;
 use linpd_solve::SolveReport;
 use std::any::Any;
@@ -44,7 +49,7 @@ pub(crate) fn validate(cx: &Context, raw: &RawBond) -> Result<Validated, Problem
 fn refuse_lattice_keys(raw: &RawBond) -> Result<(), ProblemError> {
     let correction = raw.surface_correction.is_some_and(|c| c != RawSurfaceCorrection::None);
     if correction || raw.surface_target.is_some() {
-        return Err(crate::cloud::no_surface_correction(correction));
+        return Err(no_surface_correction(correction));
     }
     if raw.pd_regions.is_some() {
         return Err(ProblemError::invalid(
@@ -71,7 +76,7 @@ impl SceneModel for BondCloudModel {
                 Some("the matrix-free stencil operator needs a grid; point clouds are solved assembled".into())
             }
             Capability::Dynamics => Some("explicit dynamics needs a grid (not available on point clouds yet)".into()),
-            Capability::Coarsen => Some(crate::cloud::NOT_COARSENED.into()),
+            Capability::Coarsen => Some(NOT_COARSENED.into()),
             _ => None,
         }
     }
@@ -98,12 +103,65 @@ impl SceneModel for BondCloudModel {
         })
     }
     fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
-        Ok(bond::solution(p, s.model(), s.n_bonds, u, report))
+        Ok(bond_model::solution(p, s.model(), s.n_bonds, u, report))
     }
-    fn bond(&self) -> Option<&BondModel> {
-        Some(&self.bond)
+    fn bond_operator(
+        &self,
+        p: &Problem,
+    ) -> Result<(linpd_bond::BondOperator, Option<linpd_core::surface::CorrectionSummary>), ProblemError> {
+        self.bond.operator(p.nodes())
     }
     fn as_any(&self) -> &dyn Any {
         self
     }
+}
+
+/// The modulus of every node when some phase names a phase number (`{"phase": k, "modulus":
+/// K}`): the phases in order, a later one overriding an earlier one where both apply (as for
+/// regions), `reference` where none does. `None` when every phase is a region (the material
+/// then applies them). A phase number that no node carries is an error (a typo would
+/// otherwise leave the material silently homogeneous).
+pub(crate) fn tagged_moduli(
+    raw: &crate::raw::RawMaterial,
+    nodes: &LevelNodes,
+    reference: f64,
+) -> Result<Option<Vec<f64>>, ProblemError> {
+    if raw.phases.iter().all(|ph| ph.phase.is_none()) {
+        return Ok(None);
+    }
+    let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
+    let mut moduli = vec![reference; nodes.positions.len()];
+    for (k, ph) in raw.phases.iter().enumerate() {
+        match (&ph.region, ph.phase) {
+            (Some(r), _) => {
+                let r = region(&format!("model.material.phases[{k}].region"), r, nodes.dim)?;
+                for (n, x) in nodes.positions.iter().enumerate() {
+                    if r.contains(x, nodes.dim, tol) {
+                        moduli[n] = ph.modulus;
+                    }
+                }
+            }
+            (None, Some(tag)) => {
+                if nodes.phase.is_empty() {
+                    return Err(ProblemError::invalid(
+                        format!("model.material.phases[{k}].phase"),
+                        "the node file has no `phase` column",
+                    ));
+                }
+                let mut any = false;
+                for (n, _) in nodes.phase.iter().enumerate().filter(|(_, &p)| p == tag) {
+                    moduli[n] = ph.modulus;
+                    any = true;
+                }
+                if !any {
+                    return Err(ProblemError::invalid(
+                        format!("model.material.phases[{k}].phase"),
+                        format!("no node of the cloud has phase {tag}"),
+                    ));
+                }
+            }
+            (None, None) => unreachable!("checked by material_with_tags"),
+        }
+    }
+    Ok(Some(moduli))
 }

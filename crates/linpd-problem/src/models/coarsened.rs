@@ -18,10 +18,13 @@
 //! `C(x, q) = C(q, x)^T`; then the solve is a sparse Cholesky (or the scene's solver), otherwise
 //! a sparse LU, and the report's `solver` says why.
 
-use super::registry::{struct_fields, Context, ModelType, Validated};
+use super::registry::{struct_fields, ModelType, Validated};
 use super::{Capability, Purpose, SceneModel, System};
-use crate::problem::{LevelNodes, Nodes};
-use crate::{Problem, ProblemError, Solution};
+use crate::nodes::{LevelNodes, Nodes};
+use crate::scene::Problem;
+use crate::solution::Solution;
+use crate::validate::Context;
+use crate::ProblemError;
 use linpd_core::progress::Progress;
 use linpd_core::AssembledModel;
 use linpd_solve::SolveReport;

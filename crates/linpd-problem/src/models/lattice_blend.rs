@@ -10,11 +10,13 @@
 //! a nonlocal model whose every node interacts through bonds, and the local zone's element
 //! rows are already the coarse description there (coarsen the pure bond scene instead).
 
-use super::bond::{self, BondModel, RawBond, Surface};
 use super::bond_lattice::check_memory;
+use super::bond_model::{self as bond, BondModel, RawBond, Surface};
 use super::{Capability, Purpose, SceneModel, System};
-use crate::problem::region;
-use crate::{Problem, ProblemError, Solution};
+use crate::scene::Problem;
+use crate::solution::Solution;
+use crate::validate::region;
+use crate::ProblemError;
 use linpd_blend::{beta_from_zone, LatticeBlend};
 use linpd_bond::BondOperator;
 use linpd_core::family::lattice_stencil;
@@ -364,8 +366,11 @@ impl SceneModel for LatticeBlendModel {
     fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
         Ok(bond::solution(p, s.model(), s.n_bonds, u, report))
     }
-    fn bond(&self) -> Option<&BondModel> {
-        Some(&self.bond)
+    fn bond_operator(
+        &self,
+        p: &Problem,
+    ) -> Result<(linpd_bond::BondOperator, Option<linpd_core::surface::CorrectionSummary>), ProblemError> {
+        self.bond.operator(p.nodes())
     }
     fn as_any(&self) -> &dyn Any {
         self

@@ -3,13 +3,17 @@
 //! bond-based model: pre-cracks (defects), `energy` and `position_aware` surface corrections
 //! (grids only). Its ordering, reach and support graph are documented in linpd-lps.
 
-use super::bond::{surface_of, Surface};
-use super::registry::{struct_fields, Context, ModelType, Validated};
+use super::bond_model::{surface_of, Surface};
+use super::registry::{struct_fields, ModelType, Validated};
 use super::{solve_system, Capability, Purpose, SceneModel, System};
-use crate::cloud::{check_defects, cloud_nodes, no_surface_correction};
-use crate::problem::{material, NodeSet, Nodes};
+use crate::nodes::{NodeSet, Nodes};
 use crate::raw::{RawInfluence, RawMaterial, RawPlane, RawSurfaceCorrection, RawSurfaceTarget};
-use crate::{Problem, ProblemError, Solution};
+use crate::scene::Problem;
+use crate::solution::Solution;
+use crate::validate::{
+    check_defects, cloud_nodes, defect_cuts_nothing, material, no_surface_correction, Context, NOT_COARSENED,
+};
+use crate::ProblemError;
 use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
 use linpd_core::{Defect, PlaneModel};
@@ -90,11 +94,11 @@ impl ModelType for LpsType {
             let model = LpsSceneModel { params, defects: material.defects, surface: Surface::default(), cloud: true };
             return Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(model) });
         }
-        let grid = crate::problem::lattice(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
+        let grid = crate::validate::lattice(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
         let params = params(dim, &raw)?;
         let material = material(&raw.material, dim)?;
         if let Some(k) = material.defect_cutting_nothing(&grid, raw.horizon) {
-            return Err(super::bond::defect_cuts_nothing(k));
+            return Err(defect_cuts_nothing(k));
         }
         let surface = surface_of(true, raw.surface_correction, raw.surface_target)?;
         let model = LpsSceneModel { params, defects: material.defects, surface, cloud: false };
@@ -218,7 +222,7 @@ impl SceneModel for LpsSceneModel {
             Capability::Dynamics => {
                 Some("explicit dynamics steps the bond operator (linpd-dynamics); lps models are static here".into())
             }
-            Capability::Coarsen if self.cloud => Some(crate::cloud::NOT_COARSENED.into()),
+            Capability::Coarsen if self.cloud => Some(NOT_COARSENED.into()),
             _ => None,
         }
     }
@@ -263,7 +267,7 @@ impl SceneModel for LpsSceneModel {
                  above rtol 1e-10 (docs/solvers.md); the cholesky solver is the safer choice"
             );
             progress.phase(&format!("warning: {note}"));
-            crate::run::append_note(&mut s.report, note);
+            crate::scene::append_note(&mut s.report, note);
         }
         Ok(s)
     }

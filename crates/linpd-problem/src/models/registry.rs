@@ -7,12 +7,19 @@
 //! and the types that do take it; an unknown type is an error listing the registered ones.
 
 use super::{blend_1d, bond, coarsened, lps, SceneModel};
-use crate::problem::Nodes;
-use crate::raw::{RawModelJson, RawProblem};
+use crate::capability::Capability;
+use crate::json::read_json_file;
+use crate::nodes::NodeSet;
+use crate::nodes::Nodes;
+use crate::raw::{parse_raw, RawModelJson, RawProblem};
+use crate::scene::Problem;
+pub use crate::validate::Context;
+use crate::validate::{constraints_and_loads, output_dir, output_slice, solver_spec};
 use crate::ProblemError;
 use serde::de::{self, Visitor};
 use serde::Deserialize;
 use std::path::Path;
+use std::sync::Arc;
 
 /// One model type of the scene format.
 pub trait ModelType: Sync {
@@ -35,14 +42,7 @@ pub struct Validated {
     pub model: Box<dyn SceneModel>,
 }
 
-/// A scene being validated: the parsed mirror and the directory its file names start at.
-pub struct Context<'a> {
-    /// The serde mirror.
-    pub raw: &'a RawProblem,
-    /// Relative file names in the scene start here (the scene file's directory).
-    pub base_dir: &'a Path,
-}
-
+/// The helpers a model type defined outside linpd needs ([`crate::validate`]).
 impl Context<'_> {
     /// The scene's dimension (checked to be 1, 2 or 3).
     pub fn dim(&self) -> usize {
@@ -58,7 +58,7 @@ impl Context<'_> {
     /// The scene's lattice (`grid`, `body`), checked against the horizon and against the
     /// memory of `path` before anything per node is allocated.
     pub fn lattice(&self, horizon: f64, path: crate::memory::Path) -> Result<linpd_core::Grid, ProblemError> {
-        crate::problem::lattice(self, horizon, path)
+        crate::validate::lattice(self, horizon, path)
     }
 
     /// A bond micromodulus from its keys (`model.micromodulus`, `model.plane`,
@@ -70,7 +70,7 @@ impl Context<'_> {
         plane: Option<crate::raw::RawPlane>,
         partial_volume: bool,
     ) -> Result<linpd_core::Micromodulus, ProblemError> {
-        crate::problem::bond_micromodulus(self.dim(), horizon, micromodulus, plane, partial_volume)
+        crate::validate::bond_micromodulus(self.dim(), horizon, micromodulus, plane, partial_volume)
     }
 }
 
@@ -187,5 +187,91 @@ impl<'de> de::Deserializer<'de> for Introspect<'_> {
     serde::forward_to_deserialize_any! {
         bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes byte_buf option
         unit unit_struct newtype_struct seq tuple tuple_struct map enum identifier ignored_any
+    }
+}
+
+impl Problem {
+    /// Parses and validates scene text. Syntax and shape errors carry line, column and path.
+    pub fn from_json(text: &str) -> Result<Self, ProblemError> {
+        Self::from_raw(parse_raw(text)?)
+    }
+
+    /// Parses and validates scene text whose relative file names (a coarsened model's
+    /// `moduli`) start at `base_dir`.
+    pub fn from_json_in(text: &str, base_dir: &Path) -> Result<Self, ProblemError> {
+        Self::from_raw_in(parse_raw(text)?, base_dir)
+    }
+
+    /// Reads and validates a scene file (relative file names in it start at its directory).
+    pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
+        let text = read_json_file(path)?;
+        Self::from_json_in(&text, path.parent().unwrap_or(Path::new("")))
+    }
+
+    /// Validates the serde mirror (relative file names start at the working directory).
+    pub fn from_raw(raw: RawProblem) -> Result<Self, ProblemError> {
+        Self::from_raw_in(raw, Path::new("."))
+    }
+
+    /// Validates the serde mirror; relative file names in it (a coarsened model's `moduli`)
+    /// start at `base_dir`, the scene file's directory.
+    pub fn from_raw_in(raw: RawProblem, base_dir: &Path) -> Result<Self, ProblemError> {
+        Self::from_raw_with(raw, base_dir, &Registry::default())
+    }
+
+    /// Parses and validates scene text with the model types of `registry` (linpd's and, e.g.,
+    /// a test's own); relative file names start at `base_dir`.
+    pub fn from_json_with(text: &str, base_dir: &Path, registry: &Registry) -> Result<Self, ProblemError> {
+        Self::from_raw_with(parse_raw(text)?, base_dir, registry)
+    }
+
+    /// [`Problem::from_raw_in`] with the model types of `registry`: the sections every scene
+    /// has (name, dimension, solver, output, dynamics) here, the nodes, model, constraints and
+    /// loads by the model type ([`crate::models::ModelType::validate`]); a scene that asks a
+    /// model for what it lacks (`solver.matrix_free`, `dynamics`) is refused by name.
+    pub fn from_raw_with(raw: RawProblem, base_dir: &Path, registry: &Registry) -> Result<Self, ProblemError> {
+        let dim = raw.dimension;
+        if !(1..=3).contains(&dim) {
+            return Err(ProblemError::invalid("dimension", format!("must be 1, 2 or 3, got {dim}")));
+        }
+        if raw.name.trim().is_empty() {
+            return Err(ProblemError::invalid("name", "must not be empty"));
+        }
+        let model_type = registry.resolve(&raw.model)?;
+        let v = model_type.validate(&Context { raw: &raw, base_dir })?;
+        let mut model = v.model;
+        if raw.solver.matrix_free {
+            model.require(Capability::MatrixFree)?;
+        }
+        if raw.dynamics.is_some() {
+            model.require(Capability::Dynamics)?;
+        }
+        let (constraints, loads) = constraints_and_loads(&raw, dim, &v.nodes)?;
+        model.bind(&raw, &v.nodes, &constraints, &loads)?;
+        let model: Arc<dyn SceneModel> = Arc::from(model);
+        let solver = solver_spec(&raw.solver)?;
+        let dynamics = match &raw.dynamics {
+            None => None,
+            Some(d) => {
+                let ratio = model.horizon().unwrap_or(f64::NAN) / v.nodes.spacing();
+                Some(crate::dynamics::validate(d, dim, v.nodes.len(), ratio)?)
+            }
+        };
+        let slice = match &v.nodes {
+            Nodes::Lattice(grid) => output_slice(&raw, grid)?,
+            _ => None,
+        };
+        Ok(Problem {
+            dynamics,
+            output_dir: output_dir(raw.output.dir.as_deref(), &raw.name)?,
+            plot: raw.output.plot.unwrap_or(true),
+            slice,
+            name: raw.name,
+            nodes: v.nodes,
+            model,
+            constraints,
+            loads,
+            solver,
+        })
     }
 }

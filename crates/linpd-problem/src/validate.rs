@@ -1,108 +1,25 @@
-//! The validated scene: [`Problem::from_json`] turns text into typed, checked objects.
+//! The validators every model type shares: regions, materials, micromoduli, the lattice and
+//! the point cloud of a scene, constraints and loads, the solver and the output sections. Each
+//! error names the JSON path of what is wrong.
 
-use crate::models::registry::Context;
-use crate::models::{Capability, Registry, SceneModel};
+use crate::cloud::{mean_spacing, read_csv};
+use crate::nodes::{LevelNodes, NodeSet};
 use crate::raw::*;
+use crate::scene::{Constraint, Load};
 use crate::ProblemError;
 use linpd_core::{
-    BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel, Point,
-    Region,
+    BondFamily, BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement,
+    PlaneModel, Point, Region,
 };
 use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
 use std::path::Path;
-use std::sync::Arc;
 
-/// An affine displacement `u = value + gradient x` on some components of a node set.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Constraint {
-    /// Where.
-    pub(crate) region: Region,
-    /// Constant part.
-    pub(crate) value: Vec<f64>,
-    /// Gradient `H` (row-major `dim x dim`).
-    pub(crate) gradient: Vec<f64>,
-    /// Constrained components.
-    pub(crate) components: Vec<usize>,
-}
-
-impl Constraint {
-    /// Where.
-    pub fn region(&self) -> &Region {
-        &self.region
-    }
-    /// Constant part.
-    pub fn value(&self) -> &[f64] {
-        &self.value
-    }
-    /// Gradient `H` (row-major `dim x dim`).
-    pub fn gradient(&self) -> &[f64] {
-        &self.gradient
-    }
-    /// Constrained components.
-    pub fn components(&self) -> &[usize] {
-        &self.components
-    }
-}
-
-impl Constraint {
-    /// Prescribed value of component `a` at `x`.
-    pub fn displacement(&self, x: &[f64], a: usize) -> f64 {
-        let d = self.value.len();
-        self.value[a] + (0..d).map(|b| self.gradient[a * d + b] * x[b]).sum::<f64>()
-    }
-}
-
-/// A load.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Load {
-    /// Force on one node.
-    Point {
-        /// The node.
-        node: usize,
-        /// The force.
-        force: Vec<f64>,
-    },
-    /// Body-force density on a region.
-    Body {
-        /// Where.
-        region: Region,
-        /// Force per unit volume.
-        density: Vec<f64>,
-    },
-    /// A total force spread over a region's nodes in proportion to their volumes,
-    /// `f_i = F v_i / sum_{j in R} v_j`: the applied total is `F` whatever the spacing.
-    Resultant {
-        /// Where.
-        region: Region,
-        /// The total force `F`.
-        force: Vec<f64>,
-    },
-}
-
-/// A validated scene. Its fields are private: every value in it has passed validation, and
-/// only the solver may be changed afterwards ([`Problem::set_solver`]).
-#[derive(Debug, Clone)]
-pub struct Problem {
-    /// Name.
-    pub(crate) name: String,
-    /// The nodes: a lattice, or a coarsened level's nodes.
-    pub(crate) nodes: Nodes,
-    /// The model ([`crate::models`]).
-    pub(crate) model: Arc<dyn SceneModel>,
-    /// Volume constraints.
-    pub(crate) constraints: Vec<Constraint>,
-    /// Loads.
-    pub(crate) loads: Vec<Load>,
-    /// Solver.
-    pub(crate) solver: SolverSpec,
-    /// Output directory.
-    pub(crate) output_dir: String,
-    /// Write plots.
-    pub(crate) plot: bool,
-    /// 3D maps: the plane `x[axis] = value` (`output.slice`), `None` for the middle z plane.
-    pub(crate) slice: Option<(usize, f64)>,
-    /// The `dynamics` section (explicit time stepping with `linpd run`), if any.
-    pub(crate) dynamics: Option<crate::dynamics::Dynamics>,
+/// A scene being validated: the parsed mirror and the directory its file names start at.
+pub struct Context<'a> {
+    /// The serde mirror.
+    pub raw: &'a RawProblem,
+    /// Relative file names in the scene start here (the scene file's directory).
+    pub base_dir: &'a Path,
 }
 
 pub(crate) fn core(path: &str, e: CoreError) -> ProblemError {
@@ -170,98 +87,6 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
         out.validate(dim).map_err(|e| core(path, e))?;
     }
     Ok(out)
-}
-
-/// Parses scene text into the serde mirror; syntax and shape errors carry line, column and path.
-/// Largest scene or pipeline file read: 16 MiB. A scene is a few hundred bytes of keys (node
-/// data lives in the files it names), so anything larger is a wrong file, and the limit keeps
-/// `linpd validate /dev/urandom` from reading forever.
-pub const MAX_JSON_BYTES: u64 = 16 << 20;
-
-/// Reads a scene or pipeline file: a regular file (not a device, FIFO or directory) of at most
-/// [`MAX_JSON_BYTES`], in UTF-8.
-pub(crate) fn read_json_file(path: &Path) -> Result<String, ProblemError> {
-    use std::io::Read;
-    let err = |source| ProblemError::Io { path: path.display().to_string(), source };
-    let other = |m: String| err(std::io::Error::new(std::io::ErrorKind::InvalidInput, m));
-    let meta = std::fs::metadata(path).map_err(err)?;
-    if !meta.is_file() {
-        return Err(other("not a regular file (a scene or pipeline is a JSON file)".into()));
-    }
-    if meta.len() > MAX_JSON_BYTES {
-        return Err(other(format!(
-            "{} bytes, more than a scene or pipeline file may hold ({MAX_JSON_BYTES})",
-            meta.len()
-        )));
-    }
-    // `take`: a file that grows while it is read still stops at the limit
-    let mut bytes = Vec::new();
-    std::fs::File::open(path).and_then(|f| f.take(MAX_JSON_BYTES + 1).read_to_end(&mut bytes)).map_err(err)?;
-    if bytes.len() as u64 > MAX_JSON_BYTES {
-        return Err(other(format!("more than {MAX_JSON_BYTES} bytes, more than a scene or pipeline file may hold")));
-    }
-    String::from_utf8(bytes).map_err(|e| {
-        other(format!(
-            "not UTF-8 text (invalid byte at offset {}): a scene or pipeline is a JSON file",
-            e.utf8_error().valid_up_to()
-        ))
-    })
-}
-
-pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, ProblemError> {
-    if is_pipeline(text) {
-        return Err(ProblemError::invalid(
-            ".",
-            "this is a coarsening pipeline (it has \"scene\" and \"levels\"), not a scene: run it with `linpd coarsen FILE`",
-        ));
-    }
-    let mut raw: RawProblem = parse_json(text)?;
-    raw.model.locate(text);
-    Ok(raw)
-}
-
-/// Parses one JSON document (scene or pipeline) into `T`; syntax and shape errors carry line,
-/// column and path, and text after the document is an error (not silently ignored).
-pub(crate) fn parse_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, ProblemError> {
-    parse_json_at(text, "", (1, 1))
-}
-
-/// [`parse_json`] of a section of a document: `text` starts at line and column `at` of the
-/// document, under the JSON path `prefix` (`model`), and errors say so.
-pub(crate) fn parse_json_at<T: serde::de::DeserializeOwned>(
-    text: &str,
-    prefix: &str,
-    at: (usize, usize),
-) -> Result<T, ProblemError> {
-    // a position in `text` as a position in the document
-    let place = |line: usize, column: usize| (at.0 + line - 1, if line == 1 { at.1 + column - 1 } else { column });
-    let under = |path: String| match (prefix, path.as_str()) {
-        ("", _) => path,
-        (p, ".") => p.to_string(),
-        (p, _) => format!("{p}.{path}"),
-    };
-    let de = &mut serde_json::Deserializer::from_str(text);
-    let value = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
-        let path = e.path().to_string();
-        let inner = e.into_inner();
-        let (line, column) = place(inner.line(), inner.column());
-        ProblemError::Parse {
-            path: under(known_path(&path)),
-            message: strip_position(&inner.to_string()),
-            line,
-            column,
-        }
-    })?;
-    de.end().map_err(|e| {
-        let (line, column) = place(e.line(), e.column());
-        ProblemError::Parse {
-            path: under(".".into()),
-            message: "trailing text after the JSON document".into(),
-            line,
-            column,
-        }
-    })?;
-    Ok(value)
 }
 
 /// The output directory: `output.dir` as given, else `out/<name>`. The name must then be a
@@ -348,334 +173,11 @@ fn check_horizon(horizon: f64, spacing: f64, dim: usize) -> Result<(), ProblemEr
     Ok(())
 }
 
-impl Problem {
-    /// Parses and validates scene text. Syntax and shape errors carry line, column and path.
-    pub fn from_json(text: &str) -> Result<Self, ProblemError> {
-        Self::from_raw(parse_raw(text)?)
-    }
-
-    /// Parses and validates scene text whose relative file names (a coarsened model's
-    /// `moduli`) start at `base_dir`.
-    pub fn from_json_in(text: &str, base_dir: &Path) -> Result<Self, ProblemError> {
-        Self::from_raw_in(parse_raw(text)?, base_dir)
-    }
-
-    /// Reads and validates a scene file (relative file names in it start at its directory).
-    pub fn from_path(path: &Path) -> Result<Self, ProblemError> {
-        let text = read_json_file(path)?;
-        Self::from_json_in(&text, path.parent().unwrap_or(Path::new("")))
-    }
-
-    /// Validates the serde mirror (relative file names start at the working directory).
-    pub fn from_raw(raw: RawProblem) -> Result<Self, ProblemError> {
-        Self::from_raw_in(raw, Path::new("."))
-    }
-
-    /// Validates the serde mirror; relative file names in it (a coarsened model's `moduli`)
-    /// start at `base_dir`, the scene file's directory.
-    pub fn from_raw_in(raw: RawProblem, base_dir: &Path) -> Result<Self, ProblemError> {
-        Self::from_raw_with(raw, base_dir, &Registry::default())
-    }
-
-    /// Parses and validates scene text with the model types of `registry` (linpd's and, e.g.,
-    /// a test's own); relative file names start at `base_dir`.
-    pub fn from_json_with(text: &str, base_dir: &Path, registry: &Registry) -> Result<Self, ProblemError> {
-        Self::from_raw_with(parse_raw(text)?, base_dir, registry)
-    }
-
-    /// [`Problem::from_raw_in`] with the model types of `registry`: the sections every scene
-    /// has (name, dimension, solver, output, dynamics) here, the nodes, model, constraints and
-    /// loads by the model type ([`crate::models::ModelType::validate`]); a scene that asks a
-    /// model for what it lacks (`solver.matrix_free`, `dynamics`) is refused by name.
-    pub fn from_raw_with(raw: RawProblem, base_dir: &Path, registry: &Registry) -> Result<Self, ProblemError> {
-        let dim = raw.dimension;
-        if !(1..=3).contains(&dim) {
-            return Err(ProblemError::invalid("dimension", format!("must be 1, 2 or 3, got {dim}")));
-        }
-        if raw.name.trim().is_empty() {
-            return Err(ProblemError::invalid("name", "must not be empty"));
-        }
-        let model_type = registry.resolve(&raw.model)?;
-        let v = model_type.validate(&Context { raw: &raw, base_dir })?;
-        let mut model = v.model;
-        if raw.solver.matrix_free {
-            model.require(Capability::MatrixFree)?;
-        }
-        if raw.dynamics.is_some() {
-            model.require(Capability::Dynamics)?;
-        }
-        let (constraints, loads) = constraints_and_loads(&raw, dim, &v.nodes)?;
-        model.bind(&raw, &v.nodes, &constraints, &loads)?;
-        let model: Arc<dyn SceneModel> = Arc::from(model);
-        let solver = solver_spec(&raw.solver)?;
-        let dynamics = match &raw.dynamics {
-            None => None,
-            Some(d) => {
-                let ratio = model.horizon().unwrap_or(f64::NAN) / v.nodes.spacing();
-                Some(crate::dynamics::validate(d, dim, v.nodes.len(), ratio)?)
-            }
-        };
-        let slice = match &v.nodes {
-            Nodes::Lattice(grid) => output_slice(&raw, grid)?,
-            _ => None,
-        };
-        Ok(Problem {
-            dynamics,
-            output_dir: output_dir(raw.output.dir.as_deref(), &raw.name)?,
-            plot: raw.output.plot.unwrap_or(true),
-            slice,
-            name: raw.name,
-            nodes: v.nodes,
-            model,
-            constraints,
-            loads,
-            solver,
-        })
-    }
-
-    /// Spatial dimension.
-    pub fn dim(&self) -> usize {
-        self.nodes.dim()
-    }
-    /// The scene's name.
-    pub fn name(&self) -> &str {
-        &self.name
-    }
-    /// The lattice (`None` for a coarsened level).
-    pub fn grid(&self) -> Option<&Grid> {
-        self.nodes.lattice()
-    }
-    /// The nodes.
-    pub fn nodes(&self) -> &Nodes {
-        &self.nodes
-    }
-    /// The lattice, or an error for models without one.
-    pub(crate) fn lattice(&self) -> Result<&Grid, ProblemError> {
-        self.nodes.lattice().ok_or_else(|| {
-            ProblemError::invalid("model.type", format!("{} models have no lattice here", self.model.describe()))
-        })
-    }
-    /// The model.
-    pub fn model(&self) -> &dyn SceneModel {
-        self.model.as_ref()
-    }
-    /// Volume constraints.
-    pub fn constraints(&self) -> &[Constraint] {
-        &self.constraints
-    }
-    /// Loads.
-    pub fn loads(&self) -> &[Load] {
-        &self.loads
-    }
-    /// The solver.
-    pub fn solver(&self) -> &SolverSpec {
-        &self.solver
-    }
-    /// Replaces the solver (every [`SolverSpec`] is valid for every model: one a model cannot
-    /// run, e.g. matrix-free LPS, fails at solve time with a typed error).
-    pub fn set_solver(&mut self, solver: SolverSpec) {
-        self.solver = solver;
-    }
-    /// Output directory (`output.dir`, else `out/<name>`).
-    pub fn output_dir(&self) -> &str {
-        &self.output_dir
-    }
-    /// Whether to write plots.
-    pub fn plot(&self) -> bool {
-        self.plot
-    }
-    /// 3D maps: `(axis, value)` of the plane to show (`output.slice`), `None` for the middle
-    /// z plane.
-    pub fn slice(&self) -> Option<(usize, f64)> {
-        self.slice
-    }
-    /// The `dynamics` section, if any.
-    pub fn dynamics(&self) -> Option<&crate::dynamics::Dynamics> {
-        self.dynamics.as_ref()
-    }
-}
-
-/// The nodes of a scene.
-#[derive(Debug, Clone)]
-pub enum Nodes {
-    /// A lattice (bond, lps, blend and ce models).
-    Lattice(Grid),
-    /// The nodes of a coarsened level (positions and volumes from its nodes file).
-    Level(LevelNodes),
-    /// A point cloud read from a file ([`crate::cloud`]).
-    Cloud(LevelNodes),
-}
-
-/// The nodes of a coarsened level.
-#[derive(Debug, Clone)]
-pub struct LevelNodes {
-    pub(crate) dim: usize,
-    pub(crate) positions: Vec<Point>,
-    pub(crate) volumes: Vec<f64>,
-    /// The scale of the geometric tolerances: `min_i v_i^(1/d)`, the smallest node spacing,
-    /// capped by the nodes' extent (see [`LevelNodes::new`]).
-    pub(crate) h: f64,
-    /// Layer flags of a point cloud (empty for a level: no layer).
-    pub(crate) layer: Vec<bool>,
-    /// Phase numbers of a point cloud (empty without a `phase` column).
-    pub(crate) phase: Vec<u32>,
-    /// What the nodes are, for messages.
-    pub(crate) what: &'static str,
-}
-
-impl LevelNodes {
-    /// Nodes at `positions` with `volumes` in dimension `dim`.
-    ///
-    /// The tolerance scale `min_i v_i^(1/d)` is capped by the largest side of the nodes'
-    /// bounding box: volumes are read from a file and need not match the positions, and
-    /// volumes of 1e300 would otherwise give a region tolerance (`1e-9 h`) that swallows every
-    /// node ("every DOF is constrained") instead of the overflow they cause.
-    pub fn new(dim: usize, positions: Vec<Point>, volumes: Vec<f64>) -> Self {
-        let h = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
-        let extent = (0..dim)
-            .map(|a| {
-                let (lo, hi) = positions
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x[a]), hi.max(x[a])));
-                hi - lo
-            })
-            .fold(0.0f64, f64::max);
-        let h = if extent.is_finite() && extent > 0.0 { h.min(extent) } else { h };
-        LevelNodes {
-            dim,
-            positions,
-            volumes,
-            h: if h.is_finite() { h } else { 1.0 },
-            layer: Vec::new(),
-            phase: Vec::new(),
-            what: "the coarsened level",
-        }
-    }
-}
-
-impl Nodes {
-    /// Number of nodes.
-    pub fn len(&self) -> usize {
-        match self {
-            Nodes::Lattice(g) => g.len(),
-            Nodes::Level(l) | Nodes::Cloud(l) => l.positions.len(),
-        }
-    }
-    /// True when there is no node.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-    /// Spatial dimension.
-    pub fn dim(&self) -> usize {
-        match self {
-            Nodes::Lattice(g) => g.dim(),
-            Nodes::Level(l) | Nodes::Cloud(l) => l.dim,
-        }
-    }
-    /// Position of node `n` (unused coordinates 0).
-    pub fn position(&self, n: usize) -> Point {
-        match self {
-            Nodes::Lattice(g) => g.position(n),
-            Nodes::Level(l) | Nodes::Cloud(l) => l.positions[n],
-        }
-    }
-    /// All positions.
-    pub fn positions(&self) -> Vec<Point> {
-        (0..self.len()).map(|n| self.position(n)).collect()
-    }
-    /// Volume of node `n`.
-    pub fn volume(&self, n: usize) -> f64 {
-        match self {
-            Nodes::Lattice(g) => g.node_volume(n),
-            Nodes::Level(l) | Nodes::Cloud(l) => l.volumes[n],
-        }
-    }
-    /// True for nodes of the lattice's outer layer or a cloud's `layer` column (never for a
-    /// level's nodes).
-    pub fn is_layer(&self, n: usize) -> bool {
-        match self {
-            Nodes::Lattice(g) => g.is_layer(n),
-            Nodes::Level(l) | Nodes::Cloud(l) => l.layer.get(n).copied().unwrap_or(false),
-        }
-    }
-    /// The point cloud, if the nodes are one.
-    pub fn cloud(&self) -> Option<&LevelNodes> {
-        match self {
-            Nodes::Cloud(c) => Some(c),
-            _ => None,
-        }
-    }
-    /// The lattice, if the nodes are one.
-    pub fn lattice(&self) -> Option<&Grid> {
-        match self {
-            Nodes::Lattice(g) => Some(g),
-            Nodes::Level(_) | Nodes::Cloud(_) => None,
-        }
-    }
-}
-
-impl NodeSet for Nodes {
-    fn what(&self) -> &'static str {
-        match self {
-            Nodes::Lattice(g) => g.what(),
-            Nodes::Level(l) | Nodes::Cloud(l) => l.what(),
-        }
-    }
-    fn spacing(&self) -> f64 {
-        match self {
-            Nodes::Lattice(g) => NodeSet::spacing(g),
-            Nodes::Level(l) | Nodes::Cloud(l) => l.spacing(),
-        }
-    }
-    fn position(&self, n: usize) -> Point {
-        Nodes::position(self, n)
-    }
-    fn nearest(&self, x: &[f64]) -> (usize, f64) {
-        match self {
-            Nodes::Lattice(g) => g.nearest(x),
-            Nodes::Level(l) | Nodes::Cloud(l) => l.nearest(x),
-        }
-    }
-    fn select(&self, r: &Region) -> Vec<usize> {
-        match self {
-            Nodes::Lattice(g) => g.select(r),
-            Nodes::Level(l) | Nodes::Cloud(l) => l.select(r),
-        }
-    }
-    fn body_box(&self) -> Option<(Vec<f64>, Vec<f64>)> {
-        self.lattice().and_then(NodeSet::body_box)
-    }
-}
-
-impl NodeSet for LevelNodes {
-    fn what(&self) -> &'static str {
-        self.what
-    }
-    fn spacing(&self) -> f64 {
-        self.h
-    }
-    fn position(&self, n: usize) -> Point {
-        self.positions[n]
-    }
-    fn nearest(&self, x: &[f64]) -> (usize, f64) {
-        let d = self.dim;
-        self.positions
-            .iter()
-            .enumerate()
-            .map(|(k, p)| (k, (0..d).map(|a| (p[a] - x[a]).powi(2)).sum::<f64>().sqrt()))
-            .fold((0, f64::INFINITY), |best, c| if c.1 < best.1 { c } else { best })
-    }
-    fn select(&self, r: &Region) -> Vec<usize> {
-        let tol = linpd_core::GEOMETRY_RTOL * self.h;
-        (0..self.positions.len()).filter(|&n| r.contains(&self.positions[n], self.dim, tol)).collect()
-    }
-}
-
 /// The nodes a scene's regions and point loads refer to: a lattice, or the nodes of a
 /// coarsened level.
 /// `output.slice`: one axis key (`x`, `y` or `z`) of a 3D scene and a finite value within
 /// the lattice's extent (layers included).
-fn output_slice(raw: &RawProblem, grid: &Grid) -> Result<Option<(usize, f64)>, ProblemError> {
+pub(crate) fn output_slice(raw: &RawProblem, grid: &Grid) -> Result<Option<(usize, f64)>, ProblemError> {
     let Some(slice) = &raw.output.slice else { return Ok(None) };
     if raw.dimension != 3 {
         return Err(ProblemError::invalid("output.slice", "is for 3D scenes (2D maps show the whole plate)"));
@@ -731,44 +233,6 @@ fn check_constraints_agree(constraints: &[Constraint], dim: usize, nodes: &dyn N
         }
     }
     Ok(())
-}
-
-pub(crate) trait NodeSet {
-    /// `"the grid"`, `"the coarsened level"` (for messages).
-    fn what(&self) -> &'static str;
-    /// The length scale of the geometric tolerances (the lattice spacing).
-    fn spacing(&self) -> f64;
-    /// Position of node `n`.
-    fn position(&self, n: usize) -> Point;
-    /// The node nearest to `x` and its distance.
-    fn nearest(&self, x: &[f64]) -> (usize, f64);
-    /// The nodes inside `r`, ascending.
-    fn select(&self, r: &Region) -> Vec<usize>;
-    /// The body box `[min, max]` of a lattice (`None` for scattered nodes).
-    fn body_box(&self) -> Option<(Vec<f64>, Vec<f64>)> {
-        None
-    }
-}
-
-impl NodeSet for Grid {
-    fn what(&self) -> &'static str {
-        "the grid"
-    }
-    fn spacing(&self) -> f64 {
-        Grid::spacing(self)
-    }
-    fn position(&self, n: usize) -> Point {
-        Grid::position(self, n)
-    }
-    fn nearest(&self, x: &[f64]) -> (usize, f64) {
-        self.nearest_node(x)
-    }
-    fn select(&self, r: &Region) -> Vec<usize> {
-        r.nodes(self)
-    }
-    fn body_box(&self) -> Option<(Vec<f64>, Vec<f64>)> {
-        Some((self.min().to_vec(), self.max().to_vec()))
-    }
 }
 
 /// A traction `t` (force per area) on the face `x+`, `x-`, ... of a lattice's body box, as a
@@ -975,56 +439,24 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
     })
 }
 
-/// A JSON object with the top-level keys of a pipeline file (`scene` and `levels`) and none of
-/// a scene's (`model`).
-fn is_pipeline(text: &str) -> bool {
-    match serde_json::from_str::<serde_json::Value>(text) {
-        Ok(serde_json::Value::Object(m)) => {
-            m.contains_key("scene") && m.contains_key("levels") && !m.contains_key("model")
+/// The kernel shape of a micromodulus description.
+pub(crate) fn kernel_of(mm: &RawMicromodulus, horizon: f64) -> Result<Kernel, ProblemError> {
+    let p = "model.micromodulus";
+    Ok(match mm.kernel {
+        RawKernel::Constant => Kernel::Constant,
+        RawKernel::InverseDistance => Kernel::InverseDistance,
+        RawKernel::Tent => Kernel::Tent,
+        RawKernel::Gaussian => Kernel::Gaussian { length: mm.length.unwrap_or(0.5 * horizon) },
+        RawKernel::Tabulated => {
+            let t = mm.table.as_ref().ok_or_else(|| {
+                ProblemError::invalid(
+                    format!("{p}.table"),
+                    "the tabulated kernel needs a table {\"r_over_delta\": [...], \"g\": [...]}",
+                )
+            })?;
+            Kernel::Tabulated { s: t.r_over_delta.clone(), g: t.g.clone() }
         }
-        _ => false,
-    }
-}
-
-/// serde_path_to_error writes `?` for a key it has not read yet (a syntax error between two
-/// keys); keep the known part of the path (`.` for the document).
-fn known_path(path: &str) -> String {
-    let p = path.strip_suffix('?').unwrap_or(path).trim_end_matches('.');
-    if p.is_empty() {
-        ".".into()
-    } else {
-        p.into()
-    }
-}
-
-/// serde_json appends " at line L column C" to messages; we print position separately.
-fn strip_position(msg: &str) -> String {
-    match msg.rfind(" at line ") {
-        Some(i) => msg[..i].to_string(),
-        None => msg.to_string(),
-    }
-}
-
-impl Problem {
-    /// The kernel shape of a micromodulus description.
-    pub(crate) fn kernel_of(mm: &RawMicromodulus, horizon: f64) -> Result<Kernel, ProblemError> {
-        let p = "model.micromodulus";
-        Ok(match mm.kernel {
-            RawKernel::Constant => Kernel::Constant,
-            RawKernel::InverseDistance => Kernel::InverseDistance,
-            RawKernel::Tent => Kernel::Tent,
-            RawKernel::Gaussian => Kernel::Gaussian { length: mm.length.unwrap_or(0.5 * horizon) },
-            RawKernel::Tabulated => {
-                let t = mm.table.as_ref().ok_or_else(|| {
-                    ProblemError::invalid(
-                        format!("{p}.table"),
-                        "the tabulated kernel needs a table {\"r_over_delta\": [...], \"g\": [...]}",
-                    )
-                })?;
-                Kernel::Tabulated { s: t.r_over_delta.clone(), g: t.g.clone() }
-            }
-        })
-    }
+    })
 }
 
 /// The micromodulus of a bond (or blend, ce) model from its keys, validated for `dim`.
@@ -1061,7 +493,7 @@ fn micromodulus(
     partial_volume: bool,
 ) -> Result<Micromodulus, ProblemError> {
     let p = "model.micromodulus";
-    let kernel = Problem::kernel_of(mm, horizon)?;
+    let kernel = kernel_of(mm, horizon)?;
     if mm.length.is_some() && mm.kernel != RawKernel::Gaussian {
         return Err(ProblemError::invalid(format!("{p}.length"), "only the gaussian kernel takes a length"));
     }
@@ -1172,4 +604,83 @@ pub(crate) fn material_with_tags(raw: &RawMaterial, dim: usize, tags: bool) -> R
         defects.push(defect);
     }
     Ok(Material { phases, rule, defects })
+}
+
+/// The nodes of a scene whose nodes come from a file (`"nodes"` instead of `"grid"`), checked
+/// against the horizon and the memory of `path`; and their mean spacing ([`mean_spacing`]).
+pub(crate) fn cloud_nodes(
+    cx: &Context,
+    horizon: f64,
+    path: crate::memory::Path,
+) -> Result<(LevelNodes, f64), ProblemError> {
+    let raw = cx.raw;
+    let dim = raw.dimension;
+    let spec = raw.nodes.as_ref().expect("called for scenes with nodes");
+    if raw.grid.is_some() {
+        return Err(ProblemError::invalid("grid", "give either \"grid\" or \"nodes\", not both"));
+    }
+    if raw.body.is_some() {
+        return Err(ProblemError::invalid("body", "not used with \"nodes\" (the point cloud is the body)"));
+    }
+    if raw.output.slice.is_some() {
+        return Err(ProblemError::invalid(
+            "output.slice",
+            "point clouds get no map (their nodes are not on a lattice)",
+        ));
+    }
+    let cloud = match (&spec.csv, &spec.vtk) {
+        (Some(f), None) => read_csv(&cx.base_dir.join(f), dim, "nodes.csv")?,
+        (None, Some(f)) => crate::vtu::read_cloud(&cx.base_dir.join(f), dim, "nodes.vtk")?,
+        _ => return Err(ProblemError::invalid("nodes", "give exactly one of \"csv\" or \"vtk\"")),
+    };
+    if !(horizon.is_finite() && horizon > 0.0) {
+        return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));
+    }
+    let h = mean_spacing(&cloud.volumes, dim);
+    let ratio = horizon / h;
+    if ratio < 1.0 {
+        return Err(ProblemError::invalid(
+            "model.horizon",
+            format!("horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing"),
+        ));
+    }
+    crate::memory::check_nodes(path, dim, cloud.positions.len(), ratio)?;
+    Ok((cloud.into_nodes(dim), h))
+}
+
+/// Why a model on a point cloud lacks [`crate::Capability::Coarsen`].
+pub(crate) const NOT_COARSENED: &str =
+    "coarsening retains every k-th node of a lattice (levels[].every); point clouds are not coarsened yet";
+
+/// The refusal of a surface correction (`correction`) or target on a point cloud.
+pub(crate) fn no_surface_correction(correction: bool) -> ProblemError {
+    ProblemError::invalid(
+        if correction { "model.surface_correction" } else { "model.surface_target" },
+        "not available on point clouds yet: the correction matches each node's bond moments to a lattice \
+         interior, and a cloud has no lattice (use \"none\", or a grid)",
+    )
+}
+
+/// Every defect of a cloud scene must cut a bond of the cloud.
+pub(crate) fn check_defects(
+    material: &linpd_core::Material,
+    nodes: &LevelNodes,
+    horizon: f64,
+) -> Result<(), ProblemError> {
+    if !material.defects.is_empty() {
+        let family = BondFamily::from_points(&nodes.positions, nodes.dim, horizon);
+        let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
+        if let Some(k) = material.defect_cutting_nothing_in(&family, &nodes.positions, tol) {
+            return Err(defect_cuts_nothing(k));
+        }
+    }
+    Ok(())
+}
+
+/// The error of a defect that crosses no bond.
+pub(crate) fn defect_cuts_nothing(k: usize) -> ProblemError {
+    ProblemError::invalid(
+        format!("model.material.defects[{k}]"),
+        "crosses no bond of the body (it lies outside the body, in a hole, or where no bond spans it)",
+    )
 }

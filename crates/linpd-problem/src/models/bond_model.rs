@@ -1,0 +1,221 @@
+//! The parameters of a bond model (its keys [`RawBond`], validated into [`BondModel`]) and
+//! what the three bond models share: the operator on a lattice or point cloud, the surface
+//! correction and the fields of a solution.
+
+use crate::nodes::{NodeSet, Nodes};
+use crate::raw::{
+    RawBlending, RawMaterial, RawMicromodulus, RawPdRegions, RawPlane, RawSurfaceCorrection, RawSurfaceTarget,
+};
+use crate::scene::Problem;
+use crate::solution::Solution;
+use crate::validate::{bond_micromodulus, defect_cuts_nothing, material};
+use crate::ProblemError;
+use linpd_bond::BondOperator;
+use linpd_core::surface::{CorrectionSummary, SurfaceTarget};
+use linpd_core::{Grid, Material, Micromodulus, Model};
+use linpd_lps::SurfaceCorrection;
+use linpd_solve::SolveReport;
+use serde::Deserialize;
+
+/// The keys of a bond model (`docs/problem-format.md`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBond {
+    /// `"bond"`.
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// Horizon `delta`.
+    pub horizon: f64,
+    /// Partial-volume scaling at the horizon edge.
+    #[serde(default)]
+    pub partial_volume: bool,
+    /// 2D assumption: `stress` or `strain`.
+    #[serde(default)]
+    pub plane: Option<RawPlane>,
+    /// Kernel and normalization.
+    #[serde(default)]
+    pub micromodulus: Option<RawMicromodulus>,
+    /// Phases, bond rule, defects.
+    #[serde(default)]
+    pub material: RawMaterial,
+    /// `none` (default) or `energy`.
+    #[serde(default)]
+    pub surface_correction: Option<RawSurfaceCorrection>,
+    /// With a surface correction: `classical` (default) or `lattice`.
+    #[serde(default)]
+    pub surface_target: Option<RawSurfaceTarget>,
+    /// 2D/3D: the regions modelled by PD, or `"auto"` ([`super::lattice_blend`]).
+    #[serde(default)]
+    pub pd_regions: Option<RawPdRegions>,
+    /// With `"pd_regions": "auto"`: the PD zone's radius around each feature, in horizons.
+    #[serde(default)]
+    pub auto_radius: Option<f64>,
+    /// With `pd_regions`: the transition's width (length units, at least the spacing).
+    #[serde(default)]
+    pub transition: Option<f64>,
+    /// With `pd_regions`: `linear` (default), `cubic` or `constant`.
+    #[serde(default)]
+    pub transition_profile: Option<RawBlending>,
+    /// With `pd_regions` and a constant profile: its value (default 0.5).
+    #[serde(default)]
+    pub transition_value: Option<f64>,
+}
+
+/// The validated parameters of a bond model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BondModel {
+    /// Horizon.
+    pub(crate) horizon: f64,
+    /// Micromodulus.
+    pub(crate) micromodulus: Micromodulus,
+    /// Material.
+    pub(crate) material: Material,
+    /// Per-node moduli of a point cloud whose phases name phase numbers (overrides the
+    /// material's region phases; `None` otherwise).
+    pub(crate) node_moduli: Option<Vec<f64>>,
+    /// `model.surface_correction` (`None` or `Energy`, [`linpd_bond::surface`]) and its target.
+    pub(crate) surface: Surface,
+}
+
+/// `model.surface_correction` and `model.surface_target` ([`linpd_core::surface`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Surface {
+    /// Which correction.
+    pub correction: SurfaceCorrection,
+    /// What its moments are matched to (ignored without a correction).
+    pub target: SurfaceTarget,
+}
+
+impl BondModel {
+    /// Validates the keys of a bond model on `grid` (every defect must cut a bond of it).
+    pub(crate) fn validate(raw: &RawBond, grid: &Grid, dim: usize) -> Result<Self, ProblemError> {
+        let horizon = raw.horizon;
+        let micromodulus = bond_micromodulus(dim, horizon, raw.micromodulus.as_ref(), raw.plane, raw.partial_volume)?;
+        let material = material(&raw.material, dim)?;
+        if let Some(k) = material.defect_cutting_nothing(grid, horizon) {
+            return Err(defect_cuts_nothing(k));
+        }
+        let surface = surface_of(false, raw.surface_correction, raw.surface_target)?;
+        Ok(BondModel { horizon, micromodulus, material, node_moduli: None, surface })
+    }
+
+    /// The parameters of a bond model on a point cloud (its material may name phase numbers,
+    /// applied per node by `node_moduli`).
+    pub(crate) fn on_cloud(
+        raw: &RawBond,
+        micromodulus: Micromodulus,
+        material: Material,
+        node_moduli: Option<Vec<f64>>,
+    ) -> Self {
+        BondModel { horizon: raw.horizon, micromodulus, material, node_moduli, surface: Surface::default() }
+    }
+
+    /// Horizon.
+    pub fn horizon(&self) -> f64 {
+        self.horizon
+    }
+    /// Micromodulus.
+    pub fn micromodulus(&self) -> &Micromodulus {
+        &self.micromodulus
+    }
+    /// Material.
+    pub fn material(&self) -> &Material {
+        &self.material
+    }
+    /// The surface correction and its target.
+    pub fn surface(&self) -> Surface {
+        self.surface
+    }
+
+    /// The bond operator on `nodes` (a lattice, or a point cloud with the nodes' own volumes)
+    /// with the surface correction, and what the correction did and cost.
+    pub fn operator(&self, nodes: &Nodes) -> Result<(BondOperator, Option<CorrectionSummary>), ProblemError> {
+        let op = match nodes {
+            Nodes::Cloud(c) => BondOperator::on_points(
+                c.dim,
+                c.positions.clone(),
+                &c.volumes,
+                self.horizon,
+                &self.micromodulus,
+                &self.material,
+                self.node_moduli.as_deref(),
+            ),
+            Nodes::Lattice(grid) => BondOperator::on_grid(grid, self.horizon, &self.micromodulus, &self.material),
+            Nodes::Level(_) => unreachable!("a bond model lives on a lattice or a point cloud"),
+        }
+        .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
+        Ok(match (self.surface.correction, nodes) {
+            (SurfaceCorrection::Energy, Nodes::Lattice(grid)) => {
+                let (op, summary) =
+                    op.with_energy_correction(grid, self.horizon, &self.micromodulus, self.surface.target);
+                (op, Some(summary))
+            }
+            _ => (op, None),
+        })
+    }
+}
+
+/// `model.surface_correction` and `model.surface_target`: `position_aware` is LPS only (a
+/// bond-based force is pairwise, so a bond must have one stiffness seen from both ends); a
+/// target needs a correction.
+pub(crate) fn surface_of(
+    lps: bool,
+    raw: Option<RawSurfaceCorrection>,
+    target: Option<RawSurfaceTarget>,
+) -> Result<Surface, ProblemError> {
+    use RawSurfaceCorrection as R;
+    let correction = match raw {
+        None | Some(R::None) => SurfaceCorrection::None,
+        Some(R::Energy) => SurfaceCorrection::Energy,
+        Some(R::PositionAware) if lps => SurfaceCorrection::PositionAware,
+        Some(R::PositionAware) => {
+            return Err(ProblemError::invalid(
+                "model.surface_correction",
+                "\"position_aware\" gives each node its own influence function, an LPS (state-based) correction; \
+                 bond models take \"none\" or \"energy\"",
+            ))
+        }
+    };
+    // any target given (the default included) needs a correction, as on point clouds
+    if target.is_some() && correction == SurfaceCorrection::None {
+        return Err(ProblemError::invalid(
+            "model.surface_target",
+            "says what a surface correction matches; set model.surface_correction to \"energy\" or \"position_aware\"",
+        ));
+    }
+    let target = match target {
+        None | Some(RawSurfaceTarget::Classical) => SurfaceTarget::Classical,
+        Some(RawSurfaceTarget::Lattice) => SurfaceTarget::Lattice,
+    };
+    Ok(Surface { correction, target })
+}
+
+/// The solution of a bond-based model (`n_bonds` bonds, cut ones included): balance, strain
+/// and the strain energy density from its blocks ([`crate::balance::nodal_energy`]).
+pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f64>, report: SolveReport) -> Solution {
+    let nodes = p.nodes();
+    let balance = p.balance(model, &u);
+    let volumes: Vec<f64> = (0..nodes.len()).map(|n| nodes.volume(n)).collect();
+    let strain_energy_density =
+        crate::balance::nodal_energy(model, &u).map(|e| e.iter().zip(&volumes).map(|(w, v)| w / v).collect());
+    let strain = Some(crate::nodal_strain(model, &volumes, &u));
+    Solution {
+        name: p.name().to_string(),
+        dim: p.dim(),
+        x: (0..model.n_nodes()).map(|i| model.position(i)).collect(),
+        u,
+        is_layer: (0..nodes.len()).map(|n| nodes.is_layer(n)).collect(),
+        volumes,
+        n_bonds,
+        balance: Some(balance),
+        strain_energy_density,
+        strain,
+        dilatation: None,
+        report,
+    }
+}
+
+/// The phase line of a bond model being built.
+pub(crate) fn building(p: &Problem, horizon: f64) -> String {
+    format!("building bonds: {} nodes, horizon/spacing = {:.3}", p.nodes().len(), horizon / p.nodes().spacing())
+}

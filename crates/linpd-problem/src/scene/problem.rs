@@ -1,0 +1,261 @@
+//! The validated scene ([`Problem`]): its nodes, model, constraints, loads, solver and outputs,
+//! and what every model reads of them (prescribed displacements, nodal forces, the force
+//! balance of a solution).
+
+use super::model::SceneModel;
+use crate::balance::{Balance, ConstraintBalance, LoadBalance};
+use crate::nodes::{NodeSet, Nodes};
+use crate::ProblemError;
+use linpd_core::{Grid, Model, Region};
+use linpd_solve::{Dirichlet, SolverSpec};
+use std::sync::Arc;
+
+/// An affine displacement `u = value + gradient x` on some components of a node set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Constraint {
+    /// Where.
+    pub(crate) region: Region,
+    /// Constant part.
+    pub(crate) value: Vec<f64>,
+    /// Gradient `H` (row-major `dim x dim`).
+    pub(crate) gradient: Vec<f64>,
+    /// Constrained components.
+    pub(crate) components: Vec<usize>,
+}
+
+impl Constraint {
+    /// Where.
+    pub fn region(&self) -> &Region {
+        &self.region
+    }
+    /// Constant part.
+    pub fn value(&self) -> &[f64] {
+        &self.value
+    }
+    /// Gradient `H` (row-major `dim x dim`).
+    pub fn gradient(&self) -> &[f64] {
+        &self.gradient
+    }
+    /// Constrained components.
+    pub fn components(&self) -> &[usize] {
+        &self.components
+    }
+}
+
+impl Constraint {
+    /// Prescribed value of component `a` at `x`.
+    pub fn displacement(&self, x: &[f64], a: usize) -> f64 {
+        let d = self.value.len();
+        self.value[a] + (0..d).map(|b| self.gradient[a * d + b] * x[b]).sum::<f64>()
+    }
+}
+
+/// A load.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Load {
+    /// Force on one node.
+    Point {
+        /// The node.
+        node: usize,
+        /// The force.
+        force: Vec<f64>,
+    },
+    /// Body-force density on a region.
+    Body {
+        /// Where.
+        region: Region,
+        /// Force per unit volume.
+        density: Vec<f64>,
+    },
+    /// A total force spread over a region's nodes in proportion to their volumes,
+    /// `f_i = F v_i / sum_{j in R} v_j`: the applied total is `F` whatever the spacing.
+    Resultant {
+        /// Where.
+        region: Region,
+        /// The total force `F`.
+        force: Vec<f64>,
+    },
+}
+
+/// A validated scene. Its fields are private: every value in it has passed validation, and
+/// only the solver may be changed afterwards ([`Problem::set_solver`]).
+#[derive(Debug, Clone)]
+pub struct Problem {
+    /// Name.
+    pub(crate) name: String,
+    /// The nodes: a lattice, or a coarsened level's nodes.
+    pub(crate) nodes: Nodes,
+    /// The model ([`crate::models`]).
+    pub(crate) model: Arc<dyn SceneModel>,
+    /// Volume constraints.
+    pub(crate) constraints: Vec<Constraint>,
+    /// Loads.
+    pub(crate) loads: Vec<Load>,
+    /// Solver.
+    pub(crate) solver: SolverSpec,
+    /// Output directory.
+    pub(crate) output_dir: String,
+    /// Write plots.
+    pub(crate) plot: bool,
+    /// 3D maps: the plane `x[axis] = value` (`output.slice`), `None` for the middle z plane.
+    pub(crate) slice: Option<(usize, f64)>,
+    /// The `dynamics` section (explicit time stepping with `linpd run`), if any.
+    pub(crate) dynamics: Option<crate::dynamics::Dynamics>,
+}
+
+impl Problem {
+    /// Spatial dimension.
+    pub fn dim(&self) -> usize {
+        self.nodes.dim()
+    }
+    /// The scene's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    /// The lattice (`None` for a coarsened level).
+    pub fn grid(&self) -> Option<&Grid> {
+        self.nodes.lattice()
+    }
+    /// The nodes.
+    pub fn nodes(&self) -> &Nodes {
+        &self.nodes
+    }
+    /// The lattice, or an error for models without one.
+    pub(crate) fn lattice(&self) -> Result<&Grid, ProblemError> {
+        self.nodes.lattice().ok_or_else(|| {
+            ProblemError::invalid("model.type", format!("{} models have no lattice here", self.model.describe()))
+        })
+    }
+    /// The model.
+    pub fn model(&self) -> &dyn SceneModel {
+        self.model.as_ref()
+    }
+    /// Volume constraints.
+    pub fn constraints(&self) -> &[Constraint] {
+        &self.constraints
+    }
+    /// Loads.
+    pub fn loads(&self) -> &[Load] {
+        &self.loads
+    }
+    /// The solver.
+    pub fn solver(&self) -> &SolverSpec {
+        &self.solver
+    }
+    /// Replaces the solver (every [`SolverSpec`] is valid for every model: one a model cannot
+    /// run, e.g. matrix-free LPS, fails at solve time with a typed error).
+    pub fn set_solver(&mut self, solver: SolverSpec) {
+        self.solver = solver;
+    }
+    /// Output directory (`output.dir`, else `out/<name>`).
+    pub fn output_dir(&self) -> &str {
+        &self.output_dir
+    }
+    /// Whether to write plots.
+    pub fn plot(&self) -> bool {
+        self.plot
+    }
+    /// 3D maps: `(axis, value)` of the plane to show (`output.slice`), `None` for the middle
+    /// z plane.
+    pub fn slice(&self) -> Option<(usize, f64)> {
+        self.slice
+    }
+    /// The `dynamics` section, if any.
+    pub fn dynamics(&self) -> Option<&crate::dynamics::Dynamics> {
+        self.dynamics.as_ref()
+    }
+    /// Constrained-DOF mask and the prescribed full displacement `u_bar`.
+    pub fn constrained(&self) -> (Vec<bool>, Vec<f64>) {
+        let d = self.dim();
+        let n = self.nodes.len();
+        let mut mask = vec![false; d * n];
+        let mut ubar = vec![0.0; d * n];
+        for c in &self.constraints {
+            for node in self.nodes.select(&c.region) {
+                let x = self.nodes.position(node);
+                for &a in &c.components {
+                    mask[d * node + a] = true;
+                    ubar[d * node + a] = c.displacement(&x[..d], a);
+                }
+            }
+        }
+        (mask, ubar)
+    }
+    /// External force per full DOF (point forces plus density times node volume).
+    pub fn load_vector(&self) -> Vec<f64> {
+        let mut f = vec![0.0; self.dim() * self.nodes.len()];
+        for l in &self.loads {
+            self.add_load(l, &mut f);
+        }
+        f
+    }
+    /// The prescribed displacements of the constraints.
+    pub fn dirichlet(&self) -> Dirichlet {
+        let (mask, ubar) = self.constrained();
+        Dirichlet::new(self.dim(), &mask, ubar)
+    }
+}
+
+impl Problem {
+    /// Adds the nodal forces of `load` to `f` (full DOFs); returns the nodes it loaded.
+    pub(crate) fn add_load(&self, load: &Load, f: &mut [f64]) -> usize {
+        let d = self.dim();
+        // f_i = density v_i (body), or force v_i / sum_j v_j (resultant)
+        let (region, vector, resultant) = match load {
+            Load::Point { node, force } => {
+                (0..d).for_each(|a| f[d * node + a] += force[a]);
+                return 1;
+            }
+            Load::Body { region, density } => (region, density, false),
+            Load::Resultant { region, force } => (region, force, true),
+        };
+        let nodes = self.nodes.select(region);
+        let per_volume = if resultant { 1.0 / nodes.iter().map(|&n| self.nodes.volume(n)).sum::<f64>() } else { 1.0 };
+        for &node in &nodes {
+            let v = self.nodes.volume(node) * per_volume;
+            (0..d).for_each(|a| f[d * node + a] += vector[a] * v);
+        }
+        nodes.len()
+    }
+
+    /// The balance of the solution `u` of this scene on `model` (its full operator).
+    pub(crate) fn balance(&self, model: &dyn Model, u: &[f64]) -> Balance {
+        let d = self.dim();
+        let n = d * self.nodes.len();
+        let mut f = vec![0.0; n];
+        let mut loads = Vec::new();
+        for l in &self.loads {
+            let mut fl = vec![0.0; n];
+            let nodes = self.add_load(l, &mut fl);
+            let force: Vec<f64> = (0..d).map(|a| fl.iter().skip(a).step_by(d).sum()).collect();
+            f.iter_mut().zip(&fl).for_each(|(t, x)| *t += x);
+            let kind = match l {
+                Load::Point { .. } => "point",
+                Load::Body { .. } => "body",
+                Load::Resultant { .. } => "resultant",
+            };
+            loads.push(LoadBalance { kind, nodes, force });
+        }
+        let mut au = vec![0.0; n];
+        model.apply(u, &mut au);
+        let mut owner = vec![usize::MAX; n];
+        let mut constraints = Vec::new();
+        for (k, c) in self.constraints.iter().enumerate() {
+            let nodes = self.nodes.select(&c.region);
+            let mut reaction = vec![0.0; d];
+            let mut dofs = 0;
+            for &node in &nodes {
+                for &a in &c.components {
+                    let dof = d * node + a;
+                    if owner[dof] == usize::MAX {
+                        owner[dof] = k;
+                        dofs += 1;
+                        reaction[a] += au[dof] - f[dof];
+                    }
+                }
+            }
+            constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction });
+        }
+        Balance::from_parts(d, loads, constraints)
+    }
+}

@@ -1,0 +1,41 @@
+//! The result of a static solve ([`Solution`]): displacements, the force balance and the
+//! fields of the model; written by [`crate::output`].
+
+use crate::balance::Balance;
+use crate::fields::NodalStrain;
+use linpd_core::Point;
+use linpd_solve::SolveReport;
+
+/// The result of a static solve.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// Scene name.
+    pub name: String,
+    /// Dimension.
+    pub dim: usize,
+    /// Node positions.
+    pub x: Vec<Point>,
+    /// Displacements, `dim` per node (node-major).
+    pub u: Vec<f64>,
+    /// True for nodes of the outer layer.
+    pub is_layer: Vec<bool>,
+    /// Node volumes `V_i` (empty for blend scenes, whose CE nodes carry none).
+    pub volumes: Vec<f64>,
+    /// Number of bonds (each pair counted from both ends).
+    pub n_bonds: usize,
+    /// Accuracy and cost.
+    pub report: SolveReport,
+    /// Loads, constraints, reactions and the force balance (every static scene; for blend and
+    /// CE scenes built by [`crate::models::blend_1d`] from the solution's end reactions).
+    pub balance: Option<Balance>,
+    /// Strain energy density `W_i` per node (energy per volume; `sum_i W_i V_i = u.A u / 2`,
+    /// [`crate::balance::nodal_energy`] for bond-based models,
+    /// [`linpd_lps::LpsModel::linearized_energy_density`] for LPS, the same split of `K`'s
+    /// blocks for symmetric coarsened levels): not for blend scenes and unsymmetric levels.
+    pub strain_energy_density: Option<Vec<f64>>,
+    /// Small-strain tensor per node, least squares over the node's partners
+    /// ([`crate::fields`]): not for blend scenes.
+    pub strain: Option<NodalStrain>,
+    /// Linearized dilatation `theta_i` per node: LPS scenes only.
+    pub dilatation: Option<Vec<f64>>,
+}
