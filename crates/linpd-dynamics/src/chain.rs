@@ -39,7 +39,7 @@
 //! `nx > 2 N` is required.
 
 use crate::error::{positive, DynamicsError};
-use crate::verlet::LumpedMass;
+use crate::mass::LumpedMass;
 use linpd_core::family::lattice_stencil;
 use linpd_core::kernel::partial_volume;
 use linpd_core::LinearOperator;

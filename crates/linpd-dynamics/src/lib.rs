@@ -12,6 +12,7 @@
 //!   [`FnOperator`], trait objects `&dyn LinearOperator`; operators that know their entries
 //!   provide [`LinearOperator::abs_row_sums`] for Gershgorin bounds), fixed DOFs, external force, energies, output callback, and a
 //!   stability check that refuses `dt > 2/sqrt(lambda_max(M^-1 A))`;
+//! * [`mass`]: the lumped masses [`LumpedMass`] (`M_i = rho V_i`);
 //! * [`chain`]: the 1D nonlocal-spring lattice (4.1)/(A.2), any `linpd-core` kernel, and its
 //!   periodic operator [`Ring`];
 //! * [`stability`]: the bound (4.12), the refinement rule (4.13), the exact lattice limit,
@@ -61,10 +62,12 @@ pub mod chain;
 pub mod dispersion;
 pub mod error;
 pub mod initial;
+pub mod mass;
 pub mod stability;
 pub mod verlet;
 
 pub use chain::{spring_constant, Chain, Ring};
 pub use error::{DynamicsError, LimitMethod};
 pub use linpd_core::{FnOperator, LinearOperator};
-pub use verlet::{DtLimit, Energy, Force, LumpedMass, Snapshot, State, Verlet, VerletInfo, VerletParams};
+pub use mass::LumpedMass;
+pub use verlet::{DtLimit, Energy, Force, Snapshot, State, Verlet, VerletInfo, VerletParams};

@@ -61,7 +61,7 @@
 
 use crate::chain::{spring_constant, Chain};
 use crate::error::DynamicsError;
-use crate::verlet::{check_size, LumpedMass};
+use crate::mass::{check_size, LumpedMass};
 use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::LinearOperator;
 

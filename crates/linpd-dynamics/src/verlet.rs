@@ -53,75 +53,15 @@
 //! [`DynamicsError::Unstable`] when `dt > dt_max`, unless [`VerletParams::allow_unstable`] is set.
 
 use crate::error::{DynamicsError, LimitMethod};
+use crate::mass::{check_size, LumpedMass};
 use crate::stability::{gershgorin, power_iteration_with_progress, verlet_limit, PowerParams};
 use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::LinearOperator;
 use std::ops::ControlFlow;
 
-/// `Ok` when `op` has `n` DOFs (one mass per operator DOF).
-pub(crate) fn check_size<A: LinearOperator + ?Sized>(op: &A, n: usize) -> Result<(), DynamicsError> {
-    let m = op.n();
-    if m != n {
-        return Err(DynamicsError::Length { what: "masses (one per operator DOF)", expected: m, got: n });
-    }
-    Ok(())
-}
-
 /// An external force `f(t)`: called as `force(t, f)` with `f` zeroed, it writes the force
 /// (not force density) on every loaded DOF.
 pub type Force<'f> = &'f mut dyn FnMut(f64, &mut [f64]);
-
-/// Lumped masses `M_i = rho V_i`, one per DOF.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LumpedMass {
-    rho: f64,
-    m: Vec<f64>,
-}
-
-impl LumpedMass {
-    /// `n` DOFs of volume `volume` (`V = h^d`; `dx` in 1D).
-    pub fn uniform(rho: f64, volume: f64, n: usize) -> Result<Self, DynamicsError> {
-        Self::check_rho(rho)?;
-        if !(volume.is_finite() && volume > 0.0) {
-            return Err(DynamicsError::Volume { dof: 0, value: volume });
-        }
-        Ok(LumpedMass { rho, m: vec![rho * volume; n] })
-    }
-
-    /// One volume per DOF (repeat a node's volume for each of its components).
-    pub fn new(rho: f64, volumes: &[f64]) -> Result<Self, DynamicsError> {
-        Self::check_rho(rho)?;
-        if let Some((dof, &value)) = volumes.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v > 0.0)) {
-            return Err(DynamicsError::Volume { dof, value });
-        }
-        Ok(LumpedMass { rho, m: volumes.iter().map(|v| rho * v).collect() })
-    }
-
-    fn check_rho(rho: f64) -> Result<(), DynamicsError> {
-        if rho.is_finite() && rho > 0.0 {
-            Ok(())
-        } else {
-            Err(DynamicsError::Density(rho))
-        }
-    }
-
-    /// Density `rho`.
-    pub fn rho(&self) -> f64 {
-        self.rho
-    }
-    /// Number of DOFs.
-    pub fn len(&self) -> usize {
-        self.m.len()
-    }
-    /// True for a system without DOFs.
-    pub fn is_empty(&self) -> bool {
-        self.m.is_empty()
-    }
-    /// Masses `M_i`.
-    pub fn masses(&self) -> &[f64] {
-        &self.m
-    }
-}
 
 /// Displacements `u`, velocities `v` and time `t`; advanced in place by [`Verlet::run`].
 #[derive(Debug, Clone, PartialEq)]
@@ -261,7 +201,7 @@ impl std::fmt::Debug for Reporter<'_> {
 impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
     /// The system `M u'' = -A u + f` with every DOF free.
     pub fn new(operator: &'a A, mass: LumpedMass) -> Self {
-        let inv_m = mass.m.iter().map(|m| 1.0 / m).collect();
+        let inv_m = mass.masses().iter().map(|m| 1.0 / m).collect();
         Verlet { operator, mass, inv_m, fixed: Vec::new(), progress: Reporter(&NoProgress) }
     }
 
@@ -342,7 +282,7 @@ impl<'a, A: LinearOperator + ?Sized> Verlet<'a, A> {
 
     #[inline]
     fn energy_of(&self, u: &[f64], v: &[f64], au: &[f64], f: Option<&[f64]>, acc: &[f64], dt: f64) -> Energy {
-        let m = &self.mass.m;
+        let m = self.mass.masses();
         let mut ek = 0.0;
         let mut uau = 0.0;
         let mut rr = 0.0;

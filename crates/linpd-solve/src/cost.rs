@@ -26,7 +26,8 @@
 //! times on those cases; the choice only needs the ratio between candidates, which is less
 //! machine-dependent than the rates themselves.
 
-use crate::{CgParams, Cholesky};
+use crate::direct::Cholesky;
+use crate::krylov::cg::CgParams;
 use std::fmt;
 
 /// Cholesky flop rate (flop/s), fitted (module docs).

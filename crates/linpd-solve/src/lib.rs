@@ -28,11 +28,11 @@ pub use krylov::gmres::{gmres, gmres_with_progress, GmresError, GmresInfo, Gmres
 pub use linpd_core::sparse::{diagonal, matvec, relative_residual, sym_matvec, GeneralCsc, SymCsc};
 pub use linpd_core::LinearOperator;
 pub use precond::amg::{rigid_body_modes, Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
-pub use precond::{FactorPreconditioner, Identity, Jacobi, Preconditioner};
+pub use precond::{DofGeometry, FactorPreconditioner, Identity, Jacobi, Preconditioner};
 pub use report::{peak_rss_bytes, SolveReport, Timings};
 pub use spec::{
-    CholeskyOrdering, DofGeometry, GmresPreconditioner, MatrixFree, ModelInput, PreconditionerInput,
-    PreconditionerKind, SolverId, SolverSpec,
+    CholeskyOrdering, GmresPreconditioner, MatrixFree, ModelInput, PreconditionerInput, PreconditionerKind, SolverId,
+    SolverSpec,
 };
 pub use statics::{
     reduced_rhs_checked, reduced_system, solve_assembled, solve_assembled_with_progress, solve_model, MatrixHints,
@@ -55,7 +55,7 @@ pub enum SolveError {
         /// Free DOF of the failed pivot.
         dof: usize,
     },
-    /// A direct solve returned a residual above [`statics::DIRECT_RESIDUAL_LIMIT`].
+    /// A direct solve returned a residual above [`direct::DIRECT_RESIDUAL_LIMIT`].
     #[error("the reduced stiffness is numerically singular (relative residual {rel_residual:.2e} after {solver}); add constraints")]
     NumericallySingular {
         /// The residual reached.

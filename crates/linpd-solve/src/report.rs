@@ -1,6 +1,6 @@
 //! What a solve cost and how accurate it is.
 
-use crate::SolverId;
+use crate::spec::SolverId;
 use serde::Serialize;
 
 /// Wall-clock seconds per phase.

@@ -1,12 +1,11 @@
 //! What to solve with ([`SolverSpec`], validated from a scene's `solver` section) and what
 //! ran ([`SolverId`], in every [`crate::SolveReport`]).
 
-use crate::precond::{Amg, AmgError, AmgParams, Jacobi, Preconditioner};
-use crate::CgParams;
+use crate::krylov::cg::CgParams;
+use crate::precond::{Amg, AmgError, AmgParams, DofGeometry, Jacobi, Preconditioner};
 use crate::SolveError;
 use linpd_core::sparse::Csc;
-use linpd_core::{DofMap, Model, Point};
-use rayon::prelude::*;
+use linpd_core::{DofMap, Model};
 use serde::{Serialize, Serializer};
 use std::fmt;
 
@@ -85,79 +84,6 @@ pub struct ModelInput<'a> {
 impl fmt::Debug for ModelInput<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "ModelInput({} model, {} free DOFs)", self.model.kind(), self.dofs.n_free())
-    }
-}
-
-/// Where the unknowns of a reduced system sit: for a multilevel preconditioner's near-null
-/// space (rigid-body modes) and aggregation.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DofGeometry {
-    /// Spatial dimension.
-    pub dim: usize,
-    /// `(node, component)` of every free DOF, in the free numbering.
-    pub rows: Vec<(usize, usize)>,
-    /// Position of every node of the model.
-    pub positions: Vec<Point>,
-    /// The model's interaction graph ([`Model::for_each_partner`]: bonds) between the nodes
-    /// with free DOFs, numbered in their order in `rows`, as CSR `(ptr, idx)` with sorted rows;
-    /// `None` for a bare matrix. Multigrid aggregates its finest level on it: for bond models
-    /// it is the graph of `A`'s nonzero blocks, for LPS the one-horizon bonds, not the tangent's
-    /// two-horizon couplings, whose aggregates would be eight times too large in 3D.
-    pub partners: Option<(Vec<usize>, Vec<u32>)>,
-}
-
-impl DofGeometry {
-    /// The free DOFs of `dofs` on the nodes of `model`.
-    pub fn of(model: &dyn Model, dofs: &DofMap) -> Self {
-        let d = model.dim();
-        let rows: Vec<(usize, usize)> = dofs.free_dofs().into_iter().map(|f| (f / d, f % d)).collect();
-        let mut block_of = vec![u32::MAX; model.n_nodes()];
-        let mut nodes = Vec::new();
-        for &(node, _) in &rows {
-            if block_of[node] == u32::MAX {
-                block_of[node] = nodes.len() as u32;
-                nodes.push(node);
-            }
-        }
-        let lists: Vec<Vec<u32>> = nodes
-            .par_iter()
-            .map(|&i| {
-                let mut l = Vec::new();
-                model.for_each_partner(i, &mut |j| {
-                    if block_of[j] != u32::MAX && j != i {
-                        l.push(block_of[j]);
-                    }
-                });
-                l.sort_unstable();
-                l.dedup();
-                l
-            })
-            .collect();
-        let mut ptr = Vec::with_capacity(nodes.len() + 1);
-        ptr.push(0);
-        let mut idx = Vec::with_capacity(lists.iter().map(Vec::len).sum());
-        for l in lists {
-            idx.extend_from_slice(&l);
-            ptr.push(idx.len());
-        }
-        DofGeometry {
-            dim: d,
-            rows,
-            positions: (0..model.n_nodes()).map(|i| model.position(i)).collect(),
-            partners: Some((ptr, idx)),
-        }
-    }
-}
-
-impl Preconditioner for Box<dyn Preconditioner + '_> {
-    fn apply(&self, r: &[f64], z: &mut [f64]) {
-        (**self).apply(r, z)
-    }
-    fn summary(&self) -> Option<String> {
-        (**self).summary()
-    }
-    fn operator_copy(&self) -> Option<&dyn linpd_core::LinearOperator> {
-        (**self).operator_copy()
     }
 }
 

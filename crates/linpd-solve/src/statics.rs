@@ -12,17 +12,14 @@
 use crate::bc::{Dirichlet, ReducedOperator};
 use crate::cost;
 use crate::direct::{dense_lu_solve, dense_solve, Cholesky, Lu, LuOrdering};
-use crate::krylov::cg::pcg_with_progress;
+use crate::krylov::cg::{pcg_with_progress, CgError, CgParams};
 use crate::krylov::gmres::{gmres_with_progress, GmresParams};
-use crate::precond::FactorPreconditioner;
-use crate::report::peak_rss_bytes;
+use crate::precond::{DofGeometry, FactorPreconditioner};
+use crate::report::{peak_rss_bytes, SolveReport};
 use crate::spec::{
-    CholeskyOrdering, DofGeometry, MatrixFree, ModelInput, PreconditionerInput, PreconditionerKind, SolverId,
-    SolverSpec,
+    CholeskyOrdering, MatrixFree, ModelInput, PreconditionerInput, PreconditionerKind, SolverId, SolverSpec,
 };
-use crate::CgError;
-use crate::CgParams;
-use crate::{SolveError, SolveReport};
+use crate::SolveError;
 use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::sparse::{diagonal, relative_residual, Csc, GeneralCsc, SymCsc, SYMMETRY_RTOL};
 use linpd_core::{
@@ -30,10 +27,7 @@ use linpd_core::{
 };
 use std::time::Instant;
 
-/// A direct solve whose relative residual exceeds this is reported as numerically singular
-/// rather than returned: backward-stable factorizations reach `eps * kappa`, and `kappa`
-/// beyond 1e10 means a mechanism the support check could not see (e.g. zero moduli).
-pub const DIRECT_RESIDUAL_LIMIT: f64 = 1e-6;
+pub use crate::direct::DIRECT_RESIDUAL_LIMIT;
 
 /// What [`solve_assembled`] needs to know about the matrix besides its entries.
 #[derive(Debug, Clone)]

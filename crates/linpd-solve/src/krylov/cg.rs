@@ -16,7 +16,7 @@
 //! or for reporting the true residual at exit; this loop is 40 lines and keeps every solve's
 //! iteration counts identical to the published ones in docs/benchmarks.md.
 
-use crate::precond::Preconditioner;
+use super::preconditioner::Preconditioner;
 use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::LinearOperator;
 use rayon::prelude::*;

@@ -12,7 +12,7 @@
 //! (measured: the 3D blended notched block at 32^3 nodes, with a transition zone over half the
 //! body, stayed at 9.4e-6 after 300 iterations with the energy form's multigrid).
 
-use crate::precond::Preconditioner;
+use super::preconditioner::Preconditioner;
 use linpd_core::progress::{NoProgress, Progress, Task};
 use linpd_core::LinearOperator;
 use serde::Serialize;

@@ -1,7 +1,7 @@
 //! Jacobi: `M = diag(A)`.
 
 use super::Preconditioner;
-use crate::CgError;
+use crate::krylov::cg::CgError;
 use rayon::prelude::*;
 
 /// `z_i = r_i / A_ii`.

@@ -1,8 +1,11 @@
 //! Preconditioners: `z = M^{-1} r` for an `M` close to `A` and cheap to invert.
 //!
-//! A Krylov method takes any [`Preconditioner`]; a new one is one file here implementing the
-//! trait plus one [`crate::PreconditionerKind`] variant (the scene's `solver.preconditioner`
-//! key) and one arm in [`crate::PreconditionerKind::build`]; no caller changes.
+//! A Krylov method takes any [`Preconditioner`] (the trait is defined with the Krylov methods,
+//! [`crate::krylov::preconditioner`], and re-exported here); a new one is one file here
+//! implementing the trait plus one [`crate::PreconditionerKind`] variant (the scene's
+//! `solver.preconditioner` key) and one arm in [`crate::PreconditionerKind::build`]; no caller
+//! changes. What a multilevel preconditioner needs to know about the unknowns besides the
+//! matrix is a [`DofGeometry`].
 //!
 //! * [`Identity`]: `M = I`;
 //! * [`Jacobi`]: `M = diag(A)`;
@@ -12,35 +15,11 @@
 
 pub mod amg;
 mod factor;
+mod geometry;
 mod jacobi;
 
+pub use crate::krylov::preconditioner::{Identity, Preconditioner};
 pub use amg::{Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
 pub use factor::FactorPreconditioner;
+pub use geometry::DofGeometry;
 pub use jacobi::Jacobi;
-
-/// `z = M^{-1} r`.
-pub trait Preconditioner: Sync {
-    /// Sets `z = M^{-1} r` (`z` is overwritten).
-    fn apply(&self, r: &[f64], z: &mut [f64]);
-    /// What was built, for the solve report (e.g. a multigrid hierarchy's levels).
-    fn summary(&self) -> Option<String> {
-        None
-    }
-    /// `A` itself, when the preconditioner holds a copy whose product is cheaper than the
-    /// caller's (multigrid's block copy of level 0: 8 bytes per entry and one index per
-    /// block, against 16 bytes per entry of a `usize` CSC); Krylov callers use it for their
-    /// products. `None`: the caller's operator.
-    fn operator_copy(&self) -> Option<&dyn linpd_core::LinearOperator> {
-        None
-    }
-}
-
-/// No preconditioning: `z = r`.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Identity;
-
-impl Preconditioner for Identity {
-    fn apply(&self, r: &[f64], z: &mut [f64]) {
-        z.copy_from_slice(r);
-    }
-}

@@ -105,9 +105,8 @@ mod vbr;
 pub use prolongator::rigid_body_modes;
 pub use smoother::AmgSmoother;
 
-use super::Preconditioner;
-use crate::direct::{Cholesky, CholeskyFactor};
-use crate::spec::DofGeometry;
+use super::{DofGeometry, Preconditioner};
+use crate::direct::{Cholesky, CholeskyFactor, DIRECT_RESIDUAL_LIMIT};
 use crate::SolveError;
 use level::LevelMatrix;
 use linpd_core::sparse::Csc;
@@ -596,7 +595,7 @@ impl<'a> Amg<'a> {
         linpd_core::sparse::sym_matvec(&csc, &v, &mut bc);
         let xc = coarse.solve(&bc);
         let rel_residual = linpd_core::sparse::relative_residual(&csc, true, &xc, &bc);
-        if !(rel_residual <= crate::statics::DIRECT_RESIDUAL_LIMIT) {
+        if !(rel_residual <= DIRECT_RESIDUAL_LIMIT) {
             return Err(AmgError::CoarseSingular { level: l, rel_residual });
         }
         times.coarse_factor = t.elapsed().as_secs_f64();
