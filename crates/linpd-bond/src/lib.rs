@@ -17,7 +17,7 @@
 //! rigid motions (1, 3 and 6 in 1D/2D/3D) in its null space, and each block row sums to zero.
 //!
 //! * [`BondOperator`] holds the family and the per-bond weights; it applies `A` without
-//!   storing it ([`BondOperator::apply`]) and assembles it ([`assemble`]);
+//!   storing it ([`BondOperator::apply`]) and assembles it ([`assemble()`]);
 //! * [`LatticeBondModel`]: the operator on a lattice as a [`linpd_core::Model`] (nested
 //!   dissection ordering, stencil apply when homogeneous);
 //! * [`stencil::StencilOperator`] applies `A` on a homogeneous full-box lattice from the

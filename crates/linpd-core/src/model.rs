@@ -323,7 +323,7 @@ impl Model for AssembledModel {
     fn asymmetry(&self, _dofs: &DofMap) -> f64 {
         self.stiffness_asymmetry()
     }
-    /// From the stored `K`: the `d` rows of node `i` (see [`AssembledModel::row_major`] for
+    /// From the stored `K`: the `d` rows of node `i` (see `AssembledModel::row_major` for
     /// what the first call costs on an unsymmetric `K`), grouped by column node; the diagonal
     /// block always, off-diagonal blocks with a nonzero entry. Duplicate entries are summed.
     fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {

@@ -25,7 +25,7 @@
 //! power loss.
 //!
 //! Two runs into one `<dir>`: the second fails at once with "another linpd run (pid N) is
-//! writing <dir>" while the first holds the lock.
+//! writing `<dir>`" while the first holds the lock.
 //!
 //! A run never deletes what it did not write: it replaces `<dir>` only if `<dir>` is missing,
 //! empty, or a linpd output directory, i.e. it holds a main document whose `run.files` lists

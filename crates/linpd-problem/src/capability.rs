@@ -6,14 +6,14 @@
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum Capability {
-    /// `linpd solve` ([`Problem::solve`]).
+    /// `linpd solve` ([`crate::Problem::solve`]).
     StaticSolve,
     /// `"solver": {"type": "cg", "matrix_free": true}`: CG without an assembled matrix.
     MatrixFree,
-    /// Rows of `A_ff` on demand ([`Problem::row_system`]): the Python package's rows and the
+    /// Rows of `A_ff` on demand ([`crate::Problem::row_system`]): the Python package's rows and the
     /// distributed PETSc solve.
     BlockRows,
-    /// `linpd export` ([`Problem::reduced_system`]).
+    /// `linpd export` ([`crate::Problem::reduced_system`]).
     Export,
     /// The level 0 of `linpd coarsen` ([`crate::level0_model`]).
     Coarsen,

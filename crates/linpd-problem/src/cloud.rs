@@ -116,9 +116,11 @@ pub fn read_csv(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemErro
             _ => {}
         }
     }
-    if cols.volume.is_none() {
+    let Some(volume_col) = cols.volume else {
         return Err(err(hline, "missing column \"volume\"".into()));
-    }
+    };
+    // every coordinate column of the dimension is present (checked above)
+    let coord_cols: Vec<usize> = cols.coord[..dim].iter().flatten().copied().collect();
     let mut cloud =
         Cloud { positions: Vec::new(), volumes: Vec::new(), layer: Vec::new(), phase: Vec::new(), lines: Vec::new() };
     let mut record = csv::StringRecord::new();
@@ -145,9 +147,9 @@ pub fn read_csv(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemErro
         };
         let mut x = [0.0; 3];
         for a in 0..dim {
-            x[a] = number(cols.coord[a].unwrap(), NAMES[a])?;
+            x[a] = number(coord_cols[a], NAMES[a])?;
         }
-        let v = number(cols.volume.unwrap(), "volume")?;
+        let v = number(volume_col, "volume")?;
         if v <= 0.0 {
             return Err(err(line, format!("volume = {v:e} must be > 0")));
         }

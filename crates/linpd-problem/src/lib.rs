@@ -10,6 +10,8 @@
 //!
 //! The key reference is `docs/problem-format.md`.
 #![deny(missing_docs)]
+// Invariants become errors with a reason, not panics: a scene is user input.
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
 
 // In layers, each using only those above it (no module cycle): files and formats; the
 // scene's parts; the scene and its model's interface; the models; the commands.

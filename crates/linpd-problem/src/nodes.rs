@@ -1,5 +1,5 @@
 //! The nodes of a scene: a lattice ([`Grid`]), a point cloud read from a file, or a coarsened
-//! level's nodes; and [`NodeSet`], what regions, point loads and constraints select them by.
+//! level's nodes; and `NodeSet`, what regions, point loads and constraints select them by.
 
 use linpd_core::{Grid, Point, Region};
 

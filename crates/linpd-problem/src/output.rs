@@ -4,9 +4,11 @@
 //! ([`write_vtu`]) and ParaView collection writer ([`write_pvd`]) that `linpd run`'s snapshots
 //! share.
 
+use crate::balance::Balance;
 use crate::solution::Solution;
 use crate::ProblemError;
-use serde_json::json;
+use linpd_solve::SolveReport;
+use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
 
@@ -14,42 +16,101 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ProblemError + '_ {
     move |source| ProblemError::Io { path: path.display().to_string(), source }
 }
 
-impl Solution {
-    /// Displacement of node `n` (plain number in 1D, array otherwise) as JSON.
-    fn u_json(&self, n: usize) -> serde_json::Value {
-        let d = self.dim;
+/// A node's value in `result.json`: a plain number in 1D, an array of `d` components otherwise.
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+pub enum NodeValue<'a> {
+    /// 1D.
+    Scalar(f64),
+    /// 2D and 3D.
+    Vector(&'a [f64]),
+    /// 2D and 3D, computed (a strain's Voigt components).
+    Owned(Vec<f64>),
+}
+
+impl<'a> NodeValue<'a> {
+    /// The `d` values of `v` (node-major, `d` per node) of node `n`.
+    fn of(v: &'a [f64], d: usize, n: usize) -> Self {
         if d == 1 {
-            json!(self.u[n])
+            NodeValue::Scalar(v[n])
         } else {
-            json!(self.u[d * n..d * n + d])
+            NodeValue::Vector(&v[d * n..d * n + d])
+        }
+    }
+}
+
+/// The `result.json` document of a static solve ([`Solution::to_json`]; the `"run"` member is
+/// added by [`crate::OutputDir::commit`]). Its keys are listed in docs/problem-format.md and
+/// checked by tests/result_schema.rs.
+#[derive(Debug, Serialize)]
+pub struct ResultDoc<'a> {
+    /// Scene name.
+    pub name: &'a str,
+    /// `d`.
+    pub dimension: usize,
+    /// Node positions.
+    pub x: Vec<NodeValue<'a>>,
+    /// Displacements.
+    pub u: Vec<NodeValue<'a>>,
+    /// Layer flags.
+    pub layer: &'a [bool],
+    /// Loads, reactions and the force balance.
+    pub balance: Option<&'a Balance>,
+    /// `W_i` per node.
+    pub strain_energy_density: Option<&'a [f64]>,
+    /// LPS: `theta_i` per node.
+    pub dilatation: Option<&'a [f64]>,
+    /// Voigt strain per node (a number in 1D).
+    pub strain: Option<Vec<NodeValue<'a>>>,
+    /// Nodes whose strain is undefined (singular shape tensor).
+    pub strain_singular_nodes: Option<&'a [usize]>,
+    /// Sizes and the solve report.
+    pub stats: Stats<'a>,
+}
+
+/// `result.json`'s `stats`.
+#[derive(Debug, Serialize)]
+pub struct Stats<'a> {
+    /// Nodes.
+    pub nodes: usize,
+    /// Bonds (each pair from both ends).
+    pub bonds: usize,
+    /// `d` times nodes.
+    pub dofs: usize,
+    /// Accuracy and cost.
+    pub solve: &'a SolveReport,
+}
+
+impl Solution {
+    /// The typed `result.json` document.
+    pub fn doc(&self) -> ResultDoc<'_> {
+        let (d, n) = (self.dim, self.x.len());
+        let x = self.x.iter().map(|p| if d == 1 { NodeValue::Scalar(p[0]) } else { NodeValue::Vector(&p[..d]) });
+        let strain = self.strain.as_ref().map(|s| {
+            (0..n)
+                .map(|i| if d == 1 { NodeValue::Scalar(s.tensor[i][0]) } else { NodeValue::Owned(s.voigt(i)) })
+                .collect()
+        });
+        ResultDoc {
+            name: &self.name,
+            dimension: d,
+            x: x.collect(),
+            u: (0..n).map(|k| NodeValue::of(&self.u, d, k)).collect(),
+            layer: &self.is_layer,
+            balance: self.balance.as_ref(),
+            strain_energy_density: self.strain_energy_density.as_deref(),
+            dilatation: self.dilatation.as_deref(),
+            strain,
+            strain_singular_nodes: self.strain.as_ref().map(|s| s.singular.as_slice()),
+            stats: Stats { nodes: n, bonds: self.n_bonds, dofs: d * n, solve: &self.report },
         }
     }
 
-    /// The `result.json` document.
+    /// The `result.json` document as a JSON value (keys in alphabetical order, as written).
+    /// Serializing it cannot fail: every map key is a string, and non-finite numbers become
+    /// `null` (as they did in the document built by hand).
     pub fn to_json(&self) -> serde_json::Value {
-        let d = self.dim;
-        let n = self.x.len();
-        let x: Vec<serde_json::Value> =
-            (0..n).map(|k| if d == 1 { json!(self.x[k][0]) } else { json!(self.x[k][..d]) }).collect();
-        let u: Vec<serde_json::Value> = (0..n).map(|k| self.u_json(k)).collect();
-        json!({
-            "name": self.name,
-            "dimension": d,
-            "x": x,
-            "u": u,
-            "layer": self.is_layer,
-            "balance": self.balance,
-            "strain_energy_density": self.strain_energy_density,
-            "dilatation": self.dilatation,
-            "strain": self.strain.as_ref().map(|s| s.to_json()),
-            "strain_singular_nodes": self.strain.as_ref().map(|s| &s.singular),
-            "stats": {
-                "nodes": n,
-                "bonds": self.n_bonds,
-                "dofs": d * n,
-                "solve": self.report,
-            }
-        })
+        serde_json::to_value(self.doc()).unwrap_or_default()
     }
 
     /// Writes `u.csv` and `result.vtu` into `dir` (created if missing); returns their paths. `result.json`

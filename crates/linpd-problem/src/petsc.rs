@@ -221,7 +221,9 @@ impl Reader<'_> {
             bad(self.path, format!("ends at byte {} while reading {what} (at byte {})", self.bytes.len(), self.at))
         })?;
         self.at = end;
-        Ok(b.try_into().expect("slice of length N"))
+        let mut out = [0u8; N];
+        out.copy_from_slice(b);
+        Ok(out)
     }
     fn int(&mut self, what: &str) -> Result<i32, ProblemError> {
         Ok(i32::from_be_bytes(self.take::<4>(what)?))

@@ -317,7 +317,7 @@ impl Pipeline {
         for (i, spec) in self.levels.iter().enumerate() {
             let m = i + 1;
             levels_task.set(i as u64, &format!("level {m} of {n_levels}"));
-            let fine = models.last().unwrap();
+            let fine = &models[i];
             let path = format!("levels[{i}]");
             let retained = match &spec.retain {
                 Retain::Every(k) => retain_every(fine, *k).map_err(|e| inv(&path, e.to_string()))?,
@@ -352,7 +352,7 @@ impl Pipeline {
         levels_task.set(n_levels as u64, "");
         drop(levels_task);
         let seconds_coarsening = t_all.elapsed().as_secs_f64();
-        let coarsest = models.last().unwrap();
+        let coarsest = &models[n_levels];
         let shared_x: Vec<[f64; 3]> = coarsest.positions().to_vec();
         if self.solve {
             let shared0: Vec<usize> = coarsest.level0().to_vec();
@@ -518,7 +518,8 @@ impl PipelineResult {
         };
         for l in self.levels.iter().filter(|l| l.level > 0) {
             let path = dir.join(format!("level-{}.json", l.level));
-            std::fs::write(&path, serde_json::to_string_pretty(l).expect("serializes")).map_err(io(&path))?;
+            let text = serde_json::to_string_pretty(l).map_err(|e| io(&path)(std::io::Error::other(e)))?;
+            std::fs::write(&path, text).map_err(io(&path))?;
         }
         if self.levels[0].solve_seconds.is_some() {
             let d = self.dimension;

@@ -109,7 +109,7 @@ pub enum RawInitialKind {
     Data,
 }
 
-/// `dynamics.initial` (a plain struct with a `type` field, as [`RawModel`]).
+/// `dynamics.initial` (a plain struct with a `type` field, as [`RawLoad`]).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawInitial {
@@ -599,7 +599,9 @@ pub enum RawLoadKind {
 }
 
 /// A load: `{"type": "point", "at", "force"}` or `{"type": "body", "region", "density"}`
-/// (a plain struct for the same reason as [`RawModel`]; the pairing is checked in validation).
+/// (a plain struct rather than a serde-tagged enum: serde buffers tagged enums before choosing the
+/// variant, which loses the JSON path and position of errors inside them; the pairing is checked
+/// in validation).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawLoad {

@@ -584,14 +584,14 @@ pub(crate) fn material_with_tags(raw: &RawMaterial, dim: usize, tags: bool) -> R
                 "give exactly one of \"point\" (1D), \"segment\" (2D) or \"plane\" (3D)",
             ));
         }
-        let defect = if let Some(x) = d.point {
-            Defect::Point { x, factor: d.factor }
-        } else if let Some([a, b]) = d.segment {
-            Defect::Segment { a, b, factor: d.factor }
-        } else {
-            let pl = d.plane.as_ref().unwrap();
-            let extent = pl.extent.as_ref().map(|r| region(&format!("{dp}.plane.extent"), r, 3)).transpose()?;
-            Defect::Plane { point: pl.point, normal: pl.normal, extent, factor: d.factor }
+        let defect = match (d.point, d.segment, &d.plane) {
+            (Some(x), _, _) => Defect::Point { x, factor: d.factor },
+            (_, Some([a, b]), _) => Defect::Segment { a, b, factor: d.factor },
+            (_, _, Some(pl)) => {
+                let extent = pl.extent.as_ref().map(|r| region(&format!("{dp}.plane.extent"), r, 3)).transpose()?;
+                Defect::Plane { point: pl.point, normal: pl.normal, extent, factor: d.factor }
+            }
+            (None, None, None) => unreachable!("exactly one is given (checked above)"),
         };
         defect.validate(dim).map_err(|e| match e {
             // The core names the list ("defects") and the bare "normal"; point at the entry.
@@ -610,12 +610,12 @@ pub(crate) fn material_with_tags(raw: &RawMaterial, dim: usize, tags: bool) -> R
 /// against the horizon and the memory of `path`; and their mean spacing ([`mean_spacing`]).
 pub(crate) fn cloud_nodes(
     cx: &Context,
+    spec: &RawNodes,
     horizon: f64,
     path: crate::memory::Path,
 ) -> Result<(LevelNodes, f64), ProblemError> {
     let raw = cx.raw;
     let dim = raw.dimension;
-    let spec = raw.nodes.as_ref().expect("called for scenes with nodes");
     if raw.grid.is_some() {
         return Err(ProblemError::invalid("grid", "give either \"grid\" or \"nodes\", not both"));
     }

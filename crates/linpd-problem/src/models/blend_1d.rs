@@ -16,7 +16,7 @@
 //! no matrix-free solve, no coarsening, no explicit dynamics, no point clouds.
 
 use super::registry::{struct_fields, ModelType, Validated};
-use super::{Capability, Purpose, SceneModel, System};
+use super::{foreign_system, Capability, Purpose, SceneModel, System};
 use crate::balance::Balance;
 use crate::balance::ConstraintBalance;
 use crate::balance::LoadBalance;
@@ -228,8 +228,8 @@ impl BlendScene {
         material: Material,
     ) -> Result<BlendParams, ProblemError> {
         let name = Blend1dType::name_of(kind);
-        let grid_raw = cx.raw.grid.as_ref().expect("a lattice scene has a grid");
-        let mm = m.micromodulus.as_ref().expect("checked by bond_micromodulus");
+        let grid_raw = cx.raw.grid.as_ref().ok_or_else(|| ProblemError::invalid("grid", "missing"))?;
+        let mm = m.micromodulus.as_ref().ok_or_else(|| ProblemError::invalid("model.micromodulus", "missing"))?;
         let horizon = m.horizon;
         if grid_raw.min[0] != 0.0 {
             return Err(ProblemError::invalid("grid.min", format!("{name} models live on (0, L): min must be [0.0]")));
@@ -478,7 +478,7 @@ impl SceneModel for BlendScene {
         constraints: &[Constraint],
         loads: &[Load],
     ) -> Result<(), ProblemError> {
-        let grid = nodes.lattice().expect("a blend scene is on a lattice");
+        let grid = nodes.lattice().ok_or_else(|| ProblemError::invalid("grid", "a blend scene is on a grid"))?;
         let name = self.name();
         (self.u_left, self.u_right, self.constraint_ends) = Self::ends(name, grid, constraints)?;
         (self.loads, self.load_of, self.load_kinds) = Self::translate_loads(name, grid, loads)?;
@@ -521,7 +521,7 @@ impl SceneModel for BlendScene {
     }
     /// The solution for `u` from the end reactions of the operator `s` holds.
     fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
-        let op = s.model.as_any().downcast_ref::<BlendOperator>().expect("the system of a blend scene");
+        let op = s.model.as_any().downcast_ref::<BlendOperator>().ok_or_else(|| foreign_system(self.name()))?;
         let s = linpd_blend::BlendSolution {
             kind: self.kind,
             x: op.mesh.x.clone(),

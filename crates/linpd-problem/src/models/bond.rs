@@ -27,8 +27,8 @@ impl ModelType for BondType {
     }
     fn validate(&self, cx: &Context) -> Result<Validated, ProblemError> {
         let raw: RawBond = cx.model_keys()?;
-        if cx.raw.nodes.is_some() {
-            return bond_cloud::validate(cx, &raw);
+        if let Some(spec) = &cx.raw.nodes {
+            return bond_cloud::validate(cx, spec, &raw);
         }
         let dim = cx.dim();
         let matrix_free = cx.raw.solver.matrix_free || cx.raw.dynamics.is_some();

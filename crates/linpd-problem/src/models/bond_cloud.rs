@@ -26,10 +26,10 @@ pub struct BondCloudModel {
 }
 
 /// Validates a bond scene whose nodes come from a file.
-pub(crate) fn validate(cx: &Context, raw: &RawBond) -> Result<Validated, ProblemError> {
+pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond) -> Result<Validated, ProblemError> {
     let dim = cx.dim();
     refuse_lattice_keys(raw)?;
-    let (nodes, h) = cloud_nodes(cx, raw.horizon, crate::memory::Path::BondAssembled)?;
+    let (nodes, h) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::BondAssembled)?;
     let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, raw.partial_volume)?;
     if micromodulus.normalization == linpd_core::Normalization::Discrete {
         return Err(ProblemError::invalid(

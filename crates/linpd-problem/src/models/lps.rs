@@ -5,7 +5,7 @@
 
 use super::bond_model::{surface_of, Surface};
 use super::registry::{struct_fields, ModelType, Validated};
-use super::{solve_system, Capability, Purpose, SceneModel, System};
+use super::{foreign_system, solve_system, Capability, Purpose, SceneModel, System};
 use crate::nodes::{NodeSet, Nodes};
 use crate::raw::{RawInfluence, RawMaterial, RawPlane, RawSurfaceCorrection, RawSurfaceTarget};
 use crate::scene::Problem;
@@ -82,12 +82,12 @@ impl ModelType for LpsType {
     fn validate(&self, cx: &Context) -> Result<Validated, ProblemError> {
         let raw: RawLps = cx.model_keys()?;
         let dim = cx.dim();
-        if cx.raw.nodes.is_some() {
+        if let Some(spec) = &cx.raw.nodes {
             let correction = raw.surface_correction.is_some_and(|c| c != RawSurfaceCorrection::None);
             if correction || raw.surface_target.is_some() {
                 return Err(no_surface_correction(correction));
             }
-            let (nodes, _) = cloud_nodes(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
+            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::LpsAssembled)?;
             let params = params(dim, &raw)?;
             let material = material(&raw.material, dim)?;
             check_defects(&material, &nodes, raw.horizon)?;
@@ -253,7 +253,7 @@ impl SceneModel for LpsSceneModel {
         })
     }
     fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
-        let model = s.model.as_any().downcast_ref::<LpsModel>().expect("the system of an lps scene holds an LpsModel");
+        let model = s.model.as_any().downcast_ref::<LpsModel>().ok_or_else(|| foreign_system("lps"))?;
         Ok(solution(p, model, u, report))
     }
     /// The static solve, with a warning in the report when CG solved a near-incompressible solid.

@@ -29,5 +29,5 @@ pub mod lps;
 pub mod registry;
 
 pub use crate::capability::Capability;
-pub use crate::scene::{refusal, solve_system, Built, DynamicsOperator, Purpose, SceneModel, System};
+pub use crate::scene::{foreign_system, refusal, solve_system, Built, DynamicsOperator, Purpose, SceneModel, System};
 pub use registry::{ModelType, Registry};

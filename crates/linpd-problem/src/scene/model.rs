@@ -135,7 +135,7 @@ pub trait SceneModel: Debug + Send + Sync {
     fn static_error(&self, e: linpd_solve::StaticError) -> ProblemError {
         super::solve::static_error(e)
     }
-    /// Solves the scene ([`solve_system`] unless the model has its own solvers).
+    /// Solves the scene ([`super::solve_system`] unless the model has its own solvers).
     fn solve(&self, p: &Problem, progress: &dyn Progress) -> Result<Solution, ProblemError> {
         super::solve::solve_system(self, p, progress)
     }
@@ -161,6 +161,12 @@ pub trait SceneModel: Debug + Send + Sync {
     }
     /// As its concrete type (`p.model().as_any().downcast_ref::<CoarsenedModel>()`).
     fn as_any(&self) -> &dyn Any;
+}
+
+/// The error of a [`SceneModel::solution`] handed a system another model built (a
+/// [`crate::RowSystem`] of another scene).
+pub fn foreign_system(model: &str) -> ProblemError {
+    ProblemError::invalid("rows", format!("the system was not built by this scene's {model} model"))
 }
 
 /// The typed refusal of `capability` by `model` (the scene key it points at, the model, the
