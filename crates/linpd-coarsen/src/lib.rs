@@ -107,7 +107,7 @@
 //!
 //! # Radius rule, tail and cache ([`Radius`], [`StepReport`])
 //!
-//! Sec. 3: "the procedure can be repeated with increasing choices of r^1 [until] C^1(x,q)
+//! Sec. 3: "the procedure can be repeated with increasing choices of r^1 \[until\] C^1(x,q)
 //! become negligible for all q with |q - x| > r^1". Made precise: the *tail* of a step with
 //! radius `r` is the largest `|C^m(x,q)|_F` over the outer shell `r - delta^{m-1} < |q - x| <= r`
 //! (the coarse bonds that the truncation of `N_x` can reach), relative to the row's largest

@@ -169,7 +169,7 @@ impl Study {
     }
 
     /// [`Study::run`] reporting to `progress`: a task `"<study>: cases"` whose steps are the
-    /// study's cases ("case i of n: <label>"), with the tasks of their solves and coarsening
+    /// study's cases ("case i of n: `<label>`"), with the tasks of their solves and coarsening
     /// steps nested where the study passes them on.
     pub fn run_with_progress(
         &self,
