@@ -74,7 +74,7 @@ use crate::BlendError;
 use linpd_bond::BondOperator;
 use linpd_core::family::lattice_stencil;
 use linpd_core::sparse::Csc;
-use linpd_core::{nested_dissection, AssembledModel, DofMap, Grid, Model, Ordering, Point};
+use linpd_core::{nested_dissection, AssembledModel, BondFamily, DofMap, Grid, Model, Ordering, Point};
 use rayon::prelude::*;
 
 /// How `beta` falls from 1 at a PD region's boundary to 0 at the transition's outer edge, as a
@@ -218,157 +218,19 @@ impl LatticeBlend {
     ) -> Result<Self, BlendError> {
         let d = op.dim();
         let n = op.n_nodes();
-        if d < 2 {
-            return Err(BlendError::param("model.blend", "2D and 3D only (1D blends are `\"type\": \"blend\"`)"));
-        }
-        if beta.len() != n {
-            return Err(BlendError::param("beta", format!("{} values for {n} nodes", beta.len())));
-        }
-        if mirrored.len() != n {
-            return Err(BlendError::param("mirrored", format!("{} values for {n} nodes", mirrored.len())));
-        }
-        if let Some(i) = beta.iter().position(|b| !(0.0..=1.0).contains(b)) {
-            return Err(BlendError::param("beta", format!("beta = {} at node {i} is not in [0, 1]", beta[i])));
-        }
+        check_inputs(d, n, &beta, mirrored)?;
         let h = grid.spacing();
         let family = op.family();
-        // D_i for the element moduli, only where a local share may read it
-        let needs_local: Vec<bool> = (0..n).map(|i| beta[i] < 1.0).collect();
-        let d_tensor: Vec<[f64; 81]> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let mut t = [0.0; 81];
-                if !needs_local[i] && !cell_neighbours(grid, i).any(|j| needs_local[j]) {
-                    return t;
-                }
-                let layer = mirrored[i];
-                let k = grid.lattice_index(i);
-                for (&j, &w) in family.neighbors(i).iter().zip(op.weights(i)) {
-                    let j = j as usize;
-                    let xi = op.bond_vector(i, j);
-                    let e = op.unit(i, j);
-                    // a layer node stands for the body beyond it: its family's missing half
-                    // is the mirror image of the bonds it has
-                    let kj = grid.lattice_index(j);
-                    let mirror = [0, 1, 2].map(|a| 2 * k[a] - kj[a]);
-                    let f = if layer && grid.node_at(mirror).is_none() { 1.0 } else { 0.5 };
-                    for a in 0..d {
-                        for b in 0..d {
-                            let ab = f * w * e[a] * xi[b];
-                            for c in 0..d {
-                                for dd in 0..d {
-                                    t[((a * 3 + b) * 3 + c) * 3 + dd] += ab * e[c] * xi[dd];
-                                }
-                            }
-                        }
-                    }
-                }
-                t
-            })
-            .collect();
-        let n_cells: Vec<u8> = (0..n).map(|i| cells_at(grid, i).count() as u8).collect();
-        let is_regular = |i: usize| regular.is_none_or(|r| r[i]);
-        let describe = |i: usize| {
-            let x = grid.position(i);
-            format!("node {i} at {:?} (beta = {:.3})", &x[..d], beta[i])
+        let blend_rows = BlendRows {
+            op,
+            grid,
+            beta: &beta,
+            regular,
+            d_tensor: element_moduli(op, grid, &beta, mirrored),
+            n_cells: (0..n).map(|i| cells_at(grid, i).count() as u8).collect(),
         };
-
-        // rows of A and of its SPD companion M (see `LatticeBlend::m`)
-        type Rows = (BlockRow, BlockRow);
-        let rows: Vec<Result<Rows, BlendError>> = (0..n)
-            .into_par_iter()
-            .map_init(
-                || (RowBuilder::new(n), RowBuilder::new(n)),
-                |(rb, mb), i| {
-                    let bi = beta[i];
-                    let mut s = Vec::new();
-                    for (&j, &w) in family.neighbors(i).iter().zip(op.weights(i)) {
-                        let j = j as usize;
-                        let a_ij = 0.5 * (bi + beta[j]);
-                        let e = op.unit(i, j);
-                        if a_ij > 0.0 {
-                            for a in 0..d {
-                                for b in 0..d {
-                                    let v = a_ij * w * e[a] * e[b];
-                                    rb.at(i)[a * 3 + b] += v;
-                                    rb.at(j)[a * 3 + b] -= v;
-                                    mb.at(i)[a * 3 + b] += v;
-                                    mb.at(j)[a * 3 + b] -= v;
-                                }
-                            }
-                        }
-                        if beta[j] != bi {
-                            s.push((j, 0.5 * (bi - beta[j]) * w));
-                        }
-                    }
-                    let local = bi < 1.0;
-                    if (local || !s.is_empty()) && !is_regular(i) {
-                        return Err(BlendError::param(
-                            "model.blend.pd_regions",
-                            format!(
-                                "{}: its row has a local share but a defect or a material interface is within its \
-                                 horizon, which local elasticity cannot represent; extend pd_regions (with the transition) \
-                                 to keep every defect and interface more than a horizon from beta < 1",
-                                describe(i)
-                            ),
-                        ));
-                    }
-                    if !s.is_empty() {
-                        transition_terms(op, grid, i, &s, rb).map_err(|why| {
-                            BlendError::param("model.blend.pd_regions", format!("{}: {why}", describe(i)))
-                        })?;
-                    }
-                    if local {
-                        if n_cells[i] == 0 {
-                            return Err(BlendError::param(
-                                "model.blend.pd_regions",
-                                format!(
-                                    "{}: has a local share but is the corner of no complete lattice cell (a body \
-                                     thinner than two nodes there): extend pd_regions to cover it",
-                                    describe(i)
-                                ),
-                            ));
-                        }
-                        for cell in cells_at(grid, i) {
-                            if let Some(c) = cell.iter().find(|&&c| !is_regular(c)) {
-                                return Err(BlendError::param(
-                                    "model.blend.pd_regions",
-                                    format!(
-                                        "{}: its local elements reach {} near a defect or a material interface; \
-                                         extend pd_regions to cover it",
-                                        describe(i),
-                                        describe(*c)
-                                    ),
-                                ));
-                            }
-                            element_row(d, h, i, &cell, &d_tensor, &n_cells, 1.0 - bi, rb);
-                        }
-                    }
-                    // M: the elements weighted per cell by the mean local share of its corners
-                    for cell in cells_at(grid, i) {
-                        let w_e = cell.iter().map(|&c| 1.0 - beta[c]).sum::<f64>() / cell.len() as f64;
-                        if w_e > 0.0 {
-                            element_row(d, h, i, &cell, &d_tensor, &n_cells, w_e, mb);
-                        }
-                    }
-                    Ok((rb.take(), mb.take()))
-                },
-            )
-            .collect();
-        let (rows, m_rows): (Vec<BlockRow>, Vec<BlockRow>) =
-            rows.into_iter().collect::<Result<Vec<Rows>, _>>()?.into_iter().unzip();
-
-        let (mut pd, mut transition, mut local) = (0, 0, 0);
-        for i in 0..n {
-            let all = |v: f64| beta[i] == v && family.neighbors(i).iter().all(|&j| beta[j as usize] == v);
-            if all(1.0) {
-                pd += 1;
-            } else if all(0.0) {
-                local += 1;
-            } else {
-                transition += 1;
-            }
-        }
+        let (rows, m_rows) = blend_rows.assemble()?;
+        let (pd, transition, local) = zone_counts(family, &beta);
         let k = block_rows_to_csc(d, &rows);
         let m = block_rows_to_csc(d, &m_rows);
         let nnz_pd = d * d * (n + family.n_bonds());
@@ -395,6 +257,222 @@ impl LatticeBlend {
     /// `A` over all DOFs.
     pub fn stiffness(&self) -> &Csc {
         self.a.stiffness()
+    }
+}
+
+/// Checks the dimension and that `beta` (each in `[0, 1]`) and `mirrored` have one value per
+/// node.
+fn check_inputs(d: usize, n: usize, beta: &[f64], mirrored: &[bool]) -> Result<(), BlendError> {
+    if d < 2 {
+        return Err(BlendError::param("model.blend", "2D and 3D only (1D blends are `\"type\": \"blend\"`)"));
+    }
+    if beta.len() != n {
+        return Err(BlendError::param("beta", format!("{} values for {n} nodes", beta.len())));
+    }
+    if mirrored.len() != n {
+        return Err(BlendError::param("mirrored", format!("{} values for {n} nodes", mirrored.len())));
+    }
+    if let Some(i) = beta.iter().position(|b| !(0.0..=1.0).contains(b)) {
+        return Err(BlendError::param("beta", format!("beta = {} at node {i} is not in [0, 1]", beta[i])));
+    }
+    Ok(())
+}
+
+/// `D_i` per node for the element moduli, only where a local share may read it (the node's
+/// own row or a row sharing a cell with it has `beta < 1`); zero elsewhere.
+fn element_moduli(op: &BondOperator, grid: &Grid, beta: &[f64], mirrored: &[bool]) -> Vec<[f64; 81]> {
+    let n = op.n_nodes();
+    let needs_local: Vec<bool> = (0..n).map(|i| beta[i] < 1.0).collect();
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            if !needs_local[i] && !cell_neighbours(grid, i).any(|j| needs_local[j]) {
+                return [0.0; 81];
+            }
+            node_moduli(op, grid, i, mirrored[i])
+        })
+        .collect()
+}
+
+/// `(D_i)_abcd = (1/2) sum_j w_ij e_a xi_b e_c xi_d` of node `i` (the bond energy
+/// `w (e.G xi)^2 / 2`, half per end); a `layer` node counts a bond whose mirror partner is
+/// missing in full (see the module docs).
+fn node_moduli(op: &BondOperator, grid: &Grid, i: usize, layer: bool) -> [f64; 81] {
+    let d = op.dim();
+    let mut t = [0.0; 81];
+    let k = grid.lattice_index(i);
+    for (&j, &w) in op.family().neighbors(i).iter().zip(op.weights(i)) {
+        let j = j as usize;
+        let xi = op.bond_vector(i, j);
+        let e = op.unit(i, j);
+        // a layer node stands for the body beyond it: its family's missing half
+        // is the mirror image of the bonds it has
+        let kj = grid.lattice_index(j);
+        let mirror = [0, 1, 2].map(|a| 2 * k[a] - kj[a]);
+        let f = if layer && grid.node_at(mirror).is_none() { 1.0 } else { 0.5 };
+        for a in 0..d {
+            for b in 0..d {
+                let ab = f * w * e[a] * xi[b];
+                for c in 0..d {
+                    for dd in 0..d {
+                        t[((a * 3 + b) * 3 + c) * 3 + dd] += ab * e[c] * xi[dd];
+                    }
+                }
+            }
+        }
+    }
+    t
+}
+
+/// Node counts `(pd, transition, local)`: `beta = 1` on the node and its family, neither,
+/// `beta = 0` on the node and its family.
+fn zone_counts(family: &BondFamily, beta: &[f64]) -> (usize, usize, usize) {
+    let (mut pd, mut transition, mut local) = (0, 0, 0);
+    for i in 0..beta.len() {
+        let all = |v: f64| beta[i] == v && family.neighbors(i).iter().all(|&j| beta[j as usize] == v);
+        if all(1.0) {
+            pd += 1;
+        } else if all(0.0) {
+            local += 1;
+        } else {
+            transition += 1;
+        }
+    }
+    (pd, transition, local)
+}
+
+/// What the rows of `A` and of its SPD companion `M` (see `LatticeBlend::m`) read.
+struct BlendRows<'a> {
+    op: &'a BondOperator,
+    grid: &'a Grid,
+    beta: &'a [f64],
+    /// Node `i`'s family has one bond factor (`None`: every node).
+    regular: Option<&'a [bool]>,
+    /// `D_i` per node (see [`element_moduli`]).
+    d_tensor: Vec<[f64; 81]>,
+    /// Complete lattice cells at each node.
+    n_cells: Vec<u8>,
+}
+
+impl BlendRows<'_> {
+    /// The block rows of `A` and of `M`, in parallel; the first error in node order.
+    fn assemble(&self) -> Result<(Vec<BlockRow>, Vec<BlockRow>), BlendError> {
+        let n = self.beta.len();
+        type Rows = (BlockRow, BlockRow);
+        let rows: Vec<Result<Rows, BlendError>> = (0..n)
+            .into_par_iter()
+            .map_init(|| (RowBuilder::new(n), RowBuilder::new(n)), |(rb, mb), i| self.row(i, rb, mb))
+            .collect();
+        Ok(rows.into_iter().collect::<Result<Vec<Rows>, _>>()?.into_iter().unzip())
+    }
+
+    fn is_regular(&self, i: usize) -> bool {
+        self.regular.is_none_or(|r| r[i])
+    }
+
+    /// Node `i` with its position and `beta`, for the error messages.
+    fn describe(&self, i: usize) -> String {
+        let x = self.grid.position(i);
+        format!("node {i} at {:?} (beta = {:.3})", &x[..self.op.dim()], self.beta[i])
+    }
+
+    /// Row `i` of `A` (nonlocal shares, transition terms, local elements scaled by
+    /// `1 - beta_i`) and of `M` (nonlocal shares, elements weighted per cell).
+    fn row(&self, i: usize, rb: &mut RowBuilder, mb: &mut RowBuilder) -> Result<(BlockRow, BlockRow), BlendError> {
+        let bi = self.beta[i];
+        let s = self.nonlocal_shares(i, rb, mb);
+        let local = bi < 1.0;
+        if (local || !s.is_empty()) && !self.is_regular(i) {
+            return Err(BlendError::param(
+                "model.blend.pd_regions",
+                format!(
+                    "{}: its row has a local share but a defect or a material interface is within its \
+                     horizon, which local elasticity cannot represent; extend pd_regions (with the transition) \
+                     to keep every defect and interface more than a horizon from beta < 1",
+                    self.describe(i)
+                ),
+            ));
+        }
+        if !s.is_empty() {
+            transition_terms(self.op, self.grid, i, &s, rb)
+                .map_err(|why| BlendError::param("model.blend.pd_regions", format!("{}: {why}", self.describe(i))))?;
+        }
+        if local {
+            self.local_elements(i, rb)?;
+        }
+        self.companion_elements(i, mb);
+        Ok((rb.take(), mb.take()))
+    }
+
+    /// Adds the nonlocal shares `a_ij w_ij e e^T (u_i - u_j)`, `a_ij = (beta_i + beta_j) / 2`,
+    /// to the rows of `A` and `M`; returns the transition shares `(j, s_ij)`,
+    /// `s_ij = (beta_i - beta_j) / 2 w_ij`, of the bonds with `beta_j != beta_i`.
+    fn nonlocal_shares(&self, i: usize, rb: &mut RowBuilder, mb: &mut RowBuilder) -> Vec<(usize, f64)> {
+        let (op, beta, d) = (self.op, self.beta, self.op.dim());
+        let bi = beta[i];
+        let mut s = Vec::new();
+        for (&j, &w) in op.family().neighbors(i).iter().zip(op.weights(i)) {
+            let j = j as usize;
+            let a_ij = 0.5 * (bi + beta[j]);
+            let e = op.unit(i, j);
+            if a_ij > 0.0 {
+                for a in 0..d {
+                    for b in 0..d {
+                        let v = a_ij * w * e[a] * e[b];
+                        rb.at(i)[a * 3 + b] += v;
+                        rb.at(j)[a * 3 + b] -= v;
+                        mb.at(i)[a * 3 + b] += v;
+                        mb.at(j)[a * 3 + b] -= v;
+                    }
+                }
+            }
+            if beta[j] != bi {
+                s.push((j, 0.5 * (bi - beta[j]) * w));
+            }
+        }
+        s
+    }
+
+    /// Adds the local model's row `i` scaled by `1 - beta_i`: the elements of every complete
+    /// cell at the node, whose corners must all be regular.
+    fn local_elements(&self, i: usize, rb: &mut RowBuilder) -> Result<(), BlendError> {
+        if self.n_cells[i] == 0 {
+            return Err(BlendError::param(
+                "model.blend.pd_regions",
+                format!(
+                    "{}: has a local share but is the corner of no complete lattice cell (a body \
+                     thinner than two nodes there): extend pd_regions to cover it",
+                    self.describe(i)
+                ),
+            ));
+        }
+        let (d, h) = (self.op.dim(), self.grid.spacing());
+        for cell in cells_at(self.grid, i) {
+            if let Some(c) = cell.iter().find(|&&c| !self.is_regular(c)) {
+                return Err(BlendError::param(
+                    "model.blend.pd_regions",
+                    format!(
+                        "{}: its local elements reach {} near a defect or a material interface; \
+                         extend pd_regions to cover it",
+                        self.describe(i),
+                        self.describe(*c)
+                    ),
+                ));
+            }
+            element_row(d, h, i, &cell, &self.d_tensor, &self.n_cells, 1.0 - self.beta[i], rb);
+        }
+        Ok(())
+    }
+
+    /// M: the elements weighted per cell by the mean local share of its corners.
+    fn companion_elements(&self, i: usize, mb: &mut RowBuilder) {
+        let (d, h) = (self.op.dim(), self.grid.spacing());
+        for cell in cells_at(self.grid, i) {
+            let w_e = cell.iter().map(|&c| 1.0 - self.beta[c]).sum::<f64>() / cell.len() as f64;
+            if w_e > 0.0 {
+                element_row(d, h, i, &cell, &self.d_tensor, &self.n_cells, w_e, mb);
+            }
+        }
     }
 }
 

@@ -260,175 +260,11 @@ impl BlendOperator {
         params.validate()?;
         params.check_material(kind)?;
         let n_side = params.n_side()?;
-        let dx = params.dx;
-        let eps = n_side as f64 * dx;
         let (mesh, beta) = params.mesh_and_beta(kind)?;
-        let mat = BarMaterial::new(&params.material, params.modulus, dx);
-        // K(x_i) at the nodes (the bond model's node moduli) for the bond factors.
-        let node_k: Vec<f64> = if params.material.phases.is_empty() {
-            vec![params.modulus; mesh.len()]
-        } else {
-            mesh.x.iter().map(|&x| mat.modulus_at(x)).collect()
-        };
-        // Bond weights w_j = C(j dx) dx with C = c g normalized on the lattice (eq. (19)).
-        let mm = Micromodulus {
-            kernel: params.kernel.clone(),
-            normalization: Normalization::Discrete,
-            modulus: params.modulus,
-            plane: None,
-            partial_volume: false,
-        };
-        let c = mm.amplitude(1, eps, dx).map_err(|e| BlendError::param("kernel", e.to_string()))?;
-        let w: Vec<f64> = (1..=n_side).map(|j| c * params.kernel.shape(j as f64 * dx, eps) * dx).collect();
-        let m_order = if params.hog { 4 } else { 2 };
-
-        let n = mesh.len();
-        let width = 2 * (n_side + 2) + 1;
+        let rows = Rows::new(params, kind, &mesh, &beta, n_side)?;
         // Rows are independent: assemble them in parallel, each into its own small buffers.
-        let row = |i: usize| -> (Vec<usize>, Vec<f64>, bool, LocalPart) {
-            let mut col = Vec::with_capacity(width);
-            let mut val = Vec::with_capacity(width);
-            let mut acc = vec![0.0; width];
-            let v_i = mesh.dual_length(i);
-            let k = mesh.fine[i];
-            // Nonlocal shares a_j for j = -N..N (0 where the neighbour is missing) and the
-            // bonds' material factors mu_j (crate::material; 1 for a homogeneous bar).
-            let mut a = vec![0.0; 2 * n_side + 1];
-            let mut mu = vec![1.0; 2 * n_side + 1];
-            let mut any = false;
-            if let Some(k) = k {
-                for j in 1..=n_side as i64 {
-                    for s in [-1i64, 1] {
-                        let slot = (n_side as i64 + s * j) as usize;
-                        if let Some(q) = mesh.node_of_fine(k + s * j) {
-                            let share = 0.5 * (beta[i] + beta[q]);
-                            a[slot] = share;
-                            any |= share > 0.0;
-                            mu[slot] = mat.bond_factor(mesh.x[i], mesh.x[q], node_k[i], node_k[q]);
-                        } else if !mat.is_homogeneous() {
-                            // A bond leaving the domain is all local (a = 0): its modulus is
-                            // that of the point it would reach.
-                            let y = mesh.x[i] + (s * j) as f64 * dx;
-                            mu[slot] = mat.bond_factor(mesh.x[i], y, node_k[i], mat.modulus_at(y));
-                        }
-                    }
-                }
-            }
-            let pure_ce = !any && !params.hog;
-            let end = i == 0 || i + 1 == n;
-            if end && kind != ModelKind::PurePd {
-                // End nodes carry the Dirichlet conditions, so the solve never uses their rows.
-                // They hold the force on the end node's half cell in the local model,
-                // k_{1/2} (u_0 - u_1) / (x_1 - x_0) (and mirrored), so that (A u - f) there is
-                // the support's reaction (crate::solve, BlendSolution::reactions).
-                let q = if i == 0 { 1 } else { n - 2 };
-                let kf = mat.face_modulus(mesh.x[i.min(q)], mesh.x[i.max(q)]);
-                let len = (mesh.x[q] - mesh.x[i]).abs();
-                let mut entries = [(i, kf / len), (q, -kf / len)];
-                entries.sort_by_key(|e| e.0);
-                for (q, v) in entries {
-                    col.push(q);
-                    val.push(v);
-                }
-                return (col, val, false, LocalPart::End);
-            }
-            if pure_ce {
-                // Non-uniform CE row (section 5.2.4) with the series face moduli of K(x)
-                // (crate::material), force form: symmetric.
-                let (dl, dr) = (mesh.x[i] - mesh.x[i - 1], mesh.x[i + 1] - mesh.x[i]);
-                let kl = mat.face_modulus(mesh.x[i - 1], mesh.x[i]);
-                let kr = mat.face_modulus(mesh.x[i], mesh.x[i + 1]);
-                col.extend([i - 1, i, i + 1]);
-                val.extend([-kl / dl, kl / dl + kr / dr, -kr / dr]);
-                return (col, val, false, LocalPart::Ce { k_left: kl, k_right: kr });
-            }
-            let k = k.expect("nonlocal rows lie on the fine lattice");
-            let off = |o: i64| (o + n_side as i64 + 2) as usize;
-            // D_n = (1/n!) sum_j mu_j w_j (1 - a_j) xi_j^n  over j = +-1..+-N.
-            let mut d = [0.0f64; 5];
-            let mut all_pd = true;
-            for j in 1..=n_side as i64 {
-                for s in [-1i64, 1] {
-                    let aj = a[(n_side as i64 + s * j) as usize];
-                    // mu = 1 multiplies exactly: a homogeneous bar is Algorithm A bit for bit.
-                    let wj = w[(j - 1) as usize] * mu[(n_side as i64 + s * j) as usize];
-                    if aj > 0.0 {
-                        acc[off(s * j)] -= wj * aj;
-                        acc[off(0)] += wj * aj;
-                    }
-                    if aj < 1.0 {
-                        all_pd = false;
-                    }
-                    let xi = (s * j) as f64 * dx;
-                    let mut p = 1.0;
-                    let mut fact = 1.0;
-                    for (m, dm) in d.iter_mut().enumerate().skip(1).take(m_order) {
-                        p *= xi;
-                        fact *= m as f64;
-                        *dm += wj * (1.0 - aj) * p / fact;
-                    }
-                }
-            }
-            let is_transition = !all_pd;
-            let has = |o: i64| mesh.node_of_fine(k + o).is_some();
-            // -(D1 u' + D2 u'') with centred 3-point differences (eq. (20)-(21)); with HOG,
-            // -(D1 u' + ... + D4 u'''') with centred 5-point differences for every derivative,
-            // so that the local part is exact for quartics like the Taylor expansion (36) with
-            // M = 4 (a 3-point u' would leave an O(u''' dx^2) error even for cubics).
-            let h2 = dx * dx;
-            if params.hog && has(-2) && has(2) {
-                let c1 = d[1] / (12.0 * dx);
-                let c2 = d[2] / (12.0 * h2);
-                let c3 = d[3] / (2.0 * dx * h2);
-                let c4 = d[4] / (h2 * h2);
-                // u'    = (-u2 + 8 u1 - 8 u-1 + u-2) / (12 dx)
-                // u''   = (-u2 + 16 u1 - 30 u0 + 16 u-1 - u-2) / (12 dx^2)
-                // u'''  = (u2 - 2 u1 + 2 u-1 - u-2) / (2 dx^3)
-                // u'''' = (u2 - 4 u1 + 6 u0 - 4 u-1 + u-2) / dx^4
-                acc[off(2)] -= -c1 - c2 + c3 + c4;
-                acc[off(1)] -= 8.0 * c1 + 16.0 * c2 - 2.0 * c3 - 4.0 * c4;
-                acc[off(0)] -= -30.0 * c2 + 6.0 * c4;
-                acc[off(-1)] -= -8.0 * c1 + 16.0 * c2 + 2.0 * c3 - 4.0 * c4;
-                acc[off(-2)] -= c1 - c2 - c3 + c4;
-            }
-            let local3 = !(params.hog && has(-2) && has(2)) && has(-1) && has(1);
-            if local3 {
-                // (Also HOG rows next to a domain end, where the 5-point stencil does not fit:
-                // the third and fourth derivative terms are dropped there.)
-                acc[off(1)] -= d[1] / (2.0 * dx) + d[2] / h2;
-                acc[off(-1)] -= -d[1] / (2.0 * dx) + d[2] / h2;
-                acc[off(0)] += 2.0 * d[2] / h2;
-            }
-            let reach = n_side as i64 + 2;
-            for o in -reach..=reach {
-                let v = acc[off(o)];
-                if v != 0.0 || o == 0 {
-                    if let Some(q) = mesh.node_of_fine(k + o) {
-                        col.push(q);
-                        val.push(v * v_i);
-                    }
-                }
-            }
-            let part =
-                if end { LocalPart::End } else { LocalPart::Lattice { d1: d[1], d2: d[2], three_point: local3 } };
-            (col, val, is_transition, part)
-        };
-        let rows: Vec<(Vec<usize>, Vec<f64>, bool, LocalPart)> = (0..n).into_par_iter().map(row).collect();
-        let mut row_ptr = Vec::with_capacity(n + 1);
-        row_ptr.push(0usize);
-        for r in &rows {
-            row_ptr.push(row_ptr.last().unwrap() + r.0.len());
-        }
-        let mut col = Vec::with_capacity(*row_ptr.last().unwrap());
-        let mut val = Vec::with_capacity(*row_ptr.last().unwrap());
-        let mut transition = Vec::with_capacity(n);
-        let mut local = Vec::with_capacity(n);
-        for (c, v, t, l) in rows {
-            col.extend(c);
-            val.extend(v);
-            transition.push(t);
-            local.push(l);
-        }
+        let assembled: Vec<Row> = (0..mesh.len()).into_par_iter().map(|i| rows.row(i)).collect();
+        let (row_ptr, col, val, transition, local) = concatenate(assembled);
         Ok(BlendOperator { kind, mesh, beta, n_side, row_ptr, col, val, transition, local })
     }
 
@@ -526,5 +362,285 @@ impl BlendOperator {
         for i in 0..self.len() {
             y[i] = (self.row_ptr[i]..self.row_ptr[i + 1]).map(|p| self.val[p] * u[self.col[p]]).sum();
         }
+    }
+}
+
+/// One assembled row of `A`: columns (ascending) and values, whether it mixes nonlocal and
+/// local terms (the transition region `Omega_t`), and how its local part was assembled.
+struct Row {
+    col: Vec<usize>,
+    val: Vec<f64>,
+    transition: bool,
+    local: LocalPart,
+}
+
+/// The CSR arrays, transition flags and local parts of the rows, in row order.
+type Csr = (Vec<usize>, Vec<usize>, Vec<f64>, Vec<bool>, Vec<LocalPart>);
+
+/// Concatenates the rows into CSR arrays (`row_ptr`, `col`, `val`) and the per-row flags.
+fn concatenate(rows: Vec<Row>) -> Csr {
+    let n = rows.len();
+    let mut row_ptr = Vec::with_capacity(n + 1);
+    row_ptr.push(0usize);
+    for r in &rows {
+        row_ptr.push(row_ptr.last().unwrap() + r.col.len());
+    }
+    let mut col = Vec::with_capacity(*row_ptr.last().unwrap());
+    let mut val = Vec::with_capacity(*row_ptr.last().unwrap());
+    let mut transition = Vec::with_capacity(n);
+    let mut local = Vec::with_capacity(n);
+    for r in rows {
+        col.extend(r.col);
+        val.extend(r.val);
+        transition.push(r.transition);
+        local.push(r.local);
+    }
+    (row_ptr, col, val, transition, local)
+}
+
+/// What the rows of one assembly share: the nodes, `beta`, the material, the bond weights.
+struct Rows<'a> {
+    params: &'a BlendParams,
+    kind: ModelKind,
+    mesh: &'a Mesh,
+    beta: &'a [f64],
+    mat: BarMaterial<'a>,
+    /// `K(x_i)` at the nodes (the bond model's node moduli) for the bond factors.
+    node_k: Vec<f64>,
+    /// Bond weights `w_j = C(j dx) dx`, `j = 1..N`.
+    w: Vec<f64>,
+    /// Neighbours per side `N`.
+    n_side: usize,
+    dx: f64,
+    /// Order `M` of the Taylor expansion of the local part: 2 (PD/CE) or 4 (PD/HOG).
+    m_order: usize,
+}
+
+impl<'a> Rows<'a> {
+    fn new(
+        params: &'a BlendParams,
+        kind: ModelKind,
+        mesh: &'a Mesh,
+        beta: &'a [f64],
+        n_side: usize,
+    ) -> Result<Self, BlendError> {
+        let dx = params.dx;
+        let eps = n_side as f64 * dx;
+        let mat = BarMaterial::new(&params.material, params.modulus, dx);
+        let node_k: Vec<f64> = if params.material.phases.is_empty() {
+            vec![params.modulus; mesh.len()]
+        } else {
+            mesh.x.iter().map(|&x| mat.modulus_at(x)).collect()
+        };
+        // Bond weights w_j = C(j dx) dx with C = c g normalized on the lattice (eq. (19)).
+        let mm = Micromodulus {
+            kernel: params.kernel.clone(),
+            normalization: Normalization::Discrete,
+            modulus: params.modulus,
+            plane: None,
+            partial_volume: false,
+        };
+        let c = mm.amplitude(1, eps, dx).map_err(|e| BlendError::param("kernel", e.to_string()))?;
+        let w: Vec<f64> = (1..=n_side).map(|j| c * params.kernel.shape(j as f64 * dx, eps) * dx).collect();
+        let m_order = if params.hog { 4 } else { 2 };
+        Ok(Rows { params, kind, mesh, beta, mat, node_k, w, n_side, dx, m_order })
+    }
+
+    /// Slots of the row's accumulator: lattice offsets `-N-2..=N+2` (the bonds and the widest
+    /// difference stencil).
+    fn width(&self) -> usize {
+        2 * (self.n_side + 2) + 1
+    }
+
+    /// The accumulator slot of lattice offset `o`.
+    fn off(&self, o: i64) -> usize {
+        (o + self.n_side as i64 + 2) as usize
+    }
+
+    /// Row `i`: an end row, a pure CE row, or a lattice row (nonlocal shares plus the Taylor
+    /// local part).
+    fn row(&self, i: usize) -> Row {
+        let n = self.mesh.len();
+        let k = self.mesh.fine[i];
+        let (a, mu, any) = self.shares(i, k);
+        let pure_ce = !any && !self.params.hog;
+        let end = i == 0 || i + 1 == n;
+        if end && self.kind != ModelKind::PurePd {
+            return self.end_row(i);
+        }
+        if pure_ce {
+            return self.ce_row(i);
+        }
+        let k = k.expect("nonlocal rows lie on the fine lattice");
+        self.lattice_row(i, k, &a, &mu, end)
+    }
+
+    /// Nonlocal shares `a_j = (beta_i + beta_q) / 2` for `j = -N..N` (0 where the neighbour is
+    /// missing) and the bonds' material factors `mu_j` (crate::material; 1 for a homogeneous
+    /// bar) of node `i` at fine-lattice index `k`; and whether any share is positive.
+    fn shares(&self, i: usize, k: Option<i64>) -> (Vec<f64>, Vec<f64>, bool) {
+        let (mesh, mat, n_side) = (self.mesh, &self.mat, self.n_side);
+        let mut a = vec![0.0; 2 * n_side + 1];
+        let mut mu = vec![1.0; 2 * n_side + 1];
+        let mut any = false;
+        let Some(k) = k else { return (a, mu, any) };
+        for j in 1..=n_side as i64 {
+            for s in [-1i64, 1] {
+                let slot = (n_side as i64 + s * j) as usize;
+                if let Some(q) = mesh.node_of_fine(k + s * j) {
+                    let share = 0.5 * (self.beta[i] + self.beta[q]);
+                    a[slot] = share;
+                    any |= share > 0.0;
+                    mu[slot] = mat.bond_factor(mesh.x[i], mesh.x[q], self.node_k[i], self.node_k[q]);
+                } else if !mat.is_homogeneous() {
+                    // A bond leaving the domain is all local (a = 0): its modulus is
+                    // that of the point it would reach.
+                    let y = mesh.x[i] + (s * j) as f64 * self.dx;
+                    mu[slot] = mat.bond_factor(mesh.x[i], y, self.node_k[i], mat.modulus_at(y));
+                }
+            }
+        }
+        (a, mu, any)
+    }
+
+    /// End nodes carry the Dirichlet conditions, so the solve never uses their rows. They hold
+    /// the force on the end node's half cell in the local model,
+    /// `k_{1/2} (u_0 - u_1) / (x_1 - x_0)` (and mirrored), so that `(A u - f)` there is the
+    /// support's reaction (crate::solve, BlendSolution::reactions).
+    fn end_row(&self, i: usize) -> Row {
+        let (x, n) = (&self.mesh.x, self.mesh.len());
+        let q = if i == 0 { 1 } else { n - 2 };
+        let kf = self.mat.face_modulus(x[i.min(q)], x[i.max(q)]);
+        let len = (x[q] - x[i]).abs();
+        let mut entries = [(i, kf / len), (q, -kf / len)];
+        entries.sort_by_key(|e| e.0);
+        let (col, val) = entries.into_iter().unzip();
+        Row { col, val, transition: false, local: LocalPart::End }
+    }
+
+    /// Non-uniform CE row (section 5.2.4) with the series face moduli of `K(x)`
+    /// (crate::material), force form: symmetric.
+    fn ce_row(&self, i: usize) -> Row {
+        let x = &self.mesh.x;
+        let (dl, dr) = (x[i] - x[i - 1], x[i + 1] - x[i]);
+        let kl = self.mat.face_modulus(x[i - 1], x[i]);
+        let kr = self.mat.face_modulus(x[i], x[i + 1]);
+        let col = vec![i - 1, i, i + 1];
+        let val = vec![-kl / dl, kl / dl + kr / dr, -kr / dr];
+        Row { col, val, transition: false, local: LocalPart::Ce { k_left: kl, k_right: kr } }
+    }
+
+    /// Row `i` at fine-lattice index `k`: the nonlocal shares plus `-(D1 u' + D2 u'' [+ ...])`,
+    /// scaled by the node's dual length `v_i`.
+    fn lattice_row(&self, i: usize, k: i64, a: &[f64], mu: &[f64], end: bool) -> Row {
+        let mut acc = vec![0.0; self.width()];
+        let (d, all_pd) = self.nonlocal_and_moments(&mut acc, a, mu);
+        let local3 = self.local_part(&mut acc, &d, k);
+        let (col, val) = self.gather(&acc, k, self.mesh.dual_length(i));
+        let local = if end { LocalPart::End } else { LocalPart::Lattice { d1: d[1], d2: d[2], three_point: local3 } };
+        Row { col, val, transition: !all_pd, local }
+    }
+
+    /// Adds the nonlocal shares `mu_j w_j a_j (u_i - u_j)` to `acc` and returns the moments of
+    /// the local shares,
+    ///
+    /// ```text
+    /// D_n = (1/n!) sum_j mu_j w_j (1 - a_j) xi_j^n   over j = +-1..+-N,  n = 1..M,
+    /// ```
+    ///
+    /// and whether every bond is all nonlocal (`a_j >= 1`: a pure PD row).
+    fn nonlocal_and_moments(&self, acc: &mut [f64], a: &[f64], mu: &[f64]) -> ([f64; 5], bool) {
+        let n_side = self.n_side as i64;
+        let mut d = [0.0f64; 5];
+        let mut all_pd = true;
+        for j in 1..=n_side {
+            for s in [-1i64, 1] {
+                let aj = a[(n_side + s * j) as usize];
+                // mu = 1 multiplies exactly: a homogeneous bar is Algorithm A bit for bit.
+                let wj = self.w[(j - 1) as usize] * mu[(n_side + s * j) as usize];
+                if aj > 0.0 {
+                    acc[self.off(s * j)] -= wj * aj;
+                    acc[self.off(0)] += wj * aj;
+                }
+                if aj < 1.0 {
+                    all_pd = false;
+                }
+                let xi = (s * j) as f64 * self.dx;
+                let mut p = 1.0;
+                let mut fact = 1.0;
+                for (m, dm) in d.iter_mut().enumerate().skip(1).take(self.m_order) {
+                    p *= xi;
+                    fact *= m as f64;
+                    *dm += wj * (1.0 - aj) * p / fact;
+                }
+            }
+        }
+        (d, all_pd)
+    }
+
+    /// Adds the local part `-(D1 u' + D2 u'')` with centred 3-point differences (eq. (20)-(21));
+    /// with HOG, `-(D1 u' + ... + D4 u'''')` with centred 5-point differences for every
+    /// derivative, so that the local part is exact for quartics like the Taylor expansion (36)
+    /// with `M = 4` (a 3-point `u'` would leave an `O(u''' dx^2)` error even for cubics).
+    /// Returns whether the 3-point stencils were used.
+    fn local_part(&self, acc: &mut [f64], d: &[f64; 5], k: i64) -> bool {
+        let has = |o: i64| self.mesh.node_of_fine(k + o).is_some();
+        let five_point = self.params.hog && has(-2) && has(2);
+        if five_point {
+            self.hog_stencil(acc, d);
+        }
+        let local3 = !five_point && has(-1) && has(1);
+        if local3 {
+            // (Also HOG rows next to a domain end, where the 5-point stencil does not fit:
+            // the third and fourth derivative terms are dropped there.)
+            self.three_point_stencil(acc, d);
+        }
+        local3
+    }
+
+    /// `-(D1 u' + D2 u'' + D3 u''' + D4 u'''')` with centred 5-point differences.
+    fn hog_stencil(&self, acc: &mut [f64], d: &[f64; 5]) {
+        let dx = self.dx;
+        let h2 = dx * dx;
+        let c1 = d[1] / (12.0 * dx);
+        let c2 = d[2] / (12.0 * h2);
+        let c3 = d[3] / (2.0 * dx * h2);
+        let c4 = d[4] / (h2 * h2);
+        // u'    = (-u2 + 8 u1 - 8 u-1 + u-2) / (12 dx)
+        // u''   = (-u2 + 16 u1 - 30 u0 + 16 u-1 - u-2) / (12 dx^2)
+        // u'''  = (u2 - 2 u1 + 2 u-1 - u-2) / (2 dx^3)
+        // u'''' = (u2 - 4 u1 + 6 u0 - 4 u-1 + u-2) / dx^4
+        acc[self.off(2)] -= -c1 - c2 + c3 + c4;
+        acc[self.off(1)] -= 8.0 * c1 + 16.0 * c2 - 2.0 * c3 - 4.0 * c4;
+        acc[self.off(0)] -= -30.0 * c2 + 6.0 * c4;
+        acc[self.off(-1)] -= -8.0 * c1 + 16.0 * c2 + 2.0 * c3 - 4.0 * c4;
+        acc[self.off(-2)] -= c1 - c2 - c3 + c4;
+    }
+
+    /// `-(D1 u' + D2 u'')` with centred 3-point differences (eq. (20)-(21)).
+    fn three_point_stencil(&self, acc: &mut [f64], d: &[f64; 5]) {
+        let dx = self.dx;
+        let h2 = dx * dx;
+        acc[self.off(1)] -= d[1] / (2.0 * dx) + d[2] / h2;
+        acc[self.off(-1)] -= -d[1] / (2.0 * dx) + d[2] / h2;
+        acc[self.off(0)] += 2.0 * d[2] / h2;
+    }
+
+    /// The row's entries from the accumulator of the node at fine index `k`: the nonzero
+    /// offsets (and the diagonal) that are nodes, in ascending order, times `v_i`.
+    fn gather(&self, acc: &[f64], k: i64, v_i: f64) -> (Vec<usize>, Vec<f64>) {
+        let mut col = Vec::with_capacity(self.width());
+        let mut val = Vec::with_capacity(self.width());
+        let reach = self.n_side as i64 + 2;
+        for o in -reach..=reach {
+            let v = acc[self.off(o)];
+            if v != 0.0 || o == 0 {
+                if let Some(q) = self.mesh.node_of_fine(k + o) {
+                    col.push(q);
+                    val.push(v * v_i);
+                }
+            }
+        }
+        (col, val)
     }
 }
