@@ -580,24 +580,7 @@ impl<'a> Amg<'a> {
             }
             _ => mats.pop().expect("a coarse level per smoothed level").to_symmetric_csc(),
         };
-        let rows = coarsest.nrows();
-        let map = |e: SolveError| match e {
-            SolveError::NotPositiveDefinite { dof } => AmgError::CoarseNotPositiveDefinite { level: l, rows, row: dof },
-            other => AmgError::CoarseFactorization { level: l, reason: other.to_string() },
-        };
-        let csc = coarsest;
-        let chol = Cholesky::analyze(&csc).map_err(map)?;
-        let coarse = chol.factor(&csc).map_err(map)?;
-        // A singular coarse matrix can factor with round-off pivots instead of failing: a test
-        // solve catches it (the limit of the direct solvers, `kappa` beyond ~1e10).
-        let v: Vec<f64> = (0..rows).map(|i| 1.0 + ((i * 7919) % 113) as f64 / 113.0).collect();
-        let mut bc = vec![0.0; rows];
-        linpd_core::sparse::sym_matvec(&csc, &v, &mut bc);
-        let xc = coarse.solve(&bc);
-        let rel_residual = linpd_core::sparse::relative_residual(&csc, true, &xc, &bc);
-        if !(rel_residual <= DIRECT_RESIDUAL_LIMIT) {
-            return Err(AmgError::CoarseSingular { level: l, rel_residual });
-        }
+        let (coarse_factor_nnz, coarse) = Self::factor_coarsest(&coarsest, l)?;
         times.coarse_factor = t.elapsed().as_secs_f64();
         let nnz0 = level_stats[0].nnz as f64;
         let rows0 = level_stats[0].rows as f64;
@@ -605,15 +588,37 @@ impl<'a> Amg<'a> {
             operator_complexity: level_stats.iter().map(|s| s.nnz as f64).sum::<f64>() / nnz0,
             grid_complexity: level_stats.iter().map(|s| s.rows as f64).sum::<f64>() / rows0,
             levels: level_stats,
-            coarse_factor_nnz: chol.nnz_factor(),
+            coarse_factor_nnz,
             memory_bytes: fine.matrix().bytes()
                 + mats.iter().map(Vbr::bytes).sum::<usize>()
                 + levels.iter().map(|lv| lv.p.bytes() + lv.r.bytes() + 8 * lv.p.nrows()).sum::<usize>()
-                + 8 * chol.nnz_factor(),
+                + 8 * coarse_factor_nnz,
             setup_seconds: t0.elapsed().as_secs_f64(),
             times,
         };
         Ok(Amg { fine, mats, levels, coarse, stats })
+    }
+
+    /// The Cholesky factor of the coarsest matrix `a` (level `level`) and its stored entries.
+    /// A singular coarse matrix can factor with round-off pivots instead of failing: a test
+    /// solve catches it (the limit of the direct solvers, `kappa` beyond ~1e10).
+    fn factor_coarsest(a: &Csc, level: usize) -> Result<(usize, CholeskyFactor), AmgError> {
+        let rows = a.nrows();
+        let map = |e: SolveError| match e {
+            SolveError::NotPositiveDefinite { dof } => AmgError::CoarseNotPositiveDefinite { level, rows, row: dof },
+            other => AmgError::CoarseFactorization { level, reason: other.to_string() },
+        };
+        let chol = Cholesky::analyze(a).map_err(map)?;
+        let coarse = chol.factor(a).map_err(map)?;
+        let v: Vec<f64> = (0..rows).map(|i| 1.0 + ((i * 7919) % 113) as f64 / 113.0).collect();
+        let mut bc = vec![0.0; rows];
+        linpd_core::sparse::sym_matvec(a, &v, &mut bc);
+        let xc = coarse.solve(&bc);
+        let rel_residual = linpd_core::sparse::relative_residual(a, true, &xc, &bc);
+        if !(rel_residual <= DIRECT_RESIDUAL_LIMIT) {
+            return Err(AmgError::CoarseSingular { level, rel_residual });
+        }
+        Ok((chol.nnz_factor(), coarse))
     }
 
     /// What the setup built and what it cost.

@@ -1,0 +1,293 @@
+//! The solver dispatch on an assembled matrix ([`solve_assembled`]): `spec` (or, for an
+//! unsymmetric `A`, sparse LU whatever was asked, with the exceptions listed there) to the
+//! runners of [`super::runners`], `auto` by the plans of [`super::auto`] with their fallbacks,
+//! then the checks of the solution and its residual ([`super::guards`]).
+
+use super::auto::{plan_symmetric, AutoChoice, AutoParams};
+use super::guards::{check_residual, finite_matrix, finite_vector};
+use super::runners::{
+    analyze_cholesky, assembled_cg, assembled_gmres, assembled_gmres_with, cholesky, dense, dense_lu, lu, spd_gmres,
+    Solved, SpdGmres,
+};
+use crate::cost;
+use crate::krylov::cg::{CgError, CgParams};
+use crate::precond::DofGeometry;
+use crate::report::{peak_rss_bytes, SolveReport};
+use crate::spec::{PreconditionerKind, SolverId, SolverSpec};
+use crate::SolveError;
+use linpd_core::progress::{NoProgress, Progress, Task};
+use linpd_core::sparse::{relative_residual, Csc, SYMMETRY_RTOL};
+use linpd_core::{Ordering, SpdApproximation};
+use std::time::Instant;
+
+/// What [`solve_assembled`] needs to know about the matrix besides its entries.
+#[derive(Debug, Clone)]
+pub struct MatrixHints {
+    /// Spatial dimension (for `auto`).
+    pub dim: usize,
+    /// `max |A - A^T| / max |A|`: above [`SYMMETRY_RTOL`] the solve is a sparse LU (or, under
+    /// `auto` with [`MatrixHints::spd`], GMRES) whatever was asked.
+    pub asymmetry: f64,
+    /// Fill-reducing ordering for a sparse Cholesky ([`Ordering::Band`] also keeps the band in LU).
+    pub ordering: Ordering,
+    /// For an unsymmetric `A`: an SPD approximation whose Cholesky factor preconditions GMRES
+    /// under `auto`.
+    pub spd: Option<SpdApproximation>,
+    /// Where the unknowns sit (for multilevel preconditioners; `None`: a bare matrix).
+    pub geometry: Option<DofGeometry>,
+    /// Nodes along the body's longest side ([`crate::cost::nodes_along_longest_side`]), for
+    /// `auto`'s iteration estimates (`None`: `(n / dim)^(1/dim)`, a cube).
+    pub n_side: Option<f64>,
+}
+
+impl MatrixHints {
+    /// A symmetric matrix in dimension `dim`, AMD ordering.
+    pub fn symmetric(dim: usize) -> Self {
+        MatrixHints { dim, asymmetry: 0.0, ordering: Ordering::Amd, spd: None, geometry: None, n_side: None }
+    }
+}
+
+/// Solves the assembled system `A u = f` with `spec` and reports what it cost; the residual
+/// is recomputed with the symmetric product for symmetric `A`, the general one otherwise.
+///
+/// An unsymmetric `A` is solved by sparse LU whatever was asked (with a `note` in the report
+/// when something else was), except: `dense` runs a dense LU, `gmres` runs GMRES, and `auto`
+/// with an SPD approximation `M` ([`MatrixHints::spd`]) runs GMRES preconditioned by multigrid
+/// from `M` (2D from [`AutoParams::gmres_multigrid_2d_min_unknowns`] unknowns, and where the
+/// factor of `M` would not fit) or by the Cholesky factor of `M`, each falling back to the next
+/// (with a note) if it fails: multigrid to the Cholesky of `M`, the Cholesky of `M` to sparse LU.
+pub fn solve_assembled(
+    a: &Csc,
+    f: &[f64],
+    spec: &SolverSpec,
+    hints: &MatrixHints,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    solve_assembled_with_progress(a, f, spec, hints, &NoProgress)
+}
+
+/// [`solve_assembled`] reporting to `progress`: the iterations of CG and GMRES
+/// ([`crate::pcg_with_progress`]) and a task with no steps around each factorization.
+pub fn solve_assembled_with_progress(
+    a: &Csc,
+    f: &[f64],
+    spec: &SolverSpec,
+    hints: &MatrixHints,
+    progress: &dyn Progress,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    finite_matrix(a)?;
+    finite_vector("the load vector", f)?;
+    let symmetric = hints.asymmetry <= SYMMETRY_RTOL;
+    let resolved = spec.resolve(hints.dim, a.nrows());
+    let auto = AutoParams::default();
+    let t0 = Instant::now();
+    let ((u, mut report), note) = if symmetric {
+        (symmetric_solve(a, f, &resolved, hints, &auto, progress)?, None)
+    } else {
+        unsymmetric_solve(a, f, spec, &resolved, hints, &auto, progress)?
+    };
+    finite_vector("the solution", &u)?;
+    // a note of the solver path (auto's fallback) comes first
+    report.note = match (report.note.take(), note) {
+        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+        (a, b) => a.or(b),
+    };
+    report.timings.total = t0.elapsed().as_secs_f64();
+    report.rel_residual = relative_residual(a, symmetric, &u, f);
+    report.peak_rss_bytes = peak_rss_bytes();
+    check_residual(&report)?;
+    Ok((u, report))
+}
+
+/// A symmetric `A`: the solver `resolved` names.
+fn symmetric_solve(
+    a: &Csc,
+    f: &[f64],
+    resolved: &SolverSpec,
+    hints: &MatrixHints,
+    auto: &AutoParams,
+    progress: &dyn Progress,
+) -> Result<Solved, SolveError> {
+    let geometry = hints.geometry.as_ref();
+    match resolved {
+        SolverSpec::Auto(params) => auto_symmetric(a, f, params, hints, auto, progress),
+        SolverSpec::Cholesky => cholesky(a, f, analyze_cholesky(a, &hints.ordering)?, progress),
+        SolverSpec::Lu => lu(a, f, &hints.ordering, progress),
+        SolverSpec::Dense => dense(a, f),
+        SolverSpec::Cg { params, preconditioner, matrix_free: _ } => {
+            assembled_cg(a, f, params, *preconditioner, geometry, progress)
+        }
+        SolverSpec::Gmres { params, preconditioner } => {
+            assembled_gmres(a, f, params, *preconditioner, geometry, progress)
+        }
+    }
+}
+
+/// An unsymmetric `A`: dense LU, sparse LU or GMRES when asked, `auto` with an SPD
+/// approximation by its plan, sparse LU otherwise; with the note of what ran instead of what
+/// was asked, if anything.
+fn unsymmetric_solve(
+    a: &Csc,
+    f: &[f64],
+    spec: &SolverSpec,
+    resolved: &SolverSpec,
+    hints: &MatrixHints,
+    auto: &AutoParams,
+    progress: &dyn Progress,
+) -> Result<(Solved, Option<String>), SolveError> {
+    Ok(match (resolved, &hints.spd) {
+        (SolverSpec::Dense, _) => (dense_lu(a, f)?, None),
+        (SolverSpec::Lu, _) => (lu(a, f, &hints.ordering, progress)?, None),
+        (SolverSpec::Gmres { params, preconditioner }, spd) => {
+            // the preconditioner from the SPD approximation (the symmetric part by default;
+            // borrowed: a 3D blend's M is ~1 GB)
+            let m = match spd {
+                Some(spd) => std::borrow::Cow::Borrowed(&spd.matrix),
+                None => std::borrow::Cow::Owned(linpd_core::sparse::symmetric_part(a)),
+            };
+            let geometry = hints.geometry.as_ref();
+            (assembled_gmres_with(a, &m, f, params, *preconditioner, geometry, progress)?, None)
+        }
+        // `auto` asked (in 1D it resolves to a direct solver name, hence `spec`, not `resolved`)
+        (_, Some(spd)) if matches!(spec, SolverSpec::Auto(_)) => {
+            let params = match spec {
+                SolverSpec::Auto(params) => params.clone(),
+                _ => CgParams::default(),
+            };
+            auto_unsymmetric(a, f, spd, &params, hints, auto, progress)?
+        }
+        (s, _) => {
+            let note = format!(
+                "{s} asked, sparse LU used: A is unsymmetric (relative asymmetry {:.2e} > {SYMMETRY_RTOL:e})",
+                hints.asymmetry
+            );
+            (lu(a, f, &hints.ordering, progress)?, Some(note))
+        }
+    })
+}
+
+/// `auto` on a symmetric `A` in 2D/3D: the cheapest of sparse Cholesky, Jacobi-PCG and (when
+/// the DOF geometry is known) multigrid-PCG by [`crate::cost`] ([`plan_symmetric`], after the
+/// Cholesky analysis its estimate needs unless [`AutoParams::factor_excluded`]); the report's
+/// `auto` field lists the estimates.
+fn auto_symmetric(
+    a: &Csc,
+    f: &[f64],
+    params: &CgParams,
+    hints: &MatrixHints,
+    auto: &AutoParams,
+    progress: &dyn Progress,
+) -> Result<Solved, SolveError> {
+    let (n, dim) = (a.nrows(), hints.dim);
+    let n_side = hints.n_side.unwrap_or_else(|| (n as f64 / dim as f64).powf(1.0 / dim as f64));
+    let jacobi = cost::jacobi_cg(dim, a.val().len(), n_side, params);
+    let mut analyzed = None;
+    let chol = match auto.factor_excluded(dim, n) {
+        Some(why) => cost::Estimate { solver: "cholesky".into(), seconds: None, why },
+        None => {
+            let task = Task::start(progress, "Cholesky symbolic analysis (auto's estimate)", None);
+            let (c, label, t) = analyze_cholesky(a, &hints.ordering)?;
+            drop(task);
+            let e = cost::cholesky(&c, SolverId::Cholesky(label).to_string());
+            analyzed = Some((c, label, t));
+            e
+        }
+    };
+    // Multigrid needs the DOF geometry for its rigid-body modes: offered only with it.
+    let multigrid = hints.geometry.as_ref().map(|_| cost::multigrid_cg(a.val().len(), params));
+    let plan = plan_symmetric(&chol, &jacobi, multigrid.as_ref());
+    let (u, mut report) = match (plan.choice, analyzed) {
+        (AutoChoice::Cholesky, Some(analysis)) => cholesky(a, f, analysis, progress)?,
+        (choice, analyzed) => {
+            let p = match choice {
+                AutoChoice::Cg(p) => p,
+                AutoChoice::Cholesky => PreconditionerKind::default(),
+            };
+            match assembled_cg(a, f, params, p, hints.geometry.as_ref(), progress) {
+                // CG stopped above rtol because rounding limits its attainable residual (an
+                // ill-conditioned system, e.g. the LPS cantilever of `linpd study surface`, where
+                // multigrid-PCG reached 1.12e-10 for rtol 1e-10): auto falls back to the direct
+                // solve it has analyzed (and says so) rather than fail where another solver works.
+                // (only when the estimate kept the factorization: not past the memory limit)
+                Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. }))
+                    if analyzed.is_some() && plan.cholesky_fallback =>
+                {
+                    let (u, mut report) = cholesky(a, f, analyzed.expect("checked"), progress)?;
+                    report.note = Some(format!("auto: the first choice failed ({e}); fell back to the Cholesky solve"));
+                    (u, report)
+                }
+                other => other?,
+            }
+        }
+    };
+    report.auto = Some(plan.estimates);
+    Ok((u, report))
+}
+
+/// `auto` on an unsymmetric `A` with an SPD approximation `M`, by the plan of
+/// [`AutoParams::plan_unsymmetric`]: GMRES + multigrid from `M` first in 2D from
+/// [`AutoParams::gmres_multigrid_2d_min_unknowns`] unknowns (measured faster than the Cholesky
+/// of `M`, see the field); else, or when that fails (stagnation, `max_iter`), GMRES with the
+/// Cholesky factor of `M`, GMRES + multigrid where that factor would not fit (or in 3D past
+/// [`AutoParams::cholesky_3d_max_unknowns`]: LU would fill at least as much), sparse LU when the
+/// factorization or GMRES fails. With the note that says what ran and why.
+fn auto_unsymmetric(
+    a: &Csc,
+    f: &[f64],
+    spd: &SpdApproximation,
+    params: &CgParams,
+    hints: &MatrixHints,
+    auto: &AutoParams,
+    progress: &dyn Progress,
+) -> Result<(Solved, Option<String>), SolveError> {
+    let plan = auto.plan_unsymmetric(hints.dim, a.nrows(), hints.geometry.is_some());
+    let multigrid = || {
+        assembled_gmres_with(
+            a,
+            &spd.matrix,
+            f,
+            params,
+            PreconditionerKind::Multigrid,
+            hints.geometry.as_ref(),
+            progress,
+        )
+    };
+    let mut failed = None;
+    if let Some(why) = &plan.multigrid_first {
+        match multigrid() {
+            Ok(solved) => {
+                let note = format!("auto: gmres + multigrid from the SPD approximation {:?} ({why})", spd.kind);
+                return Ok((solved, Some(note)));
+            }
+            Err(e) => failed = Some(e.to_string()),
+        }
+    }
+    let factored = match plan.factor_excluded {
+        Some(why) => Err(SpdGmres::TooLarge(why)),
+        None => spd_gmres(a, f, spd, &hints.ordering, progress),
+    };
+    let mut note = None;
+    let solved = match factored {
+        Ok(solved) => solved,
+        Err(SpdGmres::TooLarge(why)) if plan.multigrid_fallback => {
+            let excluded = format!("auto: {} excluded ({why})", SolverId::Gmres(spd.kind));
+            note = Some(format!("{excluded}: gmres + multigrid instead"));
+            multigrid()
+                .map_err(|e| SolveError::NoSolverFits(format!("{excluded}, and gmres + multigrid failed: {e}")))?
+        }
+        Err(SpdGmres::TooLarge(why)) => {
+            return Err(SolveError::NoSolverFits(format!(
+                "{} excluded ({why}) and no multigrid geometry for an iterative solve",
+                SolverId::Gmres(spd.kind)
+            )))
+        }
+        Err(SpdGmres::Failed(why)) => {
+            note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
+            lu(a, f, &hints.ordering, progress)?
+        }
+    };
+    if let Some(why) = failed {
+        let then = note.take().map(|n| format!("; {n}")).unwrap_or_default();
+        note = Some(format!("auto: gmres + multigrid failed ({why}), the next choice ran{then}"));
+    }
+    Ok((solved, note))
+}

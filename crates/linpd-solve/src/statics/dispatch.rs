@@ -1,0 +1,184 @@
+//! A model's reduced system to a runner: matrix-free CG when asked, matrix-free multigrid-CG
+//! when `auto`'s plan picks it ([`AutoParams::matrix_free`]; assembled and chosen again if CG
+//! stalls), else assembled ([`assemble_checked`]) and solved by [`solve_assembled_with_progress`]
+//! with the hints the model provides.
+
+use super::assembled::{solve_assembled_with_progress, MatrixHints};
+use super::auto::AutoParams;
+use super::error::StaticError;
+use super::guards::{finite_matrix, finite_vector, REDUCED_LOAD};
+use super::runners::{matrix_free_cg, Solved};
+use crate::cost;
+use crate::krylov::cg::{CgError, CgParams};
+use crate::precond::DofGeometry;
+use crate::spec::{PreconditionerKind, SolverSpec};
+use crate::SolveError;
+use linpd_core::progress::Progress;
+use linpd_core::sparse::{Csc, SYMMETRY_RTOL};
+use linpd_core::{DofMap, Model};
+use std::time::Instant;
+
+/// The reduced system `A_ff u_f = rhs` of a model, before the solver is chosen.
+pub(super) struct ModelSystem<'a> {
+    /// The model.
+    pub model: &'a dyn Model,
+    /// Its free DOFs.
+    pub dofs: &'a DofMap,
+    /// `f_f - (A u_bar)_f`.
+    pub rhs: &'a [f64],
+    /// `max |A - A^T| / max |A|` of the model's `A_ff`.
+    pub asymmetry: f64,
+}
+
+impl ModelSystem<'_> {
+    /// A solver's error as a [`StaticError`], naming the node and component of the free DOF
+    /// where a factorization failed ([`Model::describe_node`]).
+    fn at_dof(&self, e: SolveError) -> StaticError {
+        let (d, dofs) = (self.model.dim(), self.dofs);
+        match e {
+            SolveError::NotPositiveDefinite { dof } | SolveError::Singular { dof } if dof < dofs.n_free() => {
+                let full = dofs.free_dofs()[dof];
+                StaticError::AtDof {
+                    at: format!("{}, component {}", self.model.describe_node(full / d), full % d),
+                    source: e,
+                }
+            }
+            other => StaticError::Solve(other),
+        }
+    }
+}
+
+/// Solves `system` with `spec`: matrix-free CG when asked (refused for a model that cannot
+/// run matrix-free or an unsymmetric operator), `auto`'s matrix-free multigrid-CG when its
+/// plan picks it, else assembled.
+pub(super) fn solve_system(
+    system: &ModelSystem,
+    spec: &SolverSpec,
+    progress: &dyn Progress,
+) -> Result<Solved, StaticError> {
+    let (model, dofs) = (system.model, system.dofs);
+    let auto = AutoParams::default();
+    Ok(match spec {
+        SolverSpec::Cg { params, preconditioner, matrix_free: true } => {
+            if let Some(why) = model.matrix_free_unavailable() {
+                return Err(StaticError::MatrixFreeUnavailable { kind: model.kind(), why });
+            }
+            if system.asymmetry > SYMMETRY_RTOL {
+                return Err(StaticError::UnsymmetricForCg { kind: model.kind(), asymmetry: system.asymmetry });
+            }
+            matrix_free_cg(model, dofs, system.rhs, params, *preconditioner, progress).map_err(|e| system.at_dof(e))?
+        }
+        SolverSpec::Auto(params)
+            if auto.matrix_free(model.dim(), dofs.n_free(), system.asymmetry <= SYMMETRY_RTOL, || {
+                offers_matrix_free(model)
+            }) =>
+        {
+            auto_matrix_free(system, spec, params, progress)?
+        }
+        _ => assembled_solve(system, spec, progress)?,
+    })
+}
+
+/// Whether `model` can run `auto`'s matrix-free multigrid-CG: it runs matrix-free, has a fast
+/// apply (the lattice stencil of a homogeneous bond model) and its block rows
+/// ([`Model::for_each_block`], which the multigrid setup reads instead of a stored matrix).
+fn offers_matrix_free(model: &dyn Model) -> bool {
+    model.matrix_free_unavailable().is_none()
+        && model.n_nodes() > 0
+        && model.fast_apply().is_some()
+        && model.for_each_block(0, &mut |_, _| {})
+}
+
+/// `auto`'s matrix-free multigrid-CG; when CG stalls above `rtol`, the assembled choice.
+fn auto_matrix_free(
+    system: &ModelSystem,
+    spec: &SolverSpec,
+    params: &CgParams,
+    progress: &dyn Progress,
+) -> Result<Solved, StaticError> {
+    let why = "the model applies A by a stencil and computes its block rows (a homogeneous bond \
+               lattice): matrix-free multigrid-CG, no assembly (the fastest solver at every size of \
+               docs/solvers.md's bench)";
+    let t = Instant::now();
+    match matrix_free_cg(system.model, system.dofs, system.rhs, params, PreconditionerKind::Multigrid, progress) {
+        Ok((u, mut report)) => {
+            report.auto = Some(why.into());
+            Ok((u, report))
+        }
+        // As the assembled `auto` does when CG stalls above rtol (rounding): the
+        // assembled choice, which can fall back to a direct solve.
+        Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. })) => {
+            let attempt = t.elapsed().as_secs_f64();
+            let (u, mut report) = assembled_solve(system, spec, progress)?;
+            report.note = Some(format!(
+                "auto: matrix-free multigrid-CG failed ({e}; {attempt:.3} s, counted in the solver's \
+                 total); assembled and chose again{}",
+                report.note.take().map(|n| format!("; {n}")).unwrap_or_default()
+            ));
+            // the failed attempt is solver time, not assembly
+            report.timings.total += attempt;
+            Ok((u, report))
+        }
+        Err(e) => Err(system.at_dof(e)),
+    }
+}
+
+/// `A_ff` assembled ([`Model::assemble_free_with_progress`]), checked finite together with the
+/// reduced right-hand side `rhs`.
+pub(super) fn assemble_checked(
+    model: &dyn Model,
+    dofs: &DofMap,
+    rhs: &[f64],
+    progress: &dyn Progress,
+) -> Result<Csc, StaticError> {
+    let a = model.assemble_free_with_progress(dofs, progress);
+    finite_matrix(&a)?;
+    finite_vector(REDUCED_LOAD, rhs)?;
+    Ok(a)
+}
+
+/// Assembles `A_ff` and solves it with [`solve_assembled_with_progress`] (the DOF geometry,
+/// ordering and SPD approximation the spec may use taken from the model).
+fn assembled_solve(system: &ModelSystem, spec: &SolverSpec, progress: &dyn Progress) -> Result<Solved, StaticError> {
+    let (model, dofs, asymmetry) = (system.model, system.dofs, system.asymmetry);
+    let d = model.dim();
+    progress.phase(&format!("assembling: {} free DOFs", dofs.n_free()));
+    let t = Instant::now();
+    let a = assemble_checked(model, dofs, system.rhs, progress)?;
+    let t_asm = t.elapsed().as_secs_f64();
+    let spd = match spec {
+        SolverSpec::Auto(_) | SolverSpec::Gmres { .. } if asymmetry > SYMMETRY_RTOL => model.spd_approximation(dofs),
+        _ => None,
+    };
+    let n_side = match spec {
+        // The free body's extent: nodes with at least one free DOF.
+        SolverSpec::Auto(_) if d >= 2 => Some(cost::nodes_along_longest_side(
+            d,
+            (0..model.n_nodes())
+                .filter(|&i| (0..d).any(|c| !dofs.is_constrained(d * i + c)))
+                .map(|i| model.position(i)),
+        )),
+        _ => None,
+    };
+    // Only multilevel preconditioners read the geometry: build it when one may run.
+    let geometry = match spec {
+        SolverSpec::Cg { preconditioner, .. } | SolverSpec::Gmres { preconditioner, .. }
+            if *preconditioner != PreconditionerKind::Jacobi =>
+        {
+            Some(DofGeometry::of(model, dofs))
+        }
+        SolverSpec::Auto(_) if d >= 2 => Some(DofGeometry::of(model, dofs)),
+        _ => None,
+    };
+    let hints = MatrixHints { dim: d, asymmetry, ordering: model.ordering(dofs), spd, geometry, n_side };
+    progress.phase(&format!(
+        "solving: {} unknowns, {} stored entries, solver {}",
+        a.nrows(),
+        a.val().len(),
+        spec.resolve(d, a.nrows())
+    ));
+    let (u, report) =
+        solve_assembled_with_progress(&a, system.rhs, spec, &hints, progress).map_err(|e| system.at_dof(e))?;
+    progress.phase(&format!("assembled in {t_asm:.3} s"));
+    Ok((u, report))
+}

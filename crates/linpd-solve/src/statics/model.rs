@@ -1,0 +1,76 @@
+//! The orchestration of a static solve of a model ([`solve_model`], see [`super`]) and the
+//! reduced system it hands a solver, for callers that solve it themselves ([`reduced_system`],
+//! [`reduced_rhs_checked`]).
+
+use super::dispatch::{assemble_checked, solve_system, ModelSystem};
+use super::error::StaticError;
+use super::guards::{check_static, finite_vector, REDUCED_LOAD};
+use crate::bc::Dirichlet;
+use crate::report::SolveReport;
+use crate::spec::SolverSpec;
+use linpd_core::progress::Progress;
+use linpd_core::sparse::Csc;
+use linpd_core::{Model, ModelOperator};
+use std::time::Instant;
+
+/// Displacements over all DOFs and the report of their solve.
+#[derive(Debug, Clone)]
+pub struct StaticSolution {
+    /// `u` over all DOFs (`d` per node, node-major).
+    pub u: Vec<f64>,
+    /// Accuracy and cost (`timings.assemble` covers the right-hand side and the assembly).
+    pub report: SolveReport,
+}
+
+/// Solves `A u = f` for `model` with the prescribed displacements of `bc` (see the module
+/// docs). `progress` receives one line per phase and the tasks of the assembly
+/// ([`Model::assemble_free_with_progress`]) and of the solver
+/// ([`super::solve_assembled_with_progress`]).
+pub fn solve_model(
+    model: &dyn Model,
+    bc: &Dirichlet,
+    f: &[f64],
+    spec: &SolverSpec,
+    progress: &dyn Progress,
+) -> Result<StaticSolution, StaticError> {
+    let dofs = bc.dofs();
+    check_static(model, bc, f)?;
+    let t0 = Instant::now();
+    // Checked once the operator is known to be finite (an infinite A makes it NaN too).
+    let rhs = bc.reduced_rhs(&ModelOperator(model), f);
+    let system = ModelSystem { model, dofs, rhs: &rhs, asymmetry: model.asymmetry(dofs) };
+    let (u_free, mut report) = solve_system(&system, spec, progress)?;
+    // Everything outside the solver proper: the right-hand side, the assembly, the diagonal.
+    report.timings.assemble = t0.elapsed().as_secs_f64() - report.timings.total;
+    let u = bc.expand(&u_free);
+    finite_vector("the solution", &u)?;
+    Ok(StaticSolution { u, report })
+}
+
+/// The reduced system `A_ff u_f = f_f - (A u_bar)_f` that [`solve_model`] hands an assembled
+/// solver, with the same checks and errors, not solved: `(A_ff, rhs)`, rows and columns
+/// numbered as the free DOFs of `bc.dofs()` ([`linpd_core::DofMap::free_dofs`]). A
+/// matrix-free CG applies the same `A_ff` without assembling it.
+pub fn reduced_system(
+    model: &dyn Model,
+    bc: &Dirichlet,
+    f: &[f64],
+    progress: &dyn Progress,
+) -> Result<(Csc, Vec<f64>), StaticError> {
+    check_static(model, bc, f)?;
+    let rhs = bc.reduced_rhs(&ModelOperator(model), f);
+    progress.phase(&format!("assembling: {} free DOFs", bc.dofs().n_free()));
+    let a = assemble_checked(model, bc.dofs(), &rhs, progress)?;
+    Ok((a, rhs))
+}
+
+/// The reduced right-hand side `f_f - (A u_bar)_f` of [`reduced_system`], with its checks
+/// (something free, the support check, finite loads and result) but without assembling
+/// `A_ff`: for callers that assemble `A_ff` themselves a block of rows at a time (the
+/// distributed path of the Python package), so that the errors are those of a solve.
+pub fn reduced_rhs_checked(model: &dyn Model, bc: &Dirichlet, f: &[f64]) -> Result<Vec<f64>, StaticError> {
+    check_static(model, bc, f)?;
+    let rhs = bc.reduced_rhs(&ModelOperator(model), f);
+    finite_vector(REDUCED_LOAD, &rhs)?;
+    Ok(rhs)
+}
