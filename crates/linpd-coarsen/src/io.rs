@@ -371,13 +371,7 @@ impl ModuliFile {
     pub fn read(mtx_path: &Path) -> Result<ModuliFile, IoError> {
         let path = show(mtx_path);
         let text = read_text(mtx_path)?;
-        let syntax = |line: usize, expected: &str, found: &str| IoError::Syntax {
-            path: path.clone(),
-            line,
-            expected: expected.into(),
-            found: excerpt(found),
-        };
-        let invalid = |line: usize, reason: String| IoError::Invalid { path: path.clone(), line, reason };
+        let err = MtxErrors { path: path.clone() };
         // (1-based line, byte offset, trimmed text): the offset of the size line is where sprs
         // starts reading.
         let mut at = 0;
@@ -385,143 +379,28 @@ impl ModuliFile {
             at += raw.len();
             (k + 1, at - raw.len(), raw.trim())
         });
-
-        // Banner.
-        let (ln, _, banner) = lines.next().unwrap_or((1, 0, ""));
-        let toks: Vec<String> = banner.split_whitespace().map(|t| t.to_ascii_lowercase()).collect();
-        if toks.len() != 5 || toks[0] != "%%matrixmarket" || toks[1..] != ["matrix", "coordinate", "real", "general"] {
-            return Err(syntax(ln, &format!("the banner `{BANNER}`"), banner));
-        }
-
-        // Comments (level, dim, nodes), then the size line.
-        let (mut level, mut dim, mut nodes_name) = (0usize, None::<(usize, usize)>, None::<(String, usize)>);
-        let (size_ln, size_at, size_line) = loop {
-            let Some((ln, at, l)) = lines.next() else {
-                return Err(syntax(0, "a size line `rows cols entries`", "end of file"));
-            };
-            if l.is_empty() {
-                continue;
-            }
-            let Some(c) = l.strip_prefix('%') else { break (ln, at, l) };
-            let mut it = c.split_whitespace();
-            match it.next() {
-                Some("level") => {
-                    let v = it.next().unwrap_or("");
-                    level = v.parse().map_err(|_| syntax(ln, "`% level <m>` with a non-negative integer m", l))?;
-                }
-                Some("dim") => {
-                    let v = it.next().unwrap_or("");
-                    let d: usize = v.parse().map_err(|_| syntax(ln, "`% dim <d>` with d = 1, 2 or 3", l))?;
-                    if !(1..=3).contains(&d) {
-                        return Err(invalid(ln, format!("dim must be 1, 2 or 3, got {d}")));
-                    }
-                    dim = Some((d, ln));
-                }
-                Some("nodes") => {
-                    let v = c.trim_start().strip_prefix("nodes").unwrap_or("").trim();
-                    if !v.is_empty() {
-                        nodes_name = Some((v.to_string(), ln));
-                    }
-                }
-                _ => {}
-            }
-        };
-        let Some((d, _)) = dim else {
-            return Err(syntax(size_ln, "a `% dim <d>` comment before the size line", size_line));
-        };
-        let size: Vec<usize> =
-            size_line.split_whitespace().map(|t| t.parse::<usize>()).collect::<Result<_, _>>().unwrap_or_default();
-        if size.len() != 3 {
-            return Err(syntax(size_ln, "a size line `rows cols entries` (three non-negative integers)", size_line));
-        }
-        let (rows, cols, nnz) = (size[0], size[1], size[2]);
-        if rows != cols {
-            return Err(invalid(size_ln, format!("the matrix must be square, got {rows} rows and {cols} columns")));
-        }
-        let room = text.len() / MIN_ENTRY_BYTES;
-        if nnz > room {
-            return Err(invalid(
-                size_ln,
-                format!(
-                    "the size line declares {nnz} entries but the file ({} bytes) has room for at most {room} \
-                     (an entry line takes at least {MIN_ENTRY_BYTES} bytes)",
-                    text.len()
-                ),
-            ));
-        }
-
-        // Nodes file.
-        let dir = mtx_path.parent().unwrap_or(Path::new(""));
-        let default_csv = default_nodes_path(mtx_path);
-        let csv_path = match &nodes_name {
-            Some((name, ln)) => match companion(dir, name) {
-                Ok(p) if p.is_file() || !default_csv.is_file() => p,
-                Ok(_) => default_csv,
-                Err(why) => return Err(invalid(*ln, why)),
-            },
-            None => default_csv,
-        };
+        let header = read_header(&mut lines, text.len(), &err)?;
+        let d = header.dim;
+        let csv_path = header.nodes_file(mtx_path, &err)?;
         let (positions, volumes, level0) = read_nodes(&csv_path)?;
         let n = volumes.len();
-        if rows != d * n {
-            return Err(invalid(
-                size_ln,
+        if header.rows != d * n {
+            return Err(err.invalid(
+                header.size_ln,
                 format!(
-                    "the matrix has {rows} rows but dim {d} x {n} nodes (in {}) = {} are needed",
+                    "the matrix has {} rows but dim {d} x {n} nodes (in {}) = {} are needed",
+                    header.rows,
                     show(&csv_path),
                     d * n
                 ),
             ));
         }
-
-        // The entry lines, checked before sprs reads them: sprs names no line in its errors and
-        // asserts (panics) on an index beyond the size line (see the module docs).
-        let mut found = 0usize;
-        for (ln, _, l) in lines {
-            if l.is_empty() {
-                continue;
-            }
-            let t: Vec<&str> = l.split_whitespace().collect();
-            let parsed = (t.len() == 3).then(|| (t[0].parse::<usize>(), t[1].parse::<usize>(), t[2].parse::<f64>()));
-            let Some((Ok(r), Ok(c), Ok(v))) = parsed else {
-                return Err(syntax(
-                    ln,
-                    "an entry `row col value` (1-based integer indices, a real value; comments only before the size line)",
-                    l,
-                ));
-            };
-            if r == 0 || c == 0 || r > rows || c > cols {
-                return Err(invalid(
-                    ln,
-                    format!("entry ({r}, {c}) is out of range: indices are 1-based and at most {rows}"),
-                ));
-            }
-            if (r - 1) / d == (c - 1) / d {
-                return Err(invalid(
-                    ln,
-                    format!(
-                        "entry ({r}, {c}) lies inside the diagonal block of node {}; only bonded pairs i != j are stored \
-                         (the diagonal block follows from the zero row sums)",
-                        (r - 1) / d
-                    ),
-                ));
-            }
-            if !v.is_finite() {
-                return Err(invalid(ln, format!("entry ({r}, {c}) has the non-finite value {}", excerpt(t[2]))));
-            }
-            found += 1;
+        let found = check_entries(lines, &header, &err)?;
+        if found != header.nnz {
+            return Err(IoError::EntryCount { path, declared: header.nnz, found });
         }
-        if found != nnz {
-            return Err(IoError::EntryCount { path, declared: nnz, found });
-        }
-
-        // sprs reads from the size line on, after the banner checked above (its own header
-        // parser takes a blank line for the size line); it allocates `nnz` = `found` entries.
-        let mut body = std::io::BufReader::new(BANNER.as_bytes().chain(&b"\n"[..]).chain(&text.as_bytes()[size_at..]));
-        let m: sprs::TriMat<f64> = sprs::io::read_matrix_market_from_bufread(&mut body)
-            .map_err(|e| invalid(size_ln, format!("sprs could not read the checked entries: {e}")))?;
-        let entries = m.row_inds().iter().zip(m.col_inds()).zip(m.data()).map(|((&r, &c), &v)| (r, c, v)).collect();
-        Ok(ModuliFile { level, dim: d, positions, volumes, level0, entries })
+        let entries = sprs_entries(&text, &header, &err)?;
+        Ok(ModuliFile { level: header.level, dim: d, positions, volumes, level0, entries })
     }
 
     /// The nodal stiffness `K` (`d n x d n`, CSC, duplicates summed): `K_ij = -v_i v_j C_ij`
@@ -553,6 +432,196 @@ impl ModuliFile {
         let diff = m.iter().fold(0.0f64, |a, (&(r, c), &v)| a.max((v - m.get(&(c, r)).copied().unwrap_or(0.0)).abs()));
         diff / max
     }
+}
+
+/// A line of a `.mtx` file: 1-based number, byte offset, trimmed text.
+type Line<'t> = (usize, usize, &'t str);
+
+/// The errors of one `.mtx` file, each naming the file and the line.
+struct MtxErrors {
+    path: String,
+}
+
+impl MtxErrors {
+    /// The line does not have the `expected` form.
+    fn syntax(&self, line: usize, expected: &str, found: &str) -> IoError {
+        IoError::Syntax { path: self.path.clone(), line, expected: expected.into(), found: excerpt(found) }
+    }
+    /// A well-formed line with a value that is not allowed.
+    fn invalid(&self, line: usize, reason: String) -> IoError {
+        IoError::Invalid { path: self.path.clone(), line, reason }
+    }
+}
+
+/// What a moduli file says before its entries: the banner (checked), the comments we read and
+/// the size line.
+struct MtxHeader {
+    /// `% level <m>` (0 without it).
+    level: usize,
+    /// `% dim <d>`.
+    dim: usize,
+    /// `% nodes <name>` and its line.
+    nodes_name: Option<(String, usize)>,
+    /// Line and byte offset of the size line.
+    size_ln: usize,
+    size_at: usize,
+    /// The size line: `rows cols entries`.
+    rows: usize,
+    cols: usize,
+    nnz: usize,
+}
+
+impl MtxHeader {
+    /// The nodes file: the `% nodes` file beside the matrix when it exists (or when the default
+    /// does not), else `<stem>.nodes.csv`; a refused name is an error at its line.
+    fn nodes_file(&self, mtx_path: &Path, err: &MtxErrors) -> Result<PathBuf, IoError> {
+        let dir = mtx_path.parent().unwrap_or(Path::new(""));
+        let default_csv = default_nodes_path(mtx_path);
+        Ok(match &self.nodes_name {
+            Some((name, ln)) => match companion(dir, name) {
+                Ok(p) if p.is_file() || !default_csv.is_file() => p,
+                Ok(_) => default_csv,
+                Err(why) => return Err(err.invalid(*ln, why)),
+            },
+            None => default_csv,
+        })
+    }
+}
+
+/// Reads the banner, the comments and the size line from `lines` (left at the first entry
+/// line) of a file of `text_len` bytes; checks that the matrix is square and that the declared
+/// entry count fits in the file.
+fn read_header<'t>(
+    lines: &mut impl Iterator<Item = Line<'t>>,
+    text_len: usize,
+    err: &MtxErrors,
+) -> Result<MtxHeader, IoError> {
+    let (ln, _, banner) = lines.next().unwrap_or((1, 0, ""));
+    let toks: Vec<String> = banner.split_whitespace().map(|t| t.to_ascii_lowercase()).collect();
+    if toks.len() != 5 || toks[0] != "%%matrixmarket" || toks[1..] != ["matrix", "coordinate", "real", "general"] {
+        return Err(err.syntax(ln, &format!("the banner `{BANNER}`"), banner));
+    }
+    let (level, dim, nodes_name, (size_ln, size_at, size_line)) = read_comments(lines, err)?;
+    let Some((d, _)) = dim else {
+        return Err(err.syntax(size_ln, "a `% dim <d>` comment before the size line", size_line));
+    };
+    let size: Vec<usize> =
+        size_line.split_whitespace().map(|t| t.parse::<usize>()).collect::<Result<_, _>>().unwrap_or_default();
+    if size.len() != 3 {
+        return Err(err.syntax(size_ln, "a size line `rows cols entries` (three non-negative integers)", size_line));
+    }
+    let (rows, cols, nnz) = (size[0], size[1], size[2]);
+    if rows != cols {
+        return Err(err.invalid(size_ln, format!("the matrix must be square, got {rows} rows and {cols} columns")));
+    }
+    let room = text_len / MIN_ENTRY_BYTES;
+    if nnz > room {
+        return Err(err.invalid(
+            size_ln,
+            format!(
+                "the size line declares {nnz} entries but the file ({text_len} bytes) has room for at most {room} \
+                 (an entry line takes at least {MIN_ENTRY_BYTES} bytes)"
+            ),
+        ));
+    }
+    Ok(MtxHeader { level, dim: d, nodes_name, size_ln, size_at, rows, cols, nnz })
+}
+
+/// `% level`, `% dim` (with its line) and `% nodes` (with its line), and the size line.
+type Comments<'t> = (usize, Option<(usize, usize)>, Option<(String, usize)>, Line<'t>);
+
+/// Reads the comment lines after the banner (`% level`, `% dim`, `% nodes`; others and blank
+/// lines are skipped) up to the first other line, the size line.
+fn read_comments<'t>(lines: &mut impl Iterator<Item = Line<'t>>, err: &MtxErrors) -> Result<Comments<'t>, IoError> {
+    let (mut level, mut dim, mut nodes_name) = (0usize, None::<(usize, usize)>, None::<(String, usize)>);
+    let size = loop {
+        let Some((ln, at, l)) = lines.next() else {
+            return Err(err.syntax(0, "a size line `rows cols entries`", "end of file"));
+        };
+        if l.is_empty() {
+            continue;
+        }
+        let Some(c) = l.strip_prefix('%') else { break (ln, at, l) };
+        let mut it = c.split_whitespace();
+        match it.next() {
+            Some("level") => {
+                let v = it.next().unwrap_or("");
+                level = v.parse().map_err(|_| err.syntax(ln, "`% level <m>` with a non-negative integer m", l))?;
+            }
+            Some("dim") => {
+                let v = it.next().unwrap_or("");
+                let d: usize = v.parse().map_err(|_| err.syntax(ln, "`% dim <d>` with d = 1, 2 or 3", l))?;
+                if !(1..=3).contains(&d) {
+                    return Err(err.invalid(ln, format!("dim must be 1, 2 or 3, got {d}")));
+                }
+                dim = Some((d, ln));
+            }
+            Some("nodes") => {
+                let v = c.trim_start().strip_prefix("nodes").unwrap_or("").trim();
+                if !v.is_empty() {
+                    nodes_name = Some((v.to_string(), ln));
+                }
+            }
+            _ => {}
+        }
+    };
+    Ok((level, dim, nodes_name, size))
+}
+
+/// Checks the entry lines before sprs reads them (sprs names no line in its errors and asserts
+/// (panics) on an index beyond the size line; see the module docs); returns how many there are.
+fn check_entries<'t>(
+    lines: impl Iterator<Item = Line<'t>>,
+    header: &MtxHeader,
+    err: &MtxErrors,
+) -> Result<usize, IoError> {
+    let (d, rows, cols) = (header.dim, header.rows, header.cols);
+    let mut found = 0usize;
+    for (ln, _, l) in lines {
+        if l.is_empty() {
+            continue;
+        }
+        let t: Vec<&str> = l.split_whitespace().collect();
+        let parsed = (t.len() == 3).then(|| (t[0].parse::<usize>(), t[1].parse::<usize>(), t[2].parse::<f64>()));
+        let Some((Ok(r), Ok(c), Ok(v))) = parsed else {
+            return Err(err.syntax(
+                ln,
+                "an entry `row col value` (1-based integer indices, a real value; comments only before the size line)",
+                l,
+            ));
+        };
+        if r == 0 || c == 0 || r > rows || c > cols {
+            return Err(
+                err.invalid(ln, format!("entry ({r}, {c}) is out of range: indices are 1-based and at most {rows}"))
+            );
+        }
+        if (r - 1) / d == (c - 1) / d {
+            return Err(err.invalid(
+                ln,
+                format!(
+                    "entry ({r}, {c}) lies inside the diagonal block of node {}; only bonded pairs i != j are stored \
+                     (the diagonal block follows from the zero row sums)",
+                    (r - 1) / d
+                ),
+            ));
+        }
+        if !v.is_finite() {
+            return Err(err.invalid(ln, format!("entry ({r}, {c}) has the non-finite value {}", excerpt(t[2]))));
+        }
+        found += 1;
+    }
+    Ok(found)
+}
+
+/// The checked entries (0-based) as sprs reads them: from the size line on, after the banner
+/// checked by [`read_header`] (its own header parser takes a blank line for the size line); it
+/// allocates `nnz` = the entry lines found.
+fn sprs_entries(text: &str, header: &MtxHeader, err: &MtxErrors) -> Result<Vec<(usize, usize, f64)>, IoError> {
+    let mut body =
+        std::io::BufReader::new(BANNER.as_bytes().chain(&b"\n"[..]).chain(&text.as_bytes()[header.size_at..]));
+    let m: sprs::TriMat<f64> = sprs::io::read_matrix_market_from_bufread(&mut body)
+        .map_err(|e| err.invalid(header.size_ln, format!("sprs could not read the checked entries: {e}")))?;
+    Ok(m.row_inds().iter().zip(m.col_inds()).zip(m.data()).map(|((&r, &c), &v)| (r, c, v)).collect())
 }
 
 type Nodes = (Vec<[f64; 3]>, Vec<f64>, Vec<usize>);

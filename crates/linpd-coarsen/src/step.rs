@@ -229,6 +229,16 @@ fn diameter(m: &LevelModel) -> f64 {
         .sqrt()
 }
 
+/// The neighbourhood classes of a step's retained nodes (see `Step::classes`).
+struct Classes {
+    /// The retained nodes of each node's `N_x`, in local order.
+    retained: Vec<Vec<usize>>,
+    /// Each node's class.
+    class_of: Vec<usize>,
+    /// Each class's first node (whose local problem is solved).
+    reps: Vec<usize>,
+}
+
 /// Radius-independent data of a step.
 struct Step<'a> {
     fine: &'a LevelModel,
@@ -343,19 +353,14 @@ impl<'a> Step<'a> {
         h.finish()
     }
 
-    /// The coarse nodal-stiffness row `W^m_{x,q}`, `q` over the retained nodes of `hood` in
-    /// local order (`d x d` blocks, row-major), and the local solver used (true = sparse).
-    fn local_row(&self, hood: &Hood, xi: usize, r: f64) -> Result<(Vec<f64>, bool), CoarsenError> {
+    /// The rows of `x` in `N_x`: the direct blocks `W_{x,R}` to the retained nodes (`d x dR`,
+    /// blocks row-major in local order) and `G = W_{x,E}` to the excluded ones (`d x dE`).
+    fn x_rows(&self, hood: &Hood, xi: usize) -> (Vec<f64>, Mat<f64>) {
         let fine = self.fine;
         let d = fine.dim();
-        let (nn, nr) = (hood.nodes.len(), hood.n_r);
-        let ne = nn - nr;
-        let v = fine.volumes();
-        structural_check(fine, hood, xi, r)?;
-        let de = d * ne;
-        // rows of x: direct blocks to retained (d x dR) and G (d x dE)
+        let (nr, v) = (hood.n_r, fine.volumes());
         let mut direct = vec![0.0; d * d * nr];
-        let mut g = Mat::<f64>::zeros(d, de);
+        let mut g = Mat::<f64>::zeros(d, d * (hood.nodes.len() - nr));
         for (&p, b) in fine.partners(xi).iter().zip(fine.blocks(xi).chunks(d * d)) {
             let Some(lp) = hood.local(p) else { continue };
             let w = v[xi] * v[p];
@@ -370,10 +375,19 @@ impl<'a> Step<'a> {
                 }
             }
         }
-        // equilibrium rows (3)-(5) of the excluded nodes, interactions inside N_x (4):
-        // M u_E = -B u_R with M_zp = W_zp (p excluded), M_zz = -sum_{p in N_x} W_zp, B_zq = W_zq
+        (direct, g)
+    }
+
+    /// The equilibrium rows (3)-(5) of the excluded nodes, interactions inside `N_x` (4):
+    /// `M u_E = -B u_R` with `M_zp = W_zp` (`p` excluded), `M_zz = -sum_{p in N_x} W_zp`,
+    /// `B_zq = W_zq`; `M` as triplets (`dE x dE`), `B` dense (`dE x dR`).
+    fn excluded_rows(&self, hood: &Hood) -> (Vec<Triplet<usize, usize, f64>>, Mat<f64>) {
+        let fine = self.fine;
+        let d = fine.dim();
+        let (nr, v) = (hood.n_r, fine.volumes());
+        let ne = hood.nodes.len() - nr;
         let mut m_trip: Vec<Triplet<usize, usize, f64>> = Vec::new();
-        let mut bmat = Mat::<f64>::zeros(de, d * nr);
+        let mut bmat = Mat::<f64>::zeros(d * ne, d * nr);
         for e in 0..ne {
             let z = hood.nodes[nr + e];
             let mut diag = vec![0.0; d * d];
@@ -401,6 +415,20 @@ impl<'a> Step<'a> {
                 }
             }
         }
+        (m_trip, bmat)
+    }
+
+    /// The coarse nodal-stiffness row `W^m_{x,q}`, `q` over the retained nodes of `hood` in
+    /// local order (`d x d` blocks, row-major), and the local solver used (true = sparse).
+    fn local_row(&self, hood: &Hood, xi: usize, r: f64) -> Result<(Vec<f64>, bool), CoarsenError> {
+        let fine = self.fine;
+        let d = fine.dim();
+        let (nn, nr) = (hood.nodes.len(), hood.n_r);
+        let ne = nn - nr;
+        structural_check(fine, hood, xi, r)?;
+        let de = d * ne;
+        let (direct, g) = self.x_rows(hood, xi);
+        let (m_trip, bmat) = self.excluded_rows(hood);
         // Z^T = M^{-T} G^T (d right-hand sides instead of the d R of S = -M^{-1} B):
         // W^m_{x,R} = W_{x,R} + W_{x,E} S_E = direct - G M^{-1} B = direct - Z B.
         let sparse = de > self.opts.dense_limit;
@@ -477,27 +505,20 @@ impl<'a> Step<'a> {
         Ok((row, sparse))
     }
 
-    fn run(&self, r: f64, delta: f64, diameter: f64) -> Result<Coarsened, CoarsenError> {
-        let fine = self.fine;
-        let d = fine.dim();
-        let dd = d * d;
-        let x = fine.positions();
-        let all: Vec<usize> = (0..fine.len()).collect();
-        let cells = Cells::new(d, x, &all, r);
-        let whole_body = r >= diameter * (1.0 + 1e-9);
-        // 1. neighbourhoods and signatures (parallel over retained nodes)
-        let t1 = Instant::now();
+    /// The retained nodes of every `N_x` with its signature (parallel over retained nodes), and
+    /// the classes of equal signatures: each node's class and each class's first node. Without
+    /// the cache every node is a class of its own.
+    fn classes(&self, cells: &Cells, r: f64) -> Classes {
         let hoods: Vec<(Vec<usize>, (u64, u64))> = self
             .parent
             .par_iter()
             .map_init(Vec::new, |buf, &xi| {
-                let (hood, keys) = self.hood(&cells, xi, r, buf);
+                let (hood, keys) = self.hood(cells, xi, r, buf);
                 let xl = hood.local(xi).expect("x is in its own neighbourhood");
                 let sig = if self.opts.cache { self.signature(&hood, &keys, xl) } else { (xi as u64, 0) };
                 (hood.nodes[..hood.n_r].to_vec(), sig)
             })
             .collect();
-        // 2. classes
         let mut class_of = Vec::with_capacity(hoods.len());
         let mut reps: Vec<usize> = Vec::new();
         let mut index: HashMap<(u64, u64), usize> = HashMap::new();
@@ -508,6 +529,68 @@ impl<'a> Step<'a> {
             });
             class_of.push(c);
         }
+        let retained = hoods.into_iter().map(|h| h.0).collect();
+        Classes { retained, class_of, reps }
+    }
+
+    /// Coarse row `k` (columns, `d x d` blocks, tail) from its class's row `w` over the retained
+    /// nodes `retained` of `N_x`: `C^m(x,q) = f_x W^m_xq / v^m_q`, `f_x = 1/v^m_x`
+    /// (TotalForce, (11'')) or `1/v^{m-1}_x` (ForceDensity, (11')). The tail is the largest
+    /// block norm in the shell `|q - x| > r - delta` relative to the row's largest.
+    fn coarse_row(
+        &self,
+        k: usize,
+        retained: &[usize],
+        w: &[f64],
+        xm: &[Point],
+        r: f64,
+        delta: f64,
+    ) -> (Vec<usize>, Vec<f64>, f64) {
+        let dd = self.fine.dim() * self.fine.dim();
+        let xi = self.parent[k];
+        let fx = match self.opts.matching {
+            Matching::TotalForce => 1.0 / self.vm[k],
+            Matching::ForceDensity => 1.0 / self.fine.volumes()[xi],
+        };
+        let mut entries: Vec<(usize, &[f64])> = Vec::new();
+        for (l, &q) in retained.iter().enumerate() {
+            if q != xi {
+                entries.push((self.coarse_index[q], &w[l * dd..(l + 1) * dd]));
+            }
+        }
+        entries.sort_unstable_by_key(|e| e.0);
+        let mut cols = Vec::with_capacity(entries.len());
+        let mut vals = Vec::with_capacity(entries.len() * dd);
+        let (mut peak, mut shell): (f64, f64) = (0.0, 0.0);
+        for (j, b) in entries {
+            let s = fx / self.vm[j];
+            let norm = b.iter().map(|t| t * t).sum::<f64>().sqrt() * s.abs();
+            if norm == 0.0 {
+                continue;
+            }
+            peak = peak.max(norm);
+            if dist(&xm[k], &xm[j]) > r - delta {
+                shell = shell.max(norm);
+            }
+            cols.push(j);
+            vals.extend(b.iter().map(|t| t * s));
+        }
+        let tail = if peak > 0.0 { shell / peak } else { 0.0 };
+        (cols, vals, tail)
+    }
+
+    /// The step at radius `r`: 1. neighbourhoods and signatures, 2. classes, 3. one local solve
+    /// per class, 4. the coarse rows; `diameter` tells when every `N_x` is the whole body.
+    fn run(&self, r: f64, delta: f64, diameter: f64) -> Result<Coarsened, CoarsenError> {
+        let fine = self.fine;
+        let d = fine.dim();
+        let x = fine.positions();
+        let all: Vec<usize> = (0..fine.len()).collect();
+        let cells = Cells::new(d, x, &all, r);
+        let whole_body = r >= diameter * (1.0 + 1e-9);
+        // 1. neighbourhoods and signatures, 2. classes
+        let t1 = Instant::now();
+        let Classes { retained, class_of, reps } = self.classes(&cells, r);
         let t_hoods = t1.elapsed().as_secs_f64();
         // 3. one local solve per class
         let t2 = Instant::now();
@@ -540,39 +623,7 @@ impl<'a> Step<'a> {
         let xm: Vec<Point> = self.parent.iter().map(|&p| x[p]).collect();
         let built: Vec<(Vec<usize>, Vec<f64>, f64)> = (0..self.parent.len())
             .into_par_iter()
-            .map(|k| {
-                let xi = self.parent[k];
-                let w = &rows_w[class_of[k]];
-                let fx = match self.opts.matching {
-                    Matching::TotalForce => 1.0 / self.vm[k],
-                    Matching::ForceDensity => 1.0 / fine.volumes()[xi],
-                };
-                let mut entries: Vec<(usize, &[f64])> = Vec::new();
-                for (l, &q) in hoods[k].0.iter().enumerate() {
-                    if q != xi {
-                        entries.push((self.coarse_index[q], &w[l * dd..(l + 1) * dd]));
-                    }
-                }
-                entries.sort_unstable_by_key(|e| e.0);
-                let mut cols = Vec::with_capacity(entries.len());
-                let mut vals = Vec::with_capacity(entries.len() * dd);
-                let (mut peak, mut shell): (f64, f64) = (0.0, 0.0);
-                for (j, b) in entries {
-                    let s = fx / self.vm[j];
-                    let norm = b.iter().map(|t| t * t).sum::<f64>().sqrt() * s.abs();
-                    if norm == 0.0 {
-                        continue;
-                    }
-                    peak = peak.max(norm);
-                    if dist(&xm[k], &xm[j]) > r - delta {
-                        shell = shell.max(norm);
-                    }
-                    cols.push(j);
-                    vals.extend(b.iter().map(|t| t * s));
-                }
-                let tail = if peak > 0.0 { shell / peak } else { 0.0 };
-                (cols, vals, tail)
-            })
+            .map(|k| self.coarse_row(k, &retained[k], &rows_w[class_of[k]], &xm, r, delta))
             .collect();
         let mut offsets = vec![0];
         let (mut cols, mut c) = (Vec::new(), Vec::new());
