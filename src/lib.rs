@@ -15,6 +15,7 @@ pub use linpd_bond as bond;
 pub use linpd_coarsen as coarsen;
 pub use linpd_core as core;
 pub use linpd_dynamics as dynamics;
+pub use linpd_io as io;
 pub use linpd_lps as lps;
 pub use linpd_problem as problem;
 pub use linpd_solve as solve;

@@ -180,17 +180,17 @@ impl DynamicsRun {
                 datasets.push((self.times[i], name));
             }
             let path = dir.join("snapshots.pvd");
-            crate::output::write_pvd(&path, &datasets)?;
+            linpd_io::vtk::write_pvd(&path, &datasets)?;
             files.push(path);
         }
         Ok(files)
     }
 
-    /// Writes snapshot `i` as VTK XML `UnstructuredGrid` ([`crate::output::write_vtu`], the
+    /// Writes snapshot `i` as VTK XML `UnstructuredGrid` ([`linpd_io::vtk::write_vtu`], the
     /// writer of `result.vtu`): one vertex cell per node (`z = 0` in 2D), point data `u` (3
     /// components, 0-padded in 2D) and `layer` (0/1).
     pub fn write_vtu(&self, i: usize, path: &Path) -> Result<(), ProblemError> {
-        use crate::output::{PointArray, PointValues};
+        use linpd_io::vtk::{PointArray, PointValues};
         let (d, u) = (self.dim, &self.snapshots[i]);
         let disp = |k: usize, a: usize| if a < d { u[d * k + a] } else { 0.0 };
         let layer = |k: usize| self.is_layer[k] as u8;
@@ -198,7 +198,7 @@ impl DynamicsRun {
             PointArray { name: "u", values: PointValues::Float64 { components: 3, value: &disp } },
             PointArray { name: "layer", values: PointValues::UInt8(&layer) },
         ];
-        crate::output::write_vtu(path, d, &self.x, &arrays)
+        Ok(linpd_io::vtk::write_vtu(path, d, &self.x, &arrays)?)
     }
 }
 

@@ -14,6 +14,9 @@ pub enum ProblemError {
         /// The OS error.
         source: std::io::Error,
     },
+    /// A file whose content is not what its format needs (the file, the line, what is wrong).
+    #[error("{0}")]
+    File(linpd_io::IoError),
     /// Not JSON, or JSON of the wrong shape (unknown key, wrong type, missing key).
     #[error("{path}: {message} (line {line}, column {column})")]
     Parse {
@@ -83,5 +86,16 @@ impl ProblemError {
     /// Shorthand for [`ProblemError::Invalid`].
     pub fn invalid(path: impl Into<String>, reason: impl Into<String>) -> Self {
         ProblemError::Invalid { path: path.into(), reason: reason.into() }
+    }
+}
+
+impl From<linpd_io::IoError> for ProblemError {
+    /// An OS error keeps its variant ([`ProblemError::Io`]); a malformed file is
+    /// [`ProblemError::File`].
+    fn from(e: linpd_io::IoError) -> Self {
+        match e {
+            linpd_io::IoError::Io { path, source } => ProblemError::Io { path, source },
+            other => ProblemError::File(other),
+        }
     }
 }

@@ -31,7 +31,6 @@ pub mod dynamics;
 pub mod nodes;
 pub mod solution;
 pub mod validate;
-pub mod vtu;
 
 pub mod scene;
 

@@ -1,12 +1,13 @@
 //! Writing a [`Solution`]: `u.csv` and `result.vtu` ([`Solution::write`]) and the
 //! `result.json` document ([`Solution::to_json`]), which [`crate::OutputDir::commit`] writes
 //! last with the run's identity and the list of the files written; and the one VTU writer
-//! ([`write_vtu`]) and ParaView collection writer ([`write_pvd`]) that `linpd run`'s snapshots
+//! ([`linpd_io::vtk::write_vtu`]) and ParaView collection writer ([`linpd_io::vtk::write_pvd`]) that `linpd run`'s snapshots
 //! share.
 
 use crate::balance::Balance;
 use crate::solution::Solution;
 use crate::ProblemError;
+use linpd_io::vtk::{PointArray, PointValues};
 use linpd_solve::SolveReport;
 use serde::Serialize;
 use std::io::Write;
@@ -136,7 +137,7 @@ impl Solution {
         Ok(vec![csv_path, vtu_path])
     }
 
-    /// Writes the solution as VTK XML `UnstructuredGrid` ([`write_vtu`]): point data `u` (3
+    /// Writes the solution as VTK XML `UnstructuredGrid` ([`linpd_io::vtk::write_vtu`]): point data `u` (3
     /// components, 0-padded), `layer` (0/1), and when known `volume`, `strain_energy_density`,
     /// `dilatation` (LPS) and `strain` (the full `3 x 3` tensor, 9 components row-major, 0
     /// outside the `d x d` block: VTK's tensor convention).
@@ -168,100 +169,6 @@ impl Solution {
         if self.strain.is_some() {
             arrays.push(PointArray { name: "strain", values: PointValues::Float64 { components: 9, value: &strain } });
         }
-        write_vtu(path, d, &self.x, &arrays)
+        linpd_io::vtk::write_vtu(path, d, &self.x, &arrays).map_err(ProblemError::from)
     }
-}
-
-/// The values of a [`PointArray`], computed per node on demand.
-pub enum PointValues<'a> {
-    /// `components` `Float64` numbers per node: `value(node, component)`.
-    Float64 {
-        /// Components per node (VTK's `NumberOfComponents`: 3 for vectors, 9 for tensors).
-        components: usize,
-        /// `value(node, component)`.
-        value: &'a dyn Fn(usize, usize) -> f64,
-    },
-    /// One `UInt8` per node (flags).
-    UInt8(&'a dyn Fn(usize) -> u8),
-}
-
-/// One point-data array of a VTU file.
-pub struct PointArray<'a> {
-    /// Its name (`u`, `layer`, `strain`, ...).
-    pub name: &'a str,
-    /// Its values.
-    pub values: PointValues<'a>,
-}
-
-/// Writes nodes as VTK XML `UnstructuredGrid` (ParaView, VisIt, meshio, pyvista): the points
-/// `x` (3 coordinates, 0-padded beyond `dim`), one vertex cell per node and the point data
-/// `arrays`. ASCII with `{:.16e}` numbers (17 significant digits: read back bit for bit).
-/// Written by hand: the format is a fixed XML skeleton around number lists, and the Rust VTK
-/// crates (`vtkio`) pull in a large dependency tree for it. Used by `linpd solve`
-/// (`result.vtu`) and `linpd run` (`u_<step>.vtu`).
-pub fn write_vtu(path: &Path, dim: usize, x: &[linpd_core::Point], arrays: &[PointArray]) -> Result<(), ProblemError> {
-    let n = x.len();
-    let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(io(path))?);
-    let mut body = || -> std::io::Result<()> {
-        writeln!(w, r#"<?xml version="1.0"?>"#)?;
-        writeln!(
-            w,
-            r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
-        )?;
-        writeln!(w, "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">")?;
-        let floats = |w: &mut dyn Write,
-                      name: &str,
-                      components: usize,
-                      v: &dyn Fn(usize, usize) -> f64|
-         -> std::io::Result<()> {
-            // a scalar without NumberOfComponents: readers give it shape (n,), not (n, 1)
-            let nc = if components == 1 { String::new() } else { format!(r#" NumberOfComponents="{components}""#) };
-            writeln!(w, r#"        <DataArray type="Float64" Name="{name}"{nc} format="ascii">"#)?;
-            for k in 0..n {
-                write!(w, "         ")?;
-                for c in 0..components {
-                    write!(w, " {:.16e}", v(k, c))?;
-                }
-                writeln!(w)?;
-            }
-            writeln!(w, "        </DataArray>")
-        };
-        let ints = |w: &mut dyn Write, name: &str, ty: &str, v: &dyn Fn(usize) -> String| -> std::io::Result<()> {
-            writeln!(w, r#"        <DataArray type="{ty}" Name="{name}" format="ascii">"#)?;
-            for k in 0..n {
-                writeln!(w, "          {}", v(k))?;
-            }
-            writeln!(w, "        </DataArray>")
-        };
-        writeln!(w, "      <PointData>")?;
-        for a in arrays {
-            match &a.values {
-                PointValues::Float64 { components, value } => floats(&mut w, a.name, *components, value)?,
-                PointValues::UInt8(value) => ints(&mut w, a.name, "UInt8", &|k| value(k).to_string())?,
-            }
-        }
-        writeln!(w, "      </PointData>\n      <Points>")?;
-        floats(&mut w, "points", 3, &|k, a| if a < dim { x[k][a] } else { 0.0 })?;
-        writeln!(w, "      </Points>\n      <Cells>")?;
-        ints(&mut w, "connectivity", "Int64", &|k| k.to_string())?;
-        ints(&mut w, "offsets", "Int64", &|k| (k + 1).to_string())?;
-        // VTK_VERTEX = 1
-        ints(&mut w, "types", "UInt8", &|_| "1".to_string())?;
-        writeln!(w, "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>")?;
-        w.flush()
-    };
-    body().map_err(io(path))
-}
-
-/// Writes a ParaView collection (`.pvd`): one `<DataSet timestep=".." file=".."/>` per
-/// `(time, file)`, the file names relative to the collection's directory; ParaView opens it
-/// as a time series.
-pub fn write_pvd(path: &Path, datasets: &[(f64, String)]) -> Result<(), ProblemError> {
-    let mut s = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
-    for (t, file) in datasets {
-        let file = file.replace('&', "&amp;").replace('"', "&quot;").replace('<', "&lt;");
-        s.push_str(&format!("    <DataSet timestep=\"{t:.16e}\" group=\"\" part=\"0\" file=\"{file}\"/>\n"));
-    }
-    s.push_str("  </Collection>\n</VTKFile>\n");
-    std::fs::write(path, s).map_err(io(path))
 }

@@ -630,7 +630,7 @@ pub(crate) fn cloud_nodes(
     }
     let cloud = match (&spec.csv, &spec.vtk) {
         (Some(f), None) => read_csv(&cx.base_dir.join(f), dim, "nodes.csv")?,
-        (None, Some(f)) => crate::vtu::read_cloud(&cx.base_dir.join(f), dim, "nodes.vtk")?,
+        (None, Some(f)) => crate::cloud::read_vtk(&cx.base_dir.join(f), dim, "nodes.vtk")?,
         _ => return Err(ProblemError::invalid("nodes", "give exactly one of \"csv\" or \"vtk\"")),
     };
     if !(horizon.is_finite() && horizon > 0.0) {
@@ -645,7 +645,7 @@ pub(crate) fn cloud_nodes(
         ));
     }
     crate::memory::check_nodes(path, dim, cloud.positions.len(), ratio)?;
-    Ok((cloud.into_nodes(dim), h))
+    Ok((crate::cloud::into_nodes(cloud, dim), h))
 }
 
 /// Why a model on a point cloud lacks [`crate::Capability::Coarsen`].

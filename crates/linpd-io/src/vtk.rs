@@ -1,4 +1,7 @@
-//! `"nodes": {"vtk": "file.vtu"}`: a point cloud from a VTK file, read by `vtkio`.
+//! VTK: a point cloud read from a VTK file by `vtkio` ([`read_cloud`], `"nodes": {"vtk": ...}`),
+//! and the VTU / PVD writer of results and snapshots ([`write_vtu`], [`write_pvd`]).
+//!
+//! Reading:
 //!
 //! XML files (`.vtu` unstructured grids, `.vtp` poly data; ascii, base64 binary, zlib
 //! compressed, as ParaView, meshio and linpd's own `result.vtu` write them) and legacy `.vtk`
@@ -11,14 +14,15 @@
 //! point (0-based, as in the file).
 
 use crate::cloud::{Cloud, MAX_CLOUD_BYTES};
-use crate::ProblemError;
+use crate::IoError;
+use std::io::Write;
 use std::path::Path;
 use vtkio::model::{Attribute, Attributes, DataSet, IOBuffer, Piece};
 
-/// Reads a VTK point cloud of dimension `dim`; `key` is the JSON path of the file name.
-pub fn read_cloud(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemError> {
+/// Reads a VTK point cloud of dimension `dim`; errors name the file and the point.
+pub fn read_cloud(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     let shown = path.display().to_string();
-    let fail = |reason: String| ProblemError::invalid(key, format!("{shown}: {reason}"));
+    let fail = |reason: String| IoError::Format { path: shown.clone(), line: None, reason };
     let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
     if !meta.is_file() {
         return Err(fail("not a regular file".into()));
@@ -41,7 +45,7 @@ pub fn read_cloud(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemEr
         let n = x.len() / 3;
         let first = cloud.positions.len();
         // a data array of that name, or an array of a legacy FIELD (as meshio writes .vtk)
-        let array = |name: &str| -> Result<Option<Vec<f64>>, ProblemError> {
+        let array = |name: &str| -> Result<Option<Vec<f64>>, IoError> {
             let buffer = data.point.iter().find_map(|a| match a {
                 Attribute::DataArray(a) if a.name == name => Some(&a.data),
                 Attribute::Field { data_array, .. } => data_array.iter().find(|f| f.name == name).map(|f| &f.data),
@@ -134,4 +138,98 @@ fn inline<P>(
             Piece::Loaded(_) => Err("a piece loaded from another file".into()),
         })
         .collect()
+}
+
+/// The values of a [`PointArray`], computed per node on demand.
+pub enum PointValues<'a> {
+    /// `components` `Float64` numbers per node: `value(node, component)`.
+    Float64 {
+        /// Components per node (VTK's `NumberOfComponents`: 3 for vectors, 9 for tensors).
+        components: usize,
+        /// `value(node, component)`.
+        value: &'a dyn Fn(usize, usize) -> f64,
+    },
+    /// One `UInt8` per node (flags).
+    UInt8(&'a dyn Fn(usize) -> u8),
+}
+
+/// One point-data array of a VTU file.
+pub struct PointArray<'a> {
+    /// Its name (`u`, `layer`, `strain`, ...).
+    pub name: &'a str,
+    /// Its values.
+    pub values: PointValues<'a>,
+}
+
+/// Writes nodes as VTK XML `UnstructuredGrid` (ParaView, VisIt, meshio, pyvista): the points
+/// `x` (3 coordinates, 0-padded beyond `dim`), one vertex cell per node and the point data
+/// `arrays`. ASCII with `{:.16e}` numbers (17 significant digits: read back bit for bit).
+/// Written by hand: the format is a fixed XML skeleton around number lists, and the Rust VTK
+/// crates (`vtkio`) pull in a large dependency tree for it. Used by `linpd solve`
+/// (`result.vtu`) and `linpd run` (`u_<step>.vtu`).
+pub fn write_vtu(path: &Path, dim: usize, x: &[[f64; 3]], arrays: &[PointArray]) -> Result<(), IoError> {
+    let n = x.len();
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(IoError::os(path))?);
+    let mut body = || -> std::io::Result<()> {
+        writeln!(w, r#"<?xml version="1.0"?>"#)?;
+        writeln!(
+            w,
+            r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
+        )?;
+        writeln!(w, "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">")?;
+        let floats = |w: &mut dyn Write,
+                      name: &str,
+                      components: usize,
+                      v: &dyn Fn(usize, usize) -> f64|
+         -> std::io::Result<()> {
+            // a scalar without NumberOfComponents: readers give it shape (n,), not (n, 1)
+            let nc = if components == 1 { String::new() } else { format!(r#" NumberOfComponents="{components}""#) };
+            writeln!(w, r#"        <DataArray type="Float64" Name="{name}"{nc} format="ascii">"#)?;
+            for k in 0..n {
+                write!(w, "         ")?;
+                for c in 0..components {
+                    write!(w, " {:.16e}", v(k, c))?;
+                }
+                writeln!(w)?;
+            }
+            writeln!(w, "        </DataArray>")
+        };
+        let ints = |w: &mut dyn Write, name: &str, ty: &str, v: &dyn Fn(usize) -> String| -> std::io::Result<()> {
+            writeln!(w, r#"        <DataArray type="{ty}" Name="{name}" format="ascii">"#)?;
+            for k in 0..n {
+                writeln!(w, "          {}", v(k))?;
+            }
+            writeln!(w, "        </DataArray>")
+        };
+        writeln!(w, "      <PointData>")?;
+        for a in arrays {
+            match &a.values {
+                PointValues::Float64 { components, value } => floats(&mut w, a.name, *components, value)?,
+                PointValues::UInt8(value) => ints(&mut w, a.name, "UInt8", &|k| value(k).to_string())?,
+            }
+        }
+        writeln!(w, "      </PointData>\n      <Points>")?;
+        floats(&mut w, "points", 3, &|k, a| if a < dim { x[k][a] } else { 0.0 })?;
+        writeln!(w, "      </Points>\n      <Cells>")?;
+        ints(&mut w, "connectivity", "Int64", &|k| k.to_string())?;
+        ints(&mut w, "offsets", "Int64", &|k| (k + 1).to_string())?;
+        // VTK_VERTEX = 1
+        ints(&mut w, "types", "UInt8", &|_| "1".to_string())?;
+        writeln!(w, "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>")?;
+        w.flush()
+    };
+    body().map_err(IoError::os(path))
+}
+
+/// Writes a ParaView collection (`.pvd`): one `<DataSet timestep=".." file=".."/>` per
+/// `(time, file)`, the file names relative to the collection's directory; ParaView opens it
+/// as a time series.
+pub fn write_pvd(path: &Path, datasets: &[(f64, String)]) -> Result<(), IoError> {
+    let mut s = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
+    for (t, file) in datasets {
+        let file = file.replace('&', "&amp;").replace('"', "&quot;").replace('<', "&lt;");
+        s.push_str(&format!("    <DataSet timestep=\"{t:.16e}\" group=\"\" part=\"0\" file=\"{file}\"/>\n"));
+    }
+    s.push_str("  </Collection>\n</VTKFile>\n");
+    std::fs::write(path, s).map_err(IoError::os(path))
 }

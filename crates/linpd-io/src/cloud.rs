@@ -1,0 +1,273 @@
+//! `"nodes"`: a point cloud read from a file instead of a lattice.
+//!
+//! A CSV file (`"nodes": {"csv": "file.csv"}`) has a header naming its columns and one node per
+//! line:
+//!
+//! ```text
+//! x,y,volume,phase,layer
+//! 0.0,0.0,1e-4,0,1
+//! ```
+//!
+//! `x`, `y` (2D and 3D), `z` (3D) and `volume` are required, `phase` (an integer >= 0, for
+//! `model.material.phases` entries that name a phase instead of a region) and `layer` (0 or 1:
+//! the node belongs to a constraint layer outside the body; only reported, as for grids) are
+//! optional; the order of the columns is free, lines starting with `#` are comments. Every
+//! value is checked: finite coordinates, volumes > 0, no two nodes closer than
+//! [`DUPLICATE_RTOL`] times the smallest node size `min_i V_i^(1/d)`. An error names the file
+//! and its line.
+//!
+//! The file is read in a stream (its size is capped at [`MAX_CLOUD_BYTES`]), so no count in it
+//! decides an allocation.
+
+use crate::IoError;
+use linpd_core::{BondFamily, Point};
+use std::path::Path;
+
+/// The largest point-cloud file read (1 GiB: ~15 million 3D nodes at 70 bytes a line).
+pub const MAX_CLOUD_BYTES: u64 = 1 << 30;
+
+/// Two nodes closer than this times the smallest node size `min_i V_i^(1/d)` are duplicates
+/// (the same relative tolerance as the lattice's geometry tests).
+pub const DUPLICATE_RTOL: f64 = linpd_core::GEOMETRY_RTOL;
+
+/// The columns of a node file.
+#[derive(Debug, Default)]
+struct Columns {
+    coord: [Option<usize>; 3],
+    volume: Option<usize>,
+    phase: Option<usize>,
+    layer: Option<usize>,
+}
+
+/// A node file's nodes: positions, volumes, layer flags and phase numbers (empty when the
+/// file has no `phase` column).
+#[derive(Debug, Clone)]
+pub struct Cloud {
+    /// Positions (unused coordinates 0).
+    pub positions: Vec<Point>,
+    /// Volumes `V_i > 0`.
+    pub volumes: Vec<f64>,
+    /// Layer flags (all false without a `layer` column).
+    pub layer: Vec<bool>,
+    /// Phase numbers (empty without a `phase` column).
+    pub phase: Vec<u32>,
+    /// 1-based file line of each node (a VTK file: its 0-based point number), for messages.
+    pub lines: Vec<u64>,
+}
+
+/// Reads a CSV point cloud of dimension `dim`; errors name the file and the line.
+pub fn read_csv(path: &Path, dim: usize) -> Result<Cloud, IoError> {
+    let shown = path.display().to_string();
+    let err = |line: u64, reason: String| IoError::Format { path: shown.clone(), line: Some(line), reason };
+    let whole = |reason: String| IoError::Format { path: shown.clone(), line: None, reason };
+    let meta = std::fs::metadata(path).map_err(|e| whole(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(whole("not a regular file".into()));
+    }
+    if meta.len() > MAX_CLOUD_BYTES {
+        return Err(whole(format!("{} bytes, more than a node file may hold ({MAX_CLOUD_BYTES})", meta.len())));
+    }
+    let file = std::fs::File::open(path).map_err(|e| whole(e.to_string()))?;
+    use std::io::Read;
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(file.take(MAX_CLOUD_BYTES + 1));
+    let headers = reader.headers().map_err(|e| err(1, format!("unreadable header ({e})")))?.clone();
+    // the reader now stands at the start of the line after the header
+    let hline = reader.position().line().saturating_sub(1).max(1);
+    let mut cols = Columns::default();
+    const NAMES: [&str; 3] = ["x", "y", "z"];
+    for (k, name) in headers.iter().enumerate() {
+        let slot = match name {
+            "x" => &mut cols.coord[0],
+            "y" => &mut cols.coord[1],
+            "z" => &mut cols.coord[2],
+            "volume" => &mut cols.volume,
+            "phase" => &mut cols.phase,
+            "layer" => &mut cols.layer,
+            other => {
+                return Err(err(
+                    hline,
+                    format!("unknown column {other:?} (the columns are x, y, z, volume, phase and layer)"),
+                ))
+            }
+        };
+        if slot.is_some() {
+            return Err(err(hline, format!("column {name:?} appears twice")));
+        }
+        *slot = Some(k);
+    }
+    for (a, name) in NAMES.iter().enumerate() {
+        match (a < dim, cols.coord[a].is_some()) {
+            (true, false) => {
+                return Err(err(
+                    hline,
+                    format!("missing column {name:?} (a {dim}D cloud needs {})", NAMES[..dim].join(", ")),
+                ))
+            }
+            (false, true) => return Err(err(hline, format!("column {name:?} in a {dim}D scene"))),
+            _ => {}
+        }
+    }
+    let Some(volume_col) = cols.volume else {
+        return Err(err(hline, "missing column \"volume\"".into()));
+    };
+    // every coordinate column of the dimension is present (checked above)
+    let coord_cols: Vec<usize> = cols.coord[..dim].iter().flatten().copied().collect();
+    let mut cloud =
+        Cloud { positions: Vec::new(), volumes: Vec::new(), layer: Vec::new(), phase: Vec::new(), lines: Vec::new() };
+    let mut record = csv::StringRecord::new();
+    loop {
+        let more = reader.read_record(&mut record).map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            err(line, format!("unreadable ({e})"))
+        })?;
+        if !more {
+            break;
+        }
+        let line = record.position().map_or(0, |p| p.line());
+        if record.len() != headers.len() {
+            return Err(err(line, format!("{} fields, the header has {}", record.len(), headers.len())));
+        }
+        let number = |k: usize, name: &str| -> Result<f64, IoError> {
+            let s = &record[k];
+            let v: f64 = s.parse().map_err(|_| err(line, format!("{name} = {s:?} is not a number")))?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(err(line, format!("{name} = {s} is not finite")))
+            }
+        };
+        let mut x = [0.0; 3];
+        for a in 0..dim {
+            x[a] = number(coord_cols[a], NAMES[a])?;
+        }
+        let v = number(volume_col, "volume")?;
+        if v <= 0.0 {
+            return Err(err(line, format!("volume = {v:e} must be > 0")));
+        }
+        if let Some(k) = cols.layer {
+            cloud.layer.push(match &record[k] {
+                "0" => false,
+                "1" => true,
+                s => return Err(err(line, format!("layer = {s:?} must be 0 or 1"))),
+            });
+        }
+        if let Some(k) = cols.phase {
+            let s = &record[k];
+            cloud.phase.push(s.parse().map_err(|_| err(line, format!("phase = {s:?} must be an integer >= 0")))?);
+        }
+        if cloud.positions.len() == u32::MAX as usize {
+            return Err(err(line, "more than 2^32 - 1 nodes".into()));
+        }
+        cloud.positions.push(x);
+        cloud.volumes.push(v);
+        cloud.lines.push(line);
+    }
+    if reader.position().byte() > MAX_CLOUD_BYTES {
+        return Err(whole(format!("grew beyond {MAX_CLOUD_BYTES} bytes while read")));
+    }
+    if cloud.positions.is_empty() {
+        return Err(err(hline, "no nodes (a header and no data lines)".into()));
+    }
+    if cloud.layer.is_empty() {
+        cloud.layer = vec![false; cloud.positions.len()];
+    }
+    check_duplicates(&cloud, dim).map_err(|(a, b)| {
+        err(
+            cloud.lines[b],
+            format!(
+                "the node at {:?} coincides with the node of line {} (closer than {DUPLICATE_RTOL:e} node sizes)",
+                &cloud.positions[b][..dim],
+                cloud.lines[a]
+            ),
+        )
+    })?;
+    Ok(cloud)
+}
+
+/// The first pair of nodes closer than [`DUPLICATE_RTOL`] `min_i V_i^(1/d)` (by a cell list of
+/// that size: no O(n^2) pass).
+pub fn check_duplicates(cloud: &Cloud, dim: usize) -> Result<(), (usize, usize)> {
+    let size = cloud.volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
+    let tol = DUPLICATE_RTOL * size;
+    if !(tol > 0.0 && tol.is_finite()) {
+        return Ok(());
+    }
+    let close = BondFamily::from_points(&cloud.positions, dim, tol);
+    match (0..close.len()).find(|&i| !close.neighbors(i).is_empty()) {
+        None => Ok(()),
+        Some(i) => {
+            let j = close.neighbors(i)[0] as usize;
+            Err((i.min(j), i.max(j)))
+        }
+    }
+}
+
+/// The mean node spacing `(sum_i V_i / n)^(1/d)` of a cloud: the scale of its horizon checks
+/// and memory estimate (a lattice's spacing `h` when the cloud is one).
+pub fn mean_spacing(volumes: &[f64], dim: usize) -> f64 {
+    (volumes.iter().sum::<f64>() / volumes.len() as f64).powf(1.0 / dim as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(name: &str, text: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("linpd-cloud-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    fn error(name: &str, text: &str, dim: usize) -> String {
+        read_csv(&write(name, text), dim).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn reads_columns_in_any_order_with_comments() {
+        let p = write("ok.csv", "# a cloud\nvolume,y,x,layer,phase\n0.25,0,0,1,2\n0.25,0,0.5,0,0\n");
+        let c = read_csv(&p, 2).unwrap();
+        assert_eq!(c.positions, vec![[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]]);
+        assert_eq!(c.volumes, vec![0.25, 0.25]);
+        assert_eq!(c.layer, vec![true, false]);
+        assert_eq!(c.phase, vec![2, 0]);
+        assert_eq!(c.lines, vec![3, 4]);
+    }
+
+    /// Each bad file names the file, the line and the cause.
+    #[test]
+    fn bad_files_name_the_line() {
+        let e = error("m.csv", "x,volume\n0,1\n", 2);
+        assert!(e.ends_with("m.csv line 1: missing column \"y\" (a 2D cloud needs x, y)"), "{e}");
+        let e = error("v.csv", "x,y\n0,1\n", 2);
+        assert!(e.contains("line 1: missing column \"volume\""), "{e}");
+        let e = error("n.csv", "x,y,volume\n0,0,1\n0,1,-1\n", 2);
+        assert!(e.contains("n.csv line 3: volume = -1e0 must be > 0"), "{e}");
+        let e = error("nan.csv", "x,y,volume\n0,0,1\nNaN,1,1\n", 2);
+        assert!(e.contains("line 3: x = NaN is not finite"), "{e}");
+        let e = error("d.csv", "x,y,volume\n0,0,1\n1,0,1\n0,0,1\n", 2);
+        assert!(e.contains("d.csv line 4: the node at [0.0, 0.0] coincides with the node of line 2"), "{e}");
+        let e = error("f.csv", "x,y,volume\n0,0,1\n1,0\n", 2);
+        assert!(e.contains("line 3: 2 fields, the header has 3"), "{e}");
+        let e = error("u.csv", "x,y,volume,colour\n0,0,1,3\n", 2);
+        assert!(e.contains("line 1: unknown column \"colour\""), "{e}");
+        let e = error("z.csv", "x,y,z,volume\n0,0,0,1\n", 2);
+        assert!(e.contains("column \"z\" in a 2D scene"), "{e}");
+        let e = error("l.csv", "x,volume,layer\n0,1,2\n", 1);
+        assert!(e.contains("line 2: layer = \"2\" must be 0 or 1"), "{e}");
+        let e = error("p.csv", "x,volume,phase\n0,1,-1\n", 1);
+        assert!(e.contains("line 2: phase = \"-1\" must be an integer >= 0"), "{e}");
+        let e = error("e.csv", "x,volume\n", 1);
+        assert!(e.contains("no nodes"), "{e}");
+        let e = error("t.csv", "x,volume\n0,abc\n", 1);
+        assert!(e.contains("line 2: volume = \"abc\" is not a number"), "{e}");
+        let e = read_csv(Path::new("/nonexistent/c.csv"), 1).unwrap_err().to_string();
+        assert!(e.starts_with("/nonexistent/c.csv: "), "{e}");
+    }
+}
