@@ -230,7 +230,7 @@ fn auto_zones_cover_material_interfaces_and_need_a_feature() {
 }
 
 /// `auto` on a 2D blend from 20k unknowns runs GMRES + multigrid from the energy form (faster
-/// than the Cholesky of `M` there: `AUTO_GMRES_MULTIGRID_2D`) and says so; its solution agrees
+/// than the Cholesky of `M` there: `AutoParams::gmres_multigrid_2d_min_unknowns`) and says so; its solution agrees
 /// with sparse LU within `kappa * rtol` (`kappa <= ~1e4`, `(L/h)^2`; auto's `rtol` 1e-10: 1e-6).
 /// Below 20k unknowns `auto` keeps the Cholesky of `M` (the 11k-node plate above).
 #[test]
