@@ -177,6 +177,11 @@ fn density_map(m: &Model, r: &Run, dir: &Path, what: &str) -> Result<(), StudyEr
     Ok(())
 }
 
+/// A smooth-pulse run: the model, its `dt` by (4.13) and the run.
+type SmoothRun = (&'static Model, f64, Run);
+/// A square-pulse run: the model and the run.
+type SquareRun = (&'static Model, Run);
+
 /// Runs the study into `dir`.
 pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Result<(), StudyError> {
     // Every model twice: the smooth pulse, then the square pulse.
@@ -185,6 +190,31 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
     let total = Instant::now();
 
     // ---- Smooth pulse (Figs. 4.3-4.5, Table 4.1) ----
+    let smooth = smooth_runs(report, &cases)?;
+    smooth_plots(dir, &smooth)?;
+    let shape = smooth_shape(report, &smooth)?;
+    let (paper_ratio, costs) = table_4_1(report, &smooth)?;
+
+    // ---- Square pulse (Fig. 4.6): dt = 0.0649 for all ----
+    let (square, sq_runs) = square_runs(report, &cases)?;
+    square_plots(dir, &sq_runs)?;
+
+    let wall = total.elapsed().as_secs_f64();
+    writeln!(report, "total wall {wall:.1} s")?;
+    let data = json!({
+        "study": NAME, "K1": K1, "rho": RHO, "dt0": DT0, "domain": [0.0, L], "boundary": "periodic (ring of length 1000)",
+        "window": [WIN.0, WIN.1],
+        "smooth": {"t_final": T_SMOOTH, "runs": smooth_json(&smooth), "shape": shape},
+        "table_4_1": {"paper_relative_cost": 0.22, "paper_recomputed": paper_ratio, "runs": costs},
+        "square": {"dt": DT_SQUARE, "t_requested": T_SQUARE, "runs": square},
+        "wall_seconds": wall,
+    });
+    write(dir, &data)
+}
+
+/// The smooth pulse on every model with `dt` by (4.13) (`dt_0 = 1`), rounded down so that an
+/// integer number of steps ends at `t = T_SMOOTH`; prints a row per model.
+fn smooth_runs(report: &mut dyn Write, cases: &Cases) -> Result<Vec<SmoothRun>, StudyError> {
     writeln!(
         report,
         "smooth pulse p(x) at 500 on the ring [0, 1000), K_1 = rho = 1, dt by (4.13) with dt_0 = {DT0}, t = {T_SMOOTH}"
@@ -217,17 +247,29 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
         )?;
         smooth.push((m, dt_rule, r));
     }
-    let get = |key: &str| smooth.iter().find(|(m, _, _)| m.key == key).unwrap();
+    Ok(smooth)
+}
 
-    for (m, _, r) in &smooth {
+/// The smooth-pulse run of the model `key`.
+fn smooth_run<'a>(smooth: &'a [SmoothRun], key: &str) -> &'a SmoothRun {
+    smooth.iter().find(|(m, _, _)| m.key == key).expect("every key names a model of MODELS")
+}
+
+/// The models of the snapshot plots (Fig. 4.4), in drawing order.
+const SNAPSHOT_MODELS: [&str; 5] = ["ccm", "pd_fine", "md", "pd_coarse", "pd_coarser"];
+
+/// The density maps of every smooth-pulse run and the displacement snapshots at the final
+/// time: Fig. 4.4 (all models, and a zoom on the left-going pulse) and Fig. 4.5 (local vs
+/// nonlocal MD).
+fn smooth_plots(dir: &Path, smooth: &[SmoothRun]) -> Result<(), StudyError> {
+    for (m, _, r) in smooth {
         density_map(m, r, dir, "smooth pulse")?;
     }
-    // Fig. 4.4: displacement at the final time, all models; and a zoom on the left-going pulse.
-    let fig44 = |keys: &[&str], a: f64, b: f64, title: &str, stem: &str| -> Result<(), StudyError> {
+    let snapshot = |keys: &[&str], a: f64, b: f64, title: &str, stem: &str| -> Result<(), StudyError> {
         let series = keys
             .iter()
             .map(|k| {
-                let (m, _, r) = get(k);
+                let (m, _, r) = smooth_run(smooth, k);
                 let (x, u) = cut(m, &r.snaps[0].1, a, b);
                 Series::new(m.label, x, u)
             })
@@ -242,32 +284,36 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
         };
         line_plot(&plot, &dir.join(stem)).map(|_| ()).map_err(StudyError::from)
     };
-    let all = ["ccm", "pd_fine", "md", "pd_coarse", "pd_coarser"];
-    fig44(&all, WIN.0, WIN.1, &format!("smooth pulse, displacement at t = {T_SMOOTH}"), "snapshot")?;
-    fig44(
+    let all = SNAPSHOT_MODELS;
+    snapshot(&all, WIN.0, WIN.1, &format!("smooth pulse, displacement at t = {T_SMOOTH}"), "snapshot")?;
+    snapshot(
         &all,
         330.0,
         420.0,
         &format!("smooth pulse at t = {T_SMOOTH}, zoom on the left-going wave"),
         "snapshot_zoom",
     )?;
-    fig44(
+    snapshot(
         &["md_local", "md"],
         WIN.0,
         WIN.1,
         &format!("local vs nonlocal MD at t = {T_SMOOTH} (Fig. 4.5)"),
         "snapshot_local_vs_nonlocal",
-    )?;
+    )
+}
 
-    // Dispersive tail: amplitude of the trailing ripple behind the left-going front, |u| on
-    // [365, 420] (d'Alembert: the wave occupies [340, 360] at t = 150.05, zero elsewhere).
+/// The left-going peak (d'Alembert: 0.5) and the dispersive tail per model: the amplitude of
+/// the trailing ripple behind the left-going front, `|u|` on `[365, 420]` (d'Alembert: the
+/// wave occupies `[340, 360]` at `t = 150.05`, zero elsewhere). Prints them; returns them for
+/// data.json.
+fn smooth_shape(report: &mut dyn Write, smooth: &[SmoothRun]) -> Result<Vec<serde_json::Value>, StudyError> {
     let tail = |key: &str| {
-        let (m, _, r) = get(key);
+        let (m, _, r) = smooth_run(smooth, key);
         let (_, u) = cut(m, &r.snaps[0].1, 365.0, 420.0);
         u.iter().fold(0.0f64, |a, v| a.max(v.abs()))
     };
     let peak = |key: &str| {
-        let (m, _, r) = get(key);
+        let (m, _, r) = smooth_run(smooth, key);
         let (_, u) = cut(m, &r.snaps[0].1, WIN.0, 500.0);
         u.iter().fold(0.0f64, |a, v| a.max(*v))
     };
@@ -276,25 +322,85 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
         "smooth pulse at t = {T_SMOOTH}: left-going peak (d'Alembert 0.5) and trailing ripple max|u| on [365, 420]:"
     )?;
     let mut shape = Vec::new();
-    for k in all.iter().chain(&["md_local"]) {
-        writeln!(report, "  {:<30} peak {:.4}  ripple {:.3e}", get(k).0.label, peak(k), tail(k))?;
+    for k in SNAPSHOT_MODELS.iter().chain(&["md_local"]) {
+        writeln!(report, "  {:<30} peak {:.4}  ripple {:.3e}", smooth_run(smooth, k).0.label, peak(k), tail(k))?;
         shape.push(json!({"model": k, "peak": peak(k), "ripple_365_420": tail(k)}));
     }
+    Ok(shape)
+}
 
-    // Table 4.1: relative cost.
-    let cost_md = get("md").2.bond_updates(5);
+/// Table 4.1: the cost `Nx N Nt` of every smooth-pulse run relative to MD's, printed and
+/// returned for data.json with the paper's ratio recomputed from its `Nx`, `N`, `Nt`.
+fn table_4_1(report: &mut dyn Write, smooth: &[SmoothRun]) -> Result<(f64, Vec<serde_json::Value>), StudyError> {
+    let cost_md = smooth_run(smooth, "md").2.bond_updates(5);
     let paper_ratio = (2001.0 * 10.0 * 162.0) / (4001.0 * 20.0 * 184.0);
     writeln!(report, "Table 4.1 (cost = Nx N Nt, relative to MD): paper 0.22 ({paper_ratio:.4} from its Nx, N, Nt)")?;
     let mut costs = Vec::new();
-    for (m, _, r) in &smooth {
+    for (m, _, r) in smooth {
         let rel = r.bond_updates(m.n) / cost_md;
         writeln!(report, "  {:<30} Nx {:>6} N {:>3} Nt {:>5} relative cost {:.3}", m.label, r.nx, m.n, r.steps, rel)?;
         costs.push(
             json!({"model": m.key, "Nx": r.nx, "N": m.n, "Nt": r.steps, "cost": r.bond_updates(m.n), "relative": rel}),
         );
     }
+    Ok((paper_ratio, costs))
+}
 
-    // ---- Square pulse (Fig. 4.6): dt = 0.0649 for all ----
+/// The smooth-pulse runs for data.json (the window of the final displacement, thinned).
+fn smooth_json(smooth: &[SmoothRun]) -> Vec<serde_json::Value> {
+    smooth
+        .iter()
+        .map(|(m, dt_rule, r)| {
+            let (x, u) = cut(m, &r.snaps[0].1, WIN.0, WIN.1);
+            json!({"model": m.key, "label": m.label, "dx": m.dx, "N": m.n, "horizon": m.dx * m.n as f64, "Nx": r.nx,
+                "dt_4_13": dt_rule, "dt": r.dt, "steps": r.steps, "t_final": r.dt * r.steps as f64,
+                "bond_updates": r.bond_updates(m.n), "energy_drift_total": r.drift_total, "energy_drift_shadow": r.drift_shadow,
+                "wall_seconds": r.wall, "x": thin(x), "u_final": thin(u)})
+        })
+        .collect()
+}
+
+/// Overshoot above the d'Alembert maximum 0.5 and undershoot below 0 of a square-pulse
+/// snapshot, over the ring or near the travelling fronts only, and its total variation.
+struct SquareStats {
+    /// `(overshoot, undershoot)` per snapshot, over the ring.
+    whole: Vec<(f64, f64)>,
+    /// The same near the fronts: d'Alembert supports `[490 -+ t, 510 -+ t]` widened by 10 (the
+    /// short waves of MD/PD lag behind near `x = 490, 510`).
+    front: Vec<(f64, f64)>,
+    /// Total variation over the ring (d'Alembert: 4 jumps of 0.5 = 2): counts every wiggle.
+    tv: Vec<f64>,
+}
+
+impl SquareStats {
+    fn of(m: &Model, r: &Run) -> Self {
+        let whole = r
+            .snaps
+            .iter()
+            .map(|(_, u)| {
+                let mx = u.iter().fold(f64::MIN, |a, v| a.max(*v));
+                let mn = u.iter().fold(f64::MAX, |a, v| a.min(*v));
+                (mx - 0.5, -mn)
+            })
+            .collect();
+        let front = r
+            .snaps
+            .iter()
+            .map(|(t, u)| {
+                let near = |x: f64| (x >= 480.0 - t && x <= 520.0 - t) || (x >= 480.0 + t && x <= 520.0 + t);
+                let vals: Vec<f64> = (0..u.len()).filter(|&i| near(i as f64 * m.dx)).map(|i| u[i]).collect();
+                (vals.iter().fold(f64::MIN, |a, v| a.max(*v)) - 0.5, -vals.iter().fold(f64::MAX, |a, v| a.min(*v)))
+            })
+            .collect();
+        let tv = r.snaps.iter().map(|(_, u)| (0..u.len()).map(|i| (u[(i + 1) % u.len()] - u[i]).abs()).sum()).collect();
+        SquareStats { whole, front, tv }
+    }
+}
+
+/// The square pulse (4.14) on every model with `dt = DT_SQUARE`, snapshots at `T_SQUARE`;
+/// prints a row per model and the front statistics; returns the runs for data.json and the
+/// runs themselves.
+fn square_runs(report: &mut dyn Write, cases: &Cases) -> Result<(Vec<serde_json::Value>, Vec<SquareRun>), StudyError> {
     let snap_steps: Vec<usize> = T_SQUARE.iter().map(|t| (t / DT_SQUARE).round() as usize).collect();
     let steps = *snap_steps.last().unwrap();
     writeln!(report,
@@ -313,30 +419,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
     for m in MODELS {
         cases.next(format_args!("square pulse, {}", m.label));
         let r = simulate(m, square_pulse, DT_SQUARE, steps, &snap_steps, false)?;
-        // Overshoot above the d'Alembert maximum 0.5 and undershoot below 0.
-        let stats: Vec<(f64, f64)> = r
-            .snaps
-            .iter()
-            .map(|(_, u)| {
-                let mx = u.iter().fold(f64::MIN, |a, v| a.max(*v));
-                let mn = u.iter().fold(f64::MAX, |a, v| a.min(*v));
-                (mx - 0.5, -mn)
-            })
-            .collect();
-        // The same near the travelling fronts only: d'Alembert supports [490 -+ t, 510 -+ t]
-        // widened by 10 (the short waves of MD/PD lag behind near x = 490, 510).
-        let front: Vec<(f64, f64)> = r
-            .snaps
-            .iter()
-            .map(|(t, u)| {
-                let near = |x: f64| (x >= 480.0 - t && x <= 520.0 - t) || (x >= 480.0 + t && x <= 520.0 + t);
-                let vals: Vec<f64> = (0..u.len()).filter(|&i| near(i as f64 * m.dx)).map(|i| u[i]).collect();
-                (vals.iter().fold(f64::MIN, |a, v| a.max(*v)) - 0.5, -vals.iter().fold(f64::MAX, |a, v| a.min(*v)))
-            })
-            .collect();
-        // Total variation over the ring (d'Alembert: 4 jumps of 0.5 = 2): counts every wiggle.
-        let tv: Vec<f64> =
-            r.snaps.iter().map(|(_, u)| (0..u.len()).map(|i| (u[(i + 1) % u.len()] - u[i]).abs()).sum()).collect();
+        let SquareStats { whole: stats, front, tv } = SquareStats::of(m, &r);
         writeln!(
             report,
             "{:<30} {:>10.4} {:>10.4} {:>8.2} {:>10.4} {:>10.4} {:>8.2} {:>9.2e} {:>9.2e} {:>7.2}",
@@ -371,6 +454,12 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
     for f in &fronts {
         writeln!(report, "{f}")?;
     }
+    Ok((square, sq_runs))
+}
+
+/// Fig. 4.6: the left half of the square pulse at each snapshot time, MD and PD models in one
+/// plot, CCM in another.
+fn square_plots(dir: &Path, sq_runs: &[SquareRun]) -> Result<(), StudyError> {
     for (i, t) in T_SQUARE.iter().enumerate() {
         for (ccm, stem) in [(false, "md_pd"), (true, "ccm")] {
             let series = sq_runs
@@ -388,7 +477,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
                 })
                 .collect();
             let plot = LinePlot {
-                title: format!("square pulse (4.14), dt = {DT_SQUARE}, t = {:.3}, left half", r_t(&sq_runs, i)),
+                title: format!("square pulse (4.14), dt = {DT_SQUARE}, t = {:.3}, left half", r_t(sq_runs, i)),
                 x_label: "x".into(),
                 y_label: "u".into(),
                 series,
@@ -398,30 +487,10 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
             line_plot(&plot, &dir.join(format!("square_{stem}_t{}", *t as usize)))?;
         }
     }
-
-    let wall = total.elapsed().as_secs_f64();
-    writeln!(report, "total wall {wall:.1} s")?;
-    let smooth_json: Vec<_> = smooth
-        .iter()
-        .map(|(m, dt_rule, r)| {
-            let (x, u) = cut(m, &r.snaps[0].1, WIN.0, WIN.1);
-            json!({"model": m.key, "label": m.label, "dx": m.dx, "N": m.n, "horizon": m.dx * m.n as f64, "Nx": r.nx,
-                "dt_4_13": dt_rule, "dt": r.dt, "steps": r.steps, "t_final": r.dt * r.steps as f64,
-                "bond_updates": r.bond_updates(m.n), "energy_drift_total": r.drift_total, "energy_drift_shadow": r.drift_shadow,
-                "wall_seconds": r.wall, "x": thin(x), "u_final": thin(u)})
-        })
-        .collect();
-    let data = json!({
-        "study": NAME, "K1": K1, "rho": RHO, "dt0": DT0, "domain": [0.0, L], "boundary": "periodic (ring of length 1000)",
-        "window": [WIN.0, WIN.1],
-        "smooth": {"t_final": T_SMOOTH, "runs": smooth_json, "shape": shape},
-        "table_4_1": {"paper_relative_cost": 0.22, "paper_recomputed": paper_ratio, "runs": costs},
-        "square": {"dt": DT_SQUARE, "t_requested": T_SQUARE, "runs": square},
-        "wall_seconds": wall,
-    });
-    write(dir, &data)
+    Ok(())
 }
 
-fn r_t(runs: &[(&Model, Run)], i: usize) -> f64 {
+/// The time of snapshot `i` (the same in every run).
+fn r_t(runs: &[SquareRun], i: usize) -> f64 {
     runs[0].1.snaps[i].0
 }
