@@ -28,7 +28,7 @@ fn blended_crack_plate_matches_the_bond_model() {
     // bound 1.2e-3 leaves 25 % for changes of the solvers' paths. The 1e-3 target is for
     // >= 40k nodes: at h = 0.005 (42,849 nodes) the same zones give 5.3e-4 (docs/models.md).
     assert!(err <= 1.2e-3, "max |u_blend - u_pd| / max |u_pd| = {err:e}");
-    let note = b.report.note.clone().unwrap_or_default();
+    let note = b.report.notes.join("; ");
     assert!(note.contains("blend:") && note.contains("local nodes"), "{note}");
 }
 
@@ -252,8 +252,8 @@ fn auto_runs_gmres_multigrid_on_large_2d_blends() {
     });
     let s = solve(&scene);
     assert!(s.report.n >= 20_000, "{} unknowns", s.report.n);
-    assert_eq!(s.report.solver.to_string(), "gmres-multigrid", "{:?}", s.report.note);
-    assert!(s.report.note.as_deref().unwrap_or("").contains("auto: gmres + multigrid"), "{:?}", s.report.note);
+    assert_eq!(s.report.solver.to_string(), "gmres-multigrid", "{:?}", s.report.notes);
+    assert!(s.report.notes.join("; ").contains("auto: gmres + multigrid"), "{:?}", s.report.notes);
     let mut lu = scene.clone();
     lu["solver"] = serde_json::json!({"type": "lu"});
     let reference = solve(&lu);

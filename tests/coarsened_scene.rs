@@ -275,7 +275,7 @@ fn unsymmetric_moduli_take_the_lu_path() {
     assert!(!c.is_symmetric());
     let s = problem.solve(&linpd::core::NoProgress).unwrap();
     assert_eq!(s.report.solver, linpd::solve::SolverId::Lu);
-    let note = s.report.note.as_deref().unwrap_or_default();
+    let note = s.report.notes.join("; ");
     assert!(note.contains("A is unsymmetric (relative asymmetry"), "{note}");
     assert!(s.report.rel_residual < 1e-12, "{}", s.report.rel_residual);
     let n = 36;
@@ -377,7 +377,7 @@ fn item_7_a_level_loaded_back_reproduces_the_pipeline() {
     assert!(c.reciprocity() <= 1e-12, "written moduli not reciprocal: {:e}", c.reciprocity());
     assert!(!c.is_symmetric(), "expected K unsymmetric through its diagonal blocks");
     assert!(c.symmetry().contains("diagonal blocks"), "{}", c.symmetry());
-    let note = s.report.note.clone().unwrap_or_default();
+    let note = s.report.notes.join("; ");
     assert!(note.contains("diagonal blocks") && note.contains("sparse LU used"), "{note}");
     let v = Command::new(env!("CARGO_BIN_EXE_linpd")).arg("validate").arg(&path).output().unwrap();
     let text = String::from_utf8_lossy(&v.stdout);

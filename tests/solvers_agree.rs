@@ -253,7 +253,7 @@ fn auto_falls_back_to_cholesky_when_cg_cannot_reach_its_target() {
             // either the cost model chose Cholesky, or CG failed first and said so
             let first_choice_cg = r.auto.as_deref().is_some_and(|line| cheapest(line).starts_with("cg"));
             if first_choice_cg {
-                let note = r.note.as_deref().unwrap_or("");
+                let note = r.notes.join("; ");
                 assert!(note.contains("fell back to the Cholesky solve"), "{note}");
             }
             assert!(r.rel_residual < 1e-9, "{:e}", r.rel_residual);
@@ -274,7 +274,7 @@ fn matrix_free_auto_falls_back_to_the_assembled_choice() {
     match r.solver.to_string() {
         id if id.ends_with("matrix-free-stencil") => assert!(r.rel_residual <= 1e-15, "{id}: {:e}", r.rel_residual),
         id => {
-            let note = r.note.as_deref().unwrap_or("");
+            let note = r.notes.join("; ");
             assert!(note.contains("matrix-free multigrid-CG failed"), "{id}: {note}");
             assert!(r.auto.as_deref().unwrap_or("").contains("cholesky-nd est."), "{id}: {:?}", r.auto);
             assert!(r.rel_residual < 1e-9, "{id}: {:e}", r.rel_residual);

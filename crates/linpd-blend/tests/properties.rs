@@ -205,9 +205,9 @@ fn solver_paths_agree_and_auto_is_preconditioned_gmres() {
     ];
     for (p, kind, auto_name) in cases {
         let auto = solve_model(&p, kind, 0.0, 0.0, &load, BlendSolver::Auto).unwrap();
-        assert_eq!(auto.report.solver.to_string(), auto_name, "{kind:?} hog={}: {:?}", p.hog, auto.report.note);
+        assert_eq!(auto.report.solver.to_string(), auto_name, "{kind:?} hog={}: {:?}", p.hog, auto.report.notes);
         if auto_name == "lu-band" {
-            let note = auto.report.note.as_deref().unwrap_or_default();
+            let note = auto.report.notes.join("; ");
             assert!(note.contains("not positive definite"), "HOG fallback note: {note:?}");
         } else if kind == ModelKind::Blended {
             let it = auto.report.iterations.unwrap();

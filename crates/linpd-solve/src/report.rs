@@ -25,9 +25,11 @@ pub struct Timings {
 pub struct SolveReport {
     /// Solver that ran (serialized as its short name: `cholesky-nd`, `lu`, `cg-jacobi`, ...).
     pub solver: SolverId,
-    /// Why this solver ran when the scene asked for another (e.g. `K` unsymmetric).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub note: Option<String>,
+    /// What the reader should know, in order: why this solver ran when the scene asked for
+    /// another (e.g. `K` unsymmetric), `auto`'s fallbacks, and what the model adds (a surface
+    /// correction, the blend's zones, a warning).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
     /// How `auto` chose: each candidate's estimated time and what it rests on.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto: Option<String>,
@@ -59,7 +61,7 @@ impl SolveReport {
     pub fn new(solver: SolverId, n: usize, nnz_a: usize) -> Self {
         SolveReport {
             solver,
-            note: None,
+            notes: Vec::new(),
             auto: None,
             preconditioner: None,
             n,

@@ -58,7 +58,7 @@ fn unsymmetric_dispatch() {
     // reported residual uses the unsymmetric product.
     let (u, rep) = solve_assembled(&a, &b, &SolverSpec::Cholesky, &hints).unwrap();
     assert_eq!(rep.solver, SolverId::Lu);
-    assert!(rep.note.as_deref().unwrap_or_default().contains("unsymmetric"));
+    assert!(rep.notes.join("; ").contains("unsymmetric"));
     assert!((rep.rel_residual - residual_by_entries(&a, &u, &b)).abs() <= 1e-14);
     // Dense asked: dense LU with partial pivoting, same solution.
     let (ud, rep) = solve_assembled(&a, &b, &SolverSpec::Dense, &hints).unwrap();
@@ -74,7 +74,7 @@ fn unsymmetric_dispatch() {
         ..hints.clone()
     };
     let (ug, rep) = solve_assembled(&a, &b, &SolverSpec::default(), &spd_hints).unwrap();
-    assert_eq!(rep.solver, SolverId::Gmres(SpdApproximationKind::SymmetricPart), "{:?}", rep.note);
+    assert_eq!(rep.solver, SolverId::Gmres(SpdApproximationKind::SymmetricPart), "{:?}", rep.notes);
     // Measured 22 (to the backward-error stop, ~1e-15 relative); counts are deterministic.
     let it = rep.iterations.unwrap();
     assert!(it <= 25, "{it} GMRES iterations");
@@ -91,7 +91,7 @@ fn unsymmetric_dispatch() {
     };
     let (ul, rep) = solve_assembled(&a, &b, &SolverSpec::default(), &bad_hints).unwrap();
     assert_eq!(rep.solver, SolverId::LuBand);
-    let note = rep.note.unwrap_or_default();
+    let note = rep.notes.join("; ");
     assert!(note.contains("not positive definite") && note.contains("sparse LU used"), "{note}");
     assert!(ul.iter().zip(&u).all(|(p, q)| (p - q).abs() <= 1e-12 * scale), "band LU vs LU");
 }

@@ -267,7 +267,7 @@ impl SceneModel for LpsSceneModel {
                  above rtol 1e-10 (docs/solvers.md); the cholesky solver is the safer choice"
             );
             progress.phase(&format!("warning: {note}"));
-            crate::scene::append_note(&mut s.report, note);
+            s.report.notes.push(note);
         }
         Ok(s)
     }

@@ -10,5 +10,4 @@ mod solve;
 
 pub use model::{foreign_system, refusal, Built, DynamicsOperator, Purpose, SceneModel, System};
 pub use problem::{Constraint, Load, Problem};
-pub(crate) use solve::append_note;
 pub use solve::solve_system;

@@ -25,7 +25,7 @@ pub fn solve_system(
     let (u, mut report) = p.timed_solve(system.model(), &system.bc, &system.f, t0, progress)?;
     report.timings.assemble += system.built_before;
     for note in &system.notes {
-        append_note(&mut report, note.clone());
+        report.notes.push(note.clone());
     }
     model.solution(p, &system, u, report)
 }
@@ -53,14 +53,6 @@ impl Problem {
         ));
         Ok((solved.u, report))
     }
-}
-
-/// Adds `note` to the report's note (after the solver's own, `; `-separated).
-pub(crate) fn append_note(report: &mut SolveReport, note: String) {
-    report.note = Some(match report.note.take() {
-        Some(n) => format!("{n}; {note}"),
-        None => note,
-    });
 }
 
 /// A failed static solve as a scene error.

@@ -80,17 +80,14 @@ pub fn solve_assembled_with_progress(
     let resolved = spec.resolve(hints.dim, a.nrows());
     let auto = AutoParams::default();
     let t0 = Instant::now();
-    let ((u, mut report), note) = if symmetric {
-        (symmetric_solve(a, f, &resolved, hints, &auto, progress)?, None)
+    let ((u, mut report), notes) = if symmetric {
+        (symmetric_solve(a, f, &resolved, hints, &auto, progress)?, Vec::new())
     } else {
         unsymmetric_solve(a, f, spec, &resolved, hints, &auto, progress)?
     };
     finite_vector("the solution", &u)?;
     // a note of the solver path (auto's fallback) comes first
-    report.note = match (report.note.take(), note) {
-        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
-        (a, b) => a.or(b),
-    };
+    report.notes.extend(notes);
     report.timings.total = t0.elapsed().as_secs_f64();
     report.rel_residual = relative_residual(a, symmetric, &u, f);
     report.peak_rss_bytes = peak_rss_bytes();
@@ -133,10 +130,10 @@ fn unsymmetric_solve(
     hints: &MatrixHints,
     auto: &AutoParams,
     progress: &dyn Progress,
-) -> Result<(Solved, Option<String>), SolveError> {
+) -> Result<(Solved, Vec<String>), SolveError> {
     Ok(match (resolved, &hints.spd) {
-        (SolverSpec::Dense, _) => (dense_lu(a, f)?, None),
-        (SolverSpec::Lu, _) => (lu(a, f, &hints.ordering, progress)?, None),
+        (SolverSpec::Dense, _) => (dense_lu(a, f)?, Vec::new()),
+        (SolverSpec::Lu, _) => (lu(a, f, &hints.ordering, progress)?, Vec::new()),
         (SolverSpec::Gmres { params, preconditioner }, spd) => {
             // the preconditioner from the SPD approximation (the symmetric part by default;
             // borrowed: a 3D blend's M is ~1 GB)
@@ -145,7 +142,7 @@ fn unsymmetric_solve(
                 None => std::borrow::Cow::Owned(linpd_core::sparse::symmetric_part(a)),
             };
             let geometry = hints.geometry.as_ref();
-            (assembled_gmres_with(a, &m, f, params, *preconditioner, geometry, progress)?, None)
+            (assembled_gmres_with(a, &m, f, params, *preconditioner, geometry, progress)?, Vec::new())
         }
         // `auto` asked (in 1D it resolves to a direct solver name, hence `spec`, not `resolved`)
         (_, Some(spd)) if matches!(spec, SolverSpec::Auto(_)) => {
@@ -160,7 +157,7 @@ fn unsymmetric_solve(
                 "{s} asked, sparse LU used: A is unsymmetric (relative asymmetry {:.2e} > {SYMMETRY_RTOL:e})",
                 hints.asymmetry
             );
-            (lu(a, f, &hints.ordering, progress)?, Some(note))
+            (lu(a, f, &hints.ordering, progress)?, vec![note])
         }
     })
 }
@@ -212,7 +209,9 @@ fn auto_symmetric(
                     if analyzed.is_some() && plan.cholesky_fallback =>
                 {
                     let (u, mut report) = cholesky(a, f, analyzed.expect("checked"), progress)?;
-                    report.note = Some(format!("auto: the first choice failed ({e}); fell back to the Cholesky solve"));
+                    report
+                        .notes
+                        .insert(0, format!("auto: the first choice failed ({e}); fell back to the Cholesky solve"));
                     (u, report)
                 }
                 other => other?,
@@ -238,7 +237,7 @@ fn auto_unsymmetric(
     hints: &MatrixHints,
     auto: &AutoParams,
     progress: &dyn Progress,
-) -> Result<(Solved, Option<String>), SolveError> {
+) -> Result<(Solved, Vec<String>), SolveError> {
     let plan = auto.plan_unsymmetric(hints.dim, a.nrows(), hints.geometry.is_some());
     let multigrid = || {
         assembled_gmres_with(
@@ -256,7 +255,7 @@ fn auto_unsymmetric(
         match multigrid() {
             Ok(solved) => {
                 let note = format!("auto: gmres + multigrid from the SPD approximation {:?} ({why})", spd.kind);
-                return Ok((solved, Some(note)));
+                return Ok((solved, vec![note]));
             }
             Err(e) => failed = Some(e.to_string()),
         }
@@ -265,12 +264,12 @@ fn auto_unsymmetric(
         Some(why) => Err(SpdGmres::TooLarge(why)),
         None => spd_gmres(a, f, spd, &hints.ordering, progress),
     };
-    let mut note = None;
+    let mut notes = Vec::new();
     let solved = match factored {
         Ok(solved) => solved,
         Err(SpdGmres::TooLarge(why)) if plan.multigrid_fallback => {
             let excluded = format!("auto: {} excluded ({why})", SolverId::Gmres(spd.kind));
-            note = Some(format!("{excluded}: gmres + multigrid instead"));
+            notes.push(format!("{excluded}: gmres + multigrid instead"));
             multigrid()
                 .map_err(|e| SolveError::NoSolverFits(format!("{excluded}, and gmres + multigrid failed: {e}")))?
         }
@@ -281,13 +280,12 @@ fn auto_unsymmetric(
             )))
         }
         Err(SpdGmres::Failed(why)) => {
-            note = Some(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
+            notes.push(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
             lu(a, f, &hints.ordering, progress)?
         }
     };
     if let Some(why) = failed {
-        let then = note.take().map(|n| format!("; {n}")).unwrap_or_default();
-        note = Some(format!("auto: gmres + multigrid failed ({why}), the next choice ran{then}"));
+        notes.insert(0, format!("auto: gmres + multigrid failed ({why}), the next choice ran"));
     }
-    Ok((solved, note))
+    Ok((solved, notes))
 }

@@ -110,11 +110,13 @@ fn auto_matrix_free(
         Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. })) => {
             let attempt = t.elapsed().as_secs_f64();
             let (u, mut report) = assembled_solve(system, spec, progress)?;
-            report.note = Some(format!(
-                "auto: matrix-free multigrid-CG failed ({e}; {attempt:.3} s, counted in the solver's \
-                 total); assembled and chose again{}",
-                report.note.take().map(|n| format!("; {n}")).unwrap_or_default()
-            ));
+            report.notes.insert(
+                0,
+                format!(
+                    "auto: matrix-free multigrid-CG failed ({e}; {attempt:.3} s, counted in the solver's \
+                     total); assembled and chose again"
+                ),
+            );
             // the failed attempt is solver time, not assembly
             report.timings.total += attempt;
             Ok((u, report))
