@@ -27,10 +27,27 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let dim: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(3);
     let nodes: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(20);
-    let flag = |name: &str| {
-        args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse::<f64>().ok())
-    };
     let jacobi = args.iter().any(|a| a == "--jacobi");
+    let params = amg_params(&args);
+    let t = Instant::now();
+    let case = Case::new(dim, nodes, args.iter().any(|a| a == "--cantilever"), args.iter().any(|a| a == "--two-phase"));
+    if args.iter().any(|a| a == "--matrix-free") {
+        let Case { grid, op, mm, m, dofs, f, .. } = case;
+        matrix_free(op, grid, m as f64, mm, &dofs, &f, &params, &CgParams { rtol: 1e-8, max_iter: 20_000 }, t);
+        return;
+    }
+    assembled(&case, &params, jacobi, t);
+}
+
+/// The number after `name` on the command line.
+fn flag(args: &[String], name: &str) -> Option<f64> {
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|s| s.parse::<f64>().ok())
+}
+
+/// The AMG parameters: the defaults with the command line's `--theta`, `--coarse-theta`,
+/// `--lanczos`, `--coarse`, `--degree` (with `--lower`) and `--jacobi-sweeps`.
+fn amg_params(args: &[String]) -> AmgParams {
+    let flag = |name: &str| flag(args, name);
     let mut params = AmgParams::default();
     if let Some(t) = flag("--theta") {
         params.strength_theta = t;
@@ -51,85 +68,89 @@ fn main() {
     if let Some(s) = flag("--jacobi-sweeps") {
         params.smoother = AmgSmoother::Jacobi { omega: 4.0 / 3.0, sweeps: s as usize };
     }
-    let m = if dim == 3 { 3 } else { 2 };
-    let t = Instant::now();
-    let mm = Micromodulus {
-        kernel: Kernel::InverseDistance,
-        normalization: Normalization::Discrete,
-        modulus: 1.0,
-        plane: (dim == 2).then_some(PlaneModel::Stress),
-        partial_volume: false,
-    };
-    // `--cantilever`: the cases of `linpd bench --statics` (issue #12): the body has `nodes`
-    // per side plus a layer of `m` nodes outside every face; the layer at x <= 0 is clamped
-    // and the layer at x >= 1 carries the load. Otherwise: the `m` planes x < m h are clamped
-    // and every node is loaded.
-    let cantilever = args.iter().any(|a| a == "--cantilever");
-    let side = if cantilever { nodes + 2 * m } else { nodes };
-    let last = (side - 1) as f64;
-    let grid = Grid::new(&vec![0.0; dim], &vec![last; dim], 1.0, 0.0, Placement::Vertex).unwrap();
-    // `--two-phase`: the half x > (side - 1)/2 has modulus 1e4 (harmonic bond rule).
-    let two_phase = args.iter().any(|a| a == "--two-phase");
-    let material = if two_phase {
-        let half = vec![last / 2.0; dim];
-        Material {
-            phases: vec![(Region::Box { min: half, max: vec![2.0 * last; dim] }, 1e4)],
-            rule: BondRule::Harmonic,
-            defects: vec![],
+    params
+}
+
+/// The clamped and loaded lattice of a run.
+struct Case {
+    dim: usize,
+    nodes: usize,
+    /// Horizon in lattice steps (`delta = m h`, `h = 1`).
+    m: usize,
+    two_phase: bool,
+    grid: Grid,
+    op: BondOperator,
+    mm: Micromodulus,
+    dofs: DofMap,
+    /// Nodal forces over all DOFs.
+    f: Vec<f64>,
+}
+
+impl Case {
+    fn new(dim: usize, nodes: usize, cantilever: bool, two_phase: bool) -> Self {
+        let m = if dim == 3 { 3 } else { 2 };
+        let mm = Micromodulus {
+            kernel: Kernel::InverseDistance,
+            normalization: Normalization::Discrete,
+            modulus: 1.0,
+            plane: (dim == 2).then_some(PlaneModel::Stress),
+            partial_volume: false,
+        };
+        // `--cantilever`: the cases of `linpd bench --statics` (issue #12): the body has `nodes`
+        // per side plus a layer of `m` nodes outside every face; the layer at x <= 0 is clamped
+        // and the layer at x >= 1 carries the load. Otherwise: the `m` planes x < m h are clamped
+        // and every node is loaded.
+        let side = if cantilever { nodes + 2 * m } else { nodes };
+        let last = (side - 1) as f64;
+        let grid = Grid::new(&vec![0.0; dim], &vec![last; dim], 1.0, 0.0, Placement::Vertex).unwrap();
+        // `--two-phase`: the half x > (side - 1)/2 has modulus 1e4 (harmonic bond rule).
+        let material = if two_phase {
+            let half = vec![last / 2.0; dim];
+            Material {
+                phases: vec![(Region::Box { min: half, max: vec![2.0 * last; dim] }, 1e4)],
+                rule: BondRule::Harmonic,
+                defects: vec![],
+            }
+        } else {
+            Material::default()
+        };
+        let op = BondOperator::on_grid(&grid, m as f64, &mm, &material).unwrap();
+        let mut mask = vec![false; dim * grid.len()];
+        let mut f = vec![0.0; dim * grid.len()];
+        for n in 0..grid.len() {
+            let kx = grid.lattice_index(n)[0] as usize;
+            let (clamped, loaded) = if cantilever { (kx <= m, kx >= nodes - 1 + m) } else { (kx < m, true) };
+            if clamped {
+                mask[dim * n..dim * n + dim].iter_mut().for_each(|c| *c = true);
+            }
+            if loaded {
+                f[dim * n + dim - 1] = -1e-3;
+            }
         }
-    } else {
-        Material::default()
-    };
-    let op = BondOperator::on_grid(&grid, m as f64, &mm, &material).unwrap();
-    let mut mask = vec![false; dim * grid.len()];
-    let mut f = vec![0.0; dim * grid.len()];
-    for n in 0..grid.len() {
-        let kx = grid.lattice_index(n)[0] as usize;
-        let (clamped, loaded) = if cantilever { (kx <= m, kx >= nodes - 1 + m) } else { (kx < m, true) };
-        if clamped {
-            mask[dim * n..dim * n + dim].iter_mut().for_each(|c| *c = true);
-        }
-        if loaded {
-            f[dim * n + dim - 1] = -1e-3;
-        }
+        let dofs = DofMap::new(dim, &mask);
+        Case { dim, nodes, m, two_phase, grid, op, mm, dofs, f }
     }
-    let dofs = DofMap::new(dim, &mask);
-    if args.iter().any(|a| a == "--matrix-free") {
-        matrix_free(op, grid, m as f64, mm, &dofs, &f, &params, &CgParams { rtol: 1e-8, max_iter: 20_000 }, t);
-        return;
-    }
-    let a = assemble(&op, &dofs);
-    let b = dofs.gather(&f);
-    let geometry = DofGeometry::of(&op, &dofs);
+}
+
+/// The assembled run: the hierarchy, AMG-PCG with CG's product through the CSC and through the
+/// AMG's block copy, and with `jacobi` Jacobi-PCG.
+fn assembled(case: &Case, params: &AmgParams, jacobi: bool, t_build: Instant) {
+    let Case { dim, nodes, two_phase, .. } = *case;
+    let (op, dofs) = (&case.op, &case.dofs);
+    let a = assemble(op, dofs);
+    let b = dofs.gather(&case.f);
+    let geometry = DofGeometry::of(op, dofs);
     println!(
         "{dim}D {nodes}^{dim}: {} unknowns, {} stored entries, built in {:.2} s",
         a.nrows(),
         a.val().len(),
-        t.elapsed().as_secs_f64()
+        t_build.elapsed().as_secs_f64()
     );
     let cg = CgParams { rtol: 1e-8, max_iter: 20_000 };
     let t = Instant::now();
-    let amg = Amg::from_geometry(&a, &geometry, &params).unwrap();
+    let amg = Amg::from_geometry(&a, &geometry, params).unwrap();
     let setup = t.elapsed().as_secs_f64();
-    let s = amg.stats();
-    for (l, lv) in s.levels.iter().enumerate() {
-        println!(
-            "  level {l}: {} rows, {} blocks, {} nnz, rho {:?}, P nnz {:?}",
-            lv.rows,
-            lv.blocks,
-            lv.nnz,
-            lv.rho.map(|r| (r * 1e3).round() / 1e3),
-            lv.prolongator_nnz
-        );
-    }
-    println!(
-        "  operator complexity {:.3}, grid complexity {:.3}, coarse factor nnz {}, {:.0} MiB",
-        s.operator_complexity,
-        s.grid_complexity,
-        s.coarse_factor_nnz,
-        s.memory_bytes as f64 / (1u64 << 20) as f64
-    );
-    println!("  setup times {:?}", s.times);
+    print_hierarchy(&amg);
     // CG's own product through the faer CSC (16 bytes per entry) and through the block copy
     // the AMG holds (8 bytes per entry + an index per block).
     for (label, op) in [("CSC", &SymCsc(&a) as &dyn LinearOperator), ("block", &amg.operator())] {
@@ -161,6 +182,29 @@ fn main() {
             info.rel_residual
         );
     }
+}
+
+/// The levels of the assembled hierarchy, its complexities, memory and setup times.
+fn print_hierarchy(amg: &Amg) {
+    let s = amg.stats();
+    for (l, lv) in s.levels.iter().enumerate() {
+        println!(
+            "  level {l}: {} rows, {} blocks, {} nnz, rho {:?}, P nnz {:?}",
+            lv.rows,
+            lv.blocks,
+            lv.nnz,
+            lv.rho.map(|r| (r * 1e3).round() / 1e3),
+            lv.prolongator_nnz
+        );
+    }
+    println!(
+        "  operator complexity {:.3}, grid complexity {:.3}, coarse factor nnz {}, {:.0} MiB",
+        s.operator_complexity,
+        s.grid_complexity,
+        s.coarse_factor_nnz,
+        s.memory_bytes as f64 / (1u64 << 20) as f64
+    );
+    println!("  setup times {:?}", s.times);
 }
 
 /// `--matrix-free`: the hierarchy from the model's blocks, CG through the stencil.
