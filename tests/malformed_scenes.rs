@@ -164,6 +164,8 @@ fn parse(name: &'static str, text: String, path: &'static str, needle: &'static 
     Case { name, text, stage: Stage::Parse, path, needle, check: None }
 }
 
+// A table of cases (one entry per malformed scene), not logic to split.
+#[allow(clippy::too_many_lines)]
 fn cases() -> Vec<Case> {
     let mm = "model/micromodulus";
     vec![
