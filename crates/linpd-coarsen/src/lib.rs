@@ -123,7 +123,6 @@
 
 mod bvp;
 mod cells;
-pub mod io;
 mod level;
 pub mod paper;
 mod retain;

@@ -1,11 +1,13 @@
 //! Every file format of linpd, once: point clouds from CSV ([`cloud`], on the csv crate) and VTK
-//! ([`vtk`]: reading through vtkio, and the VTU/PVD writer of results and snapshots), PETSc's
-//! binary matrices and vectors ([`petsc`]). Errors are [`IoError`]: the file, and for text
+//! ([`vtk`]: reading through vtkio, and the VTU/PVD writer of results and snapshots), Matrix
+//! Market and the level files of a coarsened model ([`mtx`]), PETSc's binary matrices and
+//! vectors ([`petsc`]). Errors are [`IoError`]: the file, and for text
 //! formats the line (or the point) and what is wrong there.
 #![deny(missing_docs)]
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
 
 pub mod cloud;
+pub mod mtx;
 pub mod petsc;
 pub mod vtk;
 

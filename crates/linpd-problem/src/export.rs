@@ -35,10 +35,10 @@
 use crate::models::{Capability, Purpose};
 use crate::scene::Problem;
 use crate::ProblemError;
-use linpd_coarsen::io::{write_matrix_market, IoError};
 use linpd_core::progress::Progress;
 use linpd_core::sparse::{relative_asymmetry, Csc};
 use linpd_core::DofMap;
+use linpd_io::mtx::{write_matrix_market, MtxError};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -108,8 +108,8 @@ impl ReducedSystem {
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, ProblemError> {
         let n = self.n();
         let paths: Vec<PathBuf> = EXPORT_FILES.iter().map(|f| dir.join(f)).collect();
-        let written = |e: IoError| match e {
-            IoError::Write { path, source } => ProblemError::Io { path, source },
+        let written = |e: MtxError| match e {
+            MtxError::Write { path, source } => ProblemError::Io { path, source },
             other => {
                 ProblemError::Io { path: dir.display().to_string(), source: std::io::Error::other(other.to_string()) }
             }

@@ -1,5 +1,5 @@
 //! `"type": "coarsened"` scenes: a coarsened level model read from a moduli file
-//! ([`linpd_coarsen::io`]), one more model ([`super::SceneModel`]) of the same [`crate::Problem`],
+//! ([`linpd_io::mtx`]), one more model ([`super::SceneModel`]) of the same [`crate::Problem`],
 //! with the same constraints, loads, solvers and outputs as the lattice models.
 //!
 //! The level's nodes (positions `x_i`, volumes `v_i`) come from the nodes file beside the
@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-pub use linpd_coarsen::io::{IoError, ModuliFile};
+pub use linpd_io::mtx::{ModuliFile, MtxError};
 
 pub use linpd_core::sparse::SYMMETRY_RTOL;
 
@@ -187,7 +187,7 @@ fn validate(cx: &Context, keys: &RawCoarsened) -> Result<Validated, ProblemError
             "grid",
             format!(
                 "not used by a coarsened model (its nodes come from {})",
-                linpd_coarsen::io::nodes_path(&moduli_path).display()
+                linpd_io::mtx::nodes_path(&moduli_path).display()
             ),
         ));
     }

@@ -1,5 +1,7 @@
-//! Reading and writing coarsened moduli: a Matrix Market file of the pointwise micromodulus
-//! tensor plus a CSV node list.
+//! Matrix Market: the writer of `coordinate real general` files ([`write_matrix_market`], for
+//! `linpd export` and the levels of `linpd coarsen`) and the level files of a coarsened model
+//! ([`ModuliFile`]): a Matrix Market file of the pointwise micromodulus tensor plus a CSV node
+//! list, read in one pass with the file and line in every error.
 //!
 //! # The model a file holds
 //!
@@ -43,28 +45,22 @@
 //! the format's 1024 per line); only blocks with `i != j` are stored (the diagonal block follows
 //! from the zero row sums), and exact zeros are omitted.
 //!
-//! # What sprs does and what is left here
+//! # What sprs does and what is done here
 //!
-//! The matrix is written by `sprs::io::write_matrix_market_to_bufwrite` and its entries read by
-//! `sprs::io::read_matrix_market_from_bufread`. Three hand-written pieces remain, each because
-//! sprs does not do it:
+//! The matrix is written by `sprs::io::write_matrix_market_to_bufwrite`; sprs takes no comments
+//! of ours, so [`write_matrix_market`] inserts the `% level`, `% dim` and `% nodes` lines after
+//! the banner as sprs writes it.
 //!
-//! * writing: sprs takes no comments of ours, so [`write_matrix_market`] inserts the `% level`,
-//!   `% dim` and `% nodes` lines after the banner as sprs writes it;
-//! * reading the header: sprs skips comments (we need `% dim`, `% level`, `% nodes`), takes any
-//!   banner containing `real` and `general` (or `symmetric`, which it would mirror), takes a
-//!   blank line before the size line for the size line, and never returns at an end of file
-//!   inside the header; so the banner, the comments and the size line are read here, and sprs
-//!   is handed the canonical banner and the file from its size line on;
-//! * checking the entry lines before sprs reads them: its errors name no line
-//!   (`Bad matrix market file.`), it asserts (panics) in `TriMat::from_triplets` on an index
-//!   beyond the size line, it allocates the declared entry count before reading one, and it
-//!   ignores lines after the declared count. So every entry line is checked here first (three
-//!   fields, 1-based indices in range, not in a diagonal block, a finite value) with the file
-//!   and line in the message, the declared count against the file's size (issue #15 item 2:
-//!   never an allocation sized by the header) and against the lines found. sprs then parses
-//!   what passed: a second pass over the text (reading the 4.5 MB, 149,872-entry level 1 of
-//!   `data/coarsen-plate-2d.pipeline.json` takes 91 ms, of which sprs 42 ms).
+//! It is read here, in one pass over the text, not by sprs: sprs skips comments (we need
+//! `% dim`, `% level`, `% nodes`), takes any banner containing `real` and `general` (or
+//! `symmetric`, which it would mirror), takes a blank line before the size line for the size
+//! line, names no line in its errors (`Bad matrix market file.`), asserts (panics) in
+//! `TriMat::from_triplets` on an index beyond the size line, allocates the declared entry count
+//! before reading one, and ignores lines after the declared count. Every entry line is parsed
+//! and checked once (three fields, 1-based indices in range, not in a diagonal block, a finite
+//! value: Rust's `f64` parser, correctly rounded, reads sprs's `{}` values back bit for bit),
+//! with the file and line in the message; the declared count is checked against the file's
+//! size (never an allocation sized by the header) and against the lines found.
 //!
 //! Comment lines are allowed before the size line only, as the Matrix Market format says.
 //!
@@ -73,7 +69,7 @@
 
 use faer::sparse::{SparseColMat, Triplet};
 use std::fmt::Write as _;
-use std::io::{Read as _, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -86,7 +82,7 @@ const BANNER: &str = "%%MatrixMarket matrix coordinate real general";
 /// 1-based line and say what was expected.
 #[non_exhaustive]
 #[derive(Debug, Error)]
-pub enum IoError {
+pub enum MtxError {
     /// The file is missing or unreadable.
     #[error("{path}: cannot read: {source}")]
     Read {
@@ -177,7 +173,7 @@ pub fn write_matrix_market(
     (rows, cols): (usize, usize),
     entries: impl IntoIterator<Item = (usize, usize, f64)>,
     comments: &[String],
-) -> Result<(), IoError> {
+) -> Result<(), MtxError> {
     let (mut r, mut c, mut v) = (Vec::new(), Vec::new(), Vec::new());
     for (i, j, x) in entries {
         r.push(i);
@@ -185,7 +181,7 @@ pub fn write_matrix_market(
         v.push(x);
     }
     let m = sprs::TriMat::from_triplets((rows, cols), r, c, v);
-    let werr = |source| IoError::Write { path: show(path), source };
+    let werr = |source| MtxError::Write { path: show(path), source };
     let comments: String = comments.iter().map(|l| format!("% {l}\n")).collect();
     let file = std::fs::File::create(path).map_err(werr)?;
     let mut w = AfterBanner { inner: std::io::BufWriter::new(file), comments: Some(comments) };
@@ -217,8 +213,8 @@ impl<W: Write> Write for AfterBanner<W> {
 
 /// Reads a whole file; devices and pipes (`/dev/urandom`) are refused before reading, since
 /// they may never end.
-fn read_text(path: &Path) -> Result<String, IoError> {
-    let read = |source| IoError::Read { path: show(path), source };
+fn read_text(path: &Path) -> Result<String, MtxError> {
+    let read = |source| MtxError::Read { path: show(path), source };
     let meta = std::fs::metadata(path).map_err(read)?;
     if !meta.is_file() {
         return Err(read(std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file")));
@@ -296,14 +292,14 @@ impl ModuliFile {
     }
 
     /// Checks the in-memory model: the rules [`ModuliFile::read`] enforces on a file.
-    pub fn validate(&self) -> Result<(), IoError> {
+    pub fn validate(&self) -> Result<(), MtxError> {
         let d = self.dim;
         let n = self.n_nodes();
         if !(1..=3).contains(&d) {
-            return Err(IoError::Model(format!("dim must be 1, 2 or 3, got {d}")));
+            return Err(MtxError::Model(format!("dim must be 1, 2 or 3, got {d}")));
         }
         if self.positions.len() != n || self.level0.len() != n {
-            return Err(IoError::Model(format!(
+            return Err(MtxError::Model(format!(
                 "{} positions, {} volumes and {} level0 indices: need one of each per node",
                 self.positions.len(),
                 n,
@@ -311,33 +307,33 @@ impl ModuliFile {
             )));
         }
         if let Some(i) = self.volumes.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
-            return Err(IoError::Model(format!("node {i}: volume must be finite and > 0, got {:e}", self.volumes[i])));
+            return Err(MtxError::Model(format!("node {i}: volume must be finite and > 0, got {:e}", self.volumes[i])));
         }
         if let Some(i) = self.positions.iter().position(|x| x.iter().any(|c| !c.is_finite())) {
-            return Err(IoError::Model(format!("node {i}: position {:?} is not finite", self.positions[i])));
+            return Err(MtxError::Model(format!("node {i}: position {:?} is not finite", self.positions[i])));
         }
         for &(r, c, v) in &self.entries {
             if r >= d * n || c >= d * n {
-                return Err(IoError::Model(format!("entry ({r}, {c}) is outside the {0}x{0} matrix", d * n)));
+                return Err(MtxError::Model(format!("entry ({r}, {c}) is outside the {0}x{0} matrix", d * n)));
             }
             if r / d == c / d {
-                return Err(IoError::Model(format!("entry ({r}, {c}) lies in the diagonal block of node {}", r / d)));
+                return Err(MtxError::Model(format!("entry ({r}, {c}) lies in the diagonal block of node {}", r / d)));
             }
             if !v.is_finite() {
-                return Err(IoError::Model(format!("entry ({r}, {c}) = {v:e} is not finite")));
+                return Err(MtxError::Model(format!("entry ({r}, {c}) = {v:e} is not finite")));
             }
         }
         Ok(())
     }
 
     /// Writes `<stem>.mtx` and `<stem>.nodes.csv` (creating the directory); returns both paths.
-    pub fn write(&self, stem: &Path) -> Result<Vec<PathBuf>, IoError> {
+    pub fn write(&self, stem: &Path) -> Result<Vec<PathBuf>, MtxError> {
         self.validate()?;
         let mtx = with_suffix(stem, ".mtx");
         let csv = with_suffix(stem, ".nodes.csv");
         let werr = |p: &Path| {
             let p = show(p);
-            move |source| IoError::Write { path: p, source }
+            move |source| MtxError::Write { path: p, source }
         };
         if let Some(dir) = mtx.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(werr(dir))?;
@@ -368,17 +364,12 @@ impl ModuliFile {
 
     /// Reads `<stem>.mtx` and its nodes file: the name in the `% nodes` comment (beside the
     /// matrix) when that file exists, else `<stem>.nodes.csv`.
-    pub fn read(mtx_path: &Path) -> Result<ModuliFile, IoError> {
+    pub fn read(mtx_path: &Path) -> Result<ModuliFile, MtxError> {
         let path = show(mtx_path);
         let text = read_text(mtx_path)?;
         let err = MtxErrors { path: path.clone() };
-        // (1-based line, byte offset, trimmed text): the offset of the size line is where sprs
-        // starts reading.
-        let mut at = 0;
-        let mut lines = text.split_inclusive('\n').enumerate().map(|(k, raw)| {
-            at += raw.len();
-            (k + 1, at - raw.len(), raw.trim())
-        });
+        // (1-based line, trimmed text)
+        let mut lines = text.split_inclusive('\n').enumerate().map(|(k, raw)| (k + 1, raw.trim()));
         let header = read_header(&mut lines, text.len(), &err)?;
         let d = header.dim;
         let csv_path = header.nodes_file(mtx_path, &err)?;
@@ -395,11 +386,10 @@ impl ModuliFile {
                 ),
             ));
         }
-        let found = check_entries(lines, &header, &err)?;
-        if found != header.nnz {
-            return Err(IoError::EntryCount { path, declared: header.nnz, found });
+        let entries = read_entries(lines, &header, &err)?;
+        if entries.len() != header.nnz {
+            return Err(MtxError::EntryCount { path, declared: header.nnz, found: entries.len() });
         }
-        let entries = sprs_entries(&text, &header, &err)?;
         Ok(ModuliFile { level: header.level, dim: d, positions, volumes, level0, entries })
     }
 
@@ -434,8 +424,8 @@ impl ModuliFile {
     }
 }
 
-/// A line of a `.mtx` file: 1-based number, byte offset, trimmed text.
-type Line<'t> = (usize, usize, &'t str);
+/// A line of a `.mtx` file: 1-based number, trimmed text.
+type Line<'t> = (usize, &'t str);
 
 /// The errors of one `.mtx` file, each naming the file and the line.
 struct MtxErrors {
@@ -444,12 +434,12 @@ struct MtxErrors {
 
 impl MtxErrors {
     /// The line does not have the `expected` form.
-    fn syntax(&self, line: usize, expected: &str, found: &str) -> IoError {
-        IoError::Syntax { path: self.path.clone(), line, expected: expected.into(), found: excerpt(found) }
+    fn syntax(&self, line: usize, expected: &str, found: &str) -> MtxError {
+        MtxError::Syntax { path: self.path.clone(), line, expected: expected.into(), found: excerpt(found) }
     }
     /// A well-formed line with a value that is not allowed.
-    fn invalid(&self, line: usize, reason: String) -> IoError {
-        IoError::Invalid { path: self.path.clone(), line, reason }
+    fn invalid(&self, line: usize, reason: String) -> MtxError {
+        MtxError::Invalid { path: self.path.clone(), line, reason }
     }
 }
 
@@ -462,9 +452,8 @@ struct MtxHeader {
     dim: usize,
     /// `% nodes <name>` and its line.
     nodes_name: Option<(String, usize)>,
-    /// Line and byte offset of the size line.
+    /// Line of the size line.
     size_ln: usize,
-    size_at: usize,
     /// The size line: `rows cols entries`.
     rows: usize,
     cols: usize,
@@ -474,7 +463,7 @@ struct MtxHeader {
 impl MtxHeader {
     /// The nodes file: the `% nodes` file beside the matrix when it exists (or when the default
     /// does not), else `<stem>.nodes.csv`; a refused name is an error at its line.
-    fn nodes_file(&self, mtx_path: &Path, err: &MtxErrors) -> Result<PathBuf, IoError> {
+    fn nodes_file(&self, mtx_path: &Path, err: &MtxErrors) -> Result<PathBuf, MtxError> {
         let dir = mtx_path.parent().unwrap_or(Path::new(""));
         let default_csv = default_nodes_path(mtx_path);
         Ok(match &self.nodes_name {
@@ -495,13 +484,13 @@ fn read_header<'t>(
     lines: &mut impl Iterator<Item = Line<'t>>,
     text_len: usize,
     err: &MtxErrors,
-) -> Result<MtxHeader, IoError> {
-    let (ln, _, banner) = lines.next().unwrap_or((1, 0, ""));
+) -> Result<MtxHeader, MtxError> {
+    let (ln, banner) = lines.next().unwrap_or((1, ""));
     let toks: Vec<String> = banner.split_whitespace().map(|t| t.to_ascii_lowercase()).collect();
     if toks.len() != 5 || toks[0] != "%%matrixmarket" || toks[1..] != ["matrix", "coordinate", "real", "general"] {
         return Err(err.syntax(ln, &format!("the banner `{BANNER}`"), banner));
     }
-    let (level, dim, nodes_name, (size_ln, size_at, size_line)) = read_comments(lines, err)?;
+    let (level, dim, nodes_name, (size_ln, size_line)) = read_comments(lines, err)?;
     let Some((d, _)) = dim else {
         return Err(err.syntax(size_ln, "a `% dim <d>` comment before the size line", size_line));
     };
@@ -524,7 +513,7 @@ fn read_header<'t>(
             ),
         ));
     }
-    Ok(MtxHeader { level, dim: d, nodes_name, size_ln, size_at, rows, cols, nnz })
+    Ok(MtxHeader { level, dim: d, nodes_name, size_ln, rows, cols, nnz })
 }
 
 /// `% level`, `% dim` (with its line) and `% nodes` (with its line), and the size line.
@@ -532,16 +521,16 @@ type Comments<'t> = (usize, Option<(usize, usize)>, Option<(String, usize)>, Lin
 
 /// Reads the comment lines after the banner (`% level`, `% dim`, `% nodes`; others and blank
 /// lines are skipped) up to the first other line, the size line.
-fn read_comments<'t>(lines: &mut impl Iterator<Item = Line<'t>>, err: &MtxErrors) -> Result<Comments<'t>, IoError> {
+fn read_comments<'t>(lines: &mut impl Iterator<Item = Line<'t>>, err: &MtxErrors) -> Result<Comments<'t>, MtxError> {
     let (mut level, mut dim, mut nodes_name) = (0usize, None::<(usize, usize)>, None::<(String, usize)>);
     let size = loop {
-        let Some((ln, at, l)) = lines.next() else {
+        let Some((ln, l)) = lines.next() else {
             return Err(err.syntax(0, "a size line `rows cols entries`", "end of file"));
         };
         if l.is_empty() {
             continue;
         }
-        let Some(c) = l.strip_prefix('%') else { break (ln, at, l) };
+        let Some(c) = l.strip_prefix('%') else { break (ln, l) };
         let mut it = c.split_whitespace();
         match it.next() {
             Some("level") => {
@@ -568,16 +557,16 @@ fn read_comments<'t>(lines: &mut impl Iterator<Item = Line<'t>>, err: &MtxErrors
     Ok((level, dim, nodes_name, size))
 }
 
-/// Checks the entry lines before sprs reads them (sprs names no line in its errors and asserts
-/// (panics) on an index beyond the size line; see the module docs); returns how many there are.
-fn check_entries<'t>(
+/// Reads and checks the entry lines (0-based `(row, col, value)`): three fields, 1-based indices
+/// in range, not in a diagonal block, a finite value; the file and line in every error.
+fn read_entries<'t>(
     lines: impl Iterator<Item = Line<'t>>,
     header: &MtxHeader,
     err: &MtxErrors,
-) -> Result<usize, IoError> {
+) -> Result<Vec<(usize, usize, f64)>, MtxError> {
     let (d, rows, cols) = (header.dim, header.rows, header.cols);
-    let mut found = 0usize;
-    for (ln, _, l) in lines {
+    let mut entries = Vec::new();
+    for (ln, l) in lines {
         if l.is_empty() {
             continue;
         }
@@ -608,32 +597,21 @@ fn check_entries<'t>(
         if !v.is_finite() {
             return Err(err.invalid(ln, format!("entry ({r}, {c}) has the non-finite value {}", excerpt(t[2]))));
         }
-        found += 1;
+        entries.push((r - 1, c - 1, v));
     }
-    Ok(found)
-}
-
-/// The checked entries (0-based) as sprs reads them: from the size line on, after the banner
-/// checked by [`read_header`] (its own header parser takes a blank line for the size line); it
-/// allocates `nnz` = the entry lines found.
-fn sprs_entries(text: &str, header: &MtxHeader, err: &MtxErrors) -> Result<Vec<(usize, usize, f64)>, IoError> {
-    let mut body =
-        std::io::BufReader::new(BANNER.as_bytes().chain(&b"\n"[..]).chain(&text.as_bytes()[header.size_at..]));
-    let m: sprs::TriMat<f64> = sprs::io::read_matrix_market_from_bufread(&mut body)
-        .map_err(|e| err.invalid(header.size_ln, format!("sprs could not read the checked entries: {e}")))?;
-    Ok(m.row_inds().iter().zip(m.col_inds()).zip(m.data()).map(|((&r, &c), &v)| (r, c, v)).collect())
+    Ok(entries)
 }
 
 type Nodes = (Vec<[f64; 3]>, Vec<f64>, Vec<usize>);
 
-fn read_nodes(path: &Path) -> Result<Nodes, IoError> {
+fn read_nodes(path: &Path) -> Result<Nodes, MtxError> {
     let p = show(path);
     let text = read_text(path)?;
     let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l.trim()));
     let header = lines.next().map(|x| x.1).unwrap_or("");
     let norm: String = header.chars().filter(|c| !c.is_whitespace()).collect();
     if norm != NODES_HEADER {
-        return Err(IoError::Syntax {
+        return Err(MtxError::Syntax {
             path: p,
             line: 1,
             expected: format!("the header `{NODES_HEADER}`"),
@@ -650,7 +628,7 @@ fn read_nodes(path: &Path) -> Result<Nodes, IoError> {
         let nums: Option<Vec<f64>> = ok.then(|| f[..4].iter().map(|s| s.parse::<f64>().ok()).collect()).flatten();
         let idx = ok.then(|| f[4].parse::<usize>().ok()).flatten();
         let (Some(nums), Some(idx)) = (nums, idx) else {
-            return Err(IoError::Syntax {
+            return Err(MtxError::Syntax {
                 path: p,
                 line: ln,
                 expected: "a row `x,y,z,volume,level0` (four reals and a non-negative integer)".into(),
@@ -659,14 +637,14 @@ fn read_nodes(path: &Path) -> Result<Nodes, IoError> {
         };
         let node = v.len();
         if nums[..3].iter().any(|c| !c.is_finite()) {
-            return Err(IoError::Invalid {
+            return Err(MtxError::Invalid {
                 path: p,
                 line: ln,
                 reason: format!("node {node}: the position must be finite, got {:?}", &nums[..3]),
             });
         }
         if !(nums[3].is_finite() && nums[3] > 0.0) {
-            return Err(IoError::Invalid {
+            return Err(MtxError::Invalid {
                 path: p,
                 line: ln,
                 reason: format!("node {node}: the volume must be finite and > 0, got {}", excerpt(f[3])),
