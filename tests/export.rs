@@ -249,11 +249,11 @@ fn export_coarsened_level_scene() {
     let p = Problem::from_path(&scene).unwrap();
     assert!(p.model().downcast::<CoarsenedModel>().is_some());
     let bc = p.dirichlet();
-    let k = linpd::core::sparse::restrict_to_free(&level.stiffness(), bc.dofs());
+    let k = linpd::core::sparse::restrict_to_free(&level.stiffness().unwrap(), bc.dofs());
     assert_eq!(read_mtx(&ex.join("K.mtx")).2, csc_entries(&k));
     let f = read_vector(&ex.join("f.mtx"));
     // u_bar = 0.5 at node 0 enters the right-hand side: f_f - (K u_bar)_f, not just the load.
-    let model = linpd::core::AssembledModel::new("coarsened", 1, level.positions.clone(), level.stiffness());
+    let model = linpd::core::AssembledModel::new("coarsened", 1, level.positions.clone(), level.stiffness().unwrap());
     let rhs = bc.reduced_rhs(&ModelOperator(&model), &p.load_vector());
     assert_eq!(f, rhs);
     assert!(f[0] != 0.0, "the prescribed displacement reaches the first free row");

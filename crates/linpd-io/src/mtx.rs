@@ -394,8 +394,10 @@ impl ModuliFile {
     }
 
     /// The nodal stiffness `K` (`d n x d n`, CSC, duplicates summed): `K_ij = -v_i v_j C_ij`
-    /// (`i != j`), `K_ii = -sum_{j != i} K_ij`.
-    pub fn stiffness(&self) -> SparseColMat<usize, f64> {
+    /// (`i != j`), `K_ii = -sum_{j != i} K_ij`; an error when the model is inconsistent
+    /// ([`ModuliFile::validate`]: a file read by [`ModuliFile::read`] never is).
+    pub fn stiffness(&self) -> Result<SparseColMat<usize, f64>, MtxError> {
+        self.validate()?;
         let d = self.dim;
         let n_dofs = d * self.n_nodes();
         let mut t = Vec::with_capacity(2 * self.entries.len());
@@ -405,7 +407,7 @@ impl ModuliFile {
             t.push(Triplet::new(r, c, -k));
             t.push(Triplet::new(r, d * i + b, k));
         }
-        SparseColMat::try_new_from_triplets(n_dofs, n_dofs, &t).expect("indices checked by validate/read")
+        SparseColMat::try_new_from_triplets(n_dofs, n_dofs, &t).map_err(|e| MtxError::Model(format!("{e:?}")))
     }
 
     /// `max |C_ij[a][b] - C_ji[b][a]| / max |C|` (0 for an empty model): the relative departure
@@ -743,7 +745,7 @@ mod tests {
     fn stiffness_has_zero_row_sums_and_is_symmetric() {
         let m = sample_2d();
         assert_eq!(m.asymmetry(), 0.0);
-        let k = m.stiffness();
+        let k = m.stiffness().unwrap();
         let nd = 2 * m.n_nodes();
         assert_eq!((k.nrows(), k.ncols()), (nd, nd));
         let mut dense = vec![vec![0.0; nd]; nd];

@@ -68,7 +68,7 @@ fn models() -> Vec<(String, Box<dyn Model>, Vec<f64>)> {
     };
     out.push((
         "coarsened level".into(),
-        Box::new(AssembledModel::new("coarsened", 2, positions, file.stiffness())),
+        Box::new(AssembledModel::new("coarsened", 2, positions, file.stiffness().unwrap())),
         file.volumes,
     ));
     out
@@ -156,7 +156,7 @@ fn collinear_partners_give_a_listed_zero_strain() {
             level0: (0..n).collect(),
             entries,
         };
-        AssembledModel::new("coarsened", 2, positions, file.stiffness())
+        AssembledModel::new("coarsened", 2, positions, file.stiffness().unwrap())
     };
     let line = level(vec![[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 0.0]]);
     let u = affine(&line, [0.0; 3], &[[1.0, 2.0, 0.0], [3.0, 4.0, 0.0], [0.0; 3]]);

@@ -216,8 +216,13 @@ fn validate(cx: &Context, keys: &RawCoarsened) -> Result<Validated, ProblemError
             format!("{}: the level has no nodes", moduli_path.display()),
         ));
     }
-    let model = AssembledModel::new("coarsened", dim, file.positions.clone(), file.stiffness())
-        .with_labels("level-0 node", file.level0.clone());
+    let model = AssembledModel::new(
+        "coarsened",
+        dim,
+        file.positions.clone(),
+        file.stiffness().map_err(|e| ProblemError::invalid("model.moduli", e.to_string()))?,
+    )
+    .with_labels("level-0 node", file.level0.clone());
     let asymmetry = model.stiffness_asymmetry();
     let reciprocity = file.asymmetry();
     let mut pairs: Vec<(usize, usize)> =
