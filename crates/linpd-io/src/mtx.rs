@@ -65,7 +65,7 @@
 //! Comment lines are allowed before the size line only, as the Matrix Market format says.
 //!
 //! `out/level-1.nodes.csv`: header `x,y,z,volume,level0`, one row per node in level order, unused
-//! coordinates 0, floats `{:.17e}`.
+//! coordinates 0, floats `{:.17e}`; read with the csv crate, as the point clouds of [`crate::cloud`].
 
 use faer::sparse::{SparseColMat, Triplet};
 use std::fmt::Write as _;
@@ -606,36 +606,43 @@ fn read_entries<'t>(
 
 type Nodes = (Vec<[f64; 3]>, Vec<f64>, Vec<usize>);
 
+/// Reads a level's nodes file (on the csv crate, as the point clouds): the header
+/// [`NODES_HEADER`], then `x,y,z,volume,level0` per node; errors name the file and the line.
 fn read_nodes(path: &Path) -> Result<Nodes, MtxError> {
     let p = show(path);
     let text = read_text(path)?;
-    let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l.trim()));
-    let header = lines.next().map(|x| x.1).unwrap_or("");
-    let norm: String = header.chars().filter(|c| !c.is_whitespace()).collect();
+    let syntax = |line: usize, expected: String, found: &str| MtxError::Syntax {
+        path: p.clone(),
+        line,
+        expected,
+        found: excerpt(found),
+    };
+    let mut reader =
+        csv::ReaderBuilder::new().has_headers(false).trim(csv::Trim::All).flexible(true).from_reader(text.as_bytes());
+    let mut records = reader.records();
+    // a record's 1-based line and its text as written (fields joined back), for messages
+    let line_of = |r: &csv::StringRecord| r.position().map_or(0, |q| q.line() as usize);
+    let joined = |r: &csv::StringRecord| r.iter().collect::<Vec<_>>().join(",");
+    let header =
+        records.next().transpose().map_err(|e| syntax(1, format!("the header `{NODES_HEADER}`"), &e.to_string()))?;
+    let found = header.as_ref().map(joined).unwrap_or_default();
+    let norm: String = found.chars().filter(|c| !c.is_whitespace()).collect();
     if norm != NODES_HEADER {
-        return Err(MtxError::Syntax {
-            path: p,
-            line: 1,
-            expected: format!("the header `{NODES_HEADER}`"),
-            found: excerpt(header),
-        });
+        return Err(syntax(1, format!("the header `{NODES_HEADER}`"), &found));
     }
     let (mut x, mut v, mut l0) = (Vec::new(), Vec::new(), Vec::new());
-    for (ln, l) in lines {
-        if l.is_empty() {
-            continue;
-        }
-        let f: Vec<&str> = l.split(',').map(str::trim).collect();
-        let ok = f.len() == 5;
-        let nums: Option<Vec<f64>> = ok.then(|| f[..4].iter().map(|s| s.parse::<f64>().ok()).collect()).flatten();
-        let idx = ok.then(|| f[4].parse::<usize>().ok()).flatten();
+    for record in records {
+        let row = "a row `x,y,z,volume,level0` (four reals and a non-negative integer)".to_string();
+        let r = record.map_err(|e| {
+            let line = e.position().map_or(0, |q| q.line() as usize);
+            syntax(line, row.clone(), &e.to_string())
+        })?;
+        let (ln, l) = (line_of(&r), joined(&r));
+        let nums: Option<Vec<f64>> =
+            (r.len() == 5).then(|| r.iter().take(4).map(|s| s.parse::<f64>().ok()).collect()).flatten();
+        let idx = (r.len() == 5).then(|| r[4].parse::<usize>().ok()).flatten();
         let (Some(nums), Some(idx)) = (nums, idx) else {
-            return Err(MtxError::Syntax {
-                path: p,
-                line: ln,
-                expected: "a row `x,y,z,volume,level0` (four reals and a non-negative integer)".into(),
-                found: excerpt(l),
-            });
+            return Err(syntax(ln, row, &l));
         };
         let node = v.len();
         if nums[..3].iter().any(|c| !c.is_finite()) {
@@ -649,7 +656,7 @@ fn read_nodes(path: &Path) -> Result<Nodes, MtxError> {
             return Err(MtxError::Invalid {
                 path: p,
                 line: ln,
-                reason: format!("node {node}: the volume must be finite and > 0, got {}", excerpt(f[3])),
+                reason: format!("node {node}: the volume must be finite and > 0, got {}", excerpt(&r[3])),
             });
         }
         x.push([nums[0], nums[1], nums[2]]);
