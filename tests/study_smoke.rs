@@ -160,7 +160,7 @@ fn check_coarsen_tent(d: &Value) {
 
 /// `coarsen-defect` (Silling 2010 Example 5.3): with a whole-body radius the coarse levels
 /// reproduce the level-0 jump across the defect to round-off (static condensation is exact;
-/// crates/linpd-coarsen/tests/examples.rs asserts the same at 1e-12), and the jump error falls
+/// crates/linpd-studies/tests/coarsen_examples.rs asserts the same at 1e-12), and the jump error falls
 /// as the radius grows.
 fn check_coarsen_defect(d: &Value) {
     let jumps = d["jumps"].as_array().unwrap();

@@ -2,7 +2,7 @@
 
 use crate::CoarsenError;
 use faer::sparse::{SparseColMat, Triplet};
-use linpd_core::Point;
+use linpd_core::{AssembledModel, Point};
 use rayon::prelude::*;
 
 /// A level-`m` model (eq. (1) discretised, with a `d x d` tensor micromodulus):
@@ -395,6 +395,18 @@ impl LevelModel {
             }
         }
         SparseColMat::try_new_from_triplets(d * n, d * n, &t).expect("indices are in range")
+    }
+
+    /// The level as a [`linpd_core::Model`]: its nodal stiffness `K` over all DOFs, the input of
+    /// a static solve (`linpd_problem::level_solve`).
+    ///
+    /// Symmetry is judged on `K` itself, not on `C` ([`LevelModel::asymmetry`]): with
+    /// `C_ij = C_ji^T` the off-diagonal blocks of `K` are symmetric, but the diagonal block
+    /// `K_ii = sum_j v_i v_j C_ij` is not unless every `C_ij` is (the 2D plate's level 1 after
+    /// symmetrization: relative asymmetry of `K` 1.5e-4 with `C` exactly symmetric).
+    pub fn as_model(&self) -> AssembledModel {
+        AssembledModel::new("coarsened", self.dim(), self.positions().to_vec(), self.stiffness())
+            .with_labels("level-0 node", self.level0().to_vec())
     }
 
     /// Raw compressed rows `(offsets, cols, blocks)`.

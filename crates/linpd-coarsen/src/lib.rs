@@ -93,7 +93,9 @@
 //! should be at least the level-(m-1) horizon; the body force on excluded nodes is assumed zero
 //! (5). With `N_x` = whole body the step is exact static condensation.
 //!
-//! # Measured (tests/coarsen.rs, tent kernel of Example 5.1, h = v = 0.005, r0 = 0.05)
+//! # Measured (tent kernel of Example 5.1, h = v = 0.005, r0 = 0.05)
+//!
+//! tests/coarsen.rs, and for Example 5.1 linpd-studies' tests/coarsen_examples.rs:
 //!
 //! * (9) on random `u^m`, both conventions, uniform and jittered grids: ≤ 1.5e-15 relative.
 //! * Whole-body `N_x`, 201 -> 51 -> 26 nodes, Dirichlet ends, load on retained nodes: coarse
@@ -121,10 +123,8 @@
 //! the bonds inside `N_x` of `x` and of the excluded nodes (quantum `1e-12` of the largest
 //! value). The hit rate is reported.
 
-mod bvp;
 mod cells;
 mod level;
-pub mod paper;
 mod retain;
 mod step;
 
@@ -167,7 +167,7 @@ pub enum CoarsenError {
         /// All `(radius, tail)` pairs.
         tried: Vec<(f64, f64)>,
     },
-    /// A global solve failed (body not held, singular stiffness).
+    /// A static solve of a whole level failed (body not held, singular stiffness).
     #[error("singular global system: {0}")]
     SingularGlobal(String),
     /// The local problem (13) of a retained node is singular.

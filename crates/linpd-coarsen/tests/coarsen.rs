@@ -1,10 +1,13 @@
 //! Tests of the coarsening step against the defining properties (8), (9) and static
-//! condensation, plus Example 5.1 of Silling (2010).
+//! condensation, on the level-0 bar of Silling (2010), Example 5.1 (the paper's examples
+//! themselves are tests of linpd-studies, `tests/coarsen_examples.rs`).
 #![allow(clippy::needless_range_loop)]
 
+mod common;
 // Example 5.1's level 0 (spacing = volume H = v, r0 = 10 v, tent C^0) and the dense Gaussian
-// elimination are the single copy in `linpd_coarsen::paper`.
-use linpd_coarsen::paper::{gauss, tent, H, R0};
+// elimination, independent of the crate.
+use common::paper::{gauss, tent, H, R0};
+use common::solve_dirichlet;
 use linpd_coarsen::{coarsen, coarsen_with, every_kth, local_resolvent, CoarsenError, LevelModel, Matching, Options};
 
 fn opts(radius: f64, matching: Matching) -> Options {
@@ -186,7 +189,7 @@ fn whole_body_neighbourhood_is_static_condensation() {
         }
     }
     let f0: Vec<f64> = (0..N).map(|p| b0[p] * m0.volumes()[p]).collect();
-    let u0 = m0.solve_dirichlet(&f0, &[(0, 0.0), (N - 1, 0.0)]).unwrap();
+    let u0 = solve_dirichlet(&m0, &f0, &[(0, 0.0), (N - 1, 0.0)]).unwrap();
     let umax = u0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for matching in [Matching::TotalForce, Matching::ForceDensity] {
         // coarse body force: the nodal force is conserved (TotalForce) or the density (ForceDensity)
@@ -204,14 +207,14 @@ fn whole_body_neighbourhood_is_static_condensation() {
         let b1 = lump(&m0, &c1.model, &c1.parent, &b0);
         let n1 = c1.model.len();
         let f1: Vec<f64> = (0..n1).map(|k| b1[k] * c1.model.volumes()[k]).collect();
-        let u1 = c1.model.solve_dirichlet(&f1, &[(0, 0.0), (n1 - 1, 0.0)]).unwrap();
+        let u1 = solve_dirichlet(&c1.model, &f1, &[(0, 0.0), (n1 - 1, 0.0)]).unwrap();
         let err1 = c1.parent.iter().zip(&u1).map(|(&p, &u)| (u - u0[p]).abs()).fold(0.0, f64::max) / umax;
 
         let c2 = coarsen_with(&c1.model, &every_kth(n1, 2), &opts(10.0, matching)).unwrap();
         let b2 = lump(&c1.model, &c2.model, &c2.parent, &b1);
         let n2 = c2.model.len();
         let f2: Vec<f64> = (0..n2).map(|k| b2[k] * c2.model.volumes()[k]).collect();
-        let u2 = c2.model.solve_dirichlet(&f2, &[(0, 0.0), (n2 - 1, 0.0)]).unwrap();
+        let u2 = solve_dirichlet(&c2.model, &f2, &[(0, 0.0), (n2 - 1, 0.0)]).unwrap();
         let err2 = c2.parent.iter().zip(&u2).map(|(&p, &u)| (u - u0[c1.parent[p]]).abs()).fold(0.0, f64::max) / umax;
         println!(
             "static condensation {matching:?}: {N} -> {n1} -> {n2} nodes, max|u| = {umax:.4e}, rel. error level 1 = {err1:.2e}, level 2 = {err2:.2e}, asym C1 = {:.1e}, C2 = {:.1e}",
@@ -225,60 +228,6 @@ fn whole_body_neighbourhood_is_static_condensation() {
         }
     }
 }
-
-#[test]
-fn example_5_1_symmetry_and_bulk_modulus() {
-    let m0 = level0();
-    let (r1, r2) = (0.1, 0.2);
-    let c1 = coarsen(&m0, &every_kth(N, 4), r1).unwrap();
-    let c2 = coarsen(&c1.model, &every_kth(c1.model.len(), 2), r2).unwrap();
-    let m_ref = m0.second_moment(100);
-    let x0 = xs(&m0);
-    // interior: far enough from the ends that no neighbourhood in the chain touches them
-    let margin = R0 + r1 + r2;
-    let interior = |x: f64| x > margin && x < 1.0 - margin;
-    let mut worst = [0.0f64; 2];
-    let mut asym = [0.0f64; 2];
-    for (lvl, m) in [&c1.model, &c2.model].into_iter().enumerate() {
-        let x = xs(m);
-        let cmax = m.max_abs();
-        for i in 0..m.len() {
-            if !interior(x[i]) {
-                continue;
-            }
-            worst[lvl] = worst[lvl].max((m.second_moment(i) - m_ref).abs() / m_ref);
-            for (j, c) in m.bonds_1d(i) {
-                if interior(x[j]) {
-                    asym[lvl] = asym[lvl].max((c - m.micromodulus(j, i)[0]).abs() / cmax);
-                }
-            }
-        }
-    }
-    println!(
-        "Example 5.1: level-0 moment {m_ref:.6e} (interior of {:.3}..{:.3}); rel. moment error C1 = {:.2e}, C2 = {:.2e}; interior asymmetry C1 = {:.1e}, C2 = {:.1e}; global asymmetry C1 = {:.1e}, C2 = {:.1e}",
-        x0[0] + margin,
-        1.0 - margin,
-        worst[0],
-        worst[1],
-        asym[0],
-        asym[1],
-        c1.model.asymmetry(),
-        c2.model.asymmetry()
-    );
-    // C^1 at bond distances (for inspection, cf. Figure 3)
-    let i = c1.model.len() / 2;
-    let x1 = xs(&c1.model);
-    let row: Vec<String> =
-        c1.model.bonds_1d(i).filter(|b| b.0 > i).map(|(j, c)| format!("{:.3}:{:.4}", x1[j] - x1[i], c)).collect();
-    println!("C^1(x, x+d) at x = 0.5: {}", row.join(" "));
-    assert!(asym[0] < 1e-10 && asym[1] < 1e-10);
-    assert!(worst[0] < MOMENT_TOL && worst[1] < MOMENT_TOL);
-}
-
-/// Example 5.1 as printed (length 1, r^1 = 2 r0, r^2 = 2 r^1): the truncation of N_x (eq. (4))
-/// makes the coarse bar softer; measured -17.3 % (C^1) and -19.1 % (C^2). Larger radii converge,
-/// see `example_5_1_moment_vs_radius`.
-const MOMENT_TOL: f64 = 0.25;
 
 #[test]
 fn isolated_excluded_node_is_an_error_not_a_panic() {
@@ -314,32 +263,4 @@ fn bad_radius_and_retained_sets_are_clear_errors() {
     assert!(e.contains("listed twice"), "{e}");
     // non-finite radius
     assert!(coarsen(&m0, &ret, f64::NAN).is_err());
-}
-
-/// Signed moment ratio M^m / M^0 at the centre of a bar of `n` nodes (n - 1 divisible by 8).
-fn moment_ratios(n: usize, r1: f64, r2: f64) -> (f64, f64) {
-    let m0 = bar(n);
-    let c1 = coarsen(&m0, &every_kth(n, 4), r1).unwrap();
-    let c2 = coarsen(&c1.model, &every_kth(c1.model.len(), 2), r2).unwrap();
-    let mid = (n - 1) / 2;
-    let m_ref = m0.second_moment(mid);
-    let i1 = c1.parent.iter().position(|&p| p == mid).unwrap();
-    let i2 = c2.parent.iter().position(|&p| p == i1).unwrap();
-    (c1.model.second_moment(i1) / m_ref, c2.model.second_moment(i2) / m_ref)
-}
-
-#[test]
-fn example_5_1_moment_vs_radius() {
-    // bar of length 4 (801 nodes) so that the centre is unaffected by the ends for all radii
-    let n = 801;
-    let mut out = Vec::new();
-    for (r1, r2) in [(0.1, 0.2), (0.15, 0.3), (0.2, 0.4), (0.3, 0.6), (10.0, 10.0)] {
-        let (a, b) = moment_ratios(n, r1, r2);
-        println!("length 4, r1 = {r1}, r2 = {r2}: M1/M0 - 1 = {:+.3e}, M2/M0 - 1 = {:+.3e}", a - 1.0, b - 1.0);
-        out.push((a - 1.0, b - 1.0));
-    }
-    // r^1 = 4 r0, r^2 = 2 r^1: within 1 %; r^1 = 6 r0: within 0.1 %; whole body: round-off level
-    assert!(out[2].0.abs() < 1e-2 && out[2].1.abs() < 1e-2);
-    assert!(out[3].0.abs() < 1e-3 && out[3].1.abs() < 1e-3);
-    assert!(out[4].0.abs() < 1e-8 && out[4].1.abs() < 1e-8);
 }

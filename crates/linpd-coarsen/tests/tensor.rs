@@ -3,6 +3,8 @@
 //! rule and the errors of singular local problems.
 #![allow(clippy::needless_range_loop)]
 
+mod common;
+use common::solve_dirichlet;
 use linpd_bond::{assemble, BondOperator};
 use linpd_coarsen::{coarsen, coarsen_with, local_resolvent, retain_every, CoarsenError, LevelModel, Options, Radius};
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
@@ -82,8 +84,8 @@ fn condensation_error(fine: &LevelModel, c: &linpd_coarsen::Coarsened) -> f64 {
             }
         }
     }
-    let u0 = fine.solve_dirichlet(&f0, &fixed_f).unwrap();
-    let u1 = coarse.solve_dirichlet(&f1, &fixed_c).unwrap();
+    let u0 = solve_dirichlet(fine, &f0, &fixed_f).unwrap();
+    let u1 = solve_dirichlet(coarse, &f1, &fixed_c).unwrap();
     let umax = u0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let mut err: f64 = 0.0;
     for (k, &p) in c.parent.iter().enumerate() {

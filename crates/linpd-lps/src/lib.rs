@@ -36,8 +36,7 @@
 //!   apply in factored form ([`LpsModel::apply_tangent`]);
 //! * [`surface`]: the optional bulk weighted-volume surface correction
 //!   ([`LpsModel::with_surface_correction`]);
-//! * [`fd`]: the finite-difference tangent ([`fd_tangent`]), the Peridigm-style baseline;
-//! * [`tension`]: a static 3D tension bar against classical elasticity ([`tension_bar`]).
+//! * [`fd`]: the finite-difference tangent ([`fd_tangent`]), the Peridigm-style baseline.
 #![deny(missing_docs)]
 
 pub mod error;
@@ -48,7 +47,6 @@ pub mod model;
 pub mod static_model;
 pub mod surface;
 pub mod tangent;
-pub mod tension;
 
 pub use error::LpsError;
 pub use fd::fd_tangent;
@@ -57,4 +55,3 @@ pub use linpd_core::PlaneModel;
 pub use model::{Influence, LpsModel, LpsParams};
 pub use surface::SurfaceCorrection;
 pub use tangent::{assemble_tangent, TangentPattern};
-pub use tension::{tension_bar, TensionBar, TensionError, TensionResult};

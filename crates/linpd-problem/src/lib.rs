@@ -38,6 +38,7 @@ pub mod models;
 
 pub mod dynamics_run;
 pub mod export;
+pub mod level_solve;
 pub mod pipeline;
 pub mod rows;
 pub mod run;

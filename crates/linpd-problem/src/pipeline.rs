@@ -17,6 +17,7 @@
 //! the coarsest nodes stand for `v^M` of the body, so the total force is `density` times the
 //! loaded volume at every level, as a user loading a coarse model expects.
 
+use crate::level_solve::solve_level;
 use crate::models::Capability;
 use crate::scene::Load;
 use crate::scene::Problem;
@@ -371,8 +372,7 @@ impl Pipeline {
                     f[d * at[&p] + a] += val;
                 }
                 let t = Instant::now();
-                let u = model
-                    .solve_dirichlet_with_progress(&f, &fixed, progress)
+                let u = solve_level(model, &f, &fixed, progress)
                     .map_err(|source| ProblemError::Level { level: lvl, source })?;
                 let secs = t.elapsed().as_secs_f64();
                 let us: Vec<f64> =

@@ -5,18 +5,20 @@
 //! Level 0 of the 1D studies: bar [0, 1], spacing = volume `v = 0.005` (201 nodes),
 //! `r0 = 0.05`. Loads are nodal forces on nodes shared by all levels, the same at every level
 //! (`Matching::TotalForce`, the crate's default; a body-force density `b` gives `f = b v^0`).
-//! The same examples are tests in `crates/linpd-coarsen/tests/examples.rs` (with the tolerances).
+//! The same examples are tests in `crates/linpd-studies/tests/coarsen_examples.rs` (with the
+//! tolerances).
 
+use crate::fixtures::{cell_modulus, composite, defect, tent, H, R0};
 use crate::out::{plot, write, Cases};
 use crate::StudyError;
 use linpd_bond::{assemble, BondOperator};
-use linpd_coarsen::paper::{cell_modulus, composite, defect, tent, H, R0};
 use linpd_coarsen::{
     coarsen, coarsen_with_progress, every_kth, retain_every, Coarsened, LevelModel, Options, StepReport,
 };
-use linpd_core::progress::Progress;
+use linpd_core::progress::{NoProgress, Progress};
 use linpd_core::{DofMap, Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
+use linpd_problem::level_solve::solve_level;
 use serde_json::{json, Value};
 use std::io::Write;
 use std::path::Path;
@@ -71,7 +73,7 @@ fn solve(m: &LevelModel, fixed: &[(usize, f64)], loads: &[(usize, f64)]) -> Resu
         f[local(p)?] += v;
     }
     let fixed = fixed.iter().map(|&(p, g)| Ok((local(p)?, g))).collect::<Result<Vec<_>, StudyError>>()?;
-    let u = m.solve_dirichlet(&f, &fixed)?;
+    let u = solve_level(m, &f, &fixed, &NoProgress)?;
     let mut by0 = vec![f64::NAN; N];
     for (k, &p) in m.level0().iter().enumerate() {
         by0[p] = u[k];
@@ -350,7 +352,7 @@ fn plate_solve(m: &LevelModel, held: &[usize], loads: &[(usize, f64)]) -> Result
         f[2 * local[dof0 / 2] + dof0 % 2] += v;
     }
     let fixed: Vec<(usize, f64)> = held.iter().flat_map(|&p| [(2 * local[p], 0.0), (2 * local[p] + 1, 0.0)]).collect();
-    let u = m.solve_dirichlet(&f, &fixed)?;
+    let u = solve_level(m, &f, &fixed, &NoProgress)?;
     let secs = t.elapsed().as_secs_f64();
     let mut by0 = vec![f64::NAN; 2 * n0];
     for (k, &p) in m.level0().iter().enumerate() {

@@ -3,7 +3,8 @@
 //!
 //! * `blend-*`: Seleson, Beneddine & Prudhomme (2013), section 5, Figs. 7-14, and a
 //!   speed-versus-error map (module `blend`);
-//! * `lps-tension-bar`: a 3D LPS tension bar against classical elasticity (module `lps`);
+//! * `lps-tension-bar`: a 3D LPS tension bar against classical elasticity (module `lps`, the
+//!   solve in [`lps_tension`]);
 //! * `surface`: the surface corrections on a thin tension bar and a cantilever (module `surface`);
 //! * `blend-2d`: the 2D/3D blended model with auto zones against pure PD (module `blend2d`);
 //! * `dispersion`, `stability`: Seleson, Parks, Gunzburger & Lehoucq (2009), sections 4.2-4.3,
@@ -14,7 +15,8 @@
 //!
 //! [`Study`] is the registry: one variant per study, parsed by clap ([`clap::ValueEnum`]) so
 //! that `linpd study --help` and the error for an unknown name list every study. The paper
-//! fixtures shared with the tests live in [`linpd_coarsen::paper`], re-exported as [`fixtures`].
+//! fixtures (Silling's section 5 micromoduli and dense references), shared by the studies and
+//! the tests, are [`fixtures`].
 //!
 //! ```no_run
 //! use linpd_studies::{Study, StudyOptions};
@@ -30,6 +32,7 @@ mod coarsen;
 mod dynamics;
 pub mod fixtures;
 mod lps;
+pub mod lps_tension;
 mod md_pd;
 mod out;
 mod surface;
@@ -57,7 +60,7 @@ pub enum StudyError {
     Lps(#[from] linpd_lps::LpsError),
     /// The LPS tension bar (`lps-tension-bar`).
     #[error(transparent)]
-    TensionBar(#[from] linpd_lps::TensionError),
+    TensionBar(#[from] lps_tension::TensionError),
     /// A dynamics run (`dispersion`, `stability`, `md-pd`).
     #[error(transparent)]
     Dynamics(#[from] linpd_dynamics::DynamicsError),

@@ -2,10 +2,11 @@
 //! (E = 9KG/(3K + G), nu = (3K - 2G)/(2(3K + G))): elongation and lateral contraction versus
 //! grid refinement and delta/h, with and without the bulk-weighted-volume surface correction.
 
+use crate::lps_tension::{tension_bar, TensionBar};
 use crate::out::{write, Cases};
 use crate::StudyError;
 use linpd_core::progress::Progress;
-use linpd_lps::{tension_bar, Influence, SurfaceCorrection, TensionBar};
+use linpd_lps::{Influence, SurfaceCorrection};
 use linpd_plot::{line_plot, LinePlot, Series, SeriesStyle};
 use serde_json::json;
 use std::io::Write;

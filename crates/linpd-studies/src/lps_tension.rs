@@ -1,5 +1,5 @@
 //! A static 3D tension bar, solved with the LPS tangent and compared with classical
-//! elasticity.
+//! elasticity: the driver of `linpd study lps-tension-bar` (module `lps`).
 //!
 //! # Set-up
 //!
@@ -19,7 +19,7 @@
 //!   `x > L` (force per node `sigma W^2 / n_load`), a body force on the load layer that acts
 //!   as the traction `sigma` on the face `x = L`. The load-layer material is part of the model
 //!   (it carries the force into the body), the grip layer is rigid.
-//! * Solve `A_ff u_f = f_f` on the free DOFs, `A` from [`crate::assemble_tangent`] (the
+//! * Solve `A_ff u_f = f_f` on the free DOFs, `A` from [`linpd_lps::assemble_tangent`] (the
 //!   linearization at `u = 0`, i.e. small strains), reduced by keeping free rows/columns:
 //!   sparse Cholesky (nested dissection) up to [`CHOLESKY_LIMIT`] unknowns, else Jacobi-PCG
 //!   (`rtol 1e-10`), through [`linpd_solve::solve_model`].
@@ -40,8 +40,8 @@
 //! against `E = 9KG/(3K+G)`, `nu = (3K-2G)/(2(3K+G))`: axial strain `sigma/E`, lateral
 //! `-nu sigma / E`.
 
-use crate::{Influence, LpsError, LpsModel, LpsParams, SurfaceCorrection};
 use linpd_core::{CoreError, Grid, Placement};
+use linpd_lps::{Influence, LpsError, LpsModel, LpsParams, SurfaceCorrection};
 use linpd_solve::{solve_model, CgParams, Dirichlet, SolverSpec, StaticError};
 use std::time::Instant;
 use thiserror::Error;
