@@ -40,7 +40,7 @@
 //! itself, where the force balances the missing traction), and the surface layer is softer in
 //! dilatation than the bulk instead of stiffer: the patch test degrades near surfaces. The
 //! correction trades local exactness of `theta` for a smaller global stiffening; see the
-//! tension-bar numbers in [`crate::tension`].
+//! tension-bar numbers in linpd-studies (`lps_tension`, `tests/lps_tension.rs`).
 
 use crate::model::norm;
 use crate::{LpsError, LpsModel};
