@@ -2,6 +2,9 @@
 //! results. The studies are in `linpd-studies`, the benchmarks in `linpd-bench`; this crate
 //! only adds the solution plots of `solve` and `run` (module `plots`).
 //!
+//! Each command is a module of `commands` with one function taking the command's parsed
+//! arguments.
+//!
 //! The binary itself (`src/main.rs` of the facade package) only calls [`main`].
 #![deny(missing_docs)]
 
@@ -9,9 +12,9 @@ use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use linpd_core::progress::Progress;
-use linpd_problem::{OutputDir, Problem, ProblemError, RunIdentity};
-use linpd_studies::{Study, StudyOptions};
-use std::io::{IsTerminal, Write};
+use linpd_problem::{Problem, ProblemError, RunIdentity};
+use linpd_studies::Study;
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Mutex;
@@ -20,10 +23,13 @@ use std::time::Duration;
 /// `println!` that returns an error instead of panicking when stdout is closed
 /// (`linpd solve scene.json | head -1`); [`main`] exits quietly on a broken pipe.
 macro_rules! say {
-    ($($arg:tt)*) => {
-        writeln!(std::io::stdout().lock(), $($arg)*).map_err(CliError::Stdout)
-    };
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*).map_err($crate::CliError::Stdout)
+    }};
 }
+
+mod commands;
 
 /// Linear peridynamics: sparse operators and static solves from JSON scenes.
 ///
@@ -227,232 +233,16 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// Runs the parsed command: one function per command, in module `commands`.
 fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
-        Command::Solve { scene, out, quiet } => {
-            let problem = Problem::from_path(&scene).map_err(input(&scene))?;
-            let progress = Reporter::new(quiet);
-            let identity = scene_identity(&problem, &scene)?;
-            // Locked (and checked) before the solve: a second run into the directory fails now,
-            // not after its solve. Everything is written into `staged.path()`.
-            let staged =
-                OutputDir::begin(&out.unwrap_or_else(|| PathBuf::from(problem.output_dir()))).map_err(output)?;
-            let solution = problem.solve(&progress).map_err(input(&scene))?;
-            let dir = staged.path();
-            solution.write(dir).map_err(output)?;
-            match problem.grid() {
-                Some(grid) if problem.plot() => {
-                    linpd_plot::solution::solution_plots(grid, &solution, dir, problem.slice())?;
-                }
-                // Point clouds and coarsened levels: the map rasterized from the scattered
-                // nodes (1D: the displacement profile).
-                None if problem.plot() => {
-                    linpd_plot::solution::scattered_plots(&solution, dir, problem.slice())?;
-                }
-                _ => {}
-            }
-            let files = staged.commit("result.json", solution.to_json(), &identity).map_err(output)?;
-            let r = &solution.report;
-            say!(
-                "{}: {} nodes, {} unknowns, solver {}, relative residual {:.3e}, {:.3} s (assemble {:.3} s), peak memory {}",
-                problem.name(),
-                solution.x.len(),
-                r.n,
-                r.solver,
-                r.rel_residual,
-                r.timings.assemble + r.timings.total,
-                r.timings.assemble,
-                r.peak_rss_bytes.map_or("n/a".into(), |b| format!("{:.1} MiB", b as f64 / 1048576.0)),
-            )?;
-            if let Some(b) = &solution.balance {
-                let v = |x: &[f64]| x.iter().map(|c| format!("{c:.4e}")).collect::<Vec<_>>().join(", ");
-                let caught = |n: Vec<usize>| n.iter().map(usize::to_string).collect::<Vec<_>>().join("/");
-                say!(
-                    "{}: applied force [{}] (loads on {} nodes), reactions [{}] (constraints on {} nodes), relative imbalance {:.1e}",
-                    problem.name(),
-                    v(&b.applied),
-                    caught(b.loads.iter().map(|l| l.nodes).collect()),
-                    v(&b.reaction),
-                    caught(b.constraints.iter().map(|c| c.nodes).collect()),
-                    b.relative_imbalance
-                )?;
-            }
-            for f in files {
-                say!("wrote {}", f.display())?;
-            }
-            Ok(())
-        }
-        Command::Run { scene, out, quiet } => {
-            let problem = Problem::from_path(&scene).map_err(input(&scene))?;
-            let progress = Reporter::new(quiet);
-            let identity = scene_identity(&problem, &scene)?;
-            let staged =
-                OutputDir::begin(&out.unwrap_or_else(|| PathBuf::from(problem.output_dir()))).map_err(output)?;
-            let run = problem.run_dynamics(&progress).map_err(input(&scene))?;
-            run.write(staged.path()).map_err(output)?;
-            if problem.plot() {
-                linpd_plot::solution::dynamics_plots(&run, staged.path())?;
-            }
-            let dir = staged.target().to_path_buf();
-            let files = staged.commit("history.json", run.history_json(), &identity).map_err(output)?;
-            say!(
-                "{}: {} steps of dt = {:.4e} ({:.4} of dt_max = {:.4e}, estimated in {:.3} s), {} DOFs ({} held), {} bonds; {:.3} s: {:.3e} steps/s, {:.3e} bond updates/s; relative to E_ref = {:.4e}: E_k + E_p oscillates by {:.2e} (O(dt^2), bounded), shadow energy drift {:.2e}",
-                run.name,
-                run.steps,
-                run.dt,
-                run.dt / run.limit.dt,
-                run.limit.dt,
-                run.limit.seconds,
-                run.n_dofs,
-                run.n_fixed,
-                run.n_bonds,
-                run.wall_seconds,
-                run.steps_per_second(),
-                run.bond_updates_per_second(),
-                run.energy_scale(),
-                run.max_total_drift(),
-                run.max_shadow_drift(),
-            )?;
-            if !quiet {
-                say!(
-                    "wrote {} files into {} (history.json, {} snapshots)",
-                    files.len(),
-                    dir.display(),
-                    run.snapshots.len()
-                )?;
-            }
-            Ok(())
-        }
-        Command::Export { scene, out, format, quiet } => {
-            let problem = Problem::from_path(&scene).map_err(input(&scene))?;
-            let progress = Reporter::new(quiet);
-            let identity = scene_identity(&problem, &scene)?;
-            let staged = OutputDir::begin(&out).map_err(output)?;
-            let system = problem.reduced_system(&progress).map_err(input(&scene))?;
-            let mut doc = system.to_json();
-            match format {
-                ExportFormat::Mtx => {
-                    progress.phase(&format!("writing K.mtx ({} entries), f.mtx, dofs.csv", system.nnz()));
-                    system.write(staged.path()).map_err(output)?;
-                }
-                ExportFormat::Petsc => {
-                    progress
-                        .phase(&format!("writing K.petsc ({} entries), f.petsc, coords.petsc, dofs.csv", system.nnz()));
-                    // coordinates of the scene's nodes (a blend scene's operator may have others:
-                    // then no coords.petsc)
-                    let nodes = problem.nodes();
-                    let x = (nodes.len() == system.n_nodes).then(|| nodes.positions());
-                    system.write_petsc(staged.path(), x.as_deref()).map_err(output)?;
-                    doc["format"] = system.petsc_format_json(x.is_some());
-                    doc["block_size"] = system.block_size().into();
-                }
-            }
-            let files = staged.commit("export.json", doc, &identity).map_err(output)?;
-            say!(
-                "{}: {} unknowns ({} nodes x {} DOFs, {} constrained), {} stored entries of A_ff ({} model)",
-                problem.name(),
-                system.n(),
-                system.n_nodes,
-                system.dim,
-                system.dim * system.n_nodes - system.n(),
-                system.nnz(),
-                system.model
-            )?;
-            for f in files {
-                say!("wrote {}", f.display())?;
-            }
-            Ok(())
-        }
-        Command::Validate { scene } => {
-            let p = Problem::from_path(&scene).map_err(input(&scene))?;
-            let (mask, _) = p.constrained();
-            let constrained = mask.iter().filter(|&&m| m).count();
-            say!(
-                "{}: valid; {}, {} constrained DOFs, {} loads",
-                p.name(),
-                p.model().summary(&p),
-                constrained,
-                p.loads().len()
-            )?;
-            Ok(())
-        }
-        Command::Coarsen { pipeline, out, quiet } => {
-            let p = linpd_problem::Pipeline::from_path(&pipeline).map_err(input(&pipeline))?;
-            let progress = Reporter::new(quiet);
-            let identity = RunIdentity::of_inputs(&[&pipeline, &p.scene_path]).map_err(input(&pipeline))?;
-            let staged = OutputDir::begin(&out.unwrap_or_else(|| p.output_dir.clone())).map_err(output)?;
-            let r = p.run(staged.path(), &progress).map_err(input(&pipeline))?;
-            let dir = staged.target().to_path_buf();
-            staged.commit("summary.json", r.summary_json(), &identity).map_err(output)?;
-            say!("{}: {} levels coarsened in {:.3} s", r.name, r.levels.len() - 1, r.seconds_coarsening)?;
-            say!(
-                "{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}",
-                "level",
-                "nodes",
-                "bonds",
-                "radius",
-                "tail",
-                "classes",
-                "hit rate",
-                "err shared"
-            )?;
-            for l in &r.levels {
-                let (radius, tail, classes, hit) =
-                    l.step.as_ref().map_or(("-".into(), "-".into(), "-".into(), "-".into()), |s| {
-                        (
-                            format!("{:.4e}", s.radius),
-                            format!("{:.2e}", s.tail),
-                            s.classes.to_string(),
-                            format!("{:.4}", s.hit_rate),
-                        )
-                    });
-                let err = l.error_shared.map_or("-".into(), |e| format!("{e:.3e}"));
-                say!(
-                    "{:>5} {:>9} {:>10} {:>11} {:>10} {:>8} {:>9} {:>11}",
-                    l.level,
-                    l.nodes,
-                    l.bonds,
-                    radius,
-                    tail,
-                    classes,
-                    hit,
-                    err
-                )?;
-            }
-            say!("wrote {}", dir.display())?;
-            Ok(())
-        }
-        Command::Bench(args) => {
-            let doc = linpd_bench::run(&args)?;
-            // a closed stdout (`linpd bench | head`) only cuts the table: the document is written
-            linpd_bench::print_table(&doc, &mut UntilClosed(Some(std::io::stdout().lock())))
-                .map_err(CliError::Stdout)?;
-            say!("wrote {}", args.out.display())?;
-            Ok(())
-        }
-        Command::Study { name, out, no_dense } => {
-            if name == "list" {
-                for s in Study::all() {
-                    say!("{:<22} {}", s.name(), s.description())?;
-                }
-                return Ok(());
-            }
-            // clap accepted the name, so it is `list` or a study.
-            let study = Study::from_name(&name).ok_or_else(|| CliError::UnknownStudy(name.clone()))?;
-            let dir = out.unwrap_or_else(|| study.default_out_dir());
-            // all of a study's files or none, as for the other commands: staged, then swapped
-            // into place with data.json as the main document
-            let staged = OutputDir::begin(&dir).map_err(output)?;
-            let progress = Reporter::new(false);
-            let mut table = Suspending(&progress, UntilClosed(Some(std::io::stdout().lock())));
-            study
-                .run_with_progress(staged.path(), &StudyOptions { dense: !no_dense }, &mut table, &progress)
-                .map_err(|source| CliError::Study { name, source })?;
-            let identity = RunIdentity::of_inputs(&[]).map_err(output)?;
-            staged.commit_staged("data.json", &identity).map_err(output)?;
-            say!("wrote {}", dir.display())?;
-            Ok(())
-        }
+        Command::Solve { scene, out, quiet } => commands::solve(&scene, out, quiet),
+        Command::Run { scene, out, quiet } => commands::run(&scene, out, quiet),
+        Command::Export { scene, out, format, quiet } => commands::export(&scene, &out, format, quiet),
+        Command::Validate { scene } => commands::validate(&scene),
+        Command::Coarsen { pipeline, out, quiet } => commands::coarsen(&pipeline, out, quiet),
+        Command::Bench(args) => commands::bench(&args),
+        Command::Study { name, out, no_dense } => commands::study(name, out, no_dense),
     }
 }
 

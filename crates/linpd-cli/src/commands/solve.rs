@@ -1,0 +1,61 @@
+//! `linpd solve`: a static scene's solution, its files and plots.
+
+use crate::{input, output, scene_identity, CliError, Reporter};
+use linpd_problem::{OutputDir, Problem};
+use std::path::{Path, PathBuf};
+
+/// Solves the static scene `scene` into `out` (default: the scene's output directory); writes
+/// result.json, u.csv and the plots; prints the solve's summary, the force balance and the
+/// files written.
+pub(crate) fn solve(scene: &Path, out: Option<PathBuf>, quiet: bool) -> Result<(), CliError> {
+    let problem = Problem::from_path(scene).map_err(input(scene))?;
+    let progress = Reporter::new(quiet);
+    let identity = scene_identity(&problem, scene)?;
+    // Locked (and checked) before the solve: a second run into the directory fails now,
+    // not after its solve. Everything is written into `staged.path()`.
+    let staged = OutputDir::begin(&out.unwrap_or_else(|| PathBuf::from(problem.output_dir()))).map_err(output)?;
+    let solution = problem.solve(&progress).map_err(input(scene))?;
+    let dir = staged.path();
+    solution.write(dir).map_err(output)?;
+    match problem.grid() {
+        Some(grid) if problem.plot() => {
+            linpd_plot::solution::solution_plots(grid, &solution, dir, problem.slice())?;
+        }
+        // Point clouds and coarsened levels: the map rasterized from the scattered
+        // nodes (1D: the displacement profile).
+        None if problem.plot() => {
+            linpd_plot::solution::scattered_plots(&solution, dir, problem.slice())?;
+        }
+        _ => {}
+    }
+    let files = staged.commit("result.json", solution.to_json(), &identity).map_err(output)?;
+    let r = &solution.report;
+    say!(
+        "{}: {} nodes, {} unknowns, solver {}, relative residual {:.3e}, {:.3} s (assemble {:.3} s), peak memory {}",
+        problem.name(),
+        solution.x.len(),
+        r.n,
+        r.solver,
+        r.rel_residual,
+        r.timings.assemble + r.timings.total,
+        r.timings.assemble,
+        r.peak_rss_bytes.map_or("n/a".into(), |b| format!("{:.1} MiB", b as f64 / 1048576.0)),
+    )?;
+    if let Some(b) = &solution.balance {
+        let v = |x: &[f64]| x.iter().map(|c| format!("{c:.4e}")).collect::<Vec<_>>().join(", ");
+        let caught = |n: Vec<usize>| n.iter().map(usize::to_string).collect::<Vec<_>>().join("/");
+        say!(
+            "{}: applied force [{}] (loads on {} nodes), reactions [{}] (constraints on {} nodes), relative imbalance {:.1e}",
+            problem.name(),
+            v(&b.applied),
+            caught(b.loads.iter().map(|l| l.nodes).collect()),
+            v(&b.reaction),
+            caught(b.constraints.iter().map(|c| c.nodes).collect()),
+            b.relative_imbalance
+        )?;
+    }
+    for f in files {
+        say!("wrote {}", f.display())?;
+    }
+    Ok(())
+}
