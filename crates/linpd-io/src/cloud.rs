@@ -57,65 +57,16 @@ pub struct Cloud {
 
 /// Reads a CSV point cloud of dimension `dim`; errors name the file and the line.
 pub fn read_csv(path: &Path, dim: usize) -> Result<Cloud, IoError> {
-    let shown = path.display().to_string();
-    let err = |line: u64, reason: String| IoError::Format { path: shown.clone(), line: Some(line), reason };
-    let whole = |reason: String| IoError::Format { path: shown.clone(), line: None, reason };
-    let meta = std::fs::metadata(path).map_err(|e| whole(e.to_string()))?;
-    if !meta.is_file() {
-        return Err(whole("not a regular file".into()));
-    }
-    if meta.len() > MAX_CLOUD_BYTES {
-        return Err(whole(format!("{} bytes, more than a node file may hold ({MAX_CLOUD_BYTES})", meta.len())));
-    }
-    let file = std::fs::File::open(path).map_err(|e| whole(e.to_string()))?;
-    use std::io::Read;
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .comment(Some(b'#'))
-        .trim(csv::Trim::All)
-        .flexible(true)
-        .from_reader(file.take(MAX_CLOUD_BYTES + 1));
-    let headers = reader.headers().map_err(|e| err(1, format!("unreadable header ({e})")))?.clone();
+    let err = CsvErrors { path: path.display().to_string() };
+    let mut reader = open_csv(path, &err)?;
+    let headers = reader.headers().map_err(|e| err.at(1, format!("unreadable header ({e})")))?.clone();
     // the reader now stands at the start of the line after the header
     let hline = reader.position().line().saturating_sub(1).max(1);
-    let mut cols = Columns::default();
-    const NAMES: [&str; 3] = ["x", "y", "z"];
-    for (k, name) in headers.iter().enumerate() {
-        let slot = match name {
-            "x" => &mut cols.coord[0],
-            "y" => &mut cols.coord[1],
-            "z" => &mut cols.coord[2],
-            "volume" => &mut cols.volume,
-            "phase" => &mut cols.phase,
-            "layer" => &mut cols.layer,
-            other => {
-                return Err(err(
-                    hline,
-                    format!("unknown column {other:?} (the columns are x, y, z, volume, phase and layer)"),
-                ))
-            }
-        };
-        if slot.is_some() {
-            return Err(err(hline, format!("column {name:?} appears twice")));
-        }
-        *slot = Some(k);
-    }
-    for (a, name) in NAMES.iter().enumerate() {
-        match (a < dim, cols.coord[a].is_some()) {
-            (true, false) => {
-                return Err(err(
-                    hline,
-                    format!("missing column {name:?} (a {dim}D cloud needs {})", NAMES[..dim].join(", ")),
-                ))
-            }
-            (false, true) => return Err(err(hline, format!("column {name:?} in a {dim}D scene"))),
-            _ => {}
-        }
-    }
+    let cols = Columns::of_header(&headers, dim).map_err(|reason| err.at(hline, reason))?;
     let Some(volume_col) = cols.volume else {
-        return Err(err(hline, "missing column \"volume\"".into()));
+        return Err(err.at(hline, "missing column \"volume\"".into()));
     };
-    // every coordinate column of the dimension is present (checked above)
+    // every coordinate column of the dimension is present (checked by of_header)
     let coord_cols: Vec<usize> = cols.coord[..dim].iter().flatten().copied().collect();
     let mut cloud =
         Cloud { positions: Vec::new(), volumes: Vec::new(), layer: Vec::new(), phase: Vec::new(), lines: Vec::new() };
@@ -123,61 +74,42 @@ pub fn read_csv(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     loop {
         let more = reader.read_record(&mut record).map_err(|e| {
             let line = e.position().map_or(0, |p| p.line());
-            err(line, format!("unreadable ({e})"))
+            err.at(line, format!("unreadable ({e})"))
         })?;
         if !more {
             break;
         }
         let line = record.position().map_or(0, |p| p.line());
         if record.len() != headers.len() {
-            return Err(err(line, format!("{} fields, the header has {}", record.len(), headers.len())));
+            return Err(err.at(line, format!("{} fields, the header has {}", record.len(), headers.len())));
         }
-        let number = |k: usize, name: &str| -> Result<f64, IoError> {
-            let s = &record[k];
-            let v: f64 = s.parse().map_err(|_| err(line, format!("{name} = {s:?} is not a number")))?;
-            if v.is_finite() {
-                Ok(v)
-            } else {
-                Err(err(line, format!("{name} = {s} is not finite")))
-            }
-        };
-        let mut x = [0.0; 3];
-        for a in 0..dim {
-            x[a] = number(coord_cols[a], NAMES[a])?;
-        }
-        let v = number(volume_col, "volume")?;
-        if v <= 0.0 {
-            return Err(err(line, format!("volume = {v:e} must be > 0")));
-        }
+        let node = Node { record: &record, line, err: &err };
+        let x = node.position(&coord_cols)?;
+        let v = node.volume(volume_col)?;
         if let Some(k) = cols.layer {
-            cloud.layer.push(match &record[k] {
-                "0" => false,
-                "1" => true,
-                s => return Err(err(line, format!("layer = {s:?} must be 0 or 1"))),
-            });
+            cloud.layer.push(node.layer(k)?);
         }
         if let Some(k) = cols.phase {
-            let s = &record[k];
-            cloud.phase.push(s.parse().map_err(|_| err(line, format!("phase = {s:?} must be an integer >= 0")))?);
+            cloud.phase.push(node.phase(k)?);
         }
         if cloud.positions.len() == u32::MAX as usize {
-            return Err(err(line, "more than 2^32 - 1 nodes".into()));
+            return Err(err.at(line, "more than 2^32 - 1 nodes".into()));
         }
         cloud.positions.push(x);
         cloud.volumes.push(v);
         cloud.lines.push(line);
     }
     if reader.position().byte() > MAX_CLOUD_BYTES {
-        return Err(whole(format!("grew beyond {MAX_CLOUD_BYTES} bytes while read")));
+        return Err(err.whole(format!("grew beyond {MAX_CLOUD_BYTES} bytes while read")));
     }
     if cloud.positions.is_empty() {
-        return Err(err(hline, "no nodes (a header and no data lines)".into()));
+        return Err(err.at(hline, "no nodes (a header and no data lines)".into()));
     }
     if cloud.layer.is_empty() {
         cloud.layer = vec![false; cloud.positions.len()];
     }
     check_duplicates(&cloud, dim).map_err(|(a, b)| {
-        err(
+        err.at(
             cloud.lines[b],
             format!(
                 "the node at {:?} coincides with the node of line {} (closer than {DUPLICATE_RTOL:e} node sizes)",
@@ -187,6 +119,127 @@ pub fn read_csv(path: &Path, dim: usize) -> Result<Cloud, IoError> {
         )
     })?;
     Ok(cloud)
+}
+
+/// The errors of one node file: at a line, or of the whole file.
+struct CsvErrors {
+    path: String,
+}
+
+impl CsvErrors {
+    fn at(&self, line: u64, reason: String) -> IoError {
+        IoError::Format { path: self.path.clone(), line: Some(line), reason }
+    }
+    fn whole(&self, reason: String) -> IoError {
+        IoError::Format { path: self.path.clone(), line: None, reason }
+    }
+}
+
+/// A CSV reader of the node file at `path` (a regular file of at most [`MAX_CLOUD_BYTES`],
+/// read through a cap one byte beyond, so a file that grows while read is noticed).
+fn open_csv(path: &Path, err: &CsvErrors) -> Result<csv::Reader<std::io::Take<std::fs::File>>, IoError> {
+    let meta = std::fs::metadata(path).map_err(|e| err.whole(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(err.whole("not a regular file".into()));
+    }
+    if meta.len() > MAX_CLOUD_BYTES {
+        return Err(err.whole(format!("{} bytes, more than a node file may hold ({MAX_CLOUD_BYTES})", meta.len())));
+    }
+    let file = std::fs::File::open(path).map_err(|e| err.whole(e.to_string()))?;
+    use std::io::Read;
+    Ok(csv::ReaderBuilder::new()
+        .has_headers(true)
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(file.take(MAX_CLOUD_BYTES + 1)))
+}
+
+/// The coordinate names, by axis.
+const NAMES: [&str; 3] = ["x", "y", "z"];
+
+impl Columns {
+    /// The columns named by `headers`: each known at most once, the coordinates of a
+    /// `dim`-dimensional cloud and no others. `Err`: why the header is refused.
+    fn of_header(headers: &csv::StringRecord, dim: usize) -> Result<Columns, String> {
+        let mut cols = Columns::default();
+        for (k, name) in headers.iter().enumerate() {
+            let slot = match name {
+                "x" => &mut cols.coord[0],
+                "y" => &mut cols.coord[1],
+                "z" => &mut cols.coord[2],
+                "volume" => &mut cols.volume,
+                "phase" => &mut cols.phase,
+                "layer" => &mut cols.layer,
+                other => {
+                    return Err(format!("unknown column {other:?} (the columns are x, y, z, volume, phase and layer)"))
+                }
+            };
+            if slot.is_some() {
+                return Err(format!("column {name:?} appears twice"));
+            }
+            *slot = Some(k);
+        }
+        for (a, name) in NAMES.iter().enumerate() {
+            match (a < dim, cols.coord[a].is_some()) {
+                (true, false) => {
+                    return Err(format!("missing column {name:?} (a {dim}D cloud needs {})", NAMES[..dim].join(", ")))
+                }
+                (false, true) => return Err(format!("column {name:?} in a {dim}D scene")),
+                _ => {}
+            }
+        }
+        Ok(cols)
+    }
+}
+
+/// One data line of a node file, read field by field.
+struct Node<'a> {
+    record: &'a csv::StringRecord,
+    line: u64,
+    err: &'a CsvErrors,
+}
+
+impl Node<'_> {
+    /// The finite number in column `k` (`name` for messages).
+    fn number(&self, k: usize, name: &str) -> Result<f64, IoError> {
+        let s = &self.record[k];
+        let v: f64 = s.parse().map_err(|_| self.err.at(self.line, format!("{name} = {s:?} is not a number")))?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err.at(self.line, format!("{name} = {s} is not finite")))
+        }
+    }
+    /// The position from the coordinate columns `coord_cols` (unused coordinates 0).
+    fn position(&self, coord_cols: &[usize]) -> Result<Point, IoError> {
+        let mut x = [0.0; 3];
+        for a in 0..coord_cols.len() {
+            x[a] = self.number(coord_cols[a], NAMES[a])?;
+        }
+        Ok(x)
+    }
+    /// The volume in column `k`, > 0.
+    fn volume(&self, k: usize) -> Result<f64, IoError> {
+        let v = self.number(k, "volume")?;
+        if v <= 0.0 {
+            return Err(self.err.at(self.line, format!("volume = {v:e} must be > 0")));
+        }
+        Ok(v)
+    }
+    /// The layer flag in column `k`: 0 or 1.
+    fn layer(&self, k: usize) -> Result<bool, IoError> {
+        match &self.record[k] {
+            "0" => Ok(false),
+            "1" => Ok(true),
+            s => Err(self.err.at(self.line, format!("layer = {s:?} must be 0 or 1"))),
+        }
+    }
+    /// The phase number in column `k`: an integer >= 0.
+    fn phase(&self, k: usize) -> Result<u32, IoError> {
+        let s = &self.record[k];
+        s.parse().map_err(|_| self.err.at(self.line, format!("phase = {s:?} must be an integer >= 0")))
+    }
 }
 
 /// The first pair of nodes closer than [`DUPLICATE_RTOL`] `min_i V_i^(1/d)` (by a cell list of
