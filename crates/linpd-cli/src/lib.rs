@@ -30,6 +30,7 @@ macro_rules! say {
 }
 
 mod commands;
+mod plots;
 
 /// Linear peridynamics: sparse operators and static solves from JSON scenes.
 ///

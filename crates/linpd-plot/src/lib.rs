@@ -42,9 +42,7 @@
 //!   `color` — series colours and the viridis map;
 //! * `render` — the output files (PNG through the png crate, SVG) and image sizes; `font` —
 //!   the embedded font; `error` — [`PlotError`];
-//! * [`solution`] — the figures `linpd solve` and `linpd run` write from their results.
 #![deny(missing_docs)]
-pub mod solution;
 
 mod color;
 mod error;

@@ -15,7 +15,7 @@ pub(crate) fn run(scene: &Path, out: Option<PathBuf>, quiet: bool) -> Result<(),
     let run = problem.run_dynamics(&progress).map_err(input(scene))?;
     run.write(staged.path()).map_err(output)?;
     if problem.plot() {
-        linpd_plot::solution::dynamics_plots(&run, staged.path())?;
+        crate::plots::dynamics_plots(&run, staged.path())?;
     }
     let dir = staged.target().to_path_buf();
     let files = staged.commit("history.json", run.history_json(), &identity).map_err(output)?;

@@ -19,12 +19,12 @@ pub(crate) fn solve(scene: &Path, out: Option<PathBuf>, quiet: bool) -> Result<(
     solution.write(dir).map_err(output)?;
     match problem.grid() {
         Some(grid) if problem.plot() => {
-            linpd_plot::solution::solution_plots(grid, &solution, dir, problem.slice())?;
+            crate::plots::solution_plots(grid, &solution, dir, problem.slice())?;
         }
         // Point clouds and coarsened levels: the map rasterized from the scattered
         // nodes (1D: the displacement profile).
         None if problem.plot() => {
-            linpd_plot::solution::scattered_plots(&solution, dir, problem.slice())?;
+            crate::plots::scattered_plots(&solution, dir, problem.slice())?;
         }
         _ => {}
     }

@@ -2,8 +2,8 @@
 //! profile; in 2D the displacement-magnitude map, in 3D the magnitude on a lattice plane (the
 //! middle z plane, or `output.slice`); the energies of a dynamics run and, in 1D, its space-time map.
 
-use crate::{line_plot, scalar_map, LinePlot, PlotError, ScalarMap, Series, SeriesStyle};
 use linpd_core::Grid;
+use linpd_plot::{line_plot, scalar_map, LinePlot, PlotError, ScalarMap, Series, SeriesStyle};
 use linpd_problem::{DynamicsRun, Solution};
 use std::path::{Path, PathBuf};
 
