@@ -746,7 +746,7 @@ fn cases() -> Vec<Case> {
             "solver.preconditioner",
             "unknown variant `amg`",
         ),
-        // --- one key table (RawModelKind::keys): a key of another model type is an error ---
+        // --- each model type owns its keys (models/registry.rs): a key of another model type is an error ---
         parse(
             "lps with a blend key (hog)",
             e2(|v| {
