@@ -7,6 +7,8 @@
 //!
 //! The binary itself (`src/main.rs` of the facade package) only calls [`main`].
 #![deny(missing_docs)]
+// Bad input is reported, never a panic: no unwrap/expect outside tests.
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
 
 use clap::builder::{PossibleValue, PossibleValuesParser};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -297,11 +299,12 @@ impl Progress for Reporter {
         let bar = match total {
             Some(n) => ProgressBar::new(n).with_style(
                 ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} [{elapsed} elapsed, {eta} left] {msg}")
-                    .expect("a valid template")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar())
                     .progress_chars("=> "),
             ),
             None => ProgressBar::new_spinner().with_style(
-                ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {msg}").expect("a valid template"),
+                ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {msg}")
+                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
             ),
         };
         let bar = multi.add(bar.with_prefix(task.to_string()));

@@ -85,9 +85,15 @@ pub enum SolveError {
         /// Limit.
         limit: usize,
     },
-    /// The factorization ran out of memory or failed for a non-numerical reason.
+    /// The factorization ran out of memory or its indices overflowed (faer's error).
     #[error("factorization failed: {0}")]
-    Factorization(String),
+    Factorization(faer::sparse::FaerError),
+    /// The values of the factor could not be allocated.
+    #[error("factorization failed: out of memory for {entries} factor entries")]
+    FactorAllocation {
+        /// Stored entries of the factor.
+        entries: usize,
+    },
     /// The estimated memory of a step (the factor of a sparse Cholesky) exceeds what the
     /// machine has available.
     #[error(transparent)]

@@ -54,7 +54,7 @@ impl Cholesky {
         };
         let symbolic =
             factorize_symbolic_cholesky(a.symbolic(), Side::Lower, ordering, CholeskySymbolicParams::default())
-                .map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
+                .map_err(SolveError::Factorization)?;
         Ok(Cholesky { symbolic: Arc::new(symbolic) })
     }
 
@@ -104,11 +104,11 @@ impl Cholesky {
             "use the cg solver (\"type\": \"cg\") or a coarser model",
         )?;
         let mut l_values = Vec::new();
-        l_values.try_reserve_exact(self.symbolic.len_val()).map_err(|_| {
-            SolveError::Factorization(format!("out of memory for {} factor entries", self.symbolic.len_val()))
-        })?;
+        l_values
+            .try_reserve_exact(self.symbolic.len_val())
+            .map_err(|_| SolveError::FactorAllocation { entries: self.symbolic.len_val() })?;
         l_values.resize(self.symbolic.len_val(), 0.0);
-        let mut mem = MemBuffer::try_new(req).map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
+        let mut mem = MemBuffer::try_new(req).map_err(|e| SolveError::Factorization(e.into()))?;
         let result = self.symbolic.factorize_numeric_llt::<f64>(
             &mut l_values,
             a.as_ref(),

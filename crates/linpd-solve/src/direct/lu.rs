@@ -42,7 +42,7 @@ pub struct LuFactor<'a> {
 fn failed(e: LuError) -> SolveError {
     match e {
         LuError::SymbolicSingular { index } => SolveError::Singular { dof: index },
-        other => SolveError::Factorization(format!("{other:?}")),
+        LuError::Generic(e) => SolveError::Factorization(e),
     }
 }
 
@@ -56,8 +56,7 @@ impl Lu {
                 ..Default::default()
             },
         };
-        let symbolic =
-            factorize_symbolic_lu(a.symbolic(), params).map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
+        let symbolic = factorize_symbolic_lu(a.symbolic(), params).map_err(SolveError::Factorization)?;
         Ok(Lu { symbolic })
     }
 
@@ -65,7 +64,7 @@ impl Lu {
     pub fn factor(&self, a: &SparseColMat<usize, f64>) -> Result<LuFactor<'_>, SolveError> {
         let mut numeric = NumericLu::<usize, f64>::new();
         let req = self.symbolic.factorize_numeric_lu_scratch::<f64>(par(), Default::default());
-        let mut mem = MemBuffer::try_new(req).map_err(|e| SolveError::Factorization(format!("{e:?}")))?;
+        let mut mem = MemBuffer::try_new(req).map_err(|e| SolveError::Factorization(e.into()))?;
         self.symbolic
             .factorize_numeric_lu(&mut numeric, a.as_ref(), par(), MemStack::new(&mut mem), Default::default())
             .map_err(failed)?;
