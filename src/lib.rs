@@ -18,6 +18,7 @@ pub use linpd_dynamics as dynamics;
 pub use linpd_io as io;
 pub use linpd_lps as lps;
 pub use linpd_problem as problem;
+pub use linpd_scene as scene;
 pub use linpd_solve as solve;
 
 #[cfg(feature = "bench")]

@@ -12,6 +12,7 @@
 //!   bounds every mode of the bar (`omega <= omega_max`), so `s_max <= (dt/dt_max)^2 = 0.7225`
 //!   (observed `max |E/E_0 - 1|` = 0.21).
 
+use linpd::problem::Commands;
 use linpd::problem::{Problem, ProblemError};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};

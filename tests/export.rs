@@ -16,6 +16,7 @@
 //! * a bad scene: the same message as `linpd solve`, a non-zero exit and nothing written.
 
 use linpd::core::{Model, ModelOperator, NoProgress};
+use linpd::problem::Commands;
 use linpd::problem::{CoarsenedModel, ModuliFile, Problem};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};

@@ -4,6 +4,7 @@
 //! bars (no `\r`, no escape sequences) while still printing the `[linpd]` phase lines.
 
 use linpd::core::progress::Progress;
+use linpd::problem::Commands;
 use linpd::problem::{Pipeline, Problem};
 use std::path::PathBuf;
 use std::process::Command;

@@ -18,6 +18,7 @@
 
 use linpd::core::sparse::{relative_asymmetry, SYMMETRY_RTOL};
 use linpd::core::NoProgress;
+use linpd::problem::Commands;
 use linpd::problem::{ModuliFile, Problem};
 use serde_json::{json, Value};
 use std::collections::BTreeMap;

@@ -14,6 +14,7 @@ use linpd::core::{AssembledModel, DofMap, Material, NoProgress};
 use linpd::problem::models::registry::{struct_fields, Context, Validated};
 use linpd::problem::models::{Purpose, System};
 use linpd::problem::raw::{RawMicromodulus, RawPlane};
+use linpd::problem::Commands;
 use linpd::problem::{
     level0_model, Capability, ModelType, ModuliFile, Nodes, Problem, ProblemError, Registry, SceneModel, Solution,
 };

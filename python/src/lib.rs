@@ -2,15 +2,15 @@
 //! gives it its documented API: `linpd.Scene`, `linpd.coarsen`, `linpd.petsc`).
 //!
 //! Thin on purpose: every number comes from the Rust crates through the same functions the CLI
-//! calls (`Problem::from_path`, `Problem::reduced_system` of `linpd export`, `Problem::solve`
-//! of `linpd solve`, `Problem::row_system` for PETSc's per-rank rows), so the Python results are
+//! calls (`Problem::from_path`, `Commands::reduced_system` of `linpd export`, `Problem::solve`
+//! of `linpd solve`, `Commands::row_system` for PETSc's per-rank rows), so the Python results are
 //! the CLI's bit for bit. Arrays cross as numpy arrays (copied once), documents as JSON text
 //! (parsed by the Python half), errors as `linpd.LinpdError` carrying linpd's message (the
 //! error's `Display`, e.g. `model.horizon: must be > 0, got -1e0`). Long computations release
 //! the GIL.
 
 use linpd_core::NoProgress;
-use linpd_problem::{OutputDir, Pipeline, Problem, ProblemError, RowSystem, RunIdentity};
+use linpd_problem::{Commands, OutputDir, Pipeline, Problem, ProblemError, RowSystem, RunIdentity};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;

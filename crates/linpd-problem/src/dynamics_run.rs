@@ -202,174 +202,171 @@ impl DynamicsRun {
     }
 }
 
-impl Problem {
-    fn dynamics_section(&self) -> Result<&Dynamics, ProblemError> {
-        self.dynamics.as_ref().ok_or_else(|| {
-            ProblemError::invalid("dynamics", "missing: this scene has no \"dynamics\" section (dt or dt_safety, steps, density); `linpd solve` solves it statically")
-        })
-    }
+fn dynamics_section(p: &Problem) -> Result<&Dynamics, ProblemError> {
+    p.dynamics().ok_or_else(|| {
+        ProblemError::invalid("dynamics", "missing: this scene has no \"dynamics\" section (dt or dt_safety, steps, density); `linpd solve` solves it statically")
+    })
+}
 
-    /// The velocity-Verlet stability limit of the scene (see the module docs).
-    pub fn stability_limit(&self) -> Result<StabilityLimit, ProblemError> {
-        let dynamics = self.dynamics_section()?;
-        let op = self.model.dynamics_operator(self)?;
-        self.limit_of(&op, dynamics, &linpd_core::NoProgress)
-    }
+/// The velocity-Verlet stability limit of the scene (see the module docs).
+pub fn stability_limit(p: &Problem) -> Result<StabilityLimit, ProblemError> {
+    let dynamics = dynamics_section(p)?;
+    let op = p.model().dynamics_operator(p)?;
+    limit_of(p, &op, dynamics, &linpd_core::NoProgress)
+}
 
-    fn mass(&self, rho: f64) -> Result<LumpedMass, ProblemError> {
-        let grid = self.lattice()?;
-        let d = self.dim();
-        let volumes: Vec<f64> = (0..d * grid.len()).map(|k| grid.node_volume(k / d)).collect();
-        LumpedMass::new(rho, &volumes).map_err(|e| ProblemError::invalid("dynamics.density", e.to_string()))
-    }
+fn mass(p: &Problem, rho: f64) -> Result<LumpedMass, ProblemError> {
+    let grid = p.lattice()?;
+    let d = p.dim();
+    let volumes: Vec<f64> = (0..d * grid.len()).map(|k| grid.node_volume(k / d)).collect();
+    LumpedMass::new(rho, &volumes).map_err(|e| ProblemError::invalid("dynamics.density", e.to_string()))
+}
 
-    fn fixed(&self) -> Vec<(usize, f64)> {
-        let (mask, ubar) = self.constrained();
-        mask.iter().enumerate().filter(|(_, m)| **m).map(|(i, _)| (i, ubar[i])).collect()
-    }
+fn fixed(p: &Problem) -> Vec<(usize, f64)> {
+    let (mask, ubar) = p.constrained();
+    mask.iter().enumerate().filter(|(_, m)| **m).map(|(i, _)| (i, ubar[i])).collect()
+}
 
-    fn limit_of(
-        &self,
-        operator: &DynamicsOperator,
-        dynamics: &Dynamics,
-        progress: &dyn Progress,
-    ) -> Result<StabilityLimit, ProblemError> {
-        let t0 = Instant::now();
-        let rho = dynamics.density;
-        if let Some(chain) = &operator.chain {
-            let l = lattice_limit(chain, rho);
-            return Ok(StabilityLimit {
-                dt: l.dt,
-                method: "2/omega_max of the infinite lattice (exact; a lower bound for the bar)".into(),
-                seconds: t0.elapsed().as_secs_f64(),
-            });
-        }
-        let mass = self.mass(rho)?;
-        let fixed: Vec<usize> = self.fixed().iter().map(|p| p.0).collect();
-        let info = power_iteration_with_progress(
-            &operator.op,
-            &mass,
-            &fixed,
-            &PowerParams { max_iter: 5000, rtol: 1e-10, ..Default::default() },
-            progress,
-        )
-        .map_err(|e| ProblemError::invalid("dynamics", e.to_string()))?;
-        Ok(StabilityLimit {
-            dt: verlet_limit(info.lambda) * (1.0 - 1e-3),
-            method: format!("2/sqrt(lambda_max) by power iteration ({} iterations), less 0.1%", info.iterations),
+fn limit_of(
+    p: &Problem,
+    operator: &DynamicsOperator,
+    dynamics: &Dynamics,
+    progress: &dyn Progress,
+) -> Result<StabilityLimit, ProblemError> {
+    let t0 = Instant::now();
+    let rho = dynamics.density();
+    if let Some(chain) = &operator.chain {
+        let l = lattice_limit(chain, rho);
+        return Ok(StabilityLimit {
+            dt: l.dt,
+            method: "2/omega_max of the infinite lattice (exact; a lower bound for the bar)".into(),
             seconds: t0.elapsed().as_secs_f64(),
-        })
+        });
     }
+    let mass = mass(p, rho)?;
+    let fixed: Vec<usize> = fixed(p).iter().map(|p| p.0).collect();
+    let info = power_iteration_with_progress(
+        &operator.op,
+        &mass,
+        &fixed,
+        &PowerParams { max_iter: 5000, rtol: 1e-10, ..Default::default() },
+        progress,
+    )
+    .map_err(|e| ProblemError::invalid("dynamics", e.to_string()))?;
+    Ok(StabilityLimit {
+        dt: verlet_limit(info.lambda) * (1.0 - 1e-3),
+        method: format!("2/sqrt(lambda_max) by power iteration ({} iterations), less 0.1%", info.iterations),
+        seconds: t0.elapsed().as_secs_f64(),
+    })
+}
 
-    /// Runs the `dynamics` section. `progress` receives one line per phase and the tasks of the
-    /// stable-time-step estimate (power iteration, 2D/3D) and of the time steps.
-    pub fn run_dynamics(&self, progress: &dyn Progress) -> Result<DynamicsRun, ProblemError> {
-        let dynamics = self.dynamics_section()?;
-        self.model.require(Capability::Dynamics)?;
-        let t0 = Instant::now();
-        let d = self.dim();
-        let grid = self.lattice()?;
-        let n_nodes = grid.len();
-        progress.phase(&format!(
-            "building bonds: {n_nodes} nodes, horizon/spacing = {:.3}",
-            self.model.horizon().unwrap_or(f64::NAN) / grid.spacing()
-        ));
-        let operator = self.model.dynamics_operator(self)?;
-        let op = &operator.op;
-        progress.phase(&format!(
-            "estimating the stable time step ({} free DOFs)",
-            d * n_nodes - self.constrained().0.iter().filter(|m| **m).count()
-        ));
-        let limit = self.limit_of(&operator, dynamics, progress)?;
-        let dt = match dynamics.step {
-            TimeStep::Dt(dt) => dt,
-            TimeStep::Safety(s) => s * limit.dt,
+/// Runs the `dynamics` section. `progress` receives one line per phase and the tasks of the
+/// stable-time-step estimate (power iteration, 2D/3D) and of the time steps.
+pub fn run_dynamics(p: &Problem, progress: &dyn Progress) -> Result<DynamicsRun, ProblemError> {
+    let dynamics = dynamics_section(p)?;
+    p.model().require(Capability::Dynamics)?;
+    let t0 = Instant::now();
+    let d = p.dim();
+    let grid = p.lattice()?;
+    let n_nodes = grid.len();
+    progress.phase(&format!(
+        "building bonds: {n_nodes} nodes, horizon/spacing = {:.3}",
+        p.model().horizon().unwrap_or(f64::NAN) / grid.spacing()
+    ));
+    let operator = p.model().dynamics_operator(p)?;
+    let op = &operator.op;
+    progress.phase(&format!(
+        "estimating the stable time step ({} free DOFs)",
+        d * n_nodes - p.constrained().0.iter().filter(|m| **m).count()
+    ));
+    let limit = limit_of(p, &operator, dynamics, progress)?;
+    let dt = match *dynamics.step() {
+        TimeStep::Dt(dt) => dt,
+        TimeStep::Safety(s) => s * limit.dt,
+    };
+    if dt > limit.dt && !dynamics.allow_unstable() {
+        let path = match *dynamics.step() {
+            TimeStep::Dt(_) => "dynamics.dt",
+            TimeStep::Safety(_) => "dynamics.dt_safety",
         };
-        if dt > limit.dt && !dynamics.allow_unstable {
-            let path = match dynamics.step {
-                TimeStep::Dt(_) => "dynamics.dt",
-                TimeStep::Safety(_) => "dynamics.dt_safety",
-            };
-            return Err(ProblemError::invalid(
-                path,
-                format!(
-                    "dt = {dt:e} exceeds the velocity-Verlet stability limit dt_max = {:e} ({}); use dt <= {:e}, dt_safety <= 1, or set \"allow_unstable\": true",
-                    limit.dt, limit.method, limit.dt
-                ),
-            ));
-        }
-        progress.phase(&format!(
-            "dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {}; {:.3} s)",
-            dt / limit.dt,
-            limit.dt,
-            limit.method,
-            limit.seconds
+        return Err(ProblemError::invalid(
+            path,
+            format!(
+                "dt = {dt:e} exceeds the velocity-Verlet stability limit dt_max = {:e} ({}); use dt <= {:e}, dt_safety <= 1, or set \"allow_unstable\": true",
+                limit.dt, limit.method, limit.dt
+            ),
         ));
-        let fixed = self.fixed();
-        let mass = self.mass(dynamics.density)?;
-        let verlet = Verlet::new(op, mass)
-            .with_progress(progress)
-            .with_fixed(&fixed)
-            .map_err(|e| ProblemError::invalid("constraints", e.to_string()))?;
-        let positions = op.positions().to_vec();
-        let load = self.load_vector();
-        let loaded = load.iter().any(|f| *f != 0.0);
-        let params = VerletParams {
-            dt,
-            steps: dynamics.steps,
-            output_every: dynamics.output_every,
-            limit: DtLimit::Given(limit.dt),
-            allow_unstable: dynamics.allow_unstable,
-        };
-        let mut state = dynamics.initial.state(&positions, d);
-        let (mut output_steps, mut times, mut energies, mut snapshots) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let setup_seconds = t0.elapsed().as_secs_f64();
-        progress.phase(&format!(
-            "running {} steps ({} DOFs, {} held, {} bonds)",
-            dynamics.steps,
-            d * n_nodes,
-            fixed.len(),
-            op.family().n_bonds()
-        ));
-        let t1 = Instant::now();
-        let mut force = |_t: f64, f: &mut [f64]| f.copy_from_slice(&load);
-        let info = verlet
-            .run(&mut state, &params, if loaded { Some(&mut force) } else { None }, |s| {
-                output_steps.push(s.step);
-                times.push(s.t);
-                energies.push(s.energy);
-                snapshots.push(s.u.to_vec());
-                ControlFlow::Continue(())
-            })
-            .map_err(ProblemError::Dynamics)?;
-        let wall_seconds = t1.elapsed().as_secs_f64();
-        progress.phase(&format!("done: t = {:.6e} in {wall_seconds:.3} s", info.t));
-        Ok(DynamicsRun {
-            name: self.name.clone(),
-            dim: d,
-            x: positions,
-            is_layer: (0..n_nodes).map(|k| grid.is_layer(k)).collect(),
-            dt,
-            limit,
-            steps: info.steps,
-            output_every: dynamics.output_every,
-            n_bonds: op.family().n_bonds(),
-            n_dofs: d * n_nodes,
-            n_fixed: fixed.len(),
-            output_steps,
-            times,
-            energies,
-            snapshots,
-            wall_seconds,
-            setup_seconds,
-        })
     }
+    progress.phase(&format!(
+        "dt = {dt:.6e} = {:.4} dt_max (dt_max = {:.6e}, {}; {:.3} s)",
+        dt / limit.dt,
+        limit.dt,
+        limit.method,
+        limit.seconds
+    ));
+    let fixed = fixed(p);
+    let mass = mass(p, dynamics.density())?;
+    let verlet = Verlet::new(op, mass)
+        .with_progress(progress)
+        .with_fixed(&fixed)
+        .map_err(|e| ProblemError::invalid("constraints", e.to_string()))?;
+    let positions = op.positions().to_vec();
+    let load = p.load_vector();
+    let loaded = load.iter().any(|f| *f != 0.0);
+    let params = VerletParams {
+        dt,
+        steps: dynamics.steps(),
+        output_every: dynamics.output_every(),
+        limit: DtLimit::Given(limit.dt),
+        allow_unstable: dynamics.allow_unstable(),
+    };
+    let mut state = dynamics.initial().state(&positions, d);
+    let (mut output_steps, mut times, mut energies, mut snapshots) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let setup_seconds = t0.elapsed().as_secs_f64();
+    progress.phase(&format!(
+        "running {} steps ({} DOFs, {} held, {} bonds)",
+        dynamics.steps(),
+        d * n_nodes,
+        fixed.len(),
+        op.family().n_bonds()
+    ));
+    let t1 = Instant::now();
+    let mut force = |_t: f64, f: &mut [f64]| f.copy_from_slice(&load);
+    let info = verlet
+        .run(&mut state, &params, if loaded { Some(&mut force) } else { None }, |s| {
+            output_steps.push(s.step);
+            times.push(s.t);
+            energies.push(s.energy);
+            snapshots.push(s.u.to_vec());
+            ControlFlow::Continue(())
+        })
+        .map_err(ProblemError::Dynamics)?;
+    let wall_seconds = t1.elapsed().as_secs_f64();
+    progress.phase(&format!("done: t = {:.6e} in {wall_seconds:.3} s", info.t));
+    Ok(DynamicsRun {
+        name: p.name().to_string(),
+        dim: d,
+        x: positions,
+        is_layer: (0..n_nodes).map(|k| grid.is_layer(k)).collect(),
+        dt,
+        limit,
+        steps: info.steps,
+        output_every: dynamics.output_every(),
+        n_bonds: op.family().n_bonds(),
+        n_dofs: d * n_nodes,
+        n_fixed: fixed.len(),
+        output_steps,
+        times,
+        energies,
+        snapshots,
+        wall_seconds,
+        setup_seconds,
+    })
 }
 
 #[cfg(test)]
 mod tests {
-    use crate::Problem;
+    use crate::{Commands, Problem};
     use serde_json::{json, Value};
 
     /// 5 x 5 nodes (h = 0.1, no layer), delta = 3h, plane strain, no constraints.

@@ -7,7 +7,7 @@
 //! A_ff u_f = f_f - (A u_bar)_f.
 //! ```
 //!
-//! [`Problem::reduced_system`] builds the scene's model as [`Problem::solve`] does and returns
+//! [`reduced_system`] (`Commands::reduced_system`) builds the scene's model as [`Problem::solve`] does and returns
 //! `A_ff` and the right-hand side from [`linpd_solve::reduced_system`], the function the static
 //! solve's assembled path calls: the same matrix (every stored entry, explicit zeros included:
 //! the pattern a factorization sees), the same checks and the same error messages. A scene
@@ -65,25 +65,22 @@ pub struct ReducedSystem {
     pub free_dofs: Vec<usize>,
 }
 
-impl Problem {
-    /// The reduced system the static solve of this scene factors or iterates (see the module
-    /// docs); the errors are those of [`Problem::solve`] before its solver runs.
-    pub fn reduced_system(&self, progress: &dyn Progress) -> Result<ReducedSystem, ProblemError> {
-        self.model.require(Capability::Export)?;
-        let s = self.model.system(self, Purpose::Assembled, progress)?;
-        let model = s.model();
-        let (k, f) =
-            linpd_solve::reduced_system(model, &s.bc, &s.f, progress).map_err(|e| self.model.static_error(e))?;
-        Ok(ReducedSystem {
-            name: self.name.clone(),
-            model: model.kind(),
-            dim: model.dim(),
-            n_nodes: model.n_nodes(),
-            k,
-            f,
-            free_dofs: s.bc.dofs().free_dofs(),
-        })
-    }
+/// The reduced system the static solve of this scene factors or iterates (see the module
+/// docs); the errors are those of [`Problem::solve`] before its solver runs.
+pub fn reduced_system(p: &Problem, progress: &dyn Progress) -> Result<ReducedSystem, ProblemError> {
+    p.model().require(Capability::Export)?;
+    let s = p.model().system(p, Purpose::Assembled, progress)?;
+    let model = s.model();
+    let (k, f) = linpd_solve::reduced_system(model, &s.bc, &s.f, progress).map_err(|e| p.model().static_error(e))?;
+    Ok(ReducedSystem {
+        name: p.name().to_string(),
+        model: model.kind(),
+        dim: model.dim(),
+        n_nodes: model.n_nodes(),
+        k,
+        f,
+        free_dofs: s.bc.dofs().free_dofs(),
+    })
 }
 
 impl ReducedSystem {

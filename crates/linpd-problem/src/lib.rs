@@ -1,65 +1,34 @@
-//! The JSON scene: a plain serde mirror ([`raw`]) with unknown keys rejected, validated into a
-//! typed [`Problem`] whose errors name the JSON path (`model.horizon: must be > 0`), then built
-//! into an operator and solved ([`run`]), and written out ([`output`]) through an [`OutputDir`]
-//! ([`atomic`]): all files of a run or none.
+//! The application over the scene (crate linpd-scene, re-exported here whole): the commands
+//! that take a validated [`Problem`] further. Each is written once against the scene's model
+//! interface ([`SceneModel`]), asking its capabilities, never its type:
 //!
-//! Each model type is one module of [`models`] (its keys, validation, build, fields and
-//! capabilities); the commands ask the scene's model ([`models::SceneModel`]) and never match on
-//! its type. Coarsened levels (`"model": {"type": "coarsened", "moduli": ...}`) have no grid:
-//! their nodes are [`Nodes::Level`] ([`models::coarsened`]).
+//! * [`export`]: the reduced system `A_ff u_f = f_f - (A u_bar)_f` for another solver
+//!   (Matrix Market, [`petsc`] binary);
+//! * [`rows`]: rows of `A_ff` on demand (the Python package, the distributed PETSc solve);
+//! * [`pipeline`]: Silling's multi-level coarsening of a scene, with [`level_solve`];
+//! * [`dynamics_run`]: the explicit dynamics of a scene's `dynamics` section;
+//! * [`atomic`]: all files of a run or none ([`OutputDir`]).
 //!
-//! The key reference is `docs/problem-format.md`.
+//! [`Commands`] gives a [`Problem`] the methods of these commands (`p.reduced_system(..)`,
+//! `p.row_system()`, `p.run_dynamics(..)`, ...).
 #![deny(missing_docs)]
 // Invariants become errors with a reason, not panics: a scene is user input.
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
 
-// In layers, each using only those above it (no module cycle): files and formats; the
-// scene's parts; the scene and its model's interface; the models; the commands.
+pub use linpd_scene::*;
+
 pub mod atomic;
-pub mod capability;
-pub mod error;
-pub mod fields;
-pub mod json;
-pub mod memory;
-pub mod output;
-pub mod petsc;
-pub mod raw;
-
-pub mod balance;
-pub mod cloud;
-pub mod dynamics;
-pub mod nodes;
-pub mod solution;
-pub mod validate;
-
-pub mod scene;
-
-pub mod models;
-
+pub mod commands;
 pub mod dynamics_run;
 pub mod export;
 pub mod level_solve;
+pub mod petsc;
 pub mod pipeline;
 pub mod rows;
-pub mod run;
 
 pub use atomic::{OutputDir, RunIdentity};
-pub use balance::{Balance, ConstraintBalance, LoadBalance};
-pub use capability::Capability;
-pub use dynamics::{Dynamics, Initial, TimeStep};
+pub use commands::Commands;
 pub use dynamics_run::{DynamicsRun, StabilityLimit};
-pub use error::ProblemError;
 pub use export::ReducedSystem;
-pub use fields::{nodal_strain, NodalStrain};
-pub use json::MAX_JSON_BYTES;
-pub use linpd_core::sparse::restrict_to_free as reduce_to_free;
-pub use models::bond_model::{BondModel, Surface};
-pub use models::coarsened::{CoarsenedModel, ModuliFile};
-pub use models::lattice_blend::{PdRegions, PdZone};
-pub use models::lps::CG_NEAR_INCOMPRESSIBLE_NU;
-pub use models::{ModelType, Registry};
-pub use nodes::{LevelNodes, Nodes};
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
 pub use rows::{RowBlock, RowSystem};
-pub use scene::{Constraint, Load, Problem, SceneModel};
-pub use solution::Solution;

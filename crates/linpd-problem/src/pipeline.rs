@@ -440,7 +440,7 @@ impl Pipeline {
             return Err(inv("constraints", "no constraint selects a node of the coarsest level; in a pipeline, constraints act on the nodes shared by every level"));
         }
         let mut f = Vec::new();
-        for (li, l) in p.loads.iter().enumerate() {
+        for (li, l) in p.loads().iter().enumerate() {
             // a body load gives node i the force v_i density; a resultant is spread over the
             // coarsest nodes of its region by their coarsest volumes, as a scene on that level
             // spreads it

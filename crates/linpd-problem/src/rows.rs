@@ -81,62 +81,60 @@ pub struct RowBlock {
     pub data: Vec<f64>,
 }
 
-impl Problem {
-    /// The scene's model (built as `linpd solve` builds it) and reduced right-hand side for
-    /// row-block assembly, with the checks of a solve (support, finite loads): every error a
-    /// solve of this scene would raise before its solver runs is raised here. Every model with
-    /// [`Capability::BlockRows`] (see the module docs for what each costs).
-    pub fn row_system(&self) -> Result<RowSystem, ProblemError> {
-        self.model.require(Capability::BlockRows)?;
-        let system = self.model.system(self, Purpose::Rows, &linpd_core::NoProgress)?;
-        let m = system.model();
-        // a model that claims block rows and has none is named, not mis-assembled
-        if m.n_nodes() > 0 && !m.for_each_block(0, &mut |_, _| {}) {
-            return Err(ProblemError::invalid(
-                "model.type",
-                format!(
-                    "the {} model has no per-node block rows (Model::for_each_block), so its rows cannot be assembled \
-                     apart: use `linpd solve` or `linpd export`",
-                    m.kind()
-                ),
-            ));
-        }
-        let rhs = linpd_solve::reduced_rhs_checked(m, &system.bc, &system.f).map_err(|e| self.model.static_error(e))?;
-        let asymmetry = m.asymmetry(system.bc.dofs());
-        let free_dofs = system.bc.dofs().free_dofs();
-        let built_for = (self.name.clone(), self.model.name());
-        Ok(RowSystem { system, built_for, free_dofs, rhs, asymmetry })
+/// The scene's model (built as `linpd solve` builds it) and reduced right-hand side for
+/// row-block assembly, with the checks of a solve (support, finite loads): every error a
+/// solve of this scene would raise before its solver runs is raised here. Every model with
+/// [`Capability::BlockRows`] (see the module docs for what each costs).
+pub fn row_system(p: &Problem) -> Result<RowSystem, ProblemError> {
+    p.model().require(Capability::BlockRows)?;
+    let system = p.model().system(p, Purpose::Rows, &linpd_core::NoProgress)?;
+    let m = system.model();
+    // a model that claims block rows and has none is named, not mis-assembled
+    if m.n_nodes() > 0 && !m.for_each_block(0, &mut |_, _| {}) {
+        return Err(ProblemError::invalid(
+            "model.type",
+            format!(
+                "the {} model has no per-node block rows (Model::for_each_block), so its rows cannot be assembled \
+                 apart: use `linpd solve` or `linpd export`",
+                m.kind()
+            ),
+        ));
     }
+    let rhs = linpd_solve::reduced_rhs_checked(m, &system.bc, &system.f).map_err(|e| p.model().static_error(e))?;
+    let asymmetry = m.asymmetry(system.bc.dofs());
+    let free_dofs = system.bc.dofs().free_dofs();
+    let built_for = (p.name().to_string(), p.model().name());
+    Ok(RowSystem { system, built_for, free_dofs, rhs, asymmetry })
+}
 
-    /// The [`Solution`] `linpd solve` would write for displacements `u` over all DOFs computed
-    /// elsewhere (by PETSc), with `report` as the solve's report: the balance and the fields of
-    /// the scene's model ([`crate::models::SceneModel::solution`]). `u` must have one value per
-    /// DOF of `system` ([`RowSystem::dofs`]), which this scene must have built.
-    pub fn solution_from(
-        &self,
-        system: &RowSystem,
-        u: Vec<f64>,
-        report: SolveReport,
-    ) -> Result<Solution, ProblemError> {
-        let n_dofs = system.dofs().n_dofs();
-        if u.len() != n_dofs {
-            return Err(ProblemError::invalid("u", format!("has {} values, the scene has {n_dofs} DOFs", u.len())));
-        }
-        if system.built_for != (self.name.clone(), self.model.name()) {
-            return Err(ProblemError::invalid(
-                "rows",
-                format!(
-                    "the row system was built for the {} scene {:?}, this is the {} scene {:?}: build it with this \
-                     scene's row_system",
-                    system.built_for.1,
-                    system.built_for.0,
-                    self.model.name(),
-                    self.name
-                ),
-            ));
-        }
-        self.model.solution(self, &system.system, u, report)
+/// The [`Solution`] `linpd solve` would write for displacements `u` over all DOFs computed
+/// elsewhere (by PETSc), with `report` as the solve's report: the balance and the fields of
+/// the scene's model ([`crate::models::SceneModel::solution`]). `u` must have one value per
+/// DOF of `system` ([`RowSystem::dofs`]), which this scene must have built.
+pub fn solution_from(
+    p: &Problem,
+    system: &RowSystem,
+    u: Vec<f64>,
+    report: SolveReport,
+) -> Result<Solution, ProblemError> {
+    let n_dofs = system.dofs().n_dofs();
+    if u.len() != n_dofs {
+        return Err(ProblemError::invalid("u", format!("has {} values, the scene has {n_dofs} DOFs", u.len())));
     }
+    if system.built_for != (p.name().to_string(), p.model().name()) {
+        return Err(ProblemError::invalid(
+            "rows",
+            format!(
+                "the row system was built for the {} scene {:?}, this is the {} scene {:?}: build it with this \
+                 scene's row_system",
+                system.built_for.1,
+                system.built_for.0,
+                p.model().name(),
+                p.name()
+            ),
+        ));
+    }
+    p.model().solution(p, &system.system, u, report)
 }
 
 impl RowSystem {

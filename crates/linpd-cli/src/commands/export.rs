@@ -2,6 +2,7 @@
 
 use crate::{input, output, scene_identity, CliError, ExportFormat, Reporter};
 use linpd_core::progress::Progress;
+use linpd_problem::Commands;
 use linpd_problem::{OutputDir, Problem};
 use std::path::Path;
 

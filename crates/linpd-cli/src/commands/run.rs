@@ -1,6 +1,7 @@
 //! `linpd run`: a scene's explicit dynamics, its history, snapshots and plots.
 
 use crate::{input, output, scene_identity, CliError, Reporter};
+use linpd_problem::Commands;
 use linpd_problem::{OutputDir, Problem};
 use std::path::{Path, PathBuf};
 

@@ -123,7 +123,7 @@ pub trait SceneModel: Debug + Send + Sync {
     /// line per phase.
     fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError>;
     /// The [`Solution`] for displacements `u` over all DOFs of `system` (solved here or
-    /// elsewhere: [`crate::RowSystem`]).
+    /// elsewhere: `linpd_problem::RowSystem`).
     fn solution(
         &self,
         p: &Problem,
@@ -164,7 +164,7 @@ pub trait SceneModel: Debug + Send + Sync {
 }
 
 /// The error of a [`SceneModel::solution`] handed a system another model built (a
-/// [`crate::RowSystem`] of another scene).
+/// `linpd_problem::RowSystem` of another scene).
 pub fn foreign_system(model: &str) -> ProblemError {
     ProblemError::invalid("rows", format!("the system was not built by this scene's {model} model"))
 }

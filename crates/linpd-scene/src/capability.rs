@@ -10,12 +10,12 @@ pub enum Capability {
     StaticSolve,
     /// `"solver": {"type": "cg", "matrix_free": true}`: CG without an assembled matrix.
     MatrixFree,
-    /// Rows of `A_ff` on demand ([`crate::Problem::row_system`]): the Python package's rows and the
+    /// Rows of `A_ff` on demand (`linpd_problem::Commands::row_system`): the Python package's rows and the
     /// distributed PETSc solve.
     BlockRows,
-    /// `linpd export` ([`crate::Problem::reduced_system`]).
+    /// `linpd export` (`linpd_problem::Commands::reduced_system`).
     Export,
-    /// The level 0 of `linpd coarsen` ([`crate::level0_model`]).
+    /// The level 0 of `linpd coarsen` (`linpd_problem::level0_model`).
     Coarsen,
     /// `linpd run` (the `dynamics` section).
     Dynamics,

@@ -121,7 +121,7 @@ impl Problem {
         &self.nodes
     }
     /// The lattice, or an error for models without one.
-    pub(crate) fn lattice(&self) -> Result<&Grid, ProblemError> {
+    pub fn lattice(&self) -> Result<&Grid, ProblemError> {
         self.nodes.lattice().ok_or_else(|| {
             ProblemError::invalid("model.type", format!("{} models have no lattice here", self.model.describe()))
         })

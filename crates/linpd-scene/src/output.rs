@@ -1,5 +1,5 @@
 //! Writing a [`Solution`]: `u.csv` and `result.vtu` ([`Solution::write`]) and the
-//! `result.json` document ([`Solution::to_json`]), which [`crate::OutputDir::commit`] writes
+//! `result.json` document ([`Solution::to_json`]), which `linpd_problem::OutputDir::commit` writes
 //! last with the run's identity and the list of the files written; and the one VTU writer
 //! ([`linpd_io::vtk::write_vtu`]) and ParaView collection writer ([`linpd_io::vtk::write_pvd`]) that `linpd run`'s snapshots
 //! share.
@@ -41,7 +41,7 @@ impl<'a> NodeValue<'a> {
 }
 
 /// The `result.json` document of a static solve ([`Solution::to_json`]; the `"run"` member is
-/// added by [`crate::OutputDir::commit`]). Its keys are listed in docs/problem-format.md and
+/// added by `linpd_problem::OutputDir::commit`). Its keys are listed in docs/problem-format.md and
 /// checked by tests/result_schema.rs.
 #[derive(Debug, Serialize)]
 pub struct ResultDoc<'a> {
@@ -115,7 +115,7 @@ impl Solution {
     }
 
     /// Writes `u.csv` and `result.vtu` into `dir` (created if missing); returns their paths. `result.json`
-    /// ([`Solution::to_json`]) is written by [`crate::OutputDir::commit`].
+    /// ([`Solution::to_json`]) is written by `linpd_problem::OutputDir::commit`.
     pub fn write(&self, dir: &Path) -> Result<Vec<std::path::PathBuf>, ProblemError> {
         std::fs::create_dir_all(dir).map_err(io(dir))?;
         let csv_path = dir.join("u.csv");

@@ -91,7 +91,7 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
 
 /// The output directory: `output.dir` as given, else `out/<name>`. The name must then be a
 /// plain directory name: a name like `../../x` must not write outside `out/`.
-pub(crate) fn output_dir(dir: Option<&str>, name: &str) -> Result<String, ProblemError> {
+pub fn output_dir(dir: Option<&str>, name: &str) -> Result<String, ProblemError> {
     match dir {
         Some(d) if d.trim().is_empty() => {
             Err(ProblemError::invalid("output.dir", "must not be empty (omit `output.dir` for out/<name>)"))

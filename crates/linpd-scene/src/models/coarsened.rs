@@ -299,7 +299,7 @@ impl SceneModel for CoarsenedModel {
 }
 
 /// The [`Solution`] of a coarsened scene for displacements `u` over all DOFs (solved here or
-/// elsewhere, [`crate::RowSystem`]).
+/// elsewhere, `linpd_problem::RowSystem`).
 fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: SolveReport) -> Solution {
     let balance = p.balance(c.model.as_ref(), &u);
     let volumes: Vec<f64> = (0..p.nodes.len()).map(|n| p.nodes.volume(n)).collect();

@@ -280,7 +280,7 @@ impl SceneModel for LpsSceneModel {
 }
 
 /// The [`Solution`] of an lps scene for displacements `u` over all DOFs (solved here or
-/// elsewhere, [`crate::RowSystem`]): balance, strain, dilatation and energy density.
+/// elsewhere, `linpd_problem::RowSystem`): balance, strain, dilatation and energy density.
 pub(crate) fn solution(p: &Problem, model: &LpsModel, u: Vec<f64>, report: SolveReport) -> Solution {
     let n = p.nodes.len();
     let balance = p.balance(model, &u);

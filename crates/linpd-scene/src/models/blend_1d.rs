@@ -570,7 +570,7 @@ pub(crate) fn solve(name: &str, b: &BlendScene, progress: &dyn Progress) -> Resu
     Ok(solution(name, b, s))
 }
 
-/// The [`Solution`] of a solved blend scene (here or elsewhere, [`crate::RowSystem`]).
+/// The [`Solution`] of a solved blend scene (here or elsewhere, `linpd_problem::RowSystem`).
 pub(crate) fn solution(name: &str, b: &BlendScene, s: linpd_blend::BlendSolution) -> Solution {
     let balance = balance(b, &s);
     Solution {

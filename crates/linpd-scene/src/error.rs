@@ -30,7 +30,7 @@ pub enum ProblemError {
         column: usize,
     },
     /// An output directory that may not be written now (locked by another run) or replaced
-    /// (not a linpd output directory); see [`crate::atomic`].
+    /// (not a linpd output directory); see linpd-problem's `atomic`.
     #[error("{dir}: {reason}")]
     Output {
         /// The output directory.

@@ -13,7 +13,7 @@ pub const MAX_JSON_BYTES: u64 = 16 << 20;
 
 /// Reads a scene or pipeline file: a regular file (not a device, FIFO or directory) of at most
 /// [`MAX_JSON_BYTES`], in UTF-8.
-pub(crate) fn read_json_file(path: &Path) -> Result<String, ProblemError> {
+pub fn read_json_file(path: &Path) -> Result<String, ProblemError> {
     use std::io::Read;
     let err = |source| ProblemError::Io { path: path.display().to_string(), source };
     let other = |m: String| err(std::io::Error::new(std::io::ErrorKind::InvalidInput, m));
@@ -43,7 +43,7 @@ pub(crate) fn read_json_file(path: &Path) -> Result<String, ProblemError> {
 
 /// Parses one JSON document (scene or pipeline) into `T`; syntax and shape errors carry line,
 /// column and path, and text after the document is an error (not silently ignored).
-pub(crate) fn parse_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, ProblemError> {
+pub fn parse_json<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, ProblemError> {
     parse_json_at(text, "", (1, 1))
 }
 
