@@ -177,11 +177,21 @@ fn malformed_pipelines_fail_with_the_cause_and_write_nothing() {
             "coarsening is not available for blend models",
         ),
         (
+            format!(r#"{{"name": "b", "scene": "{}", "levels": [{{"every": 4, "radius": 0.15}}], "solve": true}}"#, {
+                // held only at x = 0.005, a node that every 4th drops
+                let mut s: Value = serde_json::from_str(&std::fs::read_to_string(&scene).unwrap()).unwrap();
+                s["constraints"][0]["region"] = serde_json::json!({"box": {"min": [0.004], "max": [0.006]}});
+                let held = dir.join("held-on-a-dropped-node.json");
+                std::fs::write(&held, s.to_string()).unwrap();
+                held.display().to_string()
+            }),
+            "level 1 keeps no prescribed DOF",
+        ),
+        (
             format!(
-                r#"{{"name": "b", "scene": "{}", "levels": [{{"every": 4, "radius": 0.15}}], "solve": true}}"#,
-                root().join("data/bar-point-load.json").display()
+                r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "tolerance": 1e-3, "radius_start": 0.5, "radius_max": 0.2}}]}}"#
             ),
-            "not kept at the coarsest level",
+            "radius_max 2e-1 is below radius_start 5e-1",
         ),
     ];
     for (k, (text, needle)) in cases.iter().enumerate() {

@@ -124,16 +124,20 @@
 //! value). The hit rate is reported.
 
 mod cells;
+mod homogenize;
 mod level;
 mod retain;
 mod step;
+mod transfer;
 
+pub use homogenize::{effective_moduli, nodal_moduli, EffectiveModuli};
 pub use level::LevelModel;
 pub use retain::{check_retained, coarse_volumes, every_kth, retain_every};
 pub use step::{
     coarsen, coarsen_with, coarsen_with_progress, local_resolvent, Coarsened, LocalResolvent, Matching, Options,
     Radius, StepReport, MAX_RADII,
 };
+pub use transfer::Transfer;
 
 /// Errors of model construction and coarsening.
 #[derive(Debug, thiserror::Error, PartialEq)]

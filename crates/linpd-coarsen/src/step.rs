@@ -3,6 +3,7 @@
 use crate::cells::Cells;
 use crate::level::dist;
 use crate::retain::{check_retained, coarse_volumes};
+use crate::transfer::Transfer;
 use crate::{CoarsenError, LevelModel};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, Side};
@@ -12,9 +13,9 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::time::Instant;
 
-/// One local solve's output: the coarsened row values, whether the sparse LU was used, and
-/// the local problem's size.
-type LocalRow = (Vec<f64>, bool, usize);
+/// One local solve's output: the coarsened row values, the load-transfer row `T_x`
+/// ([`crate::Transfer`]), whether the sparse LU was used, and the local problem's size.
+type LocalRow = (Vec<f64>, Vec<f64>, bool, usize);
 
 /// What "the level-m force equals the level-(m-1) force" (9) is applied to; see the crate docs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -43,11 +44,12 @@ pub enum Radius {
     Auto {
         /// Relative tail tolerance.
         tol: f64,
-        /// First radius (default `2 delta^{m-1}`, the paper's footnote 1).
+        /// First radius (default `2 delta^{m-1}`, the paper's footnote 1, capped by `max`).
         start: Option<f64>,
         /// Growth factor (> 1).
         growth: f64,
-        /// Largest radius tried (default: the body's diameter, where `N_x` is the whole body).
+        /// Largest radius tried (default: the body's diameter, where `N_x` is the whole body,
+        /// or `start` if that is larger).
         max: Option<f64>,
     },
 }
@@ -88,6 +90,9 @@ pub struct StepReport {
     pub tail: f64,
     /// Every `(radius, tail)` tried by the radius rule, in order.
     pub tried: Vec<(f64, f64)>,
+    /// Every `N_x` was the whole body (the radius reached the body's diameter): the step is
+    /// exact static condensation and the tail is 0.
+    pub whole_body: bool,
     /// Distinct neighbourhood classes (local solves done).
     pub classes: usize,
     /// `1 - classes / n_coarse`: the fraction of retained nodes whose local solve was reused.
@@ -121,6 +126,8 @@ pub struct Coarsened {
     pub parent: Vec<usize>,
     /// Radius, tail, cache and timings.
     pub report: StepReport,
+    /// The load transfer `f^m = S^T f^{m-1}` of this step ([`Transfer::restrict`]).
+    pub transfer: Transfer,
 }
 
 /// The local problem (13)-(14) of one retained node.
@@ -180,12 +187,17 @@ pub fn coarsen_with_progress(
                     "radius rule needs tol > 0 and growth > 1, got tol = {tol}, growth = {growth}"
                 )));
             }
-            let mut r = start.unwrap_or(2.0 * delta);
+            // Defaults never contradict each other or a value the user gave: the default start
+            // 2 delta is capped by the largest radius (the body's diameter by default, where
+            // N_x is the whole body and the tail is 0), and the default largest radius is at
+            // least a start the user gave. Only a user's start above a user's maximum is an error.
+            let whole = diameter * (1.0 + 1e-9);
+            let r_max = max.unwrap_or_else(|| whole.max(start.unwrap_or(0.0)));
+            let mut r = start.unwrap_or_else(|| (2.0 * delta).min(r_max));
             check_radius(r)?;
-            let r_max = max.unwrap_or(diameter * (1.0 + 1e-9));
             if r_max < r {
                 return Err(CoarsenError::InvalidInput(format!(
-                    "radius rule: radius_max {r_max:e} is below the first radius {r:e} (radius_start, default 2 x horizon)"
+                    "radius rule: radius_max {r_max:e} is below radius_start {r:e}"
                 )));
             }
             // Every radius tried is a whole coarsening step: bound their number before the
@@ -233,6 +245,8 @@ fn diameter(m: &LevelModel) -> f64 {
 struct Classes {
     /// The retained nodes of each node's `N_x`, in local order.
     retained: Vec<Vec<usize>>,
+    /// The excluded nodes of each node's `N_x`, in local order.
+    excluded: Vec<Vec<usize>>,
     /// Each node's class.
     class_of: Vec<usize>,
     /// Each class's first node (whose local problem is solved).
@@ -419,8 +433,9 @@ impl<'a> Step<'a> {
     }
 
     /// The coarse nodal-stiffness row `W^m_{x,q}`, `q` over the retained nodes of `hood` in
-    /// local order (`d x d` blocks, row-major), and the local solver used (true = sparse).
-    fn local_row(&self, hood: &Hood, xi: usize, r: f64) -> Result<(Vec<f64>, bool), CoarsenError> {
+    /// local order (`d x d` blocks, row-major), the load-transfer row `T_x = -G M^{-1}`
+    /// (`d x d|E_x|`, row-major; [`Transfer`]), and the local solver used (true = sparse).
+    fn local_row(&self, hood: &Hood, xi: usize, r: f64) -> Result<(Vec<f64>, Vec<f64>, bool), CoarsenError> {
         let fine = self.fine;
         let d = fine.dim();
         let (nn, nr) = (hood.nodes.len(), hood.n_r);
@@ -494,6 +509,12 @@ impl<'a> Step<'a> {
             }
         }
         let zb = zt.transpose() * &bmat; // d x dR
+        let mut t_row = vec![0.0; d * de];
+        for a in 0..d {
+            for j in 0..de {
+                t_row[a * de + j] = -zt[(j, a)];
+            }
+        }
         let mut row = direct;
         for q in 0..nr {
             for a in 0..d {
@@ -502,35 +523,35 @@ impl<'a> Step<'a> {
                 }
             }
         }
-        Ok((row, sparse))
+        Ok((row, t_row, sparse))
     }
 
     /// The retained nodes of every `N_x` with its signature (parallel over retained nodes), and
     /// the classes of equal signatures: each node's class and each class's first node. Without
     /// the cache every node is a class of its own.
     fn classes(&self, cells: &Cells, r: f64) -> Classes {
-        let hoods: Vec<(Vec<usize>, (u64, u64))> = self
+        let hoods: Vec<(Vec<usize>, Vec<usize>, (u64, u64))> = self
             .parent
             .par_iter()
             .map_init(Vec::new, |buf, &xi| {
                 let (hood, keys) = self.hood(cells, xi, r, buf);
                 let xl = hood.local(xi).expect("x is in its own neighbourhood");
                 let sig = if self.opts.cache { self.signature(&hood, &keys, xl) } else { (xi as u64, 0) };
-                (hood.nodes[..hood.n_r].to_vec(), sig)
+                (hood.nodes[..hood.n_r].to_vec(), hood.nodes[hood.n_r..].to_vec(), sig)
             })
             .collect();
         let mut class_of = Vec::with_capacity(hoods.len());
         let mut reps: Vec<usize> = Vec::new();
         let mut index: HashMap<(u64, u64), usize> = HashMap::new();
         for (k, h) in hoods.iter().enumerate() {
-            let c = *index.entry(h.1).or_insert_with(|| {
+            let c = *index.entry(h.2).or_insert_with(|| {
                 reps.push(k);
                 reps.len() - 1
             });
             class_of.push(c);
         }
-        let retained = hoods.into_iter().map(|h| h.0).collect();
-        Classes { retained, class_of, reps }
+        let (retained, excluded) = hoods.into_iter().map(|h| (h.0, h.1)).unzip();
+        Classes { retained, excluded, class_of, reps }
     }
 
     /// Coarse row `k` (columns, `d x d` blocks, tail) from its class's row `w` over the retained
@@ -590,7 +611,7 @@ impl<'a> Step<'a> {
         let whole_body = r >= diameter * (1.0 + 1e-9);
         // 1. neighbourhoods and signatures, 2. classes
         let t1 = Instant::now();
-        let Classes { retained, class_of, reps } = self.classes(&cells, r);
+        let Classes { retained, excluded, class_of, reps } = self.classes(&cells, r);
         let t_hoods = t1.elapsed().as_secs_f64();
         // 3. one local solve per class
         let t2 = Instant::now();
@@ -600,17 +621,19 @@ impl<'a> Step<'a> {
             .map_init(Vec::new, |buf, &k| {
                 let xi = self.parent[k];
                 let (hood, _) = self.hood(&cells, xi, r, buf);
-                let (row, sparse) = self.local_row(&hood, xi, r)?;
+                let (row, t_row, sparse) = self.local_row(&hood, xi, r)?;
                 task.advance(1);
-                Ok((row, sparse, d * (hood.nodes.len() - hood.n_r)))
+                Ok((row, t_row, sparse, d * (hood.nodes.len() - hood.n_r)))
             })
             .collect();
         task.set(reps.len() as u64, "");
         drop(task);
         let mut rows_w = Vec::with_capacity(solved.len());
+        let mut rows_t = Vec::with_capacity(solved.len());
         let (mut n_sparse, mut unknowns_max, mut unknowns_sum) = (0, 0, 0usize);
         for s in solved {
-            let (row, sparse, nu) = s?;
+            let (row, t_row, sparse, nu) = s?;
+            rows_t.push(t_row);
             n_sparse += sparse as usize;
             unknowns_max = unknowns_max.max(nu);
             unknowns_sum += nu;
@@ -637,6 +660,13 @@ impl<'a> Step<'a> {
         if whole_body {
             tail = 0.0;
         }
+        let factor: Vec<f64> = match self.opts.matching {
+            Matching::TotalForce => vec![1.0; self.parent.len()],
+            Matching::ForceDensity => {
+                self.parent.iter().zip(&self.vm).map(|(&p, &vm)| vm / fine.volumes()[p]).collect()
+            }
+        };
+        let transfer = Transfer::new(d, fine.len(), self.parent.clone(), excluded, class_of, rows_t, factor);
         let level0: Vec<usize> = self.parent.iter().map(|&p| fine.level0()[p]).collect();
         let model = LevelModel::from_csr(d, xm, self.vm.clone(), level0, offsets, cols, c)?;
         let t_assemble = t3.elapsed().as_secs_f64();
@@ -648,6 +678,7 @@ impl<'a> Step<'a> {
             radius: r,
             tail,
             tried: Vec::new(),
+            whole_body,
             classes,
             hit_rate: 1.0 - classes as f64 / self.parent.len() as f64,
             local_unknowns_max: unknowns_max,
@@ -660,7 +691,7 @@ impl<'a> Step<'a> {
             seconds_assemble: t_assemble,
             seconds_total: 0.0,
         };
-        Ok(Coarsened { model, parent: self.parent.clone(), report })
+        Ok(Coarsened { model, parent: self.parent.clone(), report, transfer })
     }
 }
 

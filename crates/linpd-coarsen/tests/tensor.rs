@@ -114,6 +114,7 @@ fn whole_body_neighbourhood_is_static_condensation_2d_3d_bond_and_lps() {
             model: c2.model.clone(),
             parent: c2.parent.iter().map(|&p| c1.parent[p]).collect(),
             report: c2.report.clone(),
+            transfer: c2.transfer.clone(),
         };
         let e2 = condensation_error(m0, &composed);
         println!(

@@ -122,22 +122,22 @@ pub fn read_csv(path: &Path, dim: usize) -> Result<Cloud, IoError> {
 }
 
 /// The errors of one node file: at a line, or of the whole file.
-struct CsvErrors {
-    path: String,
+pub(crate) struct CsvErrors {
+    pub(crate) path: String,
 }
 
 impl CsvErrors {
-    fn at(&self, line: u64, reason: String) -> IoError {
+    pub(crate) fn at(&self, line: u64, reason: String) -> IoError {
         IoError::Format { path: self.path.clone(), line: Some(line), reason }
     }
-    fn whole(&self, reason: String) -> IoError {
+    pub(crate) fn whole(&self, reason: String) -> IoError {
         IoError::Format { path: self.path.clone(), line: None, reason }
     }
 }
 
 /// A CSV reader of the node file at `path` (a regular file of at most [`MAX_CLOUD_BYTES`],
 /// read through a cap one byte beyond, so a file that grows while read is noticed).
-fn open_csv(path: &Path, err: &CsvErrors) -> Result<csv::Reader<std::io::Take<std::fs::File>>, IoError> {
+pub(crate) fn open_csv(path: &Path, err: &CsvErrors) -> Result<csv::Reader<std::io::Take<std::fs::File>>, IoError> {
     let meta = std::fs::metadata(path).map_err(|e| err.whole(e.to_string()))?;
     if !meta.is_file() {
         return Err(err.whole("not a regular file".into()));

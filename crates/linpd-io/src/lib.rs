@@ -1,6 +1,7 @@
 //! Every file format of linpd, once: point clouds from CSV ([`cloud`], on the csv crate) and VTK
 //! ([`vtk`]: reading through vtkio, and the VTU/PVD writer of results and snapshots), Matrix
-//! Market and the level files of a coarsened model ([`mtx`]), PETSc's binary matrices and
+//! Market and the level files of a coarsened model ([`mtx`]), nodal forces and prescribed
+//! displacements by node ([`nodal`]), PETSc's binary matrices and
 //! vectors ([`petsc`]). Errors are [`IoError`]: the file, and for text
 //! formats the line (or the point) and what is wrong there.
 #![deny(missing_docs)]
@@ -8,6 +9,7 @@
 
 pub mod cloud;
 pub mod mtx;
+pub mod nodal;
 pub mod petsc;
 pub mod vtk;
 

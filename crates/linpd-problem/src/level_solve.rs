@@ -33,7 +33,7 @@ pub fn solve_level(
 }
 
 /// Passes the tasks of `0` on and drops its phase lines.
-struct TasksOnly<'a>(&'a dyn Progress);
+pub(crate) struct TasksOnly<'a>(pub(crate) &'a dyn Progress);
 
 impl Progress for TasksOnly<'_> {
     fn tracks_tasks(&self) -> bool {

@@ -135,6 +135,9 @@ impl NodeSet for Nodes {
             Nodes::Level(l) | Nodes::Cloud(l) => l.spacing(),
         }
     }
+    fn count(&self) -> usize {
+        self.len()
+    }
     fn position(&self, n: usize) -> Point {
         Nodes::position(self, n)
     }
@@ -162,6 +165,9 @@ impl NodeSet for LevelNodes {
     fn spacing(&self) -> f64 {
         self.h
     }
+    fn count(&self) -> usize {
+        self.positions.len()
+    }
     fn position(&self, n: usize) -> Point {
         self.positions[n]
     }
@@ -184,6 +190,8 @@ pub(crate) trait NodeSet {
     fn what(&self) -> &'static str;
     /// The length scale of the geometric tolerances (the lattice spacing).
     fn spacing(&self) -> f64;
+    /// Number of nodes.
+    fn count(&self) -> usize;
     /// Position of node `n`.
     fn position(&self, n: usize) -> Point;
     /// The node nearest to `x` and its distance.
@@ -202,6 +210,9 @@ impl NodeSet for Grid {
     }
     fn spacing(&self) -> f64 {
         Grid::spacing(self)
+    }
+    fn count(&self) -> usize {
+        self.len()
     }
     fn position(&self, n: usize) -> Point {
         Grid::position(self, n)

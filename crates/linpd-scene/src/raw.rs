@@ -564,10 +564,16 @@ pub enum RawRegion {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawConstraint {
-    /// Where.
-    pub region: RawRegion,
-    /// `u = value + gradient x`.
-    pub displacement: RawDisplacement,
+    /// Where (with `displacement`; not with `file`).
+    #[serde(default)]
+    pub region: Option<RawRegion>,
+    /// `u = value + gradient x` (with `region`).
+    #[serde(default)]
+    pub displacement: Option<RawDisplacement>,
+    /// Prescribed values per DOF from a CSV file `node,component,value` (instead of `region`
+    /// and `displacement`), relative to the scene file.
+    #[serde(default)]
+    pub file: Option<String>,
     /// Constrained components (default: all).
     #[serde(default)]
     pub components: Option<Vec<usize>>,
@@ -596,6 +602,8 @@ pub enum RawLoadKind {
     Resultant,
     /// A force per area on a face of the grid's body box.
     Traction,
+    /// Nodal forces per node from a CSV file `node,f_x[,f_y[,f_z]]`.
+    Nodal,
 }
 
 /// A load: `{"type": "point", "at", "force"}` or `{"type": "body", "region", "density"}`
@@ -626,6 +634,9 @@ pub struct RawLoad {
     /// Traction: force per unit area.
     #[serde(default)]
     pub traction: Option<Vec<f64>>,
+    /// Nodal: the CSV file, relative to the scene file.
+    #[serde(default)]
+    pub file: Option<String>,
 }
 
 /// `solver`.

@@ -12,7 +12,7 @@ use linpd_core::{
     PlaneModel, Point, Region,
 };
 use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A scene being validated: the parsed mirror and the directory its file names start at.
 pub struct Context<'a> {
@@ -208,31 +208,79 @@ pub(crate) fn output_slice(raw: &RawProblem, grid: &Grid) -> Result<Option<(usiz
 fn check_constraints_agree(constraints: &[Constraint], dim: usize, nodes: &dyn NodeSet) -> Result<(), ProblemError> {
     let mut first: std::collections::HashMap<(usize, usize), (usize, f64)> = Default::default();
     for (k, c) in constraints.iter().enumerate() {
-        for node in nodes.select(&c.region) {
-            let x = nodes.position(node);
-            for &a in &c.components {
-                let u = c.displacement(&x[..dim], a);
-                match first.entry((node, a)) {
-                    std::collections::hash_map::Entry::Vacant(e) => {
-                        e.insert((k, u));
-                    }
-                    std::collections::hash_map::Entry::Occupied(e) => {
-                        let (j, v) = *e.get();
-                        if (u - v).abs() > 1e-12 * u.abs().max(v.abs()) {
-                            return Err(ProblemError::invalid(
-                                format!("constraints[{k}]"),
-                                format!(
-                                    "prescribes u_{a} = {u:e} at node {node} (x = {:?}), where constraints[{j}] prescribes {v:e}: constraints that share a DOF must agree",
-                                    &x[..dim]
-                                ),
-                            ));
-                        }
+        for (node, a, u) in c.prescribed(nodes, dim) {
+            match first.entry((node, a)) {
+                std::collections::hash_map::Entry::Vacant(e) => {
+                    e.insert((k, u));
+                }
+                std::collections::hash_map::Entry::Occupied(e) => {
+                    let (j, v) = *e.get();
+                    if (u - v).abs() > 1e-12 * u.abs().max(v.abs()) {
+                        return Err(ProblemError::invalid(
+                            format!("constraints[{k}]"),
+                            format!(
+                                "prescribes u_{a} = {u:e} at node {node} (x = {:?}), where constraints[{j}] prescribes {v:e}: constraints that share a DOF must agree",
+                                &nodes.position(node)[..dim]
+                            ),
+                        ));
                     }
                 }
             }
         }
     }
     Ok(())
+}
+
+/// A file named in the scene: relative names start at the scene file's directory.
+fn scene_file(base_dir: &Path, name: &str) -> PathBuf {
+    if Path::new(name).is_absolute() {
+        PathBuf::from(name)
+    } else {
+        base_dir.join(name)
+    }
+}
+
+/// `constraints[k]` with `file`: the prescribed DOFs of a CSV file ([`linpd_io::nodal`]).
+fn nodal_constraint(
+    p: &str,
+    c: &crate::raw::RawConstraint,
+    file: &str,
+    dim: usize,
+    nodes: &dyn NodeSet,
+    base_dir: &Path,
+) -> Result<Constraint, ProblemError> {
+    for (key, given) in [
+        ("region", c.region.is_some()),
+        ("displacement", c.displacement.is_some()),
+        ("components", c.components.is_some()),
+    ] {
+        if given {
+            return Err(ProblemError::invalid(
+                format!("{p}.{key}"),
+                "a constraint from a `file` takes its DOFs and values from the file; give either `file` or `region` with `displacement`",
+            ));
+        }
+    }
+    let rows = linpd_io::nodal::read_prescribed(&scene_file(base_dir, file), dim, nodes.count())
+        .map_err(|e| ProblemError::invalid(format!("{p}.file"), e.to_string()))?;
+    if rows.is_empty() {
+        return Err(ProblemError::invalid(format!("{p}.file"), "prescribes no DOF"));
+    }
+    Ok(Constraint::Nodal { file: file.to_string(), values: rows.into_iter().map(|(n, a, v, _)| (n, a, v)).collect() })
+}
+
+/// `loads[k]` of type `nodal`: the forces of a CSV file ([`linpd_io::nodal`]).
+fn nodal_load(
+    p: &str,
+    l: &crate::raw::RawLoad,
+    dim: usize,
+    nodes: &dyn NodeSet,
+    base_dir: &Path,
+) -> Result<Load, ProblemError> {
+    let file = l.file.as_deref().ok_or_else(|| ProblemError::invalid(format!("{p}.file"), "missing"))?;
+    let rows = linpd_io::nodal::read_forces(&scene_file(base_dir, file), dim, nodes.count())
+        .map_err(|e| ProblemError::invalid(format!("{p}.file"), e.to_string()))?;
+    Ok(Load::Nodal { file: file.to_string(), forces: rows.into_iter().map(|(n, f, _)| (n, f)).collect() })
 }
 
 /// A traction `t` (force per area) on the face `x+`, `x-`, ... of a lattice's body box, as a
@@ -281,13 +329,25 @@ pub(crate) fn constraints_and_loads(
     raw: &RawProblem,
     dim: usize,
     nodes: &dyn NodeSet,
+    base_dir: &Path,
 ) -> Result<(Vec<Constraint>, Vec<Load>), ProblemError> {
     let mut constraints = Vec::new();
     for (k, c) in raw.constraints.iter().enumerate() {
         let p = format!("constraints[{k}]");
-        let region = region(&format!("{p}.region"), &c.region, dim)?;
-        check_len(&format!("{p}.displacement.value"), &c.displacement.value, dim)?;
-        let gradient = match &c.displacement.gradient {
+        if let Some(file) = &c.file {
+            constraints.push(nodal_constraint(&p, c, file, dim, nodes, base_dir)?);
+            continue;
+        }
+        let (Some(raw_region), Some(displacement)) = (&c.region, &c.displacement) else {
+            let key = if c.region.is_none() { "region" } else { "displacement" };
+            return Err(ProblemError::invalid(
+                format!("{p}.{key}"),
+                "missing (a constraint is `region` with `displacement`, or a `file`)",
+            ));
+        };
+        let region = region(&format!("{p}.region"), raw_region, dim)?;
+        check_len(&format!("{p}.displacement.value"), &displacement.value, dim)?;
+        let gradient = match &displacement.gradient {
             None => vec![0.0; dim * dim],
             Some(rows) => {
                 if rows.len() != dim || rows.iter().any(|r| r.len() != dim) {
@@ -315,11 +375,10 @@ pub(crate) fn constraints_and_loads(
                 cs.clone()
             }
         };
-        let cons = Constraint { region, value: c.displacement.value.clone(), gradient, components };
-        if nodes.select(&cons.region).is_empty() {
+        if nodes.select(&region).is_empty() {
             return Err(ProblemError::invalid(format!("{p}.region"), format!("contains no node of {}", nodes.what())));
         }
-        constraints.push(cons);
+        constraints.push(Constraint::Affine { region, value: displacement.value.clone(), gradient, components });
     }
     check_constraints_agree(&constraints, dim, nodes)?;
 
@@ -352,6 +411,20 @@ pub(crate) fn constraints_and_loads(
             Ok(region)
         };
         loads.push(match l.kind {
+            RawLoadKind::Nodal => {
+                only(
+                    "nodal",
+                    &[
+                        ("at", l.at.is_some()),
+                        ("force", l.force.is_some()),
+                        ("density", l.density.is_some()),
+                        ("region", l.region.is_some()),
+                        ("face", l.face.is_some()),
+                        ("traction", l.traction.is_some()),
+                    ],
+                )?;
+                nodal_load(&p, l, dim, nodes, base_dir)?
+            }
             RawLoadKind::Point => {
                 only("point", &[("region", l.region.is_some()), ("density", l.density.is_some())])?;
                 let at = need("at", &l.at)?;

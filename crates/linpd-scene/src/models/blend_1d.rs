@@ -323,9 +323,8 @@ impl BlendScene {
         let (mut left, mut right) = (None, None);
         let mut constraint_ends = vec![[false; 2]; constraints.len()];
         for (k, c) in constraints.iter().enumerate() {
-            for node in c.region.nodes(grid) {
+            for (node, _, v) in c.prescribed(grid, 1) {
                 let x = grid.position(node)[0];
-                let v = c.displacement(&[x], 0);
                 if node == 0 {
                     left = Some(v);
                     constraint_ends[k][0] = true;
@@ -407,10 +406,10 @@ impl BlendScene {
                         load_of.push(k);
                     }
                 }
-                Load::Resultant { .. } => {
+                Load::Resultant { .. } | Load::Nodal { .. } => {
                     return Err(ProblemError::invalid(
                         format!("loads[{k}]"),
-                        format!("{name} models take point and body loads (a resultant needs the model's node volumes)"),
+                        format!("{name} models take point and body loads (resultant and nodal loads need the model's nodes and volumes)"),
                     ))
                 }
             }

@@ -246,7 +246,7 @@ impl Problem {
         if raw.dynamics.is_some() {
             model.require(Capability::Dynamics)?;
         }
-        let (constraints, loads) = constraints_and_loads(&raw, dim, &v.nodes)?;
+        let (constraints, loads) = constraints_and_loads(&raw, dim, &v.nodes, base_dir)?;
         model.bind(&raw, &v.nodes, &constraints, &loads)?;
         let model: Arc<dyn SceneModel> = Arc::from(model);
         let solver = solver_spec(&raw.solver)?;

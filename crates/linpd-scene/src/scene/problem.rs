@@ -10,43 +10,57 @@ use linpd_core::{Grid, Model, Region};
 use linpd_solve::{Dirichlet, SolverSpec};
 use std::sync::Arc;
 
-/// An affine displacement `u = value + gradient x` on some components of a node set.
+/// A prescribed displacement: an affine field on a region, or values per DOF from a file.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Constraint {
-    /// Where.
-    pub(crate) region: Region,
-    /// Constant part.
-    pub(crate) value: Vec<f64>,
-    /// Gradient `H` (row-major `dim x dim`).
-    pub(crate) gradient: Vec<f64>,
-    /// Constrained components.
-    pub(crate) components: Vec<usize>,
+pub enum Constraint {
+    /// `u = value + gradient x` on some components of the nodes of a region.
+    Affine {
+        /// Where.
+        region: Region,
+        /// Constant part.
+        value: Vec<f64>,
+        /// Gradient `H` (row-major `dim x dim`).
+        gradient: Vec<f64>,
+        /// Constrained components.
+        components: Vec<usize>,
+    },
+    /// Values per DOF, `(node, component, value)`, read from a CSV file
+    /// ([`linpd_io::nodal`]; e.g. a coarsening level's `level-<m>.prescribed.csv`).
+    Nodal {
+        /// The file, as the scene names it.
+        file: String,
+        /// `(node, component, value)`.
+        values: Vec<(usize, usize, f64)>,
+    },
 }
 
 impl Constraint {
-    /// Where.
-    pub fn region(&self) -> &Region {
-        &self.region
-    }
-    /// Constant part.
-    pub fn value(&self) -> &[f64] {
-        &self.value
-    }
-    /// Gradient `H` (row-major `dim x dim`).
-    pub fn gradient(&self) -> &[f64] {
-        &self.gradient
-    }
-    /// Constrained components.
-    pub fn components(&self) -> &[usize] {
-        &self.components
-    }
-}
-
-impl Constraint {
-    /// Prescribed value of component `a` at `x`.
+    /// Prescribed value of component `a` of an affine constraint at `x` (0 for a nodal one).
     pub fn displacement(&self, x: &[f64], a: usize) -> f64 {
-        let d = self.value.len();
-        self.value[a] + (0..d).map(|b| self.gradient[a * d + b] * x[b]).sum::<f64>()
+        match self {
+            Constraint::Affine { value, gradient, .. } => {
+                let d = value.len();
+                value[a] + (0..d).map(|b| gradient[a * d + b] * x[b]).sum::<f64>()
+            }
+            Constraint::Nodal { .. } => 0.0,
+        }
+    }
+
+    /// Every DOF the constraint prescribes, `(node, component, value)`, on `nodes`.
+    pub(crate) fn prescribed(&self, nodes: &dyn NodeSet, dim: usize) -> Vec<(usize, usize, f64)> {
+        match self {
+            Constraint::Affine { region, components, .. } => {
+                let mut out = Vec::new();
+                for node in nodes.select(region) {
+                    let x = nodes.position(node);
+                    for &a in components {
+                        out.push((node, a, self.displacement(&x[..dim], a)));
+                    }
+                }
+                out
+            }
+            Constraint::Nodal { values, .. } => values.clone(),
+        }
     }
 }
 
@@ -59,6 +73,14 @@ pub enum Load {
         node: usize,
         /// The force.
         force: Vec<f64>,
+    },
+    /// Nodal forces per node, `(node, force)`, read from a CSV file ([`linpd_io::nodal`];
+    /// e.g. a coarsening level's `level-<m>.forces.csv`).
+    Nodal {
+        /// The file, as the scene names it.
+        file: String,
+        /// `(node, force)`.
+        forces: Vec<(usize, Vec<f64>)>,
     },
     /// Body-force density on a region.
     Body {
@@ -171,12 +193,9 @@ impl Problem {
         let mut mask = vec![false; d * n];
         let mut ubar = vec![0.0; d * n];
         for c in &self.constraints {
-            for node in self.nodes.select(&c.region) {
-                let x = self.nodes.position(node);
-                for &a in &c.components {
-                    mask[d * node + a] = true;
-                    ubar[d * node + a] = c.displacement(&x[..d], a);
-                }
+            for (node, a, g) in c.prescribed(&self.nodes, d) {
+                mask[d * node + a] = true;
+                ubar[d * node + a] = g;
             }
         }
         (mask, ubar)
@@ -206,6 +225,12 @@ impl Problem {
                 (0..d).for_each(|a| f[d * node + a] += force[a]);
                 return 1;
             }
+            Load::Nodal { forces, .. } => {
+                for (node, force) in forces {
+                    (0..d).for_each(|a| f[d * node + a] += force[a]);
+                }
+                return forces.len();
+            }
             Load::Body { region, density } => (region, density, false),
             Load::Resultant { region, force } => (region, force, true),
         };
@@ -231,6 +256,7 @@ impl Problem {
             f.iter_mut().zip(&fl).for_each(|(t, x)| *t += x);
             let kind = match l {
                 Load::Point { .. } => "point",
+                Load::Nodal { .. } => "nodal",
                 Load::Body { .. } => "body",
                 Load::Resultant { .. } => "resultant",
             };
@@ -241,19 +267,19 @@ impl Problem {
         let mut owner = vec![usize::MAX; n];
         let mut constraints = Vec::new();
         for (k, c) in self.constraints.iter().enumerate() {
-            let nodes = self.nodes.select(&c.region);
+            let prescribed = c.prescribed(&self.nodes, d);
             let mut reaction = vec![0.0; d];
             let mut dofs = 0;
-            for &node in &nodes {
-                for &a in &c.components {
-                    let dof = d * node + a;
-                    if owner[dof] == usize::MAX {
-                        owner[dof] = k;
-                        dofs += 1;
-                        reaction[a] += au[dof] - f[dof];
-                    }
+            for &(node, a, _) in &prescribed {
+                let dof = d * node + a;
+                if owner[dof] == usize::MAX {
+                    owner[dof] = k;
+                    dofs += 1;
+                    reaction[a] += au[dof] - f[dof];
                 }
             }
+            let mut nodes: Vec<usize> = prescribed.iter().map(|e| e.0).collect();
+            nodes.dedup();
             constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction });
         }
         Balance::from_parts(d, loads, constraints)
