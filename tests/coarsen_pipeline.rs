@@ -191,7 +191,7 @@ fn malformed_pipelines_fail_with_the_cause_and_write_nothing() {
             format!(
                 r#"{{"name": "b", "scene": "{sc}", "levels": [{{"every": 2, "tolerance": 1e-3, "radius_start": 0.5, "radius_max": 0.2}}]}}"#
             ),
-            "radius_max 2e-1 is below radius_start 5e-1",
+            "levels[0].radius_max: 2e-1 is below radius_start 5e-1",
         ),
     ];
     for (k, (text, needle)) in cases.iter().enumerate() {

@@ -320,16 +320,14 @@ fn plate_2d_multigrid_agrees_with_cholesky() {
 
 /// Issue #15 item 7 (coarsened scene vs pipeline): `linpd coarsen` on the bundled bond plate
 /// pipeline (two levels, `"solve": true`), then its coarsest level `level-2.mtx` loaded back as a
-/// scene with the pipeline scene's own constraints and body load. Pipelines and scenes share one
-/// load convention (a body load gives `density x v^M`, the node's volume at the level it sits
-/// on), so the scene solves the pipeline's problem: the same `K` (read back bit for bit), the
-/// same nodal forces and the same sparse LU (K is unsymmetric through its diagonal blocks).
-/// They differ only in the order the diagonal blocks of `K` are summed (`ModuliFile::stiffness`
-/// vs `LevelModel::stiffness`): `eps` relative in `K`, times `kappa(K_ff) ~ 1e3` for 91 nodes,
-/// so agreement to 1e-12 relative of `max |u|` is the bound. Until 2026-11 the pipeline used
-/// `density x v^0`: `v^2 / v^0` (16 inside the plate) times less force than the scene.
-/// Also checks that the symmetry check names the right quantity: `K`, unsymmetric only in its
-/// diagonal blocks, with the written moduli reciprocal.
+/// scene with the boundary-value problem the pipeline wrote beside it (`level-2.prescribed.csv`,
+/// `level-2.forces.csv`, issue #29): the same `K` (read back bit for bit), the same nodal forces
+/// and the same sparse LU (K is unsymmetric through its diagonal blocks). They differ only in the
+/// order the diagonal blocks of `K` are summed (`ModuliFile::stiffness` vs
+/// `LevelModel::stiffness`): `eps` relative in `K`, times `kappa(K_ff) ~ 1e3` for 91 nodes, so
+/// agreement to 1e-12 relative of `max |u|` is the bound. Also checks that the symmetry check
+/// names the right quantity: `K`, unsymmetric only in its diagonal blocks, with the written
+/// moduli reciprocal.
 #[test]
 fn item_7_a_level_loaded_back_reproduces_the_pipeline() {
     let dir = temp_dir("roundtrip");
@@ -341,13 +339,16 @@ fn item_7_a_level_loaded_back_reproduces_the_pipeline() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 
-    // the pipeline's scene, on the coarsest level
-    let mut scene: Value =
-        serde_json::from_str(&std::fs::read_to_string("data/coarsen-plate-2d.json").unwrap()).unwrap();
-    let obj = scene.as_object_mut().unwrap();
-    obj.remove("grid");
-    obj.insert("model".into(), json!({"type": "coarsened", "moduli": out.join("level-2.mtx").to_string_lossy()}));
-    obj.insert("output".into(), json!({"dir": dir.join("scene-out").to_string_lossy(), "plot": false}));
+    // the coarsest level with the boundary-value problem the pipeline transferred to it (the
+    // scene's own loads re-evaluated on level-2 volumes would be another problem: a standalone
+    // coarse model, docs/coarsening.md)
+    let scene = json!({
+        "name": "level-2-scene", "dimension": 2,
+        "model": {"type": "coarsened", "moduli": out.join("level-2.mtx").to_string_lossy()},
+        "constraints": [{"file": out.join("level-2.prescribed.csv").to_string_lossy()}],
+        "loads": [{"type": "nodal", "file": out.join("level-2.forces.csv").to_string_lossy()}],
+        "output": {"dir": dir.join("scene-out").to_string_lossy(), "plot": false}
+    });
     let path = write_scene(&dir, "level-2-scene", &scene);
     let p = Problem::from_path(&path).unwrap();
     let c = p.model().downcast::<CoarsenedModel>().expect("expected a coarsened scene");

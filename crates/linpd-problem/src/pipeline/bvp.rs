@@ -24,6 +24,9 @@ pub struct LevelBvp {
     pub ubar: Vec<f64>,
     /// Nodal forces, 0 on prescribed DOFs.
     pub f: Vec<f64>,
+    /// Total force per component that reached the level, before the forces on its prescribed
+    /// DOFs were dropped (level 0: the scene's loads, all DOFs).
+    pub arrived: Vec<f64>,
 }
 
 impl LevelBvp {
@@ -31,8 +34,9 @@ impl LevelBvp {
     pub fn of_scene(scene: &Problem) -> Self {
         let (mask, ubar) = scene.constrained();
         let mut f = scene.load_vector();
+        let arrived = totals(&f, scene.dim());
         f.iter_mut().zip(&mask).filter(|(_, &m)| m).for_each(|(t, _)| *t = 0.0);
-        Self { mask, ubar, f }
+        Self { mask, ubar, f, arrived }
     }
 
     /// Level m from level m-1 (this) by the step's `transfer`; `coarse` is the level-m model
@@ -48,8 +52,9 @@ impl LevelBvp {
             }
         }
         let mut f = transfer.restrict(&self.f);
+        let arrived = totals(&f, d);
         f.iter_mut().zip(&mask).filter(|(_, &m)| m).for_each(|(t, _)| *t = 0.0);
-        Self { mask, ubar, f }
+        Self { mask, ubar, f, arrived }
     }
 
     /// Prescribed DOFs as `(dof, value)`.
@@ -64,6 +69,11 @@ impl LevelBvp {
 
     /// Total applied force per component (on free DOFs).
     pub fn total_force(&self, d: usize) -> Vec<f64> {
-        (0..d).map(|a| self.f.iter().skip(a).step_by(d).sum()).collect()
+        totals(&self.f, d)
     }
+}
+
+/// Sum per component of `d`-component nodal vectors.
+fn totals(f: &[f64], d: usize) -> Vec<f64> {
+    (0..d).map(|a| f.iter().skip(a).step_by(d).sum()).collect()
 }

@@ -31,8 +31,10 @@ pub struct LevelResult {
     pub prescribed_dofs: usize,
     /// Total applied force per component (free DOFs).
     pub force: Vec<f64>,
-    /// `|sum F^m - sum F^0| / |sum F^0|`: what the transfer changed in the total force (0 when
-    /// every neighbourhood is the whole body, to round-off).
+    /// `|sum F^m - sum F^{m-1}| / |sum F^{m-1}|`, the sums before and after the step's transfer
+    /// (before the forces on prescribed DOFs are dropped as reactions): what the transfer changed
+    /// in the total force; round-off when every neighbourhood is the whole body (the rows of `S`
+    /// sum to the identity, (8)).
     pub force_change: f64,
     /// The level's effective elasticity (interior average of `1/2 sum_j v_j C_ij (x) xi (x) xi`,
     /// [`linpd_coarsen::effective_moduli`]); `None` when no node is a reach inside the body.
@@ -87,8 +89,7 @@ impl Pipeline {
             t.elapsed().as_secs_f64()
         ));
         let bvp0 = LevelBvp::of_scene(&self.scene);
-        let force0 = bvp0.total_force(d);
-        let mut results = vec![level_result(0, &m0, None, bvp0, &force0, Vec::new())];
+        let mut results = vec![level_result(0, &m0, None, bvp0, None, Vec::new())];
         let mut models = vec![m0];
         let t_all = Instant::now();
         let n_levels = self.levels.len();
@@ -107,7 +108,8 @@ impl Pipeline {
             let model = if self.symmetrize { c.model.symmetrized() } else { c.model.clone() };
             let bvp = results[i].bvp.transferred(&c.transfer, &model, &results[0].bvp);
             let notes = level_notes(&c, &bvp, &results[0].bvp, &self.levels[i].radius);
-            results.push(level_result(m, &model, Some(c.report), bvp, &force0, notes));
+            let before = results[i].bvp.total_force(d);
+            results.push(level_result(m, &model, Some(c.report), bvp, Some(&before), notes));
             models.push(model);
         }
         levels_task.set(n_levels as u64, "");
@@ -209,14 +211,20 @@ fn level_result(
     model: &LevelModel,
     step: Option<StepReport>,
     bvp: LevelBvp,
-    force0: &[f64],
+    before: Option<&[f64]>,
     notes: Vec<String>,
 ) -> LevelResult {
     let d = model.dim();
     let force = bvp.total_force(d);
     let norm = |v: &[f64]| v.iter().map(|t| t * t).sum::<f64>().sqrt();
-    let diff: Vec<f64> = force.iter().zip(force0).map(|(a, b)| a - b).collect();
-    let force_change = if norm(force0) > 0.0 { norm(&diff) / norm(force0) } else { norm(&diff) };
+    let force_change = before.map_or(0.0, |b| {
+        let diff: Vec<f64> = bvp.arrived.iter().zip(b).map(|(a, b)| a - b).collect();
+        if norm(b) > 0.0 {
+            norm(&diff) / norm(b)
+        } else {
+            norm(&diff)
+        }
+    });
     LevelResult {
         level,
         nodes: model.len(),
