@@ -111,11 +111,18 @@
 //!
 //! Sec. 3: "the procedure can be repeated with increasing choices of r^1 \[until\] C^1(x,q)
 //! become negligible for all q with |q - x| > r^1". Made precise: the *tail* of a step with
-//! radius `r` is the largest `|C^m(x,q)|_F` over the outer shell `r - delta^{m-1} < |q - x| <= r`
+//! radius `r` is the largest `|C^m(x,q)|_F` over the outer shell `r - w < |q - x| <= r`
 //! (the coarse bonds that the truncation of `N_x` can reach), relative to the row's largest
 //! `|C^m(x,q)|_F`, maximised over the retained nodes; [`Radius::Auto`] grows `r` geometrically
 //! from `2 delta^{m-1}` (footnote 1) until the tail is below `tol`. Radii below the level's
-//! horizon are refused (bonds of `x` would be cut).
+//! horizon are refused (bonds of `x` would be cut). The shell is `w = max(delta^{m-1}, h^m)`
+//! wide, `h^m = max_x (v^m_x)^{1/d}` the coarse spacing: a shell one fine horizon wide can fall
+//! between two rings of coarse nodes when the coarse spacing exceeds the fine horizon (every 4th
+//! node of a `delta = 2h` lattice), read 0 and stop the rule at a radius that cuts the coarse
+//! rows; until 2026-11 it did (a laminate's level 2 at `r < h^2` had nodes without bonds).
+//!
+//! The load transfer of a step ([`Transfer`]) and the effective elasticity of a level
+//! ([`effective_moduli`]) are documented in their modules.
 //!
 //! Nodes whose neighbourhoods are equal up to translation share one local solve: each `N_x` is
 //! ordered canonically (retained first, then by offset from `x`) and hashed (128 bits) with

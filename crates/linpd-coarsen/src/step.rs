@@ -85,9 +85,14 @@ pub struct StepReport {
     pub horizon_fine: f64,
     /// The radius used.
     pub radius: f64,
-    /// Tail: the largest `|C^m(x,q)|_F` with `r - delta^{m-1} < |q - x| <= r`, relative to the
+    /// Tail: the largest `|C^m(x,q)|_F` with `r - w < |q - x| <= r`, relative to the
     /// row's largest `|C^m(x,q)|_F`, maximised over `x`; 0 when every `N_x` is the whole body.
+    /// The shell's width `w = max(delta^{m-1}, h^m)` is at least the coarse node spacing
+    /// `h^m = max_x (v^m_x)^{1/d}`, so that it holds a ring of coarse nodes (a shell one fine
+    /// horizon wide can fall between two rings of coarse nodes and read 0).
     pub tail: f64,
+    /// The shell width `w` of the tail.
+    pub shell_width: f64,
     /// Every `(radius, tail)` tried by the radius rule, in order.
     pub tried: Vec<(f64, f64)>,
     /// Every `N_x` was the whole body (the radius reached the body's diameter): the step is
@@ -265,6 +270,8 @@ struct Step<'a> {
     /// Quantum of the micromodulus values and volumes in the class signature.
     c_quantum: f64,
     v_quantum: f64,
+    /// The coarse node spacing `h^m = max_x (v^m_x)^{1/d}`.
+    h_coarse: f64,
 }
 
 /// A neighbourhood: retained nodes first, then excluded, each group ordered by offset.
@@ -298,7 +305,8 @@ impl<'a> Step<'a> {
         let vm = coarse_volumes(fine, &parent);
         let c_quantum = 1e-12 * fine.max_abs().max(f64::MIN_POSITIVE);
         let v_quantum = 1e-12 * fine.volumes().iter().copied().fold(0.0, f64::max);
-        Ok(Self { fine, parent, is_retained, coarse_index, vm, opts: *opts, progress, c_quantum, v_quantum })
+        let h_coarse = vm.iter().map(|v| v.powf(1.0 / fine.dim() as f64)).fold(0.0, f64::max);
+        Ok(Self { fine, parent, is_retained, coarse_index, vm, opts: *opts, progress, c_quantum, v_quantum, h_coarse })
     }
 
     /// `N_x` for retained node `xi` in canonical order (see [`Hood`]); `keys` are the quantized
@@ -557,7 +565,8 @@ impl<'a> Step<'a> {
     /// Coarse row `k` (columns, `d x d` blocks, tail) from its class's row `w` over the retained
     /// nodes `retained` of `N_x`: `C^m(x,q) = f_x W^m_xq / v^m_q`, `f_x = 1/v^m_x`
     /// (TotalForce, (11'')) or `1/v^{m-1}_x` (ForceDensity, (11')). The tail is the largest
-    /// block norm in the shell `|q - x| > r - delta` relative to the row's largest.
+    /// block norm in the shell `|q - x| > r - w` (`w` the shell width, [`StepReport::tail`])
+    /// relative to the row's largest.
     fn coarse_row(
         &self,
         k: usize,
@@ -565,7 +574,7 @@ impl<'a> Step<'a> {
         w: &[f64],
         xm: &[Point],
         r: f64,
-        delta: f64,
+        width: f64,
     ) -> (Vec<usize>, Vec<f64>, f64) {
         let dd = self.fine.dim() * self.fine.dim();
         let xi = self.parent[k];
@@ -590,7 +599,7 @@ impl<'a> Step<'a> {
                 continue;
             }
             peak = peak.max(norm);
-            if dist(&xm[k], &xm[j]) > r - delta {
+            if dist(&xm[k], &xm[j]) > r - width {
                 shell = shell.max(norm);
             }
             cols.push(j);
@@ -603,6 +612,7 @@ impl<'a> Step<'a> {
     /// The step at radius `r`: 1. neighbourhoods and signatures, 2. classes, 3. one local solve
     /// per class, 4. the coarse rows; `diameter` tells when every `N_x` is the whole body.
     fn run(&self, r: f64, delta: f64, diameter: f64) -> Result<Coarsened, CoarsenError> {
+        let shell_width = delta.max(self.h_coarse);
         let fine = self.fine;
         let d = fine.dim();
         let x = fine.positions();
@@ -646,7 +656,7 @@ impl<'a> Step<'a> {
         let xm: Vec<Point> = self.parent.iter().map(|&p| x[p]).collect();
         let built: Vec<(Vec<usize>, Vec<f64>, f64)> = (0..self.parent.len())
             .into_par_iter()
-            .map(|k| self.coarse_row(k, &retained[k], &rows_w[class_of[k]], &xm, r, delta))
+            .map(|k| self.coarse_row(k, &retained[k], &rows_w[class_of[k]], &xm, r, shell_width))
             .collect();
         let mut offsets = vec![0];
         let (mut cols, mut c) = (Vec::new(), Vec::new());
@@ -677,6 +687,7 @@ impl<'a> Step<'a> {
             horizon_fine: delta,
             radius: r,
             tail,
+            shell_width,
             tried: Vec::new(),
             whole_body,
             classes,
