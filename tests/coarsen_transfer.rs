@@ -430,3 +430,86 @@ fn effective_moduli_of_a_layered_plate_against_its_level_0_solution_and_the_lami
     let lam = rel(&measured, &closed);
     assert!(lam.iter().all(|t| t.abs() < 0.25), "{lam:?}");
 }
+
+#[test]
+fn bad_nodal_files_are_refused_naming_the_file_and_line() {
+    // scenes that read nodal forces or prescribed values from files: every defect is an error
+    // with the JSON path, the file and its line, a non-zero exit, no panic, nothing written
+    let dir = temp_dir("bad-files");
+    std::fs::write(dir.join("ok.prescribed.csv"), "node,component,value\n0,0,0.0\n").unwrap();
+    std::fs::write(dir.join("ok.forces.csv"), "node,f_x\n200,1e-5\n").unwrap();
+    let files = [
+        ("f1.csv", "node,f_x\n3,1.0\n201,1.0\n"),
+        ("f2.csv", "node,f_y\n3,1.0\n"),
+        ("f3.csv", "node,f_x\n3,1.0\n3,2.0\n"),
+        ("p1.csv", "node,component,value\n0,1,0.0\n"),
+        ("p2.csv", "node,component,value\n0,0,inf\n"),
+    ];
+    for (name, text) in files {
+        std::fs::write(dir.join(name), text).unwrap();
+    }
+    let base = data("coarsen-composite-bar.json");
+    let with = |constraints: Value, loads: Value| {
+        let mut s = base.clone();
+        s["constraints"] = constraints;
+        s["loads"] = loads;
+        s
+    };
+    let ok_c = json!([{"file": "ok.prescribed.csv"}]);
+    let ok_l = json!([{"type": "nodal", "file": "ok.forces.csv"}]);
+    let cases = [
+        (
+            with(ok_c.clone(), json!([{"type": "nodal", "file": "f1.csv"}])),
+            "loads[0].file",
+            "line 3: node = \"201\" is not an index below 201",
+        ),
+        (with(ok_c.clone(), json!([{"type": "nodal", "file": "f2.csv"}])), "loads[0].file", "line 1: header"),
+        (
+            with(ok_c.clone(), json!([{"type": "nodal", "file": "f3.csv"}])),
+            "loads[0].file",
+            "line 3: node 3 is listed twice",
+        ),
+        (with(ok_c.clone(), json!([{"type": "nodal", "file": "missing.csv"}])), "loads[0].file", "missing.csv"),
+        (with(ok_c.clone(), json!([{"type": "nodal"}])), "loads[0].file", "missing"),
+        (
+            with(ok_c.clone(), json!([{"type": "nodal", "file": "ok.forces.csv", "density": [1.0]}])),
+            "loads[0].density",
+            "not a key of a nodal load",
+        ),
+        (
+            with(json!([{"file": "p1.csv"}]), ok_l.clone()),
+            "constraints[0].file",
+            "line 2: component = \"1\" is not an index below 1",
+        ),
+        (
+            with(json!([{"file": "p2.csv"}]), ok_l.clone()),
+            "constraints[0].file",
+            "line 2: value = \"inf\" is not a finite number",
+        ),
+        (
+            with(json!([{"file": "ok.prescribed.csv", "region": {"box": {"min": [0.0], "max": [0.1]}}}]), ok_l.clone()),
+            "constraints[0].region",
+            "give either `file` or `region`",
+        ),
+        (with(json!([{"displacement": {"value": [0.0]}}]), ok_l.clone()), "constraints[0].region", "missing"),
+    ];
+    for (k, (scene, path, reason)) in cases.iter().enumerate() {
+        let file = dir.join(format!("bad{k}.json"));
+        std::fs::write(&file, scene.to_string()).unwrap();
+        let out = dir.join(format!("out{k}"));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_linpd"))
+            .args(["solve", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        println!("case {k}: {}", stderr.trim());
+        assert!(!o.status.success() && !stderr.contains("panicked"), "case {k}: {stderr}");
+        assert!(stderr.contains(path) && stderr.contains(reason), "case {k}: {stderr:?} lacks {path:?} / {reason:?}");
+        assert!(!out.exists(), "case {k} wrote output");
+    }
+    // and the good files solve
+    let file = dir.join("good.json");
+    std::fs::write(&file, with(ok_c, ok_l).to_string()).unwrap();
+    let u = Problem::from_path(&file).unwrap().solve(&NoProgress).unwrap().u;
+    assert!(u[200] > 0.0);
+}

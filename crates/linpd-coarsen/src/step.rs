@@ -246,6 +246,9 @@ fn diameter(m: &LevelModel) -> f64 {
         .sqrt()
 }
 
+/// A neighbourhood's retained nodes, its excluded nodes (local order) and its class signature.
+type HoodSplit = (Vec<usize>, Vec<usize>, (u64, u64));
+
 /// The neighbourhood classes of a step's retained nodes (see `Step::classes`).
 struct Classes {
     /// The retained nodes of each node's `N_x`, in local order.
@@ -538,7 +541,7 @@ impl<'a> Step<'a> {
     /// the classes of equal signatures: each node's class and each class's first node. Without
     /// the cache every node is a class of its own.
     fn classes(&self, cells: &Cells, r: f64) -> Classes {
-        let hoods: Vec<(Vec<usize>, Vec<usize>, (u64, u64))> = self
+        let hoods: Vec<HoodSplit> = self
             .parent
             .par_iter()
             .map_init(Vec::new, |buf, &xi| {

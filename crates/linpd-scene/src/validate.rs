@@ -325,6 +325,56 @@ fn traction(p: &str, l: &crate::raw::RawLoad, dim: usize, nodes: &dyn NodeSet) -
 }
 
 /// Validates `constraints` and `loads` against the nodes they refer to.
+/// `constraints[k]` with `region` and `displacement`: an affine field on a region's nodes.
+fn affine_constraint(
+    p: &str,
+    c: &crate::raw::RawConstraint,
+    dim: usize,
+    nodes: &dyn NodeSet,
+) -> Result<Constraint, ProblemError> {
+    let (Some(raw_region), Some(displacement)) = (&c.region, &c.displacement) else {
+        let key = if c.region.is_none() { "region" } else { "displacement" };
+        return Err(ProblemError::invalid(
+            format!("{p}.{key}"),
+            "missing (a constraint is `region` with `displacement`, or a `file`)",
+        ));
+    };
+    let region = region(&format!("{p}.region"), raw_region, dim)?;
+    check_len(&format!("{p}.displacement.value"), &displacement.value, dim)?;
+    let gradient = match &displacement.gradient {
+        None => vec![0.0; dim * dim],
+        Some(rows) => {
+            if rows.len() != dim || rows.iter().any(|r| r.len() != dim) {
+                return Err(ProblemError::invalid(
+                    format!("{p}.displacement.gradient"),
+                    format!("must be a {dim}x{dim} array of rows"),
+                ));
+            }
+            let g: Vec<f64> = rows.iter().flatten().cloned().collect();
+            if g.iter().any(|v| !v.is_finite()) {
+                return Err(ProblemError::invalid(format!("{p}.displacement.gradient"), "values must be finite"));
+            }
+            g
+        }
+    };
+    let components = match &c.components {
+        None => (0..dim).collect(),
+        Some(cs) => {
+            if cs.is_empty() || cs.iter().any(|&a| a >= dim) {
+                return Err(ProblemError::invalid(
+                    format!("{p}.components"),
+                    format!("must list components in 0..{dim}, got {cs:?}"),
+                ));
+            }
+            cs.clone()
+        }
+    };
+    if nodes.select(&region).is_empty() {
+        return Err(ProblemError::invalid(format!("{p}.region"), format!("contains no node of {}", nodes.what())));
+    }
+    Ok(Constraint::Affine { region, value: displacement.value.clone(), gradient, components })
+}
+
 pub(crate) fn constraints_and_loads(
     raw: &RawProblem,
     dim: usize,
@@ -334,51 +384,10 @@ pub(crate) fn constraints_and_loads(
     let mut constraints = Vec::new();
     for (k, c) in raw.constraints.iter().enumerate() {
         let p = format!("constraints[{k}]");
-        if let Some(file) = &c.file {
-            constraints.push(nodal_constraint(&p, c, file, dim, nodes, base_dir)?);
-            continue;
-        }
-        let (Some(raw_region), Some(displacement)) = (&c.region, &c.displacement) else {
-            let key = if c.region.is_none() { "region" } else { "displacement" };
-            return Err(ProblemError::invalid(
-                format!("{p}.{key}"),
-                "missing (a constraint is `region` with `displacement`, or a `file`)",
-            ));
-        };
-        let region = region(&format!("{p}.region"), raw_region, dim)?;
-        check_len(&format!("{p}.displacement.value"), &displacement.value, dim)?;
-        let gradient = match &displacement.gradient {
-            None => vec![0.0; dim * dim],
-            Some(rows) => {
-                if rows.len() != dim || rows.iter().any(|r| r.len() != dim) {
-                    return Err(ProblemError::invalid(
-                        format!("{p}.displacement.gradient"),
-                        format!("must be a {dim}x{dim} array of rows"),
-                    ));
-                }
-                let g: Vec<f64> = rows.iter().flatten().cloned().collect();
-                if g.iter().any(|v| !v.is_finite()) {
-                    return Err(ProblemError::invalid(format!("{p}.displacement.gradient"), "values must be finite"));
-                }
-                g
-            }
-        };
-        let components = match &c.components {
-            None => (0..dim).collect(),
-            Some(cs) => {
-                if cs.is_empty() || cs.iter().any(|&a| a >= dim) {
-                    return Err(ProblemError::invalid(
-                        format!("{p}.components"),
-                        format!("must list components in 0..{dim}, got {cs:?}"),
-                    ));
-                }
-                cs.clone()
-            }
-        };
-        if nodes.select(&region).is_empty() {
-            return Err(ProblemError::invalid(format!("{p}.region"), format!("contains no node of {}", nodes.what())));
-        }
-        constraints.push(Constraint::Affine { region, value: displacement.value.clone(), gradient, components });
+        constraints.push(match &c.file {
+            Some(file) => nodal_constraint(&p, c, file, dim, nodes, base_dir)?,
+            None => affine_constraint(&p, c, dim, nodes)?,
+        });
     }
     check_constraints_agree(&constraints, dim, nodes)?;
 

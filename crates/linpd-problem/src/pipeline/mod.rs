@@ -5,8 +5,8 @@
 //!
 //! * [`bvp`]: level 0 is the scene (`linpd solve`'s constraints and nodal forces, bit for bit);
 //!   loads reach level m by the step's transfer `F^m = S^T F^{m-1}`.
-//! * [`run`]: the steps, the solves, the report ([`PipelineResult`]).
-//! * [`output`]: the level files.
+//! * `run`: the steps, the solves, the report ([`PipelineResult`]).
+//! * `output`: the level files.
 
 use crate::models::Capability;
 use crate::scene::Problem;
