@@ -50,6 +50,11 @@ pub(crate) fn coarsen(pipeline: &Path, out: Option<PathBuf>, quiet: bool) -> Res
             err
         )?;
     }
+    for l in &r.levels {
+        for note in &l.notes {
+            say!("level {}: {note}", l.level)?;
+        }
+    }
     say!("wrote {}", dir.display())?;
     Ok(())
 }
