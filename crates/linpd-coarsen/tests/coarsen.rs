@@ -264,3 +264,57 @@ fn bad_radius_and_retained_sets_are_clear_errors() {
     // non-finite radius
     assert!(coarsen(&m0, &ret, f64::NAN).is_err());
 }
+
+/// The load transfer `F^m = S^T F^{m-1}` ([`linpd_coarsen::Transfer`]), loads on *every* node:
+/// with whole-body neighbourhoods the coarse solution equals the fine one at the retained nodes
+/// for both matchings (the transfer is the Schur complement's right-hand side; 1e-10, the
+/// bound of the static-condensation test above); with a finite radius, the transfer row of `x`
+/// is the transpose of column `x` of its own resolvent `S^x` (eq. (14), from the independent
+/// full solve of [`local_resolvent`]; the local problems are symmetric: 1e-12 relative).
+#[test]
+fn load_transfer_is_the_schur_right_hand_side_and_the_transpose_of_s() {
+    let m0 = level0();
+    let ret1 = every_kth(N, 4);
+    let f0: Vec<f64> = lcg(N, 7).iter().map(|t| t * H).collect();
+    let fixed0 = [(0, 0.0), (N - 1, 0.0)];
+    // the fine solution's loads on the held ends are reactions: drop them before transferring
+    let mut f0_free = f0.clone();
+    f0_free[0] = 0.0;
+    f0_free[N - 1] = 0.0;
+    let u0 = solve_dirichlet(&m0, &f0_free, &fixed0).unwrap();
+    let umax = u0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for matching in [Matching::TotalForce, Matching::ForceDensity] {
+        let c1 = coarsen_with(&m0, &ret1, &opts(10.0, matching)).unwrap();
+        let f1 = c1.transfer.restrict(&f0_free);
+        let n1 = c1.model.len();
+        let u1 = solve_dirichlet(&c1.model, &f1, &[(0, 0.0), (n1 - 1, 0.0)]).unwrap();
+        let err = c1.parent.iter().zip(&u1).map(|(&p, &u)| (u - u0[p]).abs()).fold(0.0, f64::max) / umax;
+        let total =
+            (f1.iter().sum::<f64>() - f0_free.iter().sum::<f64>()).abs() / f0_free.iter().map(|t| t.abs()).sum::<f64>();
+        println!("transfer, whole body, {matching:?}: rel. error at retained nodes {err:.2e}, total force change {total:.1e}");
+        assert!(err < 1e-10, "{matching:?}: {err:e}");
+        if matching == Matching::TotalForce {
+            assert!(total < 1e-13, "{total:e}");
+        }
+    }
+    // finite radius: T_x = (S^x_{E,x})^T, checked on a node near the end and one inside
+    let r = 0.12;
+    let c1 = coarsen(&m0, &ret1, r).unwrap();
+    let mut is_ret = vec![false; N];
+    ret1.iter().for_each(|&p| is_ret[p] = true);
+    for k in [1usize, 25] {
+        let x = c1.parent[k];
+        let s = local_resolvent(&m0, &is_ret, x, r).unwrap();
+        let xl = s.nodes[..s.n_retained].iter().position(|&p| p == x).unwrap();
+        // transfer of a unit force on each excluded node p of N_x, read at x
+        let mut worst: f64 = 0.0;
+        for e in s.n_retained..s.nodes.len() {
+            let mut f = vec![0.0; N];
+            f[s.nodes[e]] = 1.0;
+            let got = c1.transfer.restrict(&f)[k];
+            worst = worst.max((got - s.s[(e, xl)]).abs());
+        }
+        println!("transfer row of retained node {x} vs column of S^x: max difference {worst:.1e}");
+        assert!(worst < 1e-12, "node {x}: {worst:e}");
+    }
+}
