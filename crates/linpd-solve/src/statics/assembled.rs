@@ -3,11 +3,11 @@
 //! runners of [`super::runners`], `auto` by the plans of [`super::auto`] with their fallbacks,
 //! then the checks of the solution and its residual ([`super::guards`]).
 
-use super::auto::{plan_symmetric, AutoChoice, AutoParams};
+use super::auto::{plan_symmetric, AutoChoice, AutoParams, AT_ROUNDING_FLOOR};
 use super::guards::{check_residual, finite_matrix, finite_vector};
 use super::runners::{
-    analyze_cholesky, assembled_cg, assembled_gmres, assembled_gmres_with, cholesky, dense, dense_lu, lu, spd_gmres,
-    Solved, SpdGmres,
+    analyze_cholesky, assembled_cg, assembled_cg_iterate, assembled_gmres, assembled_gmres_with, cholesky, dense,
+    dense_lu, lu, rounding_residual, spd_gmres, Solved, SpdGmres,
 };
 use crate::cost;
 use crate::krylov::cg::{CgError, CgParams};
@@ -199,22 +199,33 @@ fn auto_symmetric(
                 AutoChoice::Cg(p) => p,
                 AutoChoice::Cholesky => PreconditionerKind::default(),
             };
-            match assembled_cg(a, f, params, p, hints.geometry.as_ref(), progress) {
-                // CG stopped above rtol because rounding limits its attainable residual (an
-                // ill-conditioned system, e.g. the LPS cantilever of `linpd study surface`, where
-                // multigrid-PCG reached 1.12e-10 for rtol 1e-10): auto falls back to the direct
-                // solve it has analyzed (and says so) rather than fail where another solver works.
-                // (only when the estimate kept the factorization: not past the memory limit)
-                Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. }))
-                    if analyzed.is_some() && plan.cholesky_fallback =>
-                {
-                    let (u, mut report) = cholesky(a, f, analyzed.expect("checked"), progress)?;
-                    report
-                        .notes
-                        .insert(0, format!("auto: the first choice failed ({e}); fell back to the Cholesky solve"));
-                    (u, report)
+            let (u, mut report, outcome) = assembled_cg_iterate(a, f, params, p, hints.geometry.as_ref(), progress)?;
+            match outcome {
+                Ok(()) => (u, report),
+                // CG stopped above rtol because rounding limits its attainable residual. At the
+                // system's rounding floor no solver does much better (a direct solve included):
+                // keep the iterate and say so. Above it, fall back to the direct solve auto has
+                // analyzed (when the estimate kept the factorization: not past the memory limit)
+                // rather than fail where another solver works.
+                Err(e @ CgError::ResidualAboveTarget { rel_residual, .. }) => {
+                    let floor = rounding_residual(a, &u, f);
+                    let stall = format!(
+                        "CG stalled at a relative residual of {rel_residual:.3e} (rtol {:e}); the rounding floor \
+                         u |||A| |u||| / ||f|| of this system is {floor:.2e}",
+                        params.rtol
+                    );
+                    if rel_residual <= AT_ROUNDING_FLOOR * floor {
+                        report.notes.insert(0, format!("auto: {stall}: within {AT_ROUNDING_FLOOR} x the floor, where no solver certifies much less; kept the CG solution (solver.type cholesky for a direct solve)"));
+                        (u, report)
+                    } else if analyzed.is_some() && plan.cholesky_fallback {
+                        let (u, mut report) = cholesky(a, f, analyzed.expect("checked"), progress)?;
+                        report.notes.insert(0, format!("auto: {stall}; fell back to the Cholesky solve"));
+                        (u, report)
+                    } else {
+                        return Err(e.into());
+                    }
                 }
-                other => other?,
+                Err(e) => return Err(e.into()),
             }
         }
     };

@@ -6,10 +6,10 @@
 //! approximation ([`spd_gmres`]); without assembling: PCG on the model's apply
 //! ([`matrix_free_cg`]). Which one runs is [`super::assembled`]'s and [`super::dispatch`]'s.
 
-use super::guards::{factor_fits, finite_vector, REDUCED_LOAD};
+use super::guards::{factor_fits, finite_vector, nonzero_diagonal, REDUCED_LOAD};
 use crate::bc::ReducedOperator;
 use crate::direct::{dense_lu_solve, dense_solve, Cholesky, Lu, LuOrdering};
-use crate::krylov::cg::{pcg_with_progress, CgParams};
+use crate::krylov::cg::{pcg_with_progress, CgError, CgParams};
 use crate::krylov::gmres::{gmres_with_progress, GmresParams};
 use crate::precond::{DofGeometry, FactorPreconditioner};
 use crate::report::{peak_rss_bytes, SolveReport};
@@ -82,6 +82,7 @@ pub(super) fn dense_lu(a: &Csc, f: &[f64]) -> Result<Solved, SolveError> {
     let mut report = SolveReport::new(SolverId::DenseLu, n, a.val().len());
     let t = Instant::now();
     let u = dense_lu_solve(a, f)?;
+    lu_finite(a, &u, SolverId::DenseLu)?;
     report.timings.numeric = t.elapsed().as_secs_f64();
     report.nnz_factor = Some(n * n);
     Ok((u, report))
@@ -104,10 +105,21 @@ pub(super) fn lu(a: &Csc, f: &[f64], ordering: &Ordering, progress: &dyn Progres
     report.timings.numeric = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let u = factor.solve(f);
+    lu_finite(a, &u, id)?;
     report.timings.solve = t.elapsed().as_secs_f64();
     // faer does not expose the LU fill; the stored entries of A are a lower bound.
     report.nnz_factor = Some(a.val().len());
     Ok((u, report))
+}
+
+/// `Ok` when the LU solution `u` is finite; else (the callers checked `A` and `f` finite: a
+/// zero pivot, not an overflow) the singularity, at the first zero diagonal entry if any.
+fn lu_finite(a: &Csc, u: &[f64], solver: SolverId) -> Result<(), SolveError> {
+    if u.iter().all(|x| x.is_finite()) {
+        return Ok(());
+    }
+    nonzero_diagonal(&solver.to_string(), &diagonal(a), false)?;
+    Err(SolveError::ZeroPivot { solver })
 }
 
 /// Preconditioned CG on the assembled `A`.
@@ -119,6 +131,22 @@ pub(super) fn assembled_cg(
     geometry: Option<&DofGeometry>,
     progress: &dyn Progress,
 ) -> Result<Solved, SolveError> {
+    let (u, report, outcome) = assembled_cg_iterate(a, f, params, preconditioner, geometry, progress)?;
+    outcome?;
+    Ok((u, report))
+}
+
+/// [`assembled_cg`] that keeps the last iterate when CG fails: `(u, report, outcome)`, the
+/// report's iterations and timings filled either way. `auto` reads a stalled iterate with
+/// [`rounding_residual`].
+pub(super) fn assembled_cg_iterate(
+    a: &Csc,
+    f: &[f64],
+    params: &CgParams,
+    preconditioner: PreconditionerKind,
+    geometry: Option<&DofGeometry>,
+    progress: &dyn Progress,
+) -> Result<(Vec<f64>, SolveReport, Result<(), CgError>), SolveError> {
     let id = SolverId::Cg { preconditioner, matrix_free: MatrixFree::No };
     let mut report = SolveReport::new(id, a.nrows(), a.val().len());
     let t = Instant::now();
@@ -135,10 +163,30 @@ pub(super) fn assembled_cg(
     // iterations on the bench cases).
     let sym = SymCsc(a);
     let op: &dyn LinearOperator = m_inv.operator_copy().unwrap_or(&sym);
-    let info = pcg_with_progress(&op, &m_inv, f, &mut u, params, progress)?;
+    let outcome = pcg_with_progress(&op, &m_inv, f, &mut u, params, progress);
     report.timings.solve = t.elapsed().as_secs_f64();
-    report.iterations = Some(info.iterations);
-    Ok((u, report))
+    let outcome = outcome.map(|info| report.iterations = Some(info.iterations));
+    if let Err(CgError::ResidualAboveTarget { iterations, .. } | CgError::NotConverged { iterations, .. }) = &outcome {
+        report.iterations = Some(*iterations);
+    }
+    Ok((u, report, outcome))
+}
+
+/// `u || |A| |x| ||_2 / ||b||_2` (`u` the unit roundoff, `A` symmetric): the relative residual
+/// that rounding alone leaves in a computed `b - A x` (each entry of `A x` is a sum whose
+/// rounding error is about `u` times the sum of its terms' magnitudes). A solve cannot certify a
+/// residual much below it, whatever the solver.
+pub(super) fn rounding_residual(a: &Csc, x: &[f64], b: &[f64]) -> f64 {
+    let cp = a.symbolic().col_ptr();
+    let ri = a.symbolic().row_idx();
+    let v = a.val();
+    let mut s = 0.0;
+    for j in 0..a.ncols() {
+        let t: f64 = (cp[j]..cp[j + 1]).map(|p| v[p].abs() * x[ri[p]].abs()).sum();
+        s += t * t;
+    }
+    let bn = b.iter().map(|t| t * t).sum::<f64>().sqrt();
+    0.5 * f64::EPSILON * s.sqrt() / bn
 }
 
 /// Restarted GMRES (restart 50) on the assembled `A_ff`, right-preconditioned by Jacobi or by
@@ -170,6 +218,10 @@ pub(super) fn assembled_gmres_with(
     let mut report = SolveReport::new(SolverId::GmresIterative(preconditioner), a.nrows(), a.val().len());
     let t = Instant::now();
     let diag = diagonal(m);
+    if preconditioner == PreconditionerKind::Jacobi {
+        // Jacobi divides by the diagonal: a zero one is GMRES's singular matrix, not CG's breakdown
+        nonzero_diagonal(&format!("gmres ({})", preconditioner.name()), &diag, true)?;
+    }
     let task = Task::start(progress, &format!("{} preconditioner setup", preconditioner.name()), None);
     let m_inv =
         preconditioner.build(&PreconditionerInput { diagonal: &diag, matrix: Some(m), geometry, model: None })?;
