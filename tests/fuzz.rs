@@ -169,6 +169,9 @@ fn inputs(root: &Path) -> Vec<Input> {
                 .filter_map(|k| doc["nodes"][k].as_str())
                 .map(|f| (f.to_string(), std::fs::read(data_dir().join(f)).unwrap()))
                 .collect();
+            if doc["nodes"]["csv"].is_string() {
+                out.push(vtu_variant(root, &file, &doc));
+            }
             out.push(Input { label: file.clone(), file, doc, kind: Kind::Scene { side } });
             continue;
         }
@@ -199,6 +202,23 @@ fn inputs(root: &Path) -> Vec<Input> {
             obj.remove("grid");
             obj.insert("model".into(), json!({"type": "coarsened", "moduli": mtx_file}));
             obj.insert("name".into(), json!(format!("{name}-{stem}")));
+            // the level with the boundary-value problem the pipeline transferred to it
+            // (`nodal` loads and `file` constraints read from the level's CSV files)
+            let (forces, prescribed) = (format!("{stem}.forces.csv"), format!("{stem}.prescribed.csv"));
+            let mut with_bvp = s.clone();
+            with_bvp["constraints"] = json!([{"file": prescribed}]);
+            with_bvp["loads"] = json!([{"type": "nodal", "file": forces}]);
+            with_bvp["name"] = json!(format!("{name}-{stem}-bvp"));
+            let side = [&mtx_file, &csv_file, &forces, &prescribed]
+                .iter()
+                .map(|f| (f.to_string(), std::fs::read(lv.join(f)).unwrap()))
+                .collect();
+            out.push(Input {
+                label: format!("{name}/{stem} (pipeline BVP)"),
+                file: "scene.json".into(),
+                doc: with_bvp,
+                kind: Kind::Scene { side },
+            });
             out.push(Input {
                 label: format!("{name}/{stem}"),
                 file: "scene.json".into(),
@@ -214,6 +234,30 @@ fn inputs(root: &Path) -> Vec<Input> {
         out.push(Input { label: file.clone(), file, doc, kind: Kind::Pipeline { scene_file, scene } });
     }
     out
+}
+
+/// A point-cloud scene read from VTU instead of CSV: the `result.vtu` that `linpd solve` writes
+/// for the scene (it carries the `volume` and `layer` point arrays) as its node file.
+fn vtu_variant(root: &Path, file: &str, doc: &Value) -> Input {
+    let src = root.join("vtu-src").join(file.trim_end_matches(".json"));
+    std::fs::create_dir_all(&src).unwrap();
+    let csv = doc["nodes"]["csv"].as_str().unwrap();
+    std::fs::copy(data_dir().join(csv), src.join(csv)).unwrap();
+    let mut quick = doc.clone();
+    quick["output"] = json!({"plot": false});
+    std::fs::write(src.join(file), quick.to_string()).unwrap();
+    let out = src.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_linpd"))
+        .args(["solve".as_ref(), src.join(file).as_os_str(), "--out".as_ref(), out.as_os_str(), "-q".as_ref()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "linpd solve {file}: {}", String::from_utf8_lossy(&o.stderr));
+    let mut d = doc.clone();
+    let nodes = d["nodes"].as_object_mut().unwrap();
+    nodes.remove("csv");
+    nodes.insert("vtk".into(), json!("nodes.vtu"));
+    let side = vec![("nodes.vtu".to_string(), std::fs::read(out.join("result.vtu")).unwrap())];
+    Input { label: format!("{file} (vtu nodes)"), file: file.to_string(), doc: d, kind: Kind::Scene { side } }
 }
 
 /// Keys and strings of every input: mutations draw names and enum values from it.
