@@ -56,7 +56,7 @@ fn bad_pd_zones_are_named() {
     let e = error_of(|v| {
         v["model"]["pd_regions"].as_array_mut().unwrap().remove(0);
     });
-    assert!(e.contains("model.blend.pd_regions") && e.contains("defect"), "{e}");
+    assert!(e.starts_with("model.pd_regions: ") && e.contains("defect"), "{e}");
     let e = error_of(|v| v["model"]["auto_radius"] = serde_json::json!(2.0));
     assert!(e.contains("model.auto_radius") && e.contains("auto"), "{e}");
     let e = error_of(|v| v["model"]["pd_regions"] = serde_json::json!("everywhere"));

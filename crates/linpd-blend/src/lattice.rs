@@ -264,7 +264,7 @@ impl LatticeBlend {
 /// node.
 fn check_inputs(d: usize, n: usize, beta: &[f64], mirrored: &[bool]) -> Result<(), BlendError> {
     if d < 2 {
-        return Err(BlendError::param("model.blend", "2D and 3D only (1D blends are `\"type\": \"blend\"`)"));
+        return Err(BlendError::param("model.pd_regions", "2D and 3D only (1D blends are `\"type\": \"blend\"`)"));
     }
     if beta.len() != n {
         return Err(BlendError::param("beta", format!("{} values for {n} nodes", beta.len())));
@@ -384,7 +384,7 @@ impl BlendRows<'_> {
         let local = bi < 1.0;
         if (local || !s.is_empty()) && !self.is_regular(i) {
             return Err(BlendError::param(
-                "model.blend.pd_regions",
+                "model.pd_regions",
                 format!(
                     "{}: its row has a local share but a defect or a material interface is within its \
                      horizon, which local elasticity cannot represent; extend pd_regions (with the transition) \
@@ -395,7 +395,7 @@ impl BlendRows<'_> {
         }
         if !s.is_empty() {
             transition_terms(self.op, self.grid, i, &s, rb)
-                .map_err(|why| BlendError::param("model.blend.pd_regions", format!("{}: {why}", self.describe(i))))?;
+                .map_err(|why| BlendError::param("model.pd_regions", format!("{}: {why}", self.describe(i))))?;
         }
         if local {
             self.local_elements(i, rb)?;
@@ -438,7 +438,7 @@ impl BlendRows<'_> {
     fn local_elements(&self, i: usize, rb: &mut RowBuilder) -> Result<(), BlendError> {
         if self.n_cells[i] == 0 {
             return Err(BlendError::param(
-                "model.blend.pd_regions",
+                "model.pd_regions",
                 format!(
                     "{}: has a local share but is the corner of no complete lattice cell (a body \
                      thinner than two nodes there): extend pd_regions to cover it",
@@ -450,7 +450,7 @@ impl BlendRows<'_> {
         for cell in cells_at(self.grid, i) {
             if let Some(c) = cell.iter().find(|&&c| !self.is_regular(c)) {
                 return Err(BlendError::param(
-                    "model.blend.pd_regions",
+                    "model.pd_regions",
                     format!(
                         "{}: its local elements reach {} near a defect or a material interface; \
                          extend pd_regions to cover it",

@@ -203,7 +203,7 @@ fn a_defect_within_reach_of_a_local_share_is_refused() {
     let regular: Vec<bool> = (0..g.len()).map(|i| op.weights(i) == hom.weights(i)).collect();
     let beta = beta_left(&g, 0.5, 3.0 * g.spacing(), Profile::Linear);
     let err = LatticeBlend::new(&op, &g, horizon, beta, Some(&regular), &vec![false; g.len()]).unwrap_err().to_string();
-    assert!(err.contains("model.blend.pd_regions") && err.contains("defect"), "{err}");
+    assert!(err.contains("model.pd_regions") && err.contains("defect"), "{err}");
     // with the crack more than a horizon inside the PD region (x < 0.9) it builds: the
     // crack at x = 0.7 cuts bonds of nodes up to x = 0.85, and nodes from x = 0.75 on reach
     // the transition; so shift the crack to x = 0.5

@@ -30,7 +30,14 @@ pub fn read_cloud(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     if meta.len() > MAX_CLOUD_BYTES {
         return Err(fail(format!("{} bytes, more than a node file may hold ({MAX_CLOUD_BYTES})", meta.len())));
     }
-    let vtk = vtkio::Vtk::import(path).map_err(|e| fail(format!("not a readable VTK file ({e})")))?;
+    let vtk = vtkio::Vtk::import(path).map_err(|e| {
+        // vtkio's legacy parser says only "Parse error: Digit" about a wrong POINTS count
+        let text = std::fs::read(path).unwrap_or_default();
+        match legacy_points_mismatch(&String::from_utf8_lossy(&text)) {
+            Some((line, reason)) => IoError::Format { path: shown.clone(), line: Some(line), reason },
+            None => fail(format!("not a readable VTK file ({e})")),
+        }
+    })?;
     let parts = match vtk.data {
         DataSet::UnstructuredGrid { pieces, .. } => inline(pieces, |p| (p.points, p.data)),
         DataSet::PolyData { pieces, .. } => inline(pieces, |p| (p.points, p.data)),
@@ -121,6 +128,46 @@ pub fn read_cloud(path: &Path, dim: usize) -> Result<Cloud, IoError> {
         ))
     })?;
     Ok(cloud)
+}
+
+/// In an ASCII legacy VTK file, `(line, why)` when the count of a `POINTS n type` line (1-based
+/// `line`) does not match the numbers that follow it before the next keyword (`3 n` of them).
+fn legacy_points_mismatch(text: &str) -> Option<(u64, String)> {
+    let mut lines = text.lines().enumerate();
+    if !lines.next()?.1.trim_start().starts_with("# vtk DataFile")
+        || !text.lines().nth(2)?.trim().eq_ignore_ascii_case("ascii")
+    {
+        return None;
+    }
+    let (at, head) =
+        lines.find(|(_, l)| l.split_whitespace().next().is_some_and(|w| w.eq_ignore_ascii_case("POINTS")))?;
+    let n: usize = head.split_whitespace().nth(1)?.parse().ok()?;
+    let mut count = 0usize;
+    let mut next = None;
+    'scan: for (k, line) in lines {
+        for w in line.split_whitespace() {
+            if w.parse::<f64>().is_err() {
+                next = Some((k, w.to_string()));
+                break 'scan;
+            }
+            count += 1;
+        }
+    }
+    if count == 3 * n {
+        return None;
+    }
+    let end = match next {
+        Some((k, w)) => format!("before `{w}` on line {}", k + 1),
+        None => "before the end of the file".into(),
+    };
+    Some((
+        at as u64 + 1,
+        format!(
+            "the POINTS count does not match the data: `POINTS {n}` declares {n} points ({} coordinates), but {count} \
+             numbers follow ({end}); set the count to the number of points",
+            3 * n
+        ),
+    ))
 }
 
 /// The points and point data of every piece stored in the file itself.

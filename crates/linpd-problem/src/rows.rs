@@ -110,7 +110,7 @@ pub fn row_system(p: &Problem) -> Result<RowSystem, ProblemError> {
 /// The [`Solution`] `linpd solve` would write for displacements `u` over all DOFs computed
 /// elsewhere (by PETSc), with `report` as the solve's report: the balance and the fields of
 /// the scene's model ([`crate::models::SceneModel::solution`]). `u` must have one value per
-/// DOF of `system` ([`RowSystem::dofs`]), which this scene must have built.
+/// DOF of `system` ([`RowSystem::dofs`]), which this scene must have built, and be finite.
 pub fn solution_from(
     p: &Problem,
     system: &RowSystem,
@@ -120,6 +120,21 @@ pub fn solution_from(
     let n_dofs = system.dofs().n_dofs();
     if u.len() != n_dofs {
         return Err(ProblemError::invalid("u", format!("has {} values, the scene has {n_dofs} DOFs", u.len())));
+    }
+    // NaN or infinite displacements (a diverged or failed solve elsewhere) would be written as
+    // `null` in result.json, NaN in u.csv and result.vtu, with a balance of 0
+    if let Some(k) = u.iter().position(|x| !x.is_finite()) {
+        let d = system.dim();
+        let n_bad = u.iter().filter(|x| !x.is_finite()).count();
+        return Err(ProblemError::invalid(
+            "u",
+            format!(
+                "{n_bad} of the {n_dofs} displacements are not finite (first u[{k}] = {}, node {} component {}):                  the solve that computed them failed or diverged; nothing written",
+                u[k],
+                k / d,
+                k % d
+            ),
+        ));
     }
     if system.built_for != (p.name().to_string(), p.model().name()) {
         return Err(ProblemError::invalid(

@@ -340,6 +340,19 @@ fn data_initial(i: &RawInitial, dim: usize, n_nodes: usize) -> Result<Initial, P
                 format!("must be finite, got {:e}", values[k]),
             ));
         }
+        // finite values whose squares overflow (v = 1e308): the kinetic and strain energies, and
+        // every state of the run, would be infinite, reported only as "the run diverged"
+        if !values.iter().map(|x| x * x).sum::<f64>().is_finite() {
+            let max = values.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            return Err(ProblemError::invalid(
+                format!("{p}.{key}"),
+                format!(
+                    "values up to {max:e} overflow: the sum of their squares (the {} energy) is not finite; use \
+                     smaller units",
+                    if key == "v" { "kinetic" } else { "strain" }
+                ),
+            ));
+        }
         Ok(())
     };
     let u = i.u.clone().ok_or_else(|| ProblemError::invalid(format!("{p}.u"), "missing (required by data)"))?;

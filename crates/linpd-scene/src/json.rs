@@ -12,7 +12,7 @@ use std::path::Path;
 pub const MAX_JSON_BYTES: u64 = 16 << 20;
 
 /// Reads a scene or pipeline file: a regular file (not a device, FIFO or directory) of at most
-/// [`MAX_JSON_BYTES`], in UTF-8.
+/// [`MAX_JSON_BYTES`], in UTF-8 (a leading byte order mark is skipped).
 pub fn read_json_file(path: &Path) -> Result<String, ProblemError> {
     use std::io::Read;
     let err = |source| ProblemError::Io { path: path.display().to_string(), source };
@@ -33,13 +33,19 @@ pub fn read_json_file(path: &Path) -> Result<String, ProblemError> {
     if bytes.len() as u64 > MAX_JSON_BYTES {
         return Err(other(format!("more than {MAX_JSON_BYTES} bytes, more than a scene or pipeline file may hold")));
     }
-    String::from_utf8(bytes).map_err(|e| {
+    // a UTF-8 byte order mark (written by some Windows editors) is not part of the document
+    let body = bytes.strip_prefix(UTF8_BOM).map_or(0, |_| UTF8_BOM.len());
+    let text = String::from_utf8(bytes).map_err(|e| {
         other(format!(
             "not UTF-8 text (invalid byte at offset {}): a scene or pipeline is a JSON file",
             e.utf8_error().valid_up_to()
         ))
-    })
+    })?;
+    Ok(text[body..].to_string())
 }
+
+/// The UTF-8 byte order mark, skipped at the start of a scene or pipeline file.
+const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
 
 /// Parses one JSON document (scene or pipeline) into `T`; syntax and shape errors carry line,
 /// column and path, and text after the document is an error (not silently ignored).

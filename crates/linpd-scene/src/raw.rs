@@ -155,7 +155,7 @@ pub struct RawGrid {
     /// Thickness of the outer layer (nodes outside `[min, max]`): a number (every side) or an
     /// object of per-side thicknesses `{"x-": 0.06, "x+": 0, ...}` (missing sides 0); read by
     /// [`RawGrid::layers`].
-    #[serde(default)]
+    #[serde(default, deserialize_with = "layer_value")]
     pub layer: Option<serde_json::Value>,
     /// `vertex` (default) or `cell`.
     #[serde(default)]
@@ -202,6 +202,74 @@ impl RawGrid {
     /// True when every side's layer is 0.
     pub fn has_no_layer(&self, dim: usize) -> bool {
         self.layers(dim).is_ok_and(|l| l.iter().take(dim).all(|s| s[0] == 0.0 && s[1] == 0.0))
+    }
+}
+
+/// `grid.layer` as a JSON value, refusing a side given twice (`{"x-": 0.1, "x-": 0.2}`: a
+/// `serde_json::Value` would keep the later one silently); `null` is absent.
+fn layer_value<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<serde_json::Value>, D::Error> {
+    use serde::de::{Error, MapAccess, SeqAccess, Visitor};
+    use serde_json::Value;
+    struct V;
+    impl<'de> Visitor<'de> for V {
+        type Value = Value;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a thickness or an object of per-side thicknesses")
+        }
+        fn visit_bool<E: Error>(self, v: bool) -> Result<Value, E> {
+            Ok(Value::Bool(v))
+        }
+        fn visit_i64<E: Error>(self, v: i64) -> Result<Value, E> {
+            Ok(Value::from(v))
+        }
+        fn visit_u64<E: Error>(self, v: u64) -> Result<Value, E> {
+            Ok(Value::from(v))
+        }
+        fn visit_f64<E: Error>(self, v: f64) -> Result<Value, E> {
+            Ok(Value::from(v))
+        }
+        fn visit_str<E: Error>(self, v: &str) -> Result<Value, E> {
+            Ok(Value::from(v))
+        }
+        fn visit_unit<E: Error>(self) -> Result<Value, E> {
+            Ok(Value::Null)
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Value, A::Error> {
+            let mut items = Vec::new();
+            while let Some(v) = seq.next_element::<Value>()? {
+                items.push(v);
+            }
+            Ok(Value::Array(items))
+        }
+        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value, A::Error> {
+            let mut sides = serde_json::Map::new();
+            while let Some(key) = map.next_key::<String>()? {
+                let v: Value = map.next_value()?;
+                if sides.contains_key(&key) {
+                    return Err(A::Error::custom(format!(
+                        "the side `{key}` is given twice (which thickness is meant?): give each side once"
+                    )));
+                }
+                sides.insert(key, v);
+            }
+            Ok(Value::Object(sides))
+        }
+    }
+    Ok(Some(d.deserialize_any(V)?).filter(|v| !v.is_null()))
+}
+
+/// `{"difference": [A, B]}`: exactly two regions (serde's tuple would say "trailing
+/// characters" about a third, or "invalid length" about one).
+fn two_regions<'de, D: serde::Deserializer<'de>>(d: D) -> Result<(Box<RawRegion>, Box<RawRegion>), D::Error> {
+    let regions = Vec::<RawRegion>::deserialize(d)?;
+    let n = regions.len();
+    let mut it = regions.into_iter();
+    match (it.next(), it.next(), n) {
+        (Some(a), Some(b), 2) => Ok((Box::new(a), Box::new(b))),
+        _ => Err(serde::de::Error::custom(format!(
+            "`difference` takes exactly two regions [A, B] (the nodes of A not in B), got {n}; for more, \
+             subtract a union: {{\"difference\": [A, {{\"union\": [B, C]}}]}}"
+        ))),
     }
 }
 
@@ -556,7 +624,8 @@ pub enum RawRegion {
     },
     /// Any of.
     Union(Vec<RawRegion>),
-    /// First minus second.
+    /// First minus second (exactly two: [`two_regions`]).
+    #[serde(deserialize_with = "two_regions")]
     Difference(Box<RawRegion>, Box<RawRegion>),
 }
 

@@ -24,6 +24,10 @@ pub struct Context<'a> {
 
 pub(crate) fn core(path: &str, e: CoreError) -> ProblemError {
     match e {
+        // a parameter named as the key itself (`body` of `body`) is that key, not `body.body`
+        CoreError::Parameter { name, reason } if path == name || path.ends_with(&format!(".{name}")) => {
+            ProblemError::invalid(path, reason)
+        }
         CoreError::Parameter { name, reason } => ProblemError::invalid(format!("{path}.{name}"), reason),
         other => ProblemError::invalid(path, other.to_string()),
     }

@@ -55,6 +55,23 @@ pub enum SolveError {
         /// Free DOF of the failed pivot.
         dof: usize,
     },
+    /// A diagonal entry of `A_ff` is zero (or, for a symmetric `A_ff`, negative): the
+    /// stiffness is singular there (a DOF nothing holds: a mechanism or a missing constraint).
+    #[error("{solver}: the stiffness's diagonal entry at free DOF {dof} is {value:e}: the stiffness is singular")]
+    ZeroDiagonal {
+        /// The solver (or setup) that found it: `"lu"`, `"gmres (jacobi)"`, `"the row system"`.
+        solver: String,
+        /// Free DOF of the entry.
+        dof: usize,
+        /// The entry.
+        value: f64,
+    },
+    /// LU met a zero pivot (its solution is not finite though `A` and `f` are).
+    #[error("{solver}: singular matrix (a pivot is zero): the body is not held or has a mechanism; add constraints")]
+    ZeroPivot {
+        /// The solver that ran.
+        solver: SolverId,
+    },
     /// A direct solve returned a residual above [`direct::DIRECT_RESIDUAL_LIMIT`].
     #[error("the reduced stiffness is numerically singular (relative residual {rel_residual:.2e} after {solver}); add constraints")]
     NumericallySingular {

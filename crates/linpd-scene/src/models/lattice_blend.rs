@@ -228,8 +228,11 @@ impl LatticeBlendModel {
         let beta = beta_from_zone(grid, &inside, zone.transition, zone.profile);
         // supports in the layer stand for the body beyond them
         let mirrored: Vec<bool> = (0..grid.len()).map(|i| grid.is_layer(i) && constrained[i]).collect();
-        LatticeBlend::new(&op, grid, b.horizon, beta, regular.as_deref(), &mirrored)
-            .map_err(|e| ProblemError::invalid("model", e.to_string()))
+        LatticeBlend::new(&op, grid, b.horizon, beta, regular.as_deref(), &mirrored).map_err(|e| match e {
+            // the key it names (`model.pd_regions`), not `model: model.pd_regions: ...`
+            linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
+            e => ProblemError::invalid("model", e.to_string()),
+        })
     }
 }
 

@@ -106,14 +106,16 @@ pub trait SceneModel: Debug + Send + Sync {
     fn lacks(&self, capability: Capability) -> Option<String>;
     /// The line `linpd validate` prints after `valid; `.
     fn summary(&self, p: &Problem) -> String {
-        let spacing = crate::nodes::NodeSet::spacing(p.nodes());
-        format!(
-            "{} model, dimension {}, {} nodes, horizon/spacing = {:.4}",
-            self.name(),
-            p.dim(),
-            p.nodes().len(),
-            self.horizon().unwrap_or(f64::NAN) / spacing
-        )
+        let head = format!("{} model, dimension {}, {} nodes", self.name(), p.dim(), p.nodes().len());
+        let Some(horizon) = self.horizon() else { return head };
+        // a point cloud's ratio is to its mean spacing (its node spacing is the smallest one)
+        match p.nodes().cloud() {
+            Some(c) => {
+                let h = crate::cloud::mean_spacing(&c.volumes, c.dim);
+                format!("{head}, horizon/mean spacing = {:.4}", horizon / h)
+            }
+            None => format!("{head}, horizon/spacing = {:.4}", horizon / crate::nodes::NodeSet::spacing(p.nodes())),
+        }
     }
     /// Files besides the scene that the run reads (a coarsened level's moduli file).
     fn inputs(&self) -> Vec<PathBuf> {

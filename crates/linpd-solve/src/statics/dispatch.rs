@@ -34,17 +34,24 @@ impl ModelSystem<'_> {
     /// A solver's error as a [`StaticError`], naming the node and component of the free DOF
     /// where a factorization failed ([`Model::describe_node`]).
     fn at_dof(&self, e: SolveError) -> StaticError {
-        let (d, dofs) = (self.model.dim(), self.dofs);
-        match e {
-            SolveError::NotPositiveDefinite { dof } | SolveError::Singular { dof } if dof < dofs.n_free() => {
-                let full = dofs.free_dofs()[dof];
-                StaticError::AtDof {
-                    at: format!("{}, component {}", self.model.describe_node(full / d), full % d),
-                    source: e,
-                }
-            }
-            other => StaticError::Solve(other),
+        at_free_dof(self.model, self.dofs, e)
+    }
+}
+
+/// A solver's error as a [`StaticError`], naming the node and component of the free DOF where
+/// a factorization failed or a diagonal entry is zero ([`Model::describe_node`]).
+pub(super) fn at_free_dof(model: &dyn Model, dofs: &DofMap, e: SolveError) -> StaticError {
+    let d = model.dim();
+    match e {
+        SolveError::NotPositiveDefinite { dof }
+        | SolveError::Singular { dof }
+        | SolveError::ZeroDiagonal { dof, .. }
+            if dof < dofs.n_free() =>
+        {
+            let full = dofs.free_dofs()[dof];
+            StaticError::AtDof { at: format!("{}, component {}", model.describe_node(full / d), full % d), source: e }
         }
+        other => StaticError::Solve(other),
     }
 }
 

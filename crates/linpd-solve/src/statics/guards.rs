@@ -43,6 +43,19 @@ pub fn finite_vector(what: &'static str, v: &[f64]) -> Result<(), SolveError> {
     Ok(())
 }
 
+/// `Err(SolveError::ZeroDiagonal)` at the first free DOF whose diagonal entry `diag[k]` is zero
+/// relative to the largest (`|a_kk| <= 1e-14 max |a_ii|`), or negative or NaN when `spd` (a
+/// symmetric operator): nothing holds that DOF (a mechanism, e.g. the out-of-plane motion of a
+/// plate one node thick), so the stiffness is singular whatever the solver.
+pub(super) fn nonzero_diagonal(solver: &str, diag: &[f64], spd: bool) -> Result<(), SolveError> {
+    let max = diag.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+    let bad = |d: f64| d.is_nan() || d.abs() <= 1e-14 * max || (spd && d < 0.0);
+    match diag.iter().position(|&d| bad(d)) {
+        Some(dof) => Err(SolveError::ZeroDiagonal { solver: solver.to_string(), dof, value: diag[dof] }),
+        None => Ok(()),
+    }
+}
+
 /// What [`super::solve_model`] checks before anything else: a free DOF, no rigid motion left
 /// free by the constraints, finite loads.
 pub(super) fn check_static(model: &dyn Model, bc: &Dirichlet, f: &[f64]) -> Result<(), StaticError> {

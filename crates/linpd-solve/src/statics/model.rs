@@ -2,9 +2,10 @@
 //! reduced system it hands a solver, for callers that solve it themselves ([`reduced_system`],
 //! [`reduced_rhs_checked`]).
 
+use super::dispatch::at_free_dof;
 use super::dispatch::{assemble_checked, solve_system, ModelSystem};
 use super::error::StaticError;
-use super::guards::{check_static, finite_vector, REDUCED_LOAD};
+use super::guards::{check_static, finite_vector, nonzero_diagonal, REDUCED_LOAD};
 use crate::bc::Dirichlet;
 use crate::report::SolveReport;
 use crate::spec::SolverSpec;
@@ -68,8 +69,18 @@ pub fn reduced_system(
 /// (something free, the support check, finite loads and result) but without assembling
 /// `A_ff`: for callers that assemble `A_ff` themselves a block of rows at a time (the
 /// distributed path of the Python package), so that the errors are those of a solve.
+///
+/// It also refuses a free DOF whose diagonal entry of `A_ff` is zero (nothing holds it: the
+/// out-of-plane motion of a plate one node thick), which [`solve_model`] finds when it
+/// factorizes but an iterative solver on the rows (PETSc's CG) may not: it would converge on a
+/// load orthogonal to that motion, or report a residual of 1e17.
 pub fn reduced_rhs_checked(model: &dyn Model, bc: &Dirichlet, f: &[f64]) -> Result<Vec<f64>, StaticError> {
     check_static(model, bc, f)?;
+    let dofs = bc.dofs();
+    let diag = dofs.gather(&model.diagonal());
+    finite_vector("the stiffness (its diagonal over the free DOFs)", &diag)?;
+    let spd = model.asymmetry(dofs) <= linpd_core::sparse::SYMMETRY_RTOL;
+    nonzero_diagonal("the row system", &diag, spd).map_err(|e| at_free_dof(model, dofs, e))?;
     let rhs = bc.reduced_rhs(&ModelOperator(model), f);
     finite_vector(REDUCED_LOAD, &rhs)?;
     Ok(rhs)
