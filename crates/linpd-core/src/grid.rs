@@ -219,8 +219,17 @@ impl Grid {
     /// in 1D and 2D, 8 in 3D): exact for whole cells and cuts along sub-cell faces; for a
     /// smooth boundary a cut cell's error is about one sub-cell row, `h^d / s`, of either sign,
     /// averaging out along the boundary. A kept node's fraction is at least one sub-cell, so
-    /// no node gets volume 0. A removed part with no kept neighbour is dropped.
+    /// no node gets volume 0. A removed part with no kept neighbour is dropped (see
+    /// [`Grid::with_cut_volumes_dropping`] to learn about it).
     pub fn with_cut_volumes(&self, inside: impl Fn(&Point) -> bool + Sync) -> Grid {
+        self.with_cut_volumes_dropping(inside).0
+    }
+
+    /// [`Grid::with_cut_volumes`], and the parts of the body it had to drop: `(centroid,
+    /// volume)` of each removed site's inside part with no kept lattice neighbour (a piece of
+    /// the body, such as an isolated union part, that holds no node and borders no kept node's
+    /// cell), in site order. Empty when the volumes add up to the body's measure.
+    pub fn with_cut_volumes_dropping(&self, inside: impl Fn(&Point) -> bool + Sync) -> (Grid, Vec<(Point, f64)>) {
         use rayon::prelude::*;
         let d = self.dim;
         let s = CUT_SAMPLES[d - 1];
@@ -248,7 +257,7 @@ impl Grid {
             .into_par_iter()
             .map(|n| v0 * fraction(&self.position(n)).0.max(1) as f64 / cells as f64)
             .collect();
-        let removed: Vec<(usize, f64)> = (0..self.n_sites())
+        let removed: Vec<(Option<usize>, Point, f64)> = (0..self.n_sites())
             .into_par_iter()
             .filter_map(|site| {
                 let mut q = [0usize; 3];
@@ -280,15 +289,19 @@ impl Grid {
                         }
                     }
                 }
-                best.map(|(_, n)| (n, v0 * count as f64 / cells as f64))
+                Some((best.map(|(_, n)| n), c, v0 * count as f64 / cells as f64))
             })
             .collect();
-        for (n, v) in removed {
-            volumes[n] += v;
+        let mut dropped = Vec::new();
+        for (n, c, v) in removed {
+            match n {
+                Some(n) => volumes[n] += v,
+                None => dropped.push((c, v)),
+            }
         }
         let mut g = self.clone();
         g.volumes = Some(std::sync::Arc::new(volumes));
-        g
+        (g, dropped)
     }
     /// Number of nodes, layers included (the kept sites only, when a body removed some).
     pub fn len(&self) -> usize {

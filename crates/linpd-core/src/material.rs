@@ -10,6 +10,7 @@
 //! point counts as crossing it), here [`Defect::Point`] in 1D, [`Defect::Segment`] in 2D and
 //! [`Defect::Plane`] in 3D.
 
+use crate::region::{exponent, is_zero, ldexp, max_abs, norm, quarter_diff};
 use crate::{CoreError, Grid, Point, Region};
 
 /// How a bond's modulus follows from the moduli at its ends.
@@ -92,8 +93,8 @@ impl Defect {
             Defect::Point { .. } => 1,
             Defect::Segment { .. } => 2,
             Defect::Plane { normal, .. } => {
-                if normal.iter().map(|v| v * v).sum::<f64>() == 0.0 {
-                    return Err(CoreError::param("normal", "must be nonzero"));
+                if is_zero(normal) {
+                    return Err(CoreError::param("normal", "must be nonzero (any nonzero length is a direction)"));
                 }
                 3
             }
@@ -123,9 +124,17 @@ impl Defect {
             }
             Defect::Segment { a, b, .. } => segments_intersect([x[0], x[1]], [y[0], y[1]], *a, *b, tol),
             Defect::Plane { point, normal, extent, .. } => {
-                let nn = normal.iter().map(|v| v * v).sum::<f64>().sqrt();
-                let s = |p: &Point| (0..3).map(|k| (p[k] - point[k]) * normal[k]).sum::<f64>() / nn;
-                let (sx, sy) = (s(x), s(y));
+                // signed distances from the plane, a quarter of them against a quarter of `tol`,
+                // with the normal scaled by a power of two: any finite point and nonzero normal,
+                // and the bits of `(x - point) . normal / |normal|` on ordinary inputs
+                let e = exponent(max_abs(normal));
+                let n = normal.map(|v| ldexp(v, -e));
+                let nn = norm(&n);
+                let s = |p: &Point| {
+                    let d = quarter_diff(p, point, 3);
+                    (0..3).map(|k| d[k] * n[k]).sum::<f64>() / nn
+                };
+                let (sx, sy, tol) = (s(x), s(y), 0.25 * tol);
                 if (sx > tol && sy > tol) || (sx < -tol && sy < -tol) {
                     return false;
                 }
@@ -135,7 +144,7 @@ impl Defect {
                         let t = if (sx - sy).abs() > 0.0 { sx / (sx - sy) } else { 0.0 };
                         let t = t.clamp(0.0, 1.0);
                         let p = [x[0] + t * (y[0] - x[0]), x[1] + t * (y[1] - x[1]), x[2] + t * (y[2] - x[2])];
-                        region.contains(&p, 3, tol)
+                        region.contains(&p, 3, 4.0 * tol)
                     }
                 }
             }
@@ -144,26 +153,60 @@ impl Defect {
 }
 
 /// Closed-segment intersection in 2D with a length tolerance.
+///
+/// Scale-safe: each signed distance is computed by [`signed_distance`] in frames scaled by
+/// powers of two, so segments with ends at `+-1e160` or `+-1e308` give the crossings their
+/// geometry gives (before, a plain cross product or length overflowed to `inf`, every
+/// distance became 0 and every bond "crossed").
 fn segments_intersect(p: [f64; 2], q: [f64; 2], a: [f64; 2], b: [f64; 2], tol: f64) -> bool {
-    let cross = |o: [f64; 2], u: [f64; 2], v: [f64; 2]| (u[0] - o[0]) * (v[1] - o[1]) - (u[1] - o[1]) * (v[0] - o[0]);
-    let len = |u: [f64; 2], v: [f64; 2]| ((u[0] - v[0]).powi(2) + (u[1] - v[1]).powi(2)).sqrt().max(f64::MIN_POSITIVE);
-    // Signed distances of each segment's ends from the other's line.
-    let d1 = cross(a, b, p) / len(a, b);
-    let d2 = cross(a, b, q) / len(a, b);
-    let d3 = cross(p, q, a) / len(p, q);
-    let d4 = cross(p, q, b) / len(p, q);
-    let straddles = |s: f64, t: f64| !((s > tol && t > tol) || (s < -tol && t < -tol));
-    if !(straddles(d1, d2) && straddles(d3, d4)) {
+    // Signed distances of each segment's ends from the other's line, each with the tolerance
+    // in its own scale.
+    let side = |o: [f64; 2], u: [f64; 2], r: [f64; 2]| {
+        let (d, t) = signed_distance(o, u, r, tol);
+        if d > t {
+            1
+        } else if d < -t {
+            -1
+        } else {
+            0
+        }
+    };
+    let (s1, s2, s3, s4) = (side(a, b, p), side(a, b, q), side(p, q, a), side(p, q, b));
+    let straddles = |s: i8, t: i8| !(s == t && s != 0);
+    if !(straddles(s1, s2) && straddles(s3, s4)) {
         return false;
     }
-    // Collinear case: require overlapping projections.
-    if d1.abs() <= tol && d2.abs() <= tol {
-        let axis = if (b[0] - a[0]).abs() >= (b[1] - a[1]).abs() { 0 } else { 1 };
+    // Collinear case: require overlapping projections (halves: no overflow).
+    if s1 == 0 && s2 == 0 {
+        let axis = if (0.5 * b[0] - 0.5 * a[0]).abs() >= (0.5 * b[1] - 0.5 * a[1]).abs() { 0 } else { 1 };
         let (lo1, hi1) = (p[axis].min(q[axis]), p[axis].max(q[axis]));
         let (lo2, hi2) = (a[axis].min(b[axis]), a[axis].max(b[axis]));
         return lo1 <= hi2 + tol && lo2 <= hi1 + tol;
     }
     true
+}
+
+/// The signed distance `(u - o) x (r - c) / |u - o|` of `r` from the line through `o` and `u`,
+/// and the tolerance `tol`, both multiplied by one power of two (compare them with each other
+/// only). The line's point `c` is whichever of `o`, `u` and their midpoint lies nearest `r`: a
+/// crack from `-1e160` to `1e160` measures the lattice from its middle, where `r - o` would
+/// round away everything the lattice holds. `u - o` and `r - c` are halved (no overflow) and
+/// each multiplied by its own power of two that brings its largest component into
+/// `[0.5, 1)`, so neither the cross product nor the length overflows or underflows whatever
+/// their sizes. A degenerate line (`u = o`) gives distance 0.
+fn signed_distance(o: [f64; 2], u: [f64; 2], r: [f64; 2], tol: f64) -> (f64, f64) {
+    let half = |v: [f64; 2], w: [f64; 2]| [0.5 * v[0] - 0.5 * w[0], 0.5 * v[1] - 0.5 * w[1]];
+    let mid = [0.5 * o[0] + 0.5 * u[0], 0.5 * o[1] + 0.5 * u[1]];
+    let du = half(u, o);
+    let dr = [half(r, o), half(r, mid), half(r, u)]
+        .into_iter()
+        .min_by(|x, y| max_abs(x).total_cmp(&max_abs(y)))
+        .expect("three candidates");
+    let (eu, er) = (exponent(max_abs(&du)), exponent(max_abs(&dr)));
+    let (su, sr) = (du.map(|v| ldexp(v, -eu)), dr.map(|v| ldexp(v, -er)));
+    let len = norm(&su).max(f64::MIN_POSITIVE);
+    // distance 2^-(1 + er) times the plain one, tolerance likewise
+    ((su[0] * sr[1] - su[1] * sr[0]) / len, ldexp(0.5 * tol, -er))
 }
 
 /// Phases, bond rule and defects of a body.

@@ -91,8 +91,11 @@ impl Region {
                 }
                 components(center, dim)?;
                 components(axis, dim)?;
-                if norm(axis) == 0.0 {
-                    return Err(CoreError::param("cylinder.axis", "must not be zero"));
+                if is_zero(axis) {
+                    return Err(CoreError::param(
+                        "cylinder.axis",
+                        "must not be zero (any nonzero length is a direction)",
+                    ));
                 }
                 positive("cylinder.radius", *radius)?;
                 length.map_or(Ok(()), |l| positive("cylinder.length", l))
@@ -100,8 +103,11 @@ impl Region {
             Region::HalfSpace { point, normal } => {
                 components(point, dim)?;
                 components(normal, dim)?;
-                if norm(normal) == 0.0 {
-                    return Err(CoreError::param("half_space.normal", "must not be zero"));
+                if is_zero(normal) {
+                    return Err(CoreError::param(
+                        "half_space.normal",
+                        "must not be zero (any nonzero length is a direction)",
+                    ));
                 }
                 Ok(())
             }
@@ -144,18 +150,20 @@ impl Region {
         match self {
             Region::All => true,
             Region::Box { min, max } => (0..dim).all(|a| x[a] >= min[a] - tol && x[a] <= max[a] + tol),
-            Region::Ball { center, radius } => {
-                (0..dim).map(|a| (x[a] - center[a]).powi(2)).sum::<f64>().sqrt() <= radius + tol
-            }
+            // Ball, cylinder and half space compare quarter differences with quarter bounds
+            // (exact scaling: the same result as the plain comparison wherever that is finite).
+            Region::Ball { center, radius } => norm(&quarter_diff(x, center, dim)[..dim]) <= 0.25 * radius + 0.25 * tol,
             Region::Cylinder { center, axis, radius, length } => {
-                let n = norm(axis);
-                let r: Vec<f64> = (0..3).map(|a| x[a] - center[a]).collect();
-                let t = (0..3).map(|a| r[a] * axis[a]).sum::<f64>() / n;
-                let radial = (0..3).map(|a| (r[a] - t * axis[a] / n).powi(2)).sum::<f64>().sqrt();
-                radial <= radius + tol && length.is_none_or(|l| t.abs() <= 0.5 * l + tol)
+                let (s, n) = direction(axis, 3);
+                let r = quarter_diff(x, center, 3);
+                let t = (0..3).map(|a| r[a] * s[a]).sum::<f64>() / n;
+                let radial = norm(&[0, 1, 2].map(|a| r[a] - t * s[a] / n));
+                radial <= 0.25 * radius + 0.25 * tol && length.is_none_or(|l| t.abs() <= 0.125 * l + 0.25 * tol)
             }
             Region::HalfSpace { point, normal } => {
-                (0..dim).map(|a| (x[a] - point[a]) * normal[a]).sum::<f64>() / norm(normal) <= tol
+                let (s, n) = direction(normal, dim);
+                let r = quarter_diff(x, point, dim);
+                (0..dim).map(|a| r[a] * s[a]).sum::<f64>() / n <= 0.25 * tol
             }
             Region::Polygon { vertices, extrude } => {
                 let z_ok = match (dim, extrude) {
@@ -181,8 +189,84 @@ impl Region {
     }
 }
 
-fn norm(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+// Scale-safe arithmetic. Every predicate below works on copies of its inputs multiplied by
+// powers of two, which is exact (until a result is subnormal) and commutes with the rounding
+// of `+ - * / sqrt`: on huge or tiny inputs (extents up to +-1.8e308, direction vectors of any
+// nonzero length) no product, square or difference overflows or underflows to 0, and on
+// ordinary ones the ball, cylinder and half space compute bit for bit what the plain formulas
+// compute (the polygon's edge distance is measured from the nearer end, the same distance up
+// to round-off).
+
+/// The exponent `e` with `2^(e-1) <= m < 2^e` (so `m 2^-e` is in `[0.5, 1)`), for finite
+/// `m > 0`; 0 for `m = 0` (or a non-finite `m`, which validation refuses).
+pub(crate) fn exponent(m: f64) -> i32 {
+    if !(m.is_finite() && m > 0.0) {
+        return 0;
+    }
+    let bits = m.to_bits();
+    match ((bits >> 52) & 0x7ff) as i32 {
+        // subnormal: m = mantissa 2^-1074
+        0 => (64 - (bits & ((1u64 << 52) - 1)).leading_zeros() as i32) - 1074,
+        biased => biased - 1022,
+    }
+}
+
+/// `2^e` for `-1074 <= e <= 1023`.
+fn pow2(e: i32) -> f64 {
+    if e >= -1022 {
+        f64::from_bits(((e + 1023) as u64) << 52)
+    } else {
+        f64::from_bits(1u64 << (e + 1074))
+    }
+}
+
+/// `x 2^e` for `-1074 <= e <= 2 x 1023` (exact unless the result is subnormal or overflows).
+pub(crate) fn ldexp(x: f64, e: i32) -> f64 {
+    if e > 1023 {
+        x * pow2(1023) * pow2(e - 1023)
+    } else {
+        x * pow2(e.max(-1074))
+    }
+}
+
+/// The largest `|v_a|`.
+pub(crate) fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+/// The Euclidean norm, without overflow or underflow: `2^e |v 2^-e|`, the same bits as
+/// `sqrt(sum v_a^2)` whenever that neither overflows nor underflows.
+pub(crate) fn norm(v: &[f64]) -> f64 {
+    let e = exponent(max_abs(v));
+    ldexp(v.iter().map(|x| ldexp(*x, -e).powi(2)).sum::<f64>().sqrt(), e)
+}
+
+/// True when every component is zero: the only direction vector refused (any nonzero length
+/// is a direction, `[1e-200, 0]` included).
+pub(crate) fn is_zero(v: &[f64]) -> bool {
+    v.iter().all(|x| *x == 0.0)
+}
+
+/// `(x - p) / 4` per component (at most `0.45e308` in size for finite inputs), exactly a
+/// quarter of the difference when that does not overflow.
+pub(crate) fn quarter_diff(x: &[f64], p: &[f64], dim: usize) -> [f64; 3] {
+    let mut d = [0.0; 3];
+    for a in 0..dim {
+        d[a] = 0.25 * x[a] - 0.25 * p[a];
+    }
+    d
+}
+
+/// The direction `v` scaled by a power of two (largest component in `[0.5, 1)`) and its norm
+/// (in `[0.5, sqrt 3)`): `d . s / |s|` is the component of `d` along `v` with the bits of
+/// `d . v / |v|` where that is finite.
+fn direction(v: &[f64], dim: usize) -> ([f64; 3], f64) {
+    let e = exponent(max_abs(&v[..dim]));
+    let mut s = [0.0; 3];
+    for a in 0..dim {
+        s[a] = ldexp(v[a], -e);
+    }
+    (s, norm(&s[..dim]))
 }
 
 fn components(v: &[f64], dim: usize) -> Result<(), CoreError> {
@@ -204,16 +288,19 @@ fn positive(what: &str, x: f64) -> Result<(), CoreError> {
 }
 
 /// Even-odd point-in-polygon test with the edges included: inside when a ray from `p` crosses
-/// an odd number of edges, or when `p` lies within `tol` of an edge.
+/// an odd number of edges, or when `p` lies within `tol` of an edge. A self-crossing polygon
+/// is taken as it is: the parts its edges wind around an even number of times are outside.
+///
+/// Each edge is tested in its own frame: `p`, the two vertices and `tol` multiplied by the power
+/// of two that brings their largest coordinate into `[0.5, 1)`, so differences stay below 2 and
+/// squares below 8 for any finite vertices (an edge from `-1e308` to `1e308` included).
 fn in_polygon(p: [f64; 2], v: &[[f64; 2]], tol: f64) -> bool {
     let mut inside = false;
     for k in 0..v.len() {
         let (a, b) = (v[k], v[(k + 1) % v.len()]);
-        // distance from p to the segment ab
-        let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
-        let len2 = ex * ex + ey * ey;
-        let t = if len2 > 0.0 { (((p[0] - a[0]) * ex + (p[1] - a[1]) * ey) / len2).clamp(0.0, 1.0) } else { 0.0 };
-        if (p[0] - a[0] - t * ex).hypot(p[1] - a[1] - t * ey) <= tol {
+        let e = exponent(max_abs(&[p[0], p[1], a[0], a[1], b[0], b[1]]));
+        let (p, a, b, tol) = (p.map(|x| ldexp(x, -e)), a.map(|x| ldexp(x, -e)), b.map(|x| ldexp(x, -e)), ldexp(tol, -e));
+        if segment_distance(p, a, b) <= tol {
             return true;
         }
         if (a[1] > p[1]) != (b[1] > p[1]) {
@@ -224,6 +311,26 @@ fn in_polygon(p: [f64; 2], v: &[[f64; 2]], tol: f64) -> bool {
         }
     }
     inside
+}
+
+/// The distance from `p` to the closed segment `ab` (coordinates below 1 in size): the distance
+/// to `a` or to `b` when `p` projects beyond that end, else the distance from the line. Each
+/// part is computed from the end nearer to `p`: on a long edge (`1e308` in a frame where the
+/// lattice spans `1e-308`), `p - a` rounds to a multiple of the far end's unit and would put a
+/// point below the near end on the edge.
+fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let e = [b[0] - a[0], b[1] - a[1]];
+    let (pa, pb) = ([p[0] - a[0], p[1] - a[1]], [p[0] - b[0], p[1] - b[1]]);
+    let dot = |u: [f64; 2]| u[0] * e[0] + u[1] * e[1];
+    let len = e[0].hypot(e[1]);
+    if len == 0.0 || dot(pa) <= 0.0 {
+        pa[0].hypot(pa[1])
+    } else if dot(pb) >= 0.0 {
+        pb[0].hypot(pb[1])
+    } else {
+        let r = if pa[0].hypot(pa[1]) <= pb[0].hypot(pb[1]) { pa } else { pb };
+        (e[0] * r[1] - e[1] * r[0]).abs() / len
+    }
 }
 
 #[cfg(test)]

@@ -147,12 +147,40 @@ pub(crate) fn lattice(cx: &Context, horizon: f64, path: crate::memory::Path) -> 
             let inside = |x: &Point| body.contains(x, dim, tol);
             let kept = grid.with_body(inside).map_err(|e| core("body", e))?;
             if cut {
-                kept.with_cut_volumes(inside)
+                let (cut, dropped) = kept.with_cut_volumes_dropping(inside);
+                if !dropped.is_empty() {
+                    return Err(dropped_body_part(body, &dropped, dim, tol));
+                }
+                cut
             } else {
                 kept
             }
         }
     })
+}
+
+/// The error of a body with cut-cell volumes whose part holds no node and borders no kept
+/// node's cell: its volume would drop out of the volume total. Names the first such top-level
+/// union part (`body.union[k]`, the first containing a dropped part's centroid), else `body`.
+fn dropped_body_part(body: &Region, dropped: &[(Point, f64)], dim: usize, tol: f64) -> ProblemError {
+    let (c, _) = dropped[0];
+    let total: f64 = dropped.iter().map(|(_, v)| v).sum();
+    let path = match body {
+        Region::Union(parts) => parts
+            .iter()
+            .position(|r| r.contains(&c, dim, tol))
+            .map_or("body".to_string(), |k| format!("body.union[{k}]")),
+        _ => "body".to_string(),
+    };
+    ProblemError::invalid(
+        path,
+        format!(
+            "a part of the body around {:?} holds no node and borders no node's cell: its volume {total:e} \
+             would drop out of the cut-cell volumes (\"boundary_volumes\": \"cut\"); refine the spacing, \
+             join the part to the body or remove it",
+            &c[..dim]
+        ),
+    )
 }
 
 /// A horizon of at least one lattice spacing (`sqrt 2` in 2D and 3D: shorter bonds only along
