@@ -95,13 +95,23 @@ pub fn estimate(path: Path, grid: &Grid, horizon: f64) -> (String, f64) {
     estimate_nodes(path, grid.dim(), grid.len(), horizon / grid.spacing())
 }
 
-/// [`estimate`] for `nodes` nodes in dimension `dim` with `ratio` = horizon / spacing (a point
-/// cloud's mean spacing: its families hold as many bonds as a lattice's of that spacing).
+/// [`estimate`] for `nodes` nodes in dimension `dim` with `ratio` = horizon / spacing. A
+/// family holds at most the `nodes - 1` other nodes and a tangent column at most `nodes` rows,
+/// so both counts are capped there (a 1,694-node grid at `delta = 50 h` was refused at 191.6
+/// GiB for the bonds of an infinite lattice; it needs 0.4 GB).
 pub fn estimate_nodes(path: Path, dim: usize, nodes: usize, ratio: f64) -> (String, f64) {
+    let n = nodes as f64;
+    let nb = neighbours(dim, ratio).min((n - 1.0).max(0.0));
+    let rows = tangent_rows(dim, ratio).min(n);
+    estimate_counts(path, dim, nodes, nb, rows)
+}
+
+/// The estimate of `path` for `nodes` nodes with `nb` bonds and (LPS) `rows` tangent row
+/// nodes per node on average.
+pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64) -> (String, f64) {
     let n = nodes as f64;
     let dofs = n * dim as f64;
     let dd = (dim * dim) as f64;
-    let nb = neighbours(dim, ratio);
     let base = n * (NODE_BYTES + nb * BOND_BYTES);
     match path {
         Path::BondAssembled => (
@@ -112,17 +122,123 @@ pub fn estimate_nodes(path: Path, dim: usize, nodes: usize, ratio: f64) -> (Stri
             format!("the matrix-free operator and CG vectors of {nodes} nodes with ~{nb:.0} bonds each"),
             base + dofs * MATRIX_FREE_DOF_BYTES,
         ),
-        Path::LpsAssembled => {
-            let rows = tangent_rows(dim, ratio);
-            (
-                format!(
-                    "the LPS tangent of {nodes} nodes (reach 2 delta: ~{rows:.0} coupled nodes per node, \
-                     ~{nb:.0} bonds)"
-                ),
-                base + n * rows * (dd * TANGENT_ENTRY_BYTES + 8.0) + dofs * ASSEMBLED_DOF_BYTES,
-            )
-        }
+        Path::LpsAssembled => (
+            format!(
+                "the LPS tangent of {nodes} nodes (reach 2 delta: ~{rows:.0} coupled nodes per node, ~{nb:.0} bonds)"
+            ),
+            base + n * rows * (dd * TANGENT_ENTRY_BYTES + 8.0) + dofs * ASSEMBLED_DOF_BYTES,
+        ),
     }
+}
+
+/// The ordered pairs `(i, j)`, `i != j`, of `points` within `radius` (the bonds of families of
+/// that horizon, counted from both ends, with the tolerance of
+/// [`linpd_core::BondFamily::from_points`]), by a cell list of cell size `radius`, without
+/// building a family. Stops as soon as the count exceeds `stop` (then returns a count `> stop`,
+/// with the number of nodes whose pairs were counted, `< points.len()`), so a cloud whose
+/// families would not fit costs about `stop` pair tests; when the cells' populations alone
+/// bound the count by `stop` (`sum_c |c| |neighbourhood of c|`), nothing is tested and that
+/// bound is returned. Returns `(pairs, nodes counted)`.
+pub fn count_pairs(points: &[linpd_core::Point], dim: usize, radius: f64, stop: u64) -> (u64, usize) {
+    use rayon::prelude::*;
+    use std::collections::HashMap;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    if !(radius > 0.0 && radius.is_finite()) || points.len() < 2 {
+        return (0, points.len());
+    }
+    let size = radius * (1.0 + 1e-6);
+    let cell = |x: &linpd_core::Point| -> [i64; 3] {
+        let mut c = [0i64; 3];
+        for a in 0..dim {
+            c[a] = (x[a] / size).floor() as i64;
+        }
+        c
+    };
+    let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    for (i, x) in points.iter().enumerate() {
+        cells.entry(cell(x)).or_default().push(i as u32);
+    }
+    let span = |a: usize| if a < dim { -1i64..=1 } else { 0..=0 };
+    let around = |c: [i64; 3]| {
+        let mut keys = Vec::with_capacity(27);
+        for d2 in span(2) {
+            for d1 in span(1) {
+                for d0 in span(0) {
+                    keys.push([c[0].saturating_add(d0), c[1].saturating_add(d1), c[2].saturating_add(d2)]);
+                }
+            }
+        }
+        keys
+    };
+    let bound: u64 = cells
+        .iter()
+        .map(|(&c, members)| {
+            let near: u64 = around(c).iter().filter_map(|k| cells.get(k)).map(|m| m.len() as u64).sum();
+            members.len() as u64 * (near - 1)
+        })
+        .sum();
+    if bound <= stop {
+        return (bound, points.len());
+    }
+    let r2 = radius * radius * (1.0 + linpd_core::GEOMETRY_RTOL);
+    let (total, counted) = (AtomicU64::new(0), AtomicU64::new(0));
+    let _ = points.par_iter().enumerate().try_for_each(|(i, x)| {
+        if total.load(Ordering::Relaxed) > stop {
+            return Err(());
+        }
+        let mut count = 0u64;
+        for k in around(cell(x)) {
+            for &j in cells.get(&k).map_or(&[][..], |v| v.as_slice()) {
+                let y = &points[j as usize];
+                let d: f64 = (0..dim).map(|a| (y[a] - x[a]).powi(2)).sum();
+                count += (j as usize != i && d <= r2) as u64;
+            }
+        }
+        total.fetch_add(count, Ordering::Relaxed);
+        counted.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    });
+    (total.into_inner(), counted.into_inner() as usize)
+}
+
+/// `Err` (at `model.horizon`) when `path` on the point cloud `points` with `horizon` would
+/// not fit in the available memory, from the real family sizes: the bonds within the horizon
+/// (and, for the LPS tangent, the node pairs within its 2-delta reach) counted by
+/// [`count_pairs`] before any family is allocated. The mean spacing says nothing about a
+/// cloud's families: 3,000 nodes within one horizon hold 9e6 bonds (1.2 GB assembled) however
+/// large their volumes.
+pub fn check_cloud(path: Path, dim: usize, points: &[linpd_core::Point], horizon: f64) -> Result<(), ProblemError> {
+    let n = points.len();
+    let nf = (n as f64).max(1.0);
+    let (available, _) = memory::available_bytes();
+    // The estimate is affine in the mean counts: count until 4 times the count at which it
+    // passes `available` (a refusal then states a realistic amount), and extrapolate the mean
+    // from the nodes counted when the count stops early.
+    let stop_at = |bytes0: f64, bytes1: f64| -> u64 {
+        let per = (bytes1 - bytes0).max(1.0);
+        (4.0 * ((available - bytes0) / per).max(1.0) * nf).min(u64::MAX as f64 / 2.0) as u64
+    };
+    let mean = |(pairs, counted): (u64, usize)| -> (f64, bool) {
+        ((pairs as f64 / counted.max(1) as f64).min(nf - 1.0), counted < n)
+    };
+    let (mut rows, mut partial) = (1.0, false);
+    if path == Path::LpsAssembled {
+        let (_, b0) = estimate_counts(path, dim, n, 0.0, 0.0);
+        let (_, b1) = estimate_counts(path, dim, n, 0.0, 1.0);
+        let (r, p) = mean(count_pairs(points, dim, 2.0 * horizon, stop_at(b0, b1)));
+        (rows, partial) = (rows + r, p);
+    }
+    let (_, b0) = estimate_counts(path, dim, n, 0.0, rows);
+    let (_, b1) = estimate_counts(path, dim, n, 1.0, rows);
+    let (nb, p) = mean(count_pairs(points, dim, horizon, stop_at(b0, b1)));
+    let (what, bytes) = estimate_counts(path, dim, n, nb, rows.max(nb + 1.0));
+    let how = if partial || p { "extrapolated from the families counted" } else { "counted within the horizon" };
+    memory::check(
+        format!("{what} ({how})"),
+        bytes,
+        "use fewer nodes, a smaller horizon, or spread the nodes (their families, not their volumes, decide the size)",
+    )
+    .map_err(|e: OutOfMemory| ProblemError::invalid("model.horizon", e.to_string()))
 }
 
 /// Per DOF, the multigrid hierarchy on top of its path: `P`, `R = P^T`, the coarse levels and
@@ -140,13 +256,6 @@ pub fn multigrid_dof_bytes(dim: usize) -> f64 {
 /// `Err` (at `model.horizon`) when `path` would not fit in the available memory.
 pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<(), ProblemError> {
     check_solver(path, grid, horizon, false)
-}
-
-/// [`check`] for a point cloud of `nodes` nodes ([`estimate_nodes`]).
-pub fn check_nodes(path: Path, dim: usize, nodes: usize, ratio: f64) -> Result<(), ProblemError> {
-    let (what, bytes) = estimate_nodes(path, dim, nodes, ratio);
-    memory::check(what, bytes, "use fewer nodes or a smaller horizon")
-        .map_err(|e: OutOfMemory| ProblemError::invalid("model.horizon", e.to_string()))
 }
 
 /// [`check`] with the multigrid hierarchy counted when `multigrid` (the solver is known).

@@ -758,7 +758,7 @@ pub(crate) fn cloud_nodes(
             format!("horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing"),
         ));
     }
-    crate::memory::check_nodes(path, dim, cloud.positions.len(), ratio)?;
+    crate::memory::check_cloud(path, dim, &cloud.positions, horizon)?;
     Ok((crate::cloud::into_nodes(cloud, dim), h))
 }
 

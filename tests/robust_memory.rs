@@ -1,0 +1,249 @@
+//! Issue #30, "the memory guard counts lattices, not clouds or blends; superlinear work runs
+//! before cheap checks": each attack of the issue, as a regression test of what must happen
+//! instead, a clear refusal at validation naming the cause and the estimate, or a fast success.
+//!
+//! The binary runs with `LINPD_MEMORY_GIB` set (the same answer on every machine) under
+//! `ulimit -v` (so a regression aborts an allocation instead of exhausting the machine) and is
+//! killed after [`WALL`]: a case that hangs without its fix fails instead of hanging the suite.
+//! Times are never asserted otherwise.
+
+use serde_json::{json, Value};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The wall-clock limit of one run of the binary (every fixed case takes well under 5 s on 2
+/// cores; without the fixes they took 7 s to more than 120 s, or aborted).
+const WALL: Duration = Duration::from_secs(60);
+
+/// Address-space limit of one run, KiB (4 GiB: each fixed case needs less than 1 GB).
+const ULIMIT_KIB: u64 = 4 << 20;
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("linpd-robust-memory-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The outcome of a run: exit success, stderr, and whether it was killed at [`WALL`].
+struct Run {
+    ok: bool,
+    stderr: String,
+    timed_out: bool,
+}
+
+/// Runs `linpd <cmd> scene.json` in `dir` with `LINPD_MEMORY_GIB=gib`, under `ulimit -v`,
+/// killed after [`WALL`].
+fn linpd_in(dir: &Path, cmd: &str, scene: &Value, gib: f64) -> Run {
+    let path = dir.join("scene.json");
+    std::fs::write(&path, scene.to_string()).unwrap();
+    let quiet = if cmd == "solve" { " -q" } else { "" };
+    let script = format!("ulimit -v {ULIMIT_KIB}; exec \"$0\" {cmd} \"$1\"{quiet}");
+    let mut child = Command::new("sh")
+        .args(["-c", &script, env!("CARGO_BIN_EXE_linpd"), path.to_str().unwrap()])
+        .env("LINPD_MEMORY_GIB", gib.to_string())
+        .current_dir(dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the linpd binary runs");
+    let mut stderr_pipe = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stderr_pipe.read_to_string(&mut s);
+        s
+    });
+    let t = Instant::now();
+    let (status, timed_out) = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break (Some(status), false);
+        }
+        if t.elapsed() > WALL {
+            let _ = child.kill();
+            let _ = child.wait();
+            break (None, true);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stderr = reader.join().unwrap();
+    Run { ok: status.is_some_and(|s| s.success()), stderr, timed_out }
+}
+
+fn linpd(tag: &str, cmd: &str, scene: &Value, gib: f64) -> Run {
+    linpd_in(&temp_dir(tag), cmd, scene, gib)
+}
+
+/// The run succeeded within [`WALL`].
+fn assert_ok(what: &str, r: &Run) {
+    assert!(!r.timed_out, "{what}: killed after {WALL:?}\n{}", r.stderr);
+    assert!(r.ok, "{what}: failed\n{}", r.stderr);
+}
+
+/// The run failed within [`WALL`], its stderr holding every needle.
+fn assert_refused(what: &str, r: &Run, needles: &[&str]) {
+    assert!(!r.timed_out, "{what}: killed after {WALL:?}, not refused\n{}", r.stderr);
+    assert!(!r.ok, "{what}: accepted\n{}", r.stderr);
+    for n in needles {
+        assert!(r.stderr.contains(n), "{what}: `{n}` not in: {}", r.stderr);
+    }
+}
+
+/// A 2D or 3D scene on the nodes of `nodes.csv` in its directory, clamped at `x <= x_clamp`,
+/// pulled by a body load.
+fn cloud_scene(dim: usize, horizon: f64, x_clamp: f64, model: &str) -> Value {
+    let mut lo = vec![-1e9; dim];
+    lo[0] = -1e9;
+    let mut hi = vec![1e9; dim];
+    hi[0] = x_clamp;
+    let mut density = vec![0.0; dim];
+    density[0] = 1.0;
+    let mut model = match model {
+        "lps" => json!({"type": "lps", "horizon": horizon, "bulk_modulus": 2.0, "shear_modulus": 1.0}),
+        _ => json!({"type": "bond", "horizon": horizon,
+                    "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "continuum"}}),
+    };
+    if dim == 2 {
+        model["plane"] = json!("stress");
+    }
+    json!({
+        "name": "robust", "dimension": dim,
+        "nodes": {"csv": "nodes.csv"},
+        "model": model,
+        "constraints": [{"region": {"box": {"min": lo, "max": hi}}, "displacement": {"value": vec![0.0; dim]}}],
+        "loads": [{"type": "body", "region": "all", "density": density}],
+        "solver": {"type": "auto"},
+        "output": {"dir": "out", "plot": false}
+    })
+}
+
+/// A grid scene on `[0, 1] x [0, 1] (x [0, z])` with spacing `h`, clamped at `x <= 0`.
+fn grid_scene(dim: usize, max: &[f64], h: f64, model: Value) -> Value {
+    let mut lo = vec![-1.0; dim];
+    lo[0] = -1.0;
+    let mut hi = vec![10.0; dim];
+    hi[0] = 0.0;
+    let mut density = vec![0.0; dim];
+    density[0] = 1.0;
+    json!({
+        "name": "robust", "dimension": dim,
+        "grid": {"min": vec![0.0; dim], "max": max, "spacing": h},
+        "model": model,
+        "constraints": [{"region": {"box": {"min": lo, "max": hi}}, "displacement": {"value": vec![0.0; dim]}}],
+        "loads": [{"type": "body", "region": "all", "density": density}],
+        "solver": {"type": "auto"},
+        "output": {"dir": "out", "plot": false}
+    })
+}
+
+fn bond(horizon: f64) -> Value {
+    json!({"type": "bond", "horizon": horizon,
+           "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "discrete"}})
+}
+
+// ---------------------------------------------------------------------------------------------
+// 1. duplicate cloud points: an O(n) check
+// ---------------------------------------------------------------------------------------------
+
+/// 100,000 identical cloud points: `linpd validate` names the first duplicate pair (lines 3 and
+/// 2) at once. The old check built a family at the duplicate tolerance, O(n^2) on coincident
+/// points (20,000 took 7 s and 1.6 GB; 100,000 would take ~40 GB, so it aborts under the
+/// address-space limit instead of naming the lines).
+#[test]
+fn item_1_identical_points_named_in_linear_time() {
+    let dir = temp_dir("dup");
+    let mut csv = String::from("x,y,volume\n");
+    for _ in 0..100_000 {
+        csv += "0.5,0.5,1e-4\n";
+    }
+    std::fs::write(dir.join("nodes.csv"), csv).unwrap();
+    let r = linpd_in(&dir, "validate", &cloud_scene(2, 0.03, 0.1, "bond"), 8.0);
+    assert_refused(
+        "100000 identical points",
+        &r,
+        &["nodes.csv", "line 3: the node at [0.5, 0.5] coincides with the node of line 2"],
+    );
+    assert!(!dir.join("out").exists(), "nothing is written");
+    // a distinct pair far into the file: found too (the cells are not merely per-line)
+    let mut csv = String::from("x,y,volume\n");
+    for k in 0..40_000 {
+        csv += &format!("{},{},1e-4\n", (k % 200) as f64 * 0.01, (k / 200) as f64 * 0.01);
+    }
+    csv += "1.23,0.45,1e-4\n";
+    std::fs::write(dir.join("nodes.csv"), csv).unwrap();
+    let r = linpd_in(&dir, "validate", &cloud_scene(2, 0.03, 0.1, "bond"), 8.0);
+    assert_refused("a late duplicate", &r, &["line 40002: the node at [1.23, 0.45] coincides with the node of line"]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 2. clouds: the estimate from the real family sizes
+// ---------------------------------------------------------------------------------------------
+
+/// `n` points on a `sqrt(n) x sqrt(n)` lattice of spacing `s` in 2D, volume `v` each.
+fn write_cloud(dir: &Path, n: usize, s: f64, v: f64) {
+    let side = (n as f64).sqrt().ceil() as usize;
+    let mut csv = String::from("x,y,volume\n");
+    for k in 0..n {
+        csv += &format!("{:?},{:?},{v:e}\n", (k % side) as f64 * s, (k / side) as f64 * s);
+    }
+    std::fs::write(dir.join("nodes.csv"), csv).unwrap();
+}
+
+/// 3,000 cloud nodes within one horizon (spacing 1e-3, horizon 0.1, but volumes of a spacing
+/// of 0.05: the mean spacing makes the horizon 2 spacings, ~12 bonds a node) hold 9e6 bonds,
+/// 1.2 GB assembled: refused at `LINPD_MEMORY_GIB=0.2` with the counted bonds (the old guard
+/// passed them and peaked at 1.22 GB; 10,000 aborted allocating 3.1 GB). The same cloud fits a
+/// 2 GiB limit; spread out to its volumes' spacing it holds ~12 bonds a node and fits 0.2 GiB.
+#[test]
+fn item_2_cloud_estimate_counts_the_families() {
+    let dir = temp_dir("cloud3000");
+    write_cloud(&dir, 3000, 1e-3, 2.5e-3);
+    let r = linpd_in(&dir, "validate", &cloud_scene(2, 0.1, 0.0, "bond"), 0.2);
+    assert_refused(
+        "3000 nodes in one horizon",
+        &r,
+        &["model.horizon", "the assembled stiffness of 3000 nodes with ~2999 bonds each", "GiB, more than the 0.2 GiB"],
+    );
+    let r = linpd_in(&dir, "validate", &cloud_scene(2, 0.1, 0.0, "bond"), 2.0);
+    assert_ok("3000 nodes in one horizon, 2 GiB", &r);
+    let r = linpd_in(&dir, "validate", &cloud_scene(2, 0.1, 0.0, "lps"), 0.2);
+    assert_refused(
+        "LPS: 3000 nodes in one horizon",
+        &r,
+        &["model.horizon", "the LPS tangent of 3000 nodes", "~3000 coupled"],
+    );
+    write_cloud(&dir, 3000, 0.05, 2.5e-3);
+    let r = linpd_in(&dir, "validate", &cloud_scene(2, 0.1, 0.0, "bond"), 0.2);
+    assert_ok("3000 spread nodes", &r);
+    // 10,000: refused too (the count stops once the estimate passes the limit)
+    write_cloud(&dir, 10_000, 1e-3, 2.5e-3);
+    let r = linpd_in(&dir, "validate", &cloud_scene(2, 0.2, 0.0, "bond"), 0.2);
+    assert_refused(
+        "10000 nodes in one horizon",
+        &r,
+        &["model.horizon", "10000 nodes", "extrapolated from the families counted"],
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. a family cannot exceed the node count
+// ---------------------------------------------------------------------------------------------
+
+/// A 3D grid of 11 x 11 x 14 = 1,694 nodes with horizon 50 h: every family is the whole body
+/// (1,693 bonds), 0.6 GB estimated, not the 191.6 GiB of an infinite lattice's ball of
+/// 523,598 neighbours. It validates at a 2 GiB limit, and at 0.2 GiB is refused naming the
+/// capped count.
+#[test]
+fn item_3_family_capped_by_the_node_count() {
+    let h = 0.1;
+    let s = grid_scene(3, &[1.0, 1.0, 1.3], h, bond(50.0 * h));
+    let r = linpd("cap-ok", "validate", &s, 2.0);
+    assert_ok("1694 nodes at 50 h", &r);
+    let r = linpd("cap-refused", "validate", &s, 0.2);
+    assert_refused(
+        "1694 nodes at 50 h, 0.2 GiB",
+        &r,
+        &["model.horizon", "1694 nodes with ~1693 bonds each", "0.6 GiB"],
+    );
+}
