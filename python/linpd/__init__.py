@@ -32,6 +32,41 @@ __all__ = ["Scene", "LinpdError", "coarsen", "__version__"]
 PathLike = Union[str, "os.PathLike[str]"]
 
 
+def _non_finite(obj: Any, path: str) -> Optional[Tuple[str, float]]:
+    """``(key path, value)`` of the first NaN or infinite float in ``obj`` (dicts, lists and
+    tuples walked in order; ``model.horizon``, ``grid.max[2]``), else ``None``."""
+    if isinstance(obj, float):
+        return None if np.isfinite(obj) else (path, obj)
+    if isinstance(obj, np.floating):
+        return None if np.isfinite(obj) else (path, float(obj))
+    if isinstance(obj, dict):
+        items = ((f"{path}.{k}" if path else str(k), v) for k, v in obj.items())
+    elif isinstance(obj, (list, tuple)):
+        items = ((f"{path}[{k}]", v) for k, v in enumerate(obj))
+    else:
+        return None
+    for p, v in items:
+        found = _non_finite(v, p)
+        if found is not None:
+            return found
+    return None
+
+
+def _to_json(obj: Any, what: str) -> str:
+    """``obj`` as JSON text; a NaN or infinite float (which JSON cannot hold: ``json.dumps``
+    would write ``NaN``, which linpd then refuses as text the user never wrote) is a
+    :class:`LinpdError` naming its key path."""
+    found = _non_finite(obj, "")
+    if found is not None:
+        path, value = found
+        raise LinpdError(f"{path or what}: {value} is not a number JSON can hold (NaN and infinity are not "
+                         f"allowed in a {what})")
+    try:
+        return json.dumps(obj, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise LinpdError(f"{what}: cannot be written as JSON: {e}") from None
+
+
 class Scene:
     """A validated linpd scene, from a JSON file or a dict with the same keys.
 
@@ -43,7 +78,7 @@ class Scene:
 
     def __init__(self, scene: Union[PathLike, Dict[str, Any]], base_dir: Optional[PathLike] = None):
         if isinstance(scene, dict):
-            self._native = NativeScene.from_json(json.dumps(scene), os.fspath(base_dir or "."))
+            self._native = NativeScene.from_json(_to_json(scene, "scene"), os.fspath(base_dir or "."))
         elif isinstance(scene, (str, os.PathLike)):
             self._native = NativeScene.from_path(os.fspath(scene))
         else:
@@ -160,9 +195,12 @@ class Scene:
     def write_result(self, u: np.ndarray, report: Dict[str, Any], out: PathLike) -> list:
         """Writes ``u.csv``, ``result.vtu`` and ``result.json`` into ``out`` (all or none, like
         ``linpd solve``, without the plots) for displacements ``u`` over all DOFs computed
-        elsewhere; ``report`` becomes ``stats["solve"]``. Returns the paths written."""
+        elsewhere; ``report`` becomes ``stats["solve"]``. Returns the paths written. Non-finite
+        displacements (a failed or diverged solve) are a :class:`LinpdError` and nothing is
+        written."""
         u = np.ascontiguousarray(np.asarray(u, dtype=np.float64).reshape(-1))
-        return self._native.write_result(u, json.dumps(report), os.fspath(out))
+        # a NaN displacement is refused by the native side, naming the first one
+        return self._native.write_result(u, _to_json(report, "report"), os.fspath(out))
 
 
 def coarsen(pipeline: Union[PathLike, Dict[str, Any]], out: Optional[PathLike] = None,
@@ -175,7 +213,7 @@ def coarsen(pipeline: Union[PathLike, Dict[str, Any]], out: Optional[PathLike] =
     working directory)."""
     o = None if out is None else os.fspath(out)
     if isinstance(pipeline, dict):
-        d, doc = _coarsen(text=json.dumps(pipeline), base_dir=os.fspath(base_dir or "."), out=o)
+        d, doc = _coarsen(text=_to_json(pipeline, "pipeline"), base_dir=os.fspath(base_dir or "."), out=o)
     elif isinstance(pipeline, (str, os.PathLike)):
         d, doc = _coarsen(path=os.fspath(pipeline), out=o)
     else:

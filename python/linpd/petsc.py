@@ -7,7 +7,9 @@ Usage (under the site's MPI; as root OpenMPI also needs ``--allow-run-as-root``)
 Each rank
 
 1. reads and validates the scene and builds its model (bonds, constraints, right-hand side),
-   with the checks of ``linpd solve``. Then every rank learns every other rank's outcome
+   with the checks of ``linpd solve`` (and a free DOF whose diagonal entry is zero, a mechanism
+   such as the out-of-plane motion of a plate one node thick, is refused by name: ``linpd
+   solve`` finds it when it factorizes, a KSP might not). Then every rank learns every other rank's outcome
    (one ``allgather``): a bad scene stops **all** ranks with linpd's message and exit code 1,
    and none of them is left waiting in a collective;
 2. owns a contiguous range of nodes (the lattice's nodes are numbered with x fastest, so the
@@ -37,8 +39,10 @@ aggregation does not cope with that graded, unsymmetric 1D operator. The unsymme
 100 leaves a margin of five while bounding GMRES's memory to 100 vectors. Without hypre the 1D
 blend falls back to GAMG (slow but convergent on the bundled scenes).
 
-Rank 0 gathers ``u`` and writes ``result.json``, ``u.csv`` and ``result.vtu`` into the scene's
-output directory (or ``--out DIR``), as ``linpd solve`` does (no plots), with ``stats.solve``
+A KSP that did not converge (a negative converged reason) or a non-finite residual is an
+error on every rank (exit 1) and nothing is written. Otherwise rank 0 gathers ``u`` and writes
+``result.json``, ``u.csv`` and ``result.vtu`` into the scene's output directory (or ``--out
+DIR``), as ``linpd solve`` does (no plots), with ``stats.solve``
 holding the KSP's type, iterations, converged reason, the relative residual
 ``||f - A u|| / ||f||`` recomputed after the solve, the timings, every rank's peak resident
 memory and whether ``A_ff`` is symmetric.
@@ -65,6 +69,21 @@ USAGE = "usage: python -m linpd.petsc SCENE.json [--out DIR] [PETSc options]"
 GMRES_FAMILY = ("gmres", "lgmres", "dgmres", "pgmres")
 # GMRES's restart for unsymmetric scenes (see the module docstring).
 GMRES_RESTART = 100
+
+
+# PETSc's negative KSPConvergedReason values (KSP_DIVERGED_*), for the error message.
+_REASONS = {
+    -2: "null",
+    -3: "the iteration limit",
+    -4: "the residual grew past dtol: diverged",
+    -5: "breakdown",
+    -6: "breakdown of BiCG",
+    -7: "nonsymmetric operator or preconditioner",
+    -8: "indefinite preconditioner",
+    -9: "NaN or infinity",
+    -10: "indefinite matrix",
+    -11: "the preconditioner failed",
+}
 
 
 def _split_args(argv: List[str]) -> Tuple[Optional[str], Optional[str], List[str]]:
@@ -218,11 +237,15 @@ def main(argv: Optional[List[str]] = None) -> int:
     scatter.scatter(x, x0, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
     rss = mpi.gather(_peak_rss_bytes(), root=0)
     status = 0
-    if reason < 0:
+    if reason < 0 or not np.isfinite(rel_residual):
+        # a diverged or failed KSP (negative converged reason: -3 max_it, -4 dtol, -5 breakdown,
+        # -9 nan or inf, ...) or a non-finite residual: an error, nothing written
         if rank == 0:
+            why = _REASONS.get(int(reason), "")
             print(
-                f"error: solver: the KSP ({ksp_type}, {pc_type}) did not converge: reason {reason}, "
-                f"{iterations} iterations, relative residual {rel_residual:.3e}",
+                f"error: solver: the KSP ({ksp_type}, {pc_type}) did not converge: reason {reason}"
+                f"{f' ({why})' if why else ''}, {iterations} iterations, relative residual {rel_residual:.3e}; "
+                f"nothing written",
                 file=sys.stderr,
                 flush=True,
             )

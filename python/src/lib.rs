@@ -185,9 +185,10 @@ impl NativeScene {
         }
         .map_err(err)?;
         py.detach(|| {
-            let staged = OutputDir::begin(&out)?;
+            // checked (finite u of the right length) before anything is created
             let placeholder = linpd_solve::SolveReport::new(linpd_solve::SolverId::Lu, r.n(), 0);
             let solution = self.problem.solution_from(r, u, placeholder)?;
+            let staged = OutputDir::begin(&out)?;
             solution.write(staged.path())?;
             let mut doc = solution.to_json();
             doc["stats"]["solve"] = report;
