@@ -322,6 +322,7 @@ fn an_isolated_body_part_without_nodes_is_refused_with_cut_volumes() {
     problem(&s);
     s["boundary_volumes"] = json!("cut");
     let e = error_of(&s);
+    eprintln!("{e}");
     assert!(e.starts_with("body.union[1]: a part of the body around [0.8"), "{e}");
     assert!(e.contains("holds no node") && e.contains("cut-cell volumes"), "{e}");
     let total = |s: &Value| {

@@ -43,11 +43,12 @@ pub enum Region {
     HalfSpace {
         /// A point of the bounding plane.
         point: Vec<f64>,
-        /// Outward normal (any length `> 0`).
+        /// Outward normal (any nonzero length; only all zeros is refused).
         normal: Vec<f64>,
     },
-    /// 2D: the closed polygon with these vertices (either orientation; edges may not cross;
-    /// inside by the even-odd rule, edges included). 3D: the prism `polygon x [z0, z1]`.
+    /// 2D: the closed polygon with these vertices (either orientation; inside by the even-odd
+    /// rule, edges included; edges may cross: a part wound around twice is outside). 3D: the
+    /// prism `polygon x [z0, z1]`.
     Polygon {
         /// Vertices `(x, y)`, at least 3.
         vertices: Vec<[f64; 2]>,

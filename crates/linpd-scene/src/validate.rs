@@ -149,7 +149,7 @@ pub(crate) fn lattice(cx: &Context, horizon: f64, path: crate::memory::Path) -> 
             if cut {
                 let (cut, dropped) = kept.with_cut_volumes_dropping(inside);
                 if !dropped.is_empty() {
-                    return Err(dropped_body_part(body, &dropped, dim, tol));
+                    return Err(dropped_body_part(raw.body.as_ref(), &dropped, dim, tol));
                 }
                 cut
             } else {
@@ -162,14 +162,16 @@ pub(crate) fn lattice(cx: &Context, horizon: f64, path: crate::memory::Path) -> 
 /// The error of a body with cut-cell volumes whose part holds no node and borders no kept
 /// node's cell: its volume would drop out of the volume total. Names the first such top-level
 /// union part (`body.union[k]`, the first containing a dropped part's centroid), else `body`.
-fn dropped_body_part(body: &Region, dropped: &[(Point, f64)], dim: usize, tol: f64) -> ProblemError {
+fn dropped_body_part(body: Option<&RawRegion>, dropped: &[(Point, f64)], dim: usize, tol: f64) -> ProblemError {
     let (c, _) = dropped[0];
     let total: f64 = dropped.iter().map(|(_, v)| v).sum();
     let path = match body {
-        Region::Union(parts) => parts
+        Some(RawRegion::Union(parts)) => parts
             .iter()
-            .position(|r| r.contains(&c, dim, tol))
-            .map_or("body".to_string(), |k| format!("body.union[{k}]")),
+            .enumerate()
+            .map(|(k, r)| (format!("body.union[{k}]"), r))
+            .find(|(p, r)| region(p, r, dim).is_ok_and(|r| r.contains(&c, dim, tol)))
+            .map_or("body".to_string(), |(p, _)| p),
         _ => "body".to_string(),
     };
     ProblemError::invalid(
