@@ -69,9 +69,8 @@ fn kept(dim: usize, h: f64, body: Value) -> Vec<[u64; 3]> {
 /// oblique axis gives one set at every scale. (Before: `[1e200, 0, 0]` kept 19 nodes.)
 #[test]
 fn cylinder_axis_scale_does_not_change_the_nodes() {
-    let cyl = |axis: [f64; 3]| {
-        json!({"cylinder": {"center": [0.5, 0.5, 0.5], "axis": axis, "radius": 0.3, "length": 0.6}})
-    };
+    let cyl =
+        |axis: [f64; 3]| json!({"cylinder": {"center": [0.5, 0.5, 0.5], "axis": axis, "radius": 0.3, "length": 0.6}});
     let unit = kept(3, 0.125, cyl([1.0, 0.0, 0.0]));
     assert_eq!(unit.len(), 21 * 5);
     for s in [1e200, 1e-200, 3.0, 1e300, 5e-324] {
@@ -148,10 +147,12 @@ fn self_crossing_polygons_follow_the_even_odd_rule() {
         })
         .collect();
     let p = problem(&body_scene(2, 0.0625, json!({"polygon": {"vertices": star}})));
-    let has = |x: f64, y: f64| (0..p.nodes().len()).any(|n| {
-        let q = p.nodes().position(n);
-        (q[0] - x).abs() < 1e-12 && (q[1] - y).abs() < 1e-12
-    });
+    let has = |x: f64, y: f64| {
+        (0..p.nodes().len()).any(|n| {
+            let q = p.nodes().position(n);
+            (q[0] - x).abs() < 1e-12 && (q[1] - y).abs() < 1e-12
+        })
+    };
     assert!(!has(0.5, 0.5), "the doubly wound centre is outside");
     assert!(!has(0.5, 0.5625) && !has(0.5625, 0.5), "so is the rest of the inner pentagon");
     assert!(has(0.5, 0.875), "a tip is inside");

@@ -300,7 +300,8 @@ fn in_polygon(p: [f64; 2], v: &[[f64; 2]], tol: f64) -> bool {
     for k in 0..v.len() {
         let (a, b) = (v[k], v[(k + 1) % v.len()]);
         let e = exponent(max_abs(&[p[0], p[1], a[0], a[1], b[0], b[1]]));
-        let (p, a, b, tol) = (p.map(|x| ldexp(x, -e)), a.map(|x| ldexp(x, -e)), b.map(|x| ldexp(x, -e)), ldexp(tol, -e));
+        let (p, a, b, tol) =
+            (p.map(|x| ldexp(x, -e)), a.map(|x| ldexp(x, -e)), b.map(|x| ldexp(x, -e)), ldexp(tol, -e));
         if segment_distance(p, a, b) <= tol {
             return true;
         }
@@ -429,6 +430,28 @@ mod tests {
             let e = r.validate(dim).expect_err(needle).to_string();
             assert!(e.contains(needle), "{e}");
         }
+    }
+
+    /// The scale-safe helpers: `exponent` brackets normal and subnormal numbers as documented,
+    /// `ldexp` reaches `2^1073` (two steps), `norm` has the bits of the plain formula where that
+    /// is finite (exact powers of two commute with rounding: no tolerance) and the right value
+    /// (1e-15 relative: a few roundings) where the plain one overflows or underflows.
+    #[test]
+    fn scale_safe_helpers() {
+        for m in [1.0, 0.75, 3.0, 1e-300, 1e300, f64::MAX, 5e-324, 1e-310] {
+            let e = exponent(m);
+            let s = ldexp(m, -e);
+            assert!((0.5..1.0).contains(&s), "{m:e}: 2^-{e} m = {s}");
+        }
+        assert_eq!(ldexp(5e-324, 1073), 0.5);
+        for v in [[3.0, 4.0, 0.0], [0.1, 0.2, 0.3], [1e-150, 2e-150, 0.0], [1e150, 1.0, 7.0]] {
+            assert_eq!(norm(&v).to_bits(), v.iter().map(|x| x * x).sum::<f64>().sqrt().to_bits(), "{v:?}");
+        }
+        for s in [1e200, 1e-200, 1e300, 1e-300] {
+            let n = norm(&[3.0 * s, 4.0 * s]);
+            assert!((n / (5.0 * s) - 1.0).abs() < 1e-15, "{s:e}: {n:e}");
+        }
+        assert!(is_zero(&[0.0, -0.0]) && !is_zero(&[0.0, 5e-324]));
     }
 
     #[test]
