@@ -10,7 +10,12 @@
 //! every other file, then
 //! 1. renames an existing `<dir>` to `<dir>.old-<pid>-<nanos>`,
 //! 2. renames the staging directory to `<dir>`,
-//! 3. deletes the old directory and the lock.
+//! 3. deletes the old directory and the lock (a failure to delete it is an error naming it: a
+//!    copy is never left behind silently).
+//!
+//! A directory that is read-only (no owner write bit, itself or a subdirectory) is refused at
+//! [`OutputDir::begin`]: its files could not be deleted (as root they could, but read-only says
+//! "keep these").
 //!
 //! Dropping an `OutputDir` without committing deletes the staging directory (and the parent
 //! directories `begin` created): a failed run writes nothing and the previous results stay.
@@ -219,8 +224,7 @@ impl OutputDir {
         }
         self.committed = true;
         if had_old {
-            // Left over if this fails: the next run into the directory deletes it.
-            let _ = fs::remove_dir_all(&aside);
+            discard_old(&aside, &self.target, |p| fs::remove_dir_all(p))?;
         }
         let mut paths: Vec<PathBuf> = files.iter().map(|f| self.target.join(&f.name)).collect();
         paths.push(self.target.join(main));
@@ -299,8 +303,56 @@ fn listed_files(main: &Path) -> Option<Vec<FileEntry>> {
     serde_json::from_slice::<Doc>(&fs::read(main).ok()?).ok().map(|d| d.run.files)
 }
 
+/// Deletes the previous run's directory, set aside at `aside` when the new one took its place at
+/// `target`, with `remove` (`fs::remove_dir_all`). A failure is an error naming both (a copy
+/// left behind for good, e.g. in a directory made read-only, is not a success): the new results
+/// are complete in `target`.
+fn discard_old(aside: &Path, target: &Path, remove: impl Fn(&Path) -> std::io::Result<()>) -> Result<(), ProblemError> {
+    remove(aside).map_err(|e| {
+        refuse(
+            target,
+            format!(
+                "the new results are in place, but the previous run's files, set aside in {}, could not be \
+                 deleted ({e}); delete that directory",
+                aside.display()
+            ),
+        )
+    })
+}
+
+/// `Err` naming the first directory at or under `dir` without write permission for its owner
+/// (`chmod a-w`): its files could not be deleted when `dir` is replaced (as root they could,
+/// but a read-only output directory says "keep these", so it is refused for everyone).
+#[cfg(unix)]
+fn check_writable(dir: &Path) -> Result<(), ProblemError> {
+    use std::os::unix::fs::PermissionsExt;
+    let mode = fs::symlink_metadata(dir).map_err(io(dir))?.permissions().mode();
+    if mode & 0o200 == 0 {
+        return Err(ProblemError::Output {
+            dir: dir.display().to_string(),
+            reason: format!(
+                "is read-only (mode {:o}): linpd replaces an output directory as a whole and could not delete \
+                 the files in it; make it writable (chmod u+w) or choose another output directory",
+                mode & 0o7777
+            ),
+        });
+    }
+    for e in fs::read_dir(dir).map_err(io(dir))? {
+        let e = e.map_err(io(dir))?;
+        if e.file_type().map_err(io(dir))?.is_dir() {
+            check_writable(&e.path())?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(not(unix))]
+fn check_writable(_dir: &Path) -> Result<(), ProblemError> {
+    Ok(())
+}
+
 /// `Ok` if `dir` is missing, empty, or a linpd output directory (a main document listing every
-/// other entry); the error says why not.
+/// other entry) whose directories are writable ([`check_writable`]); the error says why not.
 pub fn check_replaceable(dir: &Path) -> Result<(), ProblemError> {
     match fs::symlink_metadata(dir) {
         Err(e) if e.kind() == ErrorKind::NotFound => return Ok(()),
@@ -308,6 +360,7 @@ pub fn check_replaceable(dir: &Path) -> Result<(), ProblemError> {
         Ok(m) if !m.is_dir() => return Err(refuse(dir, "exists and is not a directory")),
         Ok(_) => {}
     }
+    check_writable(dir)?;
     let mut entries = Vec::new();
     for e in fs::read_dir(dir).map_err(io(dir))? {
         entries.push(e.map_err(io(dir))?.file_name().to_string_lossy().into_owned());
@@ -498,6 +551,42 @@ mod tests {
         let siblings: Vec<String> =
             fs::read_dir(dir.parent().unwrap()).unwrap().map(|e| file_name(&e.unwrap().path())).collect();
         assert_eq!(siblings, ["out"], "no lock, staging or old directory left");
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn a_failed_removal_of_the_old_directory_is_an_error() {
+        let root = temp("discard");
+        let (target, aside) = (root.join("out"), root.join("out.old-1-2"));
+        fs::create_dir_all(&aside).unwrap();
+        let e = discard_old(&aside, &target, |_| Err(std::io::Error::from(ErrorKind::PermissionDenied)))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(&target.display().to_string()) && e.contains("out.old-1-2"), "{e}");
+        assert!(e.contains("could not be deleted") && e.contains("ermission denied"), "{e}");
+        discard_old(&aside, &target, |p| fs::remove_dir_all(p)).unwrap();
+        assert!(!aside.exists());
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_read_only_output_directory_is_refused_before_the_run() {
+        use std::os::unix::fs::PermissionsExt;
+        let root = temp("read-only");
+        let dir = root.join("out");
+        let first = OutputDir::begin(&dir).unwrap();
+        fs::write(first.path().join("u.csv"), "1\n").unwrap();
+        first.commit("result.json", serde_json::json!({}), &identity()).unwrap();
+        fs::set_permissions(&dir, fs::Permissions::from_mode(0o555)).unwrap();
+        let e = OutputDir::begin(&dir).unwrap_err().to_string();
+        fs::set_permissions(&dir, fs::Permissions::from_mode(0o755)).unwrap();
+        assert!(e.contains(&dir.display().to_string()) && e.contains("is read-only (mode 555)"), "{e}");
+        // nothing set aside or staged, the old results intact
+        let names: Vec<String> =
+            fs::read_dir(&root).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        assert_eq!(names, vec!["out".to_string()]);
+        assert!(dir.join("u.csv").exists());
         fs::remove_dir_all(&root).unwrap();
     }
 
