@@ -136,6 +136,9 @@ pub(super) fn assembled_cg(
     Ok((u, report))
 }
 
+/// The last CG iterate, its report and how CG ended ([`assembled_cg_iterate`]).
+pub(super) type CgIterate = (Vec<f64>, SolveReport, Result<(), CgError>);
+
 /// [`assembled_cg`] that keeps the last iterate when CG fails: `(u, report, outcome)`, the
 /// report's iterations and timings filled either way. `auto` reads a stalled iterate with
 /// [`rounding_residual`].
@@ -146,7 +149,7 @@ pub(super) fn assembled_cg_iterate(
     preconditioner: PreconditionerKind,
     geometry: Option<&DofGeometry>,
     progress: &dyn Progress,
-) -> Result<(Vec<f64>, SolveReport, Result<(), CgError>), SolveError> {
+) -> Result<CgIterate, SolveError> {
     let id = SolverId::Cg { preconditioner, matrix_free: MatrixFree::No };
     let mut report = SolveReport::new(id, a.nrows(), a.val().len());
     let t = Instant::now();
