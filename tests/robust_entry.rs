@@ -78,7 +78,7 @@ fn item_1_row_system_refuses_a_mechanism() {
             assert!(e.contains(n), "`{n}` not in: {e}");
         }
         // linpd solve refuses it too (Cholesky names a node of the same mechanism)
-        let s = p.solve(&linpd::core::NoProgress).err().expect("linpd solve refuses it").to_string();
+        let s = p.solve(&linpd::core::NoProgress).expect_err("linpd solve refuses it").to_string();
         assert!(s.contains("component 2") && s.contains("not held there"), "{s}");
     }
     // a supported plate still builds its rows
@@ -100,7 +100,7 @@ fn item_2_solution_from_refuses_non_finite_displacements() {
     for bad in [f64::NAN, f64::INFINITY] {
         let mut u = good.clone();
         u[7] = bad;
-        let e = p.solution_from(&rows, u, report()).err().expect("non-finite u refused").to_string();
+        let e = p.solution_from(&rows, u, report()).expect_err("non-finite u refused").to_string();
         assert!(e.starts_with("u: ") && e.contains("not finite") && e.contains("u[7]"), "{e}");
     }
 }
@@ -126,7 +126,7 @@ fn item_5_lu_reports_singularity() {
     .unwrap();
     let mut hints = MatrixHints::symmetric(1);
     hints.asymmetry = 1.0; // as an unsymmetric matrix: LU
-    let e = solve_assembled(&a, &[1.0, 2.0], &SolverSpec::Lu, &hints).err().expect("singular").to_string();
+    let e = solve_assembled(&a, &[1.0, 2.0], &SolverSpec::Lu, &hints).expect_err("singular").to_string();
     assert!(e.contains("singular matrix (a pivot is zero)") && !e.contains("overflow"), "{e}");
 }
 
