@@ -36,6 +36,7 @@ pub mod model;
 pub mod op;
 pub mod ordering;
 pub mod par;
+pub mod polygon_index;
 pub mod progress;
 pub mod region;
 pub mod sparse;

@@ -144,6 +144,7 @@ pub(crate) fn lattice(cx: &Context, horizon: f64, path: crate::memory::Path) -> 
         None => grid,
         Some(body) => {
             let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
+            let body = linpd_core::polygon_index::PreparedRegion::new(body);
             let inside = |x: &Point| body.contains(x, dim, tol);
             let kept = grid.with_body(inside).map_err(|e| core("body", e))?;
             if cut {
