@@ -70,6 +70,7 @@
 //!   weights times one number), and the cells they use must have such corners; anything else is
 //!   a named error telling to cover the feature with `pd_regions`.
 
+use crate::graded::element::{add_element_row, ElementBlocks};
 use crate::BlendError;
 use linpd_bond::BondOperator;
 use linpd_core::family::lattice_stencil;
@@ -590,52 +591,14 @@ fn element_row(
         }
     }
     let r = cell.iter().position(|&c| c == i).expect("i is a corner");
-    let nc = 1usize << d;
-    let g = 0.5 / 3f64.sqrt();
-    let wg = 1.0 / nc as f64;
-    // shape function gradient of corner c at Gauss point p (reference coordinates t in [0, 1]^d)
-    let grad = |c: usize, t: &[f64; 3]| -> [f64; 3] {
-        let mut out = [0.0; 3];
-        for q in 0..d {
-            let mut v = 1.0 / h;
-            for a in 0..d {
-                let bit = c >> a & 1 == 1;
-                v *= if a == q {
-                    if bit {
-                        1.0
-                    } else {
-                        -1.0
-                    }
-                } else if bit {
-                    t[a]
-                } else {
-                    1.0 - t[a]
-                };
-            }
-            out[q] = v;
-        }
-        out
-    };
-    for p in 0..nc {
-        let t: [f64; 3] = [0, 1, 2].map(|a| if a < d { 0.5 + if p >> a & 1 == 1 { g } else { -g } } else { 0.0 });
-        let gr = grad(r, &t);
-        for (l, &node) in cell.iter().enumerate() {
-            let gl = grad(l, &t);
-            let blk = rb.at(node);
-            // K[(r,a),(l,b)] = w_g sum_{q,t} dN_r/dx_q E_{a q b t} dN_l/dx_t
-            for a in 0..d {
-                for b in 0..d {
-                    let mut v = 0.0;
-                    for q in 0..d {
-                        for tt in 0..d {
-                            v += gr[q] * e[((a * 3 + q) * 3 + b) * 3 + tt] * gl[tt];
-                        }
-                    }
-                    blk[a * 3 + b] += scale * wg * v;
-                }
-            }
+    /// The row builder's blocks of the cell's corners.
+    struct Corners<'a, 'b>(&'a [usize], &'b mut RowBuilder);
+    impl ElementBlocks for Corners<'_, '_> {
+        fn block(&mut self, l: usize) -> &mut [f64; 9] {
+            self.1.at(self.0[l])
         }
     }
+    add_element_row(d, h, &e, r, scale, &mut Corners(cell, rb));
 }
 
 /// First and second difference stencils of node `i` along axis `c` (offsets in lattice steps,

@@ -57,6 +57,7 @@
 
 pub mod blending;
 pub mod error;
+pub mod graded;
 pub mod lattice;
 pub mod material;
 pub mod mesh;
