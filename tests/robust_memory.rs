@@ -286,3 +286,35 @@ fn item_6_polygon_of_200k_vertices_indexed() {
     assert_ok("200k-vertex hole", &r);
     assert!(r.stdout.contains("378 nodes"), "{}", r.stdout);
 }
+
+// ---------------------------------------------------------------------------------------------
+// 5. pd_regions: transition widths and auto radii of any size
+// ---------------------------------------------------------------------------------------------
+
+/// A 31 x 31 plate (961 nodes) at `delta = 3 h` with `pd_regions`: a transition of 100 or 1e6
+/// (lengths; the plate is 1 wide) makes every node outside the region a transition node, and
+/// `auto_radius` 1e6 makes every node PD. `beta` and the auto zone were searched over a
+/// lattice stencil of `width / h` per node (transition 100 on a 1,269-node plate: past 120 s;
+/// 1e6: aborts allocating 6 GiB); a distance transform makes them O(sites): each solves.
+#[test]
+fn item_5_transition_and_auto_radius_of_any_size() {
+    let h = 1.0 / 30.0;
+    let blend = |extra: Value| {
+        let mut m = bond(3.0 * h);
+        m["plane"] = json!("stress");
+        for (k, v) in extra.as_object().unwrap() {
+            m[k] = v.clone();
+        }
+        let mut s = grid_scene(2, &[1.0, 1.0], h, m);
+        s["solver"] = json!({"type": "auto"});
+        s
+    };
+    let region = json!([{"box": {"min": [0.4, 0.4], "max": [0.6, 0.6]}}]);
+    for width in [100.0, 1e6] {
+        let r = linpd("transition", "solve", &blend(json!({"pd_regions": region, "transition": width})), 2.0);
+        assert_ok(&format!("transition {width}"), &r);
+        assert!(r.stdout.contains("961 nodes"), "{}", r.stdout);
+    }
+    let r = linpd("auto", "solve", &blend(json!({"pd_regions": "auto", "auto_radius": 1e6})), 2.0);
+    assert_ok("auto_radius 1e6", &r);
+}

@@ -19,7 +19,6 @@ use crate::validate::region;
 use crate::ProblemError;
 use linpd_blend::{beta_from_zone, LatticeBlend};
 use linpd_bond::BondOperator;
-use linpd_core::family::lattice_stencil;
 use linpd_core::progress::Progress;
 use linpd_core::{Grid, Material, Region, GEOMETRY_RTOL};
 use linpd_lps::SurfaceCorrection;
@@ -295,20 +294,13 @@ fn features(
     Ok((kind.iter().map(|&k| k == 2).collect(), kind.iter().map(|&k| k == 1).collect()))
 }
 
-/// The nodes within `radius` of a node of `features` (inclusive).
+/// The nodes within `radius` of a node of `features` (inclusive, by the inclusion rule of
+/// [`linpd_core::family::lattice_stencil`]), by a distance transform: O(sites) whatever the radius (the stencil of
+/// `radius / h` per feature node aborted allocating it at `auto_radius: 1e6`).
 fn dilate(grid: &Grid, features: &[bool], radius: f64) -> Vec<bool> {
-    let h = grid.spacing();
-    let offsets = lattice_stencil(grid.dim(), radius / h);
-    let mut inside = features.to_vec();
-    for i in (0..grid.len()).filter(|&i| features[i]) {
-        let k = grid.lattice_index(i);
-        for o in &offsets {
-            if let Some(j) = grid.node_at([k[0] + o[0], k[1] + o[1], k[2] + o[2]]) {
-                inside[j] = true;
-            }
-        }
-    }
-    inside
+    let ratio = radius / grid.spacing();
+    let r2 = ratio * ratio * (1.0 + GEOMETRY_RTOL);
+    linpd_blend::lattice::squared_lattice_distances(grid, features).into_iter().map(|n2| n2 <= r2).collect()
 }
 
 impl SceneModel for LatticeBlendModel {
