@@ -1,0 +1,83 @@
+//! The stiffness over the master DOFs, `K_M = T^T (sum_e K_e) T`, and the prolongation `T`.
+
+use super::element::element_matrix;
+use super::{Cell, GradedMesh};
+use faer::sparse::{SparseColMat, Triplet};
+use linpd_core::sparse::Csc;
+
+impl GradedMesh {
+    /// Row `i` of `T` per node: `(master, w)`; a master node is itself with weight 1.
+    fn expansion(&self) -> Vec<Vec<(usize, f64)>> {
+        let mut t: Vec<Vec<(usize, f64)>> =
+            (0..self.nodes.len()).map(|i| self.master_of(i).map(|m| vec![(m, 1.0)]).unwrap_or_default()).collect();
+        for h in &self.hanging {
+            t[h.node] = h.masters.iter().map(|&(j, w)| (self.master_of(j).expect("masters are regular"), w)).collect();
+        }
+        t
+    }
+
+    /// `T` (`d n_nodes x d n_masters`): `u = T u_M` over all nodes, hanging ones included.
+    pub fn prolongation(&self) -> Csc {
+        let d = self.dim();
+        let mut trip = Vec::new();
+        for (i, row) in self.expansion().iter().enumerate() {
+            for &(m, w) in row {
+                for a in 0..d {
+                    trip.push(Triplet::new(d * i + a, d * m + a, w));
+                }
+            }
+        }
+        SparseColMat::try_new_from_triplets(d * self.nodes.len(), d * self.n_masters, &trip).expect("indices in range")
+    }
+
+    /// `u = T u_M`: the displacement of every node (hanging ones interpolated) from the
+    /// masters' (`d` values per master).
+    pub fn expand(&self, u_master: &[f64]) -> Vec<f64> {
+        let d = self.dim();
+        assert_eq!(u_master.len(), d * self.n_masters, "one value per master DOF");
+        let mut u = vec![0.0; d * self.nodes.len()];
+        for (i, row) in self.expansion().iter().enumerate() {
+            for &(m, w) in row {
+                for a in 0..d {
+                    u[d * i + a] += w * u_master[d * m + a];
+                }
+            }
+        }
+        u
+    }
+
+    /// `K_M = T^T K T` over the master DOFs (`d m + a`, see [`GradedMesh::master_of`]): each
+    /// leaf's element matrix (module `element`, `E = C vol_e` with `C =
+    /// c_of_cell(cell)` as a `3 x 3 x 3 x 3` tensor, see the module docs) scattered through the
+    /// rows of `T` of its corners: `K_M[(m,a),(m',b)] += w_r w_l K_e[(r,a),(l,b)]`.
+    pub fn stiffness(&self, c_of_cell: &dyn Fn(&Cell) -> [f64; 81]) -> Csc {
+        let d = self.dim();
+        let nc = 1usize << d;
+        let t = self.expansion();
+        let mut trip = Vec::new();
+        for e in &self.cells {
+            let s = self.lattice.h * e.side() as f64;
+            let vol = s.powi(d as i32);
+            let ce = c_of_cell(e).map(|c| c * vol);
+            let k = element_matrix(d, s, &ce);
+            let corners = self.cell_nodes(e);
+            for (r, &nr) in corners.iter().enumerate() {
+                for (l, &nl) in corners.iter().enumerate() {
+                    for &(mr, wr) in &t[nr] {
+                        for &(ml, wl) in &t[nl] {
+                            let w = wr * wl;
+                            for a in 0..d {
+                                for b in 0..d {
+                                    let v = k[(d * r + a) * d * nc + d * l + b];
+                                    trip.push(Triplet::new(d * mr + a, d * ml + b, w * v));
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let n = d * self.n_masters;
+        SparseColMat::try_new_from_triplets(n, n, &trip).expect("indices in range")
+    }
+}
