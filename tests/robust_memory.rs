@@ -318,3 +318,21 @@ fn item_5_transition_and_auto_radius_of_any_size() {
     let r = linpd("auto", "solve", &blend(json!({"pd_regions": "auto", "auto_radius": 1e6})), 2.0);
     assert_ok("auto_radius 1e6", &r);
 }
+
+// ---------------------------------------------------------------------------------------------
+// 7. an LPS scene whose families hold the whole body: its assembly work is checked first
+// ---------------------------------------------------------------------------------------------
+
+/// A 2,601-node 2D LPS plate (51 x 51, spacing 0.02) with horizon 50h: every family holds the
+/// whole plate, the tangent's assembly costs `n (|F| + 1)^2 = 1.76e10` column terms (114 s of
+/// assembly before). `linpd validate` refuses it at once naming `model.horizon` and the work;
+/// the same plate at horizon 3h validates and solves.
+#[test]
+fn item_7_lps_assembly_work_checked_before_assembly() {
+    let lps = |horizon: f64| json!({"type": "lps", "horizon": horizon, "plane": "strain", "bulk_modulus": 2.0, "shear_modulus": 0.5});
+    let wide = grid_scene(2, &[1.0, 1.0], 0.02, lps(1.0));
+    let r = linpd("lps-wide", "validate", &wide, 8.0);
+    assert_refused("LPS at 50h", &r, &["model.horizon", "column terms", "lower the horizon/spacing ratio"]);
+    let narrow = grid_scene(2, &[1.0, 1.0], 0.02, lps(0.06));
+    assert_ok("LPS at 3h", &linpd("lps-narrow", "solve", &narrow, 8.0));
+}

@@ -131,6 +131,41 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
     }
 }
 
+/// Most column terms the LPS tangent's assembly may cost ([`check_lps_work`]): about 65 s at
+/// the measured 6.5 ns per term (a 2,601-node 2D plate at `delta = 50 h`, every node in every
+/// family: 1.76e10 terms, 114 s of assembly), refused at validation above this instead of
+/// running for minutes.
+pub const LPS_ASSEMBLY_TERMS_LIMIT: f64 = 1e10;
+
+/// The column terms of the LPS tangent's assembly: every column node `p` adds `g_k g_k^T` for
+/// `k in {p} U F_p`, each over `|F_k| + 1` rows (`crates/linpd-lps/src/tangent.rs`): about
+/// `n (|F| + 1)^2` for `n` nodes with `|F|` bonds each (capped at `n - 1`).
+pub fn lps_assembly_terms(nodes: usize, family: f64) -> f64 {
+    let n = nodes as f64;
+    n * (family.min((n - 1.0).max(0.0)) + 1.0).powi(2)
+}
+
+/// Refuses an LPS scene whose tangent assembly would cost more than
+/// [`LPS_ASSEMBLY_TERMS_LIMIT`] terms (the families are a large part of the body: the cost
+/// grows as `n |F|^2`, cubically in the nodes once every family holds the body), naming
+/// `model.horizon`, the work and the way out.
+pub fn check_lps_work(nodes: usize, family: f64, ratio: f64) -> Result<(), ProblemError> {
+    let terms = lps_assembly_terms(nodes, family);
+    if terms > LPS_ASSEMBLY_TERMS_LIMIT {
+        return Err(ProblemError::invalid(
+            "model.horizon",
+            format!(
+                "the LPS tangent of {nodes} nodes with ~{:.0} bonds each (horizon/spacing {ratio:.4}) costs about \
+                 {terms:.2e} column terms to assemble (n (|F| + 1)^2; ~{:.0} s at 6.5 ns each), more than the limit \
+                 {LPS_ASSEMBLY_TERMS_LIMIT:e}: lower the horizon/spacing ratio (LPS is usually run at 2-4)",
+                family.min(nodes.saturating_sub(1) as f64),
+                terms * 6.5e-9
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// The ordered pairs `(i, j)`, `i != j`, of `points` within `radius` (the bonds of families of
 /// that horizon, counted from both ends, with the tolerance of
 /// [`linpd_core::BondFamily::from_points`]), by a cell list of cell size `radius`, without

@@ -88,6 +88,9 @@ impl ModelType for LpsType {
                 return Err(no_surface_correction(correction));
             }
             let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::LpsAssembled)?;
+            let ratio = raw.horizon / crate::nodes::NodeSet::spacing(&nodes);
+            let n = crate::nodes::NodeSet::count(&nodes);
+            crate::memory::check_lps_work(n, crate::memory::neighbours(dim, ratio), ratio)?;
             let params = params(dim, &raw)?;
             let material = material(&raw.material, dim)?;
             check_defects(&material, &nodes, raw.horizon)?;
@@ -95,6 +98,8 @@ impl ModelType for LpsType {
             return Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(model) });
         }
         let grid = crate::validate::lattice(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
+        let ratio = raw.horizon / grid.spacing();
+        crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(dim, ratio), ratio)?;
         let params = params(dim, &raw)?;
         let material = material(&raw.material, dim)?;
         if let Some(k) = material.defect_cutting_nothing(&grid, raw.horizon) {
