@@ -185,7 +185,7 @@ pub enum PreparedRegion<'a> {
 const INDEX_FROM: usize = 32;
 
 impl<'a> PreparedRegion<'a> {
-    /// `region` with its polygons of [`INDEX_FROM`] or more vertices indexed.
+    /// `region` with its polygons of `INDEX_FROM` (32) or more vertices indexed.
     pub fn new(region: &'a Region) -> Self {
         match region {
             Region::Polygon { vertices, extrude } if vertices.len() >= INDEX_FROM => {

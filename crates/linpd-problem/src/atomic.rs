@@ -352,7 +352,7 @@ fn check_writable(_dir: &Path) -> Result<(), ProblemError> {
 }
 
 /// `Ok` if `dir` is missing, empty, or a linpd output directory (a main document listing every
-/// other entry) whose directories are writable ([`check_writable`]); the error says why not.
+/// other entry) whose directories are writable (`check_writable`); the error says why not.
 pub fn check_replaceable(dir: &Path) -> Result<(), ProblemError> {
     match fs::symlink_metadata(dir) {
         Err(e) if e.kind() == ErrorKind::NotFound => return Ok(()),

@@ -624,7 +624,7 @@ pub enum RawRegion {
     },
     /// Any of.
     Union(Vec<RawRegion>),
-    /// First minus second (exactly two: [`two_regions`]).
+    /// First minus second (exactly two regions).
     #[serde(deserialize_with = "two_regions")]
     Difference(Box<RawRegion>, Box<RawRegion>),
 }
