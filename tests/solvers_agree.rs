@@ -228,38 +228,49 @@ fn multigrid_cg_agrees_with_cholesky_on_bond_lps_and_heterogeneous_scenes() {
     }
 }
 
-/// `auto` does not fail where its analyzed direct solve works: with a residual target CG cannot
-/// reach (rtol 1e-15 on a 3D cantilever, 14k unknowns, where the cost model prefers
-/// multigrid-PCG: est. 1.6 s against 2.1 s for Cholesky), CG stops above the target by rounding
-/// and auto falls back to the Cholesky factorization it analyzed, saying so in the report.
+/// `auto` does not fail with a residual target nothing can reach: rtol 1e-15 on a 3D cantilever
+/// (14k unknowns, where the cost model prefers multigrid-PCG: est. 1.6 s against 2.1 s for
+/// Cholesky). CG stalls by rounding at 4.4e-11, the system's rounding floor
+/// `u |||A| |x||| / ||b||` is 3.3e-11 and the sparse Cholesky itself reaches only 5.8e-11: auto
+/// keeps the CG solution and says so (until 2026-11 it fell back to the Cholesky, which is no
+/// better here; docs/solvers.md). Either way the result must be as good as the direct solve's.
 #[test]
-fn auto_falls_back_to_cholesky_when_cg_cannot_reach_its_target() {
-    let mut v: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/cantilever-3d.json"))
-            .unwrap(),
-    )
-    .unwrap();
-    v["grid"]["spacing"] = 0.0125.into();
-    v["grid"]["placement"] = "cell".into();
-    v["grid"]["layer"] = serde_json::json!({"x-": 0.0375});
-    v["model"]["horizon"] = 0.0375.into();
-    v["loads"][0]["region"]["box"]["min"][0] = (1.0 - 0.0125).into();
-    v["solver"] = serde_json::json!({"type": "auto", "rtol": 1e-15});
-    let p = Problem::from_json(&v.to_string()).unwrap();
-    let s = p.solve(&linpd::core::NoProgress).expect("auto must not fail here");
+fn auto_does_not_fail_when_cg_cannot_reach_its_target() {
+    let scene = |solver: serde_json::Value| {
+        let mut v: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/cantilever-3d.json"))
+                .unwrap(),
+        )
+        .unwrap();
+        v["grid"]["spacing"] = 0.0125.into();
+        v["grid"]["placement"] = "cell".into();
+        v["grid"]["layer"] = serde_json::json!({"x-": 0.0375});
+        v["model"]["horizon"] = 0.0375.into();
+        v["loads"][0]["region"]["box"]["min"][0] = (1.0 - 0.0125).into();
+        v["solver"] = solver;
+        Problem::from_json(&v.to_string()).unwrap()
+    };
+    let s = scene(serde_json::json!({"type": "auto", "rtol": 1e-15}))
+        .solve(&linpd::core::NoProgress)
+        .expect("auto must not fail here");
+    let chol = scene(serde_json::json!({"type": "cholesky"})).solve(&linpd::core::NoProgress).unwrap();
     let r = &s.report;
+    let note = r.notes.join("; ");
+    println!("auto: {} at {:e} ({note}); Cholesky alone: {:e}", r.solver, r.rel_residual, chol.report.rel_residual);
     match r.solver.to_string() {
         id if id.starts_with("cholesky") => {
-            // either the cost model chose Cholesky, or CG failed first and said so
+            // either the cost model chose Cholesky, or CG stalled far above the floor and said so
             let first_choice_cg = r.auto.as_deref().is_some_and(|line| cheapest(line).starts_with("cg"));
             if first_choice_cg {
-                let note = r.notes.join("; ");
                 assert!(note.contains("fell back to the Cholesky solve"), "{note}");
             }
-            assert!(r.rel_residual < 1e-9, "{:e}", r.rel_residual);
         }
-        other => assert!(r.rel_residual <= 1e-15, "{other}: {:e}", r.rel_residual),
+        other => {
+            assert!(r.rel_residual <= 1e-15 || note.contains("kept the CG solution"), "{other}: {note}");
+        }
     }
+    // as good as the direct solve: within the factor 10 that auto allows above the floor
+    assert!(r.rel_residual <= 10.0 * chol.report.rel_residual.max(1e-15), "{:e}", r.rel_residual);
 }
 
 /// The matrix-free `auto` does not fail where the assembled one works: with rtol 1e-15 on the
