@@ -61,46 +61,20 @@ impl BondFamily {
         Self::from_lists(lists)
     }
 
-    /// Families of an arbitrary point set by a cell list of cell size `horizon`.
+    /// Families of an arbitrary point set by a cell list of cell size `horizon` ([`CellList`]).
     pub fn from_points(points: &[Point], dim: usize, horizon: f64) -> Self {
         assert!(horizon > 0.0, "horizon must be positive");
-        // Cells slightly larger than the horizon: two points within `horizon (1 + tol)` then
-        // always sit in the same or adjacent cells, whatever the rounding of `x / size`.
-        let size = horizon * (1.0 + 1e-6);
-        let cell = |x: &Point| -> [i64; 3] {
-            let mut c = [0i64; 3];
-            for a in 0..dim {
-                c[a] = (x[a] / size).floor() as i64;
-            }
-            c
-        };
-        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-        for (i, x) in points.iter().enumerate() {
-            cells.entry(cell(x)).or_default().push(i as u32);
-        }
-        let r2 = horizon * horizon * (1.0 + GEOMETRY_RTOL);
-        let span = |a: usize| if a < dim { -1..=1 } else { 0..=0 };
+        let cells = CellList::new(points, dim, horizon);
         let lists: Vec<Vec<u32>> = points
             .par_iter()
             .enumerate()
             .map(|(i, x)| {
-                let c = cell(x);
                 let mut list = Vec::new();
-                for d2 in span(2) {
-                    for d1 in span(1) {
-                        for d0 in span(0) {
-                            if let Some(members) = cells.get(&[c[0] + d0, c[1] + d1, c[2] + d2]) {
-                                for &j in members {
-                                    let y = &points[j as usize];
-                                    let d: f64 = (0..dim).map(|a| (y[a] - x[a]).powi(2)).sum();
-                                    if j as usize != i && d <= r2 {
-                                        list.push(j);
-                                    }
-                                }
-                            }
-                        }
+                cells.for_each_within(points, x, |j| {
+                    if j as usize != i {
+                        list.push(j);
                     }
-                }
+                });
                 list.sort_unstable();
                 list
             })
@@ -142,6 +116,74 @@ impl BondFamily {
     /// Nodes without any bond.
     pub fn isolated(&self) -> Vec<usize> {
         (0..self.len()).filter(|&i| self.neighbors(i).is_empty()).collect()
+    }
+}
+
+/// Points binned into cubes slightly larger than `radius`: two points within
+/// `radius (1 + GEOMETRY_RTOL)` always sit in the same or adjacent cells, whatever the rounding
+/// of `x / size`. Shared by the families of point clouds ([`BondFamily::from_points`]) and by
+/// the pair count of the memory guard, so that both see the same pairs.
+pub struct CellList {
+    dim: usize,
+    size: f64,
+    r2: f64,
+    cells: HashMap<[i64; 3], Vec<u32>>,
+}
+
+impl CellList {
+    /// Bins `points` (`radius > 0`).
+    pub fn new(points: &[Point], dim: usize, radius: f64) -> Self {
+        let size = radius * (1.0 + 1e-6);
+        let mut list = Self { dim, size, r2: radius * radius * (1.0 + GEOMETRY_RTOL), cells: HashMap::new() };
+        for (i, x) in points.iter().enumerate() {
+            let c = list.cell(x);
+            list.cells.entry(c).or_default().push(i as u32);
+        }
+        list
+    }
+
+    fn cell(&self, x: &Point) -> [i64; 3] {
+        let mut c = [0i64; 3];
+        for a in 0..self.dim {
+            c[a] = (x[a] / self.size).floor() as i64;
+        }
+        c
+    }
+
+    /// The `3^d` cells around `c` (itself included).
+    fn around(&self, c: [i64; 3]) -> impl Iterator<Item = [i64; 3]> + '_ {
+        let span = move |a: usize| if a < self.dim { -1i64..=1 } else { 0..=0 };
+        span(2).flat_map(move |d2| {
+            span(1).flat_map(move |d1| {
+                span(0).map(move |d0| [c[0].saturating_add(d0), c[1].saturating_add(d1), c[2].saturating_add(d2)])
+            })
+        })
+    }
+
+    /// Calls `f(j)` for every point `j` within `radius` of `x` (`x` itself included if it is
+    /// one of the points), in cell order.
+    pub fn for_each_within(&self, points: &[Point], x: &Point, mut f: impl FnMut(u32)) {
+        for k in self.around(self.cell(x)) {
+            for &j in self.cells.get(&k).map_or(&[][..], |v| v.as_slice()) {
+                let y = &points[j as usize];
+                let d: f64 = (0..self.dim).map(|a| (y[a] - x[a]).powi(2)).sum();
+                if d <= self.r2 {
+                    f(j);
+                }
+            }
+        }
+    }
+
+    /// `sum over cells of |c| (|neighbourhood of c| - 1)`: a bound on the ordered pairs within
+    /// `radius` that costs no distance test.
+    pub fn pair_bound(&self) -> u64 {
+        self.cells
+            .iter()
+            .map(|(&c, members)| {
+                let near: u64 = self.around(c).filter_map(|k| self.cells.get(&k)).map(|m| m.len() as u64).sum();
+                members.len() as u64 * (near - 1)
+            })
+            .sum()
     }
 }
 

@@ -22,7 +22,7 @@
 //! [`PreparedRegion`] is a region with its polygons indexed, for the callers that query one
 //! region very often (a scene's body: every lattice site, and every sub-cell of the cut cells).
 
-use crate::region::{exponent, ldexp, max_abs, Region};
+use crate::region::{edge_test, Region};
 use crate::Point;
 
 /// A polygon's edges bucketed by horizontal bands.
@@ -134,36 +134,6 @@ fn band(y: f64, y0: f64, inv: f64, bands: usize) -> usize {
         0
     } else {
         (t.min((bands - 1) as f64)) as usize
-    }
-}
-
-/// One edge `ab` of [`Region::contains`]'s polygon test at `p`: (within `tol` of the edge,
-/// crosses the ray from `p` along +x), in the power-of-two-scaled frame of the edge's
-/// coordinates (as `region::in_polygon`).
-fn edge_test(p: [f64; 2], a: [f64; 2], b: [f64; 2], tol: f64) -> (bool, bool) {
-    let e = exponent(max_abs(&[p[0], p[1], a[0], a[1], b[0], b[1]]));
-    let (p, a, b, tol) = (p.map(|x| ldexp(x, -e)), a.map(|x| ldexp(x, -e)), b.map(|x| ldexp(x, -e)), ldexp(tol, -e));
-    if segment_distance(p, a, b) <= tol {
-        return (true, false);
-    }
-    let crosses = (a[1] > p[1]) != (b[1] > p[1]) && p[0] < a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-    (false, crosses)
-}
-
-/// `region::segment_distance`: the distance from `p` to the closed segment `ab`, each part
-/// from the end nearer to `p`.
-fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let e = [b[0] - a[0], b[1] - a[1]];
-    let (pa, pb) = ([p[0] - a[0], p[1] - a[1]], [p[0] - b[0], p[1] - b[1]]);
-    let dot = |u: [f64; 2]| u[0] * e[0] + u[1] * e[1];
-    let len = e[0].hypot(e[1]);
-    if len == 0.0 || dot(pa) <= 0.0 {
-        pa[0].hypot(pa[1])
-    } else if dot(pb) >= 0.0 {
-        pb[0].hypot(pb[1])
-    } else {
-        let r = if pa[0].hypot(pa[1]) <= pb[0].hypot(pb[1]) { pa } else { pb };
-        (e[0] * r[1] - e[1] * r[0]).abs() / len
     }
 }
 

@@ -298,21 +298,26 @@ fn positive(what: &str, x: f64) -> Result<(), CoreError> {
 fn in_polygon(p: [f64; 2], v: &[[f64; 2]], tol: f64) -> bool {
     let mut inside = false;
     for k in 0..v.len() {
-        let (a, b) = (v[k], v[(k + 1) % v.len()]);
-        let e = exponent(max_abs(&[p[0], p[1], a[0], a[1], b[0], b[1]]));
-        let (p, a, b, tol) =
-            (p.map(|x| ldexp(x, -e)), a.map(|x| ldexp(x, -e)), b.map(|x| ldexp(x, -e)), ldexp(tol, -e));
-        if segment_distance(p, a, b) <= tol {
+        let (on_edge, crosses) = edge_test(p, v[k], v[(k + 1) % v.len()], tol);
+        if on_edge {
             return true;
         }
-        if (a[1] > p[1]) != (b[1] > p[1]) {
-            let x_cross = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-            if p[0] < x_cross {
-                inside = !inside;
-            }
-        }
+        inside ^= crosses;
     }
     inside
+}
+
+/// One edge `ab` of [`in_polygon`] at `p`: (within `tol` of the edge, crosses the ray from `p`
+/// along +x), in the edge's power-of-two-scaled frame. Shared with the polygon index
+/// (`crate::polygon_index`), so that both answer alike.
+pub(crate) fn edge_test(p: [f64; 2], a: [f64; 2], b: [f64; 2], tol: f64) -> (bool, bool) {
+    let e = exponent(max_abs(&[p[0], p[1], a[0], a[1], b[0], b[1]]));
+    let (p, a, b, tol) = (p.map(|x| ldexp(x, -e)), a.map(|x| ldexp(x, -e)), b.map(|x| ldexp(x, -e)), ldexp(tol, -e));
+    if segment_distance(p, a, b) <= tol {
+        return (true, false);
+    }
+    let crosses = (a[1] > p[1]) != (b[1] > p[1]) && p[0] < a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+    (false, crosses)
 }
 
 /// The distance from `p` to the closed segment `ab` (coordinates below 1 in size): the distance

@@ -176,59 +176,22 @@ pub fn check_lps_work(nodes: usize, family: f64, ratio: f64) -> Result<(), Probl
 /// bound is returned. Returns `(pairs, nodes counted)`.
 pub fn count_pairs(points: &[linpd_core::Point], dim: usize, radius: f64, stop: u64) -> (u64, usize) {
     use rayon::prelude::*;
-    use std::collections::HashMap;
     use std::sync::atomic::{AtomicU64, Ordering};
     if !(radius > 0.0 && radius.is_finite()) || points.len() < 2 {
         return (0, points.len());
     }
-    let size = radius * (1.0 + 1e-6);
-    let cell = |x: &linpd_core::Point| -> [i64; 3] {
-        let mut c = [0i64; 3];
-        for a in 0..dim {
-            c[a] = (x[a] / size).floor() as i64;
-        }
-        c
-    };
-    let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-    for (i, x) in points.iter().enumerate() {
-        cells.entry(cell(x)).or_default().push(i as u32);
-    }
-    let span = |a: usize| if a < dim { -1i64..=1 } else { 0..=0 };
-    let around = |c: [i64; 3]| {
-        let mut keys = Vec::with_capacity(27);
-        for d2 in span(2) {
-            for d1 in span(1) {
-                for d0 in span(0) {
-                    keys.push([c[0].saturating_add(d0), c[1].saturating_add(d1), c[2].saturating_add(d2)]);
-                }
-            }
-        }
-        keys
-    };
-    let bound: u64 = cells
-        .iter()
-        .map(|(&c, members)| {
-            let near: u64 = around(c).iter().filter_map(|k| cells.get(k)).map(|m| m.len() as u64).sum();
-            members.len() as u64 * (near - 1)
-        })
-        .sum();
+    let cells = linpd_core::family::CellList::new(points, dim, radius);
+    let bound = cells.pair_bound();
     if bound <= stop {
         return (bound, points.len());
     }
-    let r2 = radius * radius * (1.0 + linpd_core::GEOMETRY_RTOL);
     let (total, counted) = (AtomicU64::new(0), AtomicU64::new(0));
     let _ = points.par_iter().enumerate().try_for_each(|(i, x)| {
         if total.load(Ordering::Relaxed) > stop {
             return Err(());
         }
         let mut count = 0u64;
-        for k in around(cell(x)) {
-            for &j in cells.get(&k).map_or(&[][..], |v| v.as_slice()) {
-                let y = &points[j as usize];
-                let d: f64 = (0..dim).map(|a| (y[a] - x[a]).powi(2)).sum();
-                count += (j as usize != i && d <= r2) as u64;
-            }
-        }
+        cells.for_each_within(points, x, |j| count += (j as usize != i) as u64);
         total.fetch_add(count, Ordering::Relaxed);
         counted.fetch_add(1, Ordering::Relaxed);
         Ok(())
