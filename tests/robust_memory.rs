@@ -336,3 +336,33 @@ fn item_7_lps_assembly_work_checked_before_assembly() {
     let narrow = grid_scene(2, &[1.0, 1.0], 0.02, lps(0.06));
     assert_ok("LPS at 3h", &linpd("lps-narrow", "solve", &narrow, 8.0));
 }
+
+// ---------------------------------------------------------------------------------------------
+// capping families at the node count must not let a huge horizon through to what enumerates
+// the infinite lattice (found by the 10-minute fuzz, seed 4242)
+// ---------------------------------------------------------------------------------------------
+
+/// A bundled 1D scene with `model.horizon` 1e18 (2e20 spacings). With the family capped at the
+/// node count the memory estimate is small, so validation goes on; before, the discrete
+/// normalization enumerated the lattice stencil (a 6 GB allocation, abort) and the bond
+/// operator's unit table overflowed its reach (a panic). Now the discrete normalization names
+/// the horizon, and a scene without it (an explicit amplitude) builds its families from the grid's own
+/// offsets and solves.
+#[test]
+fn a_horizon_of_1e18_spacings_is_named_or_solved_not_allocated() {
+    let data = |name: &str| -> Value {
+        serde_json::from_str(
+            &std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name)).unwrap(),
+        )
+        .unwrap()
+    };
+    let mut discrete = data("bar-point-load.json");
+    discrete["model"]["horizon"] = json!(1e18);
+    discrete["output"] = json!({"dir": "out", "plot": false});
+    let r = linpd("h1e18-discrete", "validate", &discrete, 2.0);
+    assert_refused("discrete, horizon 1e18", &r, &["model.horizon", "lattice offsets", "continuum"]);
+    let mut defect = data("bar-defect.json");
+    defect["model"]["horizon"] = json!(1e18);
+    defect["output"] = json!({"dir": "out", "plot": false});
+    assert_ok("continuum with a defect, horizon 1e18", &linpd("h1e18-defect", "solve", &defect, 2.0));
+}

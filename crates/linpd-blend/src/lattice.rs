@@ -73,7 +73,7 @@
 use crate::graded::element::{add_element_row, ElementBlocks};
 use crate::BlendError;
 use linpd_bond::BondOperator;
-use linpd_core::family::lattice_stencil;
+use linpd_core::family::grid_stencil;
 use linpd_core::sparse::Csc;
 use linpd_core::{nested_dissection, AssembledModel, BondFamily, DofMap, Grid, Model, Ordering, Point};
 use rayon::prelude::*;
@@ -814,7 +814,7 @@ impl Model for LatticeBlend {
     /// Nested dissection over the bond stencil (the elements' and the differences' couplings
     /// reach at most two lattice steps along an axis, inside it for `delta >= 2h`).
     fn ordering(&self, dofs: &DofMap) -> Ordering {
-        let stencil = lattice_stencil(self.a.dim(), self.ratio);
+        let stencil = grid_stencil(&self.grid, self.ratio);
         Ordering::NestedDissection(nested_dissection(&self.grid, &stencil, dofs))
     }
     /// The energy form `M` (see the field's docs): always SPD on a supported body, unlike the

@@ -3,7 +3,7 @@
 //! fill-reducing ordering and, for a homogeneous material, the stencil apply for matrix-free CG.
 
 use crate::{BondOperator, StencilOperator};
-use linpd_core::family::lattice_stencil;
+use linpd_core::family::grid_stencil;
 use linpd_core::progress::Progress;
 use linpd_core::sparse::Csc;
 use linpd_core::{nested_dissection, DofMap, FastApply, Grid, LinearOperator, Micromodulus, Model, Ordering, Point};
@@ -195,7 +195,7 @@ impl Model for LatticeBondModel {
         if self.op.dim() == 1 {
             return Ordering::Natural;
         }
-        let stencil = lattice_stencil(self.op.dim(), self.horizon / self.grid.spacing());
+        let stencil = grid_stencil(&self.grid, self.horizon / self.grid.spacing());
         Ordering::NestedDissection(nested_dissection(&self.grid, &stencil, dofs))
     }
     fn fast_apply(&self) -> Option<FastApply<'_>> {

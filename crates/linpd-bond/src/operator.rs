@@ -330,6 +330,11 @@ impl UnitTable {
     const MAX_OFFSETS: usize = 1 << 20;
 
     fn new(dim: usize, ratio: f64, h: f64) -> Option<Self> {
+        // a table of more than MAX_OFFSETS is not built anyway; a huge ratio (a horizon of 1e18
+        // spacings on a small grid) would overflow `r` below
+        if !(ratio.is_finite() && ratio < Self::MAX_OFFSETS as f64) {
+            return None;
+        }
         let r = ratio.ceil() as i64 + 1;
         let w = (2 * r + 1) as usize;
         let size = (0..dim).try_fold(1usize, |s, _| s.checked_mul(w))?;

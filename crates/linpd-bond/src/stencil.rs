@@ -6,7 +6,7 @@
 //! The product runs lattice row by lattice row so that its innermost loop is contiguous and
 //! vectorizes ([`StencilOperator::apply`]).
 
-use linpd_core::family::lattice_stencil;
+use linpd_core::family::grid_stencil;
 use linpd_core::kernel::partial_volume;
 use linpd_core::{CoreError, Grid, Micromodulus};
 use rayon::prelude::*;
@@ -37,7 +37,7 @@ impl StencilOperator {
         }
         let c = micromodulus.amplitude(dim, horizon, h)?;
         let counts = grid.counts();
-        let offsets = lattice_stencil(dim, horizon / h);
+        let offsets = grid_stencil(grid, horizon / h);
         if offsets.is_empty() {
             return Err(CoreError::param("horizon", "gives no bonds"));
         }

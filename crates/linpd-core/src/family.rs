@@ -26,9 +26,23 @@ pub struct BondFamily {
 /// Integer lattice offsets `k != 0` with `|k| h <= delta`, sorted so that neighbour numbers
 /// (first axis fastest) come out ascending.
 pub fn lattice_stencil(dim: usize, ratio: f64) -> Vec<[i64; 3]> {
-    let r = (ratio * (1.0 + GEOMETRY_RTOL)).floor() as i64;
+    stencil_within(dim, ratio, [i64::MAX; 3])
+}
+
+/// [`lattice_stencil`] of the offsets that can join two nodes of `grid`: `|k_a| < n_a`, the
+/// grid's node count along axis `a` (the others never find a partner). Exact for every use
+/// that looks partners up on the grid, and bounded by the grid whatever the ratio (a mutated
+/// horizon of 1e18 spacings enumerated 6 GB of offsets before).
+pub fn grid_stencil(grid: &Grid, ratio: f64) -> Vec<[i64; 3]> {
+    let n = grid.counts();
+    stencil_within(grid.dim(), ratio, n.map(|c| c.saturating_sub(1) as i64))
+}
+
+/// The offsets of [`lattice_stencil`] with `|k_a| <= reach[a]`.
+fn stencil_within(dim: usize, ratio: f64, reach: [i64; 3]) -> Vec<[i64; 3]> {
+    let r = (ratio * (1.0 + GEOMETRY_RTOL)).floor().min(i64::MAX as f64) as i64;
     let r2 = ratio * ratio * (1.0 + GEOMETRY_RTOL);
-    let span = |a: usize| if a < dim { -r..=r } else { 0..=0 };
+    let span = |a: usize| if a < dim { -r.min(reach[a])..=r.min(reach[a]) } else { 0..=0 };
     let mut out = Vec::new();
     for k2 in span(2) {
         for k1 in span(1) {
@@ -46,7 +60,7 @@ pub fn lattice_stencil(dim: usize, ratio: f64) -> Vec<[i64; 3]> {
 impl BondFamily {
     /// Families on a lattice, by the stencil of [`lattice_stencil`].
     pub fn from_grid(grid: &Grid, horizon: f64) -> Self {
-        let stencil = lattice_stencil(grid.dim(), horizon / grid.spacing());
+        let stencil = grid_stencil(grid, horizon / grid.spacing());
         let n = grid.len();
         let lists: Vec<Vec<u32>> = (0..n)
             .into_par_iter()

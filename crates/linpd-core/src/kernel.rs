@@ -47,6 +47,10 @@
 use crate::family::lattice_stencil;
 use crate::CoreError;
 
+/// Most lattice offsets the discrete normalization enumerates (a box of `(2 delta/h + 1)^d`;
+/// 1e8 is a 3D ratio of 232, far beyond any modelling use): a mutated horizon of 1e18 spacings
+/// tried to allocate 6 GB of offsets.
+pub const MAX_DISCRETE_OFFSETS: f64 = 1e8;
 /// The shape `g(r)` of a micromodulus on `0 < r <= delta`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Kernel {
@@ -246,7 +250,8 @@ impl Micromodulus {
         omega * gauss_legendre(f, &self.kernel.breakpoints(delta), |_| 64)
     }
 
-    /// The lattice sum `sum_k g(|kh|) nu_k h^d |kh|^2` over the interior stencil.
+    /// The lattice sum `sum_k g(|kh|) nu_k h^d |kh|^2` over the interior stencil (of the infinite
+    /// lattice: [`Micromodulus::amplitude`] refuses more than [`MAX_DISCRETE_OFFSETS`] offsets).
     pub fn discrete_moment(&self, dim: usize, delta: f64, h: f64) -> f64 {
         let vol = h.powi(dim as i32);
         lattice_stencil(dim, delta / h)
@@ -265,7 +270,21 @@ impl Micromodulus {
         let moment = match self.normalization {
             Normalization::Amplitude(c) => return Ok(c),
             Normalization::Continuum => self.continuum_moment(dim, delta),
-            Normalization::Discrete => self.discrete_moment(dim, delta, h),
+            Normalization::Discrete => {
+                // the sum runs over the infinite lattice's stencil, not the grid's: bound it
+                let offsets = (2.0 * delta / h + 1.0).powi(dim as i32);
+                if !(offsets <= MAX_DISCRETE_OFFSETS) {
+                    return Err(CoreError::param(
+                        "horizon",
+                        format!(
+                            "horizon/spacing {:e}: the discrete normalization sums the kernel over ~{offsets:.1e} lattice \
+                             offsets, more than {MAX_DISCRETE_OFFSETS:e}; use \"normalize\": \"continuum\" or a smaller horizon",
+                            delta / h
+                        ),
+                    ));
+                }
+                self.discrete_moment(dim, delta, h)
+            }
         };
         if !(moment.is_finite() && moment > 0.0) {
             return Err(CoreError::param(

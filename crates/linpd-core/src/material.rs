@@ -244,7 +244,7 @@ impl Material {
     /// the operator does.
     pub fn defect_cutting_nothing(&self, grid: &Grid, horizon: f64) -> Option<usize> {
         use rayon::prelude::*;
-        let offsets = crate::family::lattice_stencil(grid.dim(), horizon / grid.spacing());
+        let offsets = crate::family::grid_stencil(grid, horizon / grid.spacing());
         let tol = crate::GEOMETRY_RTOL * grid.spacing();
         self.defects.iter().position(|d| {
             !(0..grid.len()).into_par_iter().any(|i| {

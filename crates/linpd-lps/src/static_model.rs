@@ -7,7 +7,7 @@
 //! through a common neighbour, so the connected pieces are the same.
 
 use crate::{assemble_tangent, LpsModel};
-use linpd_core::family::lattice_stencil;
+use linpd_core::family::grid_stencil;
 use linpd_core::sparse::{diagonal, restrict_to_free, Csc};
 use linpd_core::{nested_dissection, two_hop_stencil, DofMap, Model, Ordering, Point};
 
@@ -42,7 +42,7 @@ impl Model for LpsModel {
         let Some(grid) = self.grid() else {
             return Ordering::Amd;
         };
-        let stencil = two_hop_stencil(&lattice_stencil(self.dim(), self.params().horizon / grid.spacing()));
+        let stencil = two_hop_stencil(&grid_stencil(grid, self.params().horizon / grid.spacing()));
         Ordering::NestedDissection(nested_dissection(grid, &stencil, dofs))
     }
     /// [`LpsModel::tangent_block_row`]: every node within two hops, from the families of `i`
