@@ -153,6 +153,25 @@ fn item_7_initial_velocity_overflow_is_named() {
     assert!(e.contains("kinetic"), "{e}");
 }
 
+/// A square pulse of amplitude 1e308 (finite, but its forces `K u` overflow) is named at
+/// `dynamics.initial`, not "the run diverged"; 1e150 runs.
+#[test]
+fn item_7_initial_amplitude_overflow_is_named() {
+    let mut s: Value =
+        serde_json::from_str(&std::fs::read_to_string(Path::new(ROOT).join("data/wave-square-pulse-1d.json")).unwrap())
+            .unwrap();
+    s["output"]["dir"] = json!("out");
+    s["dynamics"]["initial"]["amplitude"] = json!(1e308);
+    let text = s.to_string();
+    let e = refused("run", "amplitude", text.as_bytes(), &["dynamics.initial", "overflow", "amplitude"], &["diverged"]);
+    assert!(e.contains("smaller units"), "{e}");
+    s["dynamics"]["initial"]["amplitude"] = json!(1e150);
+    let dir = temp_dir("amplitude-ok");
+    std::fs::write(dir.join("scene.json"), s.to_string()).unwrap();
+    let out = run("run", &dir, "scene.json");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
 const GOOD_VTK: &str = "# vtk DataFile Version 4.2\ncloud\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n\
 0 0 0\n1 0 0\n0 1 0\n1 1 0\nCELLS 0 0\nCELL_TYPES 0\nPOINT_DATA 4\nSCALARS volume double 1\nLOOKUP_TABLE default\n1 1 1 1\n";
 

@@ -319,6 +319,35 @@ fn item_5_transition_and_auto_radius_of_any_size() {
     assert_ok("auto_radius 1e6", &r);
 }
 
+/// A 3D blend (17^3 nodes, `delta = 3h`, `"pd_regions": "auto"`) is estimated as a blend: its
+/// `A` and SPD companion `M` and their free-DOF copies (about 0.3 GiB here), not as the bond
+/// model's one matrix (0.1 GiB; a 3D auto blend estimated at 0.9 GiB peaked at 2.21 GiB). And
+/// sparse LU's fill is bounded from its symbolic analysis (the Cholesky factor of `A^T A`) and
+/// refused before its numeric factorization: unchecked, LU on a 21^3 blend took 157 s and
+/// 12.0 GiB (the bound: 12.0 GiB); here the bound is about 1 GiB. GMRES at the same budget
+/// solves it.
+#[test]
+fn item_5_blend_and_lu_memory_counted() {
+    let h = 1.0 / 16.0;
+    let mut model = bond(3.0 * h);
+    model["pd_regions"] = json!("auto");
+    let mut scene = grid_scene(3, &[1.0, 1.0, 1.0], h, model);
+    scene["solver"] = json!({"type": "lu"});
+    let r = linpd("blend-validate", "validate", &scene, 0.2);
+    assert_refused("3D blend at 0.2 GiB", &r, &["model.horizon", "blended model and its SPD companion", "4913 nodes"]);
+    let dir = temp_dir("blend-lu");
+    let r = linpd_in(&dir, "solve", &scene, 0.6);
+    assert_refused(
+        "LU of the 3D blend at 0.6 GiB",
+        &r,
+        &["solver", "sparse LU factors", "from the Cholesky factor of A^T A", "gmres"],
+    );
+    assert!(!dir.join("out").exists(), "a refused solve wrote its output directory");
+    scene["solver"] = json!({"type": "gmres"});
+    let r = linpd("blend-gmres", "solve", &scene, 0.6);
+    assert_ok("GMRES on the 3D blend at 0.6 GiB", &r);
+}
+
 // ---------------------------------------------------------------------------------------------
 // 7. an LPS scene whose families hold the whole body: its assembly work is checked first
 // ---------------------------------------------------------------------------------------------

@@ -281,6 +281,7 @@ impl SceneModel for ScaledBond {
             n_bonds,
             notes: vec![],
             built_before: 0.0,
+            memory_estimate: None,
         })
     }
     fn solution(

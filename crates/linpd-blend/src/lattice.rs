@@ -295,8 +295,11 @@ impl LatticeBlend {
         };
         let (rows, m_rows) = blend_rows.assemble()?;
         let (pd, transition, local) = zone_counts(family, &beta);
+        // each set of block rows goes as soon as its matrix is made (they take 80 bytes a block)
         let k = block_rows_to_csc(d, &rows);
+        drop(rows);
         let m = block_rows_to_csc(d, &m_rows);
+        drop(m_rows);
         let nnz_pd = d * d * (n + family.n_bonds());
         let zones = Zones { pd, transition, local, nnz: k.val().len(), nnz_pd };
         let ratio = (horizon / h).max(2.0);

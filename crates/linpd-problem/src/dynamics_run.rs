@@ -9,7 +9,7 @@ use crate::ProblemError;
 use linpd_core::progress::Progress;
 use linpd_core::Point;
 use linpd_dynamics::stability::{lattice_limit, power_iteration_with_progress, verlet_limit, PowerParams};
-use linpd_dynamics::{DtLimit, Energy, LumpedMass, Verlet, VerletParams};
+use linpd_dynamics::{DtLimit, DynamicsError, Energy, LumpedMass, Verlet, VerletParams};
 use serde_json::json;
 use std::io::Write;
 use std::ops::ControlFlow;
@@ -340,7 +340,16 @@ pub fn run_dynamics(p: &Problem, progress: &dyn Progress) -> Result<DynamicsRun,
             snapshots.push(s.u.to_vec());
             ControlFlow::Continue(())
         })
-        .map_err(ProblemError::Dynamics)?;
+        .map_err(|e| match e {
+            // finite initial values whose forces or energies overflow (an amplitude of 1e308 with
+            // a stiffness above 1): the initial condition's scale, not a divergence of the run
+            DynamicsError::Diverged { step: 0, .. } => ProblemError::invalid(
+                "dynamics.initial",
+                "the initial state's forces or energies overflow (K u or the sum of squares is not finite): \
+                 use a smaller amplitude or smaller units",
+            ),
+            e => ProblemError::Dynamics(e),
+        })?;
     let wall_seconds = t1.elapsed().as_secs_f64();
     progress.phase(&format!("done: t = {:.6e} in {wall_seconds:.3} s", info.t));
     Ok(DynamicsRun {

@@ -17,13 +17,19 @@
 //!   the bond neighbourhood at delta = 2h in 3D. The full tangent (16 bytes per entry) and its
 //!   restriction to the free DOFs (16 more) coexist, with the 8-byte row lists of the pattern:
 //!   [`TANGENT_ENTRY_BYTES`] per entry plus 8 per `(node, row node)`;
+//! * the blended model (`pd_regions`): its `A` and its SPD companion `M` over all DOFs, their
+//!   restrictions to the free DOFs, and while they are built the block rows of both (80 bytes
+//!   a block of up to 9 entries): [`BLEND_ENTRY_BYTES`] per entry of the bond model's `A` (the
+//!   blend stores at most as many), plus GMRES's Krylov basis (51 vectors):
+//!   [`GMRES_DOF_BYTES`] per DOF;
 //! * solver vectors per DOF: [`ASSEMBLED_DOF_BYTES`] (right-hand side, prescribed values, DOF
 //!   maps, CG's four vectors, preconditioner, solution, outputs), [`MATRIX_FREE_DOF_BYTES`]
 //!   for matrix-free CG (the same plus the full diagonal and the operator's two scratch
 //!   vectors).
 //!
-//! The factor of a sparse Cholesky is not in here: its fill is only known after the symbolic
-//! analysis, where linpd-solve checks it ([`linpd_solve::Cholesky::factor`]).
+//! The factors of a sparse Cholesky or LU are not in here: their fill is only known after the
+//! symbolic analysis, where linpd-solve checks it ([`linpd_solve::Cholesky::factor`],
+//! [`linpd_solve::Lu::factor`]).
 
 use crate::ProblemError;
 use linpd_core::family::lattice_stencil;
@@ -44,6 +50,11 @@ pub const TANGENT_ENTRY_BYTES: f64 = 32.0;
 pub const ASSEMBLED_DOF_BYTES: f64 = 128.0;
 /// Per DOF, matrix-free CG.
 pub const MATRIX_FREE_DOF_BYTES: f64 = 176.0;
+/// Per stored entry of the bond model's `A`, the blended model (`A`, `M`, their free-DOF
+/// restrictions, 16 bytes each).
+pub const BLEND_ENTRY_BYTES: f64 = 64.0;
+/// Per DOF, GMRES on top of an assembled solve's vectors: the restart-50 Krylov basis.
+pub const GMRES_DOF_BYTES: f64 = 408.0;
 
 /// The largest stencil enumerated exactly; beyond it the ball's volume in lattice units is
 /// used (enumerating a 3D stencil of ratio 1e4 would itself never end).
@@ -88,6 +99,8 @@ pub enum Path {
     BondMatrixFree,
     /// The LPS tangent, assembled.
     LpsAssembled,
+    /// The blended model (`pd_regions`) with its SPD companion, solved by GMRES.
+    BlendAssembled,
 }
 
 /// The estimated peak bytes of `path` on `grid` with `horizon`, and a description of it.
@@ -121,6 +134,10 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
         Path::BondMatrixFree => (
             format!("the matrix-free operator and CG vectors of {nodes} nodes with ~{nb:.0} bonds each"),
             base + dofs * MATRIX_FREE_DOF_BYTES,
+        ),
+        Path::BlendAssembled => (
+            format!("the blended model and its SPD companion on {nodes} nodes with ~{nb:.0} bonds each"),
+            base + n * (nb + 1.0) * dd * BLEND_ENTRY_BYTES + dofs * (ASSEMBLED_DOF_BYTES + GMRES_DOF_BYTES),
         ),
         Path::LpsAssembled => (
             format!(
@@ -204,8 +221,8 @@ pub fn count_pairs(points: &[linpd_core::Point], dim: usize, radius: f64, stop: 
 /// (and, for the LPS tangent, the node pairs within its 2-delta reach) counted by
 /// [`count_pairs`] before any family is allocated. The mean spacing says nothing about a
 /// cloud's families: 3,000 nodes within one horizon hold 9e6 bonds (1.2 GB assembled) however
-/// large their volumes.
-pub fn check_cloud(path: Path, dim: usize, points: &[linpd_core::Point], horizon: f64) -> Result<(), ProblemError> {
+/// large their volumes. `Ok` holds the estimate in bytes.
+pub fn check_cloud(path: Path, dim: usize, points: &[linpd_core::Point], horizon: f64) -> Result<f64, ProblemError> {
     let n = points.len();
     let nf = (n as f64).max(1.0);
     let (available, _) = memory::available_bytes();
@@ -236,7 +253,8 @@ pub fn check_cloud(path: Path, dim: usize, points: &[linpd_core::Point], horizon
         bytes,
         "use fewer nodes, a smaller horizon, or spread the nodes (their families, not their volumes, decide the size)",
     )
-    .map_err(|e: OutOfMemory| ProblemError::invalid("model.horizon", e.to_string()))
+    .map_err(|e: OutOfMemory| ProblemError::invalid("model.horizon", e.to_string()))?;
+    Ok(bytes)
 }
 
 /// Per DOF, the multigrid hierarchy on top of its path: `P`, `R = P^T`, the coarse levels and
@@ -251,13 +269,14 @@ pub fn multigrid_dof_bytes(dim: usize) -> f64 {
     }
 }
 
-/// `Err` (at `model.horizon`) when `path` would not fit in the available memory.
-pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<(), ProblemError> {
+/// `Err` (at `model.horizon`) when `path` would not fit in the available memory; `Ok` holds
+/// the estimate in bytes.
+pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<f64, ProblemError> {
     check_solver(path, grid, horizon, false)
 }
 
 /// [`check`] with the multigrid hierarchy counted when `multigrid` (the solver is known).
-pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> Result<(), ProblemError> {
+pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> Result<f64, ProblemError> {
     let (mut what, mut bytes) = estimate(path, grid, horizon);
     if multigrid {
         bytes += (grid.len() * grid.dim()) as f64 * multigrid_dof_bytes(grid.dim());
@@ -265,9 +284,11 @@ pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> R
     }
     let hint = match path {
         Path::BondAssembled => "use a coarser spacing, a smaller horizon or the matrix-free cg solver",
+        Path::BlendAssembled => "use a coarser spacing, a smaller horizon, or smaller PD regions",
         _ => "use a coarser spacing or a smaller horizon",
     };
-    memory::check(what, bytes, hint).map_err(|e: OutOfMemory| ProblemError::invalid("model.horizon", e.to_string()))
+    memory::check(what, bytes, hint).map_err(|e: OutOfMemory| ProblemError::invalid("model.horizon", e.to_string()))?;
+    Ok(bytes)
 }
 
 #[cfg(test)]

@@ -116,6 +116,16 @@ pub fn output_dir(dir: Option<&str>, name: &str) -> Result<String, ProblemError>
 /// The lattice of a scene with a `grid` (and optionally a `body`), checked against the
 /// horizon and the memory of `path` before anything per node is allocated.
 pub(crate) fn lattice(cx: &Context, horizon: f64, path: crate::memory::Path) -> Result<Grid, ProblemError> {
+    lattice_for(cx, horizon, &|_| (path, false))
+}
+
+/// [`lattice`] with the memory path and whether it builds a multigrid hierarchy decided on the
+/// grid (`auto` solves large homogeneous lattices matrix-free).
+pub(crate) fn lattice_for(
+    cx: &Context,
+    horizon: f64,
+    path_of: &dyn Fn(&Grid) -> (crate::memory::Path, bool),
+) -> Result<Grid, ProblemError> {
     let (raw, dim) = (cx.raw, cx.dim());
     let Some(raw_grid) = &raw.grid else {
         return Err(ProblemError::invalid("grid", format!("required for model type {}", raw.model.kind())));
@@ -135,7 +145,8 @@ pub(crate) fn lattice(cx: &Context, horizon: f64, path: crate::memory::Path) -> 
     check_horizon(horizon, grid.spacing(), dim)?;
     // Refuse scenes that cannot fit before anything per node is allocated (the regions below
     // already walk every node).
-    crate::memory::check(path, &grid, horizon)?;
+    let (path, multigrid) = path_of(&grid);
+    let _ = crate::memory::check_solver(path, &grid, horizon, multigrid)?;
     let cut = raw.boundary_volumes == Some(crate::raw::RawBoundaryVolumes::Cut);
     Ok(match &body {
         None if cut => {
@@ -761,7 +772,7 @@ pub(crate) fn cloud_nodes(
             format!("horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing"),
         ));
     }
-    crate::memory::check_cloud(path, dim, &cloud.positions, horizon)?;
+    let _ = crate::memory::check_cloud(path, dim, &cloud.positions, horizon)?;
     Ok((crate::cloud::into_nodes(cloud, dim), h))
 }
 

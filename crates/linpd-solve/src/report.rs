@@ -54,6 +54,12 @@ pub struct SolveReport {
     pub timings: Timings,
     /// Peak resident memory of the process (bytes), where the OS reports it.
     pub peak_rss_bytes: Option<u64>,
+    /// The memory guard's estimate of the peak: the caller's estimate of its model and solver
+    /// path plus [`SolveReport::factor_bytes`] (filled by the caller that made it).
+    pub memory_estimate_bytes: Option<f64>,
+    /// The bytes a sparse factorization held at its peak, from its symbolic analysis (checked
+    /// against the available memory before it ran).
+    pub factor_bytes: Option<f64>,
 }
 
 impl SolveReport {
@@ -72,6 +78,8 @@ impl SolveReport {
             rel_residual: f64::NAN,
             timings: Timings::default(),
             peak_rss_bytes: None,
+            memory_estimate_bytes: None,
+            factor_bytes: None,
         }
     }
 }

@@ -39,7 +39,11 @@ pub(crate) fn solve(scene: &Path, out: Option<PathBuf>, quiet: bool) -> Result<(
         r.rel_residual,
         r.timings.assemble + r.timings.total,
         r.timings.assemble,
-        r.peak_rss_bytes.map_or("n/a".into(), |b| format!("{:.1} MiB", b as f64 / 1048576.0)),
+        match (r.peak_rss_bytes, r.memory_estimate_bytes) {
+            (Some(b), Some(e)) => format!("{:.1} MiB (estimated {:.1} MiB)", b as f64 / 1048576.0, e / 1048576.0),
+            (Some(b), None) => format!("{:.1} MiB", b as f64 / 1048576.0),
+            _ => "n/a".into(),
+        },
     )?;
     if let Some(b) = &solution.balance {
         let v = |x: &[f64]| x.iter().map(|c| format!("{c:.4e}")).collect::<Vec<_>>().join(", ");

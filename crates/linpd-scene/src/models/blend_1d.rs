@@ -513,7 +513,15 @@ impl SceneModel for BlendScene {
     }
     fn system(&self, _: &Problem, _: Purpose, _: &dyn Progress) -> Result<System, ProblemError> {
         let (op, bc, f) = self.system_parts()?;
-        Ok(System { model: Arc::new(op), bc, f, n_bonds: 0, notes: Vec::new(), built_before: 0.0 })
+        Ok(System {
+            model: Arc::new(op),
+            bc,
+            f,
+            n_bonds: 0,
+            notes: Vec::new(),
+            built_before: 0.0,
+            memory_estimate: None,
+        })
     }
     fn static_error(&self, e: StaticError) -> ProblemError {
         blend_error(e.into())

@@ -32,8 +32,21 @@ impl ModelType for BondType {
         }
         let dim = cx.dim();
         let matrix_free = cx.raw.solver.matrix_free || cx.raw.dynamics.is_some();
-        let path = if matrix_free { crate::memory::Path::BondMatrixFree } else { crate::memory::Path::BondAssembled };
-        let grid = crate::validate::lattice(cx, raw.horizon, path)?;
+        let uses_multigrid = cx.raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid);
+        let stencil = raw.material.phases.is_empty()
+            && raw.material.defects.is_empty()
+            && matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None))
+            && cx.raw.body.is_none();
+        let auto = cx.raw.solver.kind == crate::raw::RawSolverKind::Auto && cx.raw.dynamics.is_none();
+        let path_of = |grid: &linpd_core::Grid| match (matrix_free, raw.pd_regions.is_some()) {
+            (_, true) => (crate::memory::Path::BlendAssembled, uses_multigrid),
+            (true, false) => (crate::memory::Path::BondMatrixFree, uses_multigrid),
+            (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, stencil) => {
+                (crate::memory::Path::BondMatrixFree, true)
+            }
+            (false, false) => (crate::memory::Path::BondAssembled, uses_multigrid),
+        };
+        let grid = crate::validate::lattice_for(cx, raw.horizon, &path_of)?;
         let bond = BondModel::validate(&raw, &grid, dim)?;
         // The amplitude now, not at the first solve: a modulus that overflows it (1e308) is a
         // validation error naming the overflow.

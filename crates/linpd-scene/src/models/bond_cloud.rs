@@ -93,13 +93,22 @@ impl SceneModel for BondCloudModel {
     fn system(&self, p: &Problem, _: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
         progress.phase(&format!("building bonds: {} nodes of the point cloud", p.nodes().len()));
         let (op, _) = self.bond.operator(p.nodes())?;
+        let (n, bonds) = (p.nodes().len(), op.family().n_bonds());
+        let (_, bytes) = crate::memory::estimate_counts(
+            crate::memory::Path::BondAssembled,
+            p.dim(),
+            n,
+            bonds as f64 / n as f64,
+            1.0,
+        );
         Ok(System {
-            n_bonds: op.family().n_bonds(),
+            n_bonds: bonds,
             model: Arc::new(op),
             bc: p.dirichlet(),
             f: p.load_vector(),
             notes: Vec::new(),
             built_before: 0.0,
+            memory_estimate: Some(bytes),
         })
     }
     fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {

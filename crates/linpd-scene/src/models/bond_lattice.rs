@@ -13,6 +13,7 @@ use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
 use linpd_core::DofMap;
 use linpd_dynamics::Chain;
+use linpd_lps::SurfaceCorrection;
 use linpd_solve::{SolveReport, SolverSpec};
 use std::any::Any;
 use std::sync::Arc;
@@ -36,15 +37,37 @@ impl BondLatticeModel {
 }
 
 /// The memory check of a bond model on a lattice before it is built for `purpose` (the
-/// solver may have changed since validation: [`Problem::set_solver`]).
-pub(crate) fn check_memory(p: &Problem, horizon: f64, purpose: Purpose) -> Result<(), ProblemError> {
+/// solver may have changed since validation: [`Problem::set_solver`]); `Ok` holds the
+/// estimate in bytes (`None` for rows, which assemble nothing whole).
+/// `stencil`: the model has the lattice stencil's fast apply once built (a homogeneous
+/// material without a surface correction; [`auto_runs_matrix_free`]).
+pub(crate) fn check_memory(
+    p: &Problem,
+    horizon: f64,
+    purpose: Purpose,
+    stencil: bool,
+) -> Result<Option<f64>, ProblemError> {
     let (path, multigrid) = match (purpose, p.solver()) {
-        (Purpose::Rows, _) => return Ok(()),
+        (Purpose::Rows, _) => return Ok(None),
         (Purpose::Assembled, _) => (Path::BondAssembled, false),
         (Purpose::Solve, s @ SolverSpec::Cg { matrix_free: true, .. }) => (Path::BondMatrixFree, s.uses_multigrid()),
+        (Purpose::Solve, SolverSpec::Auto(_)) if auto_runs_matrix_free(p.lattice()?, stencil) => {
+            (Path::BondMatrixFree, true)
+        }
         (Purpose::Solve, s) => (Path::BondAssembled, s.uses_multigrid()),
     };
-    crate::memory::check_solver(path, p.lattice()?, horizon, multigrid)
+    crate::memory::check_solver(path, p.lattice()?, horizon, multigrid).map(Some)
+}
+
+/// Whether `auto` will solve a bond model on `grid` matrix-free (multigrid-CG on the lattice
+/// stencil, [`linpd_solve::AutoParams::matrix_free`]): `stencil` says the model is homogeneous
+/// without a surface correction, and the stencil also needs the full lattice box. The memory
+/// estimate follows the path `auto` takes: the assembled estimate of a 101^3 cube (33 GiB)
+/// refused a scene that `auto` solves matrix-free in a fraction of it.
+pub(crate) fn auto_runs_matrix_free(grid: &linpd_core::Grid, stencil: bool) -> bool {
+    let full = grid.is_full() && grid.has_uniform_volumes();
+    linpd_solve::statics::AutoParams::default()
+        .matrix_free(grid.dim(), grid.len() * grid.dim(), true, || stencil && full)
 }
 
 impl SceneModel for BondLatticeModel {
@@ -58,7 +81,9 @@ impl SceneModel for BondLatticeModel {
         None
     }
     fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
-        check_memory(p, self.bond.horizon, purpose)?;
+        let b = &self.bond;
+        let stencil = b.material.is_homogeneous() && b.surface.correction == SurfaceCorrection::None;
+        let memory_estimate = check_memory(p, self.bond.horizon, purpose, stencil)?;
         progress.phase(&bond::building(p, self.bond.horizon));
         let (model, correction) = self.build(p)?;
         Ok(System {
@@ -68,6 +93,7 @@ impl SceneModel for BondLatticeModel {
             f: p.load_vector(),
             notes: correction.map(|c| c.describe()).into_iter().collect(),
             built_before: 0.0,
+            memory_estimate,
         })
     }
     fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {

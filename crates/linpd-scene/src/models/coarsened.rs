@@ -288,6 +288,7 @@ impl SceneModel for CoarsenedModel {
             n_bonds: self.n_bonds,
             notes,
             built_before: self.build_seconds,
+            memory_estimate: None,
         })
     }
     fn solution(&self, p: &Problem, _: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {

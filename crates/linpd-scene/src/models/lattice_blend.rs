@@ -10,7 +10,6 @@
 //! a nonlocal model whose every node interacts through bonds, and the local zone's element
 //! rows are already the coarse description there (coarsen the pure bond scene instead).
 
-use super::bond_lattice::check_memory;
 use super::bond_model::{self as bond, BondModel, RawBond, Surface};
 use super::{Capability, Purpose, SceneModel, System};
 use crate::scene::Problem;
@@ -333,7 +332,17 @@ impl SceneModel for LatticeBlendModel {
         }
     }
     fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
-        check_memory(p, self.bond.horizon, purpose)?;
+        // assembled whole for every purpose but rows; GMRES when solved (its multigrid hierarchy,
+        // when asked, comes from M)
+        let memory_estimate = match purpose {
+            Purpose::Rows => None,
+            _ => Some(crate::memory::check_solver(
+                crate::memory::Path::BlendAssembled,
+                p.lattice()?,
+                self.bond.horizon,
+                purpose == Purpose::Solve && p.solver().uses_multigrid(),
+            )?),
+        };
         progress.phase(&bond::building(p, self.bond.horizon));
         progress.phase(&format!("building the blended model: {} nodes", p.nodes().len()));
         let model = self.build(p)?;
@@ -356,6 +365,7 @@ impl SceneModel for LatticeBlendModel {
             f: p.load_vector(),
             notes: vec![describe],
             built_before: 0.0,
+            memory_estimate,
         })
     }
     fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {

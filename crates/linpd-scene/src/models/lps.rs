@@ -234,10 +234,24 @@ impl SceneModel for LpsSceneModel {
     fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
         // a point cloud was checked against memory when the scene was validated; rows assemble
         // nothing whole
-        if let (Some(grid), Purpose::Solve | Purpose::Assembled) = (p.grid(), purpose) {
-            let multigrid = purpose == Purpose::Solve && p.solver().uses_multigrid();
-            crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, self.params.horizon, multigrid)?;
-        }
+        let memory_estimate = match (p.grid(), purpose) {
+            (Some(grid), Purpose::Solve | Purpose::Assembled) => {
+                let multigrid = purpose == Purpose::Solve && p.solver().uses_multigrid();
+                Some(crate::memory::check_solver(
+                    crate::memory::Path::LpsAssembled,
+                    grid,
+                    self.params.horizon,
+                    multigrid,
+                )?)
+            }
+            (None, Purpose::Solve | Purpose::Assembled) => Some(crate::memory::check_cloud(
+                crate::memory::Path::LpsAssembled,
+                p.dim(),
+                &p.nodes().positions(),
+                self.params.horizon,
+            )?),
+            _ => None,
+        };
         progress.phase(&format!(
             "building the LPS model: {} nodes, horizon/spacing = {:.3}",
             p.nodes().len(),
@@ -255,6 +269,7 @@ impl SceneModel for LpsSceneModel {
             f: p.load_vector(),
             notes,
             built_before: 0.0,
+            memory_estimate,
         })
     }
     fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {

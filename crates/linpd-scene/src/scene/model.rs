@@ -31,6 +31,9 @@ pub struct System {
     /// Seconds spent building the model before [`SceneModel::system`] was called (a level
     /// read at validation): counted as assembly.
     pub built_before: f64,
+    /// The memory guard's estimate of the peak bytes of this model's path (`None` where no
+    /// estimate is made: 1D blends, coarsened levels, rows); reported next to the measured peak.
+    pub memory_estimate: Option<f64>,
 }
 
 impl System {

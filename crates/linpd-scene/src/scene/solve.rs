@@ -24,6 +24,7 @@ pub fn solve_system(
     }
     let (u, mut report) = p.timed_solve(system.model(), &system.bc, &system.f, t0, progress)?;
     report.timings.assemble += system.built_before;
+    report.memory_estimate_bytes = system.memory_estimate.map(|e| e + report.factor_bytes.unwrap_or(0.0));
     for note in &system.notes {
         report.notes.push(note.clone());
     }

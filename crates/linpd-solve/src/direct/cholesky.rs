@@ -85,6 +85,13 @@ impl Cholesky {
         }
     }
 
+    /// The bytes the numeric factorization holds at its peak: the values of `L` and faer's
+    /// workspace (the pattern is the symbolic analysis', already allocated).
+    pub fn factor_bytes(&self) -> f64 {
+        let req = self.symbolic.factorize_numeric_llt_scratch::<f64>(par(), Default::default());
+        self.symbolic.len_val() as f64 * 8.0 + req.size_bytes() as f64
+    }
+
     /// How many [`Cholesky`] handles share this analysis (tests use it to prove reuse).
     pub fn share_count(&self) -> usize {
         Arc::strong_count(&self.symbolic)
@@ -100,7 +107,7 @@ impl Cholesky {
         let len = self.symbolic.len_val();
         linpd_core::memory::check(
             format!("the Cholesky factor ({len:.3e} entries of L and the factorization's workspace)", len = len as f64),
-            len as f64 * 8.0 + req.size_bytes() as f64,
+            self.factor_bytes(),
             "use the cg solver (\"type\": \"cg\") or a coarser model",
         )?;
         let mut l_values = Vec::new();

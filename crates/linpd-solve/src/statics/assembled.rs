@@ -234,12 +234,22 @@ fn auto_symmetric(
 }
 
 /// `auto` on an unsymmetric `A` with an SPD approximation `M`, by the plan of
-/// [`AutoParams::plan_unsymmetric`]: GMRES + multigrid from `M` first in 2D from
-/// [`AutoParams::gmres_multigrid_2d_min_unknowns`] unknowns (measured faster than the Cholesky
-/// of `M`, see the field); else, or when that fails (stagnation, `max_iter`), GMRES with the
-/// Cholesky factor of `M`, GMRES + multigrid where that factor would not fit (or in 3D past
-/// [`AutoParams::cholesky_3d_max_unknowns`]: LU would fill at least as much), sparse LU when the
-/// factorization or GMRES fails. With the note that says what ran and why.
+/// [`AutoParams::plan_unsymmetric`], each next choice running when the one before failed or
+/// was excluded:
+/// 1. GMRES + multigrid from `M`, first only in 2D from
+///    [`AutoParams::gmres_multigrid_2d_min_unknowns`] unknowns (measured faster than the
+///    Cholesky of `M`, see the field);
+/// 2. GMRES with the Cholesky factor of `M`, unless it would not fit or the system is 3D past
+///    [`AutoParams::cholesky_3d_max_unknowns`];
+/// 3. GMRES + multigrid (when it was not first and the DOF geometry is known);
+/// 4. in 3D, GMRES + Jacobi (the diagonal of `M`);
+/// 5. sparse LU, refused before its numeric factorization when its fill bound does not fit
+///    ([`crate::Lu::factor_bytes`]).
+///
+/// Jacobi comes before LU in 3D because LU fills badly there: on a 21^3 blended cube (47,385
+/// unknowns, `delta = 3h`) the factor of `M` + GMRES stagnated at 7.8e-8, and LU then took
+/// 157 s and 12.0 GiB where GMRES + Jacobi took 21 s and 1.4 GiB (docs/solvers.md).
+/// Returns the notes that say what ran and why.
 fn auto_unsymmetric(
     a: &Csc,
     f: &[f64],
@@ -250,53 +260,49 @@ fn auto_unsymmetric(
     progress: &dyn Progress,
 ) -> Result<(Solved, Vec<String>), SolveError> {
     let plan = auto.plan_unsymmetric(hints.dim, a.nrows(), hints.geometry.is_some());
-    let multigrid = || {
-        assembled_gmres_with(
-            a,
-            &spd.matrix,
-            f,
-            params,
-            PreconditionerKind::Multigrid,
-            hints.geometry.as_ref(),
-            progress,
-        )
+    let iterative = |kind: PreconditionerKind| {
+        assembled_gmres_with(a, &spd.matrix, f, params, kind, hints.geometry.as_ref(), progress)
     };
-    let mut failed = None;
+    let mut notes = Vec::new();
     if let Some(why) = &plan.multigrid_first {
-        match multigrid() {
+        match iterative(PreconditionerKind::Multigrid) {
             Ok(solved) => {
                 let note = format!("auto: gmres + multigrid from the SPD approximation {:?} ({why})", spd.kind);
                 return Ok((solved, vec![note]));
             }
-            Err(e) => failed = Some(e.to_string()),
+            Err(e) => notes.push(format!("auto: gmres + multigrid failed ({e})")),
         }
     }
     let factored = match plan.factor_excluded {
         Some(why) => Err(SpdGmres::TooLarge(why)),
         None => spd_gmres(a, f, spd, &hints.ordering, progress),
     };
-    let mut notes = Vec::new();
-    let solved = match factored {
-        Ok(solved) => solved,
-        Err(SpdGmres::TooLarge(why)) if plan.multigrid_fallback => {
-            let excluded = format!("auto: {} excluded ({why})", SolverId::Gmres(spd.kind));
-            notes.push(format!("{excluded}: gmres + multigrid instead"));
-            multigrid()
-                .map_err(|e| SolveError::NoSolverFits(format!("{excluded}, and gmres + multigrid failed: {e}")))?
-        }
-        Err(SpdGmres::TooLarge(why)) => {
-            return Err(SolveError::NoSolverFits(format!(
-                "{} excluded ({why}) and no multigrid geometry for an iterative solve",
-                SolverId::Gmres(spd.kind)
-            )))
-        }
-        Err(SpdGmres::Failed(why)) => {
-            notes.push(format!("{} failed ({why}): sparse LU used", SolverId::Gmres(spd.kind)));
-            lu(a, f, &hints.ordering, progress)?
-        }
-    };
-    if let Some(why) = failed {
-        notes.insert(0, format!("auto: gmres + multigrid failed ({why}), the next choice ran"));
+    match factored {
+        Ok(solved) => return Ok((solved, notes)),
+        Err(SpdGmres::TooLarge(why)) => notes.push(format!("auto: {} excluded ({why})", SolverId::Gmres(spd.kind))),
+        Err(SpdGmres::Failed(why)) => notes.push(format!("auto: {} failed ({why})", SolverId::Gmres(spd.kind))),
     }
-    Ok((solved, notes))
+    let mut kinds = Vec::new();
+    if plan.multigrid_first.is_none() && plan.multigrid_fallback {
+        kinds.push(PreconditionerKind::Multigrid);
+    }
+    if plan.jacobi_before_lu {
+        kinds.push(PreconditionerKind::Jacobi);
+    }
+    for kind in kinds {
+        match iterative(kind) {
+            Ok(solved) => {
+                notes.push(format!("auto: gmres + {} ran", kind.name()));
+                return Ok((solved, notes));
+            }
+            Err(e) => notes.push(format!("auto: gmres + {} failed ({e})", kind.name())),
+        }
+    }
+    match lu(a, f, &hints.ordering, progress) {
+        Ok(solved) => {
+            notes.push("auto: sparse LU used".into());
+            Ok((solved, notes))
+        }
+        Err(e) => Err(SolveError::NoSolverFits(format!("{}; and sparse LU: {e}", notes.join("; ")))),
+    }
 }

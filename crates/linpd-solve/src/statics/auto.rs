@@ -82,9 +82,10 @@ pub struct SymmetricPlan {
 /// `auto`'s plan for an unsymmetric `A` with an SPD approximation `M`
 /// ([`AutoParams::plan_unsymmetric`]): GMRES + multigrid from `M` first when
 /// [`UnsymmetricPlan::multigrid_first`]; else, or when that fails (stagnation, `max_iter`),
-/// GMRES with the Cholesky factor of `M` unless [`UnsymmetricPlan::factor_excluded`]; GMRES +
-/// multigrid where that factor would not fit (when [`UnsymmetricPlan::multigrid_fallback`]),
-/// sparse LU when the factorization or GMRES fails.
+/// GMRES with the Cholesky factor of `M` unless [`UnsymmetricPlan::factor_excluded`]; then
+/// GMRES + multigrid (when [`UnsymmetricPlan::multigrid_fallback`]), GMRES + Jacobi (when
+/// [`UnsymmetricPlan::jacobi_before_lu`]) and sparse LU, each when the one before failed or was
+/// excluded.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct UnsymmetricPlan {
     /// GMRES + multigrid from `M` before the factor of `M`, and why (`None`: not first).
@@ -92,9 +93,11 @@ pub struct UnsymmetricPlan {
     /// Why the factor of `M` is not even analysed (`None`: it is, and may still be refused by
     /// its size in memory).
     pub factor_excluded: Option<String>,
-    /// GMRES + multigrid from `M` when the factor of `M` is excluded or would not fit (it needs
-    /// the DOF geometry); without it no solver fits.
+    /// GMRES + multigrid from `M` when the factor of `M` is excluded, would not fit or failed
+    /// (it needs the DOF geometry).
     pub multigrid_fallback: bool,
+    /// GMRES + Jacobi before sparse LU (3D, where LU fills badly: see `auto_unsymmetric`).
+    pub jacobi_before_lu: bool,
 }
 
 impl AutoParams {
@@ -130,6 +133,7 @@ impl AutoParams {
             multigrid_first: (dim == 2 && n >= limit && has_geometry).then(|| format!("2D, {n} >= {limit} unknowns")),
             factor_excluded: self.factor_excluded(dim, n),
             multigrid_fallback: has_geometry,
+            jacobi_before_lu: dim == 3,
         }
     }
 }

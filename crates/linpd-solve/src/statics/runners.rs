@@ -59,6 +59,7 @@ pub(super) fn cholesky(
     report.timings.numeric = t.elapsed().as_secs_f64();
     report.nnz_factor = Some(chol.nnz_factor());
     report.factor_flops = Some(chol.flops());
+    report.factor_bytes = Some(chol.factor_bytes());
     let t = Instant::now();
     let u = factor.solve(f);
     report.timings.solve = t.elapsed().as_secs_f64();
@@ -107,8 +108,9 @@ pub(super) fn lu(a: &Csc, f: &[f64], ordering: &Ordering, progress: &dyn Progres
     let u = factor.solve(f);
     lu_finite(a, &u, id)?;
     report.timings.solve = t.elapsed().as_secs_f64();
-    // faer does not expose the LU fill; the stored entries of A are a lower bound.
-    report.nnz_factor = Some(a.val().len());
+    // faer does not expose the LU fill: the bound of the analysis (L and U)
+    report.nnz_factor = Some(2 * lu.fill_bound());
+    report.factor_bytes = Some(lu.factor_bytes());
     Ok((u, report))
 }
 
@@ -285,6 +287,7 @@ pub(super) fn spd_gmres(
     let factor = chol.factor(m).map_err(|e| SpdGmres::Failed(e.to_string()))?;
     report.timings.numeric = t.elapsed().as_secs_f64();
     report.nnz_factor = Some(chol.nnz_factor());
+    report.factor_bytes = Some(chol.factor_bytes());
     let t = Instant::now();
     let mut x = factor.solve(f);
     let norm_a = (norm_1(a) * norm_inf(a)).sqrt();
