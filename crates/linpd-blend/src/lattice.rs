@@ -230,19 +230,19 @@ pub struct LatticeBlend {
 }
 
 /// A `d x d` block row: `(node, block)` with the block row-major in a 3 x 3 array.
-type BlockRow = Vec<(usize, [f64; 9])>;
+pub(crate) type BlockRow = Vec<(usize, [f64; 9])>;
 
 /// Accumulates blocks of one row by node (a dense slot per node, reset after each row).
-struct RowBuilder {
+pub(crate) struct RowBuilder {
     slot: Vec<u32>,
     row: BlockRow,
 }
 
 impl RowBuilder {
-    fn new(n: usize) -> Self {
+    pub(crate) fn new(n: usize) -> Self {
         RowBuilder { slot: vec![u32::MAX; n], row: Vec::new() }
     }
-    fn at(&mut self, j: usize) -> &mut [f64; 9] {
+    pub(crate) fn at(&mut self, j: usize) -> &mut [f64; 9] {
         if self.slot[j] == u32::MAX {
             self.slot[j] = self.row.len() as u32;
             self.row.push((j, [0.0; 9]));
@@ -252,7 +252,7 @@ impl RowBuilder {
     /// The row, sorted by node, in a vector of its exact size; the builder keeps its buffer
     /// for the next row (taking the buffer itself made every row regrow from empty, ~8
     /// reallocations of up to 10 KB for a 3D row of 123 blocks).
-    fn take(&mut self) -> BlockRow {
+    pub(crate) fn take(&mut self) -> BlockRow {
         for (j, _) in &self.row {
             self.slot[*j] = u32::MAX;
         }
@@ -325,11 +325,15 @@ impl LatticeBlend {
     pub fn stiffness(&self) -> &Csc {
         self.a.stiffness()
     }
+    /// The SPD companion `M` over all DOFs.
+    pub fn companion(&self) -> &Csc {
+        &self.m
+    }
 }
 
 /// Checks the dimension and that `beta` (each in `[0, 1]`) and `mirrored` have one value per
 /// node.
-fn check_inputs(d: usize, n: usize, beta: &[f64], mirrored: &[bool]) -> Result<(), BlendError> {
+pub(crate) fn check_inputs(d: usize, n: usize, beta: &[f64], mirrored: &[bool]) -> Result<(), BlendError> {
     if d < 2 {
         return Err(BlendError::param("model.pd_regions", "2D and 3D only (1D blends are `\"type\": \"blend\"`)"));
     }
@@ -347,7 +351,7 @@ fn check_inputs(d: usize, n: usize, beta: &[f64], mirrored: &[bool]) -> Result<(
 
 /// `D_i` per node for the element moduli, only where a local share may read it (the node's
 /// own row or a row sharing a cell with it has `beta < 1`); zero elsewhere.
-fn element_moduli(op: &BondOperator, grid: &Grid, beta: &[f64], mirrored: &[bool]) -> Vec<[f64; 81]> {
+pub(crate) fn element_moduli(op: &BondOperator, grid: &Grid, beta: &[f64], mirrored: &[bool]) -> Vec<[f64; 81]> {
     let n = op.n_nodes();
     let needs_local: Vec<bool> = (0..n).map(|i| beta[i] < 1.0).collect();
     (0..n)
@@ -393,7 +397,7 @@ fn node_moduli(op: &BondOperator, grid: &Grid, i: usize, layer: bool) -> [f64; 8
 
 /// Node counts `(pd, transition, local)`: `beta = 1` on the node and its family, neither,
 /// `beta = 0` on the node and its family.
-fn zone_counts(family: &BondFamily, beta: &[f64]) -> (usize, usize, usize) {
+pub(crate) fn zone_counts(family: &BondFamily, beta: &[f64]) -> (usize, usize, usize) {
     let (mut pd, mut transition, mut local) = (0, 0, 0);
     for i in 0..beta.len() {
         let all = |v: f64| beta[i] == v && family.neighbors(i).iter().all(|&j| beta[j as usize] == v);
@@ -409,16 +413,16 @@ fn zone_counts(family: &BondFamily, beta: &[f64]) -> (usize, usize, usize) {
 }
 
 /// What the rows of `A` and of its SPD companion `M` (see `LatticeBlend::m`) read.
-struct BlendRows<'a> {
-    op: &'a BondOperator,
-    grid: &'a Grid,
-    beta: &'a [f64],
+pub(crate) struct BlendRows<'a> {
+    pub(crate) op: &'a BondOperator,
+    pub(crate) grid: &'a Grid,
+    pub(crate) beta: &'a [f64],
     /// Node `i`'s family has one bond factor (`None`: every node).
-    regular: Option<&'a [bool]>,
+    pub(crate) regular: Option<&'a [bool]>,
     /// `D_i` per node (see [`element_moduli`]).
-    d_tensor: Vec<[f64; 81]>,
+    pub(crate) d_tensor: Vec<[f64; 81]>,
     /// Complete lattice cells at each node.
-    n_cells: Vec<u8>,
+    pub(crate) n_cells: Vec<u8>,
 }
 
 impl BlendRows<'_> {
@@ -445,7 +449,12 @@ impl BlendRows<'_> {
 
     /// Row `i` of `A` (nonlocal shares, transition terms, local elements scaled by
     /// `1 - beta_i`) and of `M` (nonlocal shares, elements weighted per cell).
-    fn row(&self, i: usize, rb: &mut RowBuilder, mb: &mut RowBuilder) -> Result<(BlockRow, BlockRow), BlendError> {
+    pub(crate) fn row(
+        &self,
+        i: usize,
+        rb: &mut RowBuilder,
+        mb: &mut RowBuilder,
+    ) -> Result<(BlockRow, BlockRow), BlendError> {
         let bi = self.beta[i];
         let s = self.nonlocal_shares(i, rb, mb);
         let local = bi < 1.0;
@@ -548,7 +557,7 @@ impl BlendRows<'_> {
 /// writing the slots it counted; no intermediate CSR copy. (The sequential CSR-then-transpose
 /// took ~4 s of a 9.8 s build of a 79k-node 3D blend, most of it first-touch page faults of
 /// one thread: docs/models.md.)
-fn block_rows_to_csc(d: usize, rows: &[BlockRow]) -> Csc {
+pub(crate) fn block_rows_to_csc(d: usize, rows: &[BlockRow]) -> Csc {
     /// The value and row arrays, written through raw pointers by the chunks (see below).
     struct Out(*mut usize, *mut f64);
     // SAFETY: shared between the chunks only to write disjoint positions (see the fill).
@@ -619,7 +628,7 @@ fn block_rows_to_csc(d: usize, rows: &[BlockRow]) -> Csc {
 
 /// The complete lattice cells with node `i` as a corner: each as its `2^d` corner nodes in the
 /// order of the bits of the corner number (bit `a` set: `+1` along axis `a`).
-fn cells_at(grid: &Grid, i: usize) -> impl Iterator<Item = Vec<usize>> + '_ {
+pub(crate) fn cells_at(grid: &Grid, i: usize) -> impl Iterator<Item = Vec<usize>> + '_ {
     let d = grid.dim();
     let k = grid.lattice_index(i);
     (0..1usize << d).filter_map(move |lower| {

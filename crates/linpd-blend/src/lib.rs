@@ -58,6 +58,7 @@
 pub mod blending;
 pub mod error;
 pub mod graded;
+pub mod graded_blend;
 pub mod lattice;
 pub mod material;
 pub mod mesh;
@@ -67,6 +68,7 @@ mod static_model;
 
 pub use blending::{Blending, Regions};
 pub use error::BlendError;
+pub use graded_blend::GradedBlend;
 pub use lattice::{beta_from_zone, LatticeBlend, Profile, Zones};
 pub use mesh::Mesh;
 pub use model::{BlendOperator, BlendParams, LocalPart, ModelKind};

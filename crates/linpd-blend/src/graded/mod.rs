@@ -92,6 +92,7 @@
 
 pub(crate) mod element;
 mod grading;
+mod interpolate;
 mod stiffness;
 
 use crate::BlendError;
@@ -217,6 +218,8 @@ pub struct GradedMesh {
     /// Master number of every node (`u32::MAX` for a hanging one).
     master: Vec<u32>,
     n_masters: usize,
+    /// The level of the leaf covering each level-0 cell (lattice cell order).
+    leaf_level: Vec<u8>,
 }
 
 impl GradedMesh {
@@ -269,6 +272,7 @@ impl GradedMesh {
             hanging: Vec::new(),
             master: Vec::new(),
             n_masters: 0,
+            leaf_level: level.to_vec(),
         };
         mesh.hanging = mesh.find_hanging();
         mesh.number_masters();

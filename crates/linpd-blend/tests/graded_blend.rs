@@ -1,0 +1,165 @@
+//! The blended model on a graded local mesh (`linpd_blend::GradedBlend`, issue #31): without
+//! grading it is the lattice blend; with grading it passes the patch test across level jumps
+//! and its solution of affine boundary data is the affine field; `P` interpolates affine fields
+//! exactly and `P^T` conserves force.
+
+use linpd_blend::graded::Grading;
+use linpd_blend::{beta_from_zone, GradedBlend, LatticeBlend, Profile};
+use linpd_bond::BondOperator;
+use linpd_core::sparse::Csc;
+use linpd_core::{Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
+use linpd_solve::{solve_model, Dirichlet, SolverSpec};
+
+fn micromodulus() -> Micromodulus {
+    Micromodulus {
+        kernel: Kernel::Constant,
+        normalization: Normalization::Continuum,
+        modulus: 2.0,
+        plane: Some(PlaneModel::Stress),
+        partial_volume: true,
+    }
+}
+
+/// A box of `n` cells a side (`n/2` along z in 3D), `h = 1/n`, horizon `3h`, a layer of
+/// `layer` spacings; `beta` = 1 in a ball of radius `r` at the centre, a cubic transition of
+/// `3h`.
+fn setting(dim: usize, n: usize, layer: f64, r: f64) -> (Grid, BondOperator, f64, Vec<f64>) {
+    let h = 1.0 / n as f64;
+    let max = [1.0, 1.0, 0.5];
+    let g = Grid::new(&vec![0.0; dim], &max[..dim], h, layer * h, Placement::Vertex).unwrap();
+    let horizon = 3.0 * h;
+    let op = BondOperator::on_grid(&g, horizon, &micromodulus(), &Material::default()).unwrap();
+    let centre = [0.5, 0.5, 0.25];
+    let inside: Vec<bool> = (0..g.len())
+        .map(|i| {
+            let x = g.position(i);
+            (0..dim).map(|a| (x[a] - centre[a]).powi(2)).sum::<f64>() <= r * r
+        })
+        .collect();
+    let beta = beta_from_zone(&g, &inside, 3.0 * h, Profile::Cubic);
+    (g, op, horizon, beta)
+}
+
+fn matvec(a: &Csc, x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; a.nrows()];
+    let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
+    for j in 0..a.ncols() {
+        for p in cp[j]..cp[j + 1] {
+            y[ri[p]] += v[p] * x[j];
+        }
+    }
+    y
+}
+
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+/// A displacement gradient for the affine fields.
+const GRAD: [[f64; 3]; 3] = [[1e-3, 2e-3, -1e-3], [-5e-4, 3e-3, 1e-3], [2e-3, 0.0, -1e-3]];
+
+fn affine(dim: usize, x: &[f64]) -> Vec<f64> {
+    (0..dim).map(|a| (0..dim).map(|b| GRAD[a][b] * x[b]).sum()).collect()
+}
+
+/// Without grading (`max_level` 0) every node is a master, in node order, and `A` and `M` are
+/// the lattice blend's: `|A_graded x - A x| <= 1e-13 |A| |x|` for a pseudo-random `x` (the same
+/// terms summed in another order; rows have ~100 blocks).
+#[test]
+fn ungraded_equals_the_lattice_blend() {
+    for (dim, n, r) in [(2, 40, 0.15), (3, 16, 0.22)] {
+        let (g, op, horizon, beta) = setting(dim, n, 0.0, r);
+        let mirrored = vec![false; g.len()];
+        let lattice = LatticeBlend::new(&op, &g, horizon, beta.clone(), None, &mirrored).unwrap();
+        let graded =
+            GradedBlend::new(&op, &g, horizon, beta, None, &mirrored, Grading { cells_per_level: 1, max_level: 0 })
+                .unwrap();
+        assert_eq!(graded.master_nodes(), (0..g.len()).collect::<Vec<_>>().as_slice());
+        let z = lattice.zones();
+        assert!(z.pd > 0 && z.transition > 0 && z.local > 0, "{dim}D: {z:?}");
+        let x: Vec<f64> = (0..dim * g.len()).map(|k| ((k * 7919) % 1000) as f64 / 1000.0 - 0.5).collect();
+        for (name, a, b) in
+            [("A", lattice.stiffness(), graded.stiffness()), ("M", lattice.companion(), graded.companion())]
+        {
+            let scale = max_abs(a.val()) * max_abs(&x);
+            let diff = matvec(a, &x).iter().zip(&matvec(b, &x)).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+            println!("{dim}D {name}: max |graded - lattice| / (|A| |x|) = {:.2e}", diff / scale);
+            assert!(diff <= 1e-13 * scale, "{dim}D {name}: {:e}", diff / scale);
+        }
+    }
+}
+
+/// With grading (cells up to `8h`), `A u_M = 0` for an affine `u_M` on every master off the
+/// supporting layer (the patch test across level jumps and hanging nodes), to round-off of
+/// `|A| |u|` (1e-12), and the masters are a fraction of the lattice. (Along a free face the
+/// local model is softened like PD's surface and no row there is exact for affine fields, on
+/// the lattice or not.)
+#[test]
+fn graded_rows_pass_the_patch_test() {
+    for (dim, n) in [(2, 128), (3, 32)] {
+        let (g, op, horizon, beta) = setting(dim, n, 3.0, 0.08);
+        let layer: Vec<bool> = (0..g.len()).map(|i| g.is_layer(i)).collect();
+        let graded =
+            GradedBlend::new(&op, &g, horizon, beta, None, &layer, Grading { cells_per_level: 1, max_level: 3 })
+                .unwrap();
+        let masters = graded.master_nodes();
+        println!("{dim}D: {} masters of {} lattice nodes", masters.len(), g.len());
+        // (the 3D box is too small for more than one coarse level beside the fine region)
+        let (levels, share) = if dim == 2 { (3, 0.5) } else { (2, 0.95) };
+        assert!(graded.mesh().counts().len() >= levels, "{dim}D: levels {:?}", graded.mesh().counts());
+        assert!((masters.len() as f64) < share * g.len() as f64, "{dim}D: {} masters of {}", masters.len(), g.len());
+        let u: Vec<f64> = masters.iter().flat_map(|&i| affine(dim, &g.position(i))).collect();
+        let a = graded.stiffness();
+        let scale = max_abs(a.val()) * max_abs(&u);
+        let r = matvec(a, &u);
+        let worst = masters
+            .iter()
+            .enumerate()
+            .filter(|(_, &i)| !layer[i])
+            .map(|(k, _)| max_abs(&r[dim * k..dim * k + dim]))
+            .fold(0.0, f64::max);
+        println!("{dim}D: max |A u| / (|A| |u|) off the layer = {:.2e}", worst / scale);
+        assert!(worst <= 1e-12 * scale, "{dim}D: {:e}", worst / scale);
+        // M (not exact in transitions, on the lattice either) is symmetric: K_M's rows and the
+        // companion rows of the lattice blend
+        let m = graded.companion();
+        let x: Vec<f64> = (0..m.nrows()).map(|k| ((k * 7919) % 1000) as f64 / 1000.0 - 0.5).collect();
+        let y: Vec<f64> = (0..m.nrows()).map(|k| ((k * 104729) % 997) as f64 / 997.0 - 0.5).collect();
+        let dot = |p: &[f64], q: &[f64]| p.iter().zip(q).map(|(a, b)| a * b).sum::<f64>();
+        let (xmy, ymx) = (dot(&x, &matvec(m, &y)), dot(&y, &matvec(m, &x)));
+        assert!((xmy - ymx).abs() <= 1e-12 * max_abs(m.val()) * m.nrows() as f64, "{dim}D: x.My {xmy} vs y.Mx {ymx}");
+    }
+}
+
+/// Affine displacements on a supporting layer (three nodes, the horizon) give the affine field
+/// at every lattice node through `P` (LU on the masters, 1e-10 relative), and `P^T` of a
+/// unit force on every lattice node sums to the lattice's total force.
+#[test]
+fn graded_solve_reproduces_affine_fields() {
+    for (dim, n) in [(2, 96), (3, 32)] {
+        let (g, op, horizon, beta) = setting(dim, n, 3.0, 0.08);
+        let layer: Vec<bool> = (0..g.len()).map(|i| g.is_layer(i)).collect();
+        let graded =
+            GradedBlend::new(&op, &g, horizon, beta, None, &layer, Grading { cells_per_level: 1, max_level: 2 })
+                .unwrap();
+        let masters = graded.master_nodes();
+        let constrained: Vec<bool> = masters.iter().flat_map(|&i| vec![layer[i]; dim]).collect();
+        let exact_m: Vec<f64> = masters.iter().flat_map(|&i| affine(dim, &g.position(i))).collect();
+        let ubar: Vec<f64> = exact_m.iter().zip(&constrained).map(|(v, &c)| if c { *v } else { 0.0 }).collect();
+        let bc = Dirichlet::new(dim, &constrained, ubar);
+        let sol = solve_model(&graded, &bc, &vec![0.0; exact_m.len()], &SolverSpec::Lu, &linpd_core::NoProgress)
+            .expect("solve");
+        let u = graded.expand(&g, &sol.u);
+        let exact: Vec<f64> = (0..g.len()).flat_map(|i| affine(dim, &g.position(i))).collect();
+        let err = u.iter().zip(&exact).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / max_abs(&exact);
+        println!("{dim}D: {} masters of {} nodes, affine solve error {err:.2e}", masters.len(), g.len());
+        assert!(masters.len() < g.len(), "{dim}D: no coarse cell");
+        assert!(err <= 1e-10, "{dim}D: {err:e}");
+        let f: Vec<f64> = vec![1.0; dim * g.len()];
+        let fm = graded.restrict(&g, &f);
+        for a in 0..dim {
+            let total: f64 = fm.iter().skip(a).step_by(dim).sum();
+            assert!((total - g.len() as f64).abs() <= 1e-9 * g.len() as f64, "{dim}D axis {a}: {total}");
+        }
+    }
+}
