@@ -17,6 +17,8 @@
 //! would leave forces on the body nodes beside it under an affine field (4.1e-5 of `|A| |u|`
 //! with cells of `4h` reaching the layer's corner; 4.7e-3 when the outermost nodes' `D_c` were
 //! also spread over their few cells).
+//! So are the cells within a horizon (plus a cell) of the box's faces: families are truncated
+//! there, so the element moduli soften, and a coarse cell would average that away.
 //!
 //! # Rows
 //!
@@ -98,11 +100,12 @@ impl GradedBlend {
             .map(|i| nonlocal[i] || family.neighbors(i).iter().any(|&j| nonlocal[j as usize]))
             .collect();
         let r_f = (horizon + horizon.max(2.0 * h)) / h + 2.0;
+        let surface = (horizon / h).ceil() as usize + 1;
         // the grid's layer stays on the lattice too (see the module docs)
         let near: Vec<bool> = squared_lattice_distances(grid, &nonlocal)
             .into_iter()
             .enumerate()
-            .map(|(i, q)| q <= r_f * r_f || grid.is_layer(i))
+            .map(|(i, q)| q <= r_f * r_f || grid.is_layer(i) || near_face(grid, i, surface))
             .collect();
         let counts = grid.counts();
         let lattice = LatticeBox::new(&grid.site_position([0, 0, 0])[..d], h, &counts[..d])?;
@@ -227,6 +230,12 @@ impl GradedBlend {
         }
         out
     }
+}
+
+/// Whether node `i` is within `r` sites of a face of the lattice box.
+fn near_face(grid: &Grid, i: usize, r: usize) -> bool {
+    let (c, k) = (grid.counts(), site(grid, i));
+    (0..grid.dim()).any(|a| k[a] < r || k[a] + r >= c[a])
 }
 
 /// The site (0-based lattice index, layers included) of node `i` of a full grid.

@@ -59,6 +59,20 @@ pub struct RawBond {
     /// With `pd_regions` and a constant profile: its value (default 0.5).
     #[serde(default)]
     pub transition_value: Option<f64>,
+    /// With `pd_regions`: the local zone on a graded mesh ([`super::lattice_blend`]).
+    #[serde(default)]
+    pub local_mesh: Option<RawLocalMesh>,
+}
+
+/// `model.local_mesh`: the graded local mesh of a blended model.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RawLocalMesh {
+    /// The largest cell side (a length): cells of side `h 2^l` up to it.
+    pub max_cell: f64,
+    /// Layers of cells of each size before the next (default 4).
+    #[serde(default)]
+    pub cells_per_level: Option<usize>,
 }
 
 /// The validated parameters of a bond model.
@@ -194,7 +208,7 @@ pub(crate) fn surface_of(
 /// and the strain energy density from its blocks ([`crate::balance::nodal_energy`]).
 pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f64>, report: SolveReport) -> Solution {
     let nodes = p.nodes();
-    let balance = p.balance(model, &u);
+    let balance = p.balance(&|u, y| linpd_core::Model::apply(model, u, y), &u);
     let volumes: Vec<f64> = (0..nodes.len()).map(|n| nodes.volume(n)).collect();
     let strain_energy_density =
         crate::balance::nodal_energy(model, &u).map(|e| e.iter().zip(&volumes).map(|(w, v)| w / v).collect());

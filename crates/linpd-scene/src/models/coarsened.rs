@@ -302,7 +302,7 @@ impl SceneModel for CoarsenedModel {
 /// The [`Solution`] of a coarsened scene for displacements `u` over all DOFs (solved here or
 /// elsewhere, `linpd_problem::RowSystem`).
 fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: SolveReport) -> Solution {
-    let balance = p.balance(c.model.as_ref(), &u);
+    let balance = p.balance(&|u, y| linpd_core::Model::apply(c.model.as_ref(), u, y), &u);
     let volumes: Vec<f64> = (0..p.nodes.len()).map(|n| p.nodes.volume(n)).collect();
     let strain = Some(crate::nodal_strain(c.model.as_ref(), &volumes, &u));
     // an energy density only where K is the Hessian of an energy (symmetric)

@@ -16,7 +16,8 @@ use crate::scene::Problem;
 use crate::solution::Solution;
 use crate::validate::region;
 use crate::ProblemError;
-use linpd_blend::{beta_from_zone, LatticeBlend};
+use linpd_blend::graded::Grading;
+use linpd_blend::{beta_from_zone, GradedBlend, LatticeBlend};
 use linpd_bond::BondOperator;
 use linpd_core::progress::Progress;
 use linpd_core::{Grid, Material, Region, GEOMETRY_RTOL};
@@ -35,7 +36,8 @@ pub struct LatticeBlendModel {
     pub zone: PdZone,
 }
 
-/// `model.pd_regions`, `transition`, `transition_profile`: where the blended model is PD.
+/// `model.pd_regions`, `transition`, `transition_profile`, `local_mesh`: where the blended
+/// model is PD and how its local zone is meshed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PdZone {
     /// The PD regions (`beta = 1` on the nodes inside any of them).
@@ -44,6 +46,37 @@ pub struct PdZone {
     pub transition: f64,
     /// How `beta` falls across it.
     pub profile: linpd_blend::Profile,
+    /// The graded local mesh (`None`: the local zone's elements are the lattice cells).
+    pub local_mesh: Option<linpd_blend::graded::Grading>,
+}
+
+/// Default `model.local_mesh.cells_per_level`: on the centre-cracked plate at 401^2 (docs/models.md)
+/// 4 left 7.3e-4 of max |u| against pure PD at 0.25x its unknowns, 2 left 1.4e-3 at 0.21x.
+pub const CELLS_PER_LEVEL: usize = 4;
+
+/// `model.local_mesh` on `grid`: `max_cell` (at least the spacing) rounds down to `h 2^L`.
+fn local_mesh(
+    grid: &Grid,
+    raw: Option<crate::models::bond_model::RawLocalMesh>,
+) -> Result<Option<linpd_blend::graded::Grading>, ProblemError> {
+    let Some(raw) = raw else { return Ok(None) };
+    let h = grid.spacing();
+    let ratio = raw.max_cell / h;
+    if !(ratio.is_finite() && ratio >= 1.0 - linpd_core::GEOMETRY_RTOL) {
+        return Err(ProblemError::invalid(
+            "model.local_mesh.max_cell",
+            format!(
+                "{:e} is below the grid spacing {h:e}: the coarsest cell is at least one lattice cell",
+                raw.max_cell
+            ),
+        ));
+    }
+    let max_level = ((ratio * (1.0 + linpd_core::GEOMETRY_RTOL)).log2().floor() as usize).min(30);
+    let cells_per_level = raw.cells_per_level.unwrap_or(CELLS_PER_LEVEL);
+    if cells_per_level == 0 {
+        return Err(ProblemError::invalid("model.local_mesh.cells_per_level", "must be at least 1"));
+    }
+    Ok(Some(linpd_blend::graded::Grading { cells_per_level, max_level }))
 }
 
 /// The PD regions of a blended scene.
@@ -81,6 +114,7 @@ pub(crate) fn zone(grid: &Grid, raw: &RawBond, surface: Surface) -> Result<Optio
             ("transition", transition.is_some()),
             ("transition_profile", profile.is_some()),
             ("transition_value", value.is_some()),
+            ("local_mesh", raw.local_mesh.is_some()),
         ] {
             if given {
                 return Err(ProblemError::invalid(format!("model.{key}"), "belongs to pd_regions, which is missing"));
@@ -170,12 +204,83 @@ pub(crate) fn zone(grid: &Grid, raw: &RawBond, surface: Surface) -> Result<Optio
             ))
         }
     };
-    Ok(Some(PdZone { regions, transition: width, profile }))
+    let local_mesh = local_mesh(grid, raw.local_mesh)?;
+    Ok(Some(PdZone { regions, transition: width, profile, local_mesh }))
+}
+
+/// What both blended models are built from: the bond operator, `beta`, the regular nodes
+/// and the mirrored supports.
+struct BlendInputs {
+    op: BondOperator,
+    beta: Vec<f64>,
+    regular: Option<Vec<bool>>,
+    mirrored: Vec<bool>,
+}
+
+/// The graded blend as solved (over its masters) with what its solution needs on the
+/// lattice: the bond operator (the nodal strain).
+pub struct GradedSystem {
+    /// The model over the masters.
+    pub graded: GradedBlend,
+    op: BondOperator,
+}
+
+impl linpd_core::Model for GradedSystem {
+    fn kind(&self) -> &'static str {
+        self.graded.kind()
+    }
+    fn dim(&self) -> usize {
+        self.graded.dim()
+    }
+    fn n_nodes(&self) -> usize {
+        self.graded.n_nodes()
+    }
+    fn position(&self, i: usize) -> linpd_core::Point {
+        self.graded.position(i)
+    }
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        self.graded.for_each_partner(i, f)
+    }
+    fn apply(&self, u: &[f64], y: &mut [f64]) {
+        self.graded.apply(u, y)
+    }
+    fn diagonal(&self) -> Vec<f64> {
+        self.graded.diagonal()
+    }
+    fn assemble_free(&self, dofs: &linpd_core::DofMap) -> linpd_core::Csc {
+        self.graded.assemble_free(dofs)
+    }
+    fn asymmetry(&self, dofs: &linpd_core::DofMap) -> f64 {
+        self.graded.asymmetry(dofs)
+    }
+    fn ordering(&self, dofs: &linpd_core::DofMap) -> linpd_core::Ordering {
+        self.graded.ordering(dofs)
+    }
+    fn spd_approximation(&self, dofs: &linpd_core::DofMap) -> Option<linpd_core::SpdApproximation> {
+        self.graded.spd_approximation(dofs)
+    }
+    fn matrix_free_unavailable(&self) -> Option<&'static str> {
+        self.graded.matrix_free_unavailable()
+    }
+}
+
+/// The graded model's forces seen on the lattice, for the balance: `A_M` applied to the
+/// displacements at the masters' nodes, its forces put back on those nodes (the other lattice
+/// nodes carry none: their loads reached the masters through `P^T`).
+fn apply_on_lattice(g: &GradedBlend, d: usize, u: &[f64], y: &mut [f64]) {
+    let masters = g.master_nodes();
+    let um: Vec<f64> = masters.iter().flat_map(|&i| u[d * i..d * i + d].to_vec()).collect();
+    let mut ym = vec![0.0; um.len()];
+    linpd_core::Model::apply(g, &um, &mut ym);
+    y.iter_mut().for_each(|v| *v = 0.0);
+    for (m, &i) in masters.iter().enumerate() {
+        y[d * i..d * i + d].copy_from_slice(&ym[d * m..d * m + d]);
+    }
 }
 
 impl LatticeBlendModel {
-    /// The scene's blended model.
-    pub fn build(&self, p: &Problem) -> Result<LatticeBlend, ProblemError> {
+    /// The bond operator, `beta`, the regular nodes and the mirrored supports of the scene.
+    fn inputs(&self, p: &Problem) -> Result<BlendInputs, ProblemError> {
         let (b, zone) = (&self.bond, &self.zone);
         let grid = p.lattice()?;
         let (op, _) = b.operator(p.nodes())?;
@@ -226,11 +331,113 @@ impl LatticeBlendModel {
         let beta = beta_from_zone(grid, &inside, zone.transition, zone.profile);
         // supports in the layer stand for the body beyond them
         let mirrored: Vec<bool> = (0..grid.len()).map(|i| grid.is_layer(i) && constrained[i]).collect();
-        LatticeBlend::new(&op, grid, b.horizon, beta, regular.as_deref(), &mirrored).map_err(|e| match e {
-            // the key it names (`model.pd_regions`), not `model: model.pd_regions: ...`
-            linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
-            e => ProblemError::invalid("model", e.to_string()),
+        Ok(BlendInputs { op, beta, regular, mirrored })
+    }
+
+    /// The scene's blended model on the lattice.
+    pub fn build(&self, p: &Problem) -> Result<LatticeBlend, ProblemError> {
+        let i = self.inputs(p)?;
+        LatticeBlend::new(&i.op, p.lattice()?, self.bond.horizon, i.beta, i.regular.as_deref(), &i.mirrored)
+            .map_err(blend_error)
+    }
+
+    /// The scene's blended model with its local zone on the graded mesh of `grading`.
+    pub fn build_graded(&self, p: &Problem, grading: Grading) -> Result<GradedSystem, ProblemError> {
+        let i = self.inputs(p)?;
+        let grid = p.lattice()?;
+        let graded =
+            GradedBlend::new(&i.op, grid, self.bond.horizon, i.beta, i.regular.as_deref(), &i.mirrored, grading)
+                .map_err(blend_error)?;
+        Ok(GradedSystem { graded, op: i.op })
+    }
+}
+
+impl LatticeBlendModel {
+    /// The system of the graded blend: over the masters, the scene's constraints at the
+    /// masters' nodes and its loads as `P^T f`.
+    fn graded_system(
+        &self,
+        p: &Problem,
+        grading: Grading,
+        memory_estimate: Option<f64>,
+    ) -> Result<System, ProblemError> {
+        let grid = p.lattice()?;
+        let g = self.build_graded(p, grading)?;
+        let d = p.dim();
+        let (mask, ubar) = p.constrained();
+        let masters = g.graded.master_nodes();
+        let pick = |v: &[bool]| -> Vec<bool> { masters.iter().flat_map(|&i| v[d * i..d * i + d].to_vec()).collect() };
+        let mask_m = pick(&mask);
+        let ubar_m: Vec<f64> = masters.iter().flat_map(|&i| ubar[d * i..d * i + d].to_vec()).collect();
+        let f = g.graded.restrict(grid, &p.load_vector());
+        let z = g.graded.zones();
+        let levels: Vec<String> =
+            g.graded.mesh().counts().iter().map(|c| format!("{} cells of {}h", c.cells, 1usize << c.level)).collect();
+        let describe = format!(
+            "blend on a graded local mesh: {} PD, {} transition, {} local lattice nodes; {} unknowns on {} masters \
+             ({:.3}x the lattice's {} DOFs); {} stored entries ({:.3}x the bond model's {}); {}",
+            z.pd,
+            z.transition,
+            z.local,
+            d * masters.len(),
+            masters.len(),
+            masters.len() as f64 / grid.len() as f64,
+            d * grid.len(),
+            z.nnz,
+            z.nnz as f64 / z.nnz_pd as f64,
+            z.nnz_pd,
+            levels.join(", ")
+        );
+        Ok(System {
+            n_bonds: z.nnz_pd / (d * d) - grid.len(),
+            model: Arc::new(g),
+            bc: linpd_solve::Dirichlet::new(d, &mask_m, ubar_m),
+            f,
+            notes: vec![describe],
+            built_before: 0.0,
+            memory_estimate,
         })
+    }
+}
+
+/// The solution of the graded blend on every lattice node: `u = P u_M`, the strain from the
+/// bond families, the balance of the masters' forces (the strain energy density is not
+/// defined for the unsymmetric blend, as on the lattice).
+fn graded_solution(
+    p: &Problem,
+    g: &GradedSystem,
+    n_bonds: usize,
+    u_m: &[f64],
+    report: SolveReport,
+) -> Result<Solution, ProblemError> {
+    let grid = p.lattice()?;
+    let nodes = p.nodes();
+    let u = g.graded.expand(grid, u_m);
+    let balance = p.balance(&|u, y| apply_on_lattice(&g.graded, p.dim(), u, y), &u);
+    let volumes: Vec<f64> = (0..nodes.len()).map(|n| nodes.volume(n)).collect();
+    let strain = Some(crate::nodal_strain(&g.op, &volumes, &u));
+    Ok(Solution {
+        name: p.name().to_string(),
+        dim: p.dim(),
+        x: (0..nodes.len()).map(|i| grid.position(i)).collect(),
+        u,
+        is_layer: (0..nodes.len()).map(|n| nodes.is_layer(n)).collect(),
+        volumes,
+        n_bonds,
+        balance: Some(balance),
+        strain_energy_density: None,
+        strain,
+        dilatation: None,
+        report,
+    })
+}
+
+/// A blend error as the scene's: the key it names (`model.pd_regions`), not
+/// `model: model.pd_regions: ...`.
+fn blend_error(e: linpd_blend::BlendError) -> ProblemError {
+    match e {
+        linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
+        e => ProblemError::invalid("model", e.to_string()),
     }
 }
 
@@ -345,6 +552,16 @@ impl SceneModel for LatticeBlendModel {
         };
         progress.phase(&bond::building(p, self.bond.horizon));
         progress.phase(&format!("building the blended model: {} nodes", p.nodes().len()));
+        if let Some(grading) = self.zone.local_mesh {
+            if purpose != Purpose::Solve {
+                return Err(ProblemError::invalid(
+                    "model.local_mesh",
+                    "a graded local mesh is solved by `linpd solve` only (its unknowns are not the lattice's nodes, \
+                     which export and the row-block paths number); remove local_mesh to export the lattice blend",
+                ));
+            }
+            return self.graded_system(p, grading, memory_estimate);
+        }
         let model = self.build(p)?;
         let z = model.zones();
         let describe = format!(
@@ -369,7 +586,10 @@ impl SceneModel for LatticeBlendModel {
         })
     }
     fn solution(&self, p: &Problem, s: &System, u: Vec<f64>, report: SolveReport) -> Result<Solution, ProblemError> {
-        Ok(bond::solution(p, s.model(), s.n_bonds, u, report))
+        match s.model.as_any().downcast_ref::<GradedSystem>() {
+            Some(g) => graded_solution(p, g, s.n_bonds, &u, report),
+            None => Ok(bond::solution(p, s.model(), s.n_bonds, u, report)),
+        }
     }
     fn bond_operator(
         &self,

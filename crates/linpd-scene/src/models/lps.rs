@@ -303,7 +303,7 @@ impl SceneModel for LpsSceneModel {
 /// elsewhere, `linpd_problem::RowSystem`): balance, strain, dilatation and energy density.
 pub(crate) fn solution(p: &Problem, model: &LpsModel, u: Vec<f64>, report: SolveReport) -> Solution {
     let n = p.nodes.len();
-    let balance = p.balance(model, &u);
+    let balance = p.balance(&|u, y| linpd_core::Model::apply(model, u, y), &u);
     let volumes: Vec<f64> = (0..n).map(|i| model.node_volume(i)).collect();
     let strain = Some(crate::nodal_strain(model, &volumes, &u));
     let dilatation = Some(model.linearized_theta(&u));

@@ -6,7 +6,7 @@ use super::model::SceneModel;
 use crate::balance::{Balance, ConstraintBalance, LoadBalance};
 use crate::nodes::{NodeSet, Nodes};
 use crate::ProblemError;
-use linpd_core::{Grid, Model, Region};
+use linpd_core::{Grid, Region};
 use linpd_solve::{Dirichlet, SolverSpec};
 use std::sync::Arc;
 
@@ -244,7 +244,7 @@ impl Problem {
     }
 
     /// The balance of the solution `u` of this scene on `model` (its full operator).
-    pub(crate) fn balance(&self, model: &dyn Model, u: &[f64]) -> Balance {
+    pub(crate) fn balance(&self, apply: &dyn Fn(&[f64], &mut [f64]), u: &[f64]) -> Balance {
         let d = self.dim();
         let n = d * self.nodes.len();
         let mut f = vec![0.0; n];
@@ -263,7 +263,7 @@ impl Problem {
             loads.push(LoadBalance { kind, nodes, force });
         }
         let mut au = vec![0.0; n];
-        model.apply(u, &mut au);
+        apply(u, &mut au);
         let mut owner = vec![usize::MAX; n];
         let mut constraints = Vec::new();
         for (k, c) in self.constraints.iter().enumerate() {

@@ -1,0 +1,100 @@
+//! Blended scenes with `model.local_mesh` (issue #31): the local zone on a graded mesh. Its
+//! solution on every lattice node against the pure bond model and the lattice blend, the
+//! ungraded limit, and the named errors of the key.
+
+use linpd::core::NoProgress;
+use linpd::problem::Problem;
+use serde_json::{json, Value};
+
+/// The centre-cracked plate of data/plate-crack-blend-2d.json at spacing `h` (horizon and
+/// layer 3h, the crack between two node rows), with `"pd_regions": "auto"`.
+fn plate(h: f64) -> Value {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/data/plate-crack-blend-2d.json")).unwrap();
+    let mut v: Value = serde_json::from_str(&text).unwrap();
+    v["grid"]["spacing"] = json!(h);
+    v["grid"]["layer"] = json!(3.0 * h);
+    v["model"]["horizon"] = json!(3.0 * h);
+    let y = 0.5 + h / 2.0;
+    v["model"]["material"]["defects"][0]["segment"] = json!([[0.3, y], [0.7, y]]);
+    let m = v["model"].as_object_mut().unwrap();
+    m.remove("transition");
+    m.remove("transition_profile");
+    m.insert("pd_regions".into(), json!("auto"));
+    v
+}
+
+fn solve(v: &Value) -> linpd::problem::Solution {
+    Problem::from_json(&v.to_string()).unwrap().solve(&NoProgress).unwrap()
+}
+
+fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    let m = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max) / m
+}
+
+/// At h = 0.005 (42,849 lattice nodes), cells up to 8h with 4 cells per level: the solution
+/// drawn on every lattice node is within 1e-3 of the pure bond model's (the issue's target;
+/// measured 5.87e-4, the lattice blend 5.80e-4) with 0.50x its unknowns (bound 0.6x), and its
+/// forces balance like the lattice blend's (3.6e-7 there).
+#[test]
+fn graded_crack_plate_matches_the_bond_model() {
+    let h = 0.005;
+    let mut graded = plate(h);
+    graded["model"]["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": 4});
+    let mut pd = plate(h);
+    pd["model"].as_object_mut().unwrap().remove("pd_regions");
+    let (g, p) = (solve(&graded), solve(&pd));
+    assert_eq!(g.u.len(), p.u.len(), "one displacement per lattice DOF");
+    let err = max_rel_diff(&g.u, &p.u);
+    println!("graded: {} unknowns against {}, error {err:.2e}", g.report.n, p.report.n);
+    assert!(err <= 1e-3, "max |u_graded - u_pd| / max |u_pd| = {err:e}");
+    assert!(5 * g.report.n < 3 * p.report.n, "{} unknowns against {}", g.report.n, p.report.n);
+    let note = g.report.notes.join("; ");
+    assert!(note.contains("graded local mesh") && note.contains("masters") && note.contains("cells of 4h"), "{note}");
+    // reactions against the prescribed pull: the lattice blend's balance (GMRES to 1e-10)
+    let imbalance = g.balance.as_ref().unwrap().relative_imbalance;
+    assert!(imbalance <= 1e-6, "relative imbalance {imbalance:e}");
+}
+
+/// `max_cell` equal to the spacing keeps every cell on the lattice: the same model as without
+/// `local_mesh`, to the round-off of sparse LU (1e-12).
+#[test]
+fn ungraded_local_mesh_is_the_lattice_blend() {
+    let mut lattice = plate(0.02);
+    lattice["solver"] = json!({"type": "lu"});
+    let mut graded = lattice.clone();
+    graded["model"]["local_mesh"] = json!({"max_cell": 0.02});
+    let (g, l) = (solve(&graded), solve(&lattice));
+    let err = max_rel_diff(&g.u, &l.u);
+    assert!(err <= 1e-12, "graded without coarse cells vs lattice blend: {err:e}");
+}
+
+fn error_of(edit: impl Fn(&mut Value)) -> String {
+    let mut v = plate(0.02);
+    v["model"]["local_mesh"] = json!({"max_cell": 0.16});
+    edit(&mut v);
+    match Problem::from_json(&v.to_string()) {
+        Ok(p) => p.solve(&NoProgress).map(|_| ()).unwrap_err().to_string(),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_local_meshes_are_named() {
+    let e = error_of(|v| v["model"]["local_mesh"]["max_cell"] = json!(0.01));
+    assert!(e.contains("model.local_mesh.max_cell") && e.contains("below the grid spacing"), "{e}");
+    let e = error_of(|v| v["model"]["local_mesh"]["cells_per_level"] = json!(0));
+    assert!(e.contains("model.local_mesh.cells_per_level") && e.contains("at least 1"), "{e}");
+    let e = error_of(|v| v["model"]["local_mesh"]["grading"] = json!(2));
+    assert!(e.contains("model.local_mesh") && e.contains("unknown field `grading`"), "{e}");
+    let e = error_of(|v| {
+        v["model"].as_object_mut().unwrap().remove("pd_regions");
+    });
+    assert!(e.contains("model.local_mesh") && e.contains("belongs to pd_regions"), "{e}");
+    // export numbers the lattice's DOFs: refused, not the lattice blend in its place
+    let mut v = plate(0.02);
+    v["model"]["local_mesh"] = json!({"max_cell": 0.16});
+    let p = Problem::from_json(&v.to_string()).unwrap();
+    let e = linpd::problem::export::reduced_system(&p, &NoProgress).map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("model.local_mesh") && e.contains("linpd solve"), "{e}");
+}
