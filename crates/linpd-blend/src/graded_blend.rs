@@ -72,6 +72,7 @@ pub struct GradedBlend {
     /// The SPD companion of `A` (see the module docs).
     m: Csc,
     zones: Zones,
+    estimate: f64,
 }
 
 impl GradedBlend {
@@ -116,6 +117,17 @@ impl GradedBlend {
             })
         };
         let mesh = GradedMesh::new(&lattice, &corner_near, grading)?;
+        let estimate = peak_bytes(op, &mesh, &in_r, grid);
+        linpd_core::memory::check(
+            format!(
+                "the graded blend ({} lattice nodes with their bonds and element moduli, {} masters with their rows)",
+                n,
+                mesh.n_masters()
+            ),
+            estimate,
+            "use a larger max_cell or fewer cells_per_level, or a coarser spacing",
+        )
+        .map_err(|e| BlendError::param("model.local_mesh", e.to_string()))?;
 
         let rows = BlendRows {
             op,
@@ -171,7 +183,13 @@ impl GradedBlend {
         let (pd, transition, local) = zone_counts(family, &beta);
         let zones = Zones { pd, transition, local, nnz: a.val().len(), nnz_pd: d * d * (n + family.n_bonds()) };
         let positions: Vec<Point> = master_node.iter().map(|&i| grid.position(i)).collect();
-        Ok(GradedBlend { mesh, master_node, a: AssembledModel::new("blend", d, positions, a), m, zones })
+        Ok(GradedBlend { mesh, master_node, a: AssembledModel::new("blend", d, positions, a), m, zones, estimate })
+    }
+
+    /// The estimate of the peak bytes of building and solving this model (checked against the
+    /// available memory once the mesh was known, before the rows were built; see `peak_bytes`).
+    pub fn memory_estimate(&self) -> f64 {
+        self.estimate
     }
 
     /// The graded mesh.
@@ -230,6 +248,52 @@ impl GradedBlend {
         }
         out
     }
+}
+
+/// Bytes per lattice node held through the build: the bond operator's per-node lists, `beta`,
+/// the zone and distance maps.
+const LATTICE_NODE_BYTES: f64 = 96.0 + 8.0 + 24.0;
+/// Bytes per lattice node of the element moduli `D_i` (81 values), dropped after the rows.
+const MODULI_BYTES: f64 = 648.0;
+/// Bytes per bond of the bond operator (neighbour index and weight).
+const BOND_BYTES: f64 = 12.0;
+/// Bytes per master DOF of the solve: the assembled solve's vectors and GMRES's basis (the
+/// scene's blend estimate, `crates/linpd-scene/src/memory.rs`).
+const MASTER_DOF_BYTES: f64 = 128.0 + 408.0;
+
+/// The peak bytes of [`GradedBlend::new`] and its solve, the largest of its three phases over
+/// what the whole run holds (the bond operator and the per-node maps, `L`):
+/// 1. `K_M` from its triplets: `L`, the moduli, the triplets (24 bytes, `(2^d d)^2` a cell)
+///    and `K_M` (16 bytes an entry, `3^d d^2` a master);
+/// 2. the rows: `L`, the moduli, `K_M`, the block rows of `A` and `M` (80 bytes a block each:
+///    Algorithm A's `|F| + 1` for the nodes of `R`, `3^d` for the others) and `A`, `M` (16
+///    bytes an entry each);
+/// 3. the solve: `L`, `A`, `M` and their free restrictions (16 bytes an entry each), the
+///    vectors per master DOF.
+fn peak_bytes(op: &BondOperator, mesh: &GradedMesh, in_r: &[bool], grid: &Grid) -> f64 {
+    let d = op.dim();
+    let n = op.n_nodes() as f64;
+    let held = n * LATTICE_NODE_BYTES + op.family().n_bonds() as f64 * BOND_BYTES;
+    let moduli = n * MODULI_BYTES;
+    let local_blocks = 3f64.powi(d as i32);
+    let blocks: f64 = (0..mesh.nodes().len())
+        .filter(|&g| mesh.master_of(g).is_some())
+        .map(|g| {
+            let i = grid.node_at_site(mesh.nodes()[g]).expect("a full grid has every site");
+            if in_r[i] {
+                op.family().neighbors(i).len() as f64 + 1.0
+            } else {
+                local_blocks
+            }
+        })
+        .sum();
+    let dd = (d * d) as f64;
+    let (entries, masters) = (blocks * dd, mesh.n_masters() as f64);
+    let k_m = masters * local_blocks * dd * 16.0;
+    let triplets = mesh.cells().len() as f64 * ((d << d) as f64).powi(2) * 24.0;
+    let build = held + moduli + k_m + triplets.max(2.0 * blocks * 80.0 + 2.0 * entries * 16.0);
+    let solve = held + 4.0 * entries * 16.0 + d as f64 * masters * MASTER_DOF_BYTES;
+    build.max(solve)
 }
 
 /// Whether node `i` is within `r` sites of a face of the lattice box.

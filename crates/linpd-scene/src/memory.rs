@@ -53,6 +53,9 @@ pub const MATRIX_FREE_DOF_BYTES: f64 = 176.0;
 /// Per stored entry of the bond model's `A`, the blended model (`A`, `M`, their free-DOF
 /// restrictions, 16 bytes each).
 pub const BLEND_ENTRY_BYTES: f64 = 64.0;
+/// Per lattice node of a graded blend on top of [`NODE_BYTES`]: its element moduli `D_i`
+/// (81 values) and maps.
+pub const GRADED_NODE_BYTES: f64 = 680.0;
 /// Per DOF, GMRES on top of an assembled solve's vectors: the restart-50 Krylov basis.
 pub const GMRES_DOF_BYTES: f64 = 408.0;
 
@@ -101,6 +104,10 @@ pub enum Path {
     LpsAssembled,
     /// The blended model (`pd_regions`) with its SPD companion, solved by GMRES.
     BlendAssembled,
+    /// The lattice-wide part of a blended model on a graded local mesh (`local_mesh`): the
+    /// bonds and element moduli of every lattice node; the masters' part is checked once the
+    /// mesh is known ([`linpd_blend::GradedBlend::new`]).
+    GradedBlendLattice,
 }
 
 /// The estimated peak bytes of `path` on `grid` with `horizon`, and a description of it.
@@ -138,6 +145,10 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
         Path::BlendAssembled => (
             format!("the blended model and its SPD companion on {nodes} nodes with ~{nb:.0} bonds each"),
             base + n * (nb + 1.0) * dd * BLEND_ENTRY_BYTES + dofs * (ASSEMBLED_DOF_BYTES + GMRES_DOF_BYTES),
+        ),
+        Path::GradedBlendLattice => (
+            format!("the bonds and element moduli of the graded blend's {nodes} lattice nodes (~{nb:.0} bonds each)"),
+            base + n * GRADED_NODE_BYTES,
         ),
         Path::LpsAssembled => (
             format!(
@@ -284,7 +295,9 @@ pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> R
     }
     let hint = match path {
         Path::BondAssembled => "use a coarser spacing, a smaller horizon or the matrix-free cg solver",
-        Path::BlendAssembled => "use a coarser spacing, a smaller horizon, or smaller PD regions",
+        Path::BlendAssembled | Path::GradedBlendLattice => {
+            "use a coarser spacing, a smaller horizon, or smaller PD regions"
+        }
         _ => "use a coarser spacing or a smaller horizon",
     };
     memory::check(what, bytes, hint).map_err(|e: OutOfMemory| ProblemError::invalid("model.horizon", e.to_string()))?;

@@ -355,14 +355,10 @@ impl LatticeBlendModel {
 impl LatticeBlendModel {
     /// The system of the graded blend: over the masters, the scene's constraints at the
     /// masters' nodes and its loads as `P^T f`.
-    fn graded_system(
-        &self,
-        p: &Problem,
-        grading: Grading,
-        memory_estimate: Option<f64>,
-    ) -> Result<System, ProblemError> {
+    fn graded_system(&self, p: &Problem, grading: Grading) -> Result<System, ProblemError> {
         let grid = p.lattice()?;
         let g = self.build_graded(p, grading)?;
+        let memory_estimate = Some(g.graded.memory_estimate());
         let d = p.dim();
         let (mask, ubar) = p.constrained();
         let masters = g.graded.master_nodes();
@@ -541,10 +537,14 @@ impl SceneModel for LatticeBlendModel {
     fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
         // assembled whole for every purpose but rows; GMRES when solved (its multigrid hierarchy,
         // when asked, comes from M)
+        let path = match self.zone.local_mesh {
+            Some(_) => crate::memory::Path::GradedBlendLattice,
+            None => crate::memory::Path::BlendAssembled,
+        };
         let memory_estimate = match purpose {
             Purpose::Rows => None,
             _ => Some(crate::memory::check_solver(
-                crate::memory::Path::BlendAssembled,
+                path,
                 p.lattice()?,
                 self.bond.horizon,
                 purpose == Purpose::Solve && p.solver().uses_multigrid(),
@@ -560,7 +560,7 @@ impl SceneModel for LatticeBlendModel {
                      which export and the row-block paths number); remove local_mesh to export the lattice blend",
                 ));
             }
-            return self.graded_system(p, grading, memory_estimate);
+            return self.graded_system(p, grading);
         }
         let model = self.build(p)?;
         let z = model.zones();
