@@ -86,32 +86,33 @@ fn item_3_lps_memory_guard_counts_two_delta() {
     );
 }
 
-/// Matrix-free 3D 130^3 (delta = 4h, 256 bonds a node) and a 1D matrix-free bar of 6e8 nodes:
-/// bonds, weights and the CG vectors are counted (the old guard counted 12 bytes a bond).
+/// Matrix-free 3D 140^3 (delta = 4h, 256 bonds a node) and a 1D matrix-free bar of 6e8 nodes:
+/// bonds, weights and the CG vectors are counted (the old guard counted 12 bytes a bond and no
+/// vectors).
 #[test]
 fn item_3_matrix_free_memory_guard_counts_vectors() {
-    let h = 1.0 / 130.0;
+    let h = 1.0 / 140.0;
     let mf = json!({"type": "cg", "matrix_free": true});
-    let (out, took) = linpd("validate", "mf130", &scene(3, h, bond(4.0 * h, 1.0), mf.clone()));
-    assert_rejected("matrix-free 130^3", &out, took, &["2248091 nodes", "9.9 GiB", "8.0 GiB available"]);
+    let (out, took) = linpd("validate", "mf140", &scene(3, h, bond(4.0 * h, 1.0), mf.clone()));
+    assert_rejected("matrix-free 140^3", &out, took, &["2803221 nodes", "9.6 GiB", "8.0 GiB available"]);
     let h = 1.0 / 6e8;
     let (out, took) = linpd("solve", "bar6e8", &scene(1, h, bond(h, 1.0), mf));
     assert_rejected("1D bar of 6e8 nodes", &out, took, &["600000001 nodes", "GiB, more than the 8.0 GiB available"]);
 }
 
 /// Multigrid counts its hierarchy (`P`, `R`, coarse levels, the setup's transient `A P`) on
-/// top of the matrix-free operator: a 110^3 cube at delta = 3h fits an 8 GiB machine with
-/// matrix-free Jacobi-PCG but not with matrix-free multigrid, which is refused at validation
-/// (the scene names its solver) before anything per node is built.
+/// top of the matrix-free operator: a 120^3 cube at delta = 3h fits an 8 GiB machine with
+/// matrix-free Jacobi-PCG but not with matrix-free multigrid (1250 bytes a DOF), which is
+/// refused at validation (the scene names its solver) before anything per node is built.
 #[test]
 fn item_3_multigrid_memory_guard_counts_the_hierarchy() {
-    let h = 1.0 / 110.0;
+    let h = 1.0 / 120.0;
     let jacobi = json!({"type": "cg", "matrix_free": true});
-    let (out, _) = linpd("validate", "jacobi110-validate", &scene(3, h, bond(3.0 * h, 1.0), jacobi));
+    let (out, _) = linpd("validate", "jacobi120-validate", &scene(3, h, bond(3.0 * h, 1.0), jacobi));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let mg = json!({"type": "cg", "matrix_free": true, "preconditioner": "multigrid"});
-    let (out, took) = linpd("validate", "mg110", &scene(3, h, bond(3.0 * h, 1.0), mg));
-    assert_rejected("multigrid 110^3", &out, took, &["multigrid hierarchy", "8.0 GiB available"]);
+    let (out, took) = linpd("validate", "mg120", &scene(3, h, bond(3.0 * h, 1.0), mg));
+    assert_rejected("multigrid 120^3", &out, took, &["multigrid hierarchy", "9.6 GiB", "8.0 GiB available"]);
 }
 
 /// CG whose recursive residual meets rtol but whose true residual cannot (1D bar of 1000

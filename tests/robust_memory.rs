@@ -235,7 +235,7 @@ fn item_2_cloud_estimate_counts_the_families() {
 // ---------------------------------------------------------------------------------------------
 
 /// A 3D grid of 11 x 11 x 14 = 1,694 nodes with horizon 50 h: every family is the whole body
-/// (1,693 bonds), 0.6 GB estimated, not the 191.6 GiB of an infinite lattice's ball of
+/// (1,693 bonds), 0.5 GiB estimated, not the 191.6 GiB of an infinite lattice's ball of
 /// 523,598 neighbours. It validates at a 2 GiB limit, and at 0.2 GiB is refused naming the
 /// capped count.
 #[test]
@@ -248,7 +248,7 @@ fn item_3_family_capped_by_the_node_count() {
     assert_refused(
         "1694 nodes at 50 h, 0.2 GiB",
         &r,
-        &["model.horizon", "1694 nodes with ~1693 bonds each", "0.6 GiB"],
+        &["model.horizon", "1694 nodes with ~1693 bonds each", "0.5 GiB"],
     );
 }
 

@@ -39,13 +39,16 @@ use std::collections::HashSet;
 
 /// Per node (see the module docs).
 pub const NODE_BYTES: f64 = 96.0;
-/// Per bond while the family and its weights are built (measured: 12.5 with the per-node
-/// bytes, 3D matrix-free at delta = 3h).
-pub const BOND_BYTES: f64 = 16.0;
-/// Per stored entry of the assembled bond stiffness.
-pub const ENTRY_BYTES: f64 = 24.0;
+/// Per bond while the family and its weights are built (fits of two sizes each, the process
+/// baseline cancelled: 10.6-11.7 in 3D matrix-free runs, 15.4 in 2D; docs/robustness.md).
+pub const BOND_BYTES: f64 = 12.0;
+/// Per stored entry of the assembled bond stiffness (fits: 18.6-19.1 in 3D, 19.8-21.6 in 2D).
+pub const ENTRY_BYTES: f64 = 20.0;
 /// Per stored entry of the LPS tangent (the full tangent and its free-DOF copy).
 pub const TANGENT_ENTRY_BYTES: f64 = 32.0;
+/// Per stored entry of the LPS tangent on a point cloud (fits: 41.7-41.9 against the exact
+/// count of node pairs within 2 delta).
+pub const CLOUD_TANGENT_ENTRY_BYTES: f64 = 42.0;
 /// Per DOF, assembled solve.
 pub const ASSEMBLED_DOF_BYTES: f64 = 128.0;
 /// Per DOF, matrix-free CG.
@@ -194,14 +197,20 @@ pub fn check_lps_work(nodes: usize, family: f64, ratio: f64) -> Result<(), Probl
     Ok(())
 }
 
+/// Pair tests [`count_pairs`] spends on an exact count when the cells' bound already shows the
+/// count fits (about a second on 2 cores).
+pub const EXACT_PAIR_TESTS: u64 = 1_000_000_000;
+
 /// The ordered pairs `(i, j)`, `i != j`, of `points` within `radius` (the bonds of families of
 /// that horizon, counted from both ends, with the tolerance of
 /// [`linpd_core::BondFamily::from_points`]), by a cell list of cell size `radius`, without
 /// building a family. Stops as soon as the count exceeds `stop` (then returns a count `> stop`,
 /// with the number of nodes whose pairs were counted, `< points.len()`), so a cloud whose
 /// families would not fit costs about `stop` pair tests; when the cells' populations alone
-/// bound the count by `stop` (`sum_c |c| |neighbourhood of c|`), nothing is tested and that
-/// bound is returned. Returns `(pairs, nodes counted)`.
+/// bound the count by `stop` (`sum_c |c| |neighbourhood of c|`) and that bound is above
+/// [`EXACT_PAIR_TESTS`], nothing is tested and the bound is returned (it overcounts a uniform
+/// cloud's pairs by the `3^d` cells against the ball: 2.9x in 2D). Returns `(pairs, nodes
+/// counted)`.
 pub fn count_pairs(points: &[linpd_core::Point], dim: usize, radius: f64, stop: u64) -> (u64, usize) {
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicU64, Ordering};
@@ -210,7 +219,7 @@ pub fn count_pairs(points: &[linpd_core::Point], dim: usize, radius: f64, stop: 
     }
     let cells = linpd_core::family::CellList::new(points, dim, radius);
     let bound = cells.pair_bound();
-    if bound <= stop {
+    if bound <= stop && bound > EXACT_PAIR_TESTS {
         return (bound, points.len());
     }
     let (total, counted) = (AtomicU64::new(0), AtomicU64::new(0));
@@ -232,8 +241,15 @@ pub fn count_pairs(points: &[linpd_core::Point], dim: usize, radius: f64, stop: 
 /// (and, for the LPS tangent, the node pairs within its 2-delta reach) counted by
 /// [`count_pairs`] before any family is allocated. The mean spacing says nothing about a
 /// cloud's families: 3,000 nodes within one horizon hold 9e6 bonds (1.2 GB assembled) however
-/// large their volumes. `Ok` holds the estimate in bytes.
-pub fn check_cloud(path: Path, dim: usize, points: &[linpd_core::Point], horizon: f64) -> Result<f64, ProblemError> {
+/// large their volumes. `multigrid`: the solver builds a multigrid hierarchy (`auto` on a bond
+/// cloud does). `Ok` holds the estimate in bytes.
+pub fn check_cloud(
+    path: Path,
+    dim: usize,
+    points: &[linpd_core::Point],
+    horizon: f64,
+    multigrid: bool,
+) -> Result<f64, ProblemError> {
     let n = points.len();
     let nf = (n as f64).max(1.0);
     let (available, _) = memory::available_bytes();
@@ -257,7 +273,15 @@ pub fn check_cloud(path: Path, dim: usize, points: &[linpd_core::Point], horizon
     let (_, b0) = estimate_counts(path, dim, n, 0.0, rows);
     let (_, b1) = estimate_counts(path, dim, n, 1.0, rows);
     let (nb, p) = mean(count_pairs(points, dim, horizon, stop_at(b0, b1)));
-    let (what, bytes) = estimate_counts(path, dim, n, nb, rows.max(nb + 1.0));
+    let rows = rows.max(nb + 1.0);
+    let (mut what, mut bytes) = estimate_counts(path, dim, n, nb, rows);
+    if path == Path::LpsAssembled {
+        bytes += n as f64 * rows * (dim * dim) as f64 * (CLOUD_TANGENT_ENTRY_BYTES - TANGENT_ENTRY_BYTES);
+    }
+    if multigrid {
+        bytes += (n * dim) as f64 * multigrid_dof_bytes(dim, false);
+        what += " and its multigrid hierarchy";
+    }
     let how = if partial || p { "extrapolated from the families counted" } else { "counted within the horizon" };
     memory::check(
         format!("{what} ({how})"),
@@ -269,14 +293,16 @@ pub fn check_cloud(path: Path, dim: usize, points: &[linpd_core::Point], horizon
 }
 
 /// Per DOF, the multigrid hierarchy on top of its path: `P`, `R = P^T`, the coarse levels and
-/// the transient `A P` of the setup (measured peaks over Jacobi-PCG's in the same run,
-/// `linpd bench --statics`: 3D `delta = 3h` 2.9-3.4 kB, 2D `delta = 2h` 0.9 kB; 1D: the
-/// 2D figure, an upper bound).
-pub fn multigrid_dof_bytes(dim: usize) -> f64 {
-    if dim == 3 {
-        3500.0
-    } else {
-        1000.0
+/// the transient `A P` of the setup; on a matrix-free path the finest level is not stored.
+/// Measured as the peak of a multigrid run minus that of the same run with Jacobi, across two
+/// sizes (docs/robustness.md): 3D matrix-free 1165-1276 B, assembled 1491-1516 B; 2D
+/// matrix-free 418-458 B, assembled 499 (blend) to 759-866 (point cloud). 1D: the 2D figures.
+pub fn multigrid_dof_bytes(dim: usize, matrix_free: bool) -> f64 {
+    match (dim == 3, matrix_free) {
+        (true, true) => 1250.0,
+        (true, false) => 1500.0,
+        (false, true) => 460.0,
+        (false, false) => 700.0,
     }
 }
 
@@ -290,7 +316,7 @@ pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<f64, ProblemError>
 pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> Result<f64, ProblemError> {
     let (mut what, mut bytes) = estimate(path, grid, horizon);
     if multigrid {
-        bytes += (grid.len() * grid.dim()) as f64 * multigrid_dof_bytes(grid.dim());
+        bytes += (grid.len() * grid.dim()) as f64 * multigrid_dof_bytes(grid.dim(), path == Path::BondMatrixFree);
         what += " and its multigrid hierarchy";
     }
     let hint = match path {

@@ -772,7 +772,13 @@ pub(crate) fn cloud_nodes(
             format!("horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing"),
         ));
     }
-    let _ = crate::memory::check_cloud(path, dim, &cloud.positions, horizon)?;
+    // `auto` and multigrid build a hierarchy on a bond cloud (an LPS cloud's is negligible
+    // against its tangent: the same peaks with Jacobi and multigrid, docs/robustness.md)
+    let multigrid = path == crate::memory::Path::BondAssembled
+        && dim >= 2
+        && (raw.solver.kind == crate::raw::RawSolverKind::Auto
+            || raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid));
+    let _ = crate::memory::check_cloud(path, dim, &cloud.positions, horizon, multigrid)?;
     Ok((crate::cloud::into_nodes(cloud, dim), h))
 }
 

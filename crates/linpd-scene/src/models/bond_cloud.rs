@@ -94,13 +94,18 @@ impl SceneModel for BondCloudModel {
         progress.phase(&format!("building bonds: {} nodes of the point cloud", p.nodes().len()));
         let (op, _) = self.bond.operator(p.nodes())?;
         let (n, bonds) = (p.nodes().len(), op.family().n_bonds());
-        let (_, bytes) = crate::memory::estimate_counts(
+        let (_, mut bytes) = crate::memory::estimate_counts(
             crate::memory::Path::BondAssembled,
             p.dim(),
             n,
             bonds as f64 / n as f64,
             1.0,
         );
+        // `auto` and multigrid build a hierarchy on top (see `crate::validate::cloud_nodes`)
+        let multigrid = matches!(p.solver(), linpd_solve::SolverSpec::Auto(_)) || p.solver().uses_multigrid();
+        if multigrid && p.dim() >= 2 {
+            bytes += (n * p.dim()) as f64 * crate::memory::multigrid_dof_bytes(p.dim(), false);
+        }
         Ok(System {
             n_bonds: bonds,
             model: Arc::new(op),

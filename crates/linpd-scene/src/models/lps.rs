@@ -249,6 +249,7 @@ impl SceneModel for LpsSceneModel {
                 p.dim(),
                 &p.nodes().positions(),
                 self.params.horizon,
+                false,
             )?),
             _ => None,
         };
