@@ -65,6 +65,10 @@ pub struct DynamicsRun {
     pub wall_seconds: f64,
     /// Wall time of the set-up (operator, limit).
     pub setup_seconds: f64,
+    /// The memory guard's estimate of the run's peak (operator, vectors, snapshots).
+    pub memory_estimate_bytes: f64,
+    /// The measured peak resident memory (`None` where the OS does not say).
+    pub peak_rss_bytes: Option<u64>,
 }
 
 impl DynamicsRun {
@@ -139,6 +143,8 @@ impl DynamicsRun {
                 "bond_updates_per_second": self.bond_updates_per_second(),
                 "max_total_drift": self.max_total_drift(),
                 "max_shadow_drift": self.max_shadow_drift(),
+                "memory_estimate_bytes": self.memory_estimate_bytes,
+                "peak_rss_bytes": self.peak_rss_bytes,
             }
         })
     }
@@ -370,7 +376,17 @@ pub fn run_dynamics(p: &Problem, progress: &dyn Progress) -> Result<DynamicsRun,
         snapshots,
         wall_seconds,
         setup_seconds,
+        memory_estimate_bytes: memory_estimate(d, n_nodes, dynamics, op.family().n_bonds()),
+        peak_rss_bytes: linpd_solve::peak_rss_bytes(),
     })
+}
+
+/// The memory guard's estimate of a run ([`crate::memory::Path::BondDynamics`] with the real
+/// bond count, and the snapshots).
+fn memory_estimate(d: usize, n_nodes: usize, dynamics: &Dynamics, bonds: usize) -> f64 {
+    let nb = bonds as f64 / n_nodes.max(1) as f64;
+    let (_, operator) = crate::memory::estimate_counts(crate::memory::Path::BondDynamics, d, n_nodes, nb, 1.0);
+    operator + crate::dynamics::snapshot_bytes(dynamics.steps(), dynamics.output_every(), d, n_nodes)
 }
 
 #[cfg(test)]

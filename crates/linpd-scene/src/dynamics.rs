@@ -192,13 +192,21 @@ fn check_run_size(
             ),
         ));
     }
-    let bytes = snapshots as f64 * (dim * n_nodes) as f64 * 8.0;
+    let (what, operator) =
+        crate::memory::estimate_nodes(crate::memory::Path::BondDynamics, dim, n_nodes, horizon_ratio);
+    let bytes = operator + snapshot_bytes(steps, output_every, dim, n_nodes);
     linpd_core::memory::check(
-        format!("{snapshots} displacement snapshots of {n_nodes} nodes"),
+        format!("{what}, with {snapshots} displacement snapshots"),
         bytes,
-        "use a larger output_every",
+        "use a larger output_every, or fewer nodes",
     )
     .map_err(|e| ProblemError::invalid("dynamics.output_every", e.to_string()))
+}
+
+/// The bytes of the snapshots a run keeps until it writes them: `steps / output_every + 1`
+/// vectors of the DOFs.
+pub fn snapshot_bytes(steps: usize, output_every: usize, dim: usize, n_nodes: usize) -> f64 {
+    (steps / output_every.max(1) + 1) as f64 * (dim * n_nodes) as f64 * 8.0
 }
 
 /// Validates `dynamics` (shape was checked by serde; whether the model has explicit dynamics

@@ -56,6 +56,10 @@ pub const MATRIX_FREE_DOF_BYTES: f64 = 176.0;
 /// Per stored entry of the bond model's `A`, the blended model (`A`, `M`, their free-DOF
 /// restrictions, 16 bytes each).
 pub const BLEND_ENTRY_BYTES: f64 = 64.0;
+/// Per DOF, explicit dynamics: displacement, velocity, acceleration, force, load, mass and the
+/// operator's scratch (fit of a 1D bar at 1M and 2M nodes: 395-460 bytes a node with 20 bonds
+/// and two snapshots, i.e. 43-108 a DOF beyond the bonds).
+pub const DYNAMICS_DOF_BYTES: f64 = 96.0;
 /// Per lattice node of a graded blend on top of [`NODE_BYTES`]: its element moduli `D_i`
 /// (81 values) and maps.
 pub const GRADED_NODE_BYTES: f64 = 680.0;
@@ -107,6 +111,9 @@ pub enum Path {
     LpsAssembled,
     /// The blended model (`pd_regions`) with its SPD companion, solved by GMRES.
     BlendAssembled,
+    /// The bond operator stepped by explicit dynamics (`linpd run`), without its snapshots
+    /// (counted by the dynamics section's check).
+    BondDynamics,
     /// The lattice-wide part of a blended model on a graded local mesh (`local_mesh`): the
     /// bonds and element moduli of every lattice node; the masters' part is checked once the
     /// mesh is known ([`linpd_blend::GradedBlend::new`]).
@@ -148,6 +155,10 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
         Path::BlendAssembled => (
             format!("the blended model and its SPD companion on {nodes} nodes with ~{nb:.0} bonds each"),
             base + n * (nb + 1.0) * dd * BLEND_ENTRY_BYTES + dofs * (ASSEMBLED_DOF_BYTES + GMRES_DOF_BYTES),
+        ),
+        Path::BondDynamics => (
+            format!("the bond operator and velocity-Verlet vectors of {nodes} nodes with ~{nb:.0} bonds each"),
+            base + dofs * DYNAMICS_DOF_BYTES,
         ),
         Path::GradedBlendLattice => (
             format!("the bonds and element moduli of the graded blend's {nodes} lattice nodes (~{nb:.0} bonds each)"),

@@ -32,6 +32,7 @@ impl ModelType for BondType {
         }
         let dim = cx.dim();
         let matrix_free = cx.raw.solver.matrix_free || cx.raw.dynamics.is_some();
+        let dynamics = cx.raw.dynamics.is_some();
         let uses_multigrid = cx.raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid);
         let stencil = raw.material.phases.is_empty()
             && raw.material.defects.is_empty()
@@ -41,6 +42,7 @@ impl ModelType for BondType {
         let path_of = |grid: &linpd_core::Grid| match (matrix_free, raw.pd_regions.is_some()) {
             (_, true) if raw.local_mesh.is_some() => (crate::memory::Path::GradedBlendLattice, false),
             (_, true) => (crate::memory::Path::BlendAssembled, uses_multigrid),
+            (true, false) if dynamics => (crate::memory::Path::BondDynamics, false),
             (true, false) => (crate::memory::Path::BondMatrixFree, uses_multigrid),
             (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, stencil) => {
                 (crate::memory::Path::BondMatrixFree, true)
