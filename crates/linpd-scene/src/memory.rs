@@ -49,6 +49,20 @@ pub const TANGENT_ENTRY_BYTES: f64 = 32.0;
 /// Per stored entry of the LPS tangent on a point cloud (fits: 41.7-41.9 against the exact
 /// count of node pairs within 2 delta).
 pub const CLOUD_TANGENT_ENTRY_BYTES: f64 = 42.0;
+/// Per stored entry of the assembled bond stiffness on a point cloud (fit: ~28 with the exact
+/// bond counts; its families are built by a cell list, not a stencil).
+pub const CLOUD_ENTRY_BYTES: f64 = 28.0;
+
+/// What a point cloud's estimate adds to the lattice formula of [`estimate_counts`] for `path`
+/// (`nb` bonds and `rows` tangent row nodes per node): the dearer entries of its assembly.
+pub fn cloud_extra(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64) -> f64 {
+    let (n, dd) = (nodes as f64, (dim * dim) as f64);
+    match path {
+        Path::LpsAssembled => n * rows * dd * (CLOUD_TANGENT_ENTRY_BYTES - TANGENT_ENTRY_BYTES),
+        Path::BondAssembled => n * (nb + 1.0) * dd * (CLOUD_ENTRY_BYTES - ENTRY_BYTES),
+        _ => 0.0,
+    }
+}
 /// Per DOF, assembled solve.
 pub const ASSEMBLED_DOF_BYTES: f64 = 128.0;
 /// Per DOF, matrix-free CG.
@@ -286,9 +300,7 @@ pub fn check_cloud(
     let (nb, p) = mean(count_pairs(points, dim, horizon, stop_at(b0, b1)));
     let rows = rows.max(nb + 1.0);
     let (mut what, mut bytes) = estimate_counts(path, dim, n, nb, rows);
-    if path == Path::LpsAssembled {
-        bytes += n as f64 * rows * (dim * dim) as f64 * (CLOUD_TANGENT_ENTRY_BYTES - TANGENT_ENTRY_BYTES);
-    }
+    bytes += cloud_extra(path, dim, n, nb, rows);
     if multigrid {
         bytes += (n * dim) as f64 * multigrid_dof_bytes(dim, false);
         what += " and its multigrid hierarchy";

@@ -101,6 +101,8 @@ impl SceneModel for BondCloudModel {
             bonds as f64 / n as f64,
             1.0,
         );
+        let nb = bonds as f64 / n as f64;
+        bytes += crate::memory::cloud_extra(crate::memory::Path::BondAssembled, p.dim(), n, nb, 1.0);
         // `auto` and multigrid build a hierarchy on top (see `crate::validate::cloud_nodes`)
         let multigrid = matches!(p.solver(), linpd_solve::SolverSpec::Auto(_)) || p.solver().uses_multigrid();
         if multigrid && p.dim() >= 2 {

@@ -287,23 +287,7 @@ impl LatticeBlendModel {
         let dim = grid.dim();
         // with phases or defects, a node is regular when its bonds carry the homogeneous weights
         // times one factor (no defect and no interface within its horizon)
-        let regular = if b.material.is_homogeneous() {
-            None
-        } else {
-            let hom = BondOperator::on_grid(grid, b.horizon, &b.micromodulus, &Material::default())
-                .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
-            Some(
-                (0..grid.len())
-                    .map(|i| {
-                        let (w, w0) = (op.weights(i), hom.weights(i));
-                        w.len() == w0.len() && {
-                            let f = w[0] / w0[0];
-                            w.iter().zip(w0).all(|(a, b)| (a - f * b).abs() <= 1e-12 * a.abs().max(f * b.abs()))
-                        }
-                    })
-                    .collect::<Vec<bool>>(),
-            )
-        };
+        let regular = if b.material.is_homogeneous() { None } else { Some(regular_nodes(grid, b, &op)?) };
         let (mask, _) = p.constrained();
         let constrained: Vec<bool> = (0..grid.len()).map(|i| (0..dim).any(|a| mask[dim * i + a])).collect();
         let inside = match &zone.regions {
@@ -426,6 +410,67 @@ fn graded_solution(
         dilatation: None,
         report,
     })
+}
+
+/// Whether each node's bonds carry the homogeneous weights times one factor (no defect and no
+/// interface within its horizon). On a full lattice with uniform volumes a homogeneous weight
+/// depends on the bond's lattice offset only, so the weights of one interior node of a small
+/// grid (`2 ceil(delta/h) + 2` cells a side) serve every node; a constant amplitude (the
+/// discrete normalization of a grid narrower than its horizon) cancels in the ratio. Other grids
+/// compare with a homogeneous operator on the whole grid.
+fn regular_nodes(grid: &Grid, b: &BondModel, op: &BondOperator) -> Result<Vec<bool>, ProblemError> {
+    let invalid = |e: linpd_core::CoreError| ProblemError::invalid("model", e.to_string());
+    let same = |w: &[f64], w0: &mut dyn Iterator<Item = Option<f64>>| {
+        let mut f = None;
+        w.iter().all(|&a| match w0.next().flatten() {
+            None => false,
+            Some(b) => {
+                let f = *f.get_or_insert(a / b);
+                (a - f * b).abs() <= 1e-12 * a.abs().max(f * b.abs())
+            }
+        })
+    };
+    let d = grid.dim();
+    if !(grid.is_full() && grid.has_uniform_volumes()) {
+        let hom = BondOperator::on_grid(grid, b.horizon, &b.micromodulus, &Material::default()).map_err(invalid)?;
+        return Ok((0..grid.len())
+            .into_par_iter()
+            .map(|i| {
+                op.weights(i).len() == hom.weights(i).len()
+                    && same(op.weights(i), &mut hom.weights(i).iter().map(|&x| Some(x)))
+            })
+            .collect());
+    }
+    let h = grid.spacing();
+    let r = (b.horizon / h).ceil() as i64 + 1;
+    let side = vec![2.0 * r as f64 * h; d];
+    let small = Grid::new(&vec![0.0; d], &side, h, 0.0, grid.placement()).map_err(invalid)?;
+    let hom = BondOperator::on_grid(&small, b.horizon, &b.micromodulus, &Material::default()).map_err(invalid)?;
+    let c = small
+        .node_at([0, 1, 2].map(|a| if a < d { small.lattice_index(0)[a] + r } else { 0 }))
+        .expect("the centre of the small grid");
+    let kc = small.lattice_index(c);
+    let w0: std::collections::HashMap<[i64; 3], f64> = hom
+        .family()
+        .neighbors(c)
+        .iter()
+        .zip(hom.weights(c))
+        .map(|(&j, &w)| {
+            let kj = small.lattice_index(j as usize);
+            ([0, 1, 2].map(|a| kj[a] - kc[a]), w)
+        })
+        .collect();
+    Ok((0..grid.len())
+        .into_par_iter()
+        .map(|i| {
+            let ki = grid.lattice_index(i);
+            let mut w0s = op.family().neighbors(i).iter().map(|&j| {
+                let kj = grid.lattice_index(j as usize);
+                w0.get(&[0, 1, 2].map(|a| kj[a] - ki[a])).copied()
+            });
+            same(op.weights(i), &mut w0s)
+        })
+        .collect())
 }
 
 /// A blend error as the scene's: the key it names (`model.pd_regions`), not
