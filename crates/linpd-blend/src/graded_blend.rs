@@ -257,9 +257,12 @@ const LATTICE_NODE_BYTES: f64 = 96.0 + 8.0 + 24.0;
 const MODULI_BYTES: f64 = 648.0;
 /// Bytes per bond of the bond operator (neighbour index and weight).
 const BOND_BYTES: f64 = 12.0;
-/// Bytes per master DOF of the solve: the assembled solve's vectors and GMRES's basis (the
-/// scene's blend estimate, `crates/linpd-scene/src/memory.rs`).
-const MASTER_DOF_BYTES: f64 = 128.0 + 408.0;
+/// Bytes per master DOF of the solve: the assembled solve's vectors, GMRES's basis and a
+/// multigrid hierarchy from `M` (the scene's blend estimate, `crates/linpd-scene/src/memory.rs`:
+/// 1500 in 3D, 700 in 2D).
+fn master_dof_bytes(d: usize) -> f64 {
+    128.0 + 408.0 + if d == 3 { 1500.0 } else { 700.0 }
+}
 
 /// The peak bytes of [`GradedBlend::new`] and its solve, the largest of its three phases over
 /// what the whole run holds (the bond operator and the per-node maps, `L`):
@@ -268,8 +271,8 @@ const MASTER_DOF_BYTES: f64 = 128.0 + 408.0;
 /// 2. the rows: `L`, the moduli, `K_M`, the block rows of `A` and `M` (80 bytes a block each:
 ///    Algorithm A's `|F| + 1` for the nodes of `R`, `3^d` for the others) and `A`, `M` (16
 ///    bytes an entry each);
-/// 3. the solve: `L`, `A`, `M` and their free restrictions (16 bytes an entry each), the
-///    vectors per master DOF.
+/// 3. the solve: `L`, `A`, `M` and their free restrictions (16 bytes an entry each), `A`'s
+///    interaction graph, the vectors and the multigrid hierarchy per master DOF.
 fn peak_bytes(op: &BondOperator, mesh: &GradedMesh, in_r: &[bool], grid: &Grid) -> f64 {
     let d = op.dim();
     let n = op.n_nodes() as f64;
@@ -292,7 +295,8 @@ fn peak_bytes(op: &BondOperator, mesh: &GradedMesh, in_r: &[bool], grid: &Grid) 
     let k_m = masters * local_blocks * dd * 16.0;
     let triplets = mesh.cells().len() as f64 * ((d << d) as f64).powi(2) * 24.0;
     let build = held + moduli + k_m + triplets.max(2.0 * blocks * 80.0 + 2.0 * entries * 16.0);
-    let solve = held + 4.0 * entries * 16.0 + d as f64 * masters * MASTER_DOF_BYTES;
+    // A, M, their free restrictions, and the interaction graph of A (4 bytes a block each way)
+    let solve = held + 4.0 * entries * 16.0 + 8.0 * blocks + d as f64 * masters * master_dof_bytes(d);
     build.max(solve)
 }
 

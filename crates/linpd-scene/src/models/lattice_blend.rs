@@ -97,10 +97,15 @@ pub enum PdRegions {
 /// (19,650 and 43,536 nodes) at 0.39x-0.46x the entries; radius 1 leaves 1.5e-3 on the hole,
 /// radius 0.5 2.6e-2 (the roller support's edge), radius 3 gains < 10 % for +7 % entries.
 pub const AUTO_RADIUS: f64 = 2.0;
-/// Default `model.transition` with `"pd_regions": "auto"`, in horizons (docs/models.md: on the
-/// centre-cracked plate 2 horizons gave 5.2e-4 against 5.9e-4 for 1, at 0.436x against 0.405x
-/// the entries).
+/// Default `model.transition` with `"pd_regions": "auto"` in 2D, in horizons (docs/models.md: on
+/// the centre-cracked plate 2 horizons gave 5.2e-4 against 5.9e-4 for 1, at 0.436x against
+/// 0.405x the entries).
 pub const AUTO_TRANSITION: f64 = 1.0;
+/// The same in 3D: with one horizon GMRES stagnated with every preconditioner built from `M`
+/// (a 21^3 blended cube: multigrid at 2.3e-5, the Cholesky of `M` at 7.8e-8 after 200
+/// iterations; a 32^3 block with a penny crack: multigrid at 4.3e-6, Jacobi 2.4e-7), with two it
+/// converges in 28-33 iterations (docs/models.md).
+pub const AUTO_TRANSITION_3D: f64 = 2.0;
 
 /// `model.pd_regions` and its transition keys on a bond model of a 2D/3D lattice.
 pub(crate) fn zone(grid: &Grid, raw: &RawBond, surface: Surface) -> Result<Option<PdZone>, ProblemError> {
@@ -142,6 +147,7 @@ pub(crate) fn zone(grid: &Grid, raw: &RawBond, surface: Surface) -> Result<Optio
     let h = grid.spacing();
     let width = match transition {
         Some(w) => w,
+        None if auto && dim == 3 => AUTO_TRANSITION_3D * horizon,
         None if auto => AUTO_TRANSITION * horizon,
         None => {
             return Err(ProblemError::invalid(

@@ -35,15 +35,17 @@ pub struct AutoParams {
     /// (a 32^3 cube) it is already ~1e9 entries, past [`crate::cost::CHOLESKY_MEMORY_LIMIT`].
     /// Default 100,000.
     pub cholesky_3d_max_unknowns: usize,
-    /// From this many unknowns `auto` solves an unsymmetric 2D system with an SPD approximation
-    /// `M` (the lattice blends) by GMRES + multigrid from `M` before trying the Cholesky factor
-    /// of `M`. Measured on the edge-cracked blend of `linpd study blend-2d` (radius 2; solver
-    /// seconds, GMRES + multigrid to rtol 1e-10 against the Cholesky of `M` + GMRES): 20k
-    /// unknowns 0.073 s against 0.178 s, 80k 0.37 against 0.81, 180k 0.58 against 1.92, 320k
-    /// 1.21 against 4.07 (the factor's triangular solves make each of its 14 GMRES iterations
-    /// dearer than the 29 of the multigrid). Not in 3D, where GMRES + multigrid stagnated on a
-    /// small notched block (the transition terms `M` leaves out are a large part of the body
-    /// there: docs/solvers.md). Default 20,000.
+    /// From this many unknowns `auto` solves an unsymmetric 2D or 3D system with an SPD
+    /// approximation `M` (the lattice blends) by GMRES + multigrid from `M` before trying the
+    /// Cholesky factor of `M`. Measured on the edge-cracked blend of `linpd study blend-2d`
+    /// (radius 2; solver seconds, GMRES + multigrid to rtol 1e-10 against the Cholesky of `M` +
+    /// GMRES): 20k unknowns 0.073 s against 0.178 s, 80k 0.37 against 0.81, 180k 0.58 against
+    /// 1.92, 320k 1.21 against 4.07 (the factor's triangular solves make each of its 14 GMRES
+    /// iterations dearer than the 29 of the multigrid). In 3D on a 21^3 blended cube (47,385
+    /// unknowns, transition 2 horizons): 33 iterations, 2.8 s against 24.5 s. (With transitions
+    /// of one horizon GMRES + multigrid stagnates in 3D, and so does the Cholesky of `M`: the
+    /// transition terms `M` leaves out are then `O(1)` of a row; `"pd_regions": "auto"` takes 2
+    /// horizons in 3D for that, docs/models.md.) Default 20,000.
     pub gmres_multigrid_2d_min_unknowns: usize,
 }
 
@@ -122,7 +124,7 @@ impl AutoParams {
     }
 
     /// The plan for an unsymmetric `A` of `n` unknowns in dimension `dim` with an SPD
-    /// approximation `M` (see [`UnsymmetricPlan`]): multigrid first in 2D from
+    /// approximation `M` (see [`UnsymmetricPlan`]): multigrid first in 2D and 3D from
     /// [`AutoParams::gmres_multigrid_2d_min_unknowns`] (measured faster than the Cholesky of
     /// `M`, see the field), the factor of `M` excluded in 3D past
     /// [`AutoParams::cholesky_3d_max_unknowns`] (LU would fill at least as much); both
@@ -130,7 +132,8 @@ impl AutoParams {
     pub fn plan_unsymmetric(&self, dim: usize, n: usize, has_geometry: bool) -> UnsymmetricPlan {
         let limit = self.gmres_multigrid_2d_min_unknowns;
         UnsymmetricPlan {
-            multigrid_first: (dim == 2 && n >= limit && has_geometry).then(|| format!("2D, {n} >= {limit} unknowns")),
+            multigrid_first: (dim >= 2 && n >= limit && has_geometry)
+                .then(|| format!("{dim}D, {n} >= {limit} unknowns")),
             factor_excluded: self.factor_excluded(dim, n),
             multigrid_fallback: has_geometry,
             jacobi_before_lu: dim == 3,
@@ -196,7 +199,11 @@ mod tests {
         let plan = p.plan_unsymmetric(2, 20_000, true);
         assert_eq!(plan.multigrid_first.as_deref(), Some("2D, 20000 >= 20000 unknowns"));
         assert_eq!(p.plan_unsymmetric(2, 20_000, false).multigrid_first, None);
-        assert_eq!(p.plan_unsymmetric(3, 200_000, true).multigrid_first, None);
+        assert_eq!(
+            p.plan_unsymmetric(3, 200_000, true).multigrid_first.as_deref(),
+            Some("3D, 200000 >= 20000 unknowns")
+        );
+        assert_eq!(p.plan_unsymmetric(1, 200_000, true).multigrid_first, None);
         assert!(p.plan_unsymmetric(3, 200_000, true).factor_excluded.is_some());
     }
 }
