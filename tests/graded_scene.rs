@@ -98,3 +98,55 @@ fn bad_local_meshes_are_named() {
     let e = linpd::problem::export::reduced_system(&p, &NoProgress).map(|_| ()).unwrap_err().to_string();
     assert!(e.contains("model.local_mesh") && e.contains("linpd solve"), "{e}");
 }
+
+/// result.vtu of a graded scene holds every lattice node and the mesh's leaves as quads, read
+/// by meshio (installed by `.ci/run`): the quads tile the lattice box exactly (their areas sum
+/// to its area, 1e-12), every quad is counter-clockwise (positive area: VTK's order), and the
+/// leaves are of at least two sizes.
+#[test]
+fn graded_vtu_carries_the_element_mesh() {
+    let h = 0.01;
+    let mut v = plate(h);
+    v["model"]["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": 1});
+    let dir = std::env::temp_dir().join(format!("linpd-graded-vtu-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("scene.json"), v.to_string()).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_linpd"))
+        .args(["solve", "scene.json", "-q", "--out", "out"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let script = r#"
+import json, sys, meshio
+m = meshio.read(sys.argv[1])
+assert len(m.cells) == 1 and m.cells[0].type == "quad", m.cells
+p = m.points
+areas = []
+for q in m.cells[0].data:
+    x, y = p[q, 0], p[q, 1]
+    areas.append(0.5 * sum(x[i] * y[(i + 1) % 4] - x[(i + 1) % 4] * y[i] for i in range(4)))
+print(json.dumps({"n": len(p), "areas": areas, "xmin": float(p[:, 0].min()), "xmax": float(p[:, 0].max()),
+                  "ymin": float(p[:, 1].min()), "ymax": float(p[:, 1].max())}))
+"#;
+    let py = std::process::Command::new("python3")
+        .arg("-c")
+        .arg(script)
+        .arg(dir.join("out/result.vtu"))
+        .output()
+        .expect("python3 runs");
+    assert!(py.status.success(), "meshio: {}", String::from_utf8_lossy(&py.stderr));
+    let r: Value = serde_json::from_slice(&py.stdout).unwrap();
+    let nodes = Problem::from_json(&v.to_string()).unwrap().nodes().len();
+    assert_eq!(r["n"].as_u64().unwrap() as usize, nodes, "one point per lattice node");
+    let areas: Vec<f64> = r["areas"].as_array().unwrap().iter().map(|a| a.as_f64().unwrap()).collect();
+    assert!(areas.iter().all(|&a| a > 0.0), "a clockwise or degenerate quad");
+    let f = |k: &str| r[k].as_f64().unwrap();
+    let box_area = (f("xmax") - f("xmin")) * (f("ymax") - f("ymin"));
+    let total: f64 = areas.iter().sum();
+    assert!((total - box_area).abs() <= 1e-12 * box_area, "quads cover {total} of {box_area}");
+    let (small, large) = areas.iter().fold((f64::MAX, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+    assert!(large >= 3.9 * small, "one cell size only: {small} .. {large}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -304,6 +304,7 @@ impl SceneModel for ScaledBond {
             strain_energy_density: None,
             strain: None,
             dilatation: None,
+            cells: None,
         })
     }
     fn as_any(&self) -> &dyn Any {

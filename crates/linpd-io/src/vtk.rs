@@ -215,7 +215,32 @@ pub struct PointArray<'a> {
 /// crates (`vtkio`) pull in a large dependency tree for it. Used by `linpd solve`
 /// (`result.vtu`) and `linpd run` (`u_<step>.vtu`).
 pub fn write_vtu(path: &Path, dim: usize, x: &[[f64; 3]], arrays: &[PointArray]) -> Result<(), IoError> {
+    write_vtu_cells(path, dim, x, arrays, None)
+}
+
+/// Cells of one VTK type over the points of a VTU file: `connectivity` holds `per_cell` point
+/// indices per cell, in VTK's order for `vtk_type` (9 = `VTK_QUAD`, 12 = `VTK_HEXAHEDRON`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cells {
+    /// The VTK cell type.
+    pub vtk_type: u8,
+    /// Points per cell.
+    pub per_cell: usize,
+    /// Point indices, `per_cell` per cell.
+    pub connectivity: Vec<usize>,
+}
+
+/// [`write_vtu`] with `cells` instead of one vertex cell per point (`None`: vertices), so that
+/// a reader draws the field over the cells (a blended model's graded element mesh).
+pub fn write_vtu_cells(
+    path: &Path,
+    dim: usize,
+    x: &[[f64; 3]],
+    arrays: &[PointArray],
+    cells: Option<&Cells>,
+) -> Result<(), IoError> {
     let n = x.len();
+    let n_cells = cells.map_or(n, |c| c.connectivity.len() / c.per_cell.max(1));
     let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(IoError::os(path))?);
     let mut body = || -> std::io::Result<()> {
         writeln!(w, r#"<?xml version="1.0"?>"#)?;
@@ -223,7 +248,7 @@ pub fn write_vtu(path: &Path, dim: usize, x: &[[f64; 3]], arrays: &[PointArray])
             w,
             r#"<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
         )?;
-        writeln!(w, "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">")?;
+        writeln!(w, "  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n_cells}\">")?;
         let floats = |w: &mut dyn Write,
                       name: &str,
                       components: usize,
@@ -241,13 +266,19 @@ pub fn write_vtu(path: &Path, dim: usize, x: &[[f64; 3]], arrays: &[PointArray])
             }
             writeln!(w, "        </DataArray>")
         };
-        let ints = |w: &mut dyn Write, name: &str, ty: &str, v: &dyn Fn(usize) -> String| -> std::io::Result<()> {
+        let ints_of = |w: &mut dyn Write,
+                       name: &str,
+                       ty: &str,
+                       count: usize,
+                       v: &dyn Fn(usize) -> String|
+         -> std::io::Result<()> {
             writeln!(w, r#"        <DataArray type="{ty}" Name="{name}" format="ascii">"#)?;
-            for k in 0..n {
+            for k in 0..count {
                 writeln!(w, "          {}", v(k))?;
             }
             writeln!(w, "        </DataArray>")
         };
+        let ints = |w: &mut dyn Write, name: &str, ty: &str, v: &dyn Fn(usize) -> String| ints_of(w, name, ty, n, v);
         writeln!(w, "      <PointData>")?;
         for a in arrays {
             match &a.values {
@@ -258,10 +289,23 @@ pub fn write_vtu(path: &Path, dim: usize, x: &[[f64; 3]], arrays: &[PointArray])
         writeln!(w, "      </PointData>\n      <Points>")?;
         floats(&mut w, "points", 3, &|k, a| if a < dim { x[k][a] } else { 0.0 })?;
         writeln!(w, "      </Points>\n      <Cells>")?;
-        ints(&mut w, "connectivity", "Int64", &|k| k.to_string())?;
-        ints(&mut w, "offsets", "Int64", &|k| (k + 1).to_string())?;
-        // VTK_VERTEX = 1
-        ints(&mut w, "types", "UInt8", &|_| "1".to_string())?;
+        match cells {
+            None => {
+                ints(&mut w, "connectivity", "Int64", &|k| k.to_string())?;
+                ints(&mut w, "offsets", "Int64", &|k| (k + 1).to_string())?;
+                // VTK_VERTEX = 1
+                ints(&mut w, "types", "UInt8", &|_| "1".to_string())?;
+            }
+            Some(c) => {
+                let m = c.per_cell;
+                let conn = |k: usize| {
+                    c.connectivity[m * k..m * k + m].iter().map(|p| p.to_string()).collect::<Vec<_>>().join(" ")
+                };
+                ints_of(&mut w, "connectivity", "Int64", n_cells, &conn)?;
+                ints_of(&mut w, "offsets", "Int64", n_cells, &|k| (m * (k + 1)).to_string())?;
+                ints_of(&mut w, "types", "UInt8", n_cells, &|_| c.vtk_type.to_string())?;
+            }
+        }
         writeln!(w, "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>")?;
         w.flush()
     };

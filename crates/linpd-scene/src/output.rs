@@ -169,6 +169,6 @@ impl Solution {
         if self.strain.is_some() {
             arrays.push(PointArray { name: "strain", values: PointValues::Float64 { components: 9, value: &strain } });
         }
-        linpd_io::vtk::write_vtu(path, d, &self.x, &arrays).map_err(ProblemError::from)
+        linpd_io::vtk::write_vtu_cells(path, d, &self.x, &arrays, self.cells.as_ref()).map_err(ProblemError::from)
     }
 }

@@ -38,4 +38,7 @@ pub struct Solution {
     pub strain: Option<NodalStrain>,
     /// Linearized dilatation `theta_i` per node: LPS scenes only.
     pub dilatation: Option<Vec<f64>>,
+    /// Cells over the nodes for result.vtu (the graded local mesh of a blended scene: quads or
+    /// hexahedra over lattice nodes); `None`: one vertex per node.
+    pub cells: Option<linpd_io::vtk::Cells>,
 }

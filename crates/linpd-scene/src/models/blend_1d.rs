@@ -593,6 +593,7 @@ pub(crate) fn solution(name: &str, b: &BlendScene, s: linpd_blend::BlendSolution
         strain_energy_density: None,
         strain: None,
         dilatation: None,
+        cells: None,
     }
 }
 

@@ -225,6 +225,7 @@ pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f6
         strain_energy_density,
         strain,
         dilatation: None,
+        cells: None,
         report,
     }
 }

@@ -322,6 +322,7 @@ fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: SolveReport) -
         strain_energy_density,
         strain,
         dilatation: None,
+        cells: None,
         report,
     }
 }

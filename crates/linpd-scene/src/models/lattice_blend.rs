@@ -414,8 +414,27 @@ fn graded_solution(
         strain_energy_density: None,
         strain,
         dilatation: None,
+        cells: Some(element_cells(grid, g.graded.mesh())),
         report,
     })
+}
+
+/// The graded mesh's leaves as VTK cells over the lattice nodes (`VTK_QUAD` / `VTK_HEXAHEDRON`,
+/// corners counter-clockwise on the lower face, then the upper): a reader draws `u` over them
+/// continuously (a hanging node lies on an edge or face of a coarser leaf, where `P` gives it
+/// the leaf's own interpolant).
+fn element_cells(grid: &Grid, mesh: &linpd_blend::graded::GradedMesh) -> linpd_io::vtk::Cells {
+    let d = grid.dim();
+    // corner numbers (bit a: +side along axis a) in VTK's order
+    let order: &[usize] = if d == 2 { &[0, 1, 3, 2] } else { &[0, 1, 3, 2, 4, 5, 7, 6] };
+    let connectivity = mesh
+        .cells()
+        .iter()
+        .flat_map(|e| {
+            order.iter().map(move |&c| grid.node_at_site(e.corner(d, c)).expect("a full grid has every site"))
+        })
+        .collect();
+    linpd_io::vtk::Cells { vtk_type: if d == 2 { 9 } else { 12 }, per_cell: order.len(), connectivity }
 }
 
 /// Whether each node's bonds carry the homogeneous weights times one factor (no defect and no

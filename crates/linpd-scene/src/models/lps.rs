@@ -321,6 +321,7 @@ pub(crate) fn solution(p: &Problem, model: &LpsModel, u: Vec<f64>, report: Solve
         strain_energy_density,
         strain,
         dilatation,
+        cells: None,
         report,
     }
 }
