@@ -427,13 +427,10 @@ fn element_cells(grid: &Grid, mesh: &linpd_blend::graded::GradedMesh) -> linpd_i
     let d = grid.dim();
     // corner numbers (bit a: +side along axis a) in VTK's order
     let order: &[usize] = if d == 2 { &[0, 1, 3, 2] } else { &[0, 1, 3, 2, 4, 5, 7, 6] };
-    let connectivity = mesh
-        .cells()
-        .iter()
-        .flat_map(|e| {
-            order.iter().map(move |&c| grid.node_at_site(e.corner(d, c)).expect("a full grid has every site"))
-        })
-        .collect();
+    // a full grid numbers its nodes as its sites, axis 0 fastest
+    let n = grid.counts();
+    let node = move |k: [usize; 3]| k[0] + n[0] * (k[1] + n[1] * k[2]);
+    let connectivity = mesh.cells().iter().flat_map(|e| order.iter().map(move |&c| node(e.corner(d, c)))).collect();
     linpd_io::vtk::Cells { vtk_type: if d == 2 { 9 } else { 12 }, per_cell: order.len(), connectivity }
 }
 
@@ -471,9 +468,10 @@ fn regular_nodes(grid: &Grid, b: &BondModel, op: &BondOperator) -> Result<Vec<bo
     let side = vec![2.0 * r as f64 * h; d];
     let small = Grid::new(&vec![0.0; d], &side, h, 0.0, grid.placement()).map_err(invalid)?;
     let hom = BondOperator::on_grid(&small, b.horizon, &b.micromodulus, &Material::default()).map_err(invalid)?;
+    let centre = [0, 1, 2].map(|a| if a < d { small.lattice_index(0)[a] + r } else { 0 });
     let c = small
-        .node_at([0, 1, 2].map(|a| if a < d { small.lattice_index(0)[a] + r } else { 0 }))
-        .expect("the centre of the small grid");
+        .node_at(centre)
+        .ok_or_else(|| ProblemError::invalid("model", "the reference grid of the bond weights has no centre node"))?;
     let kc = small.lattice_index(c);
     let w0: std::collections::HashMap<[i64; 3], f64> = hom
         .family()
