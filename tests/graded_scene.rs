@@ -150,3 +150,28 @@ print(json.dumps({"n": len(p), "areas": areas, "xmin": float(p[:, 0].min()), "xm
     assert!(large >= 3.9 * small, "one cell size only: {small} .. {large}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A constraint on a node far from the PD zone (given regions, so the support edges are no
+/// PD feature) keeps its node an unknown: the prescribed value holds there exactly, as it
+/// would not if a coarse cell interpolated the node from its corners.
+#[test]
+fn constrained_nodes_stay_unknowns() {
+    let h = 0.01;
+    let mut v = plate(h);
+    let y = 0.5 + h / 2.0;
+    v["model"]["pd_regions"] = json!([{"box": {"min": [0.2, y - 0.1], "max": [0.8, y + 0.1]}}]);
+    v["model"]["transition"] = json!(3.0 * h);
+    v["model"]["local_mesh"] = json!({"max_cell": 16.0 * h, "cells_per_level": 1});
+    // one interior node at odd site indices (15, 29: the layer adds 3), far from the zone: no
+    // coarse cell has it as a corner
+    let pin = [0.12, 0.26];
+    v["constraints"].as_array_mut().unwrap().push(json!({
+        "region": {"ball": {"center": pin, "radius": 0.1 * h}},
+        "displacement": {"value": [2e-3, -1e-3]}
+    }));
+    let s = solve(&v);
+    let i = s.x.iter().position(|x| (x[0] - pin[0]).abs() < 1e-9 && (x[1] - pin[1]).abs() < 1e-9).unwrap();
+    assert_eq!([s.u[2 * i], s.u[2 * i + 1]], [2e-3, -1e-3], "the pinned node's displacement");
+    let note = s.report.notes.join("; ");
+    assert!(note.contains("cells of 4h"), "no coarse cells: {note}");
+}

@@ -18,7 +18,9 @@
 //! with cells of `4h` reaching the layer's corner; 4.7e-3 when the outermost nodes' `D_c` were
 //! also spread over their few cells).
 //! So are the cells within a horizon (plus a cell) of the box's faces: families are truncated
-//! there, so the element moduli soften, and a coarse cell would average that away.
+//! there, so the element moduli soften, and a coarse cell would average that away. And the
+//! cells at the nodes the caller must keep (the scene's constrained nodes: a constraint on a
+//! node a coarse cell interpolates would be lost).
 //!
 //! # Rows
 //!
@@ -79,6 +81,9 @@ impl GradedBlend {
     /// The blended model of [`crate::LatticeBlend::new`] (same arguments; `grid` must be the
     /// full lattice box, which blended scenes are) with its local zone on a mesh graded by
     /// `grading` away from the nonlocal rows.
+    /// `keep[i]`: node `i` must be an unknown (a constrained node: a constraint on a node that a
+    /// coarse cell interpolates would be lost), so the cells at it stay on the lattice.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         op: &BondOperator,
         grid: &Grid,
@@ -86,10 +91,14 @@ impl GradedBlend {
         beta: Vec<f64>,
         regular: Option<&[bool]>,
         mirrored: &[bool],
+        keep: &[bool],
         grading: Grading,
     ) -> Result<Self, BlendError> {
         let (d, n, h) = (op.dim(), op.n_nodes(), grid.spacing());
         crate::lattice::check_inputs(d, n, &beta, mirrored)?;
+        if keep.len() != n {
+            return Err(BlendError::param("local_mesh", format!("{} keep flags for {n} nodes", keep.len())));
+        }
         if !grid.is_full() {
             return Err(BlendError::param("local_mesh", "a graded local mesh needs the full lattice box (no body)"));
         }
@@ -106,7 +115,7 @@ impl GradedBlend {
         let near: Vec<bool> = squared_lattice_distances(grid, &nonlocal)
             .into_iter()
             .enumerate()
-            .map(|(i, q)| q <= r_f * r_f || grid.is_layer(i) || near_face(grid, i, surface))
+            .map(|(i, q)| q <= r_f * r_f || grid.is_layer(i) || near_face(grid, i, surface) || keep[i])
             .collect();
         let counts = grid.counts();
         let lattice = LatticeBox::new(&grid.site_position([0, 0, 0])[..d], h, &counts[..d])?;
@@ -266,8 +275,9 @@ fn master_dof_bytes(d: usize) -> f64 {
 
 /// The peak bytes of [`GradedBlend::new`] and its solve, the largest of its three phases over
 /// what the whole run holds (the bond operator and the per-node maps, `L`):
-/// 1. `K_M` from its triplets: `L`, the moduli, the triplets (24 bytes, `(2^d d)^2` a cell)
-///    and `K_M` (16 bytes an entry, `3^d d^2` a master);
+/// 1. `K_M` from its triplets: `L`, the moduli, the triplets (24 bytes and 8 of faer's sort
+///    each, [`GradedMesh::stiffness_triplets`]) and `K_M` (16 bytes an entry, `3^d d^2` a
+///    master);
 /// 2. the rows: `L`, the moduli, `K_M`, the block rows of `A` and `M` (80 bytes a block each:
 ///    Algorithm A's `|F| + 1` for the nodes of `R`, `3^d` for the others) and `A`, `M` (16
 ///    bytes an entry each);
@@ -293,7 +303,8 @@ fn peak_bytes(op: &BondOperator, mesh: &GradedMesh, in_r: &[bool], grid: &Grid) 
     let dd = (d * d) as f64;
     let (entries, masters) = (blocks * dd, mesh.n_masters() as f64);
     let k_m = masters * local_blocks * dd * 16.0;
-    let triplets = mesh.cells().len() as f64 * ((d << d) as f64).powi(2) * 24.0;
+    // K_M's triplets (24 bytes) and faer's argsort of them (8 bytes)
+    let triplets = mesh.stiffness_triplets() as f64 * 32.0;
     let build = held + moduli + k_m + triplets.max(2.0 * blocks * 80.0 + 2.0 * entries * 16.0);
     // A, M, their free restrictions, and the interaction graph of A (4 bytes a block each way)
     let solve = held + 4.0 * entries * 16.0 + 8.0 * blocks + d as f64 * masters * master_dof_bytes(d);

@@ -46,6 +46,20 @@ impl GradedMesh {
         u
     }
 
+    /// The triplets [`GradedMesh::stiffness`] assembles: per leaf `(d sum_corners |T_c|)^2`,
+    /// `|T_c|` the masters of corner `c` (1, or 2-4 for a hanging one).
+    pub fn stiffness_triplets(&self) -> usize {
+        let d = self.dim();
+        let t = self.expansion();
+        self.cells
+            .iter()
+            .map(|e| {
+                let s: usize = self.cell_nodes(e).iter().map(|&c| t[c].len()).sum();
+                (d * s).pow(2)
+            })
+            .sum()
+    }
+
     /// `K_M = T^T K T` over the master DOFs (`d m + a`, see [`GradedMesh::master_of`]): each
     /// leaf's element matrix (module `element`, `E = C vol_e` with `C =
     /// c_of_cell(cell)` as a `3 x 3 x 3 x 3` tensor, see the module docs) scattered through the
@@ -54,7 +68,7 @@ impl GradedMesh {
         let d = self.dim();
         let nc = 1usize << d;
         let t = self.expansion();
-        let mut trip = Vec::new();
+        let mut trip = Vec::with_capacity(self.stiffness_triplets());
         for e in &self.cells {
             let s = self.lattice.h * e.side() as f64;
             let vol = s.powi(d as i32);

@@ -41,10 +41,10 @@ impl ModelType for BondType {
         let auto = cx.raw.solver.kind == crate::raw::RawSolverKind::Auto && cx.raw.dynamics.is_none();
         let path_of = |grid: &linpd_core::Grid| match (matrix_free, raw.pd_regions.is_some()) {
             (_, true) if raw.local_mesh.is_some() => (crate::memory::Path::GradedBlendLattice, false),
-            (_, true) => (crate::memory::Path::BlendAssembled, uses_multigrid),
+            (_, true) => (crate::memory::Path::BlendAssembled, uses_multigrid || auto),
             (true, false) if dynamics => (crate::memory::Path::BondDynamics, false),
             (true, false) => (crate::memory::Path::BondMatrixFree, uses_multigrid),
-            (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, stencil) => {
+            (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, stencil, None) => {
                 (crate::memory::Path::BondMatrixFree, true)
             }
             (false, false) => (crate::memory::Path::BondAssembled, uses_multigrid),

@@ -51,7 +51,7 @@ pub(crate) fn check_memory(
         (Purpose::Rows, _) => return Ok(None),
         (Purpose::Assembled, _) => (Path::BondAssembled, false),
         (Purpose::Solve, s @ SolverSpec::Cg { matrix_free: true, .. }) => (Path::BondMatrixFree, s.uses_multigrid()),
-        (Purpose::Solve, SolverSpec::Auto(_)) if auto_runs_matrix_free(p.lattice()?, stencil) => {
+        (Purpose::Solve, SolverSpec::Auto(_)) if auto_runs_matrix_free(p.lattice()?, stencil, Some(n_free(p))) => {
             (Path::BondMatrixFree, true)
         }
         (Purpose::Solve, s) => (Path::BondAssembled, s.uses_multigrid()),
@@ -64,10 +64,20 @@ pub(crate) fn check_memory(
 /// without a surface correction, and the stencil also needs the full lattice box. The memory
 /// estimate follows the path `auto` takes: the assembled estimate of a 101^3 cube (33 GiB)
 /// refused a scene that `auto` solves matrix-free in a fraction of it.
-pub(crate) fn auto_runs_matrix_free(grid: &linpd_core::Grid, stencil: bool) -> bool {
+///
+/// `n_free`: the free DOFs, which `auto` compares with its threshold (`None` at validation,
+/// before the constraints are evaluated: all DOFs, which may predict matrix-free for a scene
+/// just above the threshold that then assembles, a small system either way). When matrix-free
+/// CG stalls, `auto` assembles after all; that fallback is not estimated.
+pub(crate) fn auto_runs_matrix_free(grid: &linpd_core::Grid, stencil: bool, n_free: Option<usize>) -> bool {
     let full = grid.is_full() && grid.has_uniform_volumes();
-    linpd_solve::statics::AutoParams::default()
-        .matrix_free(grid.dim(), grid.len() * grid.dim(), true, || stencil && full)
+    let n = n_free.unwrap_or(grid.len() * grid.dim());
+    linpd_solve::statics::AutoParams::default().matrix_free(grid.dim(), n, true, || stencil && full)
+}
+
+/// The free DOFs of the scene.
+fn n_free(p: &Problem) -> usize {
+    p.constrained().0.iter().filter(|&&m| !m).count()
 }
 
 impl SceneModel for BondLatticeModel {

@@ -335,9 +335,21 @@ impl LatticeBlendModel {
     pub fn build_graded(&self, p: &Problem, grading: Grading) -> Result<GradedSystem, ProblemError> {
         let i = self.inputs(p)?;
         let grid = p.lattice()?;
-        let graded =
-            GradedBlend::new(&i.op, grid, self.bond.horizon, i.beta, i.regular.as_deref(), &i.mirrored, grading)
-                .map_err(blend_error)?;
+        // every constrained node stays an unknown (its cells on the lattice)
+        let (mask, _) = p.constrained();
+        let d = grid.dim();
+        let constrained: Vec<bool> = (0..grid.len()).map(|n| mask[d * n..d * n + d].iter().any(|&m| m)).collect();
+        let graded = GradedBlend::new(
+            &i.op,
+            grid,
+            self.bond.horizon,
+            i.beta,
+            i.regular.as_deref(),
+            &i.mirrored,
+            &constrained,
+            grading,
+        )
+        .map_err(blend_error)?;
         Ok(GradedSystem { graded, op: i.op })
     }
 }
@@ -611,11 +623,15 @@ impl SceneModel for LatticeBlendModel {
         };
         let memory_estimate = match purpose {
             Purpose::Rows => None,
+            // the graded model checks its masters' hierarchy itself (GradedBlend::new); the
+            // lattice blend's auto runs GMRES + multigrid first from 20k unknowns
             _ => Some(crate::memory::check_solver(
                 path,
                 p.lattice()?,
                 self.bond.horizon,
-                purpose == Purpose::Solve && p.solver().uses_multigrid(),
+                self.zone.local_mesh.is_none()
+                    && purpose == Purpose::Solve
+                    && (p.solver().uses_multigrid() || matches!(p.solver(), linpd_solve::SolverSpec::Auto(_))),
             )?),
         };
         progress.phase(&bond::building(p, self.bond.horizon));
