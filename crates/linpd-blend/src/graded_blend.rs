@@ -409,4 +409,9 @@ impl Model for GradedBlend {
     fn matrix_free_unavailable(&self) -> Option<&'static str> {
         Some("the blended model is assembled")
     }
+    /// The lattice node and position of master `i` (the numbers users see are the lattice's).
+    fn describe_node(&self, i: usize) -> String {
+        let x = self.a.position(i);
+        format!("node {} (master {i}) at {:?}", self.master_node[i], &x[..self.a.dim()])
+    }
 }

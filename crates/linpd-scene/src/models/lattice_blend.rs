@@ -268,6 +268,9 @@ impl linpd_core::Model for GradedSystem {
     fn matrix_free_unavailable(&self) -> Option<&'static str> {
         self.graded.matrix_free_unavailable()
     }
+    fn describe_node(&self, i: usize) -> String {
+        self.graded.describe_node(i)
+    }
 }
 
 /// The graded model's forces seen on the lattice, for the balance: `A_M` applied to the
