@@ -47,7 +47,7 @@ impl ModelType for BondType {
             (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, stencil, None) => {
                 (crate::memory::Path::BondMatrixFree, true)
             }
-            (false, false) => (crate::memory::Path::BondAssembled, uses_multigrid),
+            (false, false) => (crate::memory::Path::BondAssembled, uses_multigrid || (auto && dim >= 2)),
         };
         let grid = crate::validate::lattice_for(cx, raw.horizon, &path_of)?;
         let bond = BondModel::validate(&raw, &grid, dim)?;
