@@ -187,6 +187,22 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
     }
 }
 
+/// The bytes of a lattice blend whose zones are known: `blocks` block rows' blocks over its
+/// `nodes` (Algorithm A's `|F| + 1` for a node with a nonlocal share, the `3^d` of the element
+/// stencil for a local one; the blend's `A` and `M` have about as many), with the bond
+/// operator's `bonds` and the solve's vectors (and `multigrid` hierarchy) per DOF. The
+/// estimate before the zones ([`Path::BlendAssembled`]) counts the bond model's entries, an
+/// upper bound: `"auto"` zones on a cracked plate keep 0.36x of them.
+pub fn blend_zone_bytes(dim: usize, nodes: usize, bonds: usize, blocks: f64, multigrid: bool) -> f64 {
+    let (n, dofs) = (nodes as f64, (nodes * dim) as f64);
+    let hierarchy = if multigrid { dofs * multigrid_dof_bytes(dim, false) } else { 0.0 };
+    n * NODE_BYTES
+        + bonds as f64 * BOND_BYTES
+        + blocks * (dim * dim) as f64 * BLEND_ENTRY_BYTES
+        + dofs * (ASSEMBLED_DOF_BYTES + GMRES_DOF_BYTES)
+        + hierarchy
+}
+
 /// Most column terms the LPS tangent's assembly may cost ([`check_lps_work`]): about 65 s at
 /// the measured 6.5 ns per term (a 2,601-node 2D plate at `delta = 50 h`, every node in every
 /// family: 1.76e10 terms, 114 s of assembly), refused at validation above this instead of

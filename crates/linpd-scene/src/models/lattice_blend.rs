@@ -511,6 +511,27 @@ fn regular_nodes(grid: &Grid, b: &BondModel, op: &BondOperator) -> Result<Vec<bo
         .collect())
 }
 
+/// [`crate::memory::blend_zone_bytes`] of the blend of `inputs`: a node with a nonlocal share
+/// (`beta > 0` on it or a family member) has Algorithm A's `|F| + 1` blocks, a local one the
+/// element stencil's `3^d`.
+fn zone_bytes(inputs: &BlendInputs, multigrid: bool) -> f64 {
+    let (op, beta) = (&inputs.op, &inputs.beta);
+    let d = op.dim();
+    let local = 3f64.powi(d as i32);
+    let blocks: f64 = (0..op.n_nodes())
+        .into_par_iter()
+        .map(|i| {
+            let family = op.family().neighbors(i);
+            if beta[i] > 0.0 || family.iter().any(|&j| beta[j as usize] > 0.0) {
+                family.len() as f64 + 1.0
+            } else {
+                local
+            }
+        })
+        .sum();
+    crate::memory::blend_zone_bytes(d, op.n_nodes(), op.family().n_bonds(), blocks, multigrid)
+}
+
 /// A blend error as the scene's: the key it names (`model.pd_regions`), not
 /// `model: model.pd_regions: ...`.
 fn blend_error(e: linpd_blend::BlendError) -> ProblemError {
@@ -624,18 +645,14 @@ impl SceneModel for LatticeBlendModel {
             Some(_) => crate::memory::Path::GradedBlendLattice,
             None => crate::memory::Path::BlendAssembled,
         };
+        // the graded model checks its masters' hierarchy itself (GradedBlend::new); the lattice
+        // blend's auto runs GMRES + multigrid first from 20k unknowns
+        let multigrid = self.zone.local_mesh.is_none()
+            && purpose == Purpose::Solve
+            && (p.solver().uses_multigrid() || matches!(p.solver(), linpd_solve::SolverSpec::Auto(_)));
         let memory_estimate = match purpose {
             Purpose::Rows => None,
-            // the graded model checks its masters' hierarchy itself (GradedBlend::new); the
-            // lattice blend's auto runs GMRES + multigrid first from 20k unknowns
-            _ => Some(crate::memory::check_solver(
-                path,
-                p.lattice()?,
-                self.bond.horizon,
-                self.zone.local_mesh.is_none()
-                    && purpose == Purpose::Solve
-                    && (p.solver().uses_multigrid() || matches!(p.solver(), linpd_solve::SolverSpec::Auto(_))),
-            )?),
+            _ => Some(crate::memory::check_solver(path, p.lattice()?, self.bond.horizon, multigrid)?),
         };
         progress.phase(&bond::building(p, self.bond.horizon));
         progress.phase(&format!("building the blended model: {} nodes", p.nodes().len()));
@@ -649,7 +666,26 @@ impl SceneModel for LatticeBlendModel {
             }
             return self.graded_system(p, grading);
         }
-        let model = self.build(p)?;
+        let inputs = self.inputs(p)?;
+        // the zones are known: the estimate from the blend's own rows, checked before they are
+        // built (the one above counted the bond model's entries, an upper bound)
+        let refined = zone_bytes(&inputs, multigrid);
+        linpd_core::memory::check(
+            format!("the blended model and its SPD companion on {} nodes (from its zones)", p.nodes().len()),
+            refined,
+            "use a coarser spacing, a smaller horizon, or smaller PD regions",
+        )
+        .map_err(|e| ProblemError::invalid("model.pd_regions", e.to_string()))?;
+        let memory_estimate = memory_estimate.map(|_| refined);
+        let model = LatticeBlend::new(
+            &inputs.op,
+            p.lattice()?,
+            self.bond.horizon,
+            inputs.beta,
+            inputs.regular.as_deref(),
+            &inputs.mirrored,
+        )
+        .map_err(blend_error)?;
         let z = model.zones();
         let describe = format!(
             "blend: {} PD, {} transition, {} local nodes; {} stored entries, {:.3}x the bond model's {}",
