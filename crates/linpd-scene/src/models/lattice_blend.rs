@@ -231,45 +231,14 @@ pub struct GradedSystem {
     op: BondOperator,
 }
 
-impl linpd_core::Model for GradedSystem {
-    fn kind(&self) -> &'static str {
-        self.graded.kind()
+/// Solved as the graded model over its masters; handed back to the scene model by type (the
+/// solution needs the bond operator for the strain).
+impl super::Built for GradedSystem {
+    fn model(&self) -> &dyn linpd_core::Model {
+        &self.graded
     }
-    fn dim(&self) -> usize {
-        self.graded.dim()
-    }
-    fn n_nodes(&self) -> usize {
-        self.graded.n_nodes()
-    }
-    fn position(&self, i: usize) -> linpd_core::Point {
-        self.graded.position(i)
-    }
-    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
-        self.graded.for_each_partner(i, f)
-    }
-    fn apply(&self, u: &[f64], y: &mut [f64]) {
-        self.graded.apply(u, y)
-    }
-    fn diagonal(&self) -> Vec<f64> {
-        self.graded.diagonal()
-    }
-    fn assemble_free(&self, dofs: &linpd_core::DofMap) -> linpd_core::Csc {
-        self.graded.assemble_free(dofs)
-    }
-    fn asymmetry(&self, dofs: &linpd_core::DofMap) -> f64 {
-        self.graded.asymmetry(dofs)
-    }
-    fn ordering(&self, dofs: &linpd_core::DofMap) -> linpd_core::Ordering {
-        self.graded.ordering(dofs)
-    }
-    fn spd_approximation(&self, dofs: &linpd_core::DofMap) -> Option<linpd_core::SpdApproximation> {
-        self.graded.spd_approximation(dofs)
-    }
-    fn matrix_free_unavailable(&self) -> Option<&'static str> {
-        self.graded.matrix_free_unavailable()
-    }
-    fn describe_node(&self, i: usize) -> String {
-        self.graded.describe_node(i)
+    fn as_any(&self) -> &dyn Any {
+        self
     }
 }
 
