@@ -22,6 +22,21 @@
 //! cells at the nodes the caller must keep (the scene's constrained nodes: a constraint on a
 //! node a coarse cell interpolates would be lost).
 //!
+//! # What is built: the window
+//!
+//! Only the nodes within `max(delta, sqrt(d) h)` of a corner of a level-0 cell (the window, a
+//! sub-grid of the lattice box) get bonds and element moduli `D_i`: the fine cells' moduli
+//! read their corners' whole families and cell counts, and the rows of `R` read no farther
+//! than their own level-0 cells. A coarse leaf covers lattice nodes farther than `r_F` from
+//! `beta > 0`, a horizon and a spacing from the box's faces, off the layer and away from
+//! defects and interfaces (`regular`): every one of its lattice cells has corners with whole,
+//! regular families, so its `C_e vol_e` is the bulk `D` of the homogeneous material, taken
+//! once from a small box of the same spacing, and `C_E = D / h^d` whatever the leaf's level.
+//! What the whole lattice costs is then a few bytes a node (`beta`, two distance transforms,
+//! flags) and the mesh's leaf levels; the bonds, moduli and rows scale with the fine region.
+//! With phases a coarse leaf averages its lattice cells' moduli (below), so the window is the
+//! whole lattice.
+//!
 //! # Rows
 //!
 //! * For a master at a node of `R`: its row of Algorithm A on the lattice, unchanged, its
@@ -39,9 +54,9 @@
 //! coarse cell `E` gets `C_E vol_E = sum_{lattice cells e in E} C_e vol_e`: the energy of an
 //! affine field on `E` is the sum of its lattice cells' energies, so the local model's
 //! energy equivalence with PD for affine fields holds for the coarse cells too. In a
-//! homogeneous bulk every `C_e` is the PD model's tensor and so is `C_E`; along a free surface
-//! `C_E` averages the softened cells it covers (the trilinear field on `E` cannot follow a
-//! surface layer thinner than `E`); a cell over several phases gets the volume average of
+//! homogeneous bulk every `C_e` is the PD model's tensor and so is `C_E` (coarse cells stay a
+//! horizon and a spacing from the box's faces, whose softened cells they would average); a
+//! cell over several phases gets the volume average of
 //! their tensors (the Voigt bound: stiffer than the lattice's elements for a field that is not
 //! affine there). Material interfaces and defects are PD features of `"auto"` zones, so coarse
 //! cells are single-phase in those scenes.
@@ -53,14 +68,27 @@
 
 use crate::graded::{Cell, GradedMesh, Grading, LatticeBox};
 use crate::lattice::{
-    block_rows_to_csc, cells_at, element_moduli, squared_lattice_distances, zone_counts, BlendRows, BlockRow,
+    block_rows_to_csc, cells_at, element_moduli, node_moduli, squared_lattice_distances, BlendRows, BlockRow,
     RowBuilder,
 };
 use crate::{BlendError, Zones};
 use linpd_bond::BondOperator;
+use linpd_core::family::lattice_stencil;
 use linpd_core::sparse::Csc;
-use linpd_core::{AssembledModel, DofMap, Grid, Model, Ordering, Point};
+use linpd_core::{AssembledModel, DofMap, Grid, Material, Micromodulus, Model, Ordering, Point, GEOMETRY_RTOL};
 use rayon::prelude::*;
+
+/// The bond model a graded blend is built from: [`GradedBlend::new`] builds its operator on
+/// the window of the lattice its rows read (see the module docs), not on the whole box.
+#[derive(Debug, Clone, Copy)]
+pub struct Bond<'a> {
+    /// The horizon `delta`.
+    pub horizon: f64,
+    /// The micromodulus (kernel, normalization, modulus).
+    pub micromodulus: &'a Micromodulus,
+    /// Phases, bond rule and defects.
+    pub material: &'a Material,
+}
 
 /// The blended model on a lattice with a graded local mesh, assembled over the masters' DOFs
 /// (see the module docs).
@@ -73,64 +101,53 @@ pub struct GradedBlend {
     a: AssembledModel,
     /// The SPD companion of `A` (see the module docs).
     m: Csc,
+    /// The nodes whose bonds were built (the window, a sub-grid of the lattice box) and the
+    /// bond operator on them.
+    window: Grid,
+    op: BondOperator,
     zones: Zones,
     estimate: f64,
 }
 
 impl GradedBlend {
-    /// The blended model of [`crate::LatticeBlend::new`] (same arguments; `grid` must be the
-    /// full lattice box, which blended scenes are) with its local zone on a mesh graded by
-    /// `grading` away from the nonlocal rows.
+    /// The blended model of [`crate::LatticeBlend::new`] with its local zone on a mesh graded
+    /// by `grading` away from the nonlocal rows. `grid` must be the full lattice box (which
+    /// blended scenes with a graded mesh are); `beta`, `regular` (`None`: every node),
+    /// `mirrored` and `keep` have one value per node of it.
     /// `keep[i]`: node `i` must be an unknown (a constrained node: a constraint on a node that a
     /// coarse cell interpolates would be lost), so the cells at it stay on the lattice.
+    /// `regular[i] == false` (a defect or an interface within the node's horizon) keeps its
+    /// cells on the lattice too, where its rows are checked as the lattice blend's are.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
-        op: &BondOperator,
+        bond: Bond<'_>,
         grid: &Grid,
-        horizon: f64,
         beta: Vec<f64>,
         regular: Option<&[bool]>,
         mirrored: &[bool],
         keep: &[bool],
         grading: Grading,
     ) -> Result<Self, BlendError> {
-        let (d, n, h) = (op.dim(), op.n_nodes(), grid.spacing());
+        let (d, n, h, horizon) = (grid.dim(), grid.len(), grid.spacing(), bond.horizon);
         crate::lattice::check_inputs(d, n, &beta, mirrored)?;
-        if keep.len() != n {
-            return Err(BlendError::param("local_mesh", format!("{} keep flags for {n} nodes", keep.len())));
+        if keep.len() != n || regular.is_some_and(|r| r.len() != n) {
+            return Err(BlendError::param("local_mesh", format!("keep or regular flags not one per node of {n}")));
         }
         if !grid.is_full() {
             return Err(BlendError::param("local_mesh", "a graded local mesh needs the full lattice box (no body)"));
         }
-        let family = op.family();
-        let nonlocal: Vec<bool> = beta.iter().map(|&b| b > 0.0).collect();
-        // R: rows with a nonlocal share or transition terms
-        let in_r: Vec<bool> = (0..n)
-            .into_par_iter()
-            .map(|i| nonlocal[i] || family.neighbors(i).iter().any(|&j| nonlocal[j as usize]))
-            .collect();
-        let r_f = (horizon + horizon.max(2.0 * h)) / h + 2.0;
-        let surface = (horizon / h).ceil() as usize + 1;
-        // the grid's layer stays on the lattice too (see the module docs)
-        let near: Vec<bool> = squared_lattice_distances(grid, &nonlocal)
-            .into_iter()
-            .enumerate()
-            .map(|(i, q)| q <= r_f * r_f || grid.is_layer(i) || near_face(grid, i, surface) || keep[i])
-            .collect();
-        let counts = grid.counts();
-        let lattice = LatticeBox::new(&grid.site_position([0, 0, 0])[..d], h, &counts[..d])?;
-        let corner_near = |c: &[usize]| {
-            (0..1usize << d).any(|bits| {
-                let k = [0, 1, 2].map(|a| if a < d { c[a] + (bits >> a & 1) } else { 0 });
-                grid.node_at_site(k).is_some_and(|i| near[i])
-            })
-        };
-        let mesh = GradedMesh::new(&lattice, &corner_near, grading)?;
-        let estimate = peak_bytes(op, &mesh, &in_r, grid);
+        let ratio = horizon / h;
+        let (in_r, zones, mesh) = layout(grid, &beta, regular, keep, horizon, grading)?;
+        // with phases a coarse cell sums its lattice cells' moduli, which needs every node's
+        // bonds; otherwise they are the bulk's (see the module docs)
+        let homogeneous = bond.material.phases.is_empty();
+        let window: Vec<bool> = if homogeneous { window_nodes(grid, &mesh, ratio) } else { vec![true; n] };
+        let n_window = window.iter().filter(|&&w| w).count();
+        let estimate = peak_bytes(d, n, n_window, lattice_stencil(d, ratio).len(), &mesh, &in_r);
         linpd_core::memory::check(
             format!(
-                "the graded blend ({} lattice nodes with their bonds and element moduli, {} masters with their rows)",
-                n,
+                "the graded blend ({n} lattice nodes, {n_window} of them with their bonds and element moduli, {} \
+                 masters with their rows)",
                 mesh.n_masters()
             ),
             estimate,
@@ -138,43 +155,69 @@ impl GradedBlend {
         )
         .map_err(|e| BlendError::param("model.local_mesh", e.to_string()))?;
 
+        let sub = if homogeneous { grid.with_nodes(&window).map_err(core_error)? } else { grid.clone() };
+        drop(window);
+        let op = BondOperator::on_grid(&sub, horizon, bond.micromodulus, bond.material).map_err(core_error)?;
+        // node of the lattice of every node of the window, and the other way round
+        let full_of: Vec<usize> = (0..sub.len())
+            .map(|w| grid.node_at(sub.lattice_index(w)).expect("the window is a sub-grid of the lattice"))
+            .collect();
+        let mut sub_of = vec![u32::MAX; n];
+        for (w, &i) in full_of.iter().enumerate() {
+            sub_of[i] = w as u32;
+        }
+        let pick = |v: &[bool]| -> Vec<bool> { full_of.iter().map(|&i| v[i]).collect() };
+        let beta_w: Vec<f64> = full_of.iter().map(|&i| beta[i]).collect();
+        let regular_w = regular.map(pick);
+        let mirrored_w = pick(mirrored);
         let rows = BlendRows {
-            op,
-            grid,
-            beta: &beta,
-            regular,
-            d_tensor: element_moduli(op, grid, &beta, mirrored),
-            n_cells: (0..n).map(|i| cells_at(grid, i).count() as u8).collect(),
+            op: &op,
+            grid: &sub,
+            beta: &beta_w,
+            regular: regular_w.as_deref(),
+            d_tensor: element_moduli(&op, &sub, &beta_w, &mirrored_w),
+            n_cells: (0..sub.len()).map(|w| cells_at(&sub, w).count() as u8).collect(),
         };
+        let bulk = if homogeneous { Some(bulk_moduli(bond, grid)?) } else { None };
         let master_node: Vec<usize> = (0..mesh.nodes().len())
             .filter(|&g| mesh.master_of(g).is_some())
             .map(|g| grid.node_at_site(mesh.nodes()[g]).expect("a full grid has every site"))
             .collect();
-        let mut master_of_node = vec![u32::MAX; n];
+        let mut master_of_window = vec![u32::MAX; sub.len()];
         for (m, &i) in master_node.iter().enumerate() {
-            master_of_node[i] = m as u32;
+            if sub_of[i] != u32::MAX {
+                master_of_window[sub_of[i] as usize] = m as u32;
+            }
         }
-        let k_m = mesh.stiffness(&|e: &Cell| coarse_moduli(grid, &rows, e, h));
-        let to_master = |row: BlockRow, i: usize| -> Result<BlockRow, BlendError> {
+        let k_m = mesh.stiffness(&|e: &Cell| match (&bulk, e.level) {
+            (Some(c), 1..) => c.map(|x| x / h.powi(d as i32)),
+            _ => cell_moduli(&sub, &sub_of, grid, &rows, e, h),
+        });
+        let to_master = |row: BlockRow, w: usize| -> Result<BlockRow, BlendError> {
             row.into_iter()
-                .map(|(j, b)| match master_of_node[j] {
+                .map(|(j, b)| match master_of_window[j] {
                     u32::MAX => Err(BlendError::param(
                         "local_mesh",
-                        format!("the row of lattice node {i} reads node {j}, which the graded mesh does not keep"),
+                        format!(
+                            "the row of lattice node {} reads node {}, which the graded mesh does not keep",
+                            full_of[w], full_of[j]
+                        ),
                     )),
                     m => Ok((m as usize, b)),
                 })
                 .collect()
         };
+        let n_sub = sub.len();
         let built: Vec<Result<(BlockRow, BlockRow), BlendError>> = master_node
             .par_iter()
             .enumerate()
             .map_init(
-                || (RowBuilder::new(n), RowBuilder::new(n)),
+                || (RowBuilder::new(n_sub), RowBuilder::new(n_sub)),
                 |(rb, mb), (m, &i)| {
                     if in_r[i] {
-                        let (ra, rm) = rows.row(i, rb, mb)?;
-                        Ok((to_master(ra, i)?, to_master(rm, i)?))
+                        let w = sub_of[i] as usize;
+                        let (ra, rm) = rows.row(w, rb, mb)?;
+                        Ok((to_master(ra, w)?, to_master(rm, w)?))
                     } else {
                         let r = symmetric_block_row(&k_m, d, m);
                         Ok((r.clone(), r))
@@ -185,20 +228,36 @@ impl GradedBlend {
         let (a_rows, m_rows): (Vec<BlockRow>, Vec<BlockRow>) =
             built.into_iter().collect::<Result<Vec<_>, _>>()?.into_iter().unzip();
         drop(k_m);
+        drop(rows);
         let a = block_rows_to_csc(d, &a_rows);
         drop(a_rows);
         let m = block_rows_to_csc(d, &m_rows);
         drop(m_rows);
-        let (pd, transition, local) = zone_counts(family, &beta);
-        let zones = Zones { pd, transition, local, nnz: a.val().len(), nnz_pd: d * d * (n + family.n_bonds()) };
+        let zones = Zones { nnz: a.val().len(), ..zones };
         let positions: Vec<Point> = master_node.iter().map(|&i| grid.position(i)).collect();
-        Ok(GradedBlend { mesh, master_node, a: AssembledModel::new("blend", d, positions, a), m, zones, estimate })
+        Ok(GradedBlend {
+            mesh,
+            master_node,
+            a: AssembledModel::new("blend", d, positions, a),
+            m,
+            window: sub,
+            op,
+            zones,
+            estimate,
+        })
     }
 
     /// The estimate of the peak bytes of building and solving this model (checked against the
     /// available memory once the mesh was known, before the rows were built; see `peak_bytes`).
     pub fn memory_estimate(&self) -> f64 {
         self.estimate
+    }
+
+    /// The nodes whose bonds were built (a sub-grid of the lattice box: the level-0 cells and
+    /// a horizon around them; the whole box with phases) and the bond operator on them, whose
+    /// families are whole for every node of a level-0 cell.
+    pub fn window(&self) -> (&Grid, &BondOperator) {
+        (&self.window, &self.op)
     }
 
     /// The graded mesh.
@@ -259,10 +318,60 @@ impl GradedBlend {
     }
 }
 
-/// Bytes per lattice node held through the build: the bond operator's per-node lists, `beta`,
-/// the zone and distance maps.
-const LATTICE_NODE_BYTES: f64 = 96.0 + 8.0 + 24.0;
-/// Bytes per lattice node of the element moduli `D_i` (81 values), dropped after the rows.
+/// The rows of `R` (nodes with a nonlocal share or transition terms), the zone counts and the
+/// graded mesh whose level-0 cells are those at the nodes that must stay on the lattice (see
+/// the module docs).
+fn layout(
+    grid: &Grid,
+    beta: &[f64],
+    regular: Option<&[bool]>,
+    keep: &[bool],
+    horizon: f64,
+    grading: Grading,
+) -> Result<(Vec<bool>, Zones, GradedMesh), BlendError> {
+    let (d, n, h) = (grid.dim(), grid.len(), grid.spacing());
+    let ratio = horizon / h;
+    // the family's inclusion rule (lattice_stencil): |k_j - k_i|^2 <= ratio^2 (1 + rtol)
+    let in_family = ratio * ratio * (1.0 + GEOMETRY_RTOL);
+    let nonlocal: Vec<bool> = beta.iter().map(|&b| b > 0.0).collect();
+    let to_nonlocal = squared_lattice_distances(grid, &nonlocal);
+    // R: rows with a nonlocal share or transition terms (a family member with beta > 0)
+    let in_r: Vec<bool> = to_nonlocal.iter().map(|&q| q <= in_family).collect();
+    let r_f = (horizon + horizon.max(2.0 * h)) / h + 2.0;
+    let surface = (horizon / h).ceil() as usize + 1;
+    // the grid's layer stays on the lattice too (see the module docs)
+    let near: Vec<bool> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            to_nonlocal[i] <= r_f * r_f
+                || grid.is_layer(i)
+                || near_face(grid, i, surface)
+                || keep[i]
+                || regular.is_some_and(|r| !r[i])
+        })
+        .collect();
+    let zones = lattice_zones(grid, beta, &in_r, ratio);
+    drop(to_nonlocal);
+    let counts = grid.counts();
+    let lattice = LatticeBox::new(&grid.site_position([0, 0, 0])[..d], h, &counts[..d])?;
+    let corner_near = |c: &[usize]| {
+        (0..1usize << d).any(|bits| {
+            let k = [0, 1, 2].map(|a| if a < d { c[a] + (bits >> a & 1) } else { 0 });
+            grid.node_at_site(k).is_some_and(|i| near[i])
+        })
+    };
+    let mesh = GradedMesh::new(&lattice, &corner_near, grading)?;
+    drop(near);
+    Ok((in_r, zones, mesh))
+}
+
+/// Bytes per lattice node held through the build: `beta`, the distances to the nonlocal
+/// nodes, the window's numbering and the per-node flags (R, near, window, mirrored, keep,
+/// regular, the mesh's leaf level).
+const LATTICE_NODE_BYTES: f64 = 8.0 + 8.0 + 4.0 + 12.0;
+/// Bytes per window node: the bond operator's per-node lists and the rows' per-node arrays.
+const WINDOW_NODE_BYTES: f64 = 96.0 + 8.0 + 24.0;
+/// Bytes per window node of the element moduli `D_i` (81 values), dropped after the rows.
 const MODULI_BYTES: f64 = 648.0;
 /// Bytes per bond of the bond operator (neighbour index and weight).
 const BOND_BYTES: f64 = 12.0;
@@ -273,8 +382,9 @@ fn master_dof_bytes(d: usize) -> f64 {
     128.0 + 408.0 + if d == 3 { 1500.0 } else { 700.0 }
 }
 
-/// The peak bytes of [`GradedBlend::new`] and its solve, the largest of its three phases over
-/// what the whole run holds (the bond operator and the per-node maps, `L`):
+/// The peak bytes of [`GradedBlend::new`] and its solve (`n` lattice nodes, `n_window` of them
+/// with bonds, `stencil` bonds a node at most), the largest of its three phases over what the
+/// whole run holds (the per-node maps and the window's bond operator, `L`):
 /// 1. `K_M` from its triplets: `L`, the moduli, the triplets (24 bytes and 8 of faer's sort
 ///    each, [`GradedMesh::stiffness_triplets`]) and `K_M` (16 bytes an entry, `3^d d^2` a
 ///    master);
@@ -283,18 +393,17 @@ fn master_dof_bytes(d: usize) -> f64 {
 ///    bytes an entry each);
 /// 3. the solve: `L`, `A`, `M` and their free restrictions (16 bytes an entry each), `A`'s
 ///    interaction graph, the vectors and the multigrid hierarchy per master DOF.
-fn peak_bytes(op: &BondOperator, mesh: &GradedMesh, in_r: &[bool], grid: &Grid) -> f64 {
-    let d = op.dim();
-    let n = op.n_nodes() as f64;
-    let held = n * LATTICE_NODE_BYTES + op.family().n_bonds() as f64 * BOND_BYTES;
-    let moduli = n * MODULI_BYTES;
+fn peak_bytes(d: usize, n: usize, n_window: usize, stencil: usize, mesh: &GradedMesh, in_r: &[bool]) -> f64 {
+    let held = n as f64 * LATTICE_NODE_BYTES + n_window as f64 * (WINDOW_NODE_BYTES + stencil as f64 * BOND_BYTES);
+    let moduli = n_window as f64 * MODULI_BYTES;
     let local_blocks = 3f64.powi(d as i32);
+    let c = mesh.lattice().counts();
     let blocks: f64 = (0..mesh.nodes().len())
         .filter(|&g| mesh.master_of(g).is_some())
         .map(|g| {
-            let i = grid.node_at_site(mesh.nodes()[g]).expect("a full grid has every site");
-            if in_r[i] {
-                op.family().neighbors(i).len() as f64 + 1.0
+            let k = mesh.nodes()[g];
+            if in_r[k[0] + c[0] * (k[1] + c[1] * k[2])] {
+                stencil as f64 + 1.0
             } else {
                 local_blocks
             }
@@ -311,6 +420,57 @@ fn peak_bytes(op: &BondOperator, mesh: &GradedMesh, in_r: &[bool], grid: &Grid) 
     build.max(solve)
 }
 
+/// The nodes whose bonds the rows read: those within `max(ratio, sqrt d)` lattice steps of a
+/// corner of a level-0 cell (their element moduli need their whole family, their cell counts
+/// their box neighbours; the rows of `R` read no farther, see the module docs).
+fn window_nodes(grid: &Grid, mesh: &GradedMesh, ratio: f64) -> Vec<bool> {
+    let d = grid.dim();
+    let mut fine = vec![false; grid.len()];
+    for e in mesh.cells().iter().filter(|e| e.level == 0) {
+        for c in 0..1usize << d {
+            fine[grid.node_at_site(e.corner(d, c)).expect("a full grid has every site")] = true;
+        }
+    }
+    let r = ratio.max((d as f64).sqrt());
+    let r2 = r * r * (1.0 + GEOMETRY_RTOL);
+    squared_lattice_distances(grid, &fine).into_iter().map(|q| q <= r2).collect()
+}
+
+/// The zone counts of the lattice nodes (as [`crate::lattice::zone_counts`], from distances:
+/// a family is the nodes within `ratio` lattice steps) and the bond model's stored
+/// entries on the whole box, `d^2 (n + bonds)` with the bonds counted per stencil offset.
+fn lattice_zones(grid: &Grid, beta: &[f64], in_r: &[bool], ratio: f64) -> Zones {
+    let in_family = ratio * ratio * (1.0 + GEOMETRY_RTOL);
+    let below_one: Vec<bool> = beta.iter().map(|&b| b < 1.0).collect();
+    let to_below = squared_lattice_distances(grid, &below_one);
+    let pd = to_below.iter().filter(|&&q| q > in_family).count();
+    let local = in_r.iter().filter(|&&r| !r).count();
+    let (d, c) = (grid.dim(), grid.counts());
+    let bonds: usize = lattice_stencil(d, ratio)
+        .iter()
+        .map(|k| (0..d).map(|a| c[a].saturating_sub(k[a].unsigned_abs() as usize)).product::<usize>())
+        .sum();
+    Zones { pd, transition: grid.len() - pd - local, local, nnz: 0, nnz_pd: d * d * (grid.len() + bonds) }
+}
+
+/// `D` of a node with a whole family in the homogeneous material (no phases, no defects): the
+/// element moduli of every lattice cell of a coarse leaf, whose nodes are all such (see the
+/// module docs). Taken at the centre of a small box of the lattice's spacing and placement.
+fn bulk_moduli(bond: Bond<'_>, grid: &Grid) -> Result<[f64; 81], BlendError> {
+    let (d, h) = (grid.dim(), grid.spacing());
+    let r = (bond.horizon / h * (1.0 + GEOMETRY_RTOL)).ceil() as usize + 1;
+    let side = vec![2.0 * r as f64 * h; d];
+    let small = Grid::new(&vec![0.0; d], &side, h, 0.0, grid.placement()).map_err(core_error)?;
+    let op =
+        BondOperator::on_grid(&small, bond.horizon, bond.micromodulus, &Material::default()).map_err(core_error)?;
+    let centre = small.node_at_site([0, 1, 2].map(|a| if a < d { r } else { 0 })).expect("the box has its centre");
+    Ok(node_moduli(&op, &small, centre, false))
+}
+
+fn core_error(e: linpd_core::CoreError) -> BlendError {
+    BlendError::param("model", e.to_string())
+}
+
 /// Whether node `i` is within `r` sites of a face of the lattice box.
 fn near_face(grid: &Grid, i: usize, r: usize) -> bool {
     let (c, k) = (grid.counts(), site(grid, i));
@@ -325,8 +485,9 @@ fn site(grid: &Grid, i: usize) -> [usize; 3] {
 
 /// `C_E` of a leaf: `sum_{lattice cells e in E} C_e vol_e / vol_E` with
 /// `C_e vol_e = sum_{corners c} D_c / n_c` (see the module docs); for a level-0 leaf this is
-/// the lattice's cell.
-fn coarse_moduli(grid: &Grid, rows: &BlendRows, e: &Cell, h: f64) -> [f64; 81] {
+/// the lattice's cell. The lattice nodes of `E` must be in the window (`sub_of`: window node
+/// of each lattice node).
+fn cell_moduli(sub: &Grid, sub_of: &[u32], grid: &Grid, rows: &BlendRows, e: &Cell, h: f64) -> [f64; 81] {
     let d = grid.dim();
     let s = e.side();
     let mut sum = [0.0; 81];
@@ -334,7 +495,9 @@ fn coarse_moduli(grid: &Grid, rows: &BlendRows, e: &Cell, h: f64) -> [f64; 81] {
         let o = [0, 1, 2].map(|a| if a < d { e.origin[a] + t / s.pow(a as u32) % s } else { 0 });
         for bits in 0..1usize << d {
             let k = [0, 1, 2].map(|a| if a < d { o[a] + (bits >> a & 1) } else { 0 });
-            let c = grid.node_at_site(k).expect("a full grid has every site");
+            let i = grid.node_at_site(k).expect("a full grid has every site");
+            let c = sub_of[i] as usize;
+            debug_assert!(c < sub.len(), "a cell's nodes are in the window");
             let f = 1.0 / rows.n_cells[c] as f64;
             for (x, y) in sum.iter_mut().zip(&rows.d_tensor[c]) {
                 *x += f * y;

@@ -368,7 +368,7 @@ pub(crate) fn element_moduli(op: &BondOperator, grid: &Grid, beta: &[f64], mirro
 /// `(D_i)_abcd = (1/2) sum_j w_ij e_a xi_b e_c xi_d` of node `i` (the bond energy
 /// `w (e.G xi)^2 / 2`, half per end); a `layer` node counts a bond whose mirror partner is
 /// missing in full (see the module docs).
-fn node_moduli(op: &BondOperator, grid: &Grid, i: usize, layer: bool) -> [f64; 81] {
+pub(crate) fn node_moduli(op: &BondOperator, grid: &Grid, i: usize, layer: bool) -> [f64; 81] {
     let d = op.dim();
     let mut t = [0.0; 81];
     let k = grid.lattice_index(i);

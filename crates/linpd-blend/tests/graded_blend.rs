@@ -4,11 +4,23 @@
 //! exactly and `P^T` conserves force.
 
 use linpd_blend::graded::Grading;
+use linpd_blend::graded_blend::Bond;
 use linpd_blend::{beta_from_zone, GradedBlend, LatticeBlend, Profile};
 use linpd_bond::BondOperator;
 use linpd_core::sparse::Csc;
 use linpd_core::{Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
 use linpd_solve::{solve_model, Dirichlet, SolverSpec};
+
+/// The bond model of the operator of [`setting`] (homogeneous).
+fn bond(horizon: f64) -> Bond<'static> {
+    static MICROMODULUS: std::sync::OnceLock<Micromodulus> = std::sync::OnceLock::new();
+    static MATERIAL: std::sync::OnceLock<Material> = std::sync::OnceLock::new();
+    Bond {
+        horizon,
+        micromodulus: MICROMODULUS.get_or_init(micromodulus),
+        material: MATERIAL.get_or_init(Material::default),
+    }
+}
 
 fn micromodulus() -> Micromodulus {
     Micromodulus {
@@ -76,9 +88,8 @@ fn ungraded_equals_the_lattice_blend() {
         let mirrored = vec![false; g.len()];
         let lattice = LatticeBlend::new(&op, &g, horizon, beta.clone(), None, &mirrored).unwrap();
         let graded = GradedBlend::new(
-            &op,
+            bond(horizon),
             &g,
-            horizon,
             beta,
             None,
             &mirrored,
@@ -110,12 +121,11 @@ fn ungraded_equals_the_lattice_blend() {
 fn graded_rows_pass_the_patch_test() {
     // a cube in 3D: the fine cells reach ~12 sites around the ball and 4 from each face
     for (dim, n, max) in [(2, 128, [1.0, 1.0, 0.5]), (3, 42, [1.0; 3])] {
-        let (g, op, horizon, beta) = setting_in(dim, n, 3.0, 0.06, max);
+        let (g, _, horizon, beta) = setting_in(dim, n, 3.0, 0.06, max);
         let layer: Vec<bool> = (0..g.len()).map(|i| g.is_layer(i)).collect();
         let graded = GradedBlend::new(
-            &op,
+            bond(horizon),
             &g,
-            horizon,
             beta,
             None,
             &layer,
@@ -160,12 +170,11 @@ fn graded_solve_reproduces_affine_fields() {
     // (3D: coarse cells need a box several times the fine region's ~25 sites, too large for
     // sparse LU here; the 3D rows are checked by the patch test above)
     for (dim, n) in [(2, 96)] {
-        let (g, op, horizon, beta) = setting(dim, n, 3.0, 0.08);
+        let (g, _, horizon, beta) = setting(dim, n, 3.0, 0.08);
         let layer: Vec<bool> = (0..g.len()).map(|i| g.is_layer(i)).collect();
         let graded = GradedBlend::new(
-            &op,
+            bond(horizon),
             &g,
-            horizon,
             beta,
             None,
             &layer,

@@ -37,7 +37,9 @@ pub fn solution_plots(
         q
     };
     let (nx, ny) = (counts[a], counts[b]);
-    let mag = |n: usize| magnitude(s, n);
+    // a solution on a graded mesh's nodes: |u| on the lattice from its cells
+    let on_cells = (s.x.len() != grid.len()).then(|| magnitude_from_cells(grid, s)).flatten();
+    let mag = |n: usize| on_cells.as_ref().map_or_else(|| magnitude(s, n), |m| m[n]);
     // lattice sites of the plane; a site a body removed is an empty (white) cell
     let nodes: Vec<Option<usize>> = (0..nx * ny).map(|q| grid.node_at_site(site(q % nx, q / nx))).collect();
     let values: Vec<f64> = nodes.iter().map(|n| n.map_or(0.0, mag)).collect();
@@ -72,6 +74,67 @@ fn plane_axes(c: usize) -> (usize, usize) {
         1 => (0, 2),
         _ => (0, 1),
     }
+}
+
+/// `|u|` on every node of `grid` from a solution on the corners of `s.cells` (quads or
+/// hexahedra whose corners are lattice sites, VTK's corner order): each cell's sites get the
+/// bilinear / trilinear interpolant of `u` (`None` without cells, or when a corner is not a
+/// lattice site).
+fn magnitude_from_cells(grid: &Grid, s: &Solution) -> Option<Vec<f64>> {
+    let (d, cells) = (s.dim, s.cells.as_ref()?);
+    let (h, x0, counts) = (grid.spacing(), grid.site_position([0; 3]), grid.counts());
+    // bit order (bit a: the upper corner along axis a) of VTK's corners
+    let bits: &[usize] = if d == 2 { &[0, 1, 3, 2] } else { &[0, 1, 3, 2, 4, 5, 7, 6] };
+    let site_of = |p: usize| -> Option<[usize; 3]> {
+        let x = s.x.get(p)?;
+        let mut k = [0usize; 3];
+        for a in 0..d {
+            let t = ((x[a] - x0[a]) / h).round();
+            if !(t >= 0.0 && (t as usize) < counts[a]) {
+                return None;
+            }
+            k[a] = t as usize;
+        }
+        Some(k)
+    };
+    let mut u = vec![0.0; d * grid.len()];
+    for cell in cells.connectivity.chunks(cells.per_cell.max(1)) {
+        let mut corner = vec![0usize; 1 << d];
+        for (v, &p) in cell.iter().enumerate() {
+            corner[*bits.get(v)?] = p;
+        }
+        let (lo, hi) = (site_of(corner[0])?, site_of(corner[(1 << d) - 1])?);
+        let side = hi[0].checked_sub(lo[0])?.max(1) as f64;
+        let span = |a: usize| if a < d { lo[a]..=hi[a] } else { 0..=0 };
+        for k2 in span(2) {
+            for k1 in span(1) {
+                for k0 in span(0) {
+                    let k = [k0, k1, k2];
+                    let node = grid.node_at_site(k)?;
+                    // the field is continuous: a site on a face shared by two cells gets
+                    // the same value from both
+                    let mut v = [0.0; 3];
+                    for (c, &p) in corner.iter().enumerate() {
+                        let w: f64 = (0..d)
+                            .map(|a| {
+                                let t = (k[a] - lo[a]) as f64 / side;
+                                if c >> a & 1 == 1 {
+                                    t
+                                } else {
+                                    1.0 - t
+                                }
+                            })
+                            .product();
+                        for a in 0..d {
+                            v[a] += w * s.u.get(d * p + a)?;
+                        }
+                    }
+                    u[d * node..d * node + d].copy_from_slice(&v[..d]);
+                }
+            }
+        }
+    }
+    Some((0..grid.len()).map(|n| u[d * n..d * n + d].iter().map(|x| x * x).sum::<f64>().sqrt()).collect())
 }
 
 /// `|u|` of node `n`.

@@ -326,6 +326,14 @@ impl Grid {
     pub fn with_body(&self, keep: impl Fn(&Point) -> bool + Sync) -> Result<Grid, CoreError> {
         use rayon::prelude::*;
         let kept: Vec<bool> = (0..self.len()).into_par_iter().map(|n| keep(&self.position(n))).collect();
+        self.with_nodes(&kept)
+    }
+
+    /// The grid of the nodes `n` with `kept[n]` (one flag per node): [`Grid::with_body`] by
+    /// node rather than by position. The kept nodes keep their lattice indices and volumes; the
+    /// others are removed sites (as a body's).
+    pub fn with_nodes(&self, kept: &[bool]) -> Result<Grid, CoreError> {
+        assert_eq!(kept.len(), self.len(), "one flag per node");
         let mut site_of = Vec::with_capacity(kept.iter().filter(|k| **k).count());
         let mut node_of = vec![u32::MAX; self.n_sites()];
         for (n, _) in kept.iter().enumerate().filter(|(_, k)| **k) {

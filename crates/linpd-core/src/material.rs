@@ -115,6 +115,27 @@ impl Defect {
         Ok(())
     }
 
+    /// The distance from `x` to the defect (the point, the segment, the plane); for a plane
+    /// restricted to an extent, the distance to the whole plane, a lower bound. A bond of `x`
+    /// no longer than `r` can cross the defect only if this is at most `r`: what a caller needs
+    /// to find the nodes whose families a defect may cut without testing every bond.
+    pub fn distance_to(&self, x: &Point) -> f64 {
+        match self {
+            Defect::Point { x: d, .. } => (x[0] - d).abs(),
+            Defect::Segment { a, b, .. } => {
+                let (ab, ax) = ([b[0] - a[0], b[1] - a[1]], [x[0] - a[0], x[1] - a[1]]);
+                let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+                let t = if len2 > 0.0 { ((ax[0] * ab[0] + ax[1] * ab[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
+                (ax[0] - t * ab[0]).hypot(ax[1] - t * ab[1])
+            }
+            Defect::Plane { point, normal, .. } => {
+                let e = exponent(max_abs(normal));
+                let n = normal.map(|v| ldexp(v, -e));
+                (0..3).map(|k| (x[k] - point[k]) * n[k]).sum::<f64>().abs() / norm(&n)
+            }
+        }
+    }
+
     /// True when the bond from `x` to `y` crosses (or touches) the defect. `tol` is a length.
     pub fn crosses(&self, x: &Point, y: &Point, tol: f64) -> bool {
         match self {

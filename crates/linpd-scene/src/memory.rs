@@ -74,9 +74,11 @@ pub const BLEND_ENTRY_BYTES: f64 = 64.0;
 /// operator's scratch (fit of a 1D bar at 1M and 2M nodes: 395-460 bytes a node with 20 bonds
 /// and two snapshots, i.e. 43-108 a DOF beyond the bonds).
 pub const DYNAMICS_DOF_BYTES: f64 = 96.0;
-/// Per lattice node of a graded blend on top of [`NODE_BYTES`]: its element moduli `D_i`
-/// (81 values) and maps.
-pub const GRADED_NODE_BYTES: f64 = 680.0;
+/// Per lattice node of a graded blend (no bonds: those are built near the fine cells only and
+/// checked with the masters, [`linpd_blend::GradedBlend::new`]): the scene's constraint mask,
+/// prescribed values and loads, `beta` and the distance transforms, the per-node flags, the
+/// solution interpolated to the lattice and the balance's vectors.
+pub const GRADED_NODE_BYTES: f64 = 160.0;
 /// Per DOF, GMRES on top of an assembled solve's vectors: the restart-50 Krylov basis.
 pub const GMRES_DOF_BYTES: f64 = 408.0;
 
@@ -128,9 +130,9 @@ pub enum Path {
     /// The bond operator stepped by explicit dynamics (`linpd run`), without its snapshots
     /// (counted by the dynamics section's check).
     BondDynamics,
-    /// The lattice-wide part of a blended model on a graded local mesh (`local_mesh`): the
-    /// bonds and element moduli of every lattice node; the masters' part is checked once the
-    /// mesh is known ([`linpd_blend::GradedBlend::new`]).
+    /// The lattice-wide part of a blended model on a graded local mesh (`local_mesh`): a few
+    /// maps per lattice node; the bonds near the fine cells and the masters' part are checked
+    /// once the mesh is known ([`linpd_blend::GradedBlend::new`]).
     GradedBlendLattice,
 }
 
@@ -174,10 +176,9 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
             format!("the bond operator and velocity-Verlet vectors of {nodes} nodes with ~{nb:.0} bonds each"),
             base + dofs * DYNAMICS_DOF_BYTES,
         ),
-        Path::GradedBlendLattice => (
-            format!("the bonds and element moduli of the graded blend's {nodes} lattice nodes (~{nb:.0} bonds each)"),
-            base + n * GRADED_NODE_BYTES,
-        ),
+        Path::GradedBlendLattice => {
+            (format!("the per-node maps of the graded blend's {nodes} lattice nodes"), n * GRADED_NODE_BYTES)
+        }
         Path::LpsAssembled => (
             format!(
                 "the LPS tangent of {nodes} nodes (reach 2 delta: ~{rows:.0} coupled nodes per node, ~{nb:.0} bonds)"

@@ -771,6 +771,19 @@ pub struct RawOutput {
     /// 3D: the lattice plane the map shows, `{"x"|"y"|"z": value}` (default: the middle z plane).
     #[serde(default)]
     pub slice: Option<std::collections::BTreeMap<String, f64>>,
+    /// Which nodes result.json and result.vtu hold (default `model`).
+    #[serde(default)]
+    pub nodes: Option<RawOutputNodes>,
+}
+
+/// `output.nodes`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum RawOutputNodes {
+    /// The model's nodes: the lattice's, or a graded local mesh's (masters and hanging nodes).
+    Model,
+    /// Every lattice node (a graded local mesh's field interpolated to them).
+    Lattice,
 }
 
 pub(crate) fn parse_raw(text: &str) -> Result<RawProblem, crate::ProblemError> {

@@ -17,7 +17,7 @@ use linpd_lps::LpsModel;
 
 impl Problem {
     /// The scene's model as `T` ([`crate::models`]), or an error naming what was needed.
-    fn model_as<T: 'static>(&self, what: &str) -> Result<&T, ProblemError> {
+    pub(crate) fn model_as<T: 'static>(&self, what: &str) -> Result<&T, ProblemError> {
         self.model.downcast::<T>().ok_or_else(|| {
             ProblemError::invalid(
                 "model.type",

@@ -362,6 +362,10 @@ impl GradedMesh {
         let d = self.dim();
         (0..1usize << d).map(|c| self.node_at(e.corner(d, c)).expect("leaf corners are nodes")).collect()
     }
+    /// The finest level of the leaves at node `i` (0: a corner of a lattice cell of the mesh).
+    pub fn node_level(&self, i: usize) -> usize {
+        self.node_level[i] as usize
+    }
     /// The hanging nodes and their constraints, in node order.
     pub fn hanging(&self) -> &[Hanging] {
         &self.hanging

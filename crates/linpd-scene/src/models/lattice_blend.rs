@@ -12,11 +12,13 @@
 
 use super::bond_model::{self as bond, BondModel, RawBond, Surface};
 use super::{Capability, Purpose, SceneModel, System};
+use crate::fields::NodalStrain;
 use crate::scene::Problem;
 use crate::solution::Solution;
 use crate::validate::region;
 use crate::ProblemError;
-use linpd_blend::graded::Grading;
+use linpd_blend::graded::{Cell, GradedMesh, Grading};
+use linpd_blend::graded_blend::Bond;
 use linpd_blend::{beta_from_zone, GradedBlend, LatticeBlend};
 use linpd_bond::BondOperator;
 use linpd_core::progress::Progress;
@@ -223,16 +225,14 @@ struct BlendInputs {
     mirrored: Vec<bool>,
 }
 
-/// The graded blend as solved (over its masters) with what its solution needs on the
-/// lattice: the bond operator (the nodal strain).
+/// The graded blend as solved (over its masters).
 pub struct GradedSystem {
     /// The model over the masters.
     pub graded: GradedBlend,
-    op: BondOperator,
 }
 
 /// Solved as the graded model over its masters; handed back to the scene model by type (the
-/// solution needs the bond operator for the strain).
+/// solution is drawn on the mesh or the lattice).
 impl super::Built for GradedSystem {
     fn model(&self) -> &dyn linpd_core::Model {
         &self.graded
@@ -259,19 +259,29 @@ fn apply_on_lattice(g: &GradedBlend, d: usize, u: &[f64], y: &mut [f64]) {
 impl LatticeBlendModel {
     /// The bond operator, `beta`, the regular nodes and the mirrored supports of the scene.
     fn inputs(&self, p: &Problem) -> Result<BlendInputs, ProblemError> {
-        let (b, zone) = (&self.bond, &self.zone);
+        let b = &self.bond;
         let grid = p.lattice()?;
         let (op, _) = b.operator(p.nodes())?;
-        let dim = grid.dim();
         // with phases or defects, a node is regular when its bonds carry the homogeneous weights
         // times one factor (no defect and no interface within its horizon)
         let regular = if b.material.is_homogeneous() { None } else { Some(regular_nodes(grid, b, &op)?) };
+        let (beta, mirrored) = self.beta_and_mirrored(p, regular.as_deref())?;
+        Ok(BlendInputs { op, beta, regular, mirrored })
+    }
+
+    /// `beta` per node (from the PD regions, or the features of `"auto"`) and the mirrored
+    /// supports (constrained nodes of the layer, which stand for the body beyond them).
+    fn beta_and_mirrored(&self, p: &Problem, regular: Option<&[bool]>) -> Result<(Vec<f64>, Vec<bool>), ProblemError> {
+        let (b, zone) = (&self.bond, &self.zone);
+        let grid = p.lattice()?;
+        let dim = grid.dim();
         let (mask, _) = p.constrained();
         let constrained: Vec<bool> = (0..grid.len()).map(|i| (0..dim).any(|a| mask[dim * i + a])).collect();
         let inside = match &zone.regions {
             PdRegions::Given(regions) => {
                 let tol = GEOMETRY_RTOL * grid.spacing();
                 (0..grid.len())
+                    .into_par_iter()
                     .map(|i| {
                         let x = grid.position(i);
                         regions.iter().any(|r| r.contains(&x, dim, tol))
@@ -279,7 +289,7 @@ impl LatticeBlendModel {
                     .collect()
             }
             PdRegions::Auto { radius } => {
-                let (hard, soft) = features(p, regular.as_deref(), &constrained)?;
+                let (hard, soft) = features(p, regular, &constrained)?;
                 // a node beside a defect, an interface or a removed site may have no local share
                 // at all (its family and difference stencils cross them): its whole family must
                 // be PD, so those features get at least one horizon
@@ -291,9 +301,8 @@ impl LatticeBlendModel {
             }
         };
         let beta = beta_from_zone(grid, &inside, zone.transition, zone.profile);
-        // supports in the layer stand for the body beyond them
         let mirrored: Vec<bool> = (0..grid.len()).map(|i| grid.is_layer(i) && constrained[i]).collect();
-        Ok(BlendInputs { op, beta, regular, mirrored })
+        Ok((beta, mirrored))
     }
 
     /// The scene's blended model on the lattice.
@@ -303,27 +312,61 @@ impl LatticeBlendModel {
             .map_err(blend_error)
     }
 
-    /// The scene's blended model with its local zone on the graded mesh of `grading`.
+    /// The scene's blended model with its local zone on the graded mesh of `grading`. Only the
+    /// nodes near the fine cells get bonds ([`GradedBlend::new`]): the regular nodes come from
+    /// the bonds near the defects ([`defect_regular`]); with phases, from the whole lattice's.
     pub fn build_graded(&self, p: &Problem, grading: Grading) -> Result<GradedSystem, ProblemError> {
-        let i = self.inputs(p)?;
+        let b = &self.bond;
         let grid = p.lattice()?;
+        let regular = if b.material.is_homogeneous() {
+            None
+        } else if b.material.phases.is_empty() {
+            Some(defect_regular(grid, b)?)
+        } else {
+            let (op, _) = b.operator(p.nodes())?;
+            Some(regular_nodes(grid, b, &op)?)
+        };
+        let (beta, mirrored) = self.beta_and_mirrored(p, regular.as_deref())?;
         // every constrained node stays an unknown (its cells on the lattice)
         let (mask, _) = p.constrained();
         let d = grid.dim();
         let constrained: Vec<bool> = (0..grid.len()).map(|n| mask[d * n..d * n + d].iter().any(|&m| m)).collect();
-        let graded = GradedBlend::new(
-            &i.op,
-            grid,
-            self.bond.horizon,
-            i.beta,
-            i.regular.as_deref(),
-            &i.mirrored,
-            &constrained,
-            grading,
-        )
-        .map_err(blend_error)?;
-        Ok(GradedSystem { graded, op: i.op })
+        let bond = Bond { horizon: b.horizon, micromodulus: &b.micromodulus, material: &b.material };
+        let graded = GradedBlend::new(bond, grid, beta, regular.as_deref(), &mirrored, &constrained, grading)
+            .map_err(blend_error)?;
+        Ok(GradedSystem { graded })
     }
+}
+
+/// [`regular_nodes`] for a material without phases, from the bonds near its defects only: a
+/// bond no longer than the horizon can cross a defect only if its end is within a horizon of
+/// it ([`linpd_core::Defect::distance_to`]), so the nodes farther than a horizon and a spacing
+/// are regular, and the others are judged on the operator of the sub-grid they form (each of
+/// them sees there every bond a defect may cut, and the homogeneous operator it is compared
+/// with is truncated alike).
+fn defect_regular(grid: &Grid, b: &BondModel) -> Result<Vec<bool>, ProblemError> {
+    let invalid = |e: linpd_core::CoreError| ProblemError::invalid("model", e.to_string());
+    let reach = b.horizon + grid.spacing();
+    let near: Vec<bool> = (0..grid.len())
+        .into_par_iter()
+        .map(|i| {
+            let x = grid.position(i);
+            b.material.defects.iter().any(|d| d.distance_to(&x) <= reach)
+        })
+        .collect();
+    let mut regular = vec![true; grid.len()];
+    if !near.iter().any(|&x| x) {
+        return Ok(regular);
+    }
+    let window = grid.with_nodes(&near).map_err(invalid)?;
+    let op = BondOperator::on_grid(&window, b.horizon, &b.micromodulus, &b.material).map_err(invalid)?;
+    let on_window = regular_nodes(&window, b, &op)?;
+    for (w, _) in on_window.iter().enumerate().filter(|(_, r)| !**r) {
+        if let Some(i) = grid.node_at(window.lattice_index(w)) {
+            regular[i] = false;
+        }
+    }
+    Ok(regular)
 }
 
 impl LatticeBlendModel {
@@ -370,9 +413,13 @@ impl LatticeBlendModel {
     }
 }
 
-/// The solution of the graded blend on every lattice node: `u = P u_M`, the strain from the
-/// bond families, the balance of the masters' forces (the strain energy density is not
-/// defined for the unsymmetric blend, as on the lattice).
+/// The solution of the graded blend: on the mesh's nodes (masters and hanging nodes, with
+/// the leaves as VTU cells), or with `output.nodes: "lattice"` on every lattice node, `u = P
+/// u_M` ([`GradedBlend::expand`]). The balance is that of the masters' forces put on their
+/// lattice nodes (the strain energy density is not defined for the unsymmetric blend, as on
+/// the lattice). The strain ([`graded_strain`]) is PD's on the corners of lattice cells and
+/// the elements' elsewhere. A mesh node's volume is its share `sum_i P_im V_i` of the lattice
+/// nodes' volumes (0 for a hanging node), so the volumes still sum to the body's.
 fn graded_solution(
     p: &Problem,
     g: &GradedSystem,
@@ -381,40 +428,180 @@ fn graded_solution(
     report: SolveReport,
 ) -> Result<Solution, ProblemError> {
     let grid = p.lattice()?;
-    let nodes = p.nodes();
-    let u = g.graded.expand(grid, u_m);
-    let balance = p.balance(&|u, y| apply_on_lattice(&g.graded, p.dim(), u, y), &u);
-    let volumes: Vec<f64> = (0..nodes.len()).map(|n| nodes.volume(n)).collect();
-    let strain = Some(crate::nodal_strain(&g.op, &volumes, &u));
+    let (graded, d) = (&g.graded, p.dim());
+    let mesh = graded.mesh();
+    let u_lattice = graded.expand(grid, u_m);
+    let balance = p.balance(&|u, y| apply_on_lattice(graded, d, u, y), &u_lattice);
+    // the sites the solution is drawn on
+    let c = grid.counts();
+    let site_of = |i: usize| [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])];
+    let node_of = |k: [usize; 3]| k[0] + c[0] * (k[1] + c[1] * k[2]);
+    let u_mesh: Vec<f64> = mesh.nodes().iter().flat_map(|&k| interpolate(mesh, d, u_m, k)).collect();
+    let (sites, u, volumes, cells): (Vec<[usize; 3]>, Vec<f64>, Vec<f64>, _) = if p.lattice_output() {
+        let volumes = (0..grid.len()).map(|i| grid.node_volume(i)).collect();
+        ((0..grid.len()).map(site_of).collect(), u_lattice, volumes, element_cells(mesh, &|k| node_of(k)))
+    } else {
+        let mut volumes = vec![0.0; mesh.nodes().len()];
+        for i in 0..grid.len() {
+            for (m, w) in mesh.interpolation_row(site_of(i)) {
+                volumes[master_node_index(mesh, m)] += w * grid.node_volume(i);
+            }
+        }
+        let cells = element_cells(mesh, &|k| mesh.node_at(k).unwrap_or(usize::MAX));
+        (mesh.nodes().to_vec(), u_mesh.clone(), volumes, cells)
+    };
+    let strain = graded_strain(grid, graded, u_m, &u_mesh, &sites);
     Ok(Solution {
         name: p.name().to_string(),
-        dim: p.dim(),
-        x: (0..nodes.len()).map(|i| grid.position(i)).collect(),
+        dim: d,
+        x: sites.iter().map(|&k| grid.site_position(k)).collect(),
+        is_layer: sites.iter().map(|&k| grid.is_layer(node_of(k))).collect(),
         u,
-        is_layer: (0..nodes.len()).map(|n| nodes.is_layer(n)).collect(),
         volumes,
         n_bonds,
         balance: Some(balance),
         strain_energy_density: None,
-        strain,
+        strain: Some(strain),
         dilatation: None,
-        cells: Some(element_cells(grid, g.graded.mesh())),
+        cells: Some(cells),
         report,
     })
 }
 
-/// The graded mesh's leaves as VTK cells over the lattice nodes (`VTK_QUAD` / `VTK_HEXAHEDRON`,
-/// corners counter-clockwise on the lower face, then the upper): a reader draws `u` over them
-/// continuously (a hanging node lies on an edge or face of a coarser leaf, where `P` gives it
-/// the leaf's own interpolant).
-fn element_cells(grid: &Grid, mesh: &linpd_blend::graded::GradedMesh) -> linpd_io::vtk::Cells {
-    let d = grid.dim();
+/// `u` at lattice site `k`: row `k` of `P` applied to the masters' `u_m`.
+fn interpolate(mesh: &GradedMesh, d: usize, u_m: &[f64], k: [usize; 3]) -> Vec<f64> {
+    let mut u = vec![0.0; d];
+    for (m, w) in mesh.interpolation_row(k) {
+        for a in 0..d {
+            u[a] += w * u_m[d * m + a];
+        }
+    }
+    u
+}
+
+/// The mesh node of master `m`.
+fn master_node_index(mesh: &GradedMesh, m: usize) -> usize {
+    // masters are numbered in node order, skipping the hanging nodes (few): the node index is
+    // the master number plus the hanging nodes before it
+    let hanging = mesh.hanging();
+    let mut i = m;
+    for h in hanging {
+        if h.node <= i {
+            i += 1;
+        } else {
+            break;
+        }
+    }
+    i
+}
+
+/// The small-strain tensor at `sites`: PD's ([`crate::nodal_strain`], least squares over the
+/// family, from the window's bonds and `u` interpolated on its nodes) at the corners of the
+/// mesh's lattice cells, whose families the window holds whole; elsewhere the symmetric part
+/// of the mean gradient of the leaves around the site, at the site (`u_mesh`: `u` on the
+/// mesh's nodes).
+fn graded_strain(grid: &Grid, g: &GradedBlend, u_m: &[f64], u_mesh: &[f64], sites: &[[usize; 3]]) -> NodalStrain {
+    let (mesh, d) = (g.mesh(), grid.dim());
+    let (window, op) = g.window();
+    // a full grid numbers its nodes as its sites, axis 0 fastest
+    let c = grid.counts();
+    let site_of = |i: usize| [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])];
+    let u_window: Vec<f64> = (0..window.len())
+        .into_par_iter()
+        .flat_map_iter(|w| match grid.node_at(window.lattice_index(w)) {
+            Some(i) => interpolate(mesh, d, u_m, site_of(i)),
+            None => vec![0.0; d],
+        })
+        .collect();
+    let volumes: Vec<f64> = (0..window.len()).map(|w| window.node_volume(w)).collect();
+    let pd = crate::nodal_strain(op, &volumes, &u_window);
+    let tensor: Vec<[f64; 9]> = sites
+        .par_iter()
+        .map(|&k| {
+            let on_lattice_cell = mesh.node_at(k).is_some_and(|i| mesh.node_level(i) == 0);
+            let lattice_node = grid.node_at_site(k).map(|i| grid.lattice_index(i));
+            match (on_lattice_cell, lattice_node.and_then(|l| window.node_at(l))) {
+                (true, Some(w)) => pd.tensor[w],
+                _ => leaf_strain(mesh, d, u_mesh, k),
+            }
+        })
+        .collect();
+    NodalStrain { dim: d, tensor, singular: Vec::new() }
+}
+
+/// The symmetric part of the mean gradient at site `k` of the leaves around it (those of the
+/// lattice cells with corner `k`): `grad u = sum_c u_c grad N_c` of each bilinear / trilinear
+/// leaf.
+fn leaf_strain(mesh: &GradedMesh, d: usize, u_mesh: &[f64], k: [usize; 3]) -> [f64; 9] {
+    let n = mesh.lattice().counts();
+    let mut leaves: Vec<Cell> = Vec::new();
+    for bits in 0..1usize << d {
+        // the lattice cell with corner k on the side of `bits`
+        let cell = [0, 1, 2].map(|a| {
+            if a >= d {
+                Some(0)
+            } else if bits >> a & 1 == 1 {
+                k[a].checked_sub(1)
+            } else {
+                (k[a] + 1 < n[a]).then_some(k[a])
+            }
+        });
+        if let [Some(c0), Some(c1), Some(c2)] = cell {
+            let e = mesh.leaf_at([c0, c1, c2]);
+            if !leaves.contains(&e) {
+                leaves.push(e);
+            }
+        }
+    }
+    let h = mesh.lattice().spacing();
+    let mut grad = [0.0; 9];
+    for e in &leaves {
+        let s = e.side() as f64;
+        let t = [0, 1, 2].map(|a| (k[a] as f64 - e.origin[a] as f64) / s);
+        for (c, node) in mesh.cell_nodes(e).into_iter().enumerate() {
+            for b in 0..d {
+                // dN_c / dx_b
+                let dn: f64 = (0..d)
+                    .map(|a| {
+                        let on = c >> a & 1 == 1;
+                        if a == b {
+                            if on {
+                                1.0
+                            } else {
+                                -1.0
+                            }
+                        } else if on {
+                            t[a]
+                        } else {
+                            1.0 - t[a]
+                        }
+                    })
+                    .product::<f64>()
+                    / (s * h);
+                for a in 0..d {
+                    grad[3 * a + b] += u_mesh[d * node + a] * dn / leaves.len() as f64;
+                }
+            }
+        }
+    }
+    let mut eps = [0.0; 9];
+    for a in 0..d {
+        for b in 0..d {
+            eps[3 * a + b] = 0.5 * (grad[3 * a + b] + grad[3 * b + a]);
+        }
+    }
+    eps
+}
+
+/// The graded mesh's leaves as VTK cells (`VTK_QUAD` / `VTK_HEXAHEDRON`, corners
+/// counter-clockwise on the lower face, then the upper) over the output's points, `point(k)`
+/// the point of lattice site `k`: a reader draws `u` over them continuously (a hanging node
+/// lies on an edge or face of a coarser leaf, where `P` gives it the leaf's own interpolant).
+fn element_cells(mesh: &GradedMesh, point: &dyn Fn([usize; 3]) -> usize) -> linpd_io::vtk::Cells {
+    let d = mesh.dim();
     // corner numbers (bit a: +side along axis a) in VTK's order
     let order: &[usize] = if d == 2 { &[0, 1, 3, 2] } else { &[0, 1, 3, 2, 4, 5, 7, 6] };
-    // a full grid numbers its nodes as its sites, axis 0 fastest
-    let n = grid.counts();
-    let node = move |k: [usize; 3]| k[0] + n[0] * (k[1] + n[1] * k[2]);
-    let connectivity = mesh.cells().iter().flat_map(|e| order.iter().map(move |&c| node(e.corner(d, c)))).collect();
+    let connectivity = mesh.cells().iter().flat_map(|e| order.iter().map(move |&c| point(e.corner(d, c)))).collect();
     linpd_io::vtk::Cells { vtk_type: if d == 2 { 9 } else { 12 }, per_cell: order.len(), connectivity }
 }
 
@@ -623,9 +810,11 @@ impl SceneModel for LatticeBlendModel {
             Purpose::Rows => None,
             _ => Some(crate::memory::check_solver(path, p.lattice()?, self.bond.horizon, multigrid)?),
         };
-        progress.phase(&bond::building(p, self.bond.horizon));
-        progress.phase(&format!("building the blended model: {} nodes", p.nodes().len()));
         if let Some(grading) = self.zone.local_mesh {
+            progress.phase(&format!(
+                "building the blended model on a graded local mesh over {} lattice nodes",
+                p.nodes().len()
+            ));
             if purpose != Purpose::Solve {
                 return Err(ProblemError::invalid(
                     "model.local_mesh",
@@ -635,6 +824,8 @@ impl SceneModel for LatticeBlendModel {
             }
             return self.graded_system(p, grading);
         }
+        progress.phase(&bond::building(p, self.bond.horizon));
+        progress.phase(&format!("building the blended model: {} nodes", p.nodes().len()));
         let inputs = self.inputs(p)?;
         // the zones are known: the estimate from the blend's own rows, checked before they are
         // built (the one above counted the bond model's entries, an upper bound)
@@ -691,5 +882,37 @@ impl SceneModel for LatticeBlendModel {
     }
     fn as_any(&self) -> &dyn Any {
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The regular nodes from the bonds near the defects are those from the whole lattice's
+    /// bonds: a 2D crack (a segment between node rows) and a 3D notch (a plane with an extent),
+    /// each with nodes on both kinds of side.
+    #[test]
+    fn defect_regular_equals_the_whole_lattice() {
+        let scenes = [
+            r#"{"name": "c", "dimension": 2, "grid": {"min": [0, 0], "max": [1, 1], "spacing": 0.05, "layer": 0.15},
+                "model": {"type": "bond", "horizon": 0.15, "plane": "strain", "micromodulus": {"kernel": "constant", "modulus": 1},
+                          "material": {"defects": [{"segment": [[0.3, 0.525], [0.7, 0.525]], "factor": 0}]}}}"#,
+            r#"{"name": "n", "dimension": 3, "grid": {"min": [0, 0, 0], "max": [1, 1, 1], "spacing": 0.1, "layer": 0.2},
+                "model": {"type": "bond", "horizon": 0.25, "micromodulus": {"kernel": "constant", "modulus": 1},
+                          "material": {"defects": [{"plane": {"point": [0, 0, 0.55], "normal": [0, 0, 1],
+                              "extent": {"box": {"min": [-1, -1, 0], "max": [0.3, 2, 1]}}}, "factor": 0.5}]}}}"#,
+        ];
+        for text in scenes {
+            let p = Problem::from_json(text).unwrap();
+            let b = &p.model_as::<crate::models::bond_lattice::BondLatticeModel>("a bond model").unwrap().bond;
+            let grid = p.lattice().unwrap();
+            let (op, _) = b.operator(p.nodes()).unwrap();
+            let whole = regular_nodes(grid, b, &op).unwrap();
+            let near = defect_regular(grid, b).unwrap();
+            let irregular = whole.iter().filter(|r| !**r).count();
+            assert!(irregular > 0 && irregular < grid.len() / 2, "{irregular} irregular nodes");
+            assert_eq!(near, whole);
+        }
     }
 }

@@ -261,11 +261,16 @@ impl Problem {
             Nodes::Lattice(grid) => output_slice(&raw, grid)?,
             _ => None,
         };
+        let lattice_output = raw.output.nodes == Some(crate::raw::RawOutputNodes::Lattice);
+        if lattice_output && v.nodes.lattice().is_none() {
+            return Err(ProblemError::invalid("output.nodes", "\"lattice\" needs a scene on a lattice (\"grid\")"));
+        }
         Ok(Problem {
             dynamics,
             output_dir: output_dir(raw.output.dir.as_deref(), &raw.name)?,
             plot: raw.output.plot.unwrap_or(true),
             slice,
+            lattice_output,
             name: raw.name,
             nodes: v.nodes,
             model,

@@ -121,6 +121,9 @@ pub struct Problem {
     pub(crate) plot: bool,
     /// 3D maps: the plane `x[axis] = value` (`output.slice`), `None` for the middle z plane.
     pub(crate) slice: Option<(usize, f64)>,
+    /// `output.nodes` is `lattice`: the solution on every lattice node, also where the model's
+    /// unknowns are not (a graded local mesh).
+    pub(crate) lattice_output: bool,
     /// The `dynamics` section (explicit time stepping with `linpd run`), if any.
     pub(crate) dynamics: Option<crate::dynamics::Dynamics>,
 }
@@ -181,6 +184,11 @@ impl Problem {
     /// z plane.
     pub fn slice(&self) -> Option<(usize, f64)> {
         self.slice
+    }
+    /// Whether the solution is written on every lattice node (`output.nodes: "lattice"`) rather
+    /// than on the model's nodes.
+    pub fn lattice_output(&self) -> bool {
+        self.lattice_output
     }
     /// The `dynamics` section, if any.
     pub fn dynamics(&self) -> Option<&crate::dynamics::Dynamics> {
