@@ -337,7 +337,7 @@ fn layout(
     let to_nonlocal = squared_lattice_distances(grid, &nonlocal);
     // R: rows with a nonlocal share or transition terms (a family member with beta > 0)
     let in_r: Vec<bool> = to_nonlocal.iter().map(|&q| q <= in_family).collect();
-    let r_f = (horizon + horizon.max(2.0 * h)) / h + 2.0;
+    let r_f = (horizon + horizon.max(2.0 * h)) / h;
     let surface = (horizon / h).ceil() as usize + 1;
     // the grid's layer stays on the lattice too (see the module docs)
     let near: Vec<bool> = (0..n)

@@ -441,10 +441,12 @@ fn graded_solution(
         let volumes = (0..grid.len()).map(|i| grid.node_volume(i)).collect();
         ((0..grid.len()).map(site_of).collect(), u_lattice, volumes, element_cells(mesh, &|k| node_of(k)))
     } else {
+        // the mesh node of every master
+        let node_of_master: Vec<usize> = (0..mesh.nodes().len()).filter(|&i| mesh.master_of(i).is_some()).collect();
         let mut volumes = vec![0.0; mesh.nodes().len()];
         for i in 0..grid.len() {
             for (m, w) in mesh.interpolation_row(site_of(i)) {
-                volumes[master_node_index(mesh, m)] += w * grid.node_volume(i);
+                volumes[node_of_master[m]] += w * grid.node_volume(i);
             }
         }
         let cells = element_cells(mesh, &|k| mesh.node_at(k).unwrap_or(usize::MAX));
@@ -477,22 +479,6 @@ fn interpolate(mesh: &GradedMesh, d: usize, u_m: &[f64], k: [usize; 3]) -> Vec<f
         }
     }
     u
-}
-
-/// The mesh node of master `m`.
-fn master_node_index(mesh: &GradedMesh, m: usize) -> usize {
-    // masters are numbered in node order, skipping the hanging nodes (few): the node index is
-    // the master number plus the hanging nodes before it
-    let hanging = mesh.hanging();
-    let mut i = m;
-    for h in hanging {
-        if h.node <= i {
-            i += 1;
-        } else {
-            break;
-        }
-    }
-    i
 }
 
 /// The small-strain tensor at `sites`: PD's ([`crate::nodal_strain`], least squares over the
