@@ -180,3 +180,41 @@ fn constrained_nodes_stay_unknowns() {
     let note = s.report.notes.join("; ");
     assert!(note.contains("cells of 4h"), "no coarse cells: {note}");
 }
+
+/// On the mesh's nodes (the default output) the volumes are the lattice's shared out by `P^T`:
+/// they sum to the lattice's total (1e-12, a partition of unity summed over ~10^4 nodes), the
+/// strain is finite everywhere, and `u` and the strain are the lattice output's at the same
+/// sites (one rule per site: PD's strain on lattice cells, the leaves' elsewhere; 1e-12 of
+/// the largest entry).
+/// `output.nodes` takes `model` or `lattice` only, and `lattice` needs a grid.
+#[test]
+fn mesh_output_shares_the_volumes() {
+    let h = 0.01;
+    let mut v = plate(h);
+    v["model"]["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": 1});
+    let s = solve(&v);
+    let p = Problem::from_json(&v.to_string()).unwrap();
+    let lattice: f64 = (0..p.nodes().len()).map(|n| p.nodes().volume(n)).sum();
+    let total: f64 = s.volumes.iter().sum();
+    assert!(s.x.len() < p.nodes().len(), "{} output nodes", s.x.len());
+    assert!((total - lattice).abs() <= 1e-12 * lattice, "volumes sum to {total}, the lattice's to {lattice}");
+    let strain = s.strain.as_ref().unwrap();
+    assert!(strain.tensor.iter().flatten().all(|x| x.is_finite()));
+    v["output"]["nodes"] = json!("lattice");
+    let l = solve(&v);
+    let big = l.strain.as_ref().unwrap().tensor.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    let mut compared = 0;
+    for (k, x) in s.x.iter().enumerate() {
+        let i = l.x.iter().position(|y| (y[0] - x[0]).abs() < 1e-9 && (y[1] - x[1]).abs() < 1e-9).unwrap();
+        assert_eq!(s.u[2 * k..2 * k + 2], l.u[2 * i..2 * i + 2], "u at {x:?}");
+        if k % 50 == 0 {
+            let (a, b) = (strain.tensor[k], l.strain.as_ref().unwrap().tensor[i]);
+            assert!(a.iter().zip(&b).all(|(p, q)| (p - q).abs() <= 1e-12 * big), "strain at {x:?}: {a:?} vs {b:?}");
+            compared += 1;
+        }
+    }
+    assert!(compared > 10);
+    v["output"]["nodes"] = json!("every");
+    let e = Problem::from_json(&v.to_string()).unwrap_err().to_string();
+    assert!(e.contains("output.nodes"), "{e}");
+}

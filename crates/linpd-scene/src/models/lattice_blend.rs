@@ -314,7 +314,7 @@ impl LatticeBlendModel {
 
     /// The scene's blended model with its local zone on the graded mesh of `grading`. Only the
     /// nodes near the fine cells get bonds ([`GradedBlend::new`]): the regular nodes come from
-    /// the bonds near the defects ([`defect_regular`]); with phases, from the whole lattice's.
+    /// the bonds near the defects (`defect_regular`); with phases, from the whole lattice's.
     pub fn build_graded(&self, p: &Problem, grading: Grading) -> Result<GradedSystem, ProblemError> {
         let b = &self.bond;
         let grid = p.lattice()?;
