@@ -129,6 +129,9 @@ enum Command {
         /// Skip the dense-solver timings of blend-speedup (they take about a minute).
         #[arg(long)]
         no_dense: bool,
+        /// multires: solve only the lattices of at most this many nodes.
+        #[arg(long)]
+        max_nodes: Option<usize>,
     },
 }
 
@@ -245,7 +248,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Validate { scene } => commands::validate(&scene),
         Command::Coarsen { pipeline, out, quiet } => commands::coarsen(&pipeline, out, quiet),
         Command::Bench(args) => commands::bench(&args),
-        Command::Study { name, out, no_dense } => commands::study(name, out, no_dense),
+        Command::Study { name, out, no_dense, max_nodes } => commands::study(name, out, no_dense, max_nodes),
     }
 }
 

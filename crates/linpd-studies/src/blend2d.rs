@@ -29,7 +29,7 @@ use std::path::Path;
 use std::time::Instant;
 
 /// The three bodies' scenes at spacing `h` (`n` nodes per unit length), pure PD.
-fn body(name: &str, n: usize) -> Value {
+pub(crate) fn body(name: &str, n: usize) -> Value {
     let h = 1.0 / n as f64;
     let d = 3.0 * h;
     let mm = json!({"kernel": "inverse_distance", "modulus": 1.0, "normalize": "continuum"});

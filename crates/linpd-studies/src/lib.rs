@@ -10,6 +10,7 @@
 //! * `dispersion`, `stability`: Seleson, Parks, Gunzburger & Lehoucq (2009), sections 4.2-4.3,
 //!   Fig. 4.2 (module `dynamics`);
 //! * `md-pd`: the same paper, section 4.4, Figs. 4.3-4.6, Table 4.1 (module `md_pd`);
+//! * `multires`: the graded local mesh against pure PD (module `multires`);
 //! * `coarsen-*`: Silling (2010), section 5, Figs. 3, 5 and 7, and a 2D speed-versus-error map
 //!   (module `coarsen`).
 //!
@@ -34,6 +35,7 @@ pub mod fixtures;
 mod lps;
 pub mod lps_tension;
 mod md_pd;
+mod multires;
 mod out;
 mod surface;
 
@@ -115,6 +117,8 @@ pub enum Study {
     Stability,
     /// Seleson et al. 2009 sec. 4.4 (Figs. 4.3-4.6, Table 4.1): MD vs fine/coarse PD vs CCM, smooth and square pulses
     MdPd,
+    /// Graded local mesh (issue #31) vs pure PD, same run: edge-cracked plate 65k-1M nodes, error vs unknowns and time
+    Multires,
     /// Silling 2010 Fig. 3: C^0, C^1, C^2 vs bond distance at the centre (tent kernel)
     CoarsenTent,
     /// Silling 2010 Fig. 5: striped composite, u per level, global stretch vs F/E_eff
@@ -131,11 +135,14 @@ pub struct StudyOptions {
     /// Time the dense solvers in `blend-speedup` (about a minute; `linpd study --no-dense`
     /// turns it off).
     pub dense: bool,
+    /// The largest lattice (nodes) `multires` solves (`linpd study --max-nodes`; `None`: all
+    /// its sizes).
+    pub max_nodes: Option<usize>,
 }
 
 impl Default for StudyOptions {
     fn default() -> Self {
-        Self { dense: true }
+        Self { dense: true, max_nodes: None }
     }
 }
 
@@ -196,6 +203,7 @@ impl Study {
             Study::Dispersion => dynamics::run_dispersion(dir, report, progress),
             Study::Stability => dynamics::run_stability(dir, report, progress),
             Study::MdPd => md_pd::run(dir, report, progress),
+            Study::Multires => multires::run(dir, options.max_nodes, report, progress),
             Study::CoarsenTent => coarsen::tent_study(dir, report, progress),
             Study::CoarsenComposite => coarsen::composite_study(dir, report, progress),
             Study::CoarsenDefect => coarsen::defect_study(dir, report, progress),
@@ -234,6 +242,7 @@ mod tests {
                 "dispersion",
                 "stability",
                 "md-pd",
+                "multires",
                 "coarsen-tent",
                 "coarsen-composite",
                 "coarsen-defect",

@@ -7,8 +7,13 @@ use std::path::PathBuf;
 
 /// Runs the study `name` into `out` (default: the study's directory), its table on stdout;
 /// `list` prints every study with its description instead. `no_dense` skips the dense-solver
-/// timings of blend-speedup.
-pub(crate) fn study(name: String, out: Option<PathBuf>, no_dense: bool) -> Result<(), CliError> {
+/// timings of blend-speedup; `max_nodes` caps the lattices of multires.
+pub(crate) fn study(
+    name: String,
+    out: Option<PathBuf>,
+    no_dense: bool,
+    max_nodes: Option<usize>,
+) -> Result<(), CliError> {
     if name == "list" {
         for s in Study::all() {
             say!("{:<22} {}", s.name(), s.description())?;
@@ -24,7 +29,7 @@ pub(crate) fn study(name: String, out: Option<PathBuf>, no_dense: bool) -> Resul
     let progress = Reporter::new(false);
     let mut table = Suspending(&progress, UntilClosed(Some(std::io::stdout().lock())));
     study
-        .run_with_progress(staged.path(), &StudyOptions { dense: !no_dense }, &mut table, &progress)
+        .run_with_progress(staged.path(), &StudyOptions { dense: !no_dense, max_nodes }, &mut table, &progress)
         .map_err(|source| CliError::Study { name, source })?;
     let identity = RunIdentity::of_inputs(&[]).map_err(output)?;
     staged.commit_staged("data.json", &identity).map_err(output)?;

@@ -1,0 +1,179 @@
+//! `linpd study multires`: the blended model with a graded local mesh (`model.local_mesh`,
+//! [`linpd_blend::GradedBlend`]) against pure PD on the same lattice, in the same run: error,
+//! unknowns and time for several gradings and lattice sizes (issue #31).
+//!
+//! * **Body**: the edge-cracked plate of `linpd study blend-2d` (unit square, plane strain,
+//!   `delta = 3h`, a pre-crack from the left face to `x = 0.4`, the bottom layer held, the top
+//!   layer pulled by 0.01), `n` = 250, 500, 1000 cells a side (65k to 1.0M lattice nodes).
+//! * **Pure PD**: `auto` (the cost model's fastest solver: CG + multigrid on the assembled
+//!   operator here, the crack leaving the stencil path), rtol 1e-10.
+//! * **Graded**: `"pd_regions": "auto"` (2 horizons around the crack and the supports' faces, a
+//!   1-horizon linear transition), cells up to `L = 64h`, `m` = 2, 4, 8 cells per level, `auto`
+//!   (GMRES + multigrid from the SPD companion), rtol 1e-10; its field is drawn on every lattice
+//!   node (`"output": {"nodes": "lattice"}`) for the error.
+//!
+//! Error: `max |u_graded - u_PD| / max |u_PD|` over the lattice nodes; unknowns: the free DOFs
+//! of each solve; time: wall seconds of reading the scene, building and solving it in this
+//! process (each case once; the ratio to pure PD of the same size); memory: the estimate the
+//! memory guard checks (within 0.8-1.2 of the measured peaks, docs/robustness.md: a process's
+//! peak is monotone, so per-case peaks in one process would be the largest so far).
+//! `--max-nodes N` skips the sizes above `N` lattice nodes.
+
+use crate::blend2d::body;
+use crate::out::{create_dir, plot, write, Cases};
+use crate::StudyError;
+use linpd_core::progress::{NoProgress, Progress};
+use linpd_plot::{Series, SeriesStyle};
+use linpd_problem::Problem;
+use serde_json::{json, Value};
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+/// Lattice sizes (cells a side).
+const SIZES: [usize; 3] = [250, 500, 1000];
+/// Cells per level of the graded variants.
+const CELLS_PER_LEVEL: [usize; 3] = [2, 4, 8];
+/// The coarsest cell, in spacings.
+const MAX_CELL: f64 = 64.0;
+
+/// One solve: `u` on the lattice nodes, seconds, free DOFs, the memory estimate and the notes.
+struct Solved {
+    u: Vec<f64>,
+    seconds: f64,
+    unknowns: usize,
+    memory: f64,
+    iterations: usize,
+    solver: String,
+    notes: Vec<String>,
+}
+
+fn solve(scene: &Value) -> Result<Solved, StudyError> {
+    let check = |e: linpd_problem::ProblemError| StudyError::Check(format!("{}: {e}", scene["name"]));
+    let start = Instant::now();
+    let p = Problem::from_json(&scene.to_string()).map_err(check)?;
+    let s = p.solve(&NoProgress).map_err(check)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let r = s.report;
+    Ok(Solved {
+        u: s.u,
+        seconds,
+        unknowns: r.n,
+        memory: r.memory_estimate_bytes.unwrap_or(f64::NAN),
+        iterations: r.iterations.unwrap_or(0),
+        solver: r.solver.to_string(),
+        notes: r.notes.clone(),
+    })
+}
+
+/// The graded variant of the pure-PD plate `pd` at `n` cells a side.
+fn graded(pd: &Value, n: usize, m: usize) -> Value {
+    let mut s = pd.clone();
+    let model = &mut s["model"];
+    model["pd_regions"] = json!("auto");
+    model["local_mesh"] = json!({"max_cell": MAX_CELL / n as f64, "cells_per_level": m});
+    s["solver"] = json!({"type": "auto", "rtol": 1e-10});
+    s["output"]["nodes"] = json!("lattice");
+    s
+}
+
+/// Runs the study into `dir`, the sizes with at most `max_nodes` lattice nodes.
+pub(crate) fn run(
+    dir: &Path,
+    max_nodes: Option<usize>,
+    report: &mut dyn Write,
+    progress: &dyn Progress,
+) -> Result<(), StudyError> {
+    create_dir(dir)?;
+    // (n + 1)^2 body nodes and three layer rows top and bottom
+    let nodes = |n: usize| (n + 1) * (n + 7);
+    let sizes: Vec<usize> = SIZES.iter().copied().filter(|&n| max_nodes.is_none_or(|m| nodes(n) <= m)).collect();
+    if sizes.is_empty() {
+        return Err(StudyError::Check(format!(
+            "--max-nodes {} leaves no size (the smallest lattice has {} nodes)",
+            max_nodes.unwrap_or(0),
+            nodes(SIZES[0])
+        )));
+    }
+    let cases = Cases::new(progress, "multires", sizes.len() * (1 + CELLS_PER_LEVEL.len()));
+    writeln!(
+        report,
+        "{:>6} {:>9} {:<12} {:>10} {:>8} {:>9} {:>8} {:>8} {:>9} {:>5}",
+        "n", "nodes", "model", "unknowns", "x PD", "error", "seconds", "x PD", "est. MiB", "its"
+    )?;
+    let mut rows = Vec::new();
+    let (mut err_unknowns, mut err_time) = (Vec::new(), Vec::new());
+    for &n in &sizes {
+        let mut pd_scene = body("edge-crack", n);
+        pd_scene["solver"] = json!({"type": "auto", "rtol": 1e-10});
+        cases.next(format_args!("n = {n}, pure PD"));
+        let pd = solve(&pd_scene)?;
+        let umax = pd.u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let line = |r: &mut dyn Write, model: &str, s: &Solved, err: Option<f64>| -> std::io::Result<()> {
+            writeln!(
+                r,
+                "{n:>6} {:>9} {model:<12} {:>10} {:>8.3} {:>9} {:>8.2} {:>8.3} {:>9.0} {:>5}",
+                nodes(n),
+                s.unknowns,
+                s.unknowns as f64 / pd.unknowns as f64,
+                err.map_or("-".to_string(), |e| format!("{e:.2e}")),
+                s.seconds,
+                s.seconds / pd.seconds,
+                s.memory / (1u64 << 20) as f64,
+                s.iterations
+            )
+        };
+        line(report, "pure PD", &pd, None)?;
+        rows.push(json!({"n": n, "nodes": nodes(n), "model": "pd", "solver": pd.solver, "unknowns": pd.unknowns,
+            "seconds": pd.seconds, "memory_estimate_bytes": pd.memory, "iterations": pd.iterations}));
+        let (mut xs, mut ys, mut ts) = (Vec::new(), Vec::new(), Vec::new());
+        for m in CELLS_PER_LEVEL {
+            cases.next(format_args!("n = {n}, graded, m = {m}"));
+            let g = solve(&graded(&pd_scene, n, m))?;
+            if g.u.len() != pd.u.len() {
+                return Err(StudyError::Check(format!(
+                    "n = {n}: {} values against pure PD's {}",
+                    g.u.len(),
+                    pd.u.len()
+                )));
+            }
+            let err = g.u.iter().zip(&pd.u).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / umax;
+            line(report, &format!("graded m={m}"), &g, Some(err))?;
+            let (ru, rt) = (g.unknowns as f64 / pd.unknowns as f64, g.seconds / pd.seconds);
+            rows.push(json!({"n": n, "nodes": nodes(n), "model": "graded", "cells_per_level": m,
+                "max_cell": MAX_CELL, "solver": g.solver, "unknowns": g.unknowns, "unknowns_ratio": ru,
+                "max_error": err, "seconds": g.seconds, "time_ratio": rt, "memory_estimate_bytes": g.memory,
+                "memory_ratio": g.memory / pd.memory, "iterations": g.iterations, "notes": g.notes}));
+            xs.push(ru);
+            ys.push(err);
+            ts.push(rt);
+        }
+        let label = format!("n = {n} ({} nodes), m = 2, 4, 8", nodes(n));
+        err_unknowns.push(Series {
+            label: label.clone(),
+            x: xs.clone(),
+            y: ys.clone(),
+            style: SeriesStyle::LineMarkers,
+        });
+        err_time.push(Series { label, x: ts, y: ys, style: SeriesStyle::LineMarkers });
+    }
+    write(dir, &json!({"study": "multires", "body": "edge-crack", "max_cell_spacings": MAX_CELL, "rows": rows}))?;
+    plot(
+        dir,
+        "error_vs_unknowns",
+        "Graded local mesh vs pure PD: edge-cracked plate",
+        "unknowns / pure PD's",
+        "max |u - u_PD| / max |u_PD|",
+        err_unknowns,
+        true,
+    )?;
+    plot(
+        dir,
+        "error_vs_time",
+        "Graded local mesh vs pure PD: edge-cracked plate",
+        "time / pure PD's (same run)",
+        "max |u - u_PD| / max |u_PD|",
+        err_time,
+        true,
+    )
+}
