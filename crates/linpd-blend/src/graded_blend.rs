@@ -189,10 +189,11 @@ impl GradedBlend {
                 master_of_window[sub_of[i] as usize] = m as u32;
             }
         }
-        let k_m = mesh.stiffness(&|e: &Cell| match (&bulk, e.level) {
+        let moduli = |e: &Cell| match (&bulk, e.level) {
             (Some(c), 1..) => c.map(|x| x / h.powi(d as i32)),
             _ => cell_moduli(&sub, &sub_of, grid, &rows, e, h),
-        });
+        };
+        let k_rows = mesh.row_assembler();
         let to_master = |row: BlockRow, w: usize| -> Result<BlockRow, BlendError> {
             row.into_iter()
                 .map(|(j, b)| match master_of_window[j] {
@@ -219,7 +220,7 @@ impl GradedBlend {
                         let (ra, rm) = rows.row(w, rb, mb)?;
                         Ok((to_master(ra, w)?, to_master(rm, w)?))
                     } else {
-                        let r = symmetric_block_row(&k_m, d, m);
+                        let r = k_rows.stiffness_row(m, &moduli);
                         Ok((r.clone(), r))
                     }
                 },
@@ -227,7 +228,7 @@ impl GradedBlend {
             .collect();
         let (a_rows, m_rows): (Vec<BlockRow>, Vec<BlockRow>) =
             built.into_iter().collect::<Result<Vec<_>, _>>()?.into_iter().unzip();
-        drop(k_m);
+        drop(k_rows);
         drop(rows);
         let a = block_rows_to_csc(d, &a_rows);
         drop(a_rows);
@@ -383,15 +384,12 @@ fn master_dof_bytes(d: usize) -> f64 {
 }
 
 /// The peak bytes of [`GradedBlend::new`] and its solve (`n` lattice nodes, `n_window` of them
-/// with bonds, `stencil` bonds a node at most), the largest of its three phases over what the
+/// with bonds, `stencil` bonds a node at most), the larger of its two phases over what the
 /// whole run holds (the per-node maps and the window's bond operator, `L`):
-/// 1. `K_M` from its triplets: `L`, the moduli, the triplets (24 bytes and 8 of faer's sort
-///    each, [`GradedMesh::stiffness_triplets`]) and `K_M` (16 bytes an entry, `3^d d^2` a
-///    master);
-/// 2. the rows: `L`, the moduli, `K_M`, the block rows of `A` and `M` (80 bytes a block each:
-///    Algorithm A's `|F| + 1` for the nodes of `R`, `3^d` for the others) and `A`, `M` (16
-///    bytes an entry each);
-/// 3. the solve: `L`, `A`, `M` and their free restrictions (16 bytes an entry each), `A`'s
+/// 1. the rows: `L`, the moduli, the block rows of `A` and `M` (80 bytes a block each:
+///    Algorithm A's `|F| + 1` for the nodes of `R`, `3^d` of `K_M` for the others) and `A`, `M`
+///    (16 bytes an entry each);
+/// 2. the solve: `L`, `A`, `M` and their free restrictions (16 bytes an entry each), `A`'s
 ///    interaction graph, the vectors and the multigrid hierarchy per master DOF.
 fn peak_bytes(d: usize, n: usize, n_window: usize, stencil: usize, mesh: &GradedMesh, in_r: &[bool]) -> f64 {
     let held = n as f64 * LATTICE_NODE_BYTES + n_window as f64 * (WINDOW_NODE_BYTES + stencil as f64 * BOND_BYTES);
@@ -411,10 +409,7 @@ fn peak_bytes(d: usize, n: usize, n_window: usize, stencil: usize, mesh: &Graded
         .sum();
     let dd = (d * d) as f64;
     let (entries, masters) = (blocks * dd, mesh.n_masters() as f64);
-    let k_m = masters * local_blocks * dd * 16.0;
-    // K_M's triplets (24 bytes) and faer's argsort of them (8 bytes)
-    let triplets = mesh.stiffness_triplets() as f64 * 32.0;
-    let build = held + moduli + k_m + triplets.max(2.0 * blocks * 80.0 + 2.0 * entries * 16.0);
+    let build = held + moduli + 2.0 * blocks * 80.0 + 2.0 * entries * 16.0;
     // A, M, their free restrictions, and the interaction graph of A (4 bytes a block each way)
     let solve = held + 4.0 * entries * 16.0 + 8.0 * blocks + d as f64 * masters * master_dof_bytes(d);
     build.max(solve)
@@ -506,27 +501,6 @@ fn cell_moduli(sub: &Grid, sub_of: &[u32], grid: &Grid, rows: &BlendRows, e: &Ce
     }
     let vol = (h * s as f64).powi(d as i32);
     sum.map(|x| x / vol)
-}
-
-/// Block row `m` of the symmetric `K` (`d x d` blocks): its block column `m`, transposed.
-fn symmetric_block_row(k: &Csc, d: usize, m: usize) -> BlockRow {
-    let (cp, ri, v) = (k.symbolic().col_ptr(), k.symbolic().row_idx(), k.val());
-    let mut row: BlockRow = Vec::new();
-    for a in 0..d {
-        for p in cp[d * m + a]..cp[d * m + a + 1] {
-            let (j, b) = (ri[p] / d, ri[p] % d);
-            let at = match row.binary_search_by_key(&j, |e| e.0) {
-                Ok(q) => q,
-                Err(q) => {
-                    row.insert(q, (j, [0.0; 9]));
-                    q
-                }
-            };
-            // K[(m,a),(j,b)] = K[(j,b),(m,a)], the entry at row (j,b) of column (m,a)
-            row[at].1[a * 3 + b] = v[p];
-        }
-    }
-    row
 }
 
 /// `A`'s own methods are those of the stored matrix ([`AssembledModel`]) over the masters.

@@ -23,54 +23,79 @@ pub(crate) trait ElementBlocks {
 }
 
 /// Adds `scale` times block row `r` of the element matrix of a box of side `s` with
-/// `E = C vol_e` (`((a*3+b)*3+c)*3+d` layout) to `out` (see the module docs).
+/// `E = C vol_e` (`((a*3+b)*3+c)*3+d` layout) to `out` (see the module docs):
+/// `K[(r,a),(l,b)] = (1/s^2) sum_{q,t} E_aqbt B^d[r][l][q][t]` with the quadrature of the unit
+/// box's shape gradients `B^d[r][l][q][t] = sum_g w_g dN_r/dt_q(t_g) dN_l/dt_t(t_g)` tabulated
+/// once per dimension ([`gradient_products`]).
 pub(crate) fn add_element_row<S: ElementBlocks>(d: usize, s: f64, e: &[f64; 81], r: usize, scale: f64, out: &mut S) {
     let nc = 1usize << d;
-    let g = 0.5 / 3f64.sqrt();
-    let wg = 1.0 / nc as f64;
-    // shape function gradient of corner c at Gauss point p (reference coordinates t in [0, 1]^d)
-    let grad = |c: usize, t: &[f64; 3]| -> [f64; 3] {
-        let mut out = [0.0; 3];
-        for q in 0..d {
-            let mut v = 1.0 / s;
-            for a in 0..d {
-                let bit = c >> a & 1 == 1;
-                v *= if a == q {
-                    if bit {
-                        1.0
-                    } else {
-                        -1.0
+    let b_table = gradient_products(d);
+    let f = scale / (s * s);
+    for l in 0..nc {
+        let b_rl = &b_table[r * 8 + l];
+        let blk = out.block(l);
+        for a in 0..d {
+            for b in 0..d {
+                let mut v = 0.0;
+                for q in 0..d {
+                    for tt in 0..d {
+                        v += e[((a * 3 + q) * 3 + b) * 3 + tt] * b_rl[q * 3 + tt];
                     }
-                } else if bit {
-                    t[a]
-                } else {
-                    1.0 - t[a]
-                };
-            }
-            out[q] = v;
-        }
-        out
-    };
-    for p in 0..nc {
-        let t: [f64; 3] = [0, 1, 2].map(|a| if a < d { 0.5 + if p >> a & 1 == 1 { g } else { -g } } else { 0.0 });
-        let gr = grad(r, &t);
-        for l in 0..nc {
-            let gl = grad(l, &t);
-            let blk = out.block(l);
-            // K[(r,a),(l,b)] = w_g sum_{q,t} dN_r/dx_q E_{a q b t} dN_l/dx_t
-            for a in 0..d {
-                for b in 0..d {
-                    let mut v = 0.0;
-                    for q in 0..d {
-                        for tt in 0..d {
-                            v += gr[q] * e[((a * 3 + q) * 3 + b) * 3 + tt] * gl[tt];
-                        }
-                    }
-                    blk[a * 3 + b] += scale * wg * v;
                 }
+                blk[a * 3 + b] += f * v;
             }
         }
     }
+}
+
+/// `B^d[r * 8 + l][q * 3 + t] = sum_g w_g dN_r/dt_q(t_g) dN_l/dt_t(t_g)` on the unit box
+/// (`t_g = 1/2 +- 1/(2 sqrt 3)` per axis, `w_g = 2^-d`), for `d` = 2 and 3.
+fn gradient_products(d: usize) -> &'static [[f64; 9]; 64] {
+    static TABLES: [std::sync::OnceLock<[[f64; 9]; 64]>; 2] = [std::sync::OnceLock::new(), std::sync::OnceLock::new()];
+    TABLES[d - 2].get_or_init(|| {
+        let nc = 1usize << d;
+        let g = 0.5 / 3f64.sqrt();
+        let wg = 1.0 / nc as f64;
+        // shape function gradient of corner c at reference point t
+        let grad = |c: usize, t: &[f64; 3]| -> [f64; 3] {
+            let mut out = [0.0; 3];
+            for q in 0..d {
+                let mut v = 1.0;
+                for a in 0..d {
+                    let bit = c >> a & 1 == 1;
+                    v *= if a == q {
+                        if bit {
+                            1.0
+                        } else {
+                            -1.0
+                        }
+                    } else if bit {
+                        t[a]
+                    } else {
+                        1.0 - t[a]
+                    };
+                }
+                out[q] = v;
+            }
+            out
+        };
+        let mut table = [[0.0; 9]; 64];
+        for p in 0..nc {
+            let t: [f64; 3] = [0, 1, 2].map(|a| if a < d { 0.5 + if p >> a & 1 == 1 { g } else { -g } } else { 0.0 });
+            for r in 0..nc {
+                let gr = grad(r, &t);
+                for l in 0..nc {
+                    let gl = grad(l, &t);
+                    for q in 0..d {
+                        for tt in 0..d {
+                            table[r * 8 + l][q * 3 + tt] += wg * gr[q] * gl[tt];
+                        }
+                    }
+                }
+            }
+        }
+        table
+    })
 }
 
 /// The dense element matrix (`d 2^d` square, row `(r, a)` at `d r + a`) of a box of side `s`

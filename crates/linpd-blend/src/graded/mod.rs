@@ -94,6 +94,7 @@ pub(crate) mod element;
 mod grading;
 mod interpolate;
 mod stiffness;
+pub use stiffness::RowAssembler;
 
 use crate::BlendError;
 use grading::CellBox;

@@ -1,6 +1,6 @@
 //! The stiffness over the master DOFs, `K_M = T^T (sum_e K_e) T`, and the prolongation `T`.
 
-use super::element::element_matrix;
+use super::element::{add_element_row, element_matrix, ElementBlocks};
 use super::{Cell, GradedMesh};
 use faer::sparse::{SparseColMat, Triplet};
 use linpd_core::sparse::Csc;
@@ -93,5 +93,97 @@ impl GradedMesh {
         }
         let n = d * self.n_masters;
         SparseColMat::try_new_from_triplets(n, n, &trip).expect("indices in range")
+    }
+}
+
+/// The masters' rows of `K_M` one at a time ([`GradedMesh::stiffness_row`]): per master the
+/// nodes whose rows of `T` hold it (its own node with weight 1, the hanging nodes it masters).
+pub struct RowAssembler<'a> {
+    mesh: &'a GradedMesh,
+    t: Vec<Vec<(usize, f64)>>,
+    dependents: Vec<Vec<(usize, f64)>>,
+}
+
+impl GradedMesh {
+    /// What [`GradedMesh::stiffness_row`] reads: `T` by node and by master.
+    pub fn row_assembler(&self) -> RowAssembler<'_> {
+        let t = self.expansion();
+        let mut dependents: Vec<Vec<(usize, f64)>> = vec![Vec::new(); self.n_masters];
+        for (n, row) in t.iter().enumerate() {
+            for &(m, w) in row {
+                dependents[m].push((n, w));
+            }
+        }
+        RowAssembler { mesh: self, t, dependents }
+    }
+
+    /// The leaves with node `i` as a corner (those covering the lattice cells around it whose
+    /// corner it is: a hanging node lies inside an edge or face of a coarser leaf, which is not
+    /// among them).
+    pub fn leaves_at_node(&self, i: usize) -> Vec<Cell> {
+        let (d, k, n) = (self.dim(), self.nodes[i], self.lattice.n);
+        let mut out: Vec<Cell> = Vec::new();
+        for bits in 0..1usize << d {
+            let cell = [0, 1, 2].map(|a| {
+                if a >= d {
+                    Some(0)
+                } else if bits >> a & 1 == 1 {
+                    k[a].checked_sub(1)
+                } else {
+                    (k[a] + 1 < n[a]).then_some(k[a])
+                }
+            });
+            if let [Some(c0), Some(c1), Some(c2)] = cell {
+                let e = self.leaf_at([c0, c1, c2]);
+                if !out.contains(&e) && (0..1usize << d).any(|c| e.corner(d, c) == k) {
+                    out.push(e);
+                }
+            }
+        }
+        out
+    }
+}
+
+impl RowAssembler<'_> {
+    /// Block row of master `m` of `K_M = T^T K T` (as [`GradedMesh::stiffness`], `d x d`
+    /// blocks row-major in `3 x 3` arrays, sorted by master): `sum_n T_nm K[n, :] T` over the
+    /// nodes `n` of `m`, each `K[n, :]` the rows of `n` in the elements of its leaves. Built
+    /// directly (no triplets), so that only the rows a caller needs are made, in parallel.
+    pub fn stiffness_row(&self, m: usize, c_of_cell: &dyn Fn(&Cell) -> [f64; 81]) -> Vec<(usize, [f64; 9])> {
+        struct Dense([[f64; 9]; 8]);
+        impl ElementBlocks for Dense {
+            fn block(&mut self, l: usize) -> &mut [f64; 9] {
+                &mut self.0[l]
+            }
+        }
+        let mesh = self.mesh;
+        let d = mesh.dim();
+        let mut row: Vec<(usize, [f64; 9])> = Vec::new();
+        for &(n, w_n) in &self.dependents[m] {
+            for e in mesh.leaves_at_node(n) {
+                let s = mesh.lattice.h * e.side() as f64;
+                let ce = c_of_cell(&e).map(|c| c * s.powi(d as i32));
+                let corners = mesh.cell_nodes(&e);
+                let r = corners.iter().position(|&c| c == n).expect("a leaf at the node has it as a corner");
+                let mut blocks = Dense([[0.0; 9]; 8]);
+                add_element_row(d, s, &ce, r, w_n, &mut blocks);
+                for (l, &nl) in corners.iter().enumerate() {
+                    for &(ml, wl) in &self.t[nl] {
+                        let at = match row.iter().position(|x| x.0 == ml) {
+                            Some(p) => p,
+                            None => {
+                                row.push((ml, [0.0; 9]));
+                                row.len() - 1
+                            }
+                        };
+                        for (x, y) in row[at].1.iter_mut().zip(&blocks.0[l]) {
+                            *x += wl * y;
+                        }
+                    }
+                }
+            }
+        }
+        row.sort_unstable_by_key(|x| x.0);
+        row
     }
 }
