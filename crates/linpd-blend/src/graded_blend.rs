@@ -22,6 +22,16 @@
 //! cells at the nodes the caller must keep (the scene's constrained nodes: a constraint on a
 //! node a coarse cell interpolates would be lost).
 //!
+//! # Bodies
+//!
+//! On a grid a body cut (holes, notches, any shape in the box) the level-0 cells with a corner
+//! outside the body are no elements ([`GradedMesh::with_voids`]), as the lattice blend uses
+//! complete cells only, and the cells within a horizon and a spacing of a removed site stay on
+//! the lattice (families are truncated there as at the box's faces). A body node whose cells
+//! are all incomplete (a wall or spike one node thin) is in no leaf: it is an unknown of its
+//! own, after the mesh's masters, with Algorithm A's row (which names it as the lattice blend
+//! does when that row would need a local share), and `P` keeps it as it is.
+//!
 //! # What is built: the window
 //!
 //! Only the nodes within `max(delta, sqrt(d) h)` of a corner of a level-0 cell (the window, a
@@ -95,8 +105,11 @@ pub struct Bond<'a> {
 #[derive(Debug, Clone)]
 pub struct GradedBlend {
     mesh: GradedMesh,
-    /// The lattice node of every master.
+    /// The lattice node of every master: the mesh's masters, then the extra nodes.
     master_node: Vec<usize>,
+    /// The lattice nodes of no leaf (all their cells void: a body thinner than a cell there),
+    /// ascending; masters `mesh.n_masters()..` in this order, with Algorithm A's rows.
+    extra: Vec<usize>,
     /// `A` over the masters' DOFs (positions: the masters').
     a: AssembledModel,
     /// The SPD companion of `A` (see the module docs).
@@ -111,9 +124,9 @@ pub struct GradedBlend {
 
 impl GradedBlend {
     /// The blended model of [`crate::LatticeBlend::new`] with its local zone on a mesh graded
-    /// by `grading` away from the nonlocal rows. `grid` must be the full lattice box (which
-    /// blended scenes with a graded mesh are); `beta`, `regular` (`None`: every node),
-    /// `mirrored` and `keep` have one value per node of it.
+    /// by `grading` away from the nonlocal rows, on the lattice `grid` (a full box or a body);
+    /// `beta`, `regular` (`None`: every node), `mirrored` and `keep` have one value per node of
+    /// it.
     /// `keep[i]`: node `i` must be an unknown (a constrained node: a constraint on a node that a
     /// coarse cell interpolates would be lost), so the cells at it stay on the lattice.
     /// `regular[i] == false` (a defect or an interface within the node's horizon) keeps its
@@ -133,17 +146,21 @@ impl GradedBlend {
         if keep.len() != n || regular.is_some_and(|r| r.len() != n) {
             return Err(BlendError::param("local_mesh", format!("keep or regular flags not one per node of {n}")));
         }
-        if !grid.is_full() {
-            return Err(BlendError::param("local_mesh", "a graded local mesh needs the full lattice box (no body)"));
-        }
         let ratio = horizon / h;
         let (in_r, zones, mesh) = layout(grid, &beta, regular, keep, horizon, grading)?;
         // with phases a coarse cell sums its lattice cells' moduli, which needs every node's
         // bonds; otherwise they are the bulk's (see the module docs)
         let homogeneous = bond.material.phases.is_empty();
-        let window: Vec<bool> = if homogeneous { window_nodes(grid, &mesh, ratio) } else { vec![true; n] };
+        // the nodes of no leaf: unknowns of their own (see the module docs)
+        let extra: Vec<usize> = (0..n)
+            .filter(|&i| {
+                let k = grid.site_of(i);
+                mesh.node_at(k).is_none() && mesh.leaf_at(k).is_none()
+            })
+            .collect();
+        let window: Vec<bool> = if homogeneous { window_nodes(grid, &mesh, &extra, ratio) } else { vec![true; n] };
         let n_window = window.iter().filter(|&&w| w).count();
-        let estimate = peak_bytes(d, n, n_window, lattice_stencil(d, ratio).len(), &mesh, &in_r);
+        let estimate = peak_bytes(grid, n_window, lattice_stencil(d, ratio).len(), &mesh, extra.len(), &in_r);
         linpd_core::memory::check(
             format!(
                 "the graded blend ({n} lattice nodes, {n_window} of them with their bonds and element moduli, {} \
@@ -181,7 +198,8 @@ impl GradedBlend {
         let bulk = if homogeneous { Some(bulk_moduli(bond, grid)?) } else { None };
         let master_node: Vec<usize> = (0..mesh.nodes().len())
             .filter(|&g| mesh.master_of(g).is_some())
-            .map(|g| grid.node_at_site(mesh.nodes()[g]).expect("a full grid has every site"))
+            .map(|g| grid.node_at_site(mesh.nodes()[g]).expect("a leaf's corners are nodes"))
+            .chain(extra.iter().copied())
             .collect();
         let mut master_of_window = vec![u32::MAX; sub.len()];
         for (m, &i) in master_node.iter().enumerate() {
@@ -215,7 +233,7 @@ impl GradedBlend {
             .map_init(
                 || (RowBuilder::new(n_sub), RowBuilder::new(n_sub)),
                 |(rb, mb), (m, &i)| {
-                    if in_r[i] {
+                    if in_r[i] || m >= mesh.n_masters() {
                         let w = sub_of[i] as usize;
                         let (ra, rm) = rows.row(w, rb, mb)?;
                         Ok((to_master(ra, w)?, to_master(rm, w)?))
@@ -239,6 +257,7 @@ impl GradedBlend {
         Ok(GradedBlend {
             mesh,
             master_node,
+            extra,
             a: AssembledModel::new("blend", d, positions, a),
             m,
             window: sub,
@@ -283,6 +302,20 @@ impl GradedBlend {
         &self.m
     }
 
+    /// The lattice nodes of no leaf (their cells all void), ascending: masters
+    /// `mesh().n_masters()..` in this order.
+    pub fn extra_nodes(&self) -> &[usize] {
+        &self.extra
+    }
+
+    /// Row `i` of `P` for lattice node `i` of `grid`: `(master, weight)`.
+    fn p_row(&self, grid: &Grid, i: usize) -> Vec<(usize, f64)> {
+        match self.extra.binary_search(&i) {
+            Ok(x) => vec![(self.mesh.n_masters() + x, 1.0)],
+            Err(_) => self.mesh.interpolation_row(grid.site_of(i)),
+        }
+    }
+
     /// `u = P u_M` on every node of `grid` (the lattice the model was built on), `d` values per
     /// node (see the module docs).
     pub fn expand(&self, grid: &Grid, u_master: &[f64]) -> Vec<f64> {
@@ -290,7 +323,7 @@ impl GradedBlend {
         assert_eq!(u_master.len(), d * self.master_node.len(), "one value per master DOF");
         let mut u = vec![0.0; d * grid.len()];
         u.par_chunks_mut(d).enumerate().for_each(|(i, ui)| {
-            for (m, w) in self.mesh.interpolation_row(site(grid, i)) {
+            for (m, w) in self.p_row(grid, i) {
                 for a in 0..d {
                     ui[a] += w * u_master[d * m + a];
                 }
@@ -309,7 +342,7 @@ impl GradedBlend {
             if f[d * i..d * i + d].iter().all(|&x| x == 0.0) {
                 continue;
             }
-            for (m, w) in self.mesh.interpolation_row(site(grid, i)) {
+            for (m, w) in self.p_row(grid, i) {
                 for a in 0..d {
                     out[d * m + a] += w * f[d * i + a];
                 }
@@ -340,6 +373,9 @@ fn layout(
     let in_r: Vec<bool> = to_nonlocal.iter().map(|&q| q <= in_family).collect();
     let r_f = (horizon + horizon.max(2.0 * h)) / h;
     let surface = (horizon / h).ceil() as usize + 1;
+    // families are truncated within a horizon of a removed site as at the box's faces
+    let to_removed = crate::lattice::squared_distances_to_removed(grid);
+    let beside_removed = (ratio + 1.0) * (ratio + 1.0);
     // the grid's layer stays on the lattice too (see the module docs)
     let near: Vec<bool> = (0..n)
         .into_par_iter()
@@ -347,6 +383,7 @@ fn layout(
             to_nonlocal[i] <= r_f * r_f
                 || grid.is_layer(i)
                 || near_face(grid, i, surface)
+                || to_removed[i] <= beside_removed
                 || keep[i]
                 || regular.is_some_and(|r| !r[i])
         })
@@ -361,7 +398,19 @@ fn layout(
             grid.node_at_site(k).is_some_and(|i| near[i])
         })
     };
-    let mesh = GradedMesh::new(&lattice, &corner_near, grading)?;
+    // a cell with a corner outside the body is no element (the lattice blend's cells are the
+    // complete ones too)
+    let void = |c: &[usize]| {
+        (0..1usize << d).any(|bits| {
+            let k = [0, 1, 2].map(|a| if a < d { c[a] + (bits >> a & 1) } else { 0 });
+            grid.node_at_site(k).is_none()
+        })
+    };
+    let mesh = if grid.is_full() {
+        GradedMesh::new(&lattice, &corner_near, grading)?
+    } else {
+        GradedMesh::with_voids(&lattice, &corner_near, &void, grading)?
+    };
     drop(near);
     Ok((in_r, zones, mesh))
 }
@@ -391,24 +440,21 @@ fn master_dof_bytes(d: usize) -> f64 {
 ///    (16 bytes an entry each);
 /// 2. the solve: `L`, `A`, `M` and their free restrictions (16 bytes an entry each), `A`'s
 ///    interaction graph, the vectors and the multigrid hierarchy per master DOF.
-fn peak_bytes(d: usize, n: usize, n_window: usize, stencil: usize, mesh: &GradedMesh, in_r: &[bool]) -> f64 {
+fn peak_bytes(grid: &Grid, n_window: usize, stencil: usize, mesh: &GradedMesh, extra: usize, in_r: &[bool]) -> f64 {
+    let (d, n) = (grid.dim(), grid.len());
     let held = n as f64 * LATTICE_NODE_BYTES + n_window as f64 * (WINDOW_NODE_BYTES + stencil as f64 * BOND_BYTES);
     let moduli = n_window as f64 * MODULI_BYTES;
     let local_blocks = 3f64.powi(d as i32);
-    let c = mesh.lattice().counts();
     let blocks: f64 = (0..mesh.nodes().len())
         .filter(|&g| mesh.master_of(g).is_some())
-        .map(|g| {
-            let k = mesh.nodes()[g];
-            if in_r[k[0] + c[0] * (k[1] + c[1] * k[2])] {
-                stencil as f64 + 1.0
-            } else {
-                local_blocks
-            }
+        .map(|g| match grid.node_at_site(mesh.nodes()[g]) {
+            Some(i) if !in_r[i] => local_blocks,
+            _ => stencil as f64 + 1.0,
         })
-        .sum();
+        .sum::<f64>()
+        + extra as f64 * (stencil as f64 + 1.0);
     let dd = (d * d) as f64;
-    let (entries, masters) = (blocks * dd, mesh.n_masters() as f64);
+    let (entries, masters) = (blocks * dd, (mesh.n_masters() + extra) as f64);
     let build = held + moduli + 2.0 * blocks * 80.0 + 2.0 * entries * 16.0;
     // A, M, their free restrictions, and the interaction graph of A (4 bytes a block each way)
     let solve = held + 4.0 * entries * 16.0 + 8.0 * blocks + d as f64 * masters * master_dof_bytes(d);
@@ -416,15 +462,18 @@ fn peak_bytes(d: usize, n: usize, n_window: usize, stencil: usize, mesh: &Graded
 }
 
 /// The nodes whose bonds the rows read: those within `max(ratio, sqrt d)` lattice steps of a
-/// corner of a level-0 cell (their element moduli need their whole family, their cell counts
+/// corner of a level-0 cell or an extra node (their element moduli need their whole family, their cell counts
 /// their box neighbours; the rows of `R` read no farther, see the module docs).
-fn window_nodes(grid: &Grid, mesh: &GradedMesh, ratio: f64) -> Vec<bool> {
+fn window_nodes(grid: &Grid, mesh: &GradedMesh, extra: &[usize], ratio: f64) -> Vec<bool> {
     let d = grid.dim();
     let mut fine = vec![false; grid.len()];
     for e in mesh.cells().iter().filter(|e| e.level == 0) {
         for c in 0..1usize << d {
-            fine[grid.node_at_site(e.corner(d, c)).expect("a full grid has every site")] = true;
+            fine[grid.node_at_site(e.corner(d, c)).expect("a leaf's corners are nodes")] = true;
         }
+    }
+    for &i in extra {
+        fine[i] = true;
     }
     let r = ratio.max((d as f64).sqrt());
     let r2 = r * r * (1.0 + GEOMETRY_RTOL);
@@ -441,10 +490,21 @@ fn lattice_zones(grid: &Grid, beta: &[f64], in_r: &[bool], ratio: f64) -> Zones 
     let pd = to_below.iter().filter(|&&q| q > in_family).count();
     let local = in_r.iter().filter(|&&r| !r).count();
     let (d, c) = (grid.dim(), grid.counts());
-    let bonds: usize = lattice_stencil(d, ratio)
-        .iter()
-        .map(|k| (0..d).map(|a| c[a].saturating_sub(k[a].unsigned_abs() as usize)).product::<usize>())
-        .sum();
+    let stencil = lattice_stencil(d, ratio);
+    let bonds: usize = if grid.is_full() {
+        stencil
+            .iter()
+            .map(|k| (0..d).map(|a| c[a].saturating_sub(k[a].unsigned_abs() as usize)).product::<usize>())
+            .sum()
+    } else {
+        (0..grid.len())
+            .into_par_iter()
+            .map(|i| {
+                let k = grid.lattice_index(i);
+                stencil.iter().filter(|o| grid.node_at([k[0] + o[0], k[1] + o[1], k[2] + o[2]]).is_some()).count()
+            })
+            .sum()
+    };
     Zones { pd, transition: grid.len() - pd - local, local, nnz: 0, nnz_pd: d * d * (grid.len() + bonds) }
 }
 
@@ -468,14 +528,8 @@ fn core_error(e: linpd_core::CoreError) -> BlendError {
 
 /// Whether node `i` is within `r` sites of a face of the lattice box.
 fn near_face(grid: &Grid, i: usize, r: usize) -> bool {
-    let (c, k) = (grid.counts(), site(grid, i));
+    let (c, k) = (grid.counts(), grid.site_of(i));
     (0..grid.dim()).any(|a| k[a] < r || k[a] + r >= c[a])
-}
-
-/// The site (0-based lattice index, layers included) of node `i` of a full grid.
-fn site(grid: &Grid, i: usize) -> [usize; 3] {
-    let c = grid.counts();
-    [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])]
 }
 
 /// `C_E` of a leaf: `sum_{lattice cells e in E} C_e vol_e / vol_E` with
@@ -490,7 +544,7 @@ fn cell_moduli(sub: &Grid, sub_of: &[u32], grid: &Grid, rows: &BlendRows, e: &Ce
         let o = [0, 1, 2].map(|a| if a < d { e.origin[a] + t / s.pow(a as u32) % s } else { 0 });
         for bits in 0..1usize << d {
             let k = [0, 1, 2].map(|a| if a < d { o[a] + (bits >> a & 1) } else { 0 });
-            let i = grid.node_at_site(k).expect("a full grid has every site");
+            let i = grid.node_at_site(k).expect("a leaf's lattice cells are the body's");
             let c = sub_of[i] as usize;
             debug_assert!(c < sub.len(), "a cell's nodes are in the window");
             let f = 1.0 / rows.n_cells[c] as f64;

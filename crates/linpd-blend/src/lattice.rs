@@ -136,15 +136,24 @@ pub fn beta_from_zone(grid: &Grid, inside: &[bool], width: f64, profile: Profile
 /// Felzenszwalb & Huttenlocher, one lower envelope of parabolas per line and axis, O(sites d).
 /// The same minimum as a search over every offset, in linear time.
 pub fn squared_lattice_distances(grid: &Grid, seeds: &[bool]) -> Vec<f64> {
+    squared_site_distances(grid, &|site| grid.node_at_site(site).is_some_and(|j| seeds[j]))
+}
+
+/// Per node of `grid`, the squared lattice distance to the nearest site of the box that a body
+/// removed (infinite on a full grid): where families are truncated by the body's boundary.
+pub(crate) fn squared_distances_to_removed(grid: &Grid) -> Vec<f64> {
+    if grid.is_full() {
+        return vec![f64::INFINITY; grid.len()];
+    }
+    squared_site_distances(grid, &|site| grid.node_at_site(site).is_none())
+}
+
+/// [`squared_lattice_distances`] to the sites for which `seed(site)` holds.
+fn squared_site_distances(grid: &Grid, seed: &dyn Fn([usize; 3]) -> bool) -> Vec<f64> {
     let c = grid.counts();
     let sites = c[0] * c[1] * c[2];
     let site_of = |s: usize| [s % c[0], (s / c[0]) % c[1], s / (c[0] * c[1])];
-    let mut f: Vec<f64> = (0..sites)
-        .map(|s| match grid.node_at_site(site_of(s)) {
-            Some(j) if seeds[j] => 0.0,
-            _ => f64::INFINITY,
-        })
-        .collect();
+    let mut f: Vec<f64> = (0..sites).map(|s| if seed(site_of(s)) { 0.0 } else { f64::INFINITY }).collect();
     let stride = [1, c[0], c[0] * c[1]];
     for a in 0..grid.dim() {
         let len = c[a];

@@ -78,8 +78,8 @@ fn plane_axes(c: usize) -> (usize, usize) {
 
 /// `|u|` on every node of `grid` from a solution on the corners of `s.cells` (quads or
 /// hexahedra whose corners are lattice sites, VTK's corner order): each cell's sites get the
-/// bilinear / trilinear interpolant of `u` (`None` without cells, or when a corner is not a
-/// lattice site).
+/// bilinear / trilinear interpolant of `u`, and each of the solution's points its own value
+/// (`None` without cells, or when a corner is not a lattice site).
 fn magnitude_from_cells(grid: &Grid, s: &Solution) -> Option<Vec<f64>> {
     let (d, cells) = (s.dim, s.cells.as_ref()?);
     let (h, x0, counts) = (grid.spacing(), grid.site_position([0; 3]), grid.counts());
@@ -132,6 +132,12 @@ fn magnitude_from_cells(grid: &Grid, s: &Solution) -> Option<Vec<f64>> {
                     u[d * node..d * node + d].copy_from_slice(&v[..d]);
                 }
             }
+        }
+    }
+    // the solution's own points (also those of no cell: a body thinner than a cell)
+    for p in 0..s.x.len() {
+        if let Some(node) = site_of(p).and_then(|k| grid.node_at_site(k)) {
+            u[d * node..d * node + d].copy_from_slice(s.u.get(d * p..d * p + d)?);
         }
     }
     Some((0..grid.len()).map(|n| u[d * n..d * n + d].iter().map(|x| x * x).sum::<f64>().sqrt()).collect())

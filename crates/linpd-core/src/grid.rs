@@ -392,6 +392,13 @@ impl Grid {
         idx
     }
 
+    /// Site `(i, j, k)` of node `n` in the lattice box (0-based, layers included; the inverse
+    /// of [`Grid::node_at_site`]).
+    pub fn site_of(&self, n: usize) -> [usize; 3] {
+        let r = self.site(n);
+        [r % self.counts[0], (r / self.counts[0]) % self.counts[1], r / (self.counts[0] * self.counts[1])]
+    }
+
     /// Whether lattice index `idx` lies in the lattice box (layers included), node or not: a
     /// site inside the box without a node was removed by a body.
     pub fn box_contains(&self, idx: [i64; 3]) -> bool {

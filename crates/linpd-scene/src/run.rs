@@ -4,7 +4,7 @@
 
 use crate::capability::Capability;
 use crate::models::bond_lattice::BondLatticeModel;
-use crate::models::lattice_blend::LatticeBlendModel;
+use crate::models::lattice_blend::{GradedSystem, LatticeBlendModel};
 use crate::models::lps::LpsSceneModel;
 use crate::scene::Problem;
 use crate::solution::Solution;
@@ -51,6 +51,16 @@ impl Problem {
     /// The scene's blended model (a bond model with `pd_regions`).
     pub fn lattice_blend(&self) -> Result<LatticeBlend, ProblemError> {
         self.model_as::<LatticeBlendModel>("a bond model with pd_regions")?.build(self)
+    }
+
+    /// The scene's blended model on its graded local mesh (a bond model with `pd_regions` and
+    /// `local_mesh`).
+    pub fn graded_blend(&self) -> Result<GradedSystem, ProblemError> {
+        let m = self.model_as::<LatticeBlendModel>("a bond model with pd_regions")?;
+        let grading = m.zone.local_mesh.ok_or_else(|| {
+            ProblemError::invalid("model.local_mesh", "is needed here (the scene's blend is on the lattice)")
+        })?;
+        m.build_graded(self, grading)
     }
 
     /// The LPS model of an lps scene, with the defects of its material and its surface

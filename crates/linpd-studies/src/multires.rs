@@ -2,9 +2,11 @@
 //! [`linpd_blend::GradedBlend`]) against pure PD on the same lattice, in the same run: error,
 //! unknowns and time for several gradings and lattice sizes (issue #31).
 //!
-//! * **Body**: the edge-cracked plate of `linpd study blend-2d` (unit square, plane strain,
+//! * **Bodies**: the edge-cracked plate of `linpd study blend-2d` (unit square, plane strain,
 //!   `delta = 3h`, a pre-crack from the left face to `x = 0.4`, the bottom layer held, the top
-//!   layer pulled by 0.01), `n` = 250, 500, 1000 cells a side (65k to 1.0M lattice nodes).
+//!   layer pulled by 0.01) and its plate with a hole (`1 x 0.5`, plane stress, a hole of radius
+//!   0.1, the left layer held, a resultant pulling the right one), `n` = 250, 500, 1000 cells
+//!   per unit length (65k to 1.0M lattice nodes for the plate, half as many with the hole).
 //! * **Pure PD**: `auto` (the cost model's fastest solver: CG + multigrid on the assembled
 //!   operator here, the crack leaving the stencil path), rtol 1e-10.
 //! * **Graded**: `"pd_regions": "auto"` (2 horizons around the crack and the supports' faces, a
@@ -17,7 +19,7 @@
 //! process (each case once; the ratio to pure PD of the same size); memory: the estimate the
 //! memory guard checks (within 0.8-1.2 of the measured peaks, docs/robustness.md: a process's
 //! peak is monotone, so per-case peaks in one process would be the largest so far).
-//! `--max-nodes N` skips the sizes above `N` lattice nodes.
+//! `--max-nodes N` skips the lattices of more than `N` nodes.
 
 use crate::blend2d::body;
 use crate::out::{create_dir, plot, write, Cases};
@@ -30,8 +32,10 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
-/// Lattice sizes (cells a side).
+/// Lattice sizes (cells per unit length).
 const SIZES: [usize; 3] = [250, 500, 1000];
+/// The bodies (scenes of [`body`]).
+const BODIES: [&str; 2] = ["edge-crack", "hole"];
 /// Cells per level of the graded variants.
 const CELLS_PER_LEVEL: [usize; 3] = [2, 4, 8];
 /// The coarsest cell, in spacings.
@@ -77,7 +81,7 @@ fn graded(pd: &Value, n: usize, m: usize) -> Value {
     s
 }
 
-/// Runs the study into `dir`, the sizes with at most `max_nodes` lattice nodes.
+/// Runs the study into `dir`, the lattices of at most `max_nodes` nodes.
 pub(crate) fn run(
     dir: &Path,
     max_nodes: Option<usize>,
@@ -85,35 +89,38 @@ pub(crate) fn run(
     progress: &dyn Progress,
 ) -> Result<(), StudyError> {
     create_dir(dir)?;
-    // (n + 1)^2 body nodes and three layer rows top and bottom
-    let nodes = |n: usize| (n + 1) * (n + 7);
-    let sizes: Vec<usize> = SIZES.iter().copied().filter(|&n| max_nodes.is_none_or(|m| nodes(n) <= m)).collect();
+    let check = |e: linpd_problem::ProblemError| StudyError::Check(e.to_string());
+    // (body, n, lattice nodes) of the lattices within max_nodes
+    let mut sizes = Vec::new();
+    for name in BODIES {
+        for n in SIZES {
+            let nodes = Problem::from_json(&body(name, n).to_string()).map_err(check)?.nodes().len();
+            if max_nodes.is_none_or(|m| nodes <= m) {
+                sizes.push((name, n, nodes));
+            }
+        }
+    }
     if sizes.is_empty() {
-        return Err(StudyError::Check(format!(
-            "--max-nodes {} leaves no size (the smallest lattice has {} nodes)",
-            max_nodes.unwrap_or(0),
-            nodes(SIZES[0])
-        )));
+        return Err(StudyError::Check(format!("--max-nodes {} leaves no lattice to solve", max_nodes.unwrap_or(0))));
     }
     let cases = Cases::new(progress, "multires", sizes.len() * (1 + CELLS_PER_LEVEL.len()));
     writeln!(
         report,
-        "{:>6} {:>9} {:<12} {:>10} {:>8} {:>9} {:>8} {:>8} {:>9} {:>5}",
-        "n", "nodes", "model", "unknowns", "x PD", "error", "seconds", "x PD", "est. MiB", "its"
+        "{:<11} {:>5} {:>8} {:<12} {:>9} {:>6} {:>8} {:>7} {:>6} {:>8} {:>4}",
+        "body", "n", "nodes", "model", "unknowns", "x PD", "error", "seconds", "x PD", "est. MiB", "its"
     )?;
     let mut rows = Vec::new();
     let (mut err_unknowns, mut err_time) = (Vec::new(), Vec::new());
-    for &n in &sizes {
-        let mut pd_scene = body("edge-crack", n);
+    for &(name, n, nodes) in &sizes {
+        let mut pd_scene = body(name, n);
         pd_scene["solver"] = json!({"type": "auto", "rtol": 1e-10});
-        cases.next(format_args!("n = {n}, pure PD"));
+        cases.next(format_args!("{name}, n = {n}, pure PD"));
         let pd = solve(&pd_scene)?;
         let umax = pd.u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let line = |r: &mut dyn Write, model: &str, s: &Solved, err: Option<f64>| -> std::io::Result<()> {
             writeln!(
                 r,
-                "{n:>6} {:>9} {model:<12} {:>10} {:>8.3} {:>9} {:>8.2} {:>8.3} {:>9.0} {:>5}",
-                nodes(n),
+                "{name:<11} {n:>5} {nodes:>8} {model:<12} {:>9} {:>6.3} {:>8} {:>7.2} {:>6.3} {:>8.0} {:>4}",
                 s.unknowns,
                 s.unknowns as f64 / pd.unknowns as f64,
                 err.map_or("-".to_string(), |e| format!("{e:.2e}")),
@@ -124,15 +131,16 @@ pub(crate) fn run(
             )
         };
         line(report, "pure PD", &pd, None)?;
-        rows.push(json!({"n": n, "nodes": nodes(n), "model": "pd", "solver": pd.solver, "unknowns": pd.unknowns,
-            "seconds": pd.seconds, "memory_estimate_bytes": pd.memory, "iterations": pd.iterations}));
+        rows.push(json!({"body": name, "n": n, "nodes": nodes, "model": "pd", "solver": pd.solver,
+            "unknowns": pd.unknowns, "seconds": pd.seconds, "memory_estimate_bytes": pd.memory,
+            "iterations": pd.iterations}));
         let (mut xs, mut ys, mut ts) = (Vec::new(), Vec::new(), Vec::new());
         for m in CELLS_PER_LEVEL {
-            cases.next(format_args!("n = {n}, graded, m = {m}"));
+            cases.next(format_args!("{name}, n = {n}, graded, m = {m}"));
             let g = solve(&graded(&pd_scene, n, m))?;
             if g.u.len() != pd.u.len() {
                 return Err(StudyError::Check(format!(
-                    "n = {n}: {} values against pure PD's {}",
+                    "{name}, n = {n}: {} values against pure PD's {}",
                     g.u.len(),
                     pd.u.len()
                 )));
@@ -140,7 +148,7 @@ pub(crate) fn run(
             let err = g.u.iter().zip(&pd.u).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / umax;
             line(report, &format!("graded m={m}"), &g, Some(err))?;
             let (ru, rt) = (g.unknowns as f64 / pd.unknowns as f64, g.seconds / pd.seconds);
-            rows.push(json!({"n": n, "nodes": nodes(n), "model": "graded", "cells_per_level": m,
+            rows.push(json!({"body": name, "n": n, "nodes": nodes, "model": "graded", "cells_per_level": m,
                 "max_cell": MAX_CELL, "solver": g.solver, "unknowns": g.unknowns, "unknowns_ratio": ru,
                 "max_error": err, "seconds": g.seconds, "time_ratio": rt, "memory_estimate_bytes": g.memory,
                 "memory_ratio": g.memory / pd.memory, "iterations": g.iterations, "notes": g.notes}));
@@ -148,20 +156,15 @@ pub(crate) fn run(
             ys.push(err);
             ts.push(rt);
         }
-        let label = format!("n = {n} ({} nodes), m = 2, 4, 8", nodes(n));
-        err_unknowns.push(Series {
-            label: label.clone(),
-            x: xs.clone(),
-            y: ys.clone(),
-            style: SeriesStyle::LineMarkers,
-        });
+        let label = format!("{name}, {nodes} nodes, m = 2, 4, 8");
+        err_unknowns.push(Series { label: label.clone(), x: xs, y: ys.clone(), style: SeriesStyle::LineMarkers });
         err_time.push(Series { label, x: ts, y: ys, style: SeriesStyle::LineMarkers });
     }
-    write(dir, &json!({"study": "multires", "body": "edge-crack", "max_cell_spacings": MAX_CELL, "rows": rows}))?;
+    write(dir, &json!({"study": "multires", "max_cell_spacings": MAX_CELL, "rows": rows}))?;
     plot(
         dir,
         "error_vs_unknowns",
-        "Graded local mesh vs pure PD: edge-cracked plate",
+        "Graded local mesh vs pure PD",
         "unknowns / pure PD's",
         "max |u - u_PD| / max |u_PD|",
         err_unknowns,
@@ -170,7 +173,7 @@ pub(crate) fn run(
     plot(
         dir,
         "error_vs_time",
-        "Graded local mesh vs pure PD: edge-cracked plate",
+        "Graded local mesh vs pure PD",
         "time / pure PD's (same run)",
         "max |u - u_PD| / max |u_PD|",
         err_time,

@@ -9,18 +9,24 @@ use super::{Cell, GradedMesh};
 
 impl GradedMesh {
     /// The leaf covering lattice node `k`: the leaf of the level-0 cell whose lowest corner is
-    /// `min(k, n - 2)` per axis (a node on a far face belongs to the last cell).
-    pub fn leaf_at(&self, k: [usize; 3]) -> Cell {
+    /// `min(k, n - 2)` per axis (a node on a far face belongs to the last cell); `None` when
+    /// that cell is void ([`GradedMesh::with_voids`]).
+    pub fn leaf_at(&self, k: [usize; 3]) -> Option<Cell> {
         let d = self.dim();
         let b = self.lattice.cells();
         let c = [0, 1, 2].map(|a| if a < d { k[a].min(self.lattice.n[a] - 2) } else { 0 });
-        let level = self.leaf_level[b.index(c)];
+        let i = b.index(c);
+        if self.void.get(i).copied().unwrap_or(false) {
+            return None;
+        }
+        let level = self.leaf_level[i];
         let side = 1usize << level;
-        Cell { level, origin: [0, 1, 2].map(|a| c[a] / side * side) }
+        Some(Cell { level, origin: [0, 1, 2].map(|a| c[a] / side * side) })
     }
 
     /// Row `k` of `P` (see the module docs): `(master, weight)` for lattice node `k`, the
-    /// weights summing to 1; a master node is itself with weight 1.
+    /// weights summing to 1; a master node is itself with weight 1; empty for a node of no
+    /// leaf (one whose cells are all void, [`GradedMesh::with_voids`]).
     pub fn interpolation_row(&self, k: [usize; 3]) -> Vec<(usize, f64)> {
         let d = self.dim();
         if let Some(i) = self.node_at(k) {
@@ -28,7 +34,7 @@ impl GradedMesh {
                 return vec![(m, 1.0)];
             }
         }
-        let e = self.leaf_at(k);
+        let Some(e) = self.leaf_at(k) else { return Vec::new() };
         let s = e.side() as f64;
         let t = [0, 1, 2].map(|a| (k[a] as f64 - e.origin[a] as f64) / s);
         let mut row: Vec<(usize, f64)> = Vec::new();

@@ -221,6 +221,8 @@ pub struct GradedMesh {
     n_masters: usize,
     /// The level of the leaf covering each level-0 cell (lattice cell order).
     leaf_level: Vec<u8>,
+    /// The level-0 cells that are no element (a corner outside the body; empty: none).
+    void: Vec<bool>,
 }
 
 impl GradedMesh {
@@ -228,6 +230,18 @@ impl GradedMesh {
     /// (the index has `dim` entries, cell `c` spans nodes `c .. c + 1`), graded by `grading`
     /// and 2:1 balanced (see the module docs).
     pub fn new(lattice: &LatticeBox, fine: &dyn Fn(&[usize]) -> bool, grading: Grading) -> Result<Self, BlendError> {
+        Self::with_voids(lattice, fine, &|_| false, grading)
+    }
+
+    /// [`GradedMesh::new`] on a body: the level-0 cells for which `void(cell index)` holds (a
+    /// corner is not a node of the body) stay level-0 (the grading counts them as fine) but
+    /// are no element; the mesh's nodes are the corners of the other leaves.
+    pub fn with_voids(
+        lattice: &LatticeBox,
+        fine: &dyn Fn(&[usize]) -> bool,
+        void: &dyn Fn(&[usize]) -> bool,
+        grading: Grading,
+    ) -> Result<Self, BlendError> {
         if grading.cells_per_level == 0 {
             return Err(BlendError::param("local_mesh.grading", "cells_per_level must be at least 1"));
         }
@@ -236,21 +250,25 @@ impl GradedMesh {
         }
         let b = lattice.cells();
         let d = lattice.dim;
-        let f: Vec<bool> = (0..b.len()).map(|i| fine(&b.coords(i)[..d])).collect();
+        let voids: Vec<bool> = (0..b.len()).map(|i| void(&b.coords(i)[..d])).collect();
+        let f: Vec<bool> = (0..b.len()).map(|i| voids[i] || fine(&b.coords(i)[..d])).collect();
         let dist = grading::chebyshev_distance(&b, &f);
+        drop(f);
         let mut level = grading::graded_levels(&b, &dist, &grading);
         drop(dist);
         grading::balance(&b, &mut level);
-        Ok(Self::from_levels(lattice.clone(), &b, &level))
+        let voids = if voids.iter().any(|&v| v) { voids } else { Vec::new() };
+        Ok(Self::from_levels(lattice.clone(), &b, &level, voids))
     }
 
-    /// The leaves, nodes and constraints of a balanced level map.
-    fn from_levels(lattice: LatticeBox, b: &CellBox, level: &[u8]) -> Self {
+    /// The leaves, nodes and constraints of a balanced level map (without the `void` cells).
+    fn from_levels(lattice: LatticeBox, b: &CellBox, level: &[u8], void: Vec<bool>) -> Self {
         let d = lattice.dim;
         let cells: Vec<Cell> = (0..b.len())
             .filter_map(|i| {
                 let (l, o) = (level[i], b.coords(i));
-                (0..d).all(|a| o[a] % (1 << l) == 0).then_some(Cell { level: l, origin: o })
+                let is_void = void.get(i).copied().unwrap_or(false);
+                ((0..d).all(|a| o[a] % (1 << l) == 0) && !is_void).then_some(Cell { level: l, origin: o })
             })
             .collect();
         let mut corners: Vec<(usize, u8)> = cells
@@ -274,6 +292,7 @@ impl GradedMesh {
             master: Vec::new(),
             n_masters: 0,
             leaf_level: level.to_vec(),
+            void,
         };
         mesh.hanging = mesh.find_hanging();
         mesh.number_masters();

@@ -134,9 +134,10 @@ impl GradedMesh {
                 }
             });
             if let [Some(c0), Some(c1), Some(c2)] = cell {
-                let e = self.leaf_at([c0, c1, c2]);
-                if !out.contains(&e) && (0..1usize << d).any(|c| e.corner(d, c) == k) {
-                    out.push(e);
+                if let Some(e) = self.leaf_at([c0, c1, c2]) {
+                    if !out.contains(&e) && (0..1usize << d).any(|c| e.corner(d, c) == k) {
+                        out.push(e);
+                    }
                 }
             }
         }

@@ -433,31 +433,33 @@ fn graded_solution(
     let u_lattice = graded.expand(grid, u_m);
     let balance = p.balance(&|u, y| apply_on_lattice(graded, d, u, y), &u_lattice);
     // the sites the solution is drawn on
-    let c = grid.counts();
-    let site_of = |i: usize| [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])];
-    let node_of = |k: [usize; 3]| k[0] + c[0] * (k[1] + c[1] * k[2]);
     let u_mesh: Vec<f64> = mesh.nodes().iter().flat_map(|&k| interpolate(mesh, d, u_m, k)).collect();
+    let extra = graded.extra_nodes();
     let (sites, u, volumes, cells): (Vec<[usize; 3]>, Vec<f64>, Vec<f64>, _) = if p.lattice_output() {
         let volumes = (0..grid.len()).map(|i| grid.node_volume(i)).collect();
-        ((0..grid.len()).map(site_of).collect(), u_lattice, volumes, element_cells(mesh, &|k| node_of(k)))
+        let cells = element_cells(mesh, &|k| grid.node_at_site(k).unwrap_or(usize::MAX));
+        ((0..grid.len()).map(|i| grid.site_of(i)).collect(), u_lattice, volumes, cells)
     } else {
-        // the mesh node of every master
-        let node_of_master: Vec<usize> = (0..mesh.nodes().len()).filter(|&i| mesh.master_of(i).is_some()).collect();
-        let mut volumes = vec![0.0; mesh.nodes().len()];
-        for i in 0..grid.len() {
-            for (m, w) in mesh.interpolation_row(site_of(i)) {
-                volumes[node_of_master[m]] += w * grid.node_volume(i);
-            }
-        }
+        // the mesh's nodes, then the extra nodes (the model's nodes); a node's volume is its
+        // masters' share P^T V (0 for a hanging node)
+        let v: Vec<f64> = (0..grid.len()).flat_map(|i| vec![grid.node_volume(i); d]).collect();
+        let v_m: Vec<f64> = graded.restrict(grid, &v).into_iter().step_by(d).collect();
+        let mut volumes: Vec<f64> =
+            (0..mesh.nodes().len()).map(|i| mesh.master_of(i).map_or(0.0, |m| v_m[m])).collect();
+        volumes.extend((0..extra.len()).map(|x| v_m[mesh.n_masters() + x]));
         let cells = element_cells(mesh, &|k| mesh.node_at(k).unwrap_or(usize::MAX));
-        (mesh.nodes().to_vec(), u_mesh.clone(), volumes, cells)
+        let mut sites = mesh.nodes().to_vec();
+        sites.extend(extra.iter().map(|&i| grid.site_of(i)));
+        let mut u = u_mesh.clone();
+        u.extend_from_slice(&u_m[d * mesh.n_masters()..]);
+        (sites, u, volumes, cells)
     };
     let strain = graded_strain(grid, graded, u_m, &u_mesh, &sites);
     Ok(Solution {
         name: p.name().to_string(),
         dim: d,
         x: sites.iter().map(|&k| grid.site_position(k)).collect(),
-        is_layer: sites.iter().map(|&k| grid.is_layer(node_of(k))).collect(),
+        is_layer: sites.iter().map(|&k| grid.node_at_site(k).is_some_and(|i| grid.is_layer(i))).collect(),
         u,
         volumes,
         n_bonds,
@@ -489,23 +491,25 @@ fn interpolate(mesh: &GradedMesh, d: usize, u_m: &[f64], k: [usize; 3]) -> Vec<f
 fn graded_strain(grid: &Grid, g: &GradedBlend, u_m: &[f64], u_mesh: &[f64], sites: &[[usize; 3]]) -> NodalStrain {
     let (mesh, d) = (g.mesh(), grid.dim());
     let (window, op) = g.window();
-    // a full grid numbers its nodes as its sites, axis 0 fastest
-    let c = grid.counts();
-    let site_of = |i: usize| [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])];
+    let u_all = g.expand(grid, u_m);
     let u_window: Vec<f64> = (0..window.len())
         .into_par_iter()
         .flat_map_iter(|w| match grid.node_at(window.lattice_index(w)) {
-            Some(i) => interpolate(mesh, d, u_m, site_of(i)),
+            Some(i) => u_all[d * i..d * i + d].to_vec(),
             None => vec![0.0; d],
         })
         .collect();
+    drop(u_all);
+    let extra = g.extra_nodes();
     let volumes: Vec<f64> = (0..window.len()).map(|w| window.node_volume(w)).collect();
     let pd = crate::nodal_strain(op, &volumes, &u_window);
     let tensor: Vec<[f64; 9]> = sites
         .par_iter()
         .map(|&k| {
-            let on_lattice_cell = mesh.node_at(k).is_some_and(|i| mesh.node_level(i) == 0);
-            let lattice_node = grid.node_at_site(k).map(|i| grid.lattice_index(i));
+            let node = grid.node_at_site(k);
+            let on_lattice_cell = mesh.node_at(k).is_some_and(|i| mesh.node_level(i) == 0)
+                || node.is_some_and(|i| extra.binary_search(&i).is_ok());
+            let lattice_node = node.map(|i| grid.lattice_index(i));
             match (on_lattice_cell, lattice_node.and_then(|l| window.node_at(l))) {
                 (true, Some(w)) => pd.tensor[w],
                 _ => leaf_strain(mesh, d, u_mesh, k),
@@ -533,9 +537,10 @@ fn leaf_strain(mesh: &GradedMesh, d: usize, u_mesh: &[f64], k: [usize; 3]) -> [f
             }
         });
         if let [Some(c0), Some(c1), Some(c2)] = cell {
-            let e = mesh.leaf_at([c0, c1, c2]);
-            if !leaves.contains(&e) {
-                leaves.push(e);
+            if let Some(e) = mesh.leaf_at([c0, c1, c2]) {
+                if !leaves.contains(&e) {
+                    leaves.push(e);
+                }
             }
         }
     }
