@@ -92,6 +92,20 @@ fn bad_local_meshes_are_named() {
         v["model"].as_object_mut().unwrap().remove("pd_regions");
     });
     assert!(e.contains("model.local_mesh") && e.contains("belongs to pd_regions"), "{e}");
+    // explicit dynamics: the blend is static
+    let e = error_of(|v| {
+        v["dynamics"] = json!({"steps": 10, "density": 1.0,
+            "initial": {"type": "square_pulse", "from": 0.4, "to": 0.6, "amplitude": 1e-3}});
+    });
+    assert!(e.contains("pd_regions") && e.contains("static"), "{e}");
+    // a point cloud: local_mesh is a lattice's (the cloud's nodes are not on one)
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/data");
+    let mut cloud: Value =
+        serde_json::from_str(&std::fs::read_to_string(format!("{dir}/bracket-cloud-2d.json")).unwrap()).unwrap();
+    cloud["model"]["pd_regions"] = json!("auto");
+    cloud["model"]["local_mesh"] = json!({"max_cell": 0.16});
+    let e = Problem::from_json_in(&cloud.to_string(), std::path::Path::new(dir)).unwrap_err().to_string();
+    assert!(e.contains("model.pd_regions") || e.contains("model.local_mesh"), "{e}");
     // export numbers the lattice's DOFs: refused, not the lattice blend in its place
     let mut v = plate(0.02);
     v["model"]["local_mesh"] = json!({"max_cell": 0.16});
