@@ -214,6 +214,15 @@ fn mesh_output_shares_the_volumes() {
     assert!((total - lattice).abs() <= 1e-12 * lattice, "volumes sum to {total}, the lattice's to {lattice}");
     let strain = s.strain.as_ref().unwrap();
     assert!(strain.tensor.iter().flatten().all(|x| x.is_finite()));
+    // stats.graded_mesh: per level, the masters and hanging nodes are the output's nodes
+    let m = s.graded_mesh.as_ref().unwrap();
+    let per_level: usize = m.levels.iter().map(|l| l.masters + l.hanging).sum();
+    assert_eq!(per_level + m.extra_nodes, s.x.len());
+    assert_eq!(m.levels.iter().map(|l| l.masters).sum::<usize>(), m.masters);
+    assert_eq!(m.lattice_nodes, p.nodes().len());
+    assert!(m.levels.len() >= 3 && m.nnz < m.nnz_pd && m.window_nodes < m.lattice_nodes, "{m:?}");
+    let doc = s.to_json();
+    assert_eq!(doc["stats"]["graded_mesh"]["masters"].as_u64().unwrap() as usize, m.masters);
     v["output"]["nodes"] = json!("lattice");
     let l = solve(&v);
     let big = l.strain.as_ref().unwrap().tensor.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));

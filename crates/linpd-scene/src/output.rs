@@ -80,6 +80,9 @@ pub struct Stats<'a> {
     pub dofs: usize,
     /// Accuracy and cost.
     pub solve: &'a SolveReport,
+    /// A graded local mesh against its lattice.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub graded_mesh: Option<&'a crate::solution::GradedMeshSummary>,
 }
 
 impl Solution {
@@ -103,7 +106,13 @@ impl Solution {
             dilatation: self.dilatation.as_deref(),
             strain,
             strain_singular_nodes: self.strain.as_ref().map(|s| s.singular.as_slice()),
-            stats: Stats { nodes: n, bonds: self.n_bonds, dofs: d * n, solve: &self.report },
+            stats: Stats {
+                nodes: n,
+                bonds: self.n_bonds,
+                dofs: d * n,
+                solve: &self.report,
+                graded_mesh: self.graded_mesh.as_ref(),
+            },
         }
     }
 

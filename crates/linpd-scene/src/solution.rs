@@ -41,4 +41,26 @@ pub struct Solution {
     /// Cells over the nodes for result.vtu (the graded local mesh of a blended scene: quads or
     /// hexahedra over lattice nodes); `None`: one vertex per node.
     pub cells: Option<linpd_io::vtk::Cells>,
+    /// The graded local mesh of a blended scene against its lattice (`stats.graded_mesh`).
+    pub graded_mesh: Option<GradedMeshSummary>,
+}
+
+/// `result.json`'s `stats.graded_mesh`: the graded local mesh (`model.local_mesh`) of a blended
+/// scene against pure PD on the same lattice.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct GradedMeshSummary {
+    /// The lattice's nodes (pure PD's).
+    pub lattice_nodes: usize,
+    /// Leaves, masters and hanging nodes per level (cells of side `h 2^level`).
+    pub levels: Vec<linpd_blend::graded::LevelCounts>,
+    /// The mesh's masters (its regular nodes, unknowns).
+    pub masters: usize,
+    /// Nodes of no leaf (all their cells outside the body): unknowns of their own.
+    pub extra_nodes: usize,
+    /// Lattice nodes whose bonds were built (the level-0 cells and a horizon around them).
+    pub window_nodes: usize,
+    /// Stored entries of the blend's `A` over the masters.
+    pub nnz: usize,
+    /// Stored entries of the bond model's `A` on the whole lattice.
+    pub nnz_pd: usize,
 }

@@ -192,7 +192,7 @@ pub struct Hanging {
 
 /// Leaves and nodes of one level. A node's level is the finest level of the leaves it is a
 /// corner of.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct LevelCounts {
     /// The level.
     pub level: usize,

@@ -594,6 +594,7 @@ pub(crate) fn solution(name: &str, b: &BlendScene, s: linpd_blend::BlendSolution
         strain: None,
         dilatation: None,
         cells: None,
+        graded_mesh: None,
     }
 }
 

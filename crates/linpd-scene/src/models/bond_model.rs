@@ -226,6 +226,7 @@ pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f6
         strain,
         dilatation: None,
         cells: None,
+        graded_mesh: None,
         report,
     }
 }

@@ -323,6 +323,7 @@ fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: SolveReport) -
         strain,
         dilatation: None,
         cells: None,
+        graded_mesh: None,
         report,
     }
 }

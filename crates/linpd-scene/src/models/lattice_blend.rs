@@ -14,7 +14,7 @@ use super::bond_model::{self as bond, BondModel, RawBond, Surface};
 use super::{Capability, Purpose, SceneModel, System};
 use crate::fields::NodalStrain;
 use crate::scene::Problem;
-use crate::solution::Solution;
+use crate::solution::{GradedMeshSummary, Solution};
 use crate::validate::region;
 use crate::ProblemError;
 use linpd_blend::graded::{Cell, GradedMesh, Grading};
@@ -468,6 +468,15 @@ fn graded_solution(
         strain: Some(strain),
         dilatation: None,
         cells: Some(cells),
+        graded_mesh: Some(GradedMeshSummary {
+            lattice_nodes: grid.len(),
+            levels: mesh.counts(),
+            masters: mesh.n_masters(),
+            extra_nodes: extra.len(),
+            window_nodes: graded.window().0.len(),
+            nnz: graded.zones().nnz,
+            nnz_pd: graded.zones().nnz_pd,
+        }),
         report,
     })
 }

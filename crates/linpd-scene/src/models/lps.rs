@@ -322,6 +322,7 @@ pub(crate) fn solution(p: &Problem, model: &LpsModel, u: Vec<f64>, report: Solve
         strain,
         dilatation,
         cells: None,
+        graded_mesh: None,
         report,
     }
 }
