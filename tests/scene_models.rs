@@ -305,6 +305,7 @@ impl SceneModel for ScaledBond {
             strain: None,
             dilatation: None,
             cells: None,
+            graded_mesh: None,
         })
     }
     fn as_any(&self) -> &dyn Any {

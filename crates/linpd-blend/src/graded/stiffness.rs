@@ -96,7 +96,7 @@ impl GradedMesh {
     }
 }
 
-/// The masters' rows of `K_M` one at a time ([`GradedMesh::stiffness_row`]): per master the
+/// The masters' rows of `K_M` one at a time ([`RowAssembler::stiffness_row`]): per master the
 /// nodes whose rows of `T` hold it (its own node with weight 1, the hanging nodes it masters).
 pub struct RowAssembler<'a> {
     mesh: &'a GradedMesh,
@@ -105,7 +105,7 @@ pub struct RowAssembler<'a> {
 }
 
 impl GradedMesh {
-    /// What [`GradedMesh::stiffness_row`] reads: `T` by node and by master.
+    /// What [`RowAssembler::stiffness_row`] reads: `T` by node and by master.
     pub fn row_assembler(&self) -> RowAssembler<'_> {
         let t = self.expansion();
         let mut dependents: Vec<Vec<(usize, f64)>> = vec![Vec::new(); self.n_masters];
