@@ -6,7 +6,9 @@
 //!   `delta = 3h`, a pre-crack from the left face to `x = 0.4`, the bottom layer held, the top
 //!   layer pulled by 0.01) and its plate with a hole (`1 x 0.5`, plane stress, a hole of radius
 //!   0.1, the left layer held, a resultant pulling the right one), `n` = 250, 500, 1000 cells
-//!   per unit length (65k to 1.0M lattice nodes for the plate, half as many with the hole).
+//!   per unit length (65k to 1.0M lattice nodes for the plate, half as many with the hole);
+//!   and the 48^3 block with a penny crack of `data/penny-graded-3d.json` (3D, a given ball
+//!   of PD: the auto zones of a block with held faces cover it).
 //! * **Pure PD**: `auto` (the cost model's fastest solver: CG + multigrid on the assembled
 //!   operator here, the crack leaving the stencil path), rtol 1e-10.
 //! * **Graded**: `"pd_regions": "auto"` (2 horizons around the crack and the supports' faces, a
@@ -34,8 +36,42 @@ use std::time::Instant;
 
 /// Lattice sizes (cells per unit length).
 const SIZES: [usize; 3] = [250, 500, 1000];
-/// The bodies (scenes of [`body`]).
-const BODIES: [&str; 2] = ["edge-crack", "hole"];
+/// The bodies ([`scene`]).
+const BODIES: [&str; 3] = ["edge-crack", "hole", "penny"];
+/// The penny block's lattice (cells a side) and crack radius.
+const PENNY: (usize, f64) = (48, 0.06);
+
+/// The lattice sizes of a body.
+fn sizes_of(name: &str) -> &'static [usize] {
+    if name == "penny" {
+        std::slice::from_ref(&PENNY.0)
+    } else {
+        &SIZES
+    }
+}
+
+/// The pure-PD scene of a body at `n` cells per unit length: `linpd study blend-2d`'s plates,
+/// or the block of `data/penny-graded-3d.json` (a unit cube, `delta = 2h`, a penny crack of
+/// radius 0.06 at mid-height, the bottom layer held, the top one pulled by 0.01).
+fn scene(name: &str, n: usize) -> Value {
+    if name != "penny" {
+        return body(name, n);
+    }
+    let h = 1.0 / n as f64;
+    let (d, z, r) = (2.0 * h, 0.5 + h / 2.0, PENNY.1);
+    json!({
+        "name": format!("penny-{n}"), "dimension": 3,
+        "grid": {"min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 1.0], "spacing": h, "layer": {"z-": d, "z+": d}},
+        "model": {"type": "bond", "horizon": d,
+                  "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "continuum"},
+                  "material": {"defects": [{"plane": {"point": [0.5, 0.5, z], "normal": [0.0, 0.0, 1.0],
+                      "extent": {"ball": {"center": [0.5, 0.5, z], "radius": r}}}, "factor": 0.0}]}},
+        "constraints": [
+            {"region": {"box": {"min": [-1.0, -1.0, -1.0], "max": [2.0, 2.0, 0.0]}}, "displacement": {"value": [0.0, 0.0, 0.0]}},
+            {"region": {"box": {"min": [-1.0, -1.0, 1.0], "max": [2.0, 2.0, 2.0]}}, "displacement": {"value": [0.0, 0.0, 0.01]}}],
+        "output": {"plot": false}
+    })
+}
 /// Cells per level of the graded variants.
 const CELLS_PER_LEVEL: [usize; 3] = [2, 4, 8];
 /// The coarsest cell, in spacings.
@@ -70,12 +106,23 @@ fn solve(scene: &Value) -> Result<Solved, StudyError> {
     })
 }
 
-/// The graded variant of the pure-PD plate `pd` at `n` cells a side.
-fn graded(pd: &Value, n: usize, m: usize) -> Value {
+/// The graded variant of the pure-PD scene `pd` of body `name` at `n` cells per unit length:
+/// `"auto"` zones and cells up to [`MAX_CELL`] on the plates; on the penny block a ball of PD
+/// around the crack (its radius plus two horizons), a transition of two horizons and cells up
+/// to `8h` (the auto zones of a block with held faces cover it, docs/models.md).
+fn graded(pd: &Value, name: &str, n: usize, m: usize) -> Value {
     let mut s = pd.clone();
+    let h = 1.0 / n as f64;
     let model = &mut s["model"];
-    model["pd_regions"] = json!("auto");
-    model["local_mesh"] = json!({"max_cell": MAX_CELL / n as f64, "cells_per_level": m});
+    if name == "penny" {
+        let (d, z) = (2.0 * h, 0.5 + h / 2.0);
+        model["pd_regions"] = json!([{"ball": {"center": [0.5, 0.5, z], "radius": PENNY.1 + 2.0 * d}}]);
+        model["transition"] = json!(2.0 * d);
+        model["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": m});
+    } else {
+        model["pd_regions"] = json!("auto");
+        model["local_mesh"] = json!({"max_cell": MAX_CELL * h, "cells_per_level": m});
+    }
     s["solver"] = json!({"type": "auto", "rtol": 1e-10});
     s["output"]["nodes"] = json!("lattice");
     s
@@ -93,8 +140,8 @@ pub(crate) fn run(
     // (body, n, lattice nodes) of the lattices within max_nodes
     let mut sizes = Vec::new();
     for name in BODIES {
-        for n in SIZES {
-            let nodes = Problem::from_json(&body(name, n).to_string()).map_err(check)?.nodes().len();
+        for &n in sizes_of(name) {
+            let nodes = Problem::from_json(&scene(name, n).to_string()).map_err(check)?.nodes().len();
             if max_nodes.is_none_or(|m| nodes <= m) {
                 sizes.push((name, n, nodes));
             }
@@ -112,7 +159,7 @@ pub(crate) fn run(
     let mut rows = Vec::new();
     let (mut err_unknowns, mut err_time) = (Vec::new(), Vec::new());
     for &(name, n, nodes) in &sizes {
-        let mut pd_scene = body(name, n);
+        let mut pd_scene = scene(name, n);
         pd_scene["solver"] = json!({"type": "auto", "rtol": 1e-10});
         cases.next(format_args!("{name}, n = {n}, pure PD"));
         let pd = solve(&pd_scene)?;
@@ -137,7 +184,7 @@ pub(crate) fn run(
         let (mut xs, mut ys, mut ts) = (Vec::new(), Vec::new(), Vec::new());
         for m in CELLS_PER_LEVEL {
             cases.next(format_args!("{name}, n = {n}, graded, m = {m}"));
-            let g = solve(&graded(&pd_scene, n, m))?;
+            let g = solve(&graded(&pd_scene, name, n, m))?;
             if g.u.len() != pd.u.len() {
                 return Err(StudyError::Check(format!(
                     "{name}, n = {n}: {} values against pure PD's {}",
