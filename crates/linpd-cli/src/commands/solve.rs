@@ -46,8 +46,13 @@ pub(crate) fn solve(scene: &Path, out: Option<PathBuf>, quiet: bool) -> Result<(
         },
     )?;
     if let Some(b) = &solution.balance {
-        let v = |x: &[f64]| x.iter().map(|c| format!("{c:.4e}")).collect::<Vec<_>>().join(", ");
-        let caught = |n: Vec<usize>| n.iter().map(usize::to_string).collect::<Vec<_>>().join("/");
+        // (+ 0.0: a sum of no forces is -0.0, printed "-0.0000e0")
+        let v = |x: &[f64]| x.iter().map(|c| format!("{:.4e}", c + 0.0)).collect::<Vec<_>>().join(", ");
+        // node counts per load or constraint ("no" without any: "loads on no nodes")
+        let caught = |n: Vec<usize>| match n.is_empty() {
+            true => "no".to_string(),
+            false => n.iter().map(usize::to_string).collect::<Vec<_>>().join("/"),
+        };
         say!(
             "{}: applied force [{}] (loads on {} nodes), reactions [{}] (constraints on {} nodes), relative imbalance {:.1e}",
             problem.name(),
