@@ -278,3 +278,15 @@ fn graded_plate_with_a_hole_matches_the_bond_model() {
     assert!(err <= 1e-3, "max |u_graded - u_pd| / max |u_pd| = {err:e}");
     assert!(g.report.n < p.report.n);
 }
+
+/// A `max_cell` larger than any cell that fits the box beside the fine region is no error, but
+/// the solve report says which cells were the coarsest (10 / 0.02 rounds down to 256h; the
+/// 51^2 plate's auto zones leave lattice cells only).
+#[test]
+fn a_max_cell_too_large_is_reported() {
+    let mut v = plate(0.02);
+    v["model"]["local_mesh"] = json!({"max_cell": 10.0, "cells_per_level": 1});
+    let s = solve(&v);
+    let note = s.report.notes.join("; ");
+    assert!(note.contains("no cell of 256h (max_cell) fits: the coarsest are 1h"), "{note}");
+}

@@ -401,12 +401,23 @@ impl LatticeBlendModel {
             z.nnz_pd,
             levels.join(", ")
         );
+        let mut notes = vec![describe];
+        // the largest cells the grading allowed, when max_cell asked for larger ones
+        let top = g.graded.mesh().counts().len() - 1;
+        if top < grading.max_level {
+            notes.push(format!(
+                "local_mesh: no cell of {}h (max_cell) fits: the coarsest are {}h (the box, the fine region and \
+                 cells_per_level leave no room for larger ones)",
+                1usize << grading.max_level,
+                1usize << top
+            ));
+        }
         Ok(System {
             n_bonds: z.nnz_pd / (d * d) - grid.len(),
             model: Arc::new(g),
             bc: linpd_solve::Dirichlet::new(d, &mask_m, ubar_m),
             f,
-            notes: vec![describe],
+            notes,
             built_before: 0.0,
             memory_estimate,
         })
