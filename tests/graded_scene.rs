@@ -197,9 +197,10 @@ fn constrained_nodes_stay_unknowns() {
 
 /// On the mesh's nodes (the default output) the volumes are the lattice's shared out by `P^T`:
 /// they sum to the lattice's total (1e-12, a partition of unity summed over ~10^4 nodes), the
-/// strain is finite everywhere, and `u` and the strain are the lattice output's at the same
-/// sites (one rule per site: PD's strain on lattice cells, the leaves' elsewhere; 1e-12 of
-/// the largest entry).
+/// strain is finite and not all zero, and `u` and the strain are the lattice output's at the
+/// same sites, bit for bit (both outputs evaluate one rule per site from the same `P u_M`: PD's
+/// strain on lattice cells, the leaves' gradient elsewhere; this checks the output modes agree,
+/// not the strain's accuracy).
 /// `output.nodes` takes `model` or `lattice` only, and `lattice` needs a grid.
 #[test]
 fn mesh_output_shares_the_volumes() {
@@ -230,13 +231,11 @@ fn mesh_output_shares_the_volumes() {
     for (k, x) in s.x.iter().enumerate() {
         let i = l.x.iter().position(|y| (y[0] - x[0]).abs() < 1e-9 && (y[1] - x[1]).abs() < 1e-9).unwrap();
         assert_eq!(s.u[2 * k..2 * k + 2], l.u[2 * i..2 * i + 2], "u at {x:?}");
-        if k % 50 == 0 {
-            let (a, b) = (strain.tensor[k], l.strain.as_ref().unwrap().tensor[i]);
-            assert!(a.iter().zip(&b).all(|(p, q)| (p - q).abs() <= 1e-12 * big), "strain at {x:?}: {a:?} vs {b:?}");
-            compared += 1;
-        }
+        assert_eq!(strain.tensor[k], l.strain.as_ref().unwrap().tensor[i], "strain at {x:?}");
+        compared += 1;
     }
-    assert!(compared > 10);
+    assert_eq!(compared, s.x.len());
+    assert!(big > 0.0, "a zero strain everywhere");
     v["output"]["nodes"] = json!("every");
     let e = Problem::from_json(&v.to_string()).unwrap_err().to_string();
     assert!(e.contains("output.nodes"), "{e}");

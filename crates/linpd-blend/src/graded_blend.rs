@@ -383,7 +383,7 @@ fn layout(
             to_nonlocal[i] <= r_f * r_f
                 || grid.is_layer(i)
                 || near_face(grid, i, surface)
-                || to_removed[i] <= beside_removed
+                || to_removed.as_ref().is_some_and(|t| t[i] <= beside_removed)
                 || keep[i]
                 || regular.is_some_and(|r| !r[i])
         })

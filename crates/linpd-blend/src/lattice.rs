@@ -140,12 +140,9 @@ pub fn squared_lattice_distances(grid: &Grid, seeds: &[bool]) -> Vec<f64> {
 }
 
 /// Per node of `grid`, the squared lattice distance to the nearest site of the box that a body
-/// removed (infinite on a full grid): where families are truncated by the body's boundary.
-pub(crate) fn squared_distances_to_removed(grid: &Grid) -> Vec<f64> {
-    if grid.is_full() {
-        return vec![f64::INFINITY; grid.len()];
-    }
-    squared_site_distances(grid, &|site| grid.node_at_site(site).is_none())
+/// removed (`None` on a full grid): where families are truncated by the body's boundary.
+pub(crate) fn squared_distances_to_removed(grid: &Grid) -> Option<Vec<f64>> {
+    (!grid.is_full()).then(|| squared_site_distances(grid, &|site| grid.node_at_site(site).is_none()))
 }
 
 /// [`squared_lattice_distances`] to the sites for which `seed(site)` holds.

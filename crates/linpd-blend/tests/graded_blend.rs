@@ -11,6 +11,13 @@ use linpd_core::sparse::Csc;
 use linpd_core::{Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
 use linpd_solve::{solve_model, Dirichlet, SolverSpec};
 
+/// The graded blend on `g` (homogeneous, nothing kept) with one cell per level up to
+/// `max_level`.
+fn graded(g: &Grid, horizon: f64, beta: Vec<f64>, mirrored: &[bool], max_level: usize) -> GradedBlend {
+    let grading = Grading { cells_per_level: 1, max_level };
+    GradedBlend::new(bond(horizon), g, beta, None, mirrored, &vec![false; g.len()], grading).unwrap()
+}
+
 /// The bond model of the operator of [`setting`] (homogeneous).
 fn bond(horizon: f64) -> Bond<'static> {
     static MICROMODULUS: std::sync::OnceLock<Micromodulus> = std::sync::OnceLock::new();
@@ -87,16 +94,7 @@ fn ungraded_equals_the_lattice_blend() {
         let (g, op, horizon, beta) = setting(dim, n, 0.0, r);
         let mirrored = vec![false; g.len()];
         let lattice = LatticeBlend::new(&op, &g, horizon, beta.clone(), None, &mirrored).unwrap();
-        let graded = GradedBlend::new(
-            bond(horizon),
-            &g,
-            beta,
-            None,
-            &mirrored,
-            &vec![false; g.len()],
-            Grading { cells_per_level: 1, max_level: 0 },
-        )
-        .unwrap();
+        let graded = graded(&g, horizon, beta, &mirrored, 0);
         assert_eq!(graded.master_nodes(), (0..g.len()).collect::<Vec<_>>().as_slice());
         let z = lattice.zones();
         assert!(z.pd > 0 && z.transition > 0 && z.local > 0, "{dim}D: {z:?}");
@@ -123,16 +121,7 @@ fn graded_rows_pass_the_patch_test() {
     for (dim, n, max) in [(2, 128, [1.0, 1.0, 0.5]), (3, 42, [1.0; 3])] {
         let (g, _, horizon, beta) = setting_in(dim, n, 3.0, 0.06, max);
         let layer: Vec<bool> = (0..g.len()).map(|i| g.is_layer(i)).collect();
-        let graded = GradedBlend::new(
-            bond(horizon),
-            &g,
-            beta,
-            None,
-            &layer,
-            &vec![false; g.len()],
-            Grading { cells_per_level: 1, max_level: 3 },
-        )
-        .unwrap();
+        let graded = graded(&g, horizon, beta, &layer, 3);
         let masters = graded.master_nodes();
         println!("{dim}D: {} masters of {} lattice nodes", masters.len(), g.len());
         // (the 3D box is too small for more than one coarse level beside the fine region)
@@ -172,16 +161,7 @@ fn graded_solve_reproduces_affine_fields() {
     for (dim, n) in [(2, 96)] {
         let (g, _, horizon, beta) = setting(dim, n, 3.0, 0.08);
         let layer: Vec<bool> = (0..g.len()).map(|i| g.is_layer(i)).collect();
-        let graded = GradedBlend::new(
-            bond(horizon),
-            &g,
-            beta,
-            None,
-            &layer,
-            &vec![false; g.len()],
-            Grading { cells_per_level: 1, max_level: 2 },
-        )
-        .unwrap();
+        let graded = graded(&g, horizon, beta, &layer, 2);
         let masters = graded.master_nodes();
         let constrained: Vec<bool> = masters.iter().flat_map(|&i| vec![layer[i]; dim]).collect();
         let exact_m: Vec<f64> = masters.iter().flat_map(|&i| affine(dim, &g.position(i))).collect();

@@ -24,6 +24,33 @@ impl GradedMesh {
         Some(Cell { level, origin: [0, 1, 2].map(|a| c[a] / side * side) })
     }
 
+    /// The distinct leaves covering the lattice cells with corner `k` (up to `2^d`, fewer at
+    /// the box's faces, none of a void cell).
+    pub fn leaves_around(&self, k: [usize; 3]) -> Vec<Cell> {
+        let (d, n) = (self.dim(), self.lattice.n);
+        let mut out: Vec<Cell> = Vec::new();
+        for bits in 0..1usize << d {
+            // the lattice cell with corner k on the side of `bits` (lower along the set axes)
+            let cell = [0, 1, 2].map(|a| {
+                if a >= d {
+                    Some(0)
+                } else if bits >> a & 1 == 1 {
+                    k[a].checked_sub(1)
+                } else {
+                    (k[a] + 1 < n[a]).then_some(k[a])
+                }
+            });
+            if let [Some(c0), Some(c1), Some(c2)] = cell {
+                if let Some(e) = self.leaf_at([c0, c1, c2]) {
+                    if !out.contains(&e) {
+                        out.push(e);
+                    }
+                }
+            }
+        }
+        out
+    }
+
     /// Row `k` of `P` (see the module docs): `(master, weight)` for lattice node `k`, the
     /// weights summing to 1; a master node is itself with weight 1; empty for a node of no
     /// leaf (one whose cells are all void, [`GradedMesh::with_voids`]).

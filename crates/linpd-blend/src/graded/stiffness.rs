@@ -117,30 +117,12 @@ impl GradedMesh {
         RowAssembler { mesh: self, t, dependents }
     }
 
-    /// The leaves with node `i` as a corner (those covering the lattice cells around it whose
-    /// corner it is: a hanging node lies inside an edge or face of a coarser leaf, which is not
-    /// among them).
+    /// The leaves with node `i` as a corner: those of [`GradedMesh::leaves_around`] its site
+    /// (a hanging node lies inside an edge or face of a coarser leaf, which is not among them).
     pub fn leaves_at_node(&self, i: usize) -> Vec<Cell> {
-        let (d, k, n) = (self.dim(), self.nodes[i], self.lattice.n);
-        let mut out: Vec<Cell> = Vec::new();
-        for bits in 0..1usize << d {
-            let cell = [0, 1, 2].map(|a| {
-                if a >= d {
-                    Some(0)
-                } else if bits >> a & 1 == 1 {
-                    k[a].checked_sub(1)
-                } else {
-                    (k[a] + 1 < n[a]).then_some(k[a])
-                }
-            });
-            if let [Some(c0), Some(c1), Some(c2)] = cell {
-                if let Some(e) = self.leaf_at([c0, c1, c2]) {
-                    if !out.contains(&e) && (0..1usize << d).any(|c| e.corner(d, c) == k) {
-                        out.push(e);
-                    }
-                }
-            }
-        }
+        let (d, k) = (self.dim(), self.nodes[i]);
+        let mut out = self.leaves_around(k);
+        out.retain(|e| (0..1usize << d).any(|c| e.corner(d, c) == k));
         out
     }
 }

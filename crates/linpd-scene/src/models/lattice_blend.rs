@@ -17,7 +17,7 @@ use crate::scene::Problem;
 use crate::solution::{GradedMeshSummary, Solution};
 use crate::validate::region;
 use crate::ProblemError;
-use linpd_blend::graded::{Cell, GradedMesh, Grading};
+use linpd_blend::graded::{GradedMesh, Grading};
 use linpd_blend::graded_blend::Bond;
 use linpd_blend::{beta_from_zone, GradedBlend, LatticeBlend};
 use linpd_bond::BondOperator;
@@ -443,29 +443,30 @@ fn graded_solution(
     let mesh = graded.mesh();
     let u_lattice = graded.expand(grid, u_m);
     let balance = p.balance(&|u, y| apply_on_lattice(graded, d, u, y), &u_lattice);
-    // the sites the solution is drawn on
-    let u_mesh: Vec<f64> = mesh.nodes().iter().flat_map(|&k| interpolate(mesh, d, u_m, k)).collect();
     let extra = graded.extra_nodes();
-    let (sites, u, volumes, cells): (Vec<[usize; 3]>, Vec<f64>, Vec<f64>, _) = if p.lattice_output() {
+    // the sites the solution is drawn on: every lattice node, or the model's nodes (the mesh's,
+    // then the extra nodes), all of them lattice nodes whose u is u_lattice's
+    let sites: Vec<[usize; 3]> = if p.lattice_output() {
+        (0..grid.len()).map(|i| grid.site_of(i)).collect()
+    } else {
+        mesh.nodes().iter().copied().chain(extra.iter().map(|&i| grid.site_of(i))).collect()
+    };
+    let strain = graded_strain(grid, graded, &u_lattice, &sites);
+    let (u, volumes, cells) = if p.lattice_output() {
         let volumes = (0..grid.len()).map(|i| grid.node_volume(i)).collect();
         let cells = element_cells(mesh, &|k| grid.node_at_site(k).unwrap_or(usize::MAX));
-        ((0..grid.len()).map(|i| grid.site_of(i)).collect(), u_lattice, volumes, cells)
+        (u_lattice, volumes, cells)
     } else {
-        // the mesh's nodes, then the extra nodes (the model's nodes); a node's volume is its
-        // masters' share P^T V (0 for a hanging node)
+        // a node's volume is its masters' share P^T V (0 for a hanging node)
         let v: Vec<f64> = (0..grid.len()).flat_map(|i| vec![grid.node_volume(i); d]).collect();
         let v_m: Vec<f64> = graded.restrict(grid, &v).into_iter().step_by(d).collect();
         let mut volumes: Vec<f64> =
             (0..mesh.nodes().len()).map(|i| mesh.master_of(i).map_or(0.0, |m| v_m[m])).collect();
         volumes.extend((0..extra.len()).map(|x| v_m[mesh.n_masters() + x]));
         let cells = element_cells(mesh, &|k| mesh.node_at(k).unwrap_or(usize::MAX));
-        let mut sites = mesh.nodes().to_vec();
-        sites.extend(extra.iter().map(|&i| grid.site_of(i)));
-        let mut u = u_mesh.clone();
-        u.extend_from_slice(&u_m[d * mesh.n_masters()..]);
-        (sites, u, volumes, cells)
+        let u = sites.iter().flat_map(|&k| at_site(grid, &u_lattice, k)).collect();
+        (u, volumes, cells)
     };
-    let strain = graded_strain(grid, graded, u_m, &u_mesh, &sites);
     Ok(Solution {
         name: p.name().to_string(),
         dim: d,
@@ -492,34 +493,26 @@ fn graded_solution(
     })
 }
 
-/// `u` at lattice site `k`: row `k` of `P` applied to the masters' `u_m`.
-fn interpolate(mesh: &GradedMesh, d: usize, u_m: &[f64], k: [usize; 3]) -> Vec<f64> {
-    let mut u = vec![0.0; d];
-    for (m, w) in mesh.interpolation_row(k) {
-        for a in 0..d {
-            u[a] += w * u_m[d * m + a];
-        }
-    }
-    u
+/// The `d` values of `u` (over the lattice's nodes) at lattice site `k` (zeros off the body).
+fn at_site(grid: &Grid, u: &[f64], k: [usize; 3]) -> Vec<f64> {
+    let d = grid.dim();
+    grid.node_at_site(k).map_or(vec![0.0; d], |i| u[d * i..d * i + d].to_vec())
 }
 
 /// The small-strain tensor at `sites`: PD's ([`crate::nodal_strain`], least squares over the
-/// family, from the window's bonds and `u` interpolated on its nodes) at the corners of the
-/// mesh's lattice cells, whose families the window holds whole; elsewhere the symmetric part
-/// of the mean gradient of the leaves around the site, at the site (`u_mesh`: `u` on the
-/// mesh's nodes).
-fn graded_strain(grid: &Grid, g: &GradedBlend, u_m: &[f64], u_mesh: &[f64], sites: &[[usize; 3]]) -> NodalStrain {
+/// family, from the window's bonds) at the corners of the mesh's lattice cells and at the
+/// extra nodes, whose families the window holds whole; elsewhere the symmetric part of the
+/// mean gradient of the leaves around the site, at the site (`u`: `P u_M` on the lattice).
+fn graded_strain(grid: &Grid, g: &GradedBlend, u: &[f64], sites: &[[usize; 3]]) -> NodalStrain {
     let (mesh, d) = (g.mesh(), grid.dim());
     let (window, op) = g.window();
-    let u_all = g.expand(grid, u_m);
     let u_window: Vec<f64> = (0..window.len())
         .into_par_iter()
         .flat_map_iter(|w| match grid.node_at(window.lattice_index(w)) {
-            Some(i) => u_all[d * i..d * i + d].to_vec(),
+            Some(i) => u[d * i..d * i + d].to_vec(),
             None => vec![0.0; d],
         })
         .collect();
-    drop(u_all);
     let extra = g.extra_nodes();
     let volumes: Vec<f64> = (0..window.len()).map(|w| window.node_volume(w)).collect();
     let pd = crate::nodal_strain(op, &volumes, &u_window);
@@ -532,44 +525,26 @@ fn graded_strain(grid: &Grid, g: &GradedBlend, u_m: &[f64], u_mesh: &[f64], site
             let lattice_node = node.map(|i| grid.lattice_index(i));
             match (on_lattice_cell, lattice_node.and_then(|l| window.node_at(l))) {
                 (true, Some(w)) => pd.tensor[w],
-                _ => leaf_strain(mesh, d, u_mesh, k),
+                _ => leaf_strain(grid, mesh, u, k),
             }
         })
         .collect();
     NodalStrain { dim: d, tensor, singular: Vec::new() }
 }
 
-/// The symmetric part of the mean gradient at site `k` of the leaves around it (those of the
-/// lattice cells with corner `k`): `grad u = sum_c u_c grad N_c` of each bilinear / trilinear
-/// leaf.
-fn leaf_strain(mesh: &GradedMesh, d: usize, u_mesh: &[f64], k: [usize; 3]) -> [f64; 9] {
-    let n = mesh.lattice().counts();
-    let mut leaves: Vec<Cell> = Vec::new();
-    for bits in 0..1usize << d {
-        // the lattice cell with corner k on the side of `bits`
-        let cell = [0, 1, 2].map(|a| {
-            if a >= d {
-                Some(0)
-            } else if bits >> a & 1 == 1 {
-                k[a].checked_sub(1)
-            } else {
-                (k[a] + 1 < n[a]).then_some(k[a])
-            }
-        });
-        if let [Some(c0), Some(c1), Some(c2)] = cell {
-            if let Some(e) = mesh.leaf_at([c0, c1, c2]) {
-                if !leaves.contains(&e) {
-                    leaves.push(e);
-                }
-            }
-        }
-    }
+/// The symmetric part of the mean gradient at site `k` of the leaves around it
+/// ([`GradedMesh::leaves_around`]): `grad u = sum_c u_c grad N_c` of each bilinear / trilinear
+/// leaf, `u_c` from `u` (over the lattice's nodes) at its corners.
+fn leaf_strain(grid: &Grid, mesh: &GradedMesh, u: &[f64], k: [usize; 3]) -> [f64; 9] {
+    let d = grid.dim();
+    let leaves = mesh.leaves_around(k);
     let h = mesh.lattice().spacing();
     let mut grad = [0.0; 9];
     for e in &leaves {
         let s = e.side() as f64;
         let t = [0, 1, 2].map(|a| (k[a] as f64 - e.origin[a] as f64) / s);
-        for (c, node) in mesh.cell_nodes(e).into_iter().enumerate() {
+        for c in 0..1usize << d {
+            let u_c = at_site(grid, u, e.corner(d, c));
             for b in 0..d {
                 // dN_c / dx_b
                 let dn: f64 = (0..d)
@@ -590,7 +565,7 @@ fn leaf_strain(mesh: &GradedMesh, d: usize, u_mesh: &[f64], k: [usize; 3]) -> [f
                     .product::<f64>()
                     / (s * h);
                 for a in 0..d {
-                    grad[3 * a + b] += u_mesh[d * node + a] * dn / leaves.len() as f64;
+                    grad[3 * a + b] += u_c[a] * dn / leaves.len() as f64;
                 }
             }
         }
