@@ -225,6 +225,14 @@ struct BlendInputs {
     mirrored: Vec<bool>,
 }
 
+/// `beta`, the mirrored supports and the constrained nodes of a blended scene
+/// ([`LatticeBlendModel::zones_of`]).
+struct ZoneInputs {
+    beta: Vec<f64>,
+    mirrored: Vec<bool>,
+    constrained: Vec<bool>,
+}
+
 /// The graded blend as solved (over its masters).
 pub struct GradedSystem {
     /// The model over the masters.
@@ -265,13 +273,14 @@ impl LatticeBlendModel {
         // with phases or defects, a node is regular when its bonds carry the homogeneous weights
         // times one factor (no defect and no interface within its horizon)
         let regular = if b.material.is_homogeneous() { None } else { Some(regular_nodes(grid, b, &op)?) };
-        let (beta, mirrored) = self.beta_and_mirrored(p, regular.as_deref())?;
+        let ZoneInputs { beta, mirrored, .. } = self.zones_of(p, regular.as_deref())?;
         Ok(BlendInputs { op, beta, regular, mirrored })
     }
 
-    /// `beta` per node (from the PD regions, or the features of `"auto"`) and the mirrored
-    /// supports (constrained nodes of the layer, which stand for the body beyond them).
-    fn beta_and_mirrored(&self, p: &Problem, regular: Option<&[bool]>) -> Result<(Vec<f64>, Vec<bool>), ProblemError> {
+    /// `beta` per node (from the PD regions, or the features of `"auto"`), the mirrored
+    /// supports (constrained nodes of the layer, which stand for the body beyond them) and the
+    /// constrained nodes (a component or more).
+    fn zones_of(&self, p: &Problem, regular: Option<&[bool]>) -> Result<ZoneInputs, ProblemError> {
         let (b, zone) = (&self.bond, &self.zone);
         let grid = p.lattice()?;
         let dim = grid.dim();
@@ -302,7 +311,7 @@ impl LatticeBlendModel {
         };
         let beta = beta_from_zone(grid, &inside, zone.transition, zone.profile);
         let mirrored: Vec<bool> = (0..grid.len()).map(|i| grid.is_layer(i) && constrained[i]).collect();
-        Ok((beta, mirrored))
+        Ok(ZoneInputs { beta, mirrored, constrained })
     }
 
     /// The scene's blended model on the lattice.
@@ -326,11 +335,8 @@ impl LatticeBlendModel {
             let (op, _) = b.operator(p.nodes())?;
             Some(regular_nodes(grid, b, &op)?)
         };
-        let (beta, mirrored) = self.beta_and_mirrored(p, regular.as_deref())?;
         // every constrained node stays an unknown (its cells on the lattice)
-        let (mask, _) = p.constrained();
-        let d = grid.dim();
-        let constrained: Vec<bool> = (0..grid.len()).map(|n| mask[d * n..d * n + d].iter().any(|&m| m)).collect();
+        let ZoneInputs { beta, mirrored, constrained } = self.zones_of(p, regular.as_deref())?;
         let bond = Bond { horizon: b.horizon, micromodulus: &b.micromodulus, material: &b.material };
         let graded = GradedBlend::new(bond, grid, beta, regular.as_deref(), &mirrored, &constrained, grading)
             .map_err(blend_error)?;
