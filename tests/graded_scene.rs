@@ -88,6 +88,15 @@ fn bad_local_meshes_are_named() {
     assert!(e.contains("model.local_mesh.cells_per_level") && e.contains("at least 1"), "{e}");
     let e = error_of(|v| v["model"]["local_mesh"]["grading"] = json!(2));
     assert!(e.contains("model.local_mesh") && e.contains("unknown field `grading`"), "{e}");
+    let e = error_of(|v| v["model"]["local_mesh"]["free_faces"] = json!("skin"));
+    assert!(e.contains("model.local_mesh") && e.contains("unknown variant `skin`"), "{e}");
+    // free_faces "bulk" puts the bulk's moduli in coarse cells: one material only
+    let e = error_of(|v| {
+        v["model"]["local_mesh"]["free_faces"] = json!("bulk");
+        v["model"]["material"]["phases"] =
+            json!([{"region": {"box": {"min": [0.0, 0.0], "max": [0.2, 1.0]}}, "modulus": 2.0}]);
+    });
+    assert!(e.contains("local_mesh.free_faces") && e.contains("without phases"), "{e}");
     let e = error_of(|v| {
         v["model"].as_object_mut().unwrap().remove("pd_regions");
     });

@@ -4,7 +4,7 @@
 //! exactly and `P^T` conserves force.
 
 use linpd_blend::graded::Grading;
-use linpd_blend::graded_blend::Bond;
+use linpd_blend::graded_blend::{Bond, FreeFaces, LocalMesh};
 use linpd_blend::{beta_from_zone, GradedBlend, LatticeBlend, Profile};
 use linpd_bond::BondOperator;
 use linpd_core::sparse::Csc;
@@ -14,8 +14,8 @@ use linpd_solve::{solve_model, Dirichlet, SolverSpec};
 /// The graded blend on `g` (homogeneous, nothing kept) with one cell per level up to
 /// `max_level`.
 fn graded(g: &Grid, horizon: f64, beta: Vec<f64>, mirrored: &[bool], max_level: usize) -> GradedBlend {
-    let grading = Grading { cells_per_level: 1, max_level };
-    GradedBlend::new(bond(horizon), g, beta, None, mirrored, &vec![false; g.len()], grading).unwrap()
+    let local = LocalMesh { grading: Grading { cells_per_level: 1, max_level }, free_faces: FreeFaces::Lattice };
+    GradedBlend::new(bond(horizon), g, beta, None, mirrored, &vec![false; g.len()], local).unwrap()
 }
 
 /// The bond model of the operator of [`setting`] (homogeneous).
@@ -181,5 +181,76 @@ fn graded_solve_reproduces_affine_fields() {
             let total: f64 = fm.iter().skip(a).step_by(dim).sum();
             assert!((total - g.len() as f64).abs() <= 1e-9 * g.len() as f64, "{dim}D axis {a}: {total}");
         }
+    }
+}
+
+/// `C_xxxx` of the bond model at node `i` (whole family) from PD's own energy, not from the
+/// blend's element routine: under `u = eps x e_x` the node's share of `u^T A u / 2` is
+/// `W_i V_i = 1/4 sum_j xi_x^2 eps^2 (-A_{jx, ix})`, and `W_i = C_xxxx eps^2 / 2`.
+fn pd_c_xxxx(g: &Grid, op: &BondOperator, i: usize) -> f64 {
+    let dim = g.dim();
+    let a = linpd_bond::assemble::assemble_free_with_progress(
+        op,
+        &linpd_core::DofMap::all_free(g.len(), dim),
+        &linpd_core::NoProgress,
+    );
+    let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
+    let col = dim * i;
+    let xi = g.position(i)[0];
+    let mut sum = 0.0;
+    for p in cp[col]..cp[col + 1] {
+        let (j, c) = (ri[p] / dim, ri[p] % dim);
+        if j != i && c == 0 {
+            sum += (g.position(j)[0] - xi).powi(2) * -v[p];
+        }
+    }
+    sum / (2.0 * g.spacing().powi(dim as i32))
+}
+
+/// `model.local_mesh.free_faces: "bulk"`: coarse cells reach the free faces with the bulk's
+/// moduli, so under the affine `u = eps x e_x` the forces `A u` on the masters of the face
+/// `x = max` sum to `C_xxxx eps` times the face's area (the FE forces of a uniform stress
+/// `sigma = C eps`, whose `sigma_xy` and `sigma_xz` vanish on the other faces by the lattice's
+/// cubic symmetry), with `C_xxxx` from PD's energy at an interior node (1e-10: the same sums
+/// in another order), and fewer masters than with the lattice's faces; with the lattice's
+/// faces (the truncated families' soft skin) the face carries less, by more than 1e-3.
+#[test]
+fn bulk_free_faces_carry_the_bulk_stress() {
+    for (dim, n, max) in [(2, 40, [2.0, 1.0, 0.0]), (3, 16, [2.0, 1.0, 1.0])] {
+        let (g, op, horizon, beta) = setting_in(dim, n, 0.0, 0.1, max);
+        let centre = g.nearest_node(&max.map(|m| m / 2.0)[..dim]).0;
+        let c_xxxx = pd_c_xxxx(&g, &op, centre);
+        let eps = 1e-3;
+        let mirrored = vec![false; g.len()];
+        let mut face_force = Vec::new();
+        let mut n_masters = Vec::new();
+        for free_faces in [FreeFaces::Bulk, FreeFaces::Lattice] {
+            let local = LocalMesh { grading: Grading { cells_per_level: 1, max_level: 2 }, free_faces };
+            let graded =
+                GradedBlend::new(bond(horizon), &g, beta.clone(), None, &mirrored, &vec![false; g.len()], local)
+                    .unwrap();
+            let masters = graded.master_nodes();
+            let u: Vec<f64> = masters
+                .iter()
+                .flat_map(|&i| {
+                    let x = g.position(i)[0];
+                    (0..dim).map(move |a| if a == 0 { eps * x } else { 0.0 })
+                })
+                .collect();
+            let r = matvec(graded.stiffness(), &u);
+            let on_face = |i: usize| (g.position(i)[0] - max[0]).abs() < 1e-9;
+            face_force
+                .push(masters.iter().enumerate().filter(|(_, &i)| on_face(i)).map(|(k, _)| r[dim * k]).sum::<f64>());
+            n_masters.push(masters.len());
+        }
+        let area: f64 = max[1..dim].iter().product();
+        let expected = c_xxxx * eps * area;
+        println!(
+            "{dim}D: face force bulk {:.6e}, lattice {:.6e}, C_xxxx eps A {expected:.6e}; masters {n_masters:?}",
+            face_force[0], face_force[1]
+        );
+        assert!((face_force[0] - expected).abs() <= 1e-10 * expected, "{dim}D: {face_force:?} vs {expected:e}");
+        assert!(face_force[1] < (1.0 - 1e-3) * expected, "{dim}D: the lattice's faces are not softer: {face_force:?}");
+        assert!(n_masters[0] < n_masters[1], "{dim}D: masters {n_masters:?}");
     }
 }

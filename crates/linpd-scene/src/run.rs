@@ -57,10 +57,10 @@ impl Problem {
     /// `local_mesh`).
     pub fn graded_blend(&self) -> Result<GradedSystem, ProblemError> {
         let m = self.model_as::<LatticeBlendModel>("a bond model with pd_regions")?;
-        let grading = m.zone.local_mesh.ok_or_else(|| {
+        let local = m.zone.local_mesh.ok_or_else(|| {
             ProblemError::invalid("model.local_mesh", "is needed here (the scene's blend is on the lattice)")
         })?;
-        m.build_graded(self, grading)
+        m.build_graded(self, local)
     }
 
     /// The LPS model of an lps scene, with the defects of its material and its surface

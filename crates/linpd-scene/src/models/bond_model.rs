@@ -73,6 +73,19 @@ pub struct RawLocalMesh {
     /// Layers of cells of each size before the next (default 4).
     #[serde(default)]
     pub cells_per_level: Option<usize>,
+    /// What the cells at the box's free faces model (default `lattice`).
+    #[serde(default)]
+    pub free_faces: Option<RawFreeFaces>,
+}
+
+/// `model.local_mesh.free_faces`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RawFreeFaces {
+    /// Level-0 cells with the lattice's softened moduli within a horizon and a spacing.
+    Lattice,
+    /// Cells graded as in the bulk, coarse ones with the bulk moduli.
+    Bulk,
 }
 
 /// The validated parameters of a bond model.

@@ -10,7 +10,7 @@
 //! a nonlocal model whose every node interacts through bonds, and the local zone's element
 //! rows are already the coarse description there (coarsen the pure bond scene instead).
 
-use super::bond_model::{self as bond, BondModel, RawBond, Surface};
+use super::bond_model::{self as bond, BondModel, RawBond, RawFreeFaces, Surface};
 use super::{Capability, Purpose, SceneModel, System};
 use crate::fields::NodalStrain;
 use crate::scene::Problem;
@@ -18,7 +18,7 @@ use crate::solution::{GradedMeshSummary, Solution};
 use crate::validate::region;
 use crate::ProblemError;
 use linpd_blend::graded::{GradedMesh, Grading};
-use linpd_blend::graded_blend::Bond;
+use linpd_blend::graded_blend::{Bond, FreeFaces, LocalMesh};
 use linpd_blend::{beta_from_zone, GradedBlend, LatticeBlend};
 use linpd_bond::BondOperator;
 use linpd_core::progress::Progress;
@@ -49,7 +49,7 @@ pub struct PdZone {
     /// How `beta` falls across it.
     pub profile: linpd_blend::Profile,
     /// The graded local mesh (`None`: the local zone's elements are the lattice cells).
-    pub local_mesh: Option<linpd_blend::graded::Grading>,
+    pub local_mesh: Option<LocalMesh>,
 }
 
 /// Default `model.local_mesh.cells_per_level`: on the centre-cracked plate at 401^2 (docs/models.md)
@@ -60,7 +60,7 @@ pub const CELLS_PER_LEVEL: usize = 4;
 fn local_mesh(
     grid: &Grid,
     raw: Option<crate::models::bond_model::RawLocalMesh>,
-) -> Result<Option<linpd_blend::graded::Grading>, ProblemError> {
+) -> Result<Option<LocalMesh>, ProblemError> {
     let Some(raw) = raw else { return Ok(None) };
     let h = grid.spacing();
     let ratio = raw.max_cell / h;
@@ -78,7 +78,11 @@ fn local_mesh(
     if cells_per_level == 0 {
         return Err(ProblemError::invalid("model.local_mesh.cells_per_level", "must be at least 1"));
     }
-    Ok(Some(linpd_blend::graded::Grading { cells_per_level, max_level }))
+    let free_faces = match raw.free_faces {
+        None | Some(RawFreeFaces::Lattice) => FreeFaces::Lattice,
+        Some(RawFreeFaces::Bulk) => FreeFaces::Bulk,
+    };
+    Ok(Some(LocalMesh { grading: Grading { cells_per_level, max_level }, free_faces }))
 }
 
 /// The PD regions of a blended scene.
@@ -324,7 +328,7 @@ impl LatticeBlendModel {
     /// The scene's blended model with its local zone on the graded mesh of `grading`. Only the
     /// nodes near the fine cells get bonds ([`GradedBlend::new`]): the regular nodes come from
     /// the bonds near the defects (`defect_regular`); with phases, from the whole lattice's.
-    pub fn build_graded(&self, p: &Problem, grading: Grading) -> Result<GradedSystem, ProblemError> {
+    pub fn build_graded(&self, p: &Problem, local: LocalMesh) -> Result<GradedSystem, ProblemError> {
         let b = &self.bond;
         let grid = p.lattice()?;
         let regular = if b.material.is_homogeneous() {
@@ -338,7 +342,7 @@ impl LatticeBlendModel {
         // every constrained node stays an unknown (its cells on the lattice)
         let ZoneInputs { beta, mirrored, constrained } = self.zones_of(p, regular.as_deref())?;
         let bond = Bond { horizon: b.horizon, micromodulus: &b.micromodulus, material: &b.material };
-        let graded = GradedBlend::new(bond, grid, beta, regular.as_deref(), &mirrored, &constrained, grading)
+        let graded = GradedBlend::new(bond, grid, beta, regular.as_deref(), &mirrored, &constrained, local)
             .map_err(blend_error)?;
         Ok(GradedSystem { graded })
     }
@@ -378,9 +382,10 @@ fn defect_regular(grid: &Grid, b: &BondModel) -> Result<Vec<bool>, ProblemError>
 impl LatticeBlendModel {
     /// The system of the graded blend: over the masters, the scene's constraints at the
     /// masters' nodes and its loads as `P^T f`.
-    fn graded_system(&self, p: &Problem, grading: Grading) -> Result<System, ProblemError> {
+    fn graded_system(&self, p: &Problem, local: LocalMesh) -> Result<System, ProblemError> {
         let grid = p.lattice()?;
-        let g = self.build_graded(p, grading)?;
+        let g = self.build_graded(p, local)?;
+        let grading = local.grading;
         let memory_estimate = Some(g.graded.memory_estimate());
         let d = p.dim();
         let (mask, ubar) = p.constrained();
@@ -802,7 +807,7 @@ impl SceneModel for LatticeBlendModel {
             Purpose::Rows => None,
             _ => Some(crate::memory::check_solver(path, p.lattice()?, self.bond.horizon, multigrid)?),
         };
-        if let Some(grading) = self.zone.local_mesh {
+        if let Some(local) = self.zone.local_mesh {
             progress.phase(&format!(
                 "building the blended model on a graded local mesh over {} lattice nodes",
                 p.nodes().len()
@@ -814,7 +819,7 @@ impl SceneModel for LatticeBlendModel {
                      which export and the row-block paths number); remove local_mesh to export the lattice blend",
                 ));
             }
-            return self.graded_system(p, grading);
+            return self.graded_system(p, local);
         }
         progress.phase(&bond::building(p, self.bond.horizon));
         progress.phase(&format!("building the blended model: {} nodes", p.nodes().len()));
