@@ -129,7 +129,7 @@ enum Command {
         /// Skip the dense-solver timings of blend-speedup (they take about a minute).
         #[arg(long)]
         no_dense: bool,
-        /// multires: solve only the lattices of at most this many nodes.
+        /// multires, penny-sneddon: solve only the lattices of at most this many nodes.
         #[arg(long)]
         max_nodes: Option<usize>,
     },

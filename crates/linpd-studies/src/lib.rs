@@ -11,6 +11,7 @@
 //!   Fig. 4.2 (module `dynamics`);
 //! * `md-pd`: the same paper, section 4.4, Figs. 4.3-4.6, Table 4.1 (module `md_pd`);
 //! * `multires`: the graded local mesh against pure PD (module `multires`);
+//! * `penny-sneddon`: a penny crack on the graded local mesh against Sneddon (module `penny`);
 //! * `coarsen-*`: Silling (2010), section 5, Figs. 3, 5 and 7, and a 2D speed-versus-error map
 //!   (module `coarsen`).
 //!
@@ -37,6 +38,7 @@ pub mod lps_tension;
 mod md_pd;
 mod multires;
 mod out;
+mod penny;
 mod surface;
 
 use clap::ValueEnum;
@@ -119,6 +121,8 @@ pub enum Study {
     MdPd,
     /// Graded local mesh (issue #31) vs pure PD, same run: edge-cracked plate 65k-1M nodes, error vs unknowns and time
     Multires,
+    /// Penny crack (a = 0.1, delta = 3h) on the graded local mesh: max opening vs Sneddon, 69k-4.2M nodes
+    PennySneddon,
     /// Silling 2010 Fig. 3: C^0, C^1, C^2 vs bond distance at the centre (tent kernel)
     CoarsenTent,
     /// Silling 2010 Fig. 5: striped composite, u per level, global stretch vs F/E_eff
@@ -135,7 +139,7 @@ pub struct StudyOptions {
     /// Time the dense solvers in `blend-speedup` (about a minute; `linpd study --no-dense`
     /// turns it off).
     pub dense: bool,
-    /// The largest lattice (nodes) `multires` solves (`linpd study --max-nodes`; `None`: all
+    /// The largest lattice (nodes) `multires` and `penny-sneddon` solve (`linpd study --max-nodes`; `None`: all
     /// its sizes).
     pub max_nodes: Option<usize>,
 }
@@ -204,6 +208,7 @@ impl Study {
             Study::Stability => dynamics::run_stability(dir, report, progress),
             Study::MdPd => md_pd::run(dir, report, progress),
             Study::Multires => multires::run(dir, options.max_nodes, report, progress),
+            Study::PennySneddon => penny::run(dir, options.max_nodes, report, progress),
             Study::CoarsenTent => coarsen::tent_study(dir, report, progress),
             Study::CoarsenComposite => coarsen::composite_study(dir, report, progress),
             Study::CoarsenDefect => coarsen::defect_study(dir, report, progress),
@@ -243,6 +248,7 @@ mod tests {
                 "stability",
                 "md-pd",
                 "multires",
+                "penny-sneddon",
                 "coarsen-tent",
                 "coarsen-composite",
                 "coarsen-defect",

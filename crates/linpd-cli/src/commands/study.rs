@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 /// Runs the study `name` into `out` (default: the study's directory), its table on stdout;
 /// `list` prints every study with its description instead. `no_dense` skips the dense-solver
-/// timings of blend-speedup; `max_nodes` caps the lattices of multires.
+/// timings of blend-speedup; `max_nodes` caps the lattices of multires and penny-sneddon.
 pub(crate) fn study(
     name: String,
     out: Option<PathBuf>,
