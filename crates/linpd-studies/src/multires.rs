@@ -7,8 +7,10 @@
 //!   layer pulled by 0.01) and its plate with a hole (`1 x 0.5`, plane stress, a hole of radius
 //!   0.1, the left layer held, a resultant pulling the right one), `n` = 250, 500, 1000 cells
 //!   per unit length (65k to 1.0M lattice nodes for the plate, half as many with the hole);
-//!   and the 48^3 block with a penny crack of `data/penny-graded-3d.json` (3D, a given ball
-//!   of PD: the auto zones of a block with held faces cover it).
+//!   the 48^3 block with a penny crack of `data/penny-graded-3d.json` (3D, a given ball
+//!   of PD: the auto zones of a block with held faces cover it); and the notched block of
+//!   `linpd study blend-2d` at 48^3 (3D, auto zones of half a horizon: one around the notch,
+//!   the held faces' whole layers).
 //! * **Pure PD**: `auto` (the cost model's fastest solver: CG + multigrid on the assembled
 //!   operator here, the crack leaving the stencil path), rtol 1e-10.
 //! * **Graded**: `"pd_regions": "auto"` (2 horizons around the crack and the supports' faces, a
@@ -37,14 +39,18 @@ use std::time::Instant;
 /// Lattice sizes (cells per unit length).
 const SIZES: [usize; 3] = [250, 500, 1000];
 /// The bodies ([`scene`]).
-const BODIES: [&str; 3] = ["edge-crack", "hole", "penny"];
+const BODIES: [&str; 4] = ["edge-crack", "hole", "penny", "notched-block"];
 /// The penny block's lattice (cells a side) and crack radius.
 const PENNY: (usize, f64) = (48, 0.06);
+/// The notched block's lattice (cells a side).
+const NOTCHED: usize = 48;
 
 /// The lattice sizes of a body.
 fn sizes_of(name: &str) -> &'static [usize] {
     if name == "penny" {
         std::slice::from_ref(&PENNY.0)
+    } else if name == "notched-block" {
+        std::slice::from_ref(&NOTCHED)
     } else {
         &SIZES
     }
@@ -109,7 +115,8 @@ fn solve(scene: &Value) -> Result<Solved, StudyError> {
 /// The graded variant of the pure-PD scene `pd` of body `name` at `n` cells per unit length:
 /// `"auto"` zones and cells up to [`MAX_CELL`] on the plates; on the penny block a ball of PD
 /// around the crack (its radius plus two horizons), a transition of two horizons and cells up
-/// to `8h` (the auto zones of a block with held faces cover it, docs/models.md).
+/// to `8h` (the auto zones of a block with held faces cover it, docs/models.md); on the
+/// notched block auto zones of half a horizon (the notch keeps one) and cells up to `8h`.
 fn graded(pd: &Value, name: &str, n: usize, m: usize) -> Value {
     let mut s = pd.clone();
     let h = 1.0 / n as f64;
@@ -118,6 +125,10 @@ fn graded(pd: &Value, name: &str, n: usize, m: usize) -> Value {
         let (d, z) = (2.0 * h, 0.5 + h / 2.0);
         model["pd_regions"] = json!([{"ball": {"center": [0.5, 0.5, z], "radius": PENNY.1 + 2.0 * d}}]);
         model["transition"] = json!(2.0 * d);
+        model["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": m});
+    } else if name == "notched-block" {
+        model["pd_regions"] = json!("auto");
+        model["auto_radius"] = json!(0.5);
         model["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": m});
     } else {
         model["pd_regions"] = json!("auto");
