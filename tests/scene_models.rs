@@ -306,6 +306,7 @@ impl SceneModel for ScaledBond {
             dilatation: None,
             cells: None,
             graded_mesh: None,
+            material: Vec::new(),
         })
     }
     fn as_any(&self) -> &dyn Any {

@@ -149,7 +149,9 @@ pub fn solution_from(
             ),
         ));
     }
-    p.model().solution(p, &system.system, u, report)
+    let mut s = p.model().solution(p, &system.system, u, report)?;
+    s.material = p.model().elastic_constants();
+    Ok(s)
 }
 
 impl RowSystem {

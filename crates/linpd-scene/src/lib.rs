@@ -25,6 +25,7 @@ pub mod raw;
 pub mod balance;
 pub mod cloud;
 pub mod dynamics;
+pub mod elastic;
 pub mod nodes;
 pub mod solution;
 pub mod validate;

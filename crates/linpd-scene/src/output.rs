@@ -65,6 +65,8 @@ pub struct ResultDoc<'a> {
     pub strain: Option<Vec<NodeValue<'a>>>,
     /// Nodes whose strain is undefined (singular shape tensor).
     pub strain_singular_nodes: Option<&'a [usize]>,
+    /// `E, nu, K, G` of the reference material and of every phase ([`crate::elastic`]).
+    pub material: &'a [crate::elastic::PhaseConstants],
     /// Sizes and the solve report.
     pub stats: Stats<'a>,
 }
@@ -106,6 +108,7 @@ impl Solution {
             dilatation: self.dilatation.as_deref(),
             strain,
             strain_singular_nodes: self.strain.as_ref().map(|s| s.singular.as_slice()),
+            material: &self.material,
             stats: Stats {
                 nodes: n,
                 bonds: self.n_bonds,

@@ -452,6 +452,12 @@ pub struct RawMicromodulus {
     /// Bulk modulus `K` (1D: the bar modulus of eq. (7)).
     #[serde(default)]
     pub modulus: Option<f64>,
+    /// Young's modulus `E` instead of `modulus` ([`crate::elastic`]).
+    #[serde(default)]
+    pub young_modulus: Option<f64>,
+    /// With `young_modulus`: Poisson's ratio, which must be the bond model's.
+    #[serde(default)]
+    pub poisson_ratio: Option<f64>,
     /// `discrete` (default), `continuum` or `none` (then `amplitude` is required).
     #[serde(default)]
     pub normalize: RawNormalize,
@@ -524,8 +530,15 @@ pub struct RawPhase {
     /// The nodes of a point cloud whose `phase` column holds this number.
     #[serde(default)]
     pub phase: Option<u32>,
-    /// Its modulus.
-    pub modulus: f64,
+    /// Its modulus `K`.
+    #[serde(default)]
+    pub modulus: Option<f64>,
+    /// Young's modulus `E` instead of `modulus` ([`crate::elastic`]).
+    #[serde(default)]
+    pub young_modulus: Option<f64>,
+    /// With `young_modulus`: Poisson's ratio, which must be the bond model's.
+    #[serde(default)]
+    pub poisson_ratio: Option<f64>,
 }
 
 /// `model.material.bond_rule`.

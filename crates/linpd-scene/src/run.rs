@@ -83,6 +83,8 @@ impl Problem {
         if let linpd_solve::SolverSpec::Cg { matrix_free: true, .. } = self.solver {
             self.model.require(Capability::MatrixFree)?;
         }
-        self.model.solve(self, progress)
+        let mut s = self.model.solve(self, progress)?;
+        s.material = self.model.elastic_constants();
+        Ok(s)
     }
 }

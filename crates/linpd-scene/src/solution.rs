@@ -41,6 +41,9 @@ pub struct Solution {
     /// Cells over the nodes for result.vtu (the graded local mesh of a blended scene: quads or
     /// hexahedra over lattice nodes); `None`: one vertex per node.
     pub cells: Option<linpd_io::vtk::Cells>,
+    /// `E, nu, K, G` of the model's materials (`result.json`'s `material`; set by
+    /// [`crate::scene::Problem::solve`] from [`crate::scene::SceneModel::elastic_constants`]).
+    pub material: Vec<crate::elastic::PhaseConstants>,
     /// The graded local mesh of a blended scene against its lattice (`stats.graded_mesh`).
     pub graded_mesh: Option<GradedMeshSummary>,
 }

@@ -3,6 +3,7 @@
 //! error names the JSON path of what is wrong.
 
 use crate::cloud::{mean_spacing, read_csv};
+use crate::elastic::BondElastic;
 use crate::nodes::{LevelNodes, NodeSet};
 use crate::raw::*;
 use crate::scene::{Constraint, Load};
@@ -609,7 +610,7 @@ pub(crate) fn bond_micromodulus(
         }
         (_, None) => None,
     };
-    let micromodulus = micromodulus(mm, horizon, plane, partial_volume)?;
+    let micromodulus = micromodulus(mm, horizon, plane, partial_volume, BondElastic::of(dim, plane))?;
     micromodulus.validate(dim).map_err(|e| core("model.micromodulus", e))?;
     Ok(micromodulus)
 }
@@ -619,8 +620,11 @@ fn micromodulus(
     horizon: f64,
     plane: Option<PlaneModel>,
     partial_volume: bool,
+    elastic: BondElastic,
 ) -> Result<Micromodulus, ProblemError> {
     let p = "model.micromodulus";
+    let given = elastic.modulus(p, mm.modulus, mm.young_modulus, mm.poisson_ratio)?;
+    let key = if mm.young_modulus.is_some() { "young_modulus" } else { "modulus" };
     let kernel = kernel_of(mm, horizon)?;
     if mm.length.is_some() && mm.kernel != RawKernel::Gaussian {
         return Err(ProblemError::invalid(format!("{p}.length"), "only the gaussian kernel takes a length"));
@@ -628,7 +632,7 @@ fn micromodulus(
     if mm.table.is_some() && mm.kernel != RawKernel::Tabulated {
         return Err(ProblemError::invalid(format!("{p}.table"), "only the tabulated kernel takes a table"));
     }
-    let (normalization, modulus) = match (mm.normalize, mm.modulus, mm.amplitude) {
+    let (normalization, modulus) = match (mm.normalize, given, mm.amplitude) {
         (RawNormalize::None, None, Some(c)) => (Normalization::Amplitude(c), 1.0),
         (RawNormalize::None, _, None) => {
             return Err(ProblemError::invalid(
@@ -637,7 +641,7 @@ fn micromodulus(
             ))
         }
         (RawNormalize::None, Some(_), Some(_)) => return Err(ProblemError::invalid(
-            format!("{p}.modulus"),
+            format!("{p}.{key}"),
             "give either a modulus (with normalize discrete/continuum) or an amplitude (with normalize none), not both",
         )),
         (_, _, Some(_)) => {
@@ -649,7 +653,7 @@ fn micromodulus(
         (_, None, None) => {
             return Err(ProblemError::invalid(
                 format!("{p}.modulus"),
-                "missing: the modulus to normalize the kernel to",
+                "missing: the modulus to normalize the kernel to (or young_modulus)",
             ))
         }
         (RawNormalize::Discrete, Some(k), None) => (Normalization::Discrete, k),
@@ -660,25 +664,63 @@ fn micromodulus(
     Ok(m)
 }
 
-pub(crate) fn material(raw: &RawMaterial, dim: usize) -> Result<Material, ProblemError> {
-    material_with_tags(raw, dim, false)
+/// The constants of a bond model with `micromodulus` in dimension `dim` (`None` with an
+/// explicit amplitude: its phases' moduli are multipliers).
+pub(crate) fn bond_elastic(dim: usize, micromodulus: &Micromodulus) -> Option<BondElastic> {
+    match micromodulus.normalization {
+        linpd_core::Normalization::Amplitude(_) => None,
+        _ => Some(BondElastic::of(dim, micromodulus.plane)),
+    }
+}
+
+/// The material of a model; `elastic`: the bond model's constants, for phases given by
+/// `young_modulus` (`None`: phases give `modulus` only, a multiplier of an explicit amplitude).
+pub(crate) fn material(raw: &RawMaterial, dim: usize, elastic: Option<BondElastic>) -> Result<Material, ProblemError> {
+    material_with_tags(raw, dim, false, elastic)
+}
+
+/// Each phase's modulus `K`: its `modulus`, or its `young_modulus` through the bond model's
+/// constants ([`crate::elastic`]).
+pub(crate) fn phase_moduli(raw: &RawMaterial, elastic: Option<BondElastic>) -> Result<Vec<f64>, ProblemError> {
+    raw.phases
+        .iter()
+        .enumerate()
+        .map(|(k, ph)| {
+            let p = format!("model.material.phases[{k}]");
+            let given = match elastic {
+                Some(e) => e.modulus(&p, ph.modulus, ph.young_modulus, ph.poisson_ratio)?,
+                None if ph.young_modulus.is_some() || ph.poisson_ratio.is_some() => {
+                    return Err(ProblemError::invalid(
+                        format!("{p}.young_modulus"),
+                        "with \"normalize\": \"none\" a phase's modulus multiplies the amplitude: give modulus",
+                    ))
+                }
+                None => ph.modulus,
+            };
+            let m = given.ok_or_else(|| ProblemError::invalid(format!("{p}.modulus"), "missing (or young_modulus)"))?;
+            if !(m.is_finite() && m > 0.0) {
+                return Err(ProblemError::invalid(format!("{p}.modulus"), format!("must be > 0, got {m:e}")));
+            }
+            Ok(m)
+        })
+        .collect()
 }
 
 /// [`material`]; with `tags`, phases given by a point cloud's phase number (`{"phase": k}`)
 /// are validated and left out of the returned phases (the cloud applies them per node, see
 /// [`crate::cloud`]), otherwise they are an error.
-pub(crate) fn material_with_tags(raw: &RawMaterial, dim: usize, tags: bool) -> Result<Material, ProblemError> {
+pub(crate) fn material_with_tags(
+    raw: &RawMaterial,
+    dim: usize,
+    tags: bool,
+    elastic: Option<BondElastic>,
+) -> Result<Material, ProblemError> {
     let p = "model.material";
+    let moduli = phase_moduli(raw, elastic)?;
     let mut phases = Vec::new();
     for (k, ph) in raw.phases.iter().enumerate() {
-        if !(ph.modulus.is_finite() && ph.modulus > 0.0) {
-            return Err(ProblemError::invalid(
-                format!("{p}.phases[{k}].modulus"),
-                format!("must be > 0, got {:e}", ph.modulus),
-            ));
-        }
         match (&ph.region, ph.phase) {
-            (Some(r), None) => phases.push((region(&format!("{p}.phases[{k}].region"), r, dim)?, ph.modulus)),
+            (Some(r), None) => phases.push((region(&format!("{p}.phases[{k}].region"), r, dim)?, moduli[k])),
             (None, Some(_)) if tags => {}
             (None, Some(_)) => {
                 return Err(ProblemError::invalid(

@@ -26,7 +26,7 @@ use crate::scene::Constraint;
 use crate::scene::Load;
 use crate::scene::Problem;
 use crate::solution::Solution;
-use crate::validate::{bond_micromodulus, defect_cuts_nothing, kernel_of, material, Context};
+use crate::validate::{bond_elastic, bond_micromodulus, defect_cuts_nothing, kernel_of, material, Context};
 use crate::ProblemError;
 use linpd_blend::{solve_model, BlendOperator, BlendParams, BlendSolver, Blending, ModelKind, Regions};
 use linpd_core::progress::Progress;
@@ -164,8 +164,8 @@ impl ModelType for Blend1dType {
             ));
         }
         let grid = crate::validate::lattice(cx, raw.horizon, crate::memory::Path::BondAssembled)?;
-        bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), None, false)?;
-        let material = material(&raw.material, dim)?;
+        let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), None, false)?;
+        let material = material(&raw.material, dim, bond_elastic(dim, &micromodulus))?;
         if let Some(k) = material.defect_cutting_nothing(&grid, raw.horizon) {
             return Err(defect_cuts_nothing(k));
         }
@@ -288,7 +288,9 @@ impl BlendScene {
             length,
             dx: grid_raw.spacing,
             horizon,
-            modulus: mm.modulus.unwrap_or(1.0),
+            modulus: crate::elastic::BondElastic::of(1, None)
+                .modulus("model.micromodulus", mm.modulus, mm.young_modulus, mm.poisson_ratio)?
+                .unwrap_or(1.0),
             kernel: kernel_of(mm, horizon)?,
             regions,
             blending,
@@ -462,6 +464,13 @@ fn blend_error(e: linpd_blend::BlendError) -> ProblemError {
 }
 
 impl SceneModel for BlendScene {
+    fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
+        let e = crate::elastic::BondElastic::of(1, None);
+        let phases = self.params.material.phases.iter().enumerate();
+        std::iter::once(e.constants("reference".into(), self.params.modulus))
+            .chain(phases.map(|(k, (_, m))| e.constants(format!("phases[{k}]"), *m)))
+            .collect()
+    }
     fn name(&self) -> &'static str {
         Blend1dType::name_of(self.kind)
     }
@@ -595,6 +604,7 @@ pub(crate) fn solution(name: &str, b: &BlendScene, s: linpd_blend::BlendSolution
         dilatation: None,
         cells: None,
         graded_mesh: None,
+        material: Vec::new(),
     }
 }
 

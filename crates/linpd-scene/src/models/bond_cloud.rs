@@ -38,10 +38,12 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
         ));
     }
     micromodulus.amplitude(dim, raw.horizon, h).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
-    let material = material_with_tags(&raw.material, dim, true)?;
-    let node_moduli = tagged_moduli(&raw.material, &nodes, micromodulus.reference_modulus())?;
+    let elastic = crate::validate::bond_elastic(dim, &micromodulus);
+    let material = material_with_tags(&raw.material, dim, true, elastic)?;
+    let moduli = crate::validate::phase_moduli(&raw.material, elastic)?;
+    let node_moduli = tagged_moduli(&raw.material, &moduli, &nodes, micromodulus.reference_modulus())?;
     check_defects(&material, &nodes, raw.horizon)?;
-    let bond = BondModel::on_cloud(raw, micromodulus, material, node_moduli);
+    let bond = BondModel::on_cloud(raw, micromodulus, material, node_moduli, (elastic, moduli));
     Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(BondCloudModel { bond }) })
 }
 
@@ -61,6 +63,9 @@ fn refuse_lattice_keys(raw: &RawBond) -> Result<(), ProblemError> {
 }
 
 impl SceneModel for BondCloudModel {
+    fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
+        self.bond.elastic_constants()
+    }
     fn name(&self) -> &'static str {
         "bond"
     }
@@ -139,6 +144,7 @@ impl SceneModel for BondCloudModel {
 /// otherwise leave the material silently homogeneous).
 pub(crate) fn tagged_moduli(
     raw: &crate::raw::RawMaterial,
+    phase_moduli: &[f64],
     nodes: &LevelNodes,
     reference: f64,
 ) -> Result<Option<Vec<f64>>, ProblemError> {
@@ -153,7 +159,7 @@ pub(crate) fn tagged_moduli(
                 let r = region(&format!("model.material.phases[{k}].region"), r, nodes.dim)?;
                 for (n, x) in nodes.positions.iter().enumerate() {
                     if r.contains(x, nodes.dim, tol) {
-                        moduli[n] = ph.modulus;
+                        moduli[n] = phase_moduli[k];
                     }
                 }
             }
@@ -166,7 +172,7 @@ pub(crate) fn tagged_moduli(
                 }
                 let mut any = false;
                 for (n, _) in nodes.phase.iter().enumerate().filter(|(_, &p)| p == tag) {
-                    moduli[n] = ph.modulus;
+                    moduli[n] = phase_moduli[k];
                     any = true;
                 }
                 if !any {

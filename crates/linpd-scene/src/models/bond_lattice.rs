@@ -84,6 +84,9 @@ fn n_free(p: &Problem) -> usize {
 }
 
 impl SceneModel for BondLatticeModel {
+    fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
+        self.bond.elastic_constants()
+    }
     fn name(&self) -> &'static str {
         "bond"
     }

@@ -2,13 +2,14 @@
 //! what the three bond models share: the operator on a lattice or point cloud, the surface
 //! correction and the fields of a solution.
 
+use crate::elastic::{BondElastic, PhaseConstants};
 use crate::nodes::{NodeSet, Nodes};
 use crate::raw::{
     RawBlending, RawMaterial, RawMicromodulus, RawPdRegions, RawPlane, RawSurfaceCorrection, RawSurfaceTarget,
 };
 use crate::scene::Problem;
 use crate::solution::Solution;
-use crate::validate::{bond_micromodulus, defect_cuts_nothing, material};
+use crate::validate::{bond_elastic, bond_micromodulus, defect_cuts_nothing, material, phase_moduli};
 use crate::ProblemError;
 use linpd_bond::BondOperator;
 use linpd_core::surface::{CorrectionSummary, SurfaceTarget};
@@ -102,6 +103,10 @@ pub struct BondModel {
     pub(crate) node_moduli: Option<Vec<f64>>,
     /// `model.surface_correction` (`None` or `Energy`, [`linpd_bond::surface`]) and its target.
     pub(crate) surface: Surface,
+    /// The constants the model fixes (`None` with an explicit amplitude) and every phase's
+    /// modulus in scene order: `result.json`'s `material`.
+    pub(crate) elastic: Option<BondElastic>,
+    pub(crate) phase_moduli: Vec<f64>,
 }
 
 /// `model.surface_correction` and `model.surface_target` ([`linpd_core::surface`]).
@@ -118,12 +123,14 @@ impl BondModel {
     pub(crate) fn validate(raw: &RawBond, grid: &Grid, dim: usize) -> Result<Self, ProblemError> {
         let horizon = raw.horizon;
         let micromodulus = bond_micromodulus(dim, horizon, raw.micromodulus.as_ref(), raw.plane, raw.partial_volume)?;
-        let material = material(&raw.material, dim)?;
+        let elastic = bond_elastic(dim, &micromodulus);
+        let material = material(&raw.material, dim, elastic)?;
         if let Some(k) = material.defect_cutting_nothing(grid, horizon) {
             return Err(defect_cuts_nothing(k));
         }
         let surface = surface_of(false, raw.surface_correction, raw.surface_target)?;
-        Ok(BondModel { horizon, micromodulus, material, node_moduli: None, surface })
+        let phase_moduli = phase_moduli(&raw.material, elastic)?;
+        Ok(BondModel { horizon, micromodulus, material, node_moduli: None, surface, elastic, phase_moduli })
     }
 
     /// The parameters of a bond model on a point cloud (its material may name phase numbers,
@@ -133,8 +140,19 @@ impl BondModel {
         micromodulus: Micromodulus,
         material: Material,
         node_moduli: Option<Vec<f64>>,
+        (elastic, phase_moduli): (Option<BondElastic>, Vec<f64>),
     ) -> Self {
-        BondModel { horizon: raw.horizon, micromodulus, material, node_moduli, surface: Surface::default() }
+        let surface = Surface::default();
+        BondModel { horizon: raw.horizon, micromodulus, material, node_moduli, surface, elastic, phase_moduli }
+    }
+
+    /// `E, nu, K, G` of the reference material and of every phase (none with an explicit
+    /// amplitude, whose modulus the scene does not give).
+    pub fn elastic_constants(&self) -> Vec<PhaseConstants> {
+        let Some(e) = self.elastic else { return Vec::new() };
+        std::iter::once(e.constants("reference".into(), self.micromodulus.modulus))
+            .chain(self.phase_moduli.iter().enumerate().map(|(k, &m)| e.constants(format!("phases[{k}]"), m)))
+            .collect()
     }
 
     /// Horizon.
@@ -240,6 +258,7 @@ pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f6
         dilatation: None,
         cells: None,
         graded_mesh: None,
+        material: Vec::new(),
         report,
     }
 }

@@ -324,6 +324,7 @@ fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: SolveReport) -
         dilatation: None,
         cells: None,
         graded_mesh: None,
+        material: Vec::new(),
         report,
     }
 }

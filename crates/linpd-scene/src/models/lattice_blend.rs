@@ -491,6 +491,7 @@ fn graded_solution(
         strain: Some(strain),
         dilatation: None,
         cells: Some(cells),
+        material: Vec::new(),
         graded_mesh: Some(GradedMeshSummary {
             lattice_nodes: grid.len(),
             levels: mesh.counts(),
@@ -763,6 +764,9 @@ fn dilate(grid: &Grid, features: &[bool], radius: f64) -> Vec<bool> {
 }
 
 impl SceneModel for LatticeBlendModel {
+    fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
+        self.bond.elastic_constants()
+    }
     fn name(&self) -> &'static str {
         "bond"
     }

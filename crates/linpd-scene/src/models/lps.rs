@@ -52,6 +52,12 @@ pub struct RawLps {
     /// Shear modulus `G`.
     #[serde(default)]
     pub shear_modulus: Option<f64>,
+    /// Young's modulus `E` (with `poisson_ratio`, instead of `K` and `G`).
+    #[serde(default)]
+    pub young_modulus: Option<f64>,
+    /// Poisson's ratio `nu` (with `young_modulus`).
+    #[serde(default)]
+    pub poisson_ratio: Option<f64>,
     /// Influence function, `inverse_distance` (default) or `constant`.
     #[serde(default)]
     pub influence: Option<RawInfluence>,
@@ -92,7 +98,7 @@ impl ModelType for LpsType {
             let n = crate::nodes::NodeSet::count(&nodes);
             crate::memory::check_lps_work(n, crate::memory::neighbours(dim, ratio), ratio)?;
             let params = params(dim, &raw)?;
-            let material = material(&raw.material, dim)?;
+            let material = material(&raw.material, dim, None)?;
             check_defects(&material, &nodes, raw.horizon)?;
             let model = LpsSceneModel { params, defects: material.defects, surface: Surface::default(), cloud: true };
             return Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(model) });
@@ -101,7 +107,7 @@ impl ModelType for LpsType {
         let ratio = raw.horizon / grid.spacing();
         crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(dim, ratio), ratio)?;
         let params = params(dim, &raw)?;
-        let material = material(&raw.material, dim)?;
+        let material = material(&raw.material, dim, None)?;
         if let Some(k) = material.defect_cutting_nothing(&grid, raw.horizon) {
             return Err(defect_cuts_nothing(k));
         }
@@ -124,8 +130,7 @@ fn params(dim: usize, raw: &RawLps) -> Result<LpsParams, ProblemError> {
             "lps models take defects (pre-cracks) but no phases or bond_rule yet: one K and G per scene",
         ));
     }
-    let k = bulk.ok_or_else(|| ProblemError::invalid("model.bulk_modulus", "missing"))?;
-    let g = shear.ok_or_else(|| ProblemError::invalid("model.shear_modulus", "missing"))?;
+    let (k, g) = crate::elastic::lps_moduli("model", bulk, shear, raw.young_modulus, raw.poisson_ratio)?;
     if !(k.is_finite() && k > 0.0) {
         return Err(ProblemError::invalid("model.bulk_modulus", format!("must be > 0, got {k:e}")));
     }
@@ -206,6 +211,9 @@ impl LpsSceneModel {
 }
 
 impl SceneModel for LpsSceneModel {
+    fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
+        vec![crate::elastic::lps_constants(self.params.K, self.params.G)]
+    }
     fn name(&self) -> &'static str {
         "lps"
     }
@@ -323,6 +331,7 @@ pub(crate) fn solution(p: &Problem, model: &LpsModel, u: Vec<f64>, report: Solve
         dilatation,
         cells: None,
         graded_mesh: None,
+        material: Vec::new(),
         report,
     }
 }

@@ -140,6 +140,11 @@ pub trait SceneModel: Debug + Send + Sync {
     fn static_error(&self, e: linpd_solve::StaticError) -> ProblemError {
         super::solve::static_error(e)
     }
+    /// `E, nu, K, G` of its materials (`result.json`'s `material`, [`crate::elastic`]); none
+    /// for a model whose moduli are not isotropic constants (a coarsened level).
+    fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
+        Vec::new()
+    }
     /// Solves the scene ([`super::solve_system`] unless the model has its own solvers).
     fn solve(&self, p: &Problem, progress: &dyn Progress) -> Result<Solution, ProblemError> {
         super::solve::solve_system(self, p, progress)
