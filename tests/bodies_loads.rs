@@ -409,3 +409,47 @@ fn cut_volumes_in_an_lps_scene() {
     assert!(w > 0.0);
     assert_ne!(sol.u, full.u, "the volumes change the solution");
 }
+
+/// Moments (issue #32): the cantilever's clamp (the root layer) reacts to the tip load with the
+/// couple of statics, `M = -(x_F - c) x F` about its centroid `c` (`x_F` the load's point of
+/// application, the mean of its nodes, the plane `x = 1`: a resultant puts equal forces on
+/// equal volumes), to the solve's round-off (1e-10 of `|F| L`, `L = 1`); the moments balance
+/// about the reference point in 3D (the cantilever), 2D (the plate with a hole) and for LPS;
+/// the clamp's nodal reactions sum to its reaction (1e-12) and are `result.vtu`'s `reaction`.
+#[test]
+fn moments_balance_and_the_clamp_carries_the_couple_of_statics() {
+    let p = Problem::from_path(&data("cantilever-3d.json")).unwrap();
+    let s = p.solve(&linpd::core::NoProgress).unwrap();
+    let b = s.balance.as_ref().unwrap();
+    assert_eq!(b.applied_moment.len(), 3);
+    assert!(b.relative_moment_imbalance <= 1e-10, "{:e}", b.relative_moment_imbalance);
+    let (load, clamp) = (&b.loads[0], &b.constraints[0]);
+    let nodes = p.nodes();
+    let loaded: Vec<usize> = (0..nodes.len()).filter(|&i| nodes.position(i)[0] >= 1.0 - 1e-9).collect();
+    assert_eq!(loaded.len(), load.nodes, "the load's nodes");
+    let mean = |set: &[usize], a: usize| set.iter().map(|&i| nodes.position(i)[a]).sum::<f64>() / set.len() as f64;
+    let arm: Vec<f64> = (0..3).map(|a| mean(&loaded, a) - clamp.centroid[a]).collect();
+    let f = &load.force;
+    let statics =
+        [-(arm[1] * f[2] - arm[2] * f[1]), -(arm[2] * f[0] - arm[0] * f[2]), -(arm[0] * f[1] - arm[1] * f[0])];
+    let scale = f.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for a in 0..3 {
+        assert!((clamp.moment[a] - statics[a]).abs() <= 1e-10 * scale, "{:?} vs {statics:?}", clamp.moment);
+    }
+    assert!(statics[1].abs() > 0.5 * scale, "a bending couple: {statics:?}");
+    let total: Vec<f64> = (0..3).map(|a| b.nodal_reaction.iter().skip(a).step_by(3).sum()).collect();
+    for a in 0..3 {
+        assert!((total[a] - clamp.reaction[a]).abs() <= 1e-12 * scale, "{total:?} vs {:?}", clamp.reaction);
+    }
+    let dir = std::env::temp_dir().join(format!("linpd-moments-{}", std::process::id()));
+    s.write(&dir).unwrap();
+    let vtu = std::fs::read_to_string(dir.join("result.vtu")).unwrap();
+    assert!(vtu.contains("Name=\"reaction\""), "result.vtu has no reaction field");
+    let _ = std::fs::remove_dir_all(&dir);
+    for name in ["plate-hole-2d.json", "lps-plate-2d.json"] {
+        let s = Problem::from_path(&data(name)).unwrap().solve(&linpd::core::NoProgress).unwrap();
+        let b = s.balance.unwrap();
+        assert_eq!(b.applied_moment.len(), 1, "{name}: a 2D moment is its z component");
+        assert!(b.relative_moment_imbalance <= 1e-10, "{name}: {:e}", b.relative_moment_imbalance);
+    }
+}

@@ -35,7 +35,8 @@ fn scenes() -> Vec<PathBuf> {
 }
 
 /// Checks the outputs of one solved scene whose 2D map has `map_cells` cells (the lattice's
-/// sites for a scene on a grid); `Err` says what is wrong.
+/// sites for a scene on a grid), and the moment balance of 2D and 3D scenes; `Err` says what is
+/// wrong.
 fn check_outputs(dir: &Path, map_cells: usize) -> Result<(), String> {
     let text = std::fs::read_to_string(dir.join("result.json")).map_err(|e| format!("result.json: {e}"))?;
     let r: Value = serde_json::from_str(&text).map_err(|e| format!("result.json does not parse: {e}"))?;
@@ -61,6 +62,17 @@ fn check_outputs(dir: &Path, map_cells: usize) -> Result<(), String> {
                     if d == 1 { "a number" } else { "an array of numbers" }
                 ));
             }
+        }
+    }
+    // moments balance to round-off (central bond forces, rotations in A's null space), or for a
+    // blend's ghost forces no worse than its forces do (measured: 8.3e-13 and 4.0e-10 against
+    // force imbalances of 1.5e-6 and 3.8e-7)
+    if d > 1 {
+        let b = &r["balance"];
+        let (m, f) = (b["relative_moment_imbalance"].as_f64(), b["relative_imbalance"].as_f64());
+        let (m, f) = m.zip(f).ok_or("balance.relative_moment_imbalance or relative_imbalance missing")?;
+        if !(m <= 1e-10 || (f > 1e-8 && m <= f)) {
+            return Err(format!("balance.relative_moment_imbalance = {m:e} (forces {f:e})"));
         }
     }
     let res = r["stats"]["solve"]["rel_residual"].as_f64().ok_or("stats.solve.rel_residual is not a number")?;

@@ -150,7 +150,8 @@ impl Solution {
     }
 
     /// Writes the solution as VTK XML `UnstructuredGrid` ([`linpd_io::vtk::write_vtu`]): point data `u` (3
-    /// components, 0-padded), `layer` (0/1), and when known `volume`, `strain_energy_density`,
+    /// components, 0-padded), `layer` (0/1), and when known `volume`, `reaction` (the supports'
+    /// force on each held node, 0-padded, 0 elsewhere), `strain_energy_density`,
     /// `dilatation` (LPS) and `strain` (the full `3 x 3` tensor, 9 components row-major, 0
     /// outside the `d x d` block: VTK's tensor convention).
     pub fn write_vtu(&self, path: &Path) -> Result<(), ProblemError> {
@@ -176,6 +177,15 @@ impl Solution {
         if self.dilatation.is_some() {
             arrays
                 .push(PointArray { name: "dilatation", values: PointValues::Float64 { components: 1, value: &theta } });
+        }
+        // the supports' nodal reactions, on the nodes the balance was taken on
+        let reactions = self.balance.as_ref().map(|b| b.nodal_reaction.as_slice()).filter(|r| r.len() == d * n);
+        let reaction = |k: usize, a: usize| if a < d { reactions.map_or(0.0, |r| r[d * k + a]) } else { 0.0 };
+        if reactions.is_some() {
+            arrays.push(PointArray {
+                name: "reaction",
+                values: PointValues::Float64 { components: 3, value: &reaction },
+            });
         }
         let strain = |k: usize, c: usize| self.strain.as_ref().map_or(0.0, |s| s.tensor[k][c]);
         if self.strain.is_some() {

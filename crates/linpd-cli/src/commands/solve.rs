@@ -54,13 +54,17 @@ pub(crate) fn solve(scene: &Path, out: Option<PathBuf>, quiet: bool) -> Result<(
             false => n.iter().map(usize::to_string).collect::<Vec<_>>().join("/"),
         };
         say!(
-            "{}: applied force [{}] (loads on {} nodes), reactions [{}] (constraints on {} nodes), relative imbalance {:.1e}",
+            "{}: applied force [{}] (loads on {} nodes), reactions [{}] (constraints on {} nodes), relative imbalance {:.1e}{}",
             problem.name(),
             v(&b.applied),
             caught(b.loads.iter().map(|l| l.nodes).collect()),
             v(&b.reaction),
             caught(b.constraints.iter().map(|c| c.nodes).collect()),
-            b.relative_imbalance
+            b.relative_imbalance,
+            match b.applied_moment.is_empty() {
+                true => String::new(),
+                false => format!(", moment imbalance {:.1e}", b.relative_moment_imbalance),
+            }
         )?;
     }
     for f in files {

@@ -614,7 +614,7 @@ pub(crate) fn solution(name: &str, b: &BlendScene, s: linpd_blend::BlendSolution
 fn balance(b: &BlendScene, s: &linpd_blend::BlendSolution) -> Balance {
     let tol = 1e-9 * b.params.dx;
     let mut loads: Vec<LoadBalance> =
-        b.load_kinds.iter().map(|&kind| LoadBalance { kind, nodes: 0, force: vec![0.0] }).collect();
+        b.load_kinds.iter().map(|&kind| LoadBalance { kind, nodes: 0, force: vec![0.0], moment: Vec::new() }).collect();
     for (l, &k) in b.loads.iter().zip(&b.load_of) {
         // The loads were applied in the solve, so each one's nodes exist.
         let nodes = l.nodes(&s.x, tol).unwrap_or_default();
@@ -636,8 +636,10 @@ fn balance(b: &BlendScene, s: &linpd_blend::BlendSolution) -> Balance {
                     reaction += s.reactions[e];
                 }
             }
-            ConstraintBalance { nodes: ends.iter().filter(|&&h| h).count(), dofs, reaction: vec![reaction] }
+            let held: Vec<f64> = (0..2).filter(|&e| ends[e]).map(|e| [0.0, b.params.length][e]).collect();
+            let centroid = vec![held.iter().sum::<f64>() / held.len().max(1) as f64];
+            ConstraintBalance { nodes: held.len(), dofs, reaction: vec![reaction], centroid, moment: Vec::new() }
         })
         .collect();
-    Balance::from_parts(1, loads, constraints)
+    Balance::from_parts(1, loads, constraints, crate::balance::MomentFrame::default(), Vec::new())
 }

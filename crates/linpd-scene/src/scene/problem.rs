@@ -3,7 +3,7 @@
 //! balance of a solution).
 
 use super::model::SceneModel;
-use crate::balance::{Balance, ConstraintBalance, LoadBalance};
+use crate::balance::{moment, Balance, ConstraintBalance, LoadBalance, MomentFrame};
 use crate::nodes::{NodeSet, Nodes};
 use crate::ProblemError;
 use linpd_core::{Grid, Region};
@@ -251,16 +251,33 @@ impl Problem {
         nodes.len()
     }
 
-    /// The balance of the solution `u` of this scene on `model` (its full operator).
+    /// The balance of the solution `u` of this scene on `model` (its full operator), forces and
+    /// moments ([`crate::balance`]).
     pub(crate) fn balance(&self, apply: &dyn Fn(&[f64], &mut [f64]), u: &[f64]) -> Balance {
         let d = self.dim();
         let n = d * self.nodes.len();
+        let frame = self.moment_frame();
+        // the moment about the reference point of the forces `f` (d per node) on `nodes`
+        let moment_of = |nodes: &mut dyn Iterator<Item = usize>, f: &[f64]| {
+            let mut m = moment(d, &[0.0; 3], &[0.0; 3]);
+            if frame.reference.is_empty() {
+                return m;
+            }
+            for i in nodes {
+                let x = self.nodes.position(i);
+                let r: Vec<f64> = (0..d).map(|a| x[a] - frame.reference[a]).collect();
+                m.iter_mut().zip(moment(d, &r, &f[d * i..d * i + d])).for_each(|(t, v)| *t += v);
+            }
+            m
+        };
         let mut f = vec![0.0; n];
         let mut loads = Vec::new();
         for l in &self.loads {
             let mut fl = vec![0.0; n];
             let nodes = self.add_load(l, &mut fl);
             let force: Vec<f64> = (0..d).map(|a| fl.iter().skip(a).step_by(d).sum()).collect();
+            let loaded = &mut (0..self.nodes.len()).filter(|&i| fl[d * i..d * i + d].iter().any(|&x| x != 0.0));
+            let moment = moment_of(loaded, &fl);
             f.iter_mut().zip(&fl).for_each(|(t, x)| *t += x);
             let kind = match l {
                 Load::Point { .. } => "point",
@@ -268,28 +285,58 @@ impl Problem {
                 Load::Body { .. } => "body",
                 Load::Resultant { .. } => "resultant",
             };
-            loads.push(LoadBalance { kind, nodes, force });
+            loads.push(LoadBalance { kind, nodes, force, moment });
         }
         let mut au = vec![0.0; n];
         apply(u, &mut au);
         let mut owner = vec![usize::MAX; n];
+        let mut nodal_reaction = vec![0.0; n];
         let mut constraints = Vec::new();
         for (k, c) in self.constraints.iter().enumerate() {
             let prescribed = c.prescribed(&self.nodes, d);
             let mut reaction = vec![0.0; d];
             let mut dofs = 0;
+            let mut own = vec![0.0; n];
             for &(node, a, _) in &prescribed {
                 let dof = d * node + a;
                 if owner[dof] == usize::MAX {
                     owner[dof] = k;
                     dofs += 1;
-                    reaction[a] += au[dof] - f[dof];
+                    own[dof] = au[dof] - f[dof];
+                    reaction[a] += own[dof];
+                    nodal_reaction[dof] = own[dof];
                 }
             }
             let mut nodes: Vec<usize> = prescribed.iter().map(|e| e.0).collect();
             nodes.dedup();
-            constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction });
+            let centroid: Vec<f64> = (0..d)
+                .map(|a| nodes.iter().map(|&i| self.nodes.position(i)[a]).sum::<f64>() / nodes.len().max(1) as f64)
+                .collect();
+            // about the centroid: the moment about O less the resultant's at the centroid
+            let about_o = moment_of(&mut nodes.iter().copied(), &own);
+            let r: Vec<f64> = (0..d).map(|a| centroid[a] - frame.reference.get(a).copied().unwrap_or(0.0)).collect();
+            let moment = about_o.iter().zip(moment(d, &r, &reaction)).map(|(a, b)| a - b).collect();
+            constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction, centroid, moment });
         }
-        Balance::from_parts(d, loads, constraints)
+        Balance::from_parts(d, loads, constraints, frame, nodal_reaction)
+    }
+
+    /// The mean position of the nodes and the diagonal of their bounding box (none in 1D).
+    fn moment_frame(&self) -> MomentFrame {
+        let (d, n) = (self.dim(), self.nodes.len());
+        if d < 2 || n == 0 {
+            return MomentFrame::default();
+        }
+        let (mut lo, mut hi, mut sum) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], [0.0; 3]);
+        for i in 0..n {
+            let x = self.nodes.position(i);
+            for a in 0..d {
+                lo[a] = lo[a].min(x[a]);
+                hi[a] = hi[a].max(x[a]);
+                sum[a] += x[a];
+            }
+        }
+        let diagonal = (0..d).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
+        MomentFrame { reference: (0..d).map(|a| sum[a] / n as f64).collect(), diagonal }
     }
 }
