@@ -307,6 +307,8 @@ impl SceneModel for ScaledBond {
             cells: None,
             graded_mesh: None,
             material: Vec::new(),
+            stress: None,
+            pd_stress: None,
         })
     }
     fn as_any(&self) -> &dyn Any {

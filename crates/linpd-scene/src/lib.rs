@@ -28,6 +28,7 @@ pub mod dynamics;
 pub mod elastic;
 pub mod nodes;
 pub mod solution;
+pub mod stress;
 pub mod validate;
 
 pub mod output;

@@ -65,6 +65,18 @@ pub struct ResultDoc<'a> {
     pub strain: Option<Vec<NodeValue<'a>>>,
     /// Nodes whose strain is undefined (singular shape tensor).
     pub strain_singular_nodes: Option<&'a [usize]>,
+    /// Cauchy stress per node (Voigt, a number in 1D; [`crate::stress`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stress: Option<Vec<NodeValue<'a>>>,
+    /// Von Mises stress per node.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub von_mises: Option<Vec<f64>>,
+    /// Principal stresses per node, descending.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub principal_stress: Option<Vec<Vec<f64>>>,
+    /// Force-flux (peridynamic) stress per node (Voigt): bond-based models.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pd_stress: Option<Vec<NodeValue<'a>>>,
     /// `E, nu, K, G` of the reference material and of every phase ([`crate::elastic`]).
     pub material: &'a [crate::elastic::PhaseConstants],
     /// Sizes and the solve report.
@@ -97,7 +109,16 @@ impl Solution {
                 .map(|i| if d == 1 { NodeValue::Scalar(s.tensor[i][0]) } else { NodeValue::Owned(s.voigt(i)) })
                 .collect()
         });
+        let voigt = |s: &crate::stress::NodalStress| -> Vec<NodeValue<'_>> {
+            (0..n)
+                .map(|i| if d == 1 { NodeValue::Scalar(s.tensor[i][0]) } else { NodeValue::Owned(s.voigt(i)) })
+                .collect()
+        };
         ResultDoc {
+            stress: self.stress.as_ref().map(voigt),
+            von_mises: self.stress.as_ref().map(|s| (0..n).map(|i| s.von_mises(i)).collect()),
+            principal_stress: self.stress.as_ref().map(|s| (0..n).map(|i| s.principal(i)).collect()),
+            pd_stress: self.pd_stress.as_ref().map(voigt),
             name: &self.name,
             dimension: d,
             x: x.collect(),
@@ -151,7 +172,8 @@ impl Solution {
 
     /// Writes the solution as VTK XML `UnstructuredGrid` ([`linpd_io::vtk::write_vtu`]): point data `u` (3
     /// components, 0-padded), `layer` (0/1), and when known `volume`, `reaction` (the supports'
-    /// force on each held node, 0-padded, 0 elsewhere), `strain_energy_density`,
+    /// force on each held node, 0-padded, 0 elsewhere), `stress` and `von_mises` (Hooke),
+    /// `pd_stress` (force flux; 9 components like `strain`), `strain_energy_density`,
     /// `dilatation` (LPS) and `strain` (the full `3 x 3` tensor, 9 components row-major, 0
     /// outside the `d x d` block: VTK's tensor convention).
     pub fn write_vtu(&self, path: &Path) -> Result<(), ProblemError> {
@@ -185,6 +207,22 @@ impl Solution {
             arrays.push(PointArray {
                 name: "reaction",
                 values: PointValues::Float64 { components: 3, value: &reaction },
+            });
+        }
+        let stress = |k: usize, c: usize| self.stress.as_ref().map_or(0.0, |s| s.tensor[k][c]);
+        let von_mises = |k: usize, _: usize| self.stress.as_ref().map_or(0.0, |s| s.von_mises(k));
+        if self.stress.is_some() {
+            arrays.push(PointArray { name: "stress", values: PointValues::Float64 { components: 9, value: &stress } });
+            arrays.push(PointArray {
+                name: "von_mises",
+                values: PointValues::Float64 { components: 1, value: &von_mises },
+            });
+        }
+        let pd_stress = |k: usize, c: usize| self.pd_stress.as_ref().map_or(0.0, |s| s.tensor[k][c]);
+        if self.pd_stress.is_some() {
+            arrays.push(PointArray {
+                name: "pd_stress",
+                values: PointValues::Float64 { components: 9, value: &pd_stress },
             });
         }
         let strain = |k: usize, c: usize| self.strain.as_ref().map_or(0.0, |s| s.tensor[k][c]);

@@ -85,6 +85,14 @@ impl Problem {
         }
         let mut s = self.model.solve(self, progress)?;
         s.material = self.model.elastic_constants();
+        s.stress = self.hooke_stress(&s);
         Ok(s)
+    }
+
+    /// The Hooke stress of a solution of this scene (its strain and the model's constants).
+    pub fn hooke_stress(&self, s: &Solution) -> Option<crate::stress::NodalStress> {
+        let strain = s.strain.as_ref()?;
+        let (plane, constants) = self.model.node_elastic(self, &s.x)?;
+        Some(crate::stress::hooke(strain, plane, &|n| constants[n]))
     }
 }

@@ -41,6 +41,12 @@ pub struct Solution {
     /// Cells over the nodes for result.vtu (the graded local mesh of a blended scene: quads or
     /// hexahedra over lattice nodes); `None`: one vertex per node.
     pub cells: Option<linpd_io::vtk::Cells>,
+    /// Cauchy stress per node from the model's elastic constants and `strain`
+    /// ([`crate::stress::hooke`]; set by [`crate::scene::Problem::solve`]).
+    pub stress: Option<crate::stress::NodalStress>,
+    /// The force-flux (peridynamic) stress per node: bond-based models
+    /// ([`crate::stress::force_flux`]).
+    pub pd_stress: Option<crate::stress::NodalStress>,
     /// `E, nu, K, G` of the model's materials (`result.json`'s `material`; set by
     /// [`crate::scene::Problem::solve`] from [`crate::scene::SceneModel::elastic_constants`]).
     pub material: Vec<crate::elastic::PhaseConstants>,

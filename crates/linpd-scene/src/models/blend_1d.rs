@@ -605,6 +605,8 @@ pub(crate) fn solution(name: &str, b: &BlendScene, s: linpd_blend::BlendSolution
         cells: None,
         graded_mesh: None,
         material: Vec::new(),
+        stress: None,
+        pd_stress: None,
     }
 }
 

@@ -63,6 +63,10 @@ fn refuse_lattice_keys(raw: &RawBond) -> Result<(), ProblemError> {
 }
 
 impl SceneModel for BondCloudModel {
+    fn node_elastic(&self, p: &Problem, x: &[linpd_core::Point]) -> Option<crate::scene::NodeElastic> {
+        let tol = linpd_core::GEOMETRY_RTOL * crate::nodes::NodeSet::spacing(p.nodes());
+        Some((self.bond.micromodulus.plane, self.bond.node_elastic(x, p.dim(), tol)?))
+    }
     fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
         self.bond.elastic_constants()
     }

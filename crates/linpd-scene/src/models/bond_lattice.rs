@@ -84,6 +84,10 @@ fn n_free(p: &Problem) -> usize {
 }
 
 impl SceneModel for BondLatticeModel {
+    fn node_elastic(&self, p: &Problem, x: &[linpd_core::Point]) -> Option<crate::scene::NodeElastic> {
+        let tol = linpd_core::GEOMETRY_RTOL * crate::nodes::NodeSet::spacing(p.nodes());
+        Some((self.bond.micromodulus.plane, self.bond.node_elastic(x, p.dim(), tol)?))
+    }
     fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
         self.bond.elastic_constants()
     }

@@ -146,6 +146,17 @@ impl BondModel {
         BondModel { horizon: raw.horizon, micromodulus, material, node_moduli, surface, elastic, phase_moduli }
     }
 
+    /// `(E, nu)` of the nodes at `x` (their phases' moduli; a cloud's per-node moduli when `x`
+    /// are its nodes), `None` with an explicit amplitude.
+    pub fn node_elastic(&self, x: &[linpd_core::Point], dim: usize, tol: f64) -> Option<Vec<(f64, Option<f64>)>> {
+        let e = self.elastic?;
+        let k = match &self.node_moduli {
+            Some(m) if m.len() == x.len() => m.clone(),
+            _ => self.material.node_moduli_at(x, dim, self.micromodulus.modulus, tol),
+        };
+        Some(k.iter().map(|&k| (e.e_per_k * k, e.nu)).collect())
+    }
+
     /// `E, nu, K, G` of the reference material and of every phase (none with an explicit
     /// amplitude, whose modulus the scene does not give).
     pub fn elastic_constants(&self) -> Vec<PhaseConstants> {
@@ -244,6 +255,7 @@ pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f6
     let strain_energy_density =
         crate::balance::nodal_energy(model, &u).map(|e| e.iter().zip(&volumes).map(|(w, v)| w / v).collect());
     let strain = Some(crate::nodal_strain(model, &volumes, &u));
+    let pd_stress = crate::stress::force_flux(model, &volumes, &u);
     Solution {
         name: p.name().to_string(),
         dim: p.dim(),
@@ -259,6 +271,8 @@ pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f6
         cells: None,
         graded_mesh: None,
         material: Vec::new(),
+        stress: None,
+        pd_stress,
         report,
     }
 }

@@ -325,6 +325,8 @@ fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: SolveReport) -
         cells: None,
         graded_mesh: None,
         material: Vec::new(),
+        stress: None,
+        pd_stress: None,
         report,
     }
 }

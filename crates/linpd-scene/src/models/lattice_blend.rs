@@ -492,6 +492,8 @@ fn graded_solution(
         dilatation: None,
         cells: Some(cells),
         material: Vec::new(),
+        stress: None,
+        pd_stress: None,
         graded_mesh: Some(GradedMeshSummary {
             lattice_nodes: grid.len(),
             levels: mesh.counts(),
@@ -764,6 +766,10 @@ fn dilate(grid: &Grid, features: &[bool], radius: f64) -> Vec<bool> {
 }
 
 impl SceneModel for LatticeBlendModel {
+    fn node_elastic(&self, p: &Problem, x: &[linpd_core::Point]) -> Option<crate::scene::NodeElastic> {
+        let tol = linpd_core::GEOMETRY_RTOL * crate::nodes::NodeSet::spacing(p.nodes());
+        Some((self.bond.micromodulus.plane, self.bond.node_elastic(x, p.dim(), tol)?))
+    }
     fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
         self.bond.elastic_constants()
     }

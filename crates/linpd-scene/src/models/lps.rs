@@ -211,6 +211,10 @@ impl LpsSceneModel {
 }
 
 impl SceneModel for LpsSceneModel {
+    fn node_elastic(&self, _: &Problem, x: &[linpd_core::Point]) -> Option<crate::scene::NodeElastic> {
+        let c = crate::elastic::lps_constants(self.params.K, self.params.G);
+        Some((self.params.plane, vec![(c.young_modulus, c.poisson_ratio); x.len()]))
+    }
     fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
         vec![crate::elastic::lps_constants(self.params.K, self.params.G)]
     }
@@ -332,6 +336,8 @@ pub(crate) fn solution(p: &Problem, model: &LpsModel, u: Vec<f64>, report: Solve
         cells: None,
         graded_mesh: None,
         material: Vec::new(),
+        stress: None,
+        pd_stress: None,
         report,
     }
 }

@@ -8,6 +8,6 @@ mod model;
 mod problem;
 mod solve;
 
-pub use model::{foreign_system, refusal, Built, DynamicsOperator, Purpose, SceneModel, System};
+pub use model::{foreign_system, refusal, Built, DynamicsOperator, NodeElastic, Purpose, SceneModel, System};
 pub use problem::{Constraint, Load, Problem};
 pub use solve::solve_system;

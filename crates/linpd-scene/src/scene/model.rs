@@ -145,6 +145,12 @@ pub trait SceneModel: Debug + Send + Sync {
     fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
         Vec::new()
     }
+    /// The plane model and `(E, nu)` of the nodes at `x` (`nu` `None` in 1D) for the Hooke
+    /// stress ([`crate::stress::hooke`]); `None`: no stress (the default).
+    fn node_elastic(&self, p: &Problem, x: &[linpd_core::Point]) -> Option<NodeElastic> {
+        let _ = (p, x);
+        None
+    }
     /// Solves the scene ([`super::solve_system`] unless the model has its own solvers).
     fn solve(&self, p: &Problem, progress: &dyn Progress) -> Result<Solution, ProblemError> {
         super::solve::solve_system(self, p, progress)
@@ -172,6 +178,9 @@ pub trait SceneModel: Debug + Send + Sync {
     /// As its concrete type (`p.model().as_any().downcast_ref::<CoarsenedModel>()`).
     fn as_any(&self) -> &dyn Any;
 }
+
+/// The plane model (2D) and `(E, nu)` per node ([`SceneModel::node_elastic`]).
+pub type NodeElastic = (Option<linpd_core::PlaneModel>, Vec<(f64, Option<f64>)>);
 
 /// The error of a [`SceneModel::solution`] handed a system another model built (a
 /// `linpd_problem::RowSystem` of another scene).

@@ -1,0 +1,159 @@
+//! Per-node stress of a solved scene (issue #32): the Cauchy stress of the model's elastic
+//! constants and the nodal strain ([`hooke`]), its von Mises and principal values, and for
+//! bond-based models the peridynamic (force-flux) stress ([`force_flux`]).
+//!
+//! # Hooke
+//!
+//! With the node's `E`, `nu` ([`crate::elastic`]; `lambda = E nu / ((1 + nu)(1 - 2 nu))`,
+//! `mu = E / (2 (1 + nu))`) and its strain `eps` ([`crate::fields`]):
+//!
+//! * 3D: `sigma = lambda tr(eps) I + 2 mu eps`;
+//! * plane strain: the same with `eps_zz = 0` (so `sigma_zz = lambda (eps_xx + eps_yy)`);
+//! * plane stress: `lambda* = 2 lambda mu / (lambda + 2 mu)` in place of `lambda`, `sigma_zz = 0`;
+//! * 1D: `sigma = E eps`.
+//!
+//! An affine field has the exact strain at every node, so its Hooke stress is exact there.
+//!
+//! # Force flux (Lehoucq & Silling 2008)
+//!
+//! The peridynamic stress `nu(x)` of Lehoucq & Silling ("Force flux and the peridynamic stress
+//! tensor", JMPS 56, 2008, eq. (26)) is defined so that `nu n` integrated over a plane is the
+//! force the bonds crossing it carry. On the nodes it is taken in its virial form, the pair
+//! forces of the node's bonds times half their vectors over the node's volume:
+//!
+//! ```text
+//! nu_i = 1 / (2 V_i) sum_j xi_ij (x) f_ij,     f_ij = -A_ij (u_j - u_i),   xi_ij = x_j - x_i,
+//! ```
+//!
+//! with `A_ij` the blocks of the stiffness (the linearized pair force of bond `ij` on node `i`).
+//! For a field that is invariant under a lattice translation across a plane, the sum of
+//! `nu_i n V_i / h` over one layer of nodes parallel to it is the force through the plane
+//! (each bond spanning `k` layers is counted `k` times from its two ends, as it crosses `k`
+//! planes); elsewhere the two differ by the field's variation over a horizon. Under a uniform
+//! strain `nu = C eps` with `C` the tensor of the bonds' energy, `3K eps` under an isotropic
+//! extension `eps I` in 3D.
+//!
+//! # Von Mises and principal stresses
+//!
+//! Of the full `3 x 3` tensor (with the `sigma_zz` of the plane model in 2D): `sigma_vm =
+//! sqrt(3/2 s:s)`, `s` the deviator; principal stresses of the in-plane `d x d` block (1, 2 or
+//! 3 values), in descending order.
+
+use crate::fields::{NodalStrain, VOIGT};
+use linpd_core::{Model, PlaneModel};
+use rayon::prelude::*;
+
+/// A stress tensor per node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodalStress {
+    /// Dimension `d`.
+    pub dim: usize,
+    /// Per node the full `3 x 3` tensor, row-major (`sigma_zz` of the plane model in 2D).
+    pub tensor: Vec<[f64; 9]>,
+}
+
+impl NodalStress {
+    /// The Voigt components of node `n` (`[xx, yy, zz, yz, xz, xy]` in 3D, `[xx, yy, xy]` in
+    /// 2D, `[xx]` in 1D).
+    pub fn voigt(&self, n: usize) -> Vec<f64> {
+        VOIGT[self.dim - 1].iter().map(|&(a, b)| self.tensor[n][3 * a + b]).collect()
+    }
+
+    /// The von Mises stress of node `n`.
+    pub fn von_mises(&self, n: usize) -> f64 {
+        let t = &self.tensor[n];
+        let p = (t[0] + t[4] + t[8]) / 3.0;
+        let mut ss = 0.0;
+        for a in 0..3 {
+            for b in 0..3 {
+                let s = t[3 * a + b] - if a == b { p } else { 0.0 };
+                ss += s * s;
+            }
+        }
+        (1.5 * ss).sqrt()
+    }
+
+    /// The principal stresses of node `n`'s `d x d` block, descending.
+    pub fn principal(&self, n: usize) -> Vec<f64> {
+        let d = self.dim;
+        let t = &self.tensor[n];
+        let m: Vec<f64> = (0..d * d).map(|k| 0.5 * (t[3 * (k / d) + k % d] + t[3 * (k % d) + k / d])).collect();
+        let mut e = linpd_core::eigen::symmetric_eigen(&m, d).values;
+        e.sort_by(|a, b| b.total_cmp(a));
+        e
+    }
+}
+
+/// The Cauchy stress of every node from its strain and its `(E, nu)` (`nu` `None` in 1D), with
+/// the plane model in 2D (see the module docs).
+pub fn hooke(
+    strain: &NodalStrain,
+    plane: Option<PlaneModel>,
+    constants: &dyn Fn(usize) -> (f64, Option<f64>),
+) -> NodalStress {
+    let d = strain.dim;
+    let tensor = (0..strain.tensor.len())
+        .map(|n| {
+            let eps = &strain.tensor[n];
+            let (e, nu) = constants(n);
+            let mut s = [0.0; 9];
+            let Some(nu) = nu else {
+                s[0] = e * eps[0];
+                return s;
+            };
+            let (lambda, mu) = (e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), e / (2.0 * (1.0 + nu)));
+            let lambda_in = if d == 2 && plane == Some(PlaneModel::Stress) {
+                2.0 * lambda * mu / (lambda + 2.0 * mu)
+            } else {
+                lambda
+            };
+            let trace: f64 = (0..d).map(|a| eps[4 * a]).sum();
+            for a in 0..d {
+                for b in 0..d {
+                    s[3 * a + b] = 2.0 * mu * eps[3 * a + b] + if a == b { lambda_in * trace } else { 0.0 };
+                }
+            }
+            if d == 2 && plane != Some(PlaneModel::Stress) {
+                s[8] = lambda * trace;
+            }
+            s
+        })
+        .collect();
+    NodalStress { dim: d, tensor }
+}
+
+/// The force-flux stress of every node of a model with blocks ([`Model::for_each_block`]), the
+/// nodes' volumes `volumes` and the displacement `u` (see the module docs); `None` when the
+/// model has no blocks.
+pub fn force_flux(model: &dyn Model, volumes: &[f64], u: &[f64]) -> Option<NodalStress> {
+    let d = model.dim();
+    let n = model.n_nodes();
+    let mut probe = false;
+    if n > 0 && !model.for_each_block(0, &mut |_, _| probe = true) {
+        return None;
+    }
+    let tensor = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let xi_i = model.position(i);
+            let mut s = [0.0; 9];
+            model.for_each_block(i, &mut |j, b| {
+                if j == i {
+                    return;
+                }
+                let xj = model.position(j);
+                let mut f = [0.0; 3];
+                for a in 0..d {
+                    f[a] = -(0..d).map(|c| b[d * a + c] * (u[d * j + c] - u[d * i + c])).sum::<f64>();
+                }
+                for a in 0..d {
+                    for c in 0..d {
+                        s[3 * a + c] += 0.5 * (xj[a] - xi_i[a]) * f[c] / volumes[i];
+                    }
+                }
+            });
+            s
+        })
+        .collect();
+    Some(NodalStress { dim: d, tensor })
+}
