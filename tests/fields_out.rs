@@ -68,6 +68,13 @@ for k in range(n):
         for q in range(3):
             if p >= d or q >= d:
                 cmp("strain_padding", s[3 * p + q], 0.0)
+    for key in ["stress", "pd_stress"]:
+        if key in pd:
+            t = pd[key][k]
+            for c, (p, q) in enumerate(voigt):
+                cmp(key, t[3 * p + q], one(r[key][k])[c])
+    if "von_mises" in pd:
+        cmp("von_mises", pd["von_mises"][k], r["von_mises"][k])
     cmp("strain_energy_density", pd["strain_energy_density"][k], r["strain_energy_density"][k])
     if r["dilatation"] is not None:
         cmp("dilatation", pd["dilatation"][k], r["dilatation"][k])
@@ -78,16 +85,39 @@ print(json.dumps({"arrays": sorted(pd.keys()), "strain_shape": list(pd["strain"]
 
 #[test]
 fn result_vtu_holds_strain_dilatation_and_energy_equal_to_result_json() {
+    // (and the stresses and the supports' reactions, issue #32)
     for (scene, arrays, checks) in [
         (
             "lps-plate-2d.json",
-            vec!["dilatation", "layer", "strain", "strain_energy_density", "u", "volume"],
-            json!({"points": 0, "u": 0, "strain": 0, "strain_padding": 0, "strain_energy_density": 0, "dilatation": 0}),
+            vec![
+                "dilatation",
+                "layer",
+                "reaction",
+                "strain",
+                "strain_energy_density",
+                "stress",
+                "u",
+                "volume",
+                "von_mises",
+            ],
+            json!({"points": 0, "u": 0, "strain": 0, "strain_padding": 0, "strain_energy_density": 0, "dilatation": 0,
+                   "stress": 0, "von_mises": 0}),
         ),
         (
             "cantilever-3d.json",
-            vec!["layer", "strain", "strain_energy_density", "u", "volume"],
-            json!({"points": 0, "u": 0, "strain": 0, "strain_energy_density": 0}),
+            vec![
+                "layer",
+                "pd_stress",
+                "reaction",
+                "strain",
+                "strain_energy_density",
+                "stress",
+                "u",
+                "volume",
+                "von_mises",
+            ],
+            json!({"points": 0, "u": 0, "strain": 0, "strain_energy_density": 0, "stress": 0, "pd_stress": 0,
+                   "von_mises": 0}),
         ),
     ] {
         let out = temp(scene);
