@@ -59,6 +59,23 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// The lowest natural frequencies and mode shapes of a scene with a "density" (lumped mass
+    /// rho V per node; free-free bodies too: their zero modes are reported apart); write
+    /// modes.json and mode-<k>.vtu.
+    Modes {
+        /// The scene file (JSON) with a "density".
+        scene: PathBuf,
+        /// How many elastic modes (the lowest).
+        #[arg(long, default_value_t = 6)]
+        count: usize,
+        /// Output directory (default: the scene's output.dir, else out/<name>); replaced as a
+        /// whole, only when the run succeeds.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print no progress messages.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Run a scene's explicit dynamics (velocity Verlet); write history.json (energies),
     /// u_<step>.csv snapshots and plots (1D: space-time map of u, energies).
     Run {
@@ -244,6 +261,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Solve { scene, out, quiet } => commands::solve(&scene, out, quiet),
         Command::Run { scene, out, quiet } => commands::run(&scene, out, quiet),
+        Command::Modes { scene, count, out, quiet } => commands::modes(&scene, count, out, quiet),
         Command::Export { scene, out, format, quiet } => commands::export(&scene, &out, format, quiet),
         Command::Validate { scene } => commands::validate(&scene),
         Command::Coarsen { pipeline, out, quiet } => commands::coarsen(&pipeline, out, quiet),

@@ -20,6 +20,7 @@ pub mod error;
 pub mod fields;
 pub mod json;
 pub mod memory;
+pub mod modes;
 pub mod raw;
 
 pub mod balance;

@@ -44,6 +44,9 @@ pub struct RawProblem {
     /// A point cloud read from a file, instead of `grid` (`{"csv": "file.csv"}`).
     #[serde(default)]
     pub nodes: Option<RawNodes>,
+    /// Mass density for `linpd modes` (the lumped mass `rho V_i`).
+    #[serde(default)]
+    pub density: Option<f64>,
 }
 
 /// `boundary_volumes`.

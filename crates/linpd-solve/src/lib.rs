@@ -16,6 +16,7 @@ pub mod bc;
 pub mod cost;
 pub mod direct;
 pub mod krylov;
+pub mod modes;
 pub mod precond;
 pub mod report;
 pub mod spec;
@@ -127,6 +128,14 @@ pub enum SolveError {
         what: &'static str,
         /// Where (`"first at entry (i, j) = inf"`, `"||f||^2 = inf"`).
         at: String,
+    },
+    /// The eigensolver converged fewer pairs than asked ([`modes::lowest_modes`]).
+    #[error("the eigensolver converged {converged} of the {asked} modes asked for")]
+    Eigen {
+        /// Pairs converged.
+        converged: usize,
+        /// Pairs asked for.
+        asked: usize,
     },
 }
 

@@ -4,6 +4,7 @@
 mod bench;
 mod coarsen;
 mod export;
+mod modes;
 mod run;
 mod solve;
 mod study;
@@ -12,6 +13,7 @@ mod validate;
 pub(crate) use bench::bench;
 pub(crate) use coarsen::coarsen;
 pub(crate) use export::export;
+pub(crate) use modes::modes;
 pub(crate) use run::run;
 pub(crate) use solve::solve;
 pub(crate) use study::study;

@@ -265,7 +265,13 @@ impl Problem {
         if lattice_output && v.nodes.lattice().is_none() {
             return Err(ProblemError::invalid("output.nodes", "\"lattice\" needs a scene on a lattice (\"grid\")"));
         }
+        if let Some(rho) = raw.density {
+            if !(rho.is_finite() && rho > 0.0) {
+                return Err(ProblemError::invalid("density", format!("must be > 0, got {rho:e}")));
+            }
+        }
         Ok(Problem {
+            density: raw.density,
             dynamics,
             output_dir: output_dir(raw.output.dir.as_deref(), &raw.name)?,
             plot: raw.output.plot.unwrap_or(true),

@@ -126,6 +126,8 @@ pub struct Problem {
     pub(crate) lattice_output: bool,
     /// The `dynamics` section (explicit time stepping with `linpd run`), if any.
     pub(crate) dynamics: Option<crate::dynamics::Dynamics>,
+    /// `density` (`linpd modes`).
+    pub(crate) density: Option<f64>,
 }
 
 impl Problem {
