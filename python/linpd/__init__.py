@@ -120,11 +120,33 @@ class Scene:
             self._system = (k, rhs)
         return self._system
 
-    def stiffness(self):
+    def stiffness(self, free: bool = False):
         """The reduced stiffness ``A_ff`` as a ``scipy.sparse.csr_matrix``: the matrix of
         ``linpd export``'s ``K.mtx`` (every stored entry, explicit zeros included), rows and
-        columns numbered as :meth:`dofs`."""
+        columns numbered as :meth:`dofs`. With ``free=True``: the stiffness over every DOF
+        (node-major, ``d`` per node) with no constraint applied, a free body's (singular by its
+        rigid motions; what :meth:`modes` of a free-free body uses)."""
+        if free:
+            import scipy.sparse
+
+            n, col_ptr, row_idx, values, _ = self._native.unconstrained_stiffness()
+            return scipy.sparse.csc_matrix((values, row_idx, col_ptr), shape=(n, n)).tocsr()
         return self._reduced()[0]
+
+    def mass(self) -> np.ndarray:
+        """The lumped mass ``density * V_i`` per DOF (node-major, ``d`` per node), shape
+        ``(nodes * d,)``; the scene needs a ``density``."""
+        return self._native.mass()
+
+    def modes(self, count: int = 6) -> Dict[str, Any]:
+        """The ``count`` lowest elastic modes as ``linpd modes`` computes them (nothing is
+        written): its ``modes.json`` document as a dict, plus ``shapes``, an array of shape
+        ``(count, nodes, d)`` (``max |phi| = 1``) and ``frequencies`` (``omega / 2 pi``)."""
+        doc, shapes = self._native.modes(count)
+        result = json.loads(doc)
+        result["shapes"] = np.asarray(shapes).reshape(len(result["modes"]), -1, self.dim)
+        result["frequencies"] = np.array([m["frequency"] for m in result["modes"]])
+        return result
 
     def rhs(self) -> np.ndarray:
         """The reduced right-hand side ``f_f - (A u_bar)_f`` (``f.mtx``), shape ``(n,)``."""

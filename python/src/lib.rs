@@ -136,6 +136,30 @@ impl NativeScene {
         Ok((s.u.into_pyarray(py), doc))
     }
 
+    /// The stiffness over every DOF, no constraint applied, as CSC arrays (with an empty rhs).
+    fn unconstrained_stiffness<'py>(&self, py: Python<'py>) -> PyResult<Csc<'py>> {
+        let k = py.detach(|| self.problem.unconstrained_stiffness(&NoProgress)).map_err(err)?;
+        let n = k.nrows();
+        let (cp, ri) = (k.symbolic().col_ptr().to_vec(), k.symbolic().row_idx().to_vec());
+        let val = k.val().to_vec();
+        Ok((n, cp.into_pyarray(py), ri.into_pyarray(py), val.into_pyarray(py), Vec::<f64>::new().into_pyarray(py)))
+    }
+
+    /// The lumped mass per DOF.
+    fn mass<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        Ok(self.problem.lumped_mass().map_err(err)?.into_pyarray(py))
+    }
+
+    /// `(modes_json, shapes)`: `linpd modes`'s document and the shapes, one row per mode over
+    /// all DOFs.
+    fn modes<'py>(&self, py: Python<'py>, count: usize) -> PyResult<(String, Bound<'py, PyArray2<f64>>)> {
+        let m = py.detach(|| self.problem.modes(count, &NoProgress)).map_err(err)?;
+        let shapes: Vec<Vec<f64>> = m.modes.iter().map(|x| x.shape.clone()).collect();
+        let doc = m.to_json().to_string();
+        let array = numpy::PyArray2::from_vec2(py, &shapes).map_err(|e| LinpdError::new_err(e.to_string()))?;
+        Ok((doc, array))
+    }
+
     /// `(n, block_size, free_dofs, rhs)` of the row system (builds it on the first call).
     fn row_info<'py>(&self, py: Python<'py>) -> PyResult<RowInfo<'py>> {
         let r = self.row_system(py)?;

@@ -223,3 +223,66 @@ def test_coarsen_matches_cli(tmp_path):
     assert sorted(p.name for p in (tmp_path / "py").iterdir()) == sorted(p.name for p in (tmp_path / "cli").iterdir())
     with pytest.raises(linpd.LinpdError):
         linpd.coarsen({"name": "x"})
+
+
+def _free_beam(n_across: int = 4) -> "linpd.Scene":
+    """A free bond beam 1 x 0.1 x 0.1 (cell placement, no constraint), density 2."""
+    h = 0.1 / n_across
+    return linpd.Scene(
+        {
+            "name": "free-beam",
+            "dimension": 3,
+            "density": 2.0,
+            "grid": {"min": [0, 0, 0], "max": [1, 0.1, 0.1], "spacing": h, "placement": "cell"},
+            "model": {
+                "type": "bond",
+                "horizon": 3 * h,
+                "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0},
+            },
+        }
+    )
+
+
+def test_free_stiffness_mass_and_modes():
+    """Issue #32: ``stiffness(free=True)`` of an unconstrained body is symmetric and annihilates
+    the rigid motions (1e-12 of ``|K| |u|``: round-off of the row sums); ``mass()`` is
+    ``density * V`` per DOF; ``modes()`` agrees with ARPACK's shift-invert (scipy's ``eigsh``,
+    another eigensolver, on the same ``K`` and ``M``) to 1e-8 in ``omega^2`` and finds the six
+    zero modes."""
+    scene = _free_beam()
+    k = scene.stiffness(free=True)
+    n = 3 * scene.n_nodes
+    assert k.shape == (n, n)
+    assert abs(k - k.T).max() <= 1e-14 * abs(k).max()
+    x = scene.positions()
+    scale = abs(k).max()
+    for a in range(3):
+        t = np.zeros((scene.n_nodes, 3))
+        t[:, a] = 1.0
+        assert np.abs(k @ t.ravel()).max() <= 1e-12 * scale * n
+    rot = np.zeros((scene.n_nodes, 3))
+    rot[:, 0], rot[:, 1] = -x[:, 1], x[:, 0]
+    assert np.abs(k @ rot.ravel()).max() <= 1e-12 * scale * n
+    m = scene.mass()
+    assert np.allclose(m, 2.0 * np.repeat(scene.volumes(), 3), rtol=0, atol=0)
+    modes = scene.modes(4)
+    assert len(modes["zero_modes"]) == 6
+    assert modes["shapes"].shape == (4, scene.n_nodes, 3)
+    assert np.all(np.abs(modes["shapes"]).max(axis=(1, 2)) == 1.0)
+    import scipy.sparse.linalg
+
+    shift = modes["shift"]
+    w = scipy.sparse.linalg.eigsh(k.tocsc(), k=10, M=scipy.sparse.diags(m), sigma=-shift, which="LM")[0]
+    w = np.sort(w)
+    assert np.all(np.abs(w[:6]) <= 1e-6 * w[6])
+    ours = np.array([mode["omega2"] for mode in modes["modes"]])
+    assert np.allclose(ours, w[6:10], rtol=1e-8, atol=0), (ours, w[6:10])
+    assert np.allclose(modes["frequencies"], np.sqrt(ours) / (2 * np.pi), rtol=1e-15)
+
+
+def test_mass_and_modes_without_density_are_named():
+    scene = linpd.Scene(DATA / "plate-tension-2d.json")
+    with pytest.raises(linpd.LinpdError, match="density"):
+        scene.mass()
+    with pytest.raises(linpd.LinpdError, match="density"):
+        scene.modes(2)

@@ -133,6 +133,28 @@ impl Problem {
     }
 }
 
+impl Problem {
+    /// The stiffness over every DOF (node-major, `d` per node) with no constraint applied: a
+    /// free body's, singular by its rigid motions (`Scene.stiffness(free=True)` in Python).
+    pub fn unconstrained_stiffness(&self, progress: &dyn Progress) -> Result<linpd_core::Csc, ProblemError> {
+        let system = self.model.system(self, Purpose::Assembled, progress)?;
+        let dofs = linpd_core::DofMap::all_free(self.nodes.len(), self.dim());
+        Ok(system.model().assemble_free(&dofs))
+    }
+
+    /// The lumped mass `density V_i` per DOF (node-major, `d` per node).
+    ///
+    /// # Errors
+    /// A scene without `density`.
+    pub fn lumped_mass(&self) -> Result<Vec<f64>, ProblemError> {
+        let density = self
+            .density
+            .ok_or_else(|| ProblemError::invalid("density", "missing: the lumped mass is density x V per node"))?;
+        let d = self.dim();
+        Ok((0..d * self.nodes.len()).map(|k| density * self.nodes.volume(k / d)).collect())
+    }
+}
+
 impl Modes {
     /// Writes `mode-<k>.vtu` for every mode `k = 1, 2, ...` (point data `u`: the shape, 0-padded
     /// to 3 components) into `dir`; returns their paths.
