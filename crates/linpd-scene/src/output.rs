@@ -97,6 +97,20 @@ pub struct Stats<'a> {
     /// A graded local mesh against its lattice.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub graded_mesh: Option<&'a crate::solution::GradedMeshSummary>,
+    /// The largest von Mises stress over the body's nodes (layer nodes left out) and where.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_von_mises: Option<StressPeak>,
+}
+
+/// Where a stress peaks: `result.json`'s `stats.peak_von_mises`.
+#[derive(Debug, Clone, Serialize)]
+pub struct StressPeak {
+    /// The value.
+    pub value: f64,
+    /// The node (in node order).
+    pub node: usize,
+    /// Its position.
+    pub x: Vec<f64>,
 }
 
 impl Solution {
@@ -136,8 +150,19 @@ impl Solution {
                 dofs: d * n,
                 solve: &self.report,
                 graded_mesh: self.graded_mesh.as_ref(),
+                peak_von_mises: self.peak_von_mises(),
             },
         }
+    }
+
+    /// The node of the body (not the layer) with the largest von Mises stress, when there is a
+    /// stress.
+    pub fn peak_von_mises(&self) -> Option<StressPeak> {
+        let s = self.stress.as_ref()?;
+        let node = (0..self.x.len())
+            .filter(|&i| !self.is_layer[i])
+            .max_by(|&a, &b| s.von_mises(a).total_cmp(&s.von_mises(b)))?;
+        Some(StressPeak { value: s.von_mises(node), node, x: self.x[node][..self.dim].to_vec() })
     }
 
     /// The `result.json` document as a JSON value (keys in alphabetical order, as written).

@@ -67,6 +67,10 @@ pub(crate) fn solve(scene: &Path, out: Option<PathBuf>, quiet: bool) -> Result<(
             }
         )?;
     }
+    if let Some(p) = solution.peak_von_mises() {
+        let x: Vec<String> = p.x.iter().map(|c| format!("{c:.6}")).collect();
+        say!("{}: peak von Mises stress {:.4e} at node {} (x = [{}])", problem.name(), p.value, p.node, x.join(", "))?;
+    }
     for f in files {
         say!("wrote {}", f.display())?;
     }
