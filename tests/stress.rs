@@ -105,6 +105,18 @@ fn isotropic_extension_gives_the_bulk_flux() {
     assert!(s.pd_stress.is_none() && s.stress.is_some());
 }
 
+/// data/plate-hole-2d.json solved at spacing `h` (horizon and layers `3h`, the row held in y
+/// at the hole's height one spacing thick).
+fn plate_hole(h: f64) -> linpd::problem::Solution {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/data/plate-hole-2d.json")).unwrap();
+    let mut v: Value = serde_json::from_str(&text).unwrap();
+    v["grid"]["spacing"] = json!(h);
+    v["grid"]["layer"] = json!({"x-": 3.0 * h, "x+": 3.0 * h});
+    v["model"]["horizon"] = json!(3.0 * h);
+    v["constraints"][1]["region"]["box"] = json!({"min": [-1.0, 0.25 - h / 2.0], "max": [0.0, 0.25 + h / 2.0]});
+    Problem::from_json(&v.to_string()).unwrap().solve(&NoProgress).unwrap()
+}
+
 /// `sum_i nu_xx(i) V_i / h` over one layer of nodes `x = x0` against the applied force.
 fn section_force(s: &linpd::problem::Solution, x0: f64, h: f64) -> f64 {
     let flux = s.pd_stress.as_ref().unwrap();
@@ -132,15 +144,9 @@ fn force_flux_through_a_section_is_the_load() {
         let f = section_force(&s, x0, h);
         assert!((f / 1e-3 - 1.0).abs() <= tol, "bar at x = {x0}: {f:e}");
     }
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/data/plate-hole-2d.json")).unwrap();
     let mut errors = Vec::new();
     for h in [0.01, 0.005] {
-        let mut v: Value = serde_json::from_str(&text).unwrap();
-        v["grid"]["spacing"] = json!(h);
-        v["grid"]["layer"] = json!({"x-": 3.0 * h, "x+": 3.0 * h});
-        v["model"]["horizon"] = json!(3.0 * h);
-        v["constraints"][1]["region"]["box"] = json!({"min": [-1.0, 0.25 - h / 2.0], "max": [0.0, 0.25 + h / 2.0]});
-        let s = Problem::from_json(&v.to_string()).unwrap().solve(&NoProgress).unwrap();
+        let s = plate_hole(h);
         let applied = s.balance.as_ref().unwrap().applied[0];
         if h == 0.01 {
             for x0 in [0.2, 0.8] {
@@ -183,15 +189,9 @@ fn stress_reaches_result_json_and_vtu() {
 /// gives the sequence to `h = 0.00125`: 3.65), at least 0.2 per halving here.
 #[test]
 fn the_peak_von_mises_sits_at_the_hole_and_rises_towards_howland() {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/data/plate-hole-2d.json")).unwrap();
     let mut peaks = Vec::new();
     for h in [0.01, 0.005] {
-        let mut v: Value = serde_json::from_str(&text).unwrap();
-        v["grid"]["spacing"] = json!(h);
-        v["grid"]["layer"] = json!({"x-": 3.0 * h, "x+": 3.0 * h});
-        v["model"]["horizon"] = json!(3.0 * h);
-        v["constraints"][1]["region"]["box"] = json!({"min": [-1.0, 0.25 - h / 2.0], "max": [0.0, 0.25 + h / 2.0]});
-        let s = Problem::from_json(&v.to_string()).unwrap().solve(&NoProgress).unwrap();
+        let s = plate_hole(h);
         let doc = s.to_json();
         let p = &doc["stats"]["peak_von_mises"];
         let value = p["value"].as_f64().unwrap();

@@ -149,10 +149,7 @@ pub fn solution_from(
             ),
         ));
     }
-    let mut s = p.model().solution(p, &system.system, u, report)?;
-    s.material = p.model().elastic_constants();
-    s.stress = p.hooke_stress(&s);
-    Ok(s)
+    Ok(p.with_material(p.model().solution(p, &system.system, u, report)?))
 }
 
 impl RowSystem {

@@ -107,6 +107,14 @@ impl BondElastic {
         }
     }
 
+    /// The constants of the reference material (modulus `reference`) and of the phases of
+    /// moduli `phases`, in order (`result.json`'s `material`).
+    pub fn table(&self, reference: f64, phases: impl IntoIterator<Item = f64>) -> Vec<PhaseConstants> {
+        std::iter::once(self.constants("reference".into(), reference))
+            .chain(phases.into_iter().enumerate().map(|(k, m)| self.constants(format!("phases[{k}]"), m)))
+            .collect()
+    }
+
     /// The constants of a phase of modulus `k`.
     pub fn constants(&self, phase: String, k: f64) -> PhaseConstants {
         let e = self.e_per_k * k;

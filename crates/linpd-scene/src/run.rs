@@ -83,10 +83,15 @@ impl Problem {
         if let linpd_solve::SolverSpec::Cg { matrix_free: true, .. } = self.solver {
             self.model.require(Capability::MatrixFree)?;
         }
-        let mut s = self.model.solve(self, progress)?;
-        s.material = self.model.elastic_constants();
-        s.stress = self.hooke_stress(&s);
-        Ok(s)
+        Ok(self.with_material(self.model.solve(self, progress)?))
+    }
+
+    /// `solution` with what every model's solution gets from the scene: its materials' constants
+    /// and the Hooke stress of its strain ([`Problem::hooke_stress`]).
+    pub fn with_material(&self, mut solution: Solution) -> Solution {
+        solution.material = self.model.elastic_constants();
+        solution.stress = self.hooke_stress(&solution);
+        solution
     }
 
     /// The Hooke stress of a solution of this scene (its strain and the model's constants).

@@ -94,26 +94,17 @@ pub fn lowest_modes(
     assert_eq!(k.nrows(), n, "one mass per DOF");
     assert!(count >= 1 && count <= n, "1 <= count <= n");
     assert!(mass.iter().all(|&m| m > 0.0 && m.is_finite()), "positive masses");
-    let (cp, ri, val) = (k.symbolic().col_ptr(), k.symbolic().row_idx(), k.val());
-    let mut ratio = 0.0f64;
+    let diag = linpd_core::sparse::diagonal(k);
+    let ratio = diag.iter().zip(mass).fold(0.0f64, |r, (k, m)| r.max(k / m));
+    let shift = SHIFT_RATIO * ratio.max(f64::MIN_POSITIVE);
+    // K + s M: the diagonal entries gain s m_j (every column of a stiffness has its diagonal)
+    let (cp, ri) = (k.symbolic().col_ptr(), k.symbolic().row_idx());
+    let mut shifted = k.clone();
+    let v = shifted.val_mut();
     for j in 0..n {
         for p in cp[j]..cp[j + 1] {
             if ri[p] == j {
-                ratio = ratio.max(val[p] / mass[j]);
-            }
-        }
-    }
-    let shift = SHIFT_RATIO * ratio.max(f64::MIN_POSITIVE);
-    // K + s M: the diagonal entries gain s m_j (every column of a stiffness has its diagonal)
-    let mut shifted = k.clone();
-    {
-        let (cp, ri) = (shifted.symbolic().col_ptr().to_vec(), shifted.symbolic().row_idx().to_vec());
-        let v = shifted.val_mut();
-        for j in 0..n {
-            for p in cp[j]..cp[j + 1] {
-                if ri[p] == j {
-                    v[p] += shift * mass[j];
-                }
+                v[p] += shift * mass[j];
             }
         }
     }

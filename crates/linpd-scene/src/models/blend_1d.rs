@@ -465,11 +465,8 @@ fn blend_error(e: linpd_blend::BlendError) -> ProblemError {
 
 impl SceneModel for BlendScene {
     fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
-        let e = crate::elastic::BondElastic::of(1, None);
-        let phases = self.params.material.phases.iter().enumerate();
-        std::iter::once(e.constants("reference".into(), self.params.modulus))
-            .chain(phases.map(|(k, (_, m))| e.constants(format!("phases[{k}]"), *m)))
-            .collect()
+        let phases = self.params.material.phases.iter().map(|(_, m)| *m);
+        crate::elastic::BondElastic::of(1, None).table(self.params.modulus, phases)
     }
     fn name(&self) -> &'static str {
         Blend1dType::name_of(self.kind)

@@ -160,10 +160,7 @@ impl BondModel {
     /// `E, nu, K, G` of the reference material and of every phase (none with an explicit
     /// amplitude, whose modulus the scene does not give).
     pub fn elastic_constants(&self) -> Vec<PhaseConstants> {
-        let Some(e) = self.elastic else { return Vec::new() };
-        std::iter::once(e.constants("reference".into(), self.micromodulus.modulus))
-            .chain(self.phase_moduli.iter().enumerate().map(|(k, &m)| e.constants(format!("phases[{k}]"), m)))
-            .collect()
+        self.elastic.map_or_else(Vec::new, |e| e.table(self.micromodulus.modulus, self.phase_moduli.iter().copied()))
     }
 
     /// Horizon.

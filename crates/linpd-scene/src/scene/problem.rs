@@ -298,15 +298,23 @@ impl Problem {
             let prescribed = c.prescribed(&self.nodes, d);
             let mut reaction = vec![0.0; d];
             let mut dofs = 0;
-            let mut own = vec![0.0; n];
+            // the reactions' moment about O, one held DOF's force at a time
+            let mut about_o = moment(d, &[0.0; 3], &[0.0; 3]);
             for &(node, a, _) in &prescribed {
                 let dof = d * node + a;
                 if owner[dof] == usize::MAX {
                     owner[dof] = k;
                     dofs += 1;
-                    own[dof] = au[dof] - f[dof];
-                    reaction[a] += own[dof];
-                    nodal_reaction[dof] = own[dof];
+                    let r = au[dof] - f[dof];
+                    reaction[a] += r;
+                    nodal_reaction[dof] = r;
+                    if !frame.reference.is_empty() {
+                        let x = self.nodes.position(node);
+                        let arm: Vec<f64> = (0..d).map(|b| x[b] - frame.reference[b]).collect();
+                        let mut force = [0.0; 3];
+                        force[a] = r;
+                        about_o.iter_mut().zip(moment(d, &arm, &force)).for_each(|(t, v)| *t += v);
+                    }
                 }
             }
             let mut nodes: Vec<usize> = prescribed.iter().map(|e| e.0).collect();
@@ -315,7 +323,6 @@ impl Problem {
                 .map(|a| nodes.iter().map(|&i| self.nodes.position(i)[a]).sum::<f64>() / nodes.len().max(1) as f64)
                 .collect();
             // about the centroid: the moment about O less the resultant's at the centroid
-            let about_o = moment_of(&mut nodes.iter().copied(), &own);
             let r: Vec<f64> = (0..d).map(|a| centroid[a] - frame.reference.get(a).copied().unwrap_or(0.0)).collect();
             let moment = about_o.iter().zip(moment(d, &r, &reaction)).map(|(a, b)| a - b).collect();
             constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction, centroid, moment });
