@@ -91,6 +91,21 @@ fn check_outputs(dir: &Path, map_cells: usize) -> Result<(), String> {
     // a 2D map of more cells than the SVG limit is written as PNG only (linpd_plot's docs)
     // (a lattice scene's map has a cell per lattice site, whatever nodes the output holds)
     let exts: &[&str] = if d == 2 && map_cells > linpd::plot::MAX_SVG_CELLS { &["png"] } else { &["png", "svg"] };
+    let mut plots = vec![stem];
+    if d > 1 {
+        // every bundled scene is loaded, so it has a deformed shape; a stress map with stresses
+        plots.push("deformed");
+        if r.get("stress").is_some() {
+            plots.push("stress_von_mises");
+        }
+    }
+    for stem in plots {
+        let f = dir.join(format!("{stem}.png"));
+        match std::fs::metadata(&f) {
+            Ok(m) if m.len() > 0 => {}
+            _ => return Err(format!("{} missing or empty", f.display())),
+        }
+    }
     for ext in exts {
         let f = dir.join(format!("{stem}.{ext}"));
         match std::fs::metadata(&f) {

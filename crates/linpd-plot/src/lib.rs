@@ -23,9 +23,11 @@
 //!         x: vec![0.0, 0.5, 1.0],
 //!         y: vec![0.0, 0.25, 1.0],
 //!         style: SeriesStyle::LineMarkers,
+//!         color: None,
 //!     }],
 //!     log_x: false,
 //!     log_y: false,
+//!     equal_aspect: false,
 //! };
 //! let files = line_plot(&plot, Path::new("out/displacement")).unwrap();
 //! assert_eq!(files.len(), 2);

@@ -47,12 +47,27 @@ pub struct Series {
     pub y: Vec<f64>,
     /// How the series is drawn.
     pub style: SeriesStyle,
+    /// The colour's index in the palette (`7`: grey); `None`: the series' own index, so
+    /// that every series gets its own colour. Series sharing a colour draw one family of
+    /// curves (a deformed grid), labelled once.
+    pub color: Option<usize>,
 }
 
 impl Series {
     /// A series drawn as a line ([`SeriesStyle::Line`]).
     pub fn new(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
-        Self { label: label.into(), x, y, style: SeriesStyle::Line }
+        Self { label: label.into(), x, y, style: SeriesStyle::Line, color: None }
+    }
+
+    /// The same series in the colour of palette index `color` (`7`: grey).
+    pub fn with_color(mut self, color: usize) -> Self {
+        self.color = Some(color);
+        self
+    }
+
+    /// The colour of this series drawn as series `i` of its chart.
+    pub(crate) fn rgb(&self, i: usize) -> RGBColor {
+        series_color(self.color.unwrap_or(i))
     }
 
     /// The same series with another drawing style.
@@ -77,6 +92,10 @@ pub struct LinePlot {
     pub log_x: bool,
     /// Logarithmic (base 10) vertical axis; all y values must then be positive.
     pub log_y: bool,
+    /// Draw one unit of x as long as one unit of y (a deformed body keeps its shape), padding
+    /// the plotting box as a [`crate::ScalarMap`] does; linear axes only (ignored with a
+    /// logarithmic one).
+    pub equal_aspect: bool,
 }
 
 impl LinePlot {
@@ -198,6 +217,15 @@ where
     legend::draw(&mut chart, column, place, plot)
 }
 
+/// Margin in pixels around the chart.
+const MARGIN: u32 = 20;
+/// Height in pixels of the x-axis labels.
+const X_LABEL_AREA: u32 = 60;
+/// Width in pixels of the y-axis labels.
+const Y_LABEL_AREA: u32 = 90;
+/// Height in pixels of the caption (28-pixel text and its spacing).
+const CAPTION: u32 = 40;
+
 /// A chart with the axes `X`, `Y` (linear or logarithmic).
 type Chart<'a, DB, X, Y> = ChartContext<'a, DB, Cartesian2d<X, Y>>;
 
@@ -233,11 +261,22 @@ where
             tick_label(*v, yr.start, yr.end, AXIS_TICKS)
         }
     };
+    let (pad_x, pad_y) = if plot.equal_aspect && !log_x && !log_y {
+        let (w, h) = area.dim_in_pixel();
+        let avail_w = w as f64 - (2 * MARGIN + Y_LABEL_AREA) as f64;
+        let avail_h = h as f64 - (2 * MARGIN + X_LABEL_AREA + CAPTION) as f64;
+        crate::map::equal_aspect_pads(avail_w, avail_h, xs_range.end - xs_range.start, ys_range.end - ys_range.start)
+    } else {
+        (0, 0)
+    };
     let mut chart = ChartBuilder::on(area)
         .caption(&plot.title, (FONT, 28))
-        .margin(20)
-        .x_label_area_size(60)
-        .y_label_area_size(90)
+        .margin_left(MARGIN + pad_x)
+        .margin_right(MARGIN + pad_x)
+        .margin_top(MARGIN + pad_y)
+        .margin_bottom(MARGIN + pad_y)
+        .x_label_area_size(X_LABEL_AREA)
+        .y_label_area_size(Y_LABEL_AREA)
         .build_cartesian_2d(xs, ys)
         .map_err(e)?;
     chart
@@ -264,7 +303,7 @@ where
 {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     for (i, s) in plot.series.iter().enumerate() {
-        let color = series_color(i);
+        let color = s.rgb(i);
         let line = color.stroke_width(2);
         let fill = color.filled();
         let pts = s.x.iter().copied().zip(s.y.iter().copied());
@@ -341,6 +380,38 @@ mod tests {
             LinePlot::new("Tiny", "x", "u").with_series(Series::new("u", vec![0.0, 1.0, 2.0], vec![0.0, 1e-7, 3e-7]));
         let files = line_plot(&plot, &stem4).unwrap();
         check_outputs(&files, &stem4, DEFAULT_SIZE, &["Tiny", "1.5e-7", "2.5e-7"]);
+        cleanup(&dir);
+    }
+
+    /// With `equal_aspect` a unit square is drawn square (its pixel spans within 3 %, the
+    /// caption's estimated height), and a series `with_color(7)` takes the grey of palette
+    /// index 7 whatever its position.
+    #[test]
+    fn equal_aspect_keeps_a_square_square_and_colors_are_shared() {
+        let dir = temp_dir("aspect");
+        let stem = dir.join("square");
+        let square = Series::new("", vec![0.0, 1.0, 1.0, 0.0, 0.0], vec![0.0, 0.0, 1.0, 1.0, 0.0]).with_color(7);
+        let plot = LinePlot { equal_aspect: true, ..LinePlot::new("Square", "x", "y") }
+            .with_series(Series::new("first", vec![0.5], vec![0.5]).with_style(SeriesStyle::Markers))
+            .with_series(square);
+        let files = line_plot(&plot, &stem).unwrap();
+        let svg = std::fs::read_to_string(&files[1]).unwrap();
+        let grey = svg.find("stroke=\"#7F7F7F\"").expect("a grey polyline");
+        let start = svg[..grey].rfind("<polyline").unwrap();
+        let points = &svg[start..][svg[start..].find("points=\"").unwrap() + 8..];
+        let points = &points[..points.find('"').unwrap()];
+        let xy: Vec<(f64, f64)> = points
+            .split_whitespace()
+            .map(|p| {
+                let (x, y) = p.split_once(',').unwrap();
+                (x.parse().unwrap(), y.parse().unwrap())
+            })
+            .collect();
+        let span = |f: &dyn Fn(&(f64, f64)) -> f64| {
+            xy.iter().map(f).fold(f64::NEG_INFINITY, f64::max) - xy.iter().map(f).fold(f64::INFINITY, f64::min)
+        };
+        let (w, h) = (span(&|p| p.0), span(&|p| p.1));
+        assert!((w / h - 1.0).abs() <= 0.03, "square drawn {w} x {h} pixels");
         cleanup(&dir);
     }
 

@@ -157,7 +157,7 @@ impl Figure for MapFigure<'_> {
 
 /// Extra margins `(left = right, top = bottom)` in pixels that leave a plotting box of
 /// `avail_w x avail_h` pixels with the aspect ratio `dx : dy` of the data, centred.
-fn equal_aspect_pads(avail_w: f64, avail_h: f64, dx: f64, dy: f64) -> (u32, u32) {
+pub(crate) fn equal_aspect_pads(avail_w: f64, avail_h: f64, dx: f64, dy: f64) -> (u32, u32) {
     let scale = (avail_w / dx).min(avail_h / dy);
     let pad = |avail: f64, len: f64| ((avail - scale * len) / 2.0).max(0.0).floor() as u32;
     (pad(avail_w, dx), pad(avail_h, dy))

@@ -33,6 +33,7 @@ pub mod stress;
 pub mod validate;
 
 pub mod output;
+pub mod probe;
 pub mod scene;
 
 pub mod models;
@@ -52,5 +53,7 @@ pub use models::lattice_blend::{PdRegions, PdZone};
 pub use models::lps::CG_NEAR_INCOMPRESSIBLE_NU;
 pub use models::{ModelType, Registry};
 pub use nodes::{LevelNodes, Nodes};
+pub use probe::{Probe, ProbeSamples};
 pub use scene::{Constraint, Load, Problem, SceneModel};
 pub use solution::Solution;
+pub use stress::StressMap;

@@ -790,6 +790,32 @@ pub struct RawOutput {
     /// Which nodes result.json and result.vtu hold (default `model`).
     #[serde(default)]
     pub nodes: Option<RawOutputNodes>,
+    /// Line probes: u, strain and stress sampled along segments ([`crate::probe`]).
+    #[serde(default)]
+    pub probes: Vec<RawProbe>,
+    /// The stress map's quantity (default `von_mises`; [`crate::probe::StressMap`]).
+    #[serde(default)]
+    pub stress_map: Option<String>,
+    /// The deformed-shape plot's displacement scale (default: chosen so that the largest
+    /// displacement is drawn as a tenth of the body's size, rounded to 1, 2 or 5 x 10^k).
+    #[serde(default)]
+    pub deformed_scale: Option<f64>,
+}
+
+/// One of `output.probes`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawProbe {
+    /// The file stem (default `probe-<k>`, `k` from 1).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// The segment's start.
+    pub from: Vec<f64>,
+    /// The segment's end.
+    pub to: Vec<f64>,
+    /// Sample points, both ends included (default 101).
+    #[serde(default)]
+    pub points: Option<usize>,
 }
 
 /// `output.nodes`.

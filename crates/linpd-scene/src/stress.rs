@@ -84,6 +84,57 @@ impl NodalStress {
     }
 }
 
+/// The quantity of the stress map `linpd solve` draws (`output.stress_map`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StressMap {
+    /// `sigma_vm` (default).
+    #[default]
+    VonMises,
+    /// The largest principal stress.
+    MaxPrincipal,
+    /// One component `sigma_ab` (`a <= b < d`).
+    Component(usize, usize),
+}
+
+impl StressMap {
+    /// `"von_mises"`, `"max_principal"` or `"sigma_<ab>"` (`ab` one of `xx, yy, zz, xy, xz,
+    /// yz` within the dimension `d`).
+    pub(crate) fn parse(key: Option<&str>, d: usize) -> Result<Self, crate::ProblemError> {
+        let axes = ["x", "y", "z"];
+        let names: Vec<String> = VOIGT[d - 1].iter().map(|&(a, b)| format!("sigma_{}{}", axes[a], axes[b])).collect();
+        match key {
+            None | Some("von_mises") => Ok(StressMap::VonMises),
+            Some("max_principal") => Ok(StressMap::MaxPrincipal),
+            Some(k) => match names.iter().position(|n| n == k) {
+                Some(i) => Ok(StressMap::Component(VOIGT[d - 1][i].0, VOIGT[d - 1][i].1)),
+                None => Err(crate::ProblemError::invalid(
+                    "output.stress_map",
+                    format!("{k:?} is not one of von_mises, max_principal, {}", names.join(", ")),
+                )),
+            },
+        }
+    }
+
+    /// The quantity at node `n` of `s`.
+    pub fn value(&self, s: &NodalStress, n: usize) -> f64 {
+        match *self {
+            StressMap::VonMises => s.von_mises(n),
+            StressMap::MaxPrincipal => s.principal(n)[0],
+            StressMap::Component(a, b) => s.tensor[n][3 * a + b],
+        }
+    }
+
+    /// Its name: the file stem `stress_<name>` and the colour bar's label.
+    pub fn name(&self) -> String {
+        let axes = ["x", "y", "z"];
+        match *self {
+            StressMap::VonMises => "von_mises".into(),
+            StressMap::MaxPrincipal => "max_principal".into(),
+            StressMap::Component(a, b) => format!("sigma_{}{}", axes[a], axes[b]),
+        }
+    }
+}
+
 /// The Cauchy stress of every node from its strain and its `(E, nu)` (`nu` `None` in 1D), with
 /// the plane model in 2D (see the module docs).
 pub fn hooke(

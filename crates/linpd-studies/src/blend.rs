@@ -38,12 +38,20 @@ fn errors(pd: &BlendSolution, s: &BlendSolution) -> (f64, f64, f64) {
 }
 
 fn loglog(dir: &Path, name: &str, title: &str, xl: &str, yl: &str, series: Vec<Series>) -> Result<(), StudyError> {
-    let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: true, log_y: true };
+    let p = LinePlot {
+        title: title.into(),
+        x_label: xl.into(),
+        y_label: yl.into(),
+        series,
+        log_x: true,
+        log_y: true,
+        equal_aspect: false,
+    };
     line_plot(&p, &dir.join(name)).map(|_| ()).map_err(StudyError::from)
 }
 
 fn series(label: &str, x: Vec<f64>, y: Vec<f64>, style: SeriesStyle) -> Series {
-    Series { label: label.into(), x, y, style }
+    Series { label: label.into(), x, y, style, color: None }
 }
 
 /// Drops non-positive values (for log axes).

@@ -180,6 +180,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
                 x: xs,
                 y: ys,
                 style: SeriesStyle::LineMarkers,
+                color: None,
             });
         }
     }

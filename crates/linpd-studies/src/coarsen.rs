@@ -31,7 +31,7 @@ const WHOLE: f64 = 10.0;
 const RADII: [(f64, f64); 4] = [(0.1, 0.2), (0.2, 0.4), (0.3, 0.6), (WHOLE, WHOLE)];
 
 fn series(label: &str, x: Vec<f64>, y: Vec<f64>, style: SeriesStyle) -> Series {
-    Series { label: label.into(), x, y, style }
+    Series { label: label.into(), x, y, style, color: None }
 }
 
 fn radius_label(r: f64) -> String {
@@ -535,6 +535,7 @@ pub(crate) fn speed_vs_error(dir: &Path, report: &mut dyn Write, progress: &dyn 
         ],
         log_x: false,
         log_y: true,
+        equal_aspect: false,
     };
     line_plot(&p, &dir.join("speed_vs_error")).map(|_| ()).map_err(StudyError::from)
 }

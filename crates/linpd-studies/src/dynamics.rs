@@ -120,6 +120,7 @@ fn dispersion(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Re
             ],
             log_x: false,
             log_y: false,
+            equal_aspect: false,
         };
         line_plot(&plot, &dir.join(format!("dispersion_N{n}")))?;
         rows.push(json!({
@@ -220,6 +221,7 @@ fn lattice_dispersion(dir: &Path, report: &mut dyn Write, progress: &Cases<'_>) 
                 series,
                 log_x: false,
                 log_y: false,
+                equal_aspect: false,
             };
             line_plot(&plot, &dir.join(format!("lattice_{model}_{dim}d")))?;
             cases.push(
@@ -352,6 +354,7 @@ fn stability(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -> Res
         series: vec![Series::new("(4.12)", dxs, b412), e, m],
         log_x: false,
         log_y: false,
+        equal_aspect: false,
     };
     line_plot(&plot, &dir.join("stability"))?;
     write_text(&dir.join("table.md"), &table)?;

@@ -58,7 +58,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
             xs.push(h);
             ys.push(100.0 * err);
         }
-        series.push(Series { label: label.into(), x: xs, y: ys, style: SeriesStyle::LineMarkers });
+        series.push(Series { label: label.into(), x: xs, y: ys, style: SeriesStyle::LineMarkers, color: None });
     }
     write(dir, &json!({"study": "lps-tension-bar", "rows": rows}))?;
     let plot = LinePlot {
@@ -68,6 +68,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
         series,
         log_x: false,
         log_y: false,
+        equal_aspect: false,
     };
     line_plot(&plot, &dir.join("elongation_error")).map(|_| ()).map_err(StudyError::from)
 }

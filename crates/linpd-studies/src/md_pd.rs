@@ -281,6 +281,7 @@ fn smooth_plots(dir: &Path, smooth: &[SmoothRun]) -> Result<(), StudyError> {
             series,
             log_x: false,
             log_y: false,
+            equal_aspect: false,
         };
         line_plot(&plot, &dir.join(stem)).map(|_| ()).map_err(StudyError::from)
     };
@@ -483,6 +484,7 @@ fn square_plots(dir: &Path, sq_runs: &[SquareRun]) -> Result<(), StudyError> {
                 series,
                 log_x: false,
                 log_y: false,
+                equal_aspect: false,
             };
             line_plot(&plot, &dir.join(format!("square_{stem}_t{}", *t as usize)))?;
         }

@@ -215,8 +215,14 @@ pub(crate) fn run(
             ts.push(rt);
         }
         let label = format!("{name}, {nodes} nodes, m = 2, 4, 8");
-        err_unknowns.push(Series { label: label.clone(), x: xs, y: ys.clone(), style: SeriesStyle::LineMarkers });
-        err_time.push(Series { label, x: ts, y: ys, style: SeriesStyle::LineMarkers });
+        err_unknowns.push(Series {
+            label: label.clone(),
+            x: xs,
+            y: ys.clone(),
+            style: SeriesStyle::LineMarkers,
+            color: None,
+        });
+        err_time.push(Series { label, x: ts, y: ys, style: SeriesStyle::LineMarkers, color: None });
     }
     write(dir, &json!({"study": "multires", "max_cell_spacings": MAX_CELL, "rows": rows}))?;
     plot(

@@ -35,7 +35,15 @@ pub(crate) fn plot(
     series: Vec<Series>,
     log_y: bool,
 ) -> Result<(), StudyError> {
-    let p = LinePlot { title: title.into(), x_label: xl.into(), y_label: yl.into(), series, log_x: false, log_y };
+    let p = LinePlot {
+        title: title.into(),
+        x_label: xl.into(),
+        y_label: yl.into(),
+        series,
+        log_x: false,
+        log_y,
+        equal_aspect: false,
+    };
     line_plot(&p, &dir.join(name))?;
     Ok(())
 }

@@ -203,6 +203,7 @@ pub(crate) fn run(
         x: xs.clone(),
         y: raw,
         style: SeriesStyle::LineMarkers,
+        color: None,
     }];
     if corrected.len() == xs.len() {
         series.push(Series {
@@ -210,6 +211,7 @@ pub(crate) fn run(
             x: xs,
             y: corrected,
             style: SeriesStyle::LineMarkers,
+            color: None,
         });
     }
     plot(dir, "opening", "Penny crack: maximum opening against Sneddon", "delta / a", "w / w_Sneddon", series, false)

@@ -191,7 +191,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
                 ys.push(100.0 * err);
             }
         }
-        bar_series.push(Series { label: label.clone(), x: xs, y: ys, style: SeriesStyle::LineMarkers });
+        bar_series.push(Series { label: label.clone(), x: xs, y: ys, style: SeriesStyle::LineMarkers, color: None });
         // the cantilever: refinement at delta = 3 h, then delta / h at n = 5
         let (mut xs, mut ys) = (Vec::new(), Vec::new());
         let mut beam_cases: Vec<(usize, f64)> = cantilever_n.iter().map(|&n| (n, 3.0)).collect();
@@ -218,7 +218,7 @@ pub(crate) fn run(dir: &Path, report: &mut dyn Write, progress: &dyn Progress) -
                 ys.push(100.0 * err);
             }
         }
-        beam_series.push(Series { label, x: xs, y: ys, style: SeriesStyle::LineMarkers });
+        beam_series.push(Series { label, x: xs, y: ys, style: SeriesStyle::LineMarkers, color: None });
     }
     write(dir, &json!({"study": "surface", "rows": rows}))?;
     plot(

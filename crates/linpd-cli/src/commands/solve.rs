@@ -17,16 +17,23 @@ pub(crate) fn solve(scene: &Path, out: Option<PathBuf>, quiet: bool) -> Result<(
     let solution = problem.solve(&progress).map_err(input(scene))?;
     let dir = staged.path();
     solution.write(dir).map_err(output)?;
+    let options = crate::plots::PlotOptions::of(&problem);
     match problem.grid() {
         Some(grid) if problem.plot() => {
-            crate::plots::solution_plots(grid, &solution, dir, problem.slice())?;
+            crate::plots::solution_plots(grid, &solution, dir, &options)?;
         }
         // Point clouds and coarsened levels: the map rasterized from the scattered
         // nodes (1D: the displacement profile).
         None if problem.plot() => {
-            crate::plots::scattered_plots(&solution, dir, problem.slice())?;
+            crate::plots::scattered_plots(&solution, dir, &options)?;
         }
         _ => {}
+    }
+    for probe in problem.sample_probes(&solution) {
+        probe.write_csv(dir).map_err(output)?;
+        if problem.plot() {
+            crate::plots::probe_plots(problem.name(), &probe, dir)?;
+        }
     }
     let files = staged.commit("result.json", solution.to_json(), &identity).map_err(output)?;
     let r = &solution.report;

@@ -13,7 +13,6 @@ use plotters::element::ComposedElement;
 use plotters::prelude::*;
 
 use super::{LinePlot, Series, SeriesStyle};
-use crate::color::series_color;
 use crate::font::FONT;
 
 /// Where a line plot's legend goes.
@@ -152,7 +151,7 @@ fn draw_column<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, labelled: &[(u
     // drawn by hand: plotters places its legend inside the plotting area only
     for (k, (i, s)) in labelled.iter().enumerate() {
         let y = 80 + 26 * k as i32;
-        let color = series_color(*i);
+        let color = s.rgb(*i);
         if s.style != SeriesStyle::Markers {
             area.draw(&PathElement::new(vec![(8, y), (32, y)], color.stroke_width(2))).map_err(e)?;
         }
@@ -183,6 +182,7 @@ mod tests {
             series: vec![Series::new("a", (0..=10).map(|k| k as f64).collect(), y)],
             log_x: false,
             log_y: false,
+            equal_aspect: false,
         };
         let (xr, yr) = (0.0..10.0, 0.0..10.0);
         let inside = |c| LegendPlace::Inside(c);

@@ -270,7 +270,16 @@ impl Problem {
                 return Err(ProblemError::invalid("density", format!("must be > 0, got {rho:e}")));
             }
         }
+        let deformed_scale = match raw.output.deformed_scale {
+            Some(f) if !(f.is_finite() && f > 0.0) => {
+                return Err(ProblemError::invalid("output.deformed_scale", format!("must be > 0, got {f:e}")))
+            }
+            f => f,
+        };
         Ok(Problem {
+            probes: crate::probe::validate(&raw.output.probes, dim)?,
+            stress_map: crate::stress::StressMap::parse(raw.output.stress_map.as_deref(), dim)?,
+            deformed_scale,
             density: raw.density,
             dynamics,
             output_dir: output_dir(raw.output.dir.as_deref(), &raw.name)?,

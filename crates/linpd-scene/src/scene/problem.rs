@@ -128,6 +128,12 @@ pub struct Problem {
     pub(crate) dynamics: Option<crate::dynamics::Dynamics>,
     /// `density` (`linpd modes`).
     pub(crate) density: Option<f64>,
+    /// `output.probes`.
+    pub(crate) probes: Vec<crate::probe::Probe>,
+    /// `output.stress_map`.
+    pub(crate) stress_map: crate::stress::StressMap,
+    /// `output.deformed_scale`.
+    pub(crate) deformed_scale: Option<f64>,
 }
 
 impl Problem {
@@ -191,6 +197,23 @@ impl Problem {
     /// than on the model's nodes.
     pub fn lattice_output(&self) -> bool {
         self.lattice_output
+    }
+    /// `output.probes`.
+    pub fn probes(&self) -> &[crate::probe::Probe] {
+        &self.probes
+    }
+    /// The probes sampled on `solution` (a solution of this scene).
+    pub fn sample_probes(&self, solution: &crate::solution::Solution) -> Vec<crate::probe::ProbeSamples> {
+        crate::probe::sample(&self.probes, solution, self.grid())
+    }
+    /// The stress map's quantity (`output.stress_map`).
+    pub fn stress_map(&self) -> crate::stress::StressMap {
+        self.stress_map
+    }
+    /// The deformed-shape plot's displacement scale (`output.deformed_scale`; `None`: chosen
+    /// from the solution).
+    pub fn deformed_scale(&self) -> Option<f64> {
+        self.deformed_scale
     }
     /// The `dynamics` section, if any.
     pub fn dynamics(&self) -> Option<&crate::dynamics::Dynamics> {
