@@ -793,7 +793,7 @@ pub struct RawOutput {
     /// Line probes: u, strain and stress sampled along segments ([`crate::probe`]).
     #[serde(default)]
     pub probes: Vec<RawProbe>,
-    /// The stress map's quantity (default `von_mises`; [`crate::probe::StressMap`]).
+    /// The stress map's quantity (default `von_mises`; [`crate::stress::StressMap`]).
     #[serde(default)]
     pub stress_map: Option<String>,
     /// The deformed-shape plot's displacement scale (default: chosen so that the largest
