@@ -55,6 +55,10 @@ pub enum Region {
         /// 3D only: `[z0, z1]`, the extent along z.
         extrude: Option<[f64; 2]>,
     },
+    /// The nodes of a named set of a mesh (a Gmsh physical group; `{"set": "clamp"}`): a set
+    /// of nodes, not of points, so [`Region::contains`] is false everywhere and only
+    /// [`Region::contains_with`] with the node's membership selects it.
+    Set(String),
     /// Points in any of the regions.
     Union(Vec<Region>),
     /// Points in the first region and not in the second.
@@ -65,7 +69,7 @@ impl Region {
     /// Checks that every box has `dim` components and `min <= max`.
     pub fn validate(&self, dim: usize) -> Result<(), CoreError> {
         match self {
-            Region::All => Ok(()),
+            Region::All | Region::Set(_) => Ok(()),
             Region::Box { min, max } => {
                 for v in [min, max] {
                     if v.len() != dim {
@@ -146,10 +150,18 @@ impl Region {
         }
     }
 
-    /// True when `x` lies in the region, faces included up to `tol`.
+    /// True when `x` lies in the region, faces included up to `tol` (false in a named set:
+    /// see [`Region::contains_with`]).
     pub fn contains(&self, x: &Point, dim: usize, tol: f64) -> bool {
+        self.contains_with(x, dim, tol, &|_| false)
+    }
+
+    /// [`Region::contains`] for a node at `x` that belongs to the named sets for which
+    /// `in_set(name)` is true.
+    pub fn contains_with(&self, x: &Point, dim: usize, tol: f64, in_set: &dyn Fn(&str) -> bool) -> bool {
         match self {
             Region::All => true,
+            Region::Set(name) => in_set(name),
             Region::Box { min, max } => (0..dim).all(|a| x[a] >= min[a] - tol && x[a] <= max[a] + tol),
             // Ball, cylinder and half space compare quarter differences with quarter bounds
             // (exact scaling: the same result as the plain comparison wherever that is finite).
@@ -173,8 +185,18 @@ impl Region {
                 };
                 z_ok && in_polygon([x[0], x[1]], vertices, tol)
             }
-            Region::Union(parts) => parts.iter().any(|r| r.contains(x, dim, tol)),
-            Region::Difference(a, b) => a.contains(x, dim, tol) && !b.contains(x, dim, tol),
+            Region::Union(parts) => parts.iter().any(|r| r.contains_with(x, dim, tol, in_set)),
+            Region::Difference(a, b) => a.contains_with(x, dim, tol, in_set) && !b.contains_with(x, dim, tol, in_set),
+        }
+    }
+
+    /// The names of the sets the region refers to.
+    pub fn set_names(&self) -> Vec<&str> {
+        match self {
+            Region::Set(name) => vec![name.as_str()],
+            Region::Union(parts) => parts.iter().flat_map(Region::set_names).collect(),
+            Region::Difference(a, b) => a.set_names().into_iter().chain(b.set_names()).collect(),
+            _ => Vec::new(),
         }
     }
 

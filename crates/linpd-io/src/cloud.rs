@@ -40,8 +40,8 @@ struct Columns {
 }
 
 /// A node file's nodes: positions, volumes, layer flags and phase numbers (empty when the
-/// file has no `phase` column).
-#[derive(Debug, Clone)]
+/// file has no `phase` column), and a mesh's named node sets.
+#[derive(Debug, Clone, Default)]
 pub struct Cloud {
     /// Positions (unused coordinates 0).
     pub positions: Vec<Point>,
@@ -51,8 +51,11 @@ pub struct Cloud {
     pub layer: Vec<bool>,
     /// Phase numbers (empty without a `phase` column).
     pub phase: Vec<u32>,
-    /// 1-based file line of each node (a VTK file: its 0-based point number), for messages.
+    /// 1-based file line of each node (a VTK file: its 0-based point number; a Gmsh mesh: its
+    /// element's tag), for messages.
     pub lines: Vec<u64>,
+    /// Named node sets of a mesh ([`crate::mesh`]; empty for CSV and VTK files).
+    pub sets: crate::mesh::Sets,
 }
 
 /// Reads a CSV point cloud of dimension `dim`; errors name the file and the line.
@@ -68,8 +71,7 @@ pub fn read_csv(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     };
     // every coordinate column of the dimension is present (checked by of_header)
     let coord_cols: Vec<usize> = cols.coord[..dim].iter().flatten().copied().collect();
-    let mut cloud =
-        Cloud { positions: Vec::new(), volumes: Vec::new(), layer: Vec::new(), phase: Vec::new(), lines: Vec::new() };
+    let mut cloud = Cloud::default();
     let mut record = csv::StringRecord::new();
     loop {
         let more = reader.read_record(&mut record).map_err(|e| {

@@ -44,8 +44,7 @@ pub fn read_cloud(path: &Path, dim: usize) -> Result<Cloud, IoError> {
         _ => Err("holds no unstructured grid or poly data (point sets are read from those)".into()),
     }
     .map_err(fail)?;
-    let mut cloud =
-        Cloud { positions: Vec::new(), volumes: Vec::new(), layer: Vec::new(), phase: Vec::new(), lines: Vec::new() };
+    let mut cloud = Cloud::default();
     let (mut has_layer, mut has_phase) = (None, None);
     for (points, data) in &parts {
         let x: Vec<f64> = points.cast_into().ok_or_else(|| fail("points are not numbers".into()))?;

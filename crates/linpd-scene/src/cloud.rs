@@ -18,11 +18,34 @@ pub fn read_vtk(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemErro
     linpd_io::vtk::read_cloud(path, dim).map_err(|e| ProblemError::invalid(key, e.to_string()))
 }
 
+/// Reads a Gmsh mesh (a node per element, [`linpd_io::mesh`]) of dimension `dim`; `key` is the
+/// JSON path of the file name. A file that is not `.msh` is refused by name.
+pub fn read_mesh(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemError> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("msh") => linpd_io::mesh::read_gmsh(path, dim).map_err(|e| ProblemError::invalid(key, e.to_string())),
+        Some("e" | "exo" | "g") => Err(ProblemError::invalid(
+            key,
+            format!("{}: Exodus II meshes are not read yet (Gmsh .msh 4.1 is)", path.display()),
+        )),
+        _ => Err(ProblemError::invalid(
+            key,
+            format!("{}: not a mesh linpd reads (Gmsh .msh 4.1; VTK point clouds go in nodes.vtk)", path.display()),
+        )),
+    }
+}
+
+/// Reads Peridigm's text discretization ([`linpd_io::mesh`]) of dimension `dim`; `key` is the
+/// JSON path of the file name.
+pub fn read_peridigm(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemError> {
+    linpd_io::mesh::read_peridigm(path, dim).map_err(|e| ProblemError::invalid(key, e.to_string()))
+}
+
 /// The cloud as the node set of a scene.
 pub(crate) fn into_nodes(cloud: Cloud, dim: usize) -> LevelNodes {
     let mut nodes = LevelNodes::new(dim, cloud.positions, cloud.volumes);
     nodes.layer = cloud.layer;
     nodes.phase = cloud.phase;
+    nodes.sets = cloud.sets;
     nodes.what = "the point cloud";
     nodes
 }

@@ -29,6 +29,8 @@ pub struct LevelNodes {
     pub(crate) phase: Vec<u32>,
     /// What the nodes are, for messages.
     pub(crate) what: &'static str,
+    /// A mesh's named node sets (`{"set": name}` regions).
+    pub(crate) sets: linpd_io::mesh::Sets,
 }
 
 impl LevelNodes {
@@ -57,6 +59,7 @@ impl LevelNodes {
             layer: Vec::new(),
             phase: Vec::new(),
             what: "the coarsened level",
+            sets: Default::default(),
         }
     }
 }
@@ -153,6 +156,12 @@ impl NodeSet for Nodes {
             Nodes::Level(l) | Nodes::Cloud(l) => l.select(r),
         }
     }
+    fn check_sets(&self, r: &Region, path: &str) -> Result<(), crate::ProblemError> {
+        match self {
+            Nodes::Lattice(g) => g.check_sets(r, path),
+            Nodes::Level(l) | Nodes::Cloud(l) => l.check_sets(r, path),
+        }
+    }
     fn body_box(&self) -> Option<(Vec<f64>, Vec<f64>)> {
         self.lattice().and_then(NodeSet::body_box)
     }
@@ -181,7 +190,25 @@ impl NodeSet for LevelNodes {
     }
     fn select(&self, r: &Region) -> Vec<usize> {
         let tol = linpd_core::GEOMETRY_RTOL * self.h;
-        (0..self.positions.len()).filter(|&n| r.contains(&self.positions[n], self.dim, tol)).collect()
+        let member = |n: usize, name: &str| self.sets.get(name).is_some_and(|s| s.binary_search(&(n as u32)).is_ok());
+        (0..self.positions.len())
+            .filter(|&n| r.contains_with(&self.positions[n], self.dim, tol, &|name| member(n, name)))
+            .collect()
+    }
+    fn check_sets(&self, r: &Region, path: &str) -> Result<(), crate::ProblemError> {
+        for name in r.set_names() {
+            if !self.sets.contains_key(name) {
+                let known: Vec<&str> = self.sets.keys().map(String::as_str).collect();
+                return Err(crate::ProblemError::invalid(
+                    format!("{path}.set"),
+                    match known.is_empty() {
+                        true => format!("no set {name:?}: {} has no named sets", self.what),
+                        false => format!("no set {name:?} in {} (its sets: {})", self.what, known.join(", ")),
+                    },
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -198,6 +225,19 @@ pub(crate) trait NodeSet {
     fn nearest(&self, x: &[f64]) -> (usize, f64);
     /// The nodes inside `r`, ascending.
     fn select(&self, r: &Region) -> Vec<usize>;
+    /// Every named set `r` refers to exists (`path`: the region's JSON path).
+    fn check_sets(&self, r: &Region, path: &str) -> Result<(), crate::ProblemError> {
+        match r.set_names().first() {
+            None => Ok(()),
+            Some(name) => Err(crate::ProblemError::invalid(
+                format!("{path}.set"),
+                format!(
+                    "no set {name:?}: named sets come with a mesh (nodes.mesh, nodes.peridigm), and these nodes are {}",
+                    self.what()
+                ),
+            )),
+        }
+    }
     /// The body box `[min, max]` of a lattice (`None` for scattered nodes).
     fn body_box(&self) -> Option<(Vec<f64>, Vec<f64>)> {
         None

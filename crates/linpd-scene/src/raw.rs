@@ -66,6 +66,12 @@ pub struct RawNodes {
     /// A CSV file: header `x[,y[,z]],volume[,phase][,layer]`, one node per line.
     #[serde(default)]
     pub csv: Option<String>,
+    /// A Gmsh MSH 4.1 mesh: a node per element ([`linpd_io::mesh`]).
+    #[serde(default)]
+    pub mesh: Option<String>,
+    /// Peridigm's text discretization `x y z block_id volume` ([`linpd_io::mesh`]).
+    #[serde(default)]
+    pub peridigm: Option<String>,
     /// A VTK XML UnstructuredGrid file: its points and a `volume` point array.
     #[serde(default)]
     pub vtk: Option<String>,
@@ -638,6 +644,8 @@ pub enum RawRegion {
         #[serde(default)]
         extrude: Option<[f64; 2]>,
     },
+    /// A named node set of a mesh (`nodes.mesh`, `nodes.peridigm`).
+    Set(String),
     /// Any of.
     Union(Vec<RawRegion>),
     /// First minus second (exactly two regions).

@@ -74,6 +74,16 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
             Region::HalfSpace { point: point.clone(), normal: normal.clone() }
         }
         RawRegion::Polygon { vertices, extrude } => Region::Polygon { vertices: vertices.clone(), extrude: *extrude },
+        RawRegion::Set(name) => {
+            if !(path.starts_with("constraints[") || path.starts_with("loads[")) {
+                return Err(ProblemError::invalid(
+                    format!("{path}.set"),
+                    "a mesh's named sets select the nodes of constraints and loads only (not yet bodies, \
+                     phases, defects or pd_regions)",
+                ));
+            }
+            Region::Set(name.clone())
+        }
         RawRegion::Union(parts) => Region::Union(
             parts
                 .iter()
@@ -387,6 +397,7 @@ fn affine_constraint(
         ));
     };
     let region = region(&format!("{p}.region"), raw_region, dim)?;
+    nodes.check_sets(&region, &format!("{p}.region"))?;
     check_len(&format!("{p}.displacement.value"), &displacement.value, dim)?;
     let gradient = match &displacement.gradient {
         None => vec![0.0; dim * dim],
@@ -458,6 +469,7 @@ pub(crate) fn constraints_and_loads(
         let load_region = || -> Result<Region, ProblemError> {
             let r = l.region.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.region"), "missing"))?;
             let region = region(&format!("{p}.region"), r, dim)?;
+            nodes.check_sets(&region, &format!("{p}.region"))?;
             if nodes.select(&region).is_empty() {
                 return Err(ProblemError::invalid(
                     format!("{p}.region"),
@@ -798,10 +810,17 @@ pub(crate) fn cloud_nodes(
             "point clouds get no map (their nodes are not on a lattice)",
         ));
     }
-    let cloud = match (&spec.csv, &spec.vtk) {
-        (Some(f), None) => read_csv(&cx.base_dir.join(f), dim, "nodes.csv")?,
-        (None, Some(f)) => crate::cloud::read_vtk(&cx.base_dir.join(f), dim, "nodes.vtk")?,
-        _ => return Err(ProblemError::invalid("nodes", "give exactly one of \"csv\" or \"vtk\"")),
+    let cloud = match (&spec.csv, &spec.vtk, &spec.mesh, &spec.peridigm) {
+        (Some(f), None, None, None) => read_csv(&cx.base_dir.join(f), dim, "nodes.csv")?,
+        (None, Some(f), None, None) => crate::cloud::read_vtk(&cx.base_dir.join(f), dim, "nodes.vtk")?,
+        (None, None, Some(f), None) => crate::cloud::read_mesh(&cx.base_dir.join(f), dim, "nodes.mesh")?,
+        (None, None, None, Some(f)) => crate::cloud::read_peridigm(&cx.base_dir.join(f), dim, "nodes.peridigm")?,
+        _ => {
+            return Err(ProblemError::invalid(
+                "nodes",
+                "give exactly one of \"csv\", \"vtk\", \"mesh\" or \"peridigm\"",
+            ))
+        }
     };
     if !(horizon.is_finite() && horizon > 0.0) {
         return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));

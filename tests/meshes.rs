@@ -1,0 +1,234 @@
+//! Bodies from meshes (issue #33 item 1; crates/linpd-io/src/mesh.rs): a Gmsh mesh read as a
+//! node per element agrees with meshio's reading of the same file (volumes, centroids, the
+//! physical groups' sets), Peridigm's text discretization solves like the lattice it was
+//! written from, named sets select constraints and loads, and bad meshes and sets are named
+//! errors.
+
+use linpd::core::NoProgress;
+use linpd::io::mesh::{read_gmsh, read_peridigm};
+use linpd::problem::Problem;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name)
+}
+
+fn scene(name: &str) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(data(name)).unwrap()).unwrap()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("linpd-meshes-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// meshio's reading of a Gmsh file, as JSON: per element of dimension `d` (file order) its
+/// volume (area) and centroid from meshio's points and cells, computed here in numpy (triangle
+/// and tetrahedron determinants), and per physical group (its `$PhysicalNames` name) the
+/// elements it holds or whose vertices include one of its elements' vertices all.
+const MESHIO: &str = r#"
+import json, sys
+import numpy as np
+import meshio
+path, d = sys.argv[1], int(sys.argv[2])
+m = meshio.read(path)
+kinds = {2: ("triangle",), 3: ("tetra",)}[d]
+vol, cen, verts = [], [], []
+for block in m.cells:
+    if block.type not in kinds:
+        continue
+    x = m.points[block.data]
+    e = x[:, 1:, :d] - x[:, :1, :d]
+    v = np.linalg.det(e) / (2.0 if d == 2 else 6.0)
+    vol += list(np.abs(v))
+    cen += x.mean(axis=1).tolist()
+    verts += [set(c) for c in block.data.tolist()]
+sets = {}
+names = {(int(dim), int(tag)): name for name, (tag, dim) in m.field_data.items()}
+by_vertex = {}
+for k, vs in enumerate(verts):
+    for t in vs:
+        by_vertex.setdefault(t, []).append(k)
+for block, phys in zip(m.cells, m.cell_data["gmsh:physical"]):
+    dim = {"vertex": 0, "line": 1, "triangle": 2, "tetra": 3}[block.type]
+    for cell, tag in zip(block.data.tolist(), phys.tolist()):
+        name = names[(dim, int(tag))]
+        s = sets.setdefault(name, set())
+        s.update(k for k in by_vertex.get(cell[0], []) if set(cell) <= verts[k])
+print(json.dumps({"volume": vol, "centroid": cen, "sets": {k: sorted(v) for k, v in sets.items()}}))
+"#;
+
+/// The bundled 2D (triangles) and 3D (tetrahedra) meshes written by gmsh
+/// (examples/make_meshes.py): linpd's nodes are meshio's elements, volumes and centroids to
+/// 1e-12 relative (the same determinants summed in another order), the sets equal.
+#[test]
+fn gmsh_meshes_read_as_meshio_reads_them() {
+    for (file, d) in [("plate-hole-mesh-2d.msh", 2), ("bracket-mesh-3d.msh", 3)] {
+        let path = data(file);
+        let o = Command::new("python3").args(["-c", MESHIO, path.to_str().unwrap(), &d.to_string()]).output().unwrap();
+        assert!(o.status.success(), "meshio: {}", String::from_utf8_lossy(&o.stderr));
+        let want: Value = serde_json::from_slice(&o.stdout).unwrap();
+        let got = read_gmsh(&path, d).unwrap();
+        let volume = want["volume"].as_array().unwrap();
+        assert_eq!(got.volumes.len(), volume.len(), "{file}: elements");
+        let total: f64 = got.volumes.iter().sum();
+        for (k, v) in volume.iter().enumerate() {
+            let v = v.as_f64().unwrap();
+            assert!((got.volumes[k] - v).abs() <= 1e-12 * v, "{file} element {k}: {} vs {v}", got.volumes[k]);
+            let c = want["centroid"][k].as_array().unwrap();
+            for a in 0..d {
+                let ca = c[a].as_f64().unwrap();
+                assert!((got.positions[k][a] - ca).abs() <= 1e-12, "{file} element {k}: centroid");
+            }
+        }
+        let exact = if d == 2 { 0.5 - std::f64::consts::PI * 0.01 } else { 0.1 * 0.3 * 0.1 + 0.3 * 0.1 * 0.1 };
+        // the polygonal hole's area is below the disk's by O(h^2 / r^2)
+        assert!((total - exact).abs() <= 2e-3 * exact, "{file}: volume {total} vs {exact}");
+        let sets = want["sets"].as_object().unwrap();
+        assert_eq!(got.sets.len(), sets.len(), "{file}: sets {:?}", got.sets.keys().collect::<Vec<_>>());
+        for (name, members) in sets {
+            let members: Vec<u32> = members.as_array().unwrap().iter().map(|v| v.as_u64().unwrap() as u32).collect();
+            assert!(!members.is_empty(), "{file}: set {name} empty");
+            assert_eq!(got.sets[name], members, "{file}: set {name}");
+        }
+    }
+}
+
+/// Writes the nodes of a grid scene as Peridigm's text discretization (block 1 the body, 2
+/// the layer) and returns the scene reading it, constrained by the sets `block_2`.
+fn as_peridigm(grid_scene: &Value, dir: &Path) -> Value {
+    let p = Problem::from_json(&grid_scene.to_string()).unwrap();
+    let nodes = p.nodes();
+    let mut text = String::from("# x y z block_id volume\n");
+    for n in 0..nodes.len() {
+        let x = nodes.position(n);
+        let block = if nodes.is_layer(n) { 2 } else { 1 };
+        text += &format!("{:?} {:?} {:?} {block} {:?}\n", x[0], x[1], x[2], nodes.volume(n));
+    }
+    std::fs::write(dir.join("nodes.txt"), text).unwrap();
+    let mut s = grid_scene.clone();
+    let o = s.as_object_mut().unwrap();
+    o.remove("grid");
+    o.remove("body");
+    o.insert("nodes".into(), json!({"peridigm": dir.join("nodes.txt").to_str().unwrap()}));
+    s
+}
+
+/// The plate with a hole of data/plate-hole-2d.json (Cholesky) as Peridigm text (z = 0) solves to the lattice's solution to 1e-10 relative (the cloud's AMD-ordered
+/// factorization against the lattice's nested dissection, tests/point_cloud.rs); its blocks
+/// are the sets `block_1` and `block_2`, which partition the nodes.
+#[test]
+fn peridigm_text_solves_like_its_lattice() {
+    let dir = scratch("peridigm");
+    let mut grid_scene = scene("plate-hole-2d.json");
+    grid_scene["solver"] = json!({"type": "cholesky"});
+    grid_scene["output"] = json!({});
+    let p = Problem::from_json_in(&grid_scene.to_string(), &data("")).unwrap();
+    let reference = p.solve(&NoProgress).unwrap();
+    let cloud = as_peridigm(&grid_scene, &dir);
+    let s = Problem::from_json(&cloud.to_string()).unwrap().solve(&NoProgress).unwrap();
+    let scale = reference.u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = reference.u.iter().zip(&s.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(diff <= 1e-10 * scale, "Peridigm text vs lattice: {:e}", diff / scale);
+    let read = read_peridigm(&dir.join("nodes.txt"), 2).unwrap();
+    assert_eq!(read.sets.len(), 2);
+    assert_eq!(read.sets["block_1"].len() + read.sets["block_2"].len(), read.volumes.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The bundled mesh scenes solve with their supports and loads on named sets, and balance:
+/// every load on the set "right" / "load", the reactions on "left" / "clamp".
+#[test]
+fn mesh_scenes_solve_on_their_sets() {
+    for (name, loaded) in [("plate-hole-mesh-2d.json", "right"), ("bracket-mesh-3d.json", "load")] {
+        let p = Problem::from_json_in(&scene(name).to_string(), &data("")).unwrap();
+        let s = p.solve(&NoProgress).unwrap();
+        let b = s.balance.as_ref().unwrap();
+        assert!(b.relative_imbalance <= 1e-9, "{name}: imbalance {:e}", b.relative_imbalance);
+        let set = read_gmsh(&data(&name.replace(".json", ".msh")), s.dim).unwrap().sets[loaded].len();
+        assert_eq!(b.loads[0].nodes, set, "{name}: the load's nodes are the set {loaded:?}");
+    }
+}
+
+fn msh(elements: &str, z4: f64) -> String {
+    format!(
+        "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 {z4}\n$EndNodes\n\
+         $Elements\n1 1 1 1\n3 1 4 1\n{elements}\n$EndElements\n"
+    )
+}
+
+fn error_of(v: &Value, dir: &Path) -> String {
+    match Problem::from_json_in(&v.to_string(), dir) {
+        Ok(_) => "no error".into(),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// Bad meshes and sets: named errors naming the file, the element or the set.
+#[test]
+fn bad_meshes_and_sets_are_named() {
+    let dir = scratch("bad");
+    let write = |name: &str, text: &str| std::fs::write(dir.join(name), text).unwrap();
+    write("inverted.msh", &msh("1 1 3 2 4", 1.0));
+    write("flat.msh", &msh("1 1 2 3 4", 0.0));
+    write("part.e", "CDF\x01");
+    write("short.txt", "0 0 0 1\n");
+    write("block.txt", "0 0 0 0 1e-3\n");
+    let tet = |file: &str| {
+        json!({"name": "bad", "dimension": 3, "nodes": {"mesh": file},
+               "model": {"type": "bond", "horizon": 2.0, "micromodulus": {"kernel": "constant", "modulus": 1.0}}})
+    };
+    let peridigm = |file: &str| {
+        json!({"name": "bad", "dimension": 3, "nodes": {"peridigm": file},
+               "model": {"type": "bond", "horizon": 2.0, "micromodulus": {"kernel": "constant", "modulus": 1.0}}})
+    };
+    let mut plate = scene("plate-hole-mesh-2d.json");
+    plate["nodes"]["mesh"] = json!(data("plate-hole-mesh-2d.msh").to_str().unwrap());
+    let with = |edit: &dyn Fn(&mut Value)| {
+        let mut v = plate.clone();
+        edit(&mut v);
+        v
+    };
+    let mut lattice = scene("plate-hole-2d.json");
+    lattice["constraints"][0]["region"] = json!({"set": "left"});
+    let mut in_2d = scene("bracket-mesh-3d.json");
+    in_2d["dimension"] = json!(2);
+    in_2d["nodes"]["mesh"] = json!(data("bracket-mesh-3d.msh").to_str().unwrap());
+    in_2d["model"]["plane"] = json!("stress");
+    let cases: Vec<(Value, &str)> = vec![
+        (tet("inverted.msh"), "inverted.msh: element 1 is inverted (negative volume)"),
+        (tet("flat.msh"), "flat.msh: element 1 is degenerate (zero volume)"),
+        (tet("part.e"), "nodes.mesh: "),
+        (peridigm("short.txt"), "short.txt line 1: expected 5 numbers `x y z block_id volume`, got 4"),
+        (peridigm("block.txt"), "block.txt line 1: block_id 0 is not an integer >= 1"),
+        (
+            with(&|v| v["constraints"][0]["region"] = json!({"set": "clamp"})),
+            "constraints[0].region.set: no set \"clamp\" in the point cloud (its sets: left, plate, right)",
+        ),
+        (
+            with(&|v| v["loads"][0]["region"] = json!({"union": [{"set": "right"}, {"set": "top"}]})),
+            "loads[0].region.set: no set \"top\"",
+        ),
+        (
+            with(&|v| v["model"]["material"] = json!({"phases": [{"region": {"set": "plate"}, "modulus": 2.0}]})),
+            "model.material.phases[0].region.set: a mesh's named sets select the nodes of constraints and loads only",
+        ),
+        (lattice, "constraints[0].region.set: no set \"left\": named sets come with a mesh"),
+        (in_2d, "bracket-mesh-3d.msh: has 3D elements"),
+    ];
+    let mut failures = Vec::new();
+    for (v, want) in cases {
+        let e = error_of(&v, &dir);
+        if !e.contains(want) {
+            failures.push(format!("expected {want:?} in {e:?}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    let e = error_of(&tet("part.e"), &dir);
+    assert!(e.contains("Exodus II meshes are not read yet"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
