@@ -29,6 +29,7 @@
 pub mod assemble;
 pub mod model;
 pub mod operator;
+pub mod quadrature;
 pub mod stencil;
 pub mod surface;
 

@@ -1,5 +1,6 @@
 //! Per-bond weights, the matrix-free apply and the nonlinear PMB force it linearizes.
 
+use crate::quadrature::{ball_fraction, equivalent_radius, Quadrature};
 use linpd_core::kernel::partial_volume;
 use linpd_core::{BondFamily, CoreError, Grid, Material, Micromodulus, Point, GEOMETRY_RTOL};
 use rayon::prelude::*;
@@ -102,10 +103,14 @@ impl BondOperator {
     /// `w_ij = c g(|xi|) nu_ij f_ij V_i V_j` with `f_ij` from `material` (phases by region,
     /// overridden per node by `moduli` when given) as on a lattice.
     ///
-    /// The partial-volume factor `nu_ij` uses the node size `h_ij = (V_i^(1/d) + V_j^(1/d)) / 2`
-    /// (a lattice's `h` when the volumes are `h^d`; the mean keeps `w_ij = w_ji`). The
-    /// micromodulus must not use [`linpd_core::Normalization::Discrete`] (a lattice sum): the
-    /// amplitude is taken with `h = 0`, which only that normalization reads.
+    /// The volume factor `nu_ij` is `quadrature`'s ([`crate::quadrature`]): 1 within
+    /// `delta` ([`Quadrature::Full`]), the one-sided ramp of node size `h_ij = (V_i^(1/d) +
+    /// V_j^(1/d)) / 2` ([`Quadrature::Ramp`]; a lattice's `h` when the volumes are `h^d`; the
+    /// mean keeps `w_ij = w_ji`), or the fraction of the neighbour's equivalent ball inside the
+    /// horizon ball ([`Quadrature::Ball`], bonds to `delta + max R`). The micromodulus must not
+    /// use [`linpd_core::Normalization::Discrete`] (a lattice sum): the amplitude is taken with
+    /// `h = 0`, which only that normalization reads; its `partial_volume` is ignored here.
+    #[allow(clippy::too_many_arguments)]
     pub fn on_points(
         dim: usize,
         positions: Vec<Point>,
@@ -114,6 +119,7 @@ impl BondOperator {
         micromodulus: &Micromodulus,
         material: &Material,
         moduli: Option<&[f64]>,
+        quadrature: Quadrature,
     ) -> Result<Self, CoreError> {
         if !(horizon.is_finite() && horizon > 0.0) {
             return Err(CoreError::param("horizon", format!("must be > 0, got {horizon:e}")));
@@ -128,7 +134,33 @@ impl BondOperator {
         let size: Vec<f64> = volumes.iter().map(|v| v.powf(1.0 / dim as f64)).collect();
         let h_min = size.iter().fold(f64::INFINITY, |m, &s| m.min(s));
         let tol = GEOMETRY_RTOL * h_min;
-        let family = BondFamily::from_points(&positions, dim, horizon);
+        let radius: Vec<f64> = volumes.iter().map(|&v| equivalent_radius(dim, v)).collect();
+        let r_max = radius.iter().fold(0.0f64, |m, &r| m.max(r));
+        let nu = |i: usize, j: usize, r: f64| match quadrature {
+            Quadrature::Full => 1.0,
+            Quadrature::Ramp => partial_volume(r, horizon, 0.5 * (size[i] + size[j])),
+            Quadrature::Ball => ball_fraction(dim, r, horizon, 0.5 * (radius[i] + radius[j])),
+        };
+        let family = match quadrature {
+            Quadrature::Ball => {
+                // bonds to delta + max R, of them those whose fraction is not 0
+                let wide = BondFamily::from_points(&positions, dim, horizon + r_max);
+                let lists = (0..wide.len())
+                    .into_par_iter()
+                    .map(|i| {
+                        let xi = positions[i];
+                        let within = |&j: &u32| {
+                            let xj = positions[j as usize];
+                            let r = (0..dim).map(|a| (xj[a] - xi[a]).powi(2)).sum::<f64>().sqrt();
+                            nu(i, j as usize, r) > 0.0
+                        };
+                        wide.neighbors(i).iter().copied().filter(within).collect()
+                    })
+                    .collect();
+                BondFamily::from_lists(lists)
+            }
+            _ => BondFamily::from_points(&positions, dim, horizon),
+        };
         let k_ref = micromodulus.reference_modulus();
         let own;
         let moduli = match moduli {
@@ -142,16 +174,12 @@ impl BondOperator {
         let weights: Vec<f64> = (0..family.len())
             .into_par_iter()
             .flat_map_iter(|i| {
-                let (xi, family, positions, size) = (positions[i], &family, &positions, &size);
+                let (xi, family, positions, nu) = (positions[i], &family, &positions, &nu);
                 family.neighbors(i).iter().map(move |&j| {
                     let j = j as usize;
                     let xj = positions[j];
                     let r = (0..dim).map(|a| (xj[a] - xi[a]).powi(2)).sum::<f64>().sqrt();
-                    let nu = if micromodulus.partial_volume {
-                        partial_volume(r, horizon, 0.5 * (size[i] + size[j]))
-                    } else {
-                        1.0
-                    };
+                    let nu = nu(i, j, r);
                     let (ki, kj) = moduli.map_or((k_ref, k_ref), |m| (m[i], m[j]));
                     let f = if material.is_homogeneous() && moduli.is_none() {
                         1.0

@@ -30,6 +30,9 @@ pub const MAX_CLOUD_BYTES: u64 = 1 << 30;
 /// (the same relative tolerance as the lattice's geometry tests).
 pub const DUPLICATE_RTOL: f64 = linpd_core::GEOMETRY_RTOL;
 
+/// Named node sets: per name the nodes (ascending, no repeats).
+pub type Sets = std::collections::BTreeMap<String, Vec<u32>>;
+
 /// The columns of a node file.
 #[derive(Debug, Default)]
 struct Columns {
@@ -54,8 +57,8 @@ pub struct Cloud {
     /// 1-based file line of each node (a VTK file: its 0-based point number; a Gmsh mesh: its
     /// element's tag), for messages.
     pub lines: Vec<u64>,
-    /// Named node sets of a mesh ([`crate::mesh`]; empty for CSV and VTK files).
-    pub sets: crate::mesh::Sets,
+    /// Named node sets of a mesh (read by `crate::mesh`; empty for CSV and VTK files).
+    pub sets: Sets,
 }
 
 /// Reads a CSV point cloud of dimension `dim`; errors name the file and the line.

@@ -33,15 +33,13 @@
 //! comments. `block_id` (an integer >= 1) is the node's phase and names a set `block_<id>`.
 //! A 2D scene's nodes must have `z = 0`.
 
+pub use crate::cloud::Sets;
 use crate::cloud::{Cloud, MAX_CLOUD_BYTES};
 use crate::IoError;
 use linpd_core::Point;
 use mshio::mshfile::ElementType;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::Path;
-
-/// Named node sets: per name the nodes (ascending, no repeats).
-pub type Sets = BTreeMap<String, Vec<u32>>;
 
 fn format(path: &Path, line: Option<u64>, reason: impl Into<String>) -> IoError {
     IoError::Format { path: path.display().to_string(), line, reason: reason.into() }

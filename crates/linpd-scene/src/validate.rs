@@ -789,12 +789,15 @@ pub(crate) fn material_with_tags(
 }
 
 /// The nodes of a scene whose nodes come from a file (`"nodes"` instead of `"grid"`), checked
-/// against the horizon and the memory of `path`; and their mean spacing ([`mean_spacing`]).
+/// against the horizon and the memory of `path` (with `ball`, the bonds of a ball quadrature,
+/// which reach `delta + max R`: [`linpd_bond::quadrature`]); and their mean spacing
+/// ([`mean_spacing`]).
 pub(crate) fn cloud_nodes(
     cx: &Context,
     spec: &RawNodes,
     horizon: f64,
     path: crate::memory::Path,
+    ball: bool,
 ) -> Result<(LevelNodes, f64), ProblemError> {
     let raw = cx.raw;
     let dim = raw.dimension;
@@ -839,7 +842,15 @@ pub(crate) fn cloud_nodes(
         && dim >= 2
         && (raw.solver.kind == crate::raw::RawSolverKind::Auto
             || raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid));
-    let _ = crate::memory::check_cloud(path, dim, &cloud.positions, horizon, multigrid)?;
+    // a ball quadrature bonds to delta + the largest equivalent radius
+    let reach = match ball {
+        true => {
+            horizon
+                + cloud.volumes.iter().fold(0.0f64, |m, &v| m.max(linpd_bond::quadrature::equivalent_radius(dim, v)))
+        }
+        false => horizon,
+    };
+    let _ = crate::memory::check_cloud(path, dim, &cloud.positions, reach, multigrid)?;
     Ok((crate::cloud::into_nodes(cloud, dim), h))
 }
 

@@ -29,8 +29,11 @@ pub struct BondCloudModel {
 pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond) -> Result<Validated, ProblemError> {
     let dim = cx.dim();
     refuse_lattice_keys(raw)?;
-    let (nodes, h) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::BondAssembled)?;
-    let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, raw.partial_volume)?;
+    let quadrature = super::bond_model::RawPartialVolume::quadrature(raw.partial_volume, true);
+    let ball = quadrature == linpd_bond::quadrature::Quadrature::Ball;
+    let (nodes, h) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::BondAssembled, ball)?;
+    let ramp = quadrature == linpd_bond::quadrature::Quadrature::Ramp;
+    let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, ramp)?;
     if micromodulus.normalization == linpd_core::Normalization::Discrete {
         return Err(ProblemError::invalid(
             "model.micromodulus.normalize",

@@ -11,6 +11,7 @@ use crate::scene::Problem;
 use crate::solution::Solution;
 use crate::validate::{bond_elastic, bond_micromodulus, defect_cuts_nothing, material, phase_moduli};
 use crate::ProblemError;
+use linpd_bond::quadrature::Quadrature;
 use linpd_bond::BondOperator;
 use linpd_core::surface::{CorrectionSummary, SurfaceTarget};
 use linpd_core::{Grid, Material, Micromodulus, Model};
@@ -27,9 +28,11 @@ pub struct RawBond {
     pub kind: String,
     /// Horizon `delta`.
     pub horizon: f64,
-    /// Partial-volume scaling at the horizon edge.
+    /// The neighbours' volumes at the horizon: `false` (whole), `true` (the one-sided ramp) or
+    /// `"ball"` (point clouds: the fraction of an equivalent ball inside the horizon,
+    /// [`linpd_bond::quadrature`]); default `false` on lattices, `"ball"` on point clouds.
     #[serde(default)]
-    pub partial_volume: bool,
+    pub partial_volume: Option<RawPartialVolume>,
     /// 2D assumption: `stress` or `strain`.
     #[serde(default)]
     pub plane: Option<RawPlane>,
@@ -107,6 +110,39 @@ pub struct BondModel {
     /// modulus in scene order: `result.json`'s `material`.
     pub(crate) elastic: Option<BondElastic>,
     pub(crate) phase_moduli: Vec<f64>,
+    /// A point cloud's weighting of the neighbours at the horizon ([`Quadrature::Full`] on a
+    /// lattice, whose ramp is `micromodulus.partial_volume`).
+    pub(crate) quadrature: Quadrature,
+}
+
+/// `model.partial_volume`: a flag or `"ball"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(untagged)]
+pub enum RawPartialVolume {
+    /// `true`: the one-sided ramp; `false`: whole volumes.
+    Flag(bool),
+    /// `"ball"`.
+    Named(RawPartialVolumeName),
+}
+
+/// The named `model.partial_volume` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawPartialVolumeName {
+    /// [`Quadrature::Ball`].
+    Ball,
+}
+
+impl RawPartialVolume {
+    /// The quadrature `value` names (`None`: the default of the nodes, `on_cloud`).
+    pub(crate) fn quadrature(value: Option<Self>, on_cloud: bool) -> Quadrature {
+        match value {
+            None if on_cloud => Quadrature::Ball,
+            None | Some(RawPartialVolume::Flag(false)) => Quadrature::Full,
+            Some(RawPartialVolume::Flag(true)) => Quadrature::Ramp,
+            Some(RawPartialVolume::Named(RawPartialVolumeName::Ball)) => Quadrature::Ball,
+        }
+    }
 }
 
 /// `model.surface_correction` and `model.surface_target` ([`linpd_core::surface`]).
@@ -122,7 +158,15 @@ impl BondModel {
     /// Validates the keys of a bond model on `grid` (every defect must cut a bond of it).
     pub(crate) fn validate(raw: &RawBond, grid: &Grid, dim: usize) -> Result<Self, ProblemError> {
         let horizon = raw.horizon;
-        let micromodulus = bond_micromodulus(dim, horizon, raw.micromodulus.as_ref(), raw.plane, raw.partial_volume)?;
+        if raw.partial_volume == Some(RawPartialVolume::Named(RawPartialVolumeName::Ball)) {
+            return Err(ProblemError::invalid(
+                "model.partial_volume",
+                "\"ball\" is for point clouds, whose neighbours sit at every distance (a lattice's sit at fixed \
+                 ones: true ramps them at the horizon)",
+            ));
+        }
+        let ramp = RawPartialVolume::quadrature(raw.partial_volume, false) == Quadrature::Ramp;
+        let micromodulus = bond_micromodulus(dim, horizon, raw.micromodulus.as_ref(), raw.plane, ramp)?;
         let elastic = bond_elastic(dim, &micromodulus);
         let material = material(&raw.material, dim, elastic)?;
         if let Some(k) = material.defect_cutting_nothing(grid, horizon) {
@@ -130,7 +174,8 @@ impl BondModel {
         }
         let surface = surface_of(false, raw.surface_correction, raw.surface_target)?;
         let phase_moduli = phase_moduli(&raw.material, elastic)?;
-        Ok(BondModel { horizon, micromodulus, material, node_moduli: None, surface, elastic, phase_moduli })
+        let quadrature = Quadrature::Full;
+        Ok(BondModel { horizon, micromodulus, material, node_moduli: None, surface, elastic, phase_moduli, quadrature })
     }
 
     /// The parameters of a bond model on a point cloud (its material may name phase numbers,
@@ -143,7 +188,17 @@ impl BondModel {
         (elastic, phase_moduli): (Option<BondElastic>, Vec<f64>),
     ) -> Self {
         let surface = Surface::default();
-        BondModel { horizon: raw.horizon, micromodulus, material, node_moduli, surface, elastic, phase_moduli }
+        let quadrature = RawPartialVolume::quadrature(raw.partial_volume, true);
+        BondModel {
+            horizon: raw.horizon,
+            micromodulus,
+            material,
+            node_moduli,
+            surface,
+            elastic,
+            phase_moduli,
+            quadrature,
+        }
     }
 
     /// `(E, nu)` of the nodes at `x` (their phases' moduli; a cloud's per-node moduli when `x`
@@ -166,6 +221,10 @@ impl BondModel {
     /// Horizon.
     pub fn horizon(&self) -> f64 {
         self.horizon
+    }
+    /// A point cloud's weighting of the neighbours at the horizon.
+    pub fn quadrature(&self) -> Quadrature {
+        self.quadrature
     }
     /// Micromodulus.
     pub fn micromodulus(&self) -> &Micromodulus {
@@ -192,6 +251,7 @@ impl BondModel {
                 &self.micromodulus,
                 &self.material,
                 self.node_moduli.as_deref(),
+                self.quadrature,
             ),
             Nodes::Lattice(grid) => BondOperator::on_grid(grid, self.horizon, &self.micromodulus, &self.material),
             Nodes::Level(_) => unreachable!("a bond model lives on a lattice or a point cloud"),

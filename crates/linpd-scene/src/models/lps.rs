@@ -93,7 +93,7 @@ impl ModelType for LpsType {
             if correction || raw.surface_target.is_some() {
                 return Err(no_surface_correction(correction));
             }
-            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::LpsAssembled)?;
+            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::LpsAssembled, false)?;
             let ratio = raw.horizon / crate::nodes::NodeSet::spacing(&nodes);
             let n = crate::nodes::NodeSet::count(&nodes);
             crate::memory::check_lps_work(n, crate::memory::neighbours(dim, ratio), ratio)?;
