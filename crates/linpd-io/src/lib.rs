@@ -8,6 +8,7 @@
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
 
 pub mod cloud;
+pub mod exodus;
 pub mod mesh;
 pub mod mtx;
 pub mod nodal;

@@ -262,7 +262,7 @@ fn physical_names(bytes: &[u8]) -> HashMap<(i32, i32), String> {
 
 /// The signed volume and the centroid of a linear element with vertices `x` (Gmsh's order),
 /// `None` for a type not read.
-fn measure(kind: ElementType, x: &[Point]) -> Option<(f64, Point)> {
+pub(crate) fn measure(kind: ElementType, x: &[Point]) -> Option<(f64, Point)> {
     match (kind, x.len()) {
         (ElementType::Tri3, 3) => {
             let a = 0.5 * cross2(sub(x[1], x[0]), sub(x[2], x[0]));
