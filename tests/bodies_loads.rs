@@ -350,6 +350,8 @@ fn cut_volumes_recover_the_area_and_weigh_the_bonds() {
         o.remove(k);
     }
     c["nodes"] = json!({"csv": dir.join("cut.csv").to_str().unwrap()});
+    // the lattice's whole volumes (a cloud's default is the ball fraction)
+    c["model"]["partial_volume"] = json!(false);
     let on_cloud = Problem::from_json(&c.to_string()).unwrap().solve(&NoProgress).unwrap();
     let scale = sol.u.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let diff = sol.u.iter().zip(&on_cloud.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())) / scale;

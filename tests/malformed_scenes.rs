@@ -235,7 +235,7 @@ fn cases() -> Vec<Case> {
             "wrong type inside the tagged model",
             e1(set("model", "partial_volume", json!("yes"))),
             "model.partial_volume",
-            "invalid type: string \"yes\", expected a boolean",
+            "expected true, false or \"ball\", got \"yes\"",
         ),
         parse(
             "wrong type inside a tagged load",

@@ -230,6 +230,20 @@ fn bad_meshes_and_sets_are_named() {
             "model.partial_volume: \"ball\" is for point clouds",
         ),
         (in_2d, "bracket-mesh-3d.msh: has 3D elements"),
+        (
+            with(&|v| {
+                v["model"]["surface_correction"] = json!("energy");
+                v["model"]["micromodulus"] = json!({"kernel": "constant", "amplitude": 1.0, "normalize": "none"});
+            }),
+            "model.micromodulus.normalize: the energy correction on a point cloud matches each node to the continuum's moments",
+        ),
+        (
+            with(&|v| {
+                v["model"]["surface_correction"] = json!("energy");
+                v["model"]["surface_target"] = json!("lattice");
+            }),
+            "model.surface_target: \"lattice\" matches an interior lattice's moments, and a point cloud has none",
+        ),
     ];
     let mut failures = Vec::new();
     for (v, want) in cases {

@@ -1,6 +1,6 @@
 //! Per-bond weights, the matrix-free apply and the nonlinear PMB force it linearizes.
 
-use crate::quadrature::{ball_fraction, equivalent_radius, Quadrature};
+use crate::quadrature::{equivalent_radius, volume_factor, Quadrature};
 use linpd_core::kernel::partial_volume;
 use linpd_core::{BondFamily, CoreError, Grid, Material, Micromodulus, Point, GEOMETRY_RTOL};
 use rayon::prelude::*;
@@ -134,13 +134,8 @@ impl BondOperator {
         let size: Vec<f64> = volumes.iter().map(|v| v.powf(1.0 / dim as f64)).collect();
         let h_min = size.iter().fold(f64::INFINITY, |m, &s| m.min(s));
         let tol = GEOMETRY_RTOL * h_min;
-        let radius: Vec<f64> = volumes.iter().map(|&v| equivalent_radius(dim, v)).collect();
-        let r_max = radius.iter().fold(0.0f64, |m, &r| m.max(r));
-        let nu = |i: usize, j: usize, r: f64| match quadrature {
-            Quadrature::Full => 1.0,
-            Quadrature::Ramp => partial_volume(r, horizon, 0.5 * (size[i] + size[j])),
-            Quadrature::Ball => ball_fraction(dim, r, horizon, 0.5 * (radius[i] + radius[j])),
-        };
+        let r_max = volumes.iter().fold(0.0f64, |m, &v| m.max(equivalent_radius(dim, v)));
+        let nu = |i: usize, j: usize, r: f64| volume_factor(quadrature, dim, r, horizon, volumes[i], volumes[j]);
         let family = match quadrature {
             Quadrature::Ball => {
                 // bonds to delta + max R, of them those whose fraction is not 0

@@ -36,6 +36,24 @@ pub enum Quadrature {
     Ball,
 }
 
+/// The volume factor `nu_ij` of a bond of length `r` between nodes of volumes `v_i`, `v_j`
+/// (symmetric in the pair): 1 ([`Quadrature::Full`]), the ramp of the mean node size
+/// ([`Quadrature::Ramp`]) or the ball fraction of the mean equivalent radius
+/// ([`Quadrature::Ball`]).
+pub fn volume_factor(q: Quadrature, dim: usize, r: f64, horizon: f64, v_i: f64, v_j: f64) -> f64 {
+    match q {
+        Quadrature::Full => 1.0,
+        Quadrature::Ramp => {
+            let h = 0.5 * (v_i.powf(1.0 / dim as f64) + v_j.powf(1.0 / dim as f64));
+            linpd_core::kernel::partial_volume(r, horizon, h)
+        }
+        Quadrature::Ball => {
+            let radius = 0.5 * (equivalent_radius(dim, v_i) + equivalent_radius(dim, v_j));
+            ball_fraction(dim, r, horizon, radius)
+        }
+    }
+}
+
 /// The radius of the ball of volume `v` in dimension `dim` (the half length in 1D).
 pub fn equivalent_radius(dim: usize, v: f64) -> f64 {
     match dim {

@@ -103,4 +103,41 @@ impl BondOperator {
         self.weights.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
         (self, summary)
     }
+
+    /// The operator on a point cloud with the `energy` correction (S3), (S5) towards the
+    /// classical target ([`linpd_core::surface::cloud_factors`]): every node's bond moments,
+    /// `beta_ij = g(|xi|) nu_ij V_j |xi|^2` with the cloud's `quadrature`, matched to the
+    /// isotropic moments of the continuum normalization's trace, so that each node stores the
+    /// classical energy of the scene's modulus under the affine states; `layer` nodes keep
+    /// their bonds (constraints and loads go there). `volumes`, `horizon`, `micromodulus` and
+    /// `quadrature` must be those the operator was built with ([`BondOperator::on_points`]).
+    /// `None` when the micromodulus is not normalized by the continuum (the target's trace is
+    /// the continuum integral; a cloud has no lattice sum).
+    pub fn with_cloud_energy_correction(
+        mut self,
+        volumes: &[f64],
+        layer: &[bool],
+        horizon: f64,
+        micromodulus: &Micromodulus,
+        quadrature: crate::quadrature::Quadrature,
+    ) -> Option<(Self, CorrectionSummary)> {
+        if micromodulus.normalization != Normalization::Continuum {
+            return None;
+        }
+        let dim = self.dim();
+        let trace = micromodulus.continuum_moment(dim, horizon);
+        let bond = |i: usize, b: usize| {
+            let j = self.family().neighbors(i)[b] as usize;
+            (self.weights(i)[b] > 0.0).then(|| {
+                let xi = self.bond_vector(i, j);
+                let r = (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]).sqrt();
+                let nu = crate::quadrature::volume_factor(quadrature, dim, r, horizon, volumes[i], volumes[j]);
+                (self.unit(i, j), micromodulus.kernel.shape(r, horizon) * nu * volumes[j] * r * r)
+            })
+        };
+        let (factors, summary) =
+            linpd_core::surface::cloud_factors(dim, self.family(), bond, layer, MeanOfEndsScaled, "energy", trace);
+        self.weights.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
+        Some((self, summary))
+    }
 }

@@ -440,6 +440,41 @@ pub fn family_factors(
         .collect();
     let surface_nodes = fits.iter().filter(|f| f.1).count();
     let fits: Vec<MomentFit> = fits.into_iter().map(|f| f.0).collect();
+    let bulk_range = stencil.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |r, (n, _)| {
+        let f = bulk.factor(dim, n);
+        [r[0].min(f), r[1].max(f)]
+    });
+    let bond_beta = |i: usize, b: usize| {
+        let j = family.neighbors(i)[b] as usize;
+        bond(i, b).map(|(n, r)| (n, beta(r, grid.node_volume(j))))
+    };
+    let fitted = Fitted { fits, surface_nodes, interior_range: bulk_range, start };
+    let what = (kind, target, moment_trace(dim, &goal));
+    combine(dim, family, fitted, &bond_beta, &|i| grid.is_layer(i), rule, what)
+}
+
+/// The fits of every node and what the summary reports of them.
+struct Fitted {
+    fits: Vec<MomentFit>,
+    surface_nodes: usize,
+    interior_range: [f64; 2],
+    start: std::time::Instant,
+}
+
+/// The bond factors of the node fits `fitted` by `rule` ((S3), and (S5) with the target's
+/// trace), and the summary. `bond(i, b)`: the unit vector and `beta` of node `i`'s `b`-th bond
+/// (`None`: a bond that does not count, factor 1); `layer(i)`: nodes that keep their scale.
+fn combine(
+    dim: usize,
+    family: &crate::BondFamily,
+    fitted: Fitted,
+    bond: &(impl Fn(usize, usize) -> Option<([f64; 3], f64)> + Sync),
+    layer: &(impl Fn(usize) -> bool + Sync),
+    rule: FactorRule,
+    (kind, target, trace): (&'static str, SurfaceTarget, f64),
+) -> (Vec<f64>, CorrectionSummary) {
+    use rayon::prelude::*;
+    let fits = &fitted.fits;
     let per_node = rule == FactorRule::OwnEnd;
     let mut per_bond: Vec<Vec<f64>> = (0..family.len())
         .into_par_iter()
@@ -462,38 +497,82 @@ pub fn family_factors(
         })
         .collect();
     if rule == FactorRule::MeanOfEndsScaled {
-        scale_by_traces(grid, family, &beta, &bond, moment_trace(dim, &goal), &mut per_bond);
+        scale_by_traces(family, layer, bond, trace, &mut per_bond);
     }
     let factors: Vec<f64> = per_bond.into_iter().flatten().collect();
     let range = factors
         .iter()
         .filter(|&&f| f != 1.0)
         .fold([f64::INFINITY, f64::NEG_INFINITY], |r, &f| [r[0].min(f), r[1].max(f)]);
-    let bulk_range = stencil.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |r, (n, _)| {
-        let f = bulk.factor(dim, n);
-        [r[0].min(f), r[1].max(f)]
-    });
     let summary = CorrectionSummary {
         kind,
         target,
-        corrected_nodes: surface_nodes,
-        interior_factor_range: bulk_range,
+        corrected_nodes: fitted.surface_nodes,
+        interior_factor_range: fitted.interior_range,
         factor_range: if range[0] > range[1] { [1.0, 1.0] } else { range },
         max_mismatch: fits.iter().fold(0.0, |m, f| m.max(f.mismatch)),
         max_iterations: fits.iter().map(|f| f.iterations).max().unwrap_or(0),
         out_of_reach_nodes: fits.iter().filter(|f| f.out_of_reach).count(),
-        seconds: start.elapsed().as_secs_f64(),
+        seconds: fitted.start.elapsed().as_secs_f64(),
     };
     (factors, summary)
+}
+
+/// The factors of a moment-matching correction on a point cloud: as [`family_factors`] with the
+/// classical target of trace `trace` (a cloud has no lattice stencil to match), every node not
+/// in `layer` fitted on its own (an irregular cloud's interior families differ from node to
+/// node, so the fit also evens out their quadrature), and the `layer` nodes, as a lattice's,
+/// treated as interior: they take the fit of the fullest family (the largest moment trace),
+/// which on a cloud of a lattice's nodes is the full lattice family's fit; `bond(i, b)`: the
+/// unit vector and the geometric weight `beta` of node `i`'s `b`-th bond (`None`: a bond that
+/// does not count).
+pub fn cloud_factors(
+    dim: usize,
+    family: &crate::BondFamily,
+    bond: impl Fn(usize, usize) -> Option<([f64; 3], f64)> + Sync,
+    layer: &[bool],
+    rule: FactorRule,
+    kind: &'static str,
+    trace: f64,
+) -> (Vec<f64>, CorrectionSummary) {
+    use rayon::prelude::*;
+    let start = std::time::Instant::now();
+    let goal = isotropic_moments(dim, trace);
+    let is_layer = |i: usize| layer.get(i).copied().unwrap_or(false);
+    let bonds_of =
+        |i: usize| -> Vec<([f64; 3], f64)> { (0..family.neighbors(i).len()).filter_map(|b| bond(i, b)).collect() };
+    let mut fits: Vec<MomentFit> = (0..family.len())
+        .into_par_iter()
+        .map(|i| if is_layer(i) { MomentFit::identity(dim) } else { fit_moments(dim, &bonds_of(i), &goal) })
+        .collect();
+    // the layer as interior, as on a lattice: the fit of the fullest family (the largest
+    // moment trace), a full lattice family's fit on a cloud of lattice nodes
+    let fullest = (0..family.len())
+        .filter(|&i| !is_layer(i))
+        .map(|i| (i, moment_trace(dim, &moments(dim, bonds_of(i)))))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| fits[i].clone());
+    if let Some(bulk) = fullest {
+        (0..family.len()).filter(|&i| is_layer(i)).for_each(|i| fits[i] = bulk.clone());
+    }
+    let surface_nodes = (0..family.len()).filter(|&i| !is_layer(i)).count();
+    // the spread of the interior's factors is the whole cloud's here
+    let range = (0..family.len()).filter(|&i| !is_layer(i)).fold([f64::INFINITY, f64::NEG_INFINITY], |r, i| {
+        (0..family.neighbors(i).len()).filter_map(|b| bond(i, b)).fold(r, |r, (n, _)| {
+            let f = fits[i].factor(dim, &n);
+            [r[0].min(f), r[1].max(f)]
+        })
+    });
+    let fitted = Fitted { fits, surface_nodes, interior_range: range, start };
+    combine(dim, family, fitted, &bond, &is_layer, rule, (kind, SurfaceTarget::Classical, trace))
 }
 
 /// (S5): every node's trace ratio `r_i = tr T* / sum_j beta_ij f_ij` under the bond factors
 /// `f_ij` of (S3) (1 on the layer, and snapped to 1 within [`INTERIOR_RTOL`] so that interior
 /// nodes stay bit for bit alike), then `f_ij *= (r_i + r_j) / 2`.
 fn scale_by_traces(
-    grid: &crate::Grid,
     family: &crate::BondFamily,
-    beta: &(impl Fn(f64, f64) -> f64 + Sync),
+    layer: &(impl Fn(usize) -> bool + Sync),
     bond: &(impl Fn(usize, usize) -> Option<([f64; 3], f64)> + Sync),
     trace: f64,
     per_bond: &mut [Vec<f64>],
@@ -502,15 +581,11 @@ fn scale_by_traces(
     let ratio: Vec<f64> = (0..family.len())
         .into_par_iter()
         .map(|i| {
-            if grid.is_layer(i) {
+            if layer(i) {
                 return 1.0;
             }
-            let m: f64 = family
-                .neighbors(i)
-                .iter()
-                .enumerate()
-                .filter_map(|(b, &j)| bond(i, b).map(|(_, r)| beta(r, grid.node_volume(j as usize)) * per_bond[i][b]))
-                .sum();
+            let m: f64 =
+                (0..family.neighbors(i).len()).filter_map(|b| bond(i, b).map(|(_, beta)| beta * per_bond[i][b])).sum();
             let r = trace / m;
             if m <= 0.0 || (r - 1.0).abs() <= INTERIOR_RTOL {
                 1.0

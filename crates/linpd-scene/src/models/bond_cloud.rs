@@ -5,12 +5,10 @@ use super::bond_model::{self, BondModel, RawBond};
 use super::registry::Validated;
 use super::{Capability, Purpose, SceneModel, System};
 use crate::nodes::{LevelNodes, Nodes};
-use crate::raw::RawSurfaceCorrection;
 use crate::scene::Problem;
 use crate::solution::Solution;
 use crate::validate::{
-    bond_micromodulus, check_defects, cloud_nodes, material_with_tags, no_surface_correction, region, Context,
-    NOT_COARSENED,
+    bond_micromodulus, check_defects, cloud_nodes, material_with_tags, region, Context, NOT_COARSENED,
 };
 use crate::ProblemError;
 use linpd_core::progress::Progress;
@@ -46,15 +44,32 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
     let moduli = crate::validate::phase_moduli(&raw.material, elastic)?;
     let node_moduli = tagged_moduli(&raw.material, &moduli, &nodes, micromodulus.reference_modulus())?;
     check_defects(&material, &nodes, raw.horizon)?;
-    let bond = BondModel::on_cloud(raw, micromodulus, material, node_moduli, (elastic, moduli));
+    let surface = bond_model::surface_of(false, raw.surface_correction, raw.surface_target)?;
+    if surface.correction != linpd_lps::SurfaceCorrection::None
+        && micromodulus.normalization != linpd_core::Normalization::Continuum
+    {
+        return Err(correction_needs_continuum());
+    }
+    let bond = BondModel::on_cloud(raw, micromodulus, material, node_moduli, (elastic, moduli), surface);
     Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(BondCloudModel { bond }) })
 }
 
-/// The keys that need a lattice: a surface correction and `pd_regions`.
+/// The error of a surface correction on a cloud whose micromodulus is not normalized by the
+/// continuum (the correction's target is the continuum's moment).
+pub(crate) fn correction_needs_continuum() -> ProblemError {
+    ProblemError::invalid(
+        "model.micromodulus.normalize",
+        "the energy correction on a point cloud matches each node to the continuum's moments: use \"continuum\"",
+    )
+}
+
+/// The keys that need a lattice: the lattice target of a surface correction and `pd_regions`.
 fn refuse_lattice_keys(raw: &RawBond) -> Result<(), ProblemError> {
-    let correction = raw.surface_correction.is_some_and(|c| c != RawSurfaceCorrection::None);
-    if correction || raw.surface_target.is_some() {
-        return Err(no_surface_correction(correction));
+    if raw.surface_target == Some(crate::raw::RawSurfaceTarget::Lattice) {
+        return Err(ProblemError::invalid(
+            "model.surface_target",
+            "\"lattice\" matches an interior lattice's moments, and a point cloud has none: use \"classical\"",
+        ));
     }
     if raw.pd_regions.is_some() {
         return Err(ProblemError::invalid(
@@ -104,7 +119,7 @@ impl SceneModel for BondCloudModel {
     /// A point cloud was checked against memory when the scene was validated.
     fn system(&self, p: &Problem, _: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
         progress.phase(&format!("building bonds: {} nodes of the point cloud", p.nodes().len()));
-        let (op, _) = self.bond.operator(p.nodes())?;
+        let (op, correction) = self.bond.operator(p.nodes())?;
         let (n, bonds) = (p.nodes().len(), op.family().n_bonds());
         let (_, mut bytes) = crate::memory::estimate_counts(
             crate::memory::Path::BondAssembled,
@@ -125,7 +140,7 @@ impl SceneModel for BondCloudModel {
             model: Arc::new(op),
             bc: p.dirichlet(),
             f: p.load_vector(),
-            notes: Vec::new(),
+            notes: correction.map(|c| c.describe()).into_iter().collect(),
             built_before: 0.0,
             memory_estimate: Some(bytes),
         })

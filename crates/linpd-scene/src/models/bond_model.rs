@@ -116,8 +116,7 @@ pub struct BondModel {
 }
 
 /// `model.partial_volume`: a flag or `"ball"`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(untagged)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RawPartialVolume {
     /// `true`: the one-sided ramp; `false`: whole volumes.
     Flag(bool),
@@ -126,11 +125,22 @@ pub enum RawPartialVolume {
 }
 
 /// The named `model.partial_volume` values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RawPartialVolumeName {
     /// [`Quadrature::Ball`].
     Ball,
+}
+
+impl<'de> Deserialize<'de> for RawPartialVolume {
+    /// `true`, `false` or `"ball"`, anything else named (an untagged enum would only say that
+    /// no variant matched).
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        match serde_json::Value::deserialize(d)? {
+            serde_json::Value::Bool(b) => Ok(RawPartialVolume::Flag(b)),
+            serde_json::Value::String(s) if s == "ball" => Ok(RawPartialVolume::Named(RawPartialVolumeName::Ball)),
+            other => Err(serde::de::Error::custom(format!("expected true, false or \"ball\", got {other}"))),
+        }
+    }
 }
 
 impl RawPartialVolume {
@@ -186,8 +196,8 @@ impl BondModel {
         material: Material,
         node_moduli: Option<Vec<f64>>,
         (elastic, phase_moduli): (Option<BondElastic>, Vec<f64>),
+        surface: Surface,
     ) -> Self {
-        let surface = Surface::default();
         let quadrature = RawPartialVolume::quadrature(raw.partial_volume, true);
         BondModel {
             horizon: raw.horizon,
@@ -262,6 +272,13 @@ impl BondModel {
                 let (op, summary) =
                     op.with_energy_correction(grid, self.horizon, &self.micromodulus, self.surface.target);
                 (op, Some(summary))
+            }
+            (SurfaceCorrection::Energy, Nodes::Cloud(c)) => {
+                let m = &self.micromodulus;
+                match op.with_cloud_energy_correction(&c.volumes, &c.layer, self.horizon, m, self.quadrature) {
+                    Some((op, summary)) => (op, Some(summary)),
+                    None => return Err(super::bond_cloud::correction_needs_continuum()),
+                }
             }
             _ => (op, None),
         })
