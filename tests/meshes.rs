@@ -334,3 +334,47 @@ f.close()
     assert!(e.contains("quadratic.e: block 1 (connect1): elem_type \"TETRA10\" with 10 nodes is not read"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The meshed plate with a hole against finite elements (examples/fe_plate_hole.py:
+/// scikit-fem, P2 triangles on the same mesh refined once, converged to 1e-5 at the PD nodes):
+/// with the `energy` correction (the bundled scene) the right edge's mean `u_x` within 0.5 %
+/// of the FE's (measured +0.26 %; the target is 2 %) and the largest nodal difference
+/// within 5 % of max |u| (measured 3.9 %, at the pinned point and the hole's edge, where the
+/// nonlocal model differs from the local one by its horizon); without it the edge is further
+/// off (measured +0.83 %): the correction is what brings it there.
+#[test]
+fn meshed_plate_matches_finite_elements() {
+    let dir = scratch("fe");
+    let compare = |scene: &Value, name: &str| -> (f64, f64) {
+        let path = dir.join(format!("{name}.json"));
+        let out = dir.join(name);
+        std::fs::write(&path, scene.to_string()).unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_linpd"))
+            .args(["solve", path.to_str().unwrap(), "--out", out.to_str().unwrap(), "-q"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join("fe_plate_hole.py");
+        let mesh = data("plate-hole-mesh-2d.msh");
+        let result = out.join("result.json");
+        let o = Command::new("python3")
+            .args([script.to_str().unwrap(), mesh.to_str().unwrap(), "1", result.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "fe_plate_hole.py: {}", String::from_utf8_lossy(&o.stderr));
+        let line = String::from_utf8_lossy(&o.stdout).lines().rfind(|l| l.starts_with('{')).unwrap().to_string();
+        let r: Value = serde_json::from_str(&line).unwrap();
+        let edge = r["edge_u_x"].as_f64().unwrap() / r["edge_u_x_fe"].as_f64().unwrap() - 1.0;
+        (edge, r["max_error"].as_f64().unwrap())
+    };
+    let mut scene_v = scene("plate-hole-mesh-2d.json");
+    scene_v["nodes"]["mesh"] = json!(data("plate-hole-mesh-2d.msh").to_str().unwrap());
+    let (edge, max) = compare(&scene_v, "corrected");
+    eprintln!("corrected: edge {edge:+.4e}, max {max:.4e}");
+    assert!(edge.abs() <= 5e-3 && max <= 0.05, "corrected: edge {edge:e}, max {max:e}");
+    scene_v["model"].as_object_mut().unwrap().remove("surface_correction");
+    let (plain, _) = compare(&scene_v, "plain");
+    eprintln!("uncorrected: edge {plain:+.4e}");
+    assert!(plain.abs() > 2.0 * edge.abs(), "uncorrected {plain:e} against corrected {edge:e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
