@@ -118,8 +118,9 @@ fn solved_patch_gives_the_affine_strain_and_stress_along_a_probe() {
         }
         let stress = samples.stress.as_ref().unwrap()[k];
         assert!((stress[0] - sxx).abs() <= 1e-9 * sxx.abs(), "point {k}: sigma_xx {} vs {sxx}", stress[0]);
-        assert_eq!(samples.columns().len(), 1 + 2 + 1 + 2 + 3 + 3 + 1);
     }
+    // s, x, y, inside, u_x, u_y, three strains, three stresses, von Mises
+    assert_eq!(samples.columns().len(), 1 + 2 + 1 + 2 + 3 + 3 + 1);
 }
 
 /// At a lattice node the probe takes the node's own values (the `d`-linear weights are 1 and

@@ -1,6 +1,6 @@
 //! Per-bond weights, the matrix-free apply and the nonlinear PMB force it linearizes.
 
-use crate::quadrature::{equivalent_radius, volume_factor, Quadrature};
+use crate::quadrature::{volume_factor, Quadrature};
 use linpd_core::kernel::partial_volume;
 use linpd_core::{BondFamily, CoreError, Grid, Material, Micromodulus, Point, GEOMETRY_RTOL};
 use rayon::prelude::*;
@@ -131,11 +131,12 @@ impl BondOperator {
         micromodulus.validate(dim)?;
         material.validate(dim)?;
         let c = micromodulus.amplitude(dim, horizon, 0.0)?;
-        let size: Vec<f64> = volumes.iter().map(|v| v.powf(1.0 / dim as f64)).collect();
-        let h_min = size.iter().fold(f64::INFINITY, |m, &s| m.min(s));
+        let h_min = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
         let tol = GEOMETRY_RTOL * h_min;
-        let r_max = volumes.iter().fold(0.0f64, |m, &v| m.max(equivalent_radius(dim, v)));
-        let nu = |i: usize, j: usize, r: f64| volume_factor(quadrature, dim, r, horizon, volumes[i], volumes[j]);
+        let scale: Vec<f64> = volumes.iter().map(|&v| quadrature.node_scale(dim, v)).collect();
+        // the largest equivalent radius (the ball quadrature's scales), how far bonds reach
+        let r_max = scale.iter().fold(0.0f64, |m, &s| m.max(s));
+        let nu = |i: usize, j: usize, r: f64| volume_factor(quadrature, dim, r, horizon, scale[i], scale[j]);
         let family = match quadrature {
             Quadrature::Ball => {
                 // bonds to delta + max R, of them those whose fraction is not 0

@@ -36,21 +36,28 @@ pub enum Quadrature {
     Ball,
 }
 
-/// The volume factor `nu_ij` of a bond of length `r` between nodes of volumes `v_i`, `v_j`
-/// (symmetric in the pair): 1 ([`Quadrature::Full`]), the ramp of the mean node size
-/// ([`Quadrature::Ramp`]) or the ball fraction of the mean equivalent radius
+impl Quadrature {
+    /// The per-node length [`volume_factor`] reads, computed once per node: the node size
+    /// `V^(1/d)` ([`Quadrature::Ramp`]), the equivalent radius ([`Quadrature::Ball`]), 0
+    /// ([`Quadrature::Full`]).
+    pub fn node_scale(self, dim: usize, v: f64) -> f64 {
+        match self {
+            Quadrature::Full => 0.0,
+            Quadrature::Ramp => v.powf(1.0 / dim as f64),
+            Quadrature::Ball => equivalent_radius(dim, v),
+        }
+    }
+}
+
+/// The volume factor `nu_ij` of a bond of length `r` between nodes of scales `s_i`, `s_j`
+/// ([`Quadrature::node_scale`]; symmetric in the pair): 1 ([`Quadrature::Full`]), the ramp of
+/// the mean node size ([`Quadrature::Ramp`]) or the ball fraction of the mean equivalent radius
 /// ([`Quadrature::Ball`]).
-pub fn volume_factor(q: Quadrature, dim: usize, r: f64, horizon: f64, v_i: f64, v_j: f64) -> f64 {
+pub fn volume_factor(q: Quadrature, dim: usize, r: f64, horizon: f64, s_i: f64, s_j: f64) -> f64 {
     match q {
         Quadrature::Full => 1.0,
-        Quadrature::Ramp => {
-            let h = 0.5 * (v_i.powf(1.0 / dim as f64) + v_j.powf(1.0 / dim as f64));
-            linpd_core::kernel::partial_volume(r, horizon, h)
-        }
-        Quadrature::Ball => {
-            let radius = 0.5 * (equivalent_radius(dim, v_i) + equivalent_radius(dim, v_j));
-            ball_fraction(dim, r, horizon, radius)
-        }
+        Quadrature::Ramp => linpd_core::kernel::partial_volume(r, horizon, 0.5 * (s_i + s_j)),
+        Quadrature::Ball => ball_fraction(dim, r, horizon, 0.5 * (s_i + s_j)),
     }
 }
 

@@ -126,12 +126,13 @@ impl BondOperator {
         }
         let dim = self.dim();
         let trace = micromodulus.continuum_moment(dim, horizon);
+        let scale: Vec<f64> = volumes.iter().map(|&v| quadrature.node_scale(dim, v)).collect();
         let bond = |i: usize, b: usize| {
             let j = self.family().neighbors(i)[b] as usize;
             (self.weights(i)[b] > 0.0).then(|| {
                 let xi = self.bond_vector(i, j);
                 let r = (xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]).sqrt();
-                let nu = crate::quadrature::volume_factor(quadrature, dim, r, horizon, volumes[i], volumes[j]);
+                let nu = crate::quadrature::volume_factor(quadrature, dim, r, horizon, scale[i], scale[j]);
                 (self.unit(i, j), micromodulus.kernel.shape(r, horizon) * nu * volumes[j] * r * r)
             })
         };

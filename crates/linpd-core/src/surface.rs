@@ -539,20 +539,23 @@ pub fn cloud_factors(
     let start = std::time::Instant::now();
     let goal = isotropic_moments(dim, trace);
     let is_layer = |i: usize| layer.get(i).copied().unwrap_or(false);
-    let bonds_of =
-        |i: usize| -> Vec<([f64; 3], f64)> { (0..family.neighbors(i).len()).filter_map(|b| bond(i, b)).collect() };
-    let mut fits: Vec<MomentFit> = (0..family.len())
+    // each node's fit and its moments' trace (the layer's fits are set below)
+    let fitted: Vec<(MomentFit, f64)> = (0..family.len())
         .into_par_iter()
-        .map(|i| if is_layer(i) { MomentFit::identity(dim) } else { fit_moments(dim, &bonds_of(i), &goal) })
+        .map(|i| {
+            if is_layer(i) {
+                return (MomentFit::identity(dim), f64::NEG_INFINITY);
+            }
+            let bonds: Vec<([f64; 3], f64)> = (0..family.neighbors(i).len()).filter_map(|b| bond(i, b)).collect();
+            (fit_moments(dim, &bonds, &goal), moment_trace(dim, &moments(dim, bonds.iter().copied())))
+        })
         .collect();
     // the layer as interior, as on a lattice: the fit of the fullest family (the largest
     // moment trace), a full lattice family's fit on a cloud of lattice nodes
-    let fullest = (0..family.len())
-        .filter(|&i| !is_layer(i))
-        .map(|i| (i, moment_trace(dim, &moments(dim, bonds_of(i)))))
-        .max_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(i, _)| fits[i].clone());
-    if let Some(bulk) = fullest {
+    let fullest = (0..family.len()).filter(|&i| !is_layer(i)).max_by(|&a, &b| fitted[a].1.total_cmp(&fitted[b].1));
+    let bulk = fullest.map(|i| fitted[i].0.clone());
+    let mut fits: Vec<MomentFit> = fitted.into_iter().map(|f| f.0).collect();
+    if let Some(bulk) = bulk {
         (0..family.len()).filter(|&i| is_layer(i)).for_each(|i| fits[i] = bulk.clone());
     }
     let surface_nodes = (0..family.len()).filter(|&i| !is_layer(i)).count();

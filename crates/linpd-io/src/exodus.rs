@@ -145,10 +145,7 @@ fn read_names(r: &mut FileReader, name: &str, count: usize) -> Vec<Option<String
 
 /// Reads an Exodus II mesh for a `dim`-dimensional scene (see the module docs).
 pub fn read_exodus(path: &Path, dim: usize) -> Result<Cloud, IoError> {
-    let len = std::fs::metadata(path).map_err(IoError::os(path))?.len();
-    if len > crate::cloud::MAX_CLOUD_BYTES {
-        return Err(format(path, format!("{len} bytes is more than a mesh may have")));
-    }
+    crate::mesh::check_size(path)?;
     let mut r =
         FileReader::open(path).map_err(|e| format(path, format!("not a classic netCDF (Exodus II) file: {e}")))?;
     let ds = Meta::of(r.data_set());
@@ -220,15 +217,8 @@ pub fn read_exodus(path: &Path, dim: usize) -> Result<Cloud, IoError> {
                 })?;
             let x: Vec<Point> = vertices.iter().map(|&n| coords[n]).collect();
             let (v, centroid) = crate::mesh::measure(kind.gmsh, &x).unwrap_or((f64::NAN, [0.0; 3]));
-            if dim == 2 && orientation == 0.0 {
-                orientation = v.signum();
-            }
-            let v = if dim == 2 { v * orientation } else { v };
-            if !(v > 0.0) {
-                let why =
-                    if v == 0.0 || v.is_nan() { "degenerate (zero volume)" } else { "inverted (negative volume)" };
-                return Err(format(path, format!("element {tag} is {why}: volume {v:e}")));
-            }
+            let v = crate::mesh::oriented_volume(dim, &mut orientation, v)
+                .map_err(|why| format(path, format!("element {tag} {why}")))?;
             cloud.sets.entry(name.clone()).or_default().push(cloud.positions.len() as u32);
             cloud.positions.push(centroid);
             cloud.volumes.push(v);
@@ -243,10 +233,7 @@ pub fn read_exodus(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     }
     node_sets(&mut r, path, &ds, &mut cloud, &elements, num_nodes)?;
     side_sets(&mut r, path, &ds, &mut cloud)?;
-    for set in cloud.sets.values_mut() {
-        set.sort_unstable();
-        set.dedup();
-    }
+    crate::mesh::tidy_sets(&mut cloud);
     Ok(cloud)
 }
 

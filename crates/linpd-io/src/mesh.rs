@@ -45,12 +45,41 @@ fn format(path: &Path, line: Option<u64>, reason: impl Into<String>) -> IoError 
     IoError::Format { path: path.display().to_string(), line, reason: reason.into() }
 }
 
-fn read_capped(path: &Path) -> Result<Vec<u8>, IoError> {
+/// Refuses a mesh file larger than [`MAX_CLOUD_BYTES`] before anything reads it.
+pub(crate) fn check_size(path: &Path) -> Result<(), IoError> {
     let len = std::fs::metadata(path).map_err(IoError::os(path))?.len();
     if len > MAX_CLOUD_BYTES {
         return Err(format(path, None, format!("{len} bytes is more than the {MAX_CLOUD_BYTES} a mesh may have")));
     }
+    Ok(())
+}
+
+fn read_capped(path: &Path) -> Result<Vec<u8>, IoError> {
+    check_size(path)?;
     std::fs::read(path).map_err(IoError::os(path))
+}
+
+/// An element's volume `v` (signed: [`measure`]) checked: positive in 3D; in 2D, where the
+/// sign is the element's orientation, taken against the mesh's first element's (`orientation`,
+/// 0 until set). `Err` says why it is refused.
+pub(crate) fn oriented_volume(dim: usize, orientation: &mut f64, v: f64) -> Result<f64, String> {
+    if dim == 2 && *orientation == 0.0 {
+        *orientation = v.signum();
+    }
+    let v = if dim == 2 { v * *orientation } else { v };
+    match v {
+        v if v > 0.0 => Ok(v),
+        v if v == 0.0 || v.is_nan() => Err(format!("is degenerate (zero volume): volume {v:e}")),
+        v => Err(format!("is inverted (negative volume): volume {v:e}")),
+    }
+}
+
+/// Sorts every set and drops repeats (a node reached through several faces of a side set).
+pub(crate) fn tidy_sets(cloud: &mut Cloud) {
+    for set in cloud.sets.values_mut() {
+        set.sort_unstable();
+        set.dedup();
+    }
 }
 
 /// Reads Peridigm's text discretization for a `dim`-dimensional scene (see the module docs).
@@ -165,16 +194,8 @@ pub fn read_gmsh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
             let (v, c) = measure(block.element_type, &x).ok_or_else(|| {
                 format(path, None, format!("element {}: {:?} elements are not read (linear triangles, quadrilaterals, tetrahedra, hexahedra and prisms are)", e.element_tag, block.element_type))
             })?;
-            // 2D: the sign of the first element is the mesh's orientation
-            if dim == 2 && orientation == 0.0 {
-                orientation = v.signum();
-            }
-            let v = if dim == 2 { v * orientation } else { v };
-            if !(v > 0.0) {
-                let why =
-                    if v == 0.0 || v.is_nan() { "degenerate (zero volume)" } else { "inverted (negative volume)" };
-                return Err(format(path, None, format!("element {} is {why}: volume {v:e}", e.element_tag)));
-            }
+            let v = oriented_volume(dim, &mut orientation, v)
+                .map_err(|why| format(path, None, format!("element {} {why}", e.element_tag)))?;
             let n = cloud.positions.len() as u32;
             cloud.positions.push(c);
             cloud.volumes.push(v);
@@ -191,10 +212,7 @@ pub fn read_gmsh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
         return Err(format(path, None, format!("has no {dim}D element")));
     }
     side_sets(&mut cloud, &vertices, &lower, &physical, &names);
-    for set in cloud.sets.values_mut() {
-        set.sort_unstable();
-        set.dedup();
-    }
+    tidy_sets(&mut cloud);
     Ok(cloud)
 }
 

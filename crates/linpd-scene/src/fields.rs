@@ -67,10 +67,22 @@ pub struct NodalStrain {
 pub const VOIGT: [&[(usize, usize)]; 3] =
     [&[(0, 0)], &[(0, 0), (1, 1), (0, 1)], &[(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]];
 
+/// The Voigt components of a full `3 x 3` tensor (row-major) in dimension `dim`.
+pub fn voigt_of(dim: usize, t: &[f64; 9]) -> Vec<f64> {
+    VOIGT[dim - 1].iter().map(|&(a, b)| t[3 * a + b]).collect()
+}
+
+/// The names of the Voigt components in dimension `dim`: `xx, yy, xy` in 2D, ... (the suffixes
+/// of `eps_*` and `sigma_*`).
+pub fn voigt_labels(dim: usize) -> Vec<String> {
+    const AXES: [char; 3] = ['x', 'y', 'z'];
+    VOIGT[dim - 1].iter().map(|&(a, b)| format!("{}{}", AXES[a], AXES[b])).collect()
+}
+
 impl NodalStrain {
     /// The Voigt components of node `n` (1, 3 or 6; see the module docs).
     pub fn voigt(&self, n: usize) -> Vec<f64> {
-        VOIGT[self.dim - 1].iter().map(|&(a, b)| self.tensor[n][3 * a + b]).collect()
+        voigt_of(self.dim, &self.tensor[n])
     }
 
     /// Per node its Voigt components as JSON: a plain number in 1D, an array otherwise (the

@@ -33,7 +33,7 @@
 //! The interpolation does not see defects: values at a point within a cell of a crack mix its
 //! two faces, so a probe across a crack shows the opening smeared over one spacing.
 
-use crate::fields::VOIGT;
+use crate::fields::{voigt_labels, voigt_of};
 use crate::solution::Solution;
 use crate::ProblemError;
 use linpd_core::{Grid, Point};
@@ -123,14 +123,7 @@ pub struct ProbeSamples {
 impl ProbeSamples {
     /// The von Mises stress of point `k` (of the interpolated tensor).
     pub fn von_mises(&self, k: usize) -> Option<f64> {
-        let stress = self.stress.as_ref()?;
-        let s = crate::stress::NodalStress { dim: self.dim, tensor: vec![stress[k]] };
-        Some(s.von_mises(0))
-    }
-
-    /// The Voigt components of a tensor (`[xx, yy, zz, yz, xz, xy]` in 3D, ...).
-    pub fn voigt(&self, t: &[f64; 9]) -> Vec<f64> {
-        VOIGT[self.dim - 1].iter().map(|&(a, b)| t[3 * a + b]).collect()
+        Some(crate::stress::von_mises(&self.stress.as_ref()?[k]))
     }
 
     /// The CSV's column names: `s`, the coordinates, `inside`, `u_*`, `eps_*`, `sigma_*`,
@@ -142,12 +135,12 @@ impl ProbeSamples {
         c.extend(axes[..d].iter().map(|a| a.to_string()));
         c.push("inside".into());
         c.extend(axes[..d].iter().map(|a| format!("u_{a}")));
-        let voigt = || VOIGT[d - 1].iter().map(|&(a, b)| format!("{}{}", axes[a], axes[b]));
+        let voigt = voigt_labels(d);
         if self.strain.is_some() {
-            c.extend(voigt().map(|v| format!("eps_{v}")));
+            c.extend(voigt.iter().map(|v| format!("eps_{v}")));
         }
         if self.stress.is_some() {
-            c.extend(voigt().map(|v| format!("sigma_{v}")));
+            c.extend(voigt.iter().map(|v| format!("sigma_{v}")));
             c.push("von_mises".into());
         }
         c
@@ -168,10 +161,10 @@ impl ProbeSamples {
             text.push(if self.inside[k] { "1" } else { "0" }.into());
             let mut row: Vec<f64> = self.u[d * k..d * k + d].to_vec();
             if let Some(e) = &self.strain {
-                row.extend(self.voigt(&e[k]));
+                row.extend(voigt_of(d, &e[k]));
             }
             if let Some(sig) = &self.stress {
-                row.extend(self.voigt(&sig[k]));
+                row.extend(voigt_of(d, &sig[k]));
                 row.push(self.von_mises(k).unwrap_or(f64::NAN));
             }
             text.extend(row.iter().map(|v| format!("{v:.12e}")));

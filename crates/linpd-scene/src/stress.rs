@@ -56,21 +56,12 @@ impl NodalStress {
     /// The Voigt components of node `n` (`[xx, yy, zz, yz, xz, xy]` in 3D, `[xx, yy, xy]` in
     /// 2D, `[xx]` in 1D).
     pub fn voigt(&self, n: usize) -> Vec<f64> {
-        VOIGT[self.dim - 1].iter().map(|&(a, b)| self.tensor[n][3 * a + b]).collect()
+        crate::fields::voigt_of(self.dim, &self.tensor[n])
     }
 
     /// The von Mises stress of node `n`.
     pub fn von_mises(&self, n: usize) -> f64 {
-        let t = &self.tensor[n];
-        let p = (t[0] + t[4] + t[8]) / 3.0;
-        let mut ss = 0.0;
-        for a in 0..3 {
-            for b in 0..3 {
-                let s = t[3 * a + b] - if a == b { p } else { 0.0 };
-                ss += s * s;
-            }
-        }
-        (1.5 * ss).sqrt()
+        von_mises(&self.tensor[n])
     }
 
     /// The principal stresses of node `n`'s `d x d` block, descending.
@@ -82,6 +73,19 @@ impl NodalStress {
         e.sort_by(|a, b| b.total_cmp(a));
         e
     }
+}
+
+/// The von Mises stress `sqrt(3/2 s:s)` of a full `3 x 3` tensor (row-major), `s` its deviator.
+pub fn von_mises(t: &[f64; 9]) -> f64 {
+    let p = (t[0] + t[4] + t[8]) / 3.0;
+    let mut ss = 0.0;
+    for a in 0..3 {
+        for b in 0..3 {
+            let s = t[3 * a + b] - if a == b { p } else { 0.0 };
+            ss += s * s;
+        }
+    }
+    (1.5 * ss).sqrt()
 }
 
 /// The quantity of the stress map `linpd solve` draws (`output.stress_map`).
@@ -100,8 +104,7 @@ impl StressMap {
     /// `"von_mises"`, `"max_principal"` or `"sigma_<ab>"` (`ab` one of `xx, yy, zz, xy, xz,
     /// yz` within the dimension `d`).
     pub(crate) fn parse(key: Option<&str>, d: usize) -> Result<Self, crate::ProblemError> {
-        let axes = ["x", "y", "z"];
-        let names: Vec<String> = VOIGT[d - 1].iter().map(|&(a, b)| format!("sigma_{}{}", axes[a], axes[b])).collect();
+        let names: Vec<String> = crate::fields::voigt_labels(d).iter().map(|v| format!("sigma_{v}")).collect();
         match key {
             None | Some("von_mises") => Ok(StressMap::VonMises),
             Some("max_principal") => Ok(StressMap::MaxPrincipal),
@@ -126,11 +129,11 @@ impl StressMap {
 
     /// Its name: the file stem `stress_<name>` and the colour bar's label.
     pub fn name(&self) -> String {
-        let axes = ["x", "y", "z"];
+        const AXES: [char; 3] = ['x', 'y', 'z'];
         match *self {
             StressMap::VonMises => "von_mises".into(),
             StressMap::MaxPrincipal => "max_principal".into(),
-            StressMap::Component(a, b) => format!("sigma_{}{}", axes[a], axes[b]),
+            StressMap::Component(a, b) => format!("sigma_{}{}", AXES[a], AXES[b]),
         }
     }
 }

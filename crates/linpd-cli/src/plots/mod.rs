@@ -143,7 +143,12 @@ pub fn solution_plots(grid: &Grid, s: &Solution, dir: &Path, options: &PlotOptio
         let q = options.stress_map;
         let v: Option<Vec<f64>> = match on_lattice {
             true => Some((0..grid.len()).map(|n| q.value(stress, n)).collect()),
-            false => from_cells(grid, s, 1, &|p, _| q.value(stress, p)),
+            false => {
+                // once per point: a principal stress is an eigen-solve, and a coarse cell's
+                // corners are read for each of its sites
+                let at_points: Vec<f64> = (0..s.x.len()).map(|p| q.value(stress, p)).collect();
+                from_cells(grid, s, 1, &|p, _| at_points[p])
+            }
         };
         if let Some(v) = v {
             let title = plane.title(grid, d, &s.name, &stress_title(q));

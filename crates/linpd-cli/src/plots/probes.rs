@@ -27,10 +27,11 @@ pub fn probe_plots(scene: &str, p: &ProbeSamples, dir: &Path) -> Result<Vec<Path
     files.extend(line_plot(&u_plot, &dir.join(format!("{}_u", p.probe.name)))?);
     if let Some(stress) = &p.stress {
         let mut series = Vec::new();
-        let voigt = linpd_problem::fields::VOIGT[d - 1];
-        for (c, &(a, b)) in voigt.iter().enumerate() {
-            let name = format!("sigma_{}{}", AXES[a], AXES[b]);
-            series.extend(runs(&name, c, &p.s, &p.inside, &|k| stress[k][3 * a + b]));
+        let voigt = linpd_problem::fields::voigt_labels(d);
+        for (c, label) in voigt.iter().enumerate() {
+            series.extend(runs(&format!("sigma_{label}"), c, &p.s, &p.inside, &|k| {
+                linpd_problem::fields::voigt_of(d, &stress[k])[c]
+            }));
         }
         let von_mises = |k| p.von_mises(k).unwrap_or(f64::NAN);
         series.extend(runs("von_mises", voigt.len(), &p.s, &p.inside, &von_mises));

@@ -50,7 +50,7 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
     {
         return Err(correction_needs_continuum());
     }
-    let bond = BondModel::on_cloud(raw, micromodulus, material, node_moduli, (elastic, moduli), surface);
+    let bond = BondModel::on_cloud(raw, micromodulus, material, node_moduli, (elastic, moduli), (surface, quadrature));
     Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(BondCloudModel { bond }) })
 }
 

@@ -196,9 +196,8 @@ impl BondModel {
         material: Material,
         node_moduli: Option<Vec<f64>>,
         (elastic, phase_moduli): (Option<BondElastic>, Vec<f64>),
-        surface: Surface,
+        (surface, quadrature): (Surface, Quadrature),
     ) -> Self {
-        let quadrature = RawPartialVolume::quadrature(raw.partial_volume, true);
         BondModel {
             horizon: raw.horizon,
             micromodulus,
