@@ -17,7 +17,7 @@ made.
 import gmsh
 
 
-def plate_hole(path):
+def plate_hole(path, size=0.01):
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("plate-hole")
@@ -37,15 +37,15 @@ def plate_hole(path):
     gmsh.model.addPhysicalGroup(2, surfaces, 1, "plate")
     gmsh.model.addPhysicalGroup(1, left, 2, "left")
     gmsh.model.addPhysicalGroup(1, right, 3, "right")
-    gmsh.option.setNumber("Mesh.MeshSizeMin", 0.01)
-    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.01)
+    gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", size)
     gmsh.model.mesh.generate(2)
     gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
     gmsh.write(path)
     gmsh.finalize()
 
 
-def bracket(path):
+def bracket(path, size=0.02):
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("bracket")
@@ -66,8 +66,8 @@ def bracket(path):
     gmsh.model.addPhysicalGroup(3, volumes, 1, "bracket")
     gmsh.model.addPhysicalGroup(2, clamp, 2, "clamp")
     gmsh.model.addPhysicalGroup(2, load, 3, "load")
-    gmsh.option.setNumber("Mesh.MeshSizeMin", 0.02)
-    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.02)
+    gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", size)
     gmsh.model.mesh.generate(3)
     gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
     gmsh.write(path)
@@ -159,6 +159,13 @@ def exodus_from_gmsh(msh_path, exo_path):
 
 
 if __name__ == "__main__":
-    plate_hole("data/plate-hole-mesh-2d.msh")
-    bracket("data/bracket-mesh-3d.msh")
-    exodus_from_gmsh("data/bracket-mesh-3d.msh", "data/bracket-mesh-3d.e")
+    import sys
+
+    if len(sys.argv) == 1:
+        plate_hole("data/plate-hole-mesh-2d.msh")
+        bracket("data/bracket-mesh-3d.msh")
+        exodus_from_gmsh("data/bracket-mesh-3d.msh", "data/bracket-mesh-3d.e")
+    elif len(sys.argv) == 4 and sys.argv[1] in ("plate", "bracket"):
+        {"plate": plate_hole, "bracket": bracket}[sys.argv[1]](sys.argv[3], float(sys.argv[2]))
+    else:
+        sys.exit("usage: make_meshes.py [plate|bracket SIZE OUT.msh]")

@@ -231,6 +231,11 @@ fn bad_meshes_and_sets_are_named() {
         ),
         (in_2d, "bracket-mesh-3d.msh: has 3D elements"),
         (
+            with(&|v| v["model"]["horizon"] = json!(20.0)),
+            "model.horizon: 2e1 is not shorter than the body, whose nodes span 9.9",
+        ),
+        (with(&|v| v["model"]["horizon"] = json!(2e-5)), "the horizon must be at least one spacing (is nodes.mesh"),
+        (
             with(&|v| {
                 v["model"]["surface_correction"] = json!("energy");
                 v["model"]["micromodulus"] = json!({"kernel": "constant", "amplitude": 1.0, "normalize": "none"});

@@ -828,12 +828,37 @@ pub(crate) fn cloud_nodes(
     if !(horizon.is_finite() && horizon > 0.0) {
         return Err(ProblemError::invalid("model.horizon", format!("must be > 0, got {horizon:e}")));
     }
+    // A mesh in another unit than the horizon (mm against m) gives a horizon below one
+    // spacing or above the whole body; a plain point cloud may hold a whole small body in one
+    // family on purpose (test clouds), a mesh does not.
+    let mesh = spec.mesh.as_ref().map(|f| ("nodes.mesh", f)).or(spec.peridigm.as_ref().map(|f| ("nodes.peridigm", f)));
+    let unit_hint = match mesh {
+        Some((key, file)) => format!(" (is {key} {file:?} in another unit than the horizon?)"),
+        None => String::new(),
+    };
     let h = mean_spacing(&cloud.volumes, dim);
     let ratio = horizon / h;
     if ratio < 1.0 {
         return Err(ProblemError::invalid(
             "model.horizon",
-            format!("horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing"),
+            format!(
+                "horizon / mean node spacing (V^(1/d)) = {ratio:e}: the horizon must be at least one spacing{unit_hint}"
+            ),
+        ));
+    }
+    let extent = (0..dim)
+        .map(|a| {
+            let (lo, hi) = cloud
+                .positions
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x[a]), hi.max(x[a])));
+            hi - lo
+        })
+        .fold(0.0f64, f64::max);
+    if mesh.is_some() && horizon >= extent {
+        return Err(ProblemError::invalid(
+            "model.horizon",
+            format!("{horizon:e} is not shorter than the body, whose nodes span {extent:e}{unit_hint}"),
         ));
     }
     // `auto` and multigrid build a hierarchy on a bond cloud (an LPS cloud's is negligible
