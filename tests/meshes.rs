@@ -7,6 +7,7 @@
 use linpd::core::NoProgress;
 use linpd::io::exodus::read_exodus;
 use linpd::io::mesh::{read_gmsh, read_peridigm};
+use linpd::io::vtk::read_mesh as read_vtu;
 use linpd::problem::Problem;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -97,6 +98,113 @@ fn gmsh_meshes_read_as_meshio_reads_them() {
             assert_eq!(got.sets[name], members, "{file}: set {name}");
         }
     }
+}
+
+/// The bundled Gmsh meshes converted to VTU by meshio (`meshio.write`, zlib-compressed binary
+/// arrays, the physical tags as the cell array `gmsh:physical`) read as the Gmsh files: the
+/// same nodes and volumes (the same vertices in the same order: 0 difference), phases, and
+/// the sets named by their tags equal to the physical groups'.
+#[test]
+fn vtu_meshes_written_by_meshio_read_as_gmsh() {
+    let dir = scratch("vtu");
+    for (file, d, groups) in [
+        ("plate-hole-mesh-2d.msh", 2, ["plate", "left", "right"]),
+        ("bracket-mesh-3d.msh", 3, ["bracket", "clamp", "load"]),
+    ] {
+        let vtu = dir.join(file.replace(".msh", ".vtu"));
+        let convert = "import sys, meshio; m = meshio.read(sys.argv[1]); meshio.write(sys.argv[2], m)";
+        let o = Command::new("python3")
+            .args(["-c", convert, data(file).to_str().unwrap(), vtu.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "meshio: {}", String::from_utf8_lossy(&o.stderr));
+        let (v, g) = (read_vtu(&vtu, d).unwrap(), read_gmsh(&data(file), d).unwrap());
+        assert_eq!(v.positions, g.positions, "{file}");
+        assert_eq!(v.volumes, g.volumes, "{file}");
+        assert_eq!(v.phase, g.phase, "{file}");
+        for (tag, name) in groups.iter().enumerate() {
+            assert_eq!(v.sets[&(tag + 1).to_string()], g.sets[*name], "{file}: set {name}");
+        }
+        assert_eq!(v.sets.len(), 3, "{file}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An ASCII VTU written here: a unit cube as a hexahedron, as a voxel (VTK's lexicographic
+/// corners) and as two wedges (VTK's triangles turn the other way from Gmsh's) reads as three
+/// (four) elements of the exact volumes and centroids; an inverted tetrahedron is named.
+#[test]
+fn vtu_cell_types_and_inverted_cells() {
+    let dir = scratch("vtu-cells");
+    let vtu = |cells: &[(u8, Vec<u32>)], points: &[[f64; 3]]| {
+        let pts: Vec<String> = points.iter().map(|p| format!("{} {} {}", p[0], p[1], p[2])).collect();
+        let conn: Vec<String> = cells.iter().flat_map(|(_, c)| c.iter().map(u32::to_string)).collect();
+        let mut end = 0;
+        let offs: Vec<String> = cells
+            .iter()
+            .map(|(_, c)| {
+                end += c.len();
+                end.to_string()
+            })
+            .collect();
+        let types: Vec<String> = cells.iter().map(|(t, _)| t.to_string()).collect();
+        format!(
+            r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
+<UnstructuredGrid><Piece NumberOfPoints="{}" NumberOfCells="{}">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">{}</DataArray></Points>
+<Cells><DataArray type="Int64" Name="connectivity" format="ascii">{}</DataArray>
+<DataArray type="Int64" Name="offsets" format="ascii">{}</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">{}</DataArray></Cells>
+</Piece></UnstructuredGrid></VTKFile>
+"#,
+            points.len(),
+            cells.len(),
+            pts.join(" "),
+            conn.join(" "),
+            offs.join(" "),
+            types.join(" ")
+        )
+    };
+    // the unit cube's corners in VTK's hexahedron order, then shifted copies along x
+    let cube = |x0: f64| -> Vec<[f64; 3]> {
+        [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 1.], [1., 1., 1.], [0., 1., 1.]]
+            .map(|p| [p[0] + x0, p[1], p[2]])
+            .to_vec()
+    };
+    let mut points = cube(0.0);
+    points.extend(cube(2.0));
+    points.extend(cube(4.0));
+    let cells = vec![
+        (12u8, (0..8).collect()),
+        (11, vec![8, 9, 11, 10, 12, 13, 15, 14]),
+        // the third cube cut along its diagonal plane x - x0 = y: two wedges along z, each
+        // bottom triangle clockwise seen from its top (VTK's order)
+        (13, vec![16, 18, 17, 20, 22, 21]),
+        (13, vec![16, 19, 18, 20, 23, 22]),
+    ];
+    let path = dir.join("cells.vtu");
+    std::fs::write(&path, vtu(&cells, &points)).unwrap();
+    let m = read_vtu(&path, 3).unwrap();
+    let want = [
+        (1.0, [0.5, 0.5, 0.5]),
+        (1.0, [2.5, 0.5, 0.5]),
+        (0.5, [4.0 + 2.0 / 3.0, 1.0 / 3.0, 0.5]),
+        (0.5, [4.0 + 1.0 / 3.0, 2.0 / 3.0, 0.5]),
+    ];
+    assert_eq!(m.volumes.len(), 4);
+    for (k, (v, c)) in want.iter().enumerate() {
+        assert!((m.volumes[k] - v).abs() < 1e-14, "cell {k}: volume {}", m.volumes[k]);
+        (0..3)
+            .for_each(|a| assert!((m.positions[k][a] - c[a]).abs() < 1e-14, "cell {k}: centroid {:?}", m.positions[k]));
+    }
+    let bad = dir.join("inverted.vtu");
+    std::fs::write(&bad, vtu(&[(10, vec![0, 2, 1, 4])], &cube(0.0))).unwrap();
+    let e = read_vtu(&bad, 3).unwrap_err().to_string();
+    assert!(e.contains("inverted.vtu") && e.contains("cell 0 is inverted"), "{e}");
+    let e = read_vtu(&path, 2).unwrap_err().to_string();
+    assert!(e.contains("cell 0: a 3D Hexahedron in a mesh for a 2D scene"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Writes the nodes of a grid scene as Peridigm's text discretization (block 1 the body, 2
@@ -260,8 +368,8 @@ fn bad_meshes_and_sets_are_named() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
     let e = error_of(&tet("part.e"), &dir);
     assert!(e.contains("part.e: not a classic netCDF (Exodus II) file"), "{e}");
-    let e = error_of(&tet("part.vtk"), &dir);
-    assert!(e.contains("not a mesh linpd reads (Gmsh .msh 4.1, Exodus II .e / .exo"), "{e}");
+    let e = error_of(&tet("part.stl"), &dir);
+    assert!(e.contains("not a mesh linpd reads (Gmsh .msh 4.1, Exodus II .e / .exo, VTK XML .vtu"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -146,9 +146,13 @@ enum Command {
         /// Skip the dense-solver timings of blend-speedup (they take about a minute).
         #[arg(long)]
         no_dense: bool,
-        /// multires, penny-sneddon: solve only the lattices of at most this many nodes.
+        /// multires, penny-sneddon: solve only the lattices of at most this many nodes;
+        /// meshes: the meshes of at most this many elements.
         #[arg(long)]
         max_nodes: Option<usize>,
+        /// meshes: the Python with gmsh, meshio, scikit-fem and pyamg.
+        #[arg(long, default_value = "python3")]
+        python: String,
     },
 }
 
@@ -266,7 +270,9 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Validate { scene } => commands::validate(&scene),
         Command::Coarsen { pipeline, out, quiet } => commands::coarsen(&pipeline, out, quiet),
         Command::Bench(args) => commands::bench(&args),
-        Command::Study { name, out, no_dense, max_nodes } => commands::study(name, out, no_dense, max_nodes),
+        Command::Study { name, out, no_dense, max_nodes, python } => {
+            commands::study(name, out, no_dense, max_nodes, python)
+        }
     }
 }
 

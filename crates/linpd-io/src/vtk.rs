@@ -129,6 +129,160 @@ pub fn read_cloud(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     Ok(cloud)
 }
 
+/// Reads the cells of a VTK XML unstructured grid (`.vtu`) as a mesh of
+/// dimension `dim`, a PD node per cell (`"nodes": {"mesh": "part.vtu"}`): see
+/// [`crate::mesh`] for what a node per element is. Read: linear triangles, quads and pixels in
+/// 2D, tetrahedra, hexahedra, voxels and wedges in 3D (VTK's corner orders mapped to Gmsh's:
+/// a wedge's triangles are reversed, a pixel's and voxel's corners are lexicographic).
+///
+/// * **Phases and sets**: the integer cell array `phase`, or meshio's `gmsh:physical` (what
+///   `meshio convert part.msh part.vtu` writes), gives each cell of the scene's dimension its
+///   phase, and every value `k >= 1` a set named `"k"` (VTK files carry no group names). A
+///   lower-dimensional cell with value `k` (a face, edge or vertex) adds to set `"k"` the
+///   cells that contain all its vertices (the cells it bounds). Without such an array there
+///   are no sets and every phase is 0.
+/// * Errors name the file and the cell (0-based, as in the file): inverted and degenerate
+///   cells, cells of a higher dimension than the scene's, cell types not read, points out of
+///   range.
+pub fn read_mesh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
+    use linpd_core::Point;
+    use mshio::mshfile::ElementType;
+    use vtkio::model::CellType;
+    let shown = path.display().to_string();
+    let fail = |reason: String| IoError::Format { path: shown.clone(), line: None, reason };
+    crate::mesh::check_size(path)?;
+    let vtk = vtkio::Vtk::import(path).map_err(|e| fail(format!("not a readable VTK file ({e})")))?;
+    let pieces = match vtk.data {
+        DataSet::UnstructuredGrid { pieces, .. } => pieces,
+        _ => return Err(fail("holds no unstructured grid (a mesh's cells are read from one)".into())),
+    };
+    let mut cloud = Cloud::default();
+    let mut orientation = 0.0f64;
+    // per PD node its cell's vertices (global point numbers); lower cells: (vertices, tag)
+    let mut vertices: Vec<Vec<u64>> = Vec::new();
+    let mut lower: Vec<(Vec<u64>, u32)> = Vec::new();
+    let (mut first_point, mut cell_number) = (0u64, 0usize);
+    for piece in pieces {
+        let piece = match piece {
+            Piece::Inline(p) => *p,
+            Piece::Source(file, _) => {
+                return Err(fail(format!("a piece is stored in {file:?}: pieces in other files are not followed")))
+            }
+            Piece::Loaded(_) => return Err(fail("a piece loaded from another file".into())),
+        };
+        let x: Vec<f64> = piece.points.cast_into().ok_or_else(|| fail("points are not numbers".into()))?;
+        let points: Vec<Point> = x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let (connectivity, offsets) = piece.cells.cell_verts.into_xml();
+        // legacy files version >= 5 give the offsets a leading zero
+        let offsets: Vec<u64> = match offsets.first() {
+            Some(0) if offsets.len() == piece.cells.types.len() + 1 => offsets[1..].to_vec(),
+            _ => offsets,
+        };
+        if offsets.len() != piece.cells.types.len() {
+            return Err(fail(format!("{} cell types for {} cells", piece.cells.types.len(), offsets.len())));
+        }
+        let tags: Option<Vec<f64>> = ["phase", "gmsh:physical"].iter().find_map(|name| {
+            piece.data.cell.iter().find_map(|a| match a {
+                Attribute::DataArray(a) if a.name == *name => a.data.clone().cast_into::<f64>(),
+                _ => None,
+            })
+        });
+        if tags.as_ref().is_some_and(|t| t.len() != offsets.len()) {
+            return Err(fail("the cell array \"phase\" (or \"gmsh:physical\") has not one value per cell".into()));
+        }
+        let mut start = 0usize;
+        for (k, (&end, &kind)) in offsets.iter().zip(&piece.cells.types).enumerate() {
+            let c = cell_number + k;
+            let end = end as usize;
+            if end < start || end > connectivity.len() {
+                return Err(fail(format!("cell {c}: offsets out of order or past the connectivity")));
+            }
+            let local = &connectivity[start..end];
+            start = end;
+            if let Some(&p) = local.iter().find(|&&p| p as usize >= points.len()) {
+                return Err(fail(format!("cell {c}: point {p} is not in the piece's {} points", points.len())));
+            }
+            let tag = match &tags {
+                Some(t) if !(t[k] >= 0.0 && t[k].fract() == 0.0 && t[k] <= u32::MAX as f64) => {
+                    return Err(fail(format!("cell {c}: phase {} is not an integer >= 0", t[k])))
+                }
+                Some(t) => t[k] as u32,
+                None => 0,
+            };
+            // (the element's dimension, Gmsh's type, VTK's corners in Gmsh's order)
+            let (edim, gmsh, order): (usize, Option<ElementType>, &[usize]) = match kind {
+                CellType::Vertex => (0, None, &[0]),
+                CellType::Line => (1, None, &[0, 1]),
+                CellType::Triangle => (2, Some(ElementType::Tri3), &[0, 1, 2]),
+                CellType::Quad => (2, Some(ElementType::Qua4), &[0, 1, 2, 3]),
+                CellType::Pixel => (2, Some(ElementType::Qua4), &[0, 1, 3, 2]),
+                CellType::Tetra => (3, Some(ElementType::Tet4), &[0, 1, 2, 3]),
+                CellType::Hexahedron => (3, Some(ElementType::Hex8), &[0, 1, 2, 3, 4, 5, 6, 7]),
+                CellType::Voxel => (3, Some(ElementType::Hex8), &[0, 1, 3, 2, 4, 5, 7, 6]),
+                CellType::Wedge => (3, Some(ElementType::Pri6), &[0, 2, 1, 3, 5, 4]),
+                other => {
+                    return Err(fail(format!(
+                        "cell {c}: {other:?} cells are not read (linear triangles, quads, pixels, tetrahedra, \
+                         hexahedra, voxels and wedges are)"
+                    )))
+                }
+            };
+            if local.len() != order.len() {
+                return Err(fail(format!("cell {c}: {kind:?} with {} points, not {}", local.len(), order.len())));
+            }
+            let global: Vec<u64> = local.iter().map(|&p| first_point + p).collect();
+            if edim > dim {
+                return Err(fail(format!("cell {c}: a {edim}D {kind:?} in a mesh for a {dim}D scene")));
+            }
+            if edim < dim {
+                if tag > 0 {
+                    lower.push((global, tag));
+                }
+                continue;
+            }
+            let corners: Vec<Point> = order.iter().map(|&i| points[local[i] as usize]).collect();
+            if dim == 2 {
+                if let Some(p) = corners.iter().find(|p| p[2] != 0.0) {
+                    return Err(fail(format!("cell {c}: z = {:e}: a 2D scene's mesh lies in z = 0", p[2])));
+                }
+            }
+            let (v, centroid) = gmsh
+                .and_then(|t| crate::mesh::measure(t, &corners))
+                .ok_or_else(|| fail(format!("cell {c}: {kind:?} cells make no {dim}D node")))?;
+            let v = crate::mesh::oriented_volume(dim, &mut orientation, v)
+                .map_err(|why| fail(format!("cell {c} {why}")))?;
+            let n = cloud.positions.len() as u32;
+            cloud.positions.push(centroid);
+            cloud.volumes.push(v);
+            cloud.layer.push(false);
+            cloud.phase.push(tag);
+            cloud.lines.push(c as u64);
+            if tag > 0 {
+                cloud.sets.entry(tag.to_string()).or_default().push(n);
+            }
+            vertices.push(global);
+        }
+        cell_number += offsets.len();
+        first_point += points.len() as u64;
+    }
+    if cloud.positions.is_empty() {
+        return Err(fail(format!("has no {dim}D cell")));
+    }
+    let mut by_vertex: std::collections::HashMap<u64, Vec<u32>> = std::collections::HashMap::new();
+    for (n, vs) in vertices.iter().enumerate() {
+        for &p in vs {
+            by_vertex.entry(p).or_default().push(n as u32);
+        }
+    }
+    for (side, tag) in &lower {
+        let Some(candidates) = side.first().and_then(|p| by_vertex.get(p)) else { continue };
+        let bounded = candidates.iter().copied().filter(|&n| side.iter().all(|p| vertices[n as usize].contains(p)));
+        cloud.sets.entry(tag.to_string()).or_default().extend(bounded);
+    }
+    crate::mesh::tidy_sets(&mut cloud);
+    Ok(cloud)
+}
+
 /// In an ASCII legacy VTK file, `(line, why)` when the count of a `POINTS n type` line (1-based
 /// `line`) does not match the numbers that follow it before the next keyword (`3 n` of them).
 fn legacy_points_mismatch(text: &str) -> Option<(u64, String)> {

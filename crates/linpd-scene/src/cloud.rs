@@ -18,19 +18,22 @@ pub fn read_vtk(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemErro
     linpd_io::vtk::read_cloud(path, dim).map_err(|e| ProblemError::invalid(key, e.to_string()))
 }
 
-/// Reads a Gmsh (`.msh`, [`linpd_io::mesh`]) or Exodus II (`.e`, `.exo`, `.ex2`, `.g`,
-/// [`linpd_io::exodus`]) mesh, a node per element, of dimension `dim`; `key` is the JSON path
+/// Reads a Gmsh (`.msh`, [`linpd_io::mesh`]), Exodus II (`.e`, `.exo`, `.ex2`, `.g`,
+/// [`linpd_io::exodus`]) or VTK XML (`.vtu`, [`linpd_io::vtk::read_mesh`]) mesh, a node per element, of dimension `dim`; `key` is the JSON path
 /// of the file name. Another extension is refused by name.
 pub fn read_mesh(path: &Path, dim: usize, key: &str) -> Result<Cloud, ProblemError> {
     match path.extension().and_then(|e| e.to_str()) {
         Some("msh") => linpd_io::mesh::read_gmsh(path, dim).map_err(|e| ProblemError::invalid(key, e.to_string())),
+        Some("vtu") => {
+            linpd_io::vtk::read_mesh(path, dim).map_err(|e| ProblemError::invalid(key, e.to_string()))
+        }
         Some("e" | "exo" | "ex2" | "g") => {
             linpd_io::exodus::read_exodus(path, dim).map_err(|e| ProblemError::invalid(key, e.to_string()))
         }
         _ => Err(ProblemError::invalid(
             key,
             format!(
-                "{}: not a mesh linpd reads (Gmsh .msh 4.1, Exodus II .e / .exo; VTK point clouds go in nodes.vtk)",
+                "{}: not a mesh linpd reads (Gmsh .msh 4.1, Exodus II .e / .exo, VTK XML .vtu; VTK point clouds go in nodes.vtk)",
                 path.display()
             ),
         )),

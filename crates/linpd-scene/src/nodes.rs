@@ -116,6 +116,13 @@ impl Nodes {
             _ => None,
         }
     }
+    /// The nodes of the named set `name` of a mesh (ascending), if the nodes have one.
+    pub fn set(&self, name: &str) -> Option<&[u32]> {
+        match self {
+            Nodes::Cloud(c) => c.sets.get(name).map(Vec::as_slice),
+            _ => None,
+        }
+    }
     /// The lattice, if the nodes are one.
     pub fn lattice(&self) -> Option<&Grid> {
         match self {

@@ -12,6 +12,8 @@
 //! * `md-pd`: the same paper, section 4.4, Figs. 4.3-4.6, Table 4.1 (module `md_pd`);
 //! * `multires`: the graded local mesh against pure PD (module `multires`);
 //! * `penny-sneddon`: a penny crack on the graded local mesh against Sneddon (module `penny`);
+//! * `meshes`: bodies from Gmsh meshes against a converged finite-element solution (module
+//!   `meshes`; runs Python: gmsh, scikit-fem);
 //! * `coarsen-*`: Silling (2010), section 5, Figs. 3, 5 and 7, and a 2D speed-versus-error map
 //!   (module `coarsen`).
 //!
@@ -36,6 +38,7 @@ pub mod fixtures;
 mod lps;
 pub mod lps_tension;
 mod md_pd;
+mod meshes;
 mod multires;
 mod out;
 mod penny;
@@ -123,6 +126,8 @@ pub enum Study {
     Multires,
     /// Penny crack (a = 0.1, delta = 3h) on the graded local mesh: max opening vs Sneddon, 69k-4.2M nodes
     PennySneddon,
+    /// Meshed plate with a hole and 3D bracket (gmsh, 3 sizes, energy correction or none) vs converged P2 finite elements
+    Meshes,
     /// Silling 2010 Fig. 3: C^0, C^1, C^2 vs bond distance at the centre (tent kernel)
     CoarsenTent,
     /// Silling 2010 Fig. 5: striped composite, u per level, global stretch vs F/E_eff
@@ -139,14 +144,17 @@ pub struct StudyOptions {
     /// Time the dense solvers in `blend-speedup` (about a minute; `linpd study --no-dense`
     /// turns it off).
     pub dense: bool,
-    /// The largest lattice (nodes) `multires` and `penny-sneddon` solve (`linpd study --max-nodes`; `None`: all
+    /// The largest lattice (nodes) `multires` and `penny-sneddon` solve, the largest mesh
+    /// (elements) `meshes` solves (`linpd study --max-nodes`; `None`: all
     /// its sizes).
     pub max_nodes: Option<usize>,
+    /// The Python that runs `meshes`' mesher and FE reference (`linpd study --python`).
+    pub python: String,
 }
 
 impl Default for StudyOptions {
     fn default() -> Self {
-        Self { dense: true, max_nodes: None }
+        Self { dense: true, max_nodes: None, python: "python3".into() }
     }
 }
 
@@ -209,6 +217,7 @@ impl Study {
             Study::MdPd => md_pd::run(dir, report, progress),
             Study::Multires => multires::run(dir, options.max_nodes, report, progress),
             Study::PennySneddon => penny::run(dir, options.max_nodes, report, progress),
+            Study::Meshes => meshes::run(dir, options.max_nodes, &options.python, report, progress),
             Study::CoarsenTent => coarsen::tent_study(dir, report, progress),
             Study::CoarsenComposite => coarsen::composite_study(dir, report, progress),
             Study::CoarsenDefect => coarsen::defect_study(dir, report, progress),
@@ -249,6 +258,7 @@ mod tests {
                 "md-pd",
                 "multires",
                 "penny-sneddon",
+                "meshes",
                 "coarsen-tent",
                 "coarsen-composite",
                 "coarsen-defect",

@@ -7,12 +7,14 @@ use std::path::PathBuf;
 
 /// Runs the study `name` into `out` (default: the study's directory), its table on stdout;
 /// `list` prints every study with its description instead. `no_dense` skips the dense-solver
-/// timings of blend-speedup; `max_nodes` caps the lattices of multires and penny-sneddon.
+/// timings of blend-speedup; `max_nodes` caps the lattices of multires and penny-sneddon
+/// and the meshes of `meshes`; `python` runs `meshes`' mesher and FE reference.
 pub(crate) fn study(
     name: String,
     out: Option<PathBuf>,
     no_dense: bool,
     max_nodes: Option<usize>,
+    python: String,
 ) -> Result<(), CliError> {
     if name == "list" {
         for s in Study::all() {
@@ -29,7 +31,7 @@ pub(crate) fn study(
     let progress = Reporter::new(false);
     let mut table = Suspending(&progress, UntilClosed(Some(std::io::stdout().lock())));
     study
-        .run_with_progress(staged.path(), &StudyOptions { dense: !no_dense, max_nodes }, &mut table, &progress)
+        .run_with_progress(staged.path(), &StudyOptions { dense: !no_dense, max_nodes, python }, &mut table, &progress)
         .map_err(|source| CliError::Study { name, source })?;
     let identity = RunIdentity::of_inputs(&[]).map_err(output)?;
     staged.commit_staged("data.json", &identity).map_err(output)?;
