@@ -325,8 +325,28 @@ fn bad_meshes_and_sets_are_named() {
             "loads[0].region.set: no set \"top\"",
         ),
         (
-            with(&|v| v["model"]["material"] = json!({"phases": [{"region": {"set": "plate"}, "modulus": 2.0}]})),
-            "model.material.phases[0].region.set: a mesh's named sets select the nodes of constraints and loads only",
+            with(&|v| {
+                v["model"]["material"] = json!({"defects": [{"segment": [[0.2, 0.0], [0.2, 0.1]], "factor": 0.0}],
+                                                "phases": [{"region": {"set": "hole"}, "modulus": 2.0}]})
+            }),
+            "model.material.phases[0].region.set: no set \"hole\" in the point cloud",
+        ),
+        (
+            {
+                let mut v = scene("plate-hole-2d.json");
+                v["model"]["material"] = json!({"phases": [{"region": {"set": "plate"}, "modulus": 2.0}]});
+                v
+            },
+            "model.material.phases[0].region.set: no set \"plate\": named sets come with a mesh",
+        ),
+        (
+            {
+                let mut v = scene("plate-hole-2d.json");
+                v["model"]["pd_regions"] = json!([{"set": "plate"}]);
+                v["model"]["transition"] = json!(0.03);
+                v
+            },
+            "pd_regions[0].set: a mesh's named sets select the nodes of constraints, loads and a mesh's phases",
         ),
         (lattice, "constraints[0].region.set: no set \"left\": named sets come with a mesh"),
         (
@@ -371,6 +391,31 @@ fn bad_meshes_and_sets_are_named() {
     let e = error_of(&tet("part.stl"), &dir);
     assert!(e.contains("not a mesh linpd reads (Gmsh .msh 4.1, Exodus II .e / .exo, VTK XML .vtu"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A phase given by a mesh's named set (`{"region": {"set": "plate"}}`) is the phase given by
+/// its physical tag (`{"phase": 1}`): the same moduli, the same solution bit for bit; and a
+/// set phase over part of the body (a union with a box) stiffens it.
+#[test]
+fn phases_by_named_sets() {
+    let mut base = scene("plate-hole-mesh-2d.json");
+    base["nodes"]["mesh"] = json!(data("plate-hole-mesh-2d.msh").to_str().unwrap());
+    let solve = |material: Value| {
+        let mut v = base.clone();
+        v["model"]["material"] = material;
+        Problem::from_json_in(&v.to_string(), &data("")).unwrap().solve(&NoProgress).unwrap()
+    };
+    let by_set = solve(json!({"phases": [{"region": {"set": "plate"}, "young_modulus": 2.0}]}));
+    let by_tag = solve(json!({"phases": [{"phase": 1, "young_modulus": 2.0}]}));
+    assert_eq!(by_set.u, by_tag.u);
+    let plain = solve(json!({}));
+    // the whole plate twice as stiff: half the displacement (the correction is linear in E)
+    let ratio = by_set.u.iter().zip(&plain.u).map(|(a, b)| (2.0 * a - b).abs()).fold(0.0, f64::max);
+    assert!(ratio <= 1e-9 * plain.u.iter().fold(0.0f64, |m, v| m.max(v.abs())), "{ratio}");
+    let right_half = solve(json!({"phases": [{"region": {"difference": [{"set": "plate"},
+        {"box": {"min": [-1.0, -1.0], "max": [0.5, 2.0]}}]}, "young_modulus": 2.0}]}));
+    let tip = |u: &[f64]| u.chunks(2).map(|c| c[0]).fold(f64::NEG_INFINITY, f64::max);
+    assert!(tip(&right_half.u) < tip(&plain.u) && tip(&right_half.u) > tip(&by_set.u));
 }
 
 /// The ball quadrature makes the solution a smooth function of the horizon: on the bundled

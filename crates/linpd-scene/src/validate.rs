@@ -75,11 +75,12 @@ pub(crate) fn region(path: &str, r: &RawRegion, dim: usize) -> Result<Region, Pr
         }
         RawRegion::Polygon { vertices, extrude } => Region::Polygon { vertices: vertices.clone(), extrude: *extrude },
         RawRegion::Set(name) => {
-            if !(path.starts_with("constraints[") || path.starts_with("loads[")) {
+            let phase = path.starts_with("model.material.phases[");
+            if !(path.starts_with("constraints[") || path.starts_with("loads[") || phase) {
                 return Err(ProblemError::invalid(
                     format!("{path}.set"),
-                    "a mesh's named sets select the nodes of constraints and loads only (not yet bodies, \
-                     phases, defects or pd_regions)",
+                    "a mesh's named sets select the nodes of constraints, loads and a mesh's phases only \
+                     (not bodies, defects or pd_regions, which are lattice features)",
                 ));
             }
             Region::Set(name.clone())
@@ -732,7 +733,21 @@ pub(crate) fn material_with_tags(
     let mut phases = Vec::new();
     for (k, ph) in raw.phases.iter().enumerate() {
         match (&ph.region, ph.phase) {
-            (Some(r), None) => phases.push((region(&format!("{p}.phases[{k}].region"), r, dim)?, moduli[k])),
+            (Some(r), None) => {
+                let path = format!("{p}.phases[{k}].region");
+                let r = region(&path, r, dim)?;
+                match (r.set_names().first(), tags) {
+                    // a mesh's set is applied per node, with the phase numbers ([`crate::cloud`])
+                    (Some(_), true) => {}
+                    (Some(name), false) => {
+                        return Err(ProblemError::invalid(
+                            format!("{path}.set"),
+                            format!("no set {name:?}: named sets come with a mesh (nodes.mesh, nodes.peridigm)"),
+                        ))
+                    }
+                    (None, _) => phases.push((r, moduli[k])),
+                }
+            }
             (None, Some(_)) if tags => {}
             (None, Some(_)) => {
                 return Err(ProblemError::invalid(

@@ -170,20 +170,30 @@ pub(crate) fn tagged_moduli(
     nodes: &LevelNodes,
     reference: f64,
 ) -> Result<Option<Vec<f64>>, ProblemError> {
-    if raw.phases.iter().all(|ph| ph.phase.is_none()) {
+    let dim = nodes.dim;
+    let regions = raw
+        .phases
+        .iter()
+        .enumerate()
+        .map(|(k, ph)| ph.region.as_ref().map(|r| region(&format!("model.material.phases[{k}].region"), r, dim)))
+        .map(Option::transpose)
+        .collect::<Result<Vec<_>, _>>()?;
+    let per_node =
+        |k: usize| raw.phases[k].phase.is_some() || regions[k].as_ref().is_some_and(|r| !r.set_names().is_empty());
+    if !(0..raw.phases.len()).any(per_node) {
         return Ok(None);
     }
-    let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
     let mut moduli = vec![reference; nodes.positions.len()];
     for (k, ph) in raw.phases.iter().enumerate() {
-        match (&ph.region, ph.phase) {
+        match (&regions[k], ph.phase) {
             (Some(r), _) => {
-                let r = region(&format!("model.material.phases[{k}].region"), r, nodes.dim)?;
-                for (n, x) in nodes.positions.iter().enumerate() {
-                    if r.contains(x, nodes.dim, tol) {
-                        moduli[n] = phase_moduli[k];
-                    }
+                let path = format!("model.material.phases[{k}].region");
+                crate::nodes::NodeSet::check_sets(nodes, r, &path)?;
+                let selected = crate::nodes::NodeSet::select(nodes, r);
+                if selected.is_empty() && !r.set_names().is_empty() {
+                    return Err(ProblemError::invalid(path, "selects no node of the mesh"));
                 }
+                selected.into_iter().for_each(|n| moduli[n] = phase_moduli[k]);
             }
             (None, Some(tag)) => {
                 if nodes.phase.is_empty() {
