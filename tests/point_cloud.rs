@@ -109,8 +109,8 @@ fn cloud_of_grid_nodes_gives_the_grid_solution() {
 
 /// LPS on a point cloud (`LpsModel::on_points`: bond vectors from positions, two-hop tangent
 /// pattern from the family, AMD ordering): the cloud of a grid scene's nodes gives the grid
-/// solution, for the bundled 2D LPS plate (with partial volumes), the notched plate (a
-/// pre-crack) and a 3D LPS bar. Tangents applied to the same vector agree to 1e-13 (bond vectors
+/// solution, for the bundled 2D LPS plate (with partial volumes; and with two phases), the
+/// notched plate (a pre-crack) and a 3D LPS bar. Tangents applied to the same vector agree to 1e-13 (bond vectors
 /// of rounded positions, a few ulps from the lattice's exact ones, in every dilatation and pair
 /// term; measured 0..1.8e-15); solutions to 1e-12 (measured 1.8e-14, 2.4e-13, 1.5e-14: the two
 /// Cholesky orderings' rounding times `cond(K_ff)`).
@@ -118,8 +118,13 @@ fn cloud_of_grid_nodes_gives_the_grid_solution() {
 fn lps_on_a_cloud_of_grid_nodes_gives_the_grid_solution() {
     let mut plate = scene("lps-plate-2d.json");
     plate["model"]["partial_volume"] = json!(true);
+    // two phases (issue #33): the right half stiffer, with another Poisson ratio
+    let mut phases = scene("lps-plate-2d.json");
+    phases["model"]["material"] = json!({"phases": [{"region": {"half_space": {"point": [0.5, 0.0], "normal": [1.0, 0.0]}},
+                                                      "young_modulus": 4.0, "poisson_ratio": 0.3}]});
     let cases = [
         ("lps-plate-2d", plate),
+        ("lps-plate-2d-phases", phases),
         ("plate-notch-2d", scene("plate-notch-2d.json")),
         ("lps-tension-3d", scene("lps-tension-3d.json")),
     ];

@@ -63,8 +63,9 @@ impl LpsModel {
                     dev += w * ed * ed;
                     m_lattice += w * r * r;
                 }
-                let surface = 0.5 * self.a_g * theta[i] * theta[i] * (self.m[i] - m_lattice) / (self.m[i] * df * df);
-                0.5 * self.kappa * theta[i] * theta[i] + 0.5 * self.a_g / self.m[i] * dev + surface
+                let (kappa, a_g) = (self.kappa_at(i), self.a_g_at(i));
+                let surface = 0.5 * a_g * theta[i] * theta[i] * (self.m[i] - m_lattice) / (self.m[i] * df * df);
+                0.5 * kappa * theta[i] * theta[i] + 0.5 * a_g / self.m[i] * dev + surface
             })
             .collect()
     }

@@ -84,7 +84,6 @@ impl LpsModel {
         theta: impl Fn(usize) -> f64,
     ) -> [f64; 3] {
         let d = self.dim;
-        let c_theta = d as f64 * self.kappa - self.a_g / d as f64;
         let vi = self.volumes[i];
         let ui = disp(i);
         let (ti, mi) = (theta(i), self.m[i]);
@@ -98,7 +97,7 @@ impl LpsModel {
             let ry = norm(&y);
             let e = ry - r;
             let (tj, mj) = (theta(j), self.m[j]);
-            let fhat = bond_force(c_theta, self.a_g, [ti, tj], [w / mi, far(w_far, vi, self.volumes[j]) / mj], r, e);
+            let fhat = self.bond_force(i, j, [ti, tj], [w / mi, far(w_far, vi, self.volumes[j]) / mj], r, e);
             for a in 0..d {
                 fi[a] += vi * fhat * y[a] / ry;
             }
@@ -121,8 +120,9 @@ impl LpsModel {
                 }
                 // Zero (bit for bit) unless a surface correction replaced m_i by m_0; then it
                 // is the term that keeps F = -dE/du (see `crate::surface`).
-                let surface = 0.5 * self.a_g * theta[i] * theta[i] * (self.m[i] - m_lattice) / (self.m[i] * d * d);
-                0.5 * self.kappa * theta[i] * theta[i] + 0.5 * self.a_g / self.m[i] * dev + surface
+                let (kappa, a_g) = (self.kappa_at(i), self.a_g_at(i));
+                let surface = 0.5 * a_g * theta[i] * theta[i] * (self.m[i] - m_lattice) / (self.m[i] * d * d);
+                0.5 * kappa * theta[i] * theta[i] + 0.5 * a_g / self.m[i] * dev + surface
             })
             .collect()
     }
@@ -138,7 +138,6 @@ impl LpsModel {
         assert_eq!(f.len(), self.n_dofs(), "force length");
         let theta = self.theta(u);
         let d = self.dim;
-        let c_theta = d as f64 * self.kappa - self.a_g / d as f64;
         f.par_chunks_mut(d).enumerate().for_each(|(i, fi)| {
             let vi = self.volumes[i];
             fi.iter_mut().for_each(|v| *v = 0.0);
@@ -147,8 +146,7 @@ impl LpsModel {
                 // w = omega_i nu V_j, and the far end's omega_j nu V_j from its weight w_far.
                 let (y, ry, e) = self.deformed(u, i, j, r);
                 let (tj, mj) = (theta[j], self.m[j]);
-                let fhat =
-                    bond_force(c_theta, self.a_g, [ti, tj], [w / mi, far(w_far, vi, self.volumes[j]) / mj], r, e);
+                let fhat = self.bond_force(i, j, [ti, tj], [w / mi, far(w_far, vi, self.volumes[j]) / mj], r, e);
                 for a in 0..d {
                     fi[a] += vi * fhat * y[a] / ry;
                 }
@@ -157,13 +155,19 @@ impl LpsModel {
     }
 }
 
-/// The scalar bond force of Algorithm 2 with per-end influence weights
-/// `w_i = omega_i nu V_j`, `w_j = omega_j nu V_j` (equal for a spherical influence function):
-/// `(d kappa - a G / d) (theta_i w_i / m_i + theta_j w_j / m_j) |xi| + a G (w_i / m_i + w_j / m_j) e`,
-/// given `[theta_i, theta_j]` and `[w_i / m_i, w_j / m_j]`.
-#[inline]
-fn bond_force(c_theta: f64, a_g: f64, theta: [f64; 2], w_over_m: [f64; 2], r: f64, e: f64) -> f64 {
-    let [ti, tj] = theta;
-    let [wi, wj] = w_over_m;
-    c_theta * (ti * wi + tj * wj) * r + a_g * (wi + wj) * e
+impl LpsModel {
+    /// The scalar bond force of Algorithm 2 with per-end influence weights
+    /// `w_i = omega_i nu V_j`, `w_j = omega_j nu V_j` (equal for a spherical influence function)
+    /// and per-end constants `c_k = d kappa_k - a G_k / d`:
+    /// `(c_i theta_i w_i / m_i + c_j theta_j w_j / m_j) |xi| + (a G_i w_i / m_i + a G_j w_j / m_j) e`,
+    /// given `[theta_i, theta_j]` and `[w_i / m_i, w_j / m_j]`.
+    #[inline]
+    fn bond_force(&self, i: usize, j: usize, theta: [f64; 2], w_over_m: [f64; 2], r: f64, e: f64) -> f64 {
+        let d = self.dim as f64;
+        let [ti, tj] = theta;
+        let [wi, wj] = w_over_m;
+        let (ai, aj) = (self.a_g_at(i), self.a_g_at(j));
+        let (ci, cj) = (d * self.kappa_at(i) - ai / d, d * self.kappa_at(j) - aj / d);
+        (ci * ti * wi + cj * tj * wj) * r + (ai * wi + aj * wj) * e
+    }
 }

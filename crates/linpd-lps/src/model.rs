@@ -188,6 +188,9 @@ pub struct LpsModel {
     pub(crate) kappa: f64,
     /// `a G` (15 G in 3D, 8 G in 2D).
     pub(crate) a_g: f64,
+    /// Per node `[kappa_i, a G_i]` of a heterogeneous material ([`LpsModel::with_node_moduli`]);
+    /// empty when every node has `kappa` and `a_g`.
+    pub(crate) node_constants: Vec<[f64; 2]>,
     /// Which weighted volume `m` holds (see [`crate::surface`]).
     pub(crate) surface: crate::SurfaceCorrection,
     /// Per bond `i -> j`: the index of its reverse bond `j -> i`, when the influence function
@@ -258,6 +261,7 @@ impl LpsModel {
             volumes: (0..n).map(|i| grid.node_volume(i)).collect(),
             kappa: params.kappa(dim),
             a_g: LpsParams::deviatoric_factor(dim) * params.G,
+            node_constants: Vec::new(),
             surface: crate::SurfaceCorrection::None,
             rev: Vec::new(),
         })
@@ -368,6 +372,7 @@ impl LpsModel {
             volumes: volumes.to_vec(),
             kappa: params.kappa(dim),
             a_g: LpsParams::deviatoric_factor(dim) * params.G,
+            node_constants: Vec::new(),
             surface: crate::SurfaceCorrection::None,
             rev: Vec::new(),
         })
@@ -413,9 +418,47 @@ impl LpsModel {
     pub fn volume(&self) -> f64 {
         self.volume
     }
-    /// The dilatational modulus `kappa` (see [`LpsParams::kappa`]).
+    /// The dilatational modulus `kappa` (see [`LpsParams::kappa`]) of the parameters (every
+    /// node's unless [`LpsModel::with_node_moduli`] set them per node: [`LpsModel::kappa_at`]).
     pub fn kappa(&self) -> f64 {
         self.kappa
+    }
+
+    /// Node `i`'s dilatational modulus `kappa_i`.
+    #[inline]
+    pub fn kappa_at(&self, i: usize) -> f64 {
+        self.node_constants.get(i).map_or(self.kappa, |c| c[0])
+    }
+
+    /// Node `i`'s deviatoric modulus `a G_i` (`alpha_i = a G_i / m_i`).
+    #[inline]
+    pub fn a_g_at(&self, i: usize) -> f64 {
+        self.node_constants.get(i).map_or(self.a_g, |c| c[1])
+    }
+
+    /// The model with per-node moduli `K_i = bulk[i]`, `G_i = shear[i]` (a heterogeneous
+    /// material: phases). The energy stays a sum of node energies, each with its own node's
+    /// constants,
+    ///
+    /// ```text
+    /// E = sum_i V_i [kappa_i theta_i^2 / 2 + (a G_i / (2 m_i)) sum_j omega (e - theta_i |xi| / d)^2 nu V_j]
+    /// ```
+    ///
+    /// so the force and the tangent keep their forms with `kappa` and `a G` read at the end
+    /// whose sum a term comes from, and the tangent stays symmetric (no bond rule: nothing is
+    /// averaged over a bond). Each node's pair is checked as the parameters are.
+    pub fn with_node_moduli(mut self, bulk: &[f64], shear: &[f64]) -> Result<Self, LpsError> {
+        let n = self.n_nodes();
+        assert!(bulk.len() == n && shear.len() == n, "one K and one G per node");
+        let a = LpsParams::deviatoric_factor(self.dim);
+        let mut constants = Vec::with_capacity(n);
+        for i in 0..n {
+            let p = LpsParams { K: bulk[i], G: shear[i], ..self.params };
+            p.validate(self.dim, 0.0)?;
+            constants.push([p.kappa(self.dim), a * p.G]);
+        }
+        self.node_constants = constants;
+        Ok(self)
     }
     /// Reference positions.
     pub fn positions(&self) -> Vec<Point> {

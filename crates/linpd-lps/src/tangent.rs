@@ -17,7 +17,7 @@
 //! collapses to a bond part plus one rank-one term per node:
 //!
 //! ```text
-//! A = A_pair + sum_k C_k g_k g_k^T,       C_k = V_k (kappa - a G / d^2),
+//! A = A_pair + sum_k C_k g_k g_k^T,       C_k = V_k (kappa_k - a G_k / d^2),
 //! A_pair = sum_{bonds i-j} s_ij (n n^T) on (i,i), (j,j) and -s_ij (n n^T) on (i,j), (j,i),
 //! s_ij   = V_i V_j a G omega nu (1/m_i + 1/m_j).
 //! ```
@@ -60,7 +60,7 @@ impl LpsModel {
     /// `C_k = V_k (kappa - a G / d^2)`, the coefficient of `g_k g_k^T`.
     pub fn dilatation_coefficient(&self, k: usize) -> f64 {
         let d = self.dim as f64;
-        self.volumes[k] * (self.kappa - self.a_g / (d * d))
+        self.volumes[k] * (self.kappa_at(k) - self.a_g_at(k) / (d * d))
     }
 
     /// `g_k[k] = -(d/m_k) sum_q omega nu V_q xi_kq` for every node (zero for full families).
@@ -101,7 +101,7 @@ impl LpsModel {
         for (j, w, w_jp, r) in self.bond_pairs(p) {
             let xi = self.bond_vector(p, j);
             let w_far = far(w_jp, v, self.volumes[j]);
-            let s = v * self.a_g * (w / self.m[p] + w_far / self.m[j]) / (r * r);
+            let s = v * (self.a_g_at(p) * w / self.m[p] + self.a_g_at(j) * w_far / self.m[j]) / (r * r);
             add(p, s, &xi, &xi);
             add(j, -s, &xi, &xi);
         }
@@ -209,7 +209,7 @@ impl LpsModel {
                 let xi = self.bond_vector(p, j);
                 // Pair: s (n . (u_p - u_j)) n with n = xi / r; the far end's omega_j nu V_j.
                 let w_far = far(w_jp, v, self.volumes[j]);
-                let s = v * self.a_g * (w / self.m[p] + w_far / self.m[j]) / (r * r);
+                let s = v * (self.a_g_at(p) * w / self.m[p] + self.a_g_at(j) * w_far / self.m[j]) / (r * r);
                 let mut proj = 0.0;
                 for a in 0..d {
                     proj += xi[a] * (u[d * p + a] - u[d * j + a]);

@@ -41,6 +41,25 @@ fn variants() -> Vec<(usize, usize, LpsParams)> {
     ]
 }
 
+/// Every variant, homogeneous and with per-node moduli ([`model_of`]).
+fn with_heterogeneous() -> Vec<(usize, usize, LpsParams, bool)> {
+    variants().into_iter().flat_map(|(d, n, p)| [(d, n, p, false), (d, n, p, true)]).collect()
+}
+
+/// [`model`], with `hetero` per-node moduli `K_i` in [1, 4] and `G_i` in [0.3, 1.2] (Poisson
+/// ratios 0.07 to 0.46), pseudo-random: a heterogeneous material in the energy's per-node form.
+fn model_of(dim: usize, nodes: usize, p: &LpsParams, hetero: bool) -> LpsModel {
+    let m = model(dim, nodes, p);
+    if !hetero {
+        return m;
+    }
+    let n = m.n_nodes();
+    let (a, b) = (random_vec(n, 3), random_vec(n, 5));
+    let bulk: Vec<f64> = a.iter().map(|v| 2.5 + 1.5 * v.clamp(-1.0, 1.0)).collect();
+    let shear: Vec<f64> = b.iter().map(|v| 0.75 + 0.45 * v.clamp(-1.0, 1.0)).collect();
+    m.with_node_moduli(&bulk, &shear).unwrap()
+}
+
 /// `u = H x`.
 fn affine(m: &LpsModel, hmat: &[[f64; 3]; 3]) -> Vec<f64> {
     let d = m.dim();
@@ -55,8 +74,8 @@ fn affine(m: &LpsModel, hmat: &[[f64; 3]; 3]) -> Vec<f64> {
 
 #[test]
 fn tangent_equals_central_difference_jacobian_of_the_force() {
-    for (dim, nodes, p) in variants() {
-        let m = model(dim, nodes, &p);
+    for (dim, nodes, p, hetero) in with_heterogeneous() {
+        let m = model_of(dim, nodes, &p, hetero);
         let a = dense(&assemble_tangent(&m));
         let s = max_abs(&a);
         let n = m.n_dofs();
@@ -74,7 +93,11 @@ fn tangent_equals_central_difference_jacobian_of_the_force() {
                 worst = worst.max((fd - a[row][col]).abs());
             }
         }
-        eprintln!("FD Jacobian dim {dim} {:?}: max|A - J_fd| / max|A| = {:.2e}", p.influence, worst / s);
+        eprintln!(
+            "FD Jacobian dim {dim} {:?} heterogeneous {hetero}: max|A - J_fd| / max|A| = {:.2e}",
+            p.influence,
+            worst / s
+        );
         assert!(worst <= 1e-7 * s, "dim {dim}: FD mismatch {:.3e} of max|A| {s:.3e}", worst / s);
     }
 }
@@ -82,8 +105,8 @@ fn tangent_equals_central_difference_jacobian_of_the_force() {
 #[test]
 fn force_is_minus_the_gradient_of_the_energy() {
     // At a random finite displacement (1% of h), where the geometric terms are active.
-    for (dim, nodes, p) in variants() {
-        let m = model(dim, nodes, &p);
+    for (dim, nodes, p, hetero) in with_heterogeneous() {
+        let m = model_of(dim, nodes, &p, hetero);
         let n = m.n_dofs();
         let u: Vec<f64> = random_vec(n, 7).iter().map(|v| 1e-2 * H * v).collect();
         let mut f = vec![0.0; n];
@@ -107,8 +130,8 @@ fn force_is_minus_the_gradient_of_the_energy() {
 
 #[test]
 fn tangent_is_symmetric_psd_with_rigid_null_space() {
-    for (dim, nodes, p) in variants() {
-        let m = model(dim, nodes, &p);
+    for (dim, nodes, p, hetero) in with_heterogeneous() {
+        let m = model_of(dim, nodes, &p, hetero);
         let a = dense(&assemble_tangent(&m));
         let s = max_abs(&a);
         let n = m.n_dofs();
@@ -248,8 +271,8 @@ fn pure_dilatation_energy_density_is_kappa_theta_squared_over_two() {
 
 #[test]
 fn matrix_free_apply_matches_assembled_matvec() {
-    for (dim, nodes, p) in variants() {
-        let m = model(dim, nodes, &p);
+    for (dim, nodes, p, hetero) in with_heterogeneous() {
+        let m = model_of(dim, nodes, &p, hetero);
         let a = assemble_tangent(&m);
         let n = m.n_dofs();
         let u = random_vec(n, 42);

@@ -61,7 +61,7 @@ pub struct RawLps {
     /// Influence function, `inverse_distance` (default) or `constant`.
     #[serde(default)]
     pub influence: Option<RawInfluence>,
-    /// Defects (pre-cracks); no phases yet.
+    /// Defects (pre-cracks) and phases (`young_modulus` and `poisson_ratio` each).
     #[serde(default)]
     pub material: RawMaterial,
     /// `none` (default), `energy` or `position_aware`.
@@ -98,22 +98,27 @@ impl ModelType for LpsType {
             let n = crate::nodes::NodeSet::count(&nodes);
             crate::memory::check_lps_work(n, crate::memory::neighbours(dim, ratio), ratio)?;
             let params = params(dim, &raw)?;
-            let material = material(&raw.material, dim, None)?;
+            let material = material(&defects_only(&raw.material), dim, None)?;
             check_defects(&material, &nodes, raw.horizon)?;
-            let model = LpsSceneModel { params, defects: material.defects, surface: Surface::default(), cloud: true };
-            return Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(model) });
+            let nodes = Nodes::Cloud(nodes);
+            let phases = phases(&raw.material, dim, &nodes, &params)?;
+            let model =
+                LpsSceneModel { params, defects: material.defects, surface: Surface::default(), cloud: true, phases };
+            return Ok(Validated { nodes, model: Box::new(model) });
         }
         let grid = crate::validate::lattice(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
         let ratio = raw.horizon / grid.spacing();
         crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(dim, ratio), ratio)?;
         let params = params(dim, &raw)?;
-        let material = material(&raw.material, dim, None)?;
+        let material = material(&defects_only(&raw.material), dim, None)?;
         if let Some(k) = material.defect_cutting_nothing(&grid, raw.horizon) {
             return Err(defect_cuts_nothing(k));
         }
         let surface = surface_of(true, raw.surface_correction, raw.surface_target)?;
-        let model = LpsSceneModel { params, defects: material.defects, surface, cloud: false };
-        Ok(Validated { nodes: Nodes::Lattice(grid), model: Box::new(model) })
+        let nodes = Nodes::Lattice(grid);
+        let phases = phases(&raw.material, dim, &nodes, &params)?;
+        let model = LpsSceneModel { params, defects: material.defects, surface, cloud: false, phases };
+        Ok(Validated { nodes, model: Box::new(model) })
     }
 }
 
@@ -124,10 +129,11 @@ fn params(dim: usize, raw: &RawLps) -> Result<LpsParams, ProblemError> {
     if dim == 1 {
         return Err(ProblemError::invalid("dimension", "lps models are 2D or 3D"));
     }
-    if !material.phases.is_empty() || material.bond_rule.is_some() {
+    if material.bond_rule.is_some() {
         return Err(ProblemError::invalid(
-            "model.material",
-            "lps models take defects (pre-cracks) but no phases or bond_rule yet: one K and G per scene",
+            "model.material.bond_rule",
+            "lps models have no bond rule: each node's energy uses its own phase's K and G, nothing is averaged \
+             over a bond",
         ));
     }
     let (k, g) = crate::elastic::lps_moduli("model", bulk, shear, raw.young_modulus, raw.poisson_ratio)?;
@@ -181,6 +187,74 @@ pub struct LpsSceneModel {
     pub surface: Surface,
     /// On a point cloud.
     cloud: bool,
+    /// The phases: where, and their `(K, G)`.
+    phases: Vec<LpsPhase>,
+}
+
+/// A phase of an lps material: nodes in `region` (a lattice's or a mesh's, sets included) or
+/// with phase number `tag` (a cloud's column or a mesh's group) get the moduli `K`, `G`.
+#[derive(Debug, Clone)]
+struct LpsPhase {
+    region: Option<linpd_core::Region>,
+    tag: Option<u32>,
+    bulk: f64,
+    shear: f64,
+}
+
+/// The material without its phases (the lps phases are validated by [`phases`]).
+fn defects_only(raw: &RawMaterial) -> RawMaterial {
+    RawMaterial { phases: Vec::new(), ..raw.clone() }
+}
+
+/// The phases of an lps material: each gives `young_modulus` and `poisson_ratio` (its `K`
+/// and `G`), and where: a `region` (a mesh's sets included) or a cloud's `phase` number; a
+/// set or number that selects no node is an error.
+fn phases(raw: &RawMaterial, dim: usize, nodes: &Nodes, params: &LpsParams) -> Result<Vec<LpsPhase>, ProblemError> {
+    let mut out = Vec::new();
+    for (k, ph) in raw.phases.iter().enumerate() {
+        let p = format!("model.material.phases[{k}]");
+        if ph.modulus.is_some() {
+            return Err(ProblemError::invalid(
+                format!("{p}.modulus"),
+                "an lps phase gives young_modulus and poisson_ratio (its K and G), not a bond modulus",
+            ));
+        }
+        let (bulk, shear) = crate::elastic::lps_moduli(&p, None, None, ph.young_modulus, ph.poisson_ratio)?;
+        let own = LpsParams { K: bulk, G: shear, ..*params };
+        if let Some((what, value)) = own.overflow(dim) {
+            return Err(ProblemError::invalid(
+                format!("{p}.young_modulus"),
+                format!("overflows: the derived constant {what} = {value:e}; use smaller units for the moduli"),
+            ));
+        }
+        let (region, tag) = match (&ph.region, ph.phase) {
+            (Some(r), None) => {
+                let path = format!("{p}.region");
+                let r = crate::validate::region(&path, r, dim)?;
+                nodes.check_sets(&r, &path)?;
+                if !r.set_names().is_empty() && nodes.select(&r).is_empty() {
+                    return Err(ProblemError::invalid(path, "selects no node of the mesh"));
+                }
+                (Some(r), None)
+            }
+            (None, Some(tag)) => {
+                let Some(c) = nodes.cloud().filter(|c| !c.phase.is_empty()) else {
+                    return Err(ProblemError::invalid(
+                        format!("{p}.phase"),
+                        "phase numbers come from a point cloud's `phase` column or a mesh's groups; on a grid give a \
+                         region",
+                    ));
+                };
+                if !c.phase.contains(&tag) {
+                    return Err(ProblemError::invalid(format!("{p}.phase"), format!("no node has phase {tag}")));
+                }
+                (None, Some(tag))
+            }
+            _ => return Err(ProblemError::invalid(&p, "give exactly one of \"region\" or \"phase\"")),
+        };
+        out.push(LpsPhase { region, tag, bulk, shear });
+    }
+    Ok(out)
 }
 
 impl LpsSceneModel {
@@ -204,19 +278,75 @@ impl LpsSceneModel {
             ),
             e => ProblemError::invalid("model", e.to_string()),
         })?;
-        model
+        let (model, summary) = model
             .corrected_to(surface.correction, surface.target)
-            .map_err(|e| ProblemError::invalid("model.surface_correction", e.to_string()))
+            .map_err(|e| ProblemError::invalid("model.surface_correction", e.to_string()))?;
+        let model = match self.node_moduli(p.nodes()) {
+            Some((bulk, shear)) => model
+                .with_node_moduli(&bulk, &shear)
+                .map_err(|e| ProblemError::invalid("model.material", e.to_string()))?,
+            None => model,
+        };
+        Ok((model, summary))
+    }
+
+    /// `(K_i, G_i)` of every node when the material has phases (later phases override earlier
+    /// ones where both apply, as for bond models), `None` when it has none.
+    fn node_moduli(&self, nodes: &Nodes) -> Option<(Vec<f64>, Vec<f64>)> {
+        if self.phases.is_empty() {
+            return None;
+        }
+        let n = nodes.len();
+        let (mut bulk, mut shear) = (vec![self.params.K; n], vec![self.params.G; n]);
+        for ph in &self.phases {
+            let selected: Vec<usize> = match (&ph.region, ph.tag) {
+                (Some(r), _) => nodes.select(r),
+                (None, Some(tag)) => nodes.cloud().map_or_else(Vec::new, |c| {
+                    c.phase.iter().enumerate().filter(|(_, &t)| t == tag).map(|(i, _)| i).collect()
+                }),
+                (None, None) => Vec::new(),
+            };
+            for i in selected {
+                (bulk[i], shear[i]) = (ph.bulk, ph.shear);
+            }
+        }
+        Some((bulk, shear))
     }
 }
 
 impl SceneModel for LpsSceneModel {
-    fn node_elastic(&self, _: &Problem, x: &[linpd_core::Point]) -> Option<crate::scene::NodeElastic> {
-        let c = crate::elastic::lps_constants(self.params.K, self.params.G);
-        Some((self.params.plane, vec![(c.young_modulus, c.poisson_ratio); x.len()]))
+    fn node_elastic(&self, p: &Problem, x: &[linpd_core::Point]) -> Option<crate::scene::NodeElastic> {
+        let of = |k: f64, g: f64| {
+            let c = crate::elastic::lps_constants(k, g);
+            (c.young_modulus, c.poisson_ratio)
+        };
+        let constants = match self.node_moduli(p.nodes()) {
+            Some((bulk, shear)) if bulk.len() == x.len() => bulk.iter().zip(&shear).map(|(&k, &g)| of(k, g)).collect(),
+            // points between nodes (probes): the region phases at the points
+            Some(_) => {
+                let tol = linpd_core::GEOMETRY_RTOL * p.nodes().spacing();
+                x.iter()
+                    .map(|x| {
+                        let last = self.phases.iter().rev().find(|ph| {
+                            ph.region.as_ref().is_some_and(|r| r.set_names().is_empty() && r.contains(x, p.dim(), tol))
+                        });
+                        last.map_or(of(self.params.K, self.params.G), |ph| of(ph.bulk, ph.shear))
+                    })
+                    .collect()
+            }
+            None => vec![of(self.params.K, self.params.G); x.len()],
+        };
+        Some((self.params.plane, constants))
     }
     fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
-        vec![crate::elastic::lps_constants(self.params.K, self.params.G)]
+        let mut out = vec![crate::elastic::lps_constants(self.params.K, self.params.G)];
+        for (k, ph) in self.phases.iter().enumerate() {
+            out.push(crate::elastic::PhaseConstants {
+                phase: format!("phases[{k}]"),
+                ..crate::elastic::lps_constants(ph.bulk, ph.shear)
+            });
+        }
+        out
     }
     fn name(&self) -> &'static str {
         "lps"
