@@ -37,8 +37,9 @@ from skfem.models.elasticity import lame_parameters, linear_elasticity
 NU = {"plate": 1.0 / 3.0, "bracket": 0.25}
 
 
-def mesh(case, size):
-    """A fresh gmsh mesh (linear triangles or tetrahedra) of the case's geometry."""
+def mesh(case, size, edge_size=None):
+    """A fresh gmsh mesh (linear triangles or tetrahedra) of the case's geometry: of uniform
+    size, or (bracket) graded linearly from edge_size at the singular edges to size at 0.05."""
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     occ = gmsh.model.occ
@@ -47,8 +48,24 @@ def mesh(case, size):
     else:
         occ.fuse([(3, occ.addBox(0.0, 0.0, 0.0, 0.1, 0.3, 0.1))], [(3, occ.addBox(0.0, 0.2, 0.0, 0.4, 0.1, 0.1))])
     occ.synchronize()
-    gmsh.option.setNumber("Mesh.MeshSizeMin", size)
-    gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+    if edge_size is None:
+        gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+    else:
+        box = {c: np.array(gmsh.model.getBoundingBox(1, c)) for _, c in gmsh.model.getEntities(1)}
+        clamp = [c for c, b in box.items() if np.allclose(b[[1, 4]], 0.0, atol=1e-6)]
+        corner = [c for c, b in box.items() if np.allclose(b[[0, 1, 3, 4]], [0.1, 0.2, 0.1, 0.2], atol=1e-6)]
+        field = gmsh.model.mesh.field
+        distance = field.add("Distance")
+        field.setNumbers(distance, "CurvesList", clamp + corner)
+        field.setNumber(distance, "Sampling", int(0.2 / edge_size))
+        grade = field.add("Threshold")
+        field.setNumber(grade, "InField", distance)
+        for name, value in [("SizeMin", edge_size), ("SizeMax", size), ("DistMin", 0.0), ("DistMax", 0.05)]:
+            field.setNumber(grade, name, value)
+        field.setAsBackgroundMesh(grade)
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     dim = 2 if case == "plate" else 3
     gmsh.model.mesh.generate(dim)
     tags, x, _ = gmsh.model.mesh.getNodes()
@@ -62,9 +79,9 @@ def mesh(case, size):
     return (skfem.MeshTri if dim == 2 else skfem.MeshTet)(np.ascontiguousarray(x.T), np.ascontiguousarray(t.reshape(-1, dim + 1).T))
 
 
-def solve(case, size):
+def solve(case, size, edge_size=None):
     start = time.perf_counter()
-    m = mesh(case, size)
+    m = mesh(case, size, edge_size)
     dim = m.dim()
     e = skfem.ElementVector(skfem.ElementTriP2() if dim == 2 else skfem.ElementTetP2())
     basis = skfem.Basis(m, e, intorder=2)
@@ -90,7 +107,7 @@ def solve(case, size):
         u[free], solver = amg_cg(basis, A.tobsr(blocksize=(3, 3)), b, free)
     solved = time.perf_counter() - start
     tip = skfem.Functional(lambda w: w.u[0 if dim == 2 else 1]).assemble(face, u=face.interpolate(u)) / area
-    info = {"case": case, "size": size, "elements": int(m.nelements), "dofs": int(basis.N), "solver": solver,
+    info = {"case": case, "size": size, "elements": int(m.nelements), "dofs": int(basis.N), "edge_size": edge_size, "solver": solver,
             "setup_s": round(setup, 2), "solve_s": round(solved, 2), "tip": float(tip)}
     return basis, u, info
 
@@ -136,10 +153,13 @@ if __name__ == "__main__":
     p = argparse.ArgumentParser()
     p.add_argument("case", choices=sorted(NU))
     p.add_argument("--size", type=float, required=True)
+    p.add_argument("--edge-size", type=float, help="bracket: the size at its singular edges")
     p.add_argument("--points")
     p.add_argument("--out")
     a = p.parse_args()
-    basis, u, info = solve(a.case, a.size)
+    if a.edge_size and a.case == "plate" or bool(a.points) != bool(a.out):
+        p.error("--edge-size is for the bracket; --points and --out go together")
+    basis, u, info = solve(a.case, a.size, a.edge_size)
     if a.points:
         start = time.perf_counter()
         x = np.loadtxt(a.points, delimiter=",", skiprows=1, ndmin=2)

@@ -69,7 +69,10 @@ fn bad_cracks_are_refused() {
     let mut s = scene("plate-notch-2d.json");
     s["model"]["material"]["phases"] = json!([{"region": "all", "modulus": 2.0}]);
     let e = error_of(&s);
-    assert!(e.starts_with("model.material.phases[0].modulus: an lps phase gives young_modulus and poisson_ratio"), "{e}");
+    assert!(
+        e.starts_with("model.material.phases[0].modulus: an lps phase gives young_modulus and poisson_ratio"),
+        "{e}"
+    );
     let mut s = scene("plate-notch-2d.json");
     s["model"]["material"]["defects"][0] =
         json!({"plane": {"point": [0.5, 0.5, 0.0], "normal": [1.0, 0.0, 0.0]}, "factor": 0.0});

@@ -185,17 +185,18 @@ fn bad_surface_corrections_are_named_errors() {
         let e = error_of(&bar_with("lps", "none", "continuum", Some(target)));
         assert!(e.contains("model.surface_target") && e.contains("surface_correction"), "{target}: {e}");
     }
-    // LPS corrections need a lattice; a bond cloud takes `energy` with the classical target
-    // only (tests/point_cloud.rs, tests/meshes.rs)
+    // clouds take the corrections with the classical target only (tests/point_cloud.rs,
+    // tests/meshes.rs): the lattice target is named
     let mut cloud: Value =
         serde_json::from_str(&std::fs::read_to_string(data("bracket-cloud-lps-2d.json")).unwrap()).unwrap();
     cloud["model"]["surface_correction"] = json!("energy");
+    cloud["model"]["surface_target"] = json!("lattice");
     let text = cloud.to_string();
     let e = match Problem::from_json_in(&text, &data("")) {
-        Ok(_) => panic!("an LPS cloud took a surface correction"),
+        Ok(_) => panic!("an LPS cloud took the lattice target"),
         Err(e) => e.to_string(),
     };
-    assert!(e.contains("model.surface_correction") && e.contains("point clouds"), "{e}");
+    assert!(e.contains("model.surface_target") && e.contains("a point cloud has none"), "{e}");
     let mut blend: Value =
         serde_json::from_str(&std::fs::read_to_string(data("blend-point-load.json")).unwrap()).unwrap();
     blend["model"]["surface_correction"] = json!("energy");

@@ -146,8 +146,6 @@ pub fn read_cloud(path: &Path, dim: usize) -> Result<Cloud, IoError> {
 ///   range.
 pub fn read_mesh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     use linpd_core::Point;
-    use mshio::mshfile::ElementType;
-    use vtkio::model::CellType;
     let shown = path.display().to_string();
     let fail = |reason: String| IoError::Format { path: shown.clone(), line: None, reason };
     crate::mesh::check_size(path)?;
@@ -209,24 +207,12 @@ pub fn read_mesh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
                 Some(t) => t[k] as u32,
                 None => 0,
             };
-            // (the element's dimension, Gmsh's type, VTK's corners in Gmsh's order)
-            let (edim, gmsh, order): (usize, Option<ElementType>, &[usize]) = match kind {
-                CellType::Vertex => (0, None, &[0]),
-                CellType::Line => (1, None, &[0, 1]),
-                CellType::Triangle => (2, Some(ElementType::Tri3), &[0, 1, 2]),
-                CellType::Quad => (2, Some(ElementType::Qua4), &[0, 1, 2, 3]),
-                CellType::Pixel => (2, Some(ElementType::Qua4), &[0, 1, 3, 2]),
-                CellType::Tetra => (3, Some(ElementType::Tet4), &[0, 1, 2, 3]),
-                CellType::Hexahedron => (3, Some(ElementType::Hex8), &[0, 1, 2, 3, 4, 5, 6, 7]),
-                CellType::Voxel => (3, Some(ElementType::Hex8), &[0, 1, 3, 2, 4, 5, 7, 6]),
-                CellType::Wedge => (3, Some(ElementType::Pri6), &[0, 2, 1, 3, 5, 4]),
-                other => {
-                    return Err(fail(format!(
-                        "cell {c}: {other:?} cells are not read (linear triangles, quads, pixels, tetrahedra, \
-                         hexahedra, voxels and wedges are)"
-                    )))
-                }
-            };
+            let (edim, gmsh, order) = vtk_cell(kind).ok_or_else(|| {
+                fail(format!(
+                    "cell {c}: {kind:?} cells are not read (linear triangles, quads, pixels, tetrahedra, \
+                     hexahedra, voxels and wedges are)"
+                ))
+            })?;
             if local.len() != order.len() {
                 return Err(fail(format!("cell {c}: {kind:?} with {} points, not {}", local.len(), order.len())));
             }
@@ -268,19 +254,46 @@ pub fn read_mesh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     if cloud.positions.is_empty() {
         return Err(fail(format!("has no {dim}D cell")));
     }
+    bounded_sets(&mut cloud, &vertices, &lower);
+    crate::mesh::tidy_sets(&mut cloud);
+    Ok(cloud)
+}
+
+/// A VTK cell type read as a mesh element: its dimension, Gmsh's element type (for
+/// [`crate::mesh::measure`]; `None` for vertices and lines, which only bound) and VTK's corners
+/// in Gmsh's order (a wedge's triangles turn the other way, pixels and voxels are
+/// lexicographic).
+fn vtk_cell(kind: vtkio::model::CellType) -> Option<(usize, Option<mshio::mshfile::ElementType>, &'static [usize])> {
+    use mshio::mshfile::ElementType;
+    use vtkio::model::CellType;
+    Some(match kind {
+        CellType::Vertex => (0, None, &[0]),
+        CellType::Line => (1, None, &[0, 1]),
+        CellType::Triangle => (2, Some(ElementType::Tri3), &[0, 1, 2]),
+        CellType::Quad => (2, Some(ElementType::Qua4), &[0, 1, 2, 3]),
+        CellType::Pixel => (2, Some(ElementType::Qua4), &[0, 1, 3, 2]),
+        CellType::Tetra => (3, Some(ElementType::Tet4), &[0, 1, 2, 3]),
+        CellType::Hexahedron => (3, Some(ElementType::Hex8), &[0, 1, 2, 3, 4, 5, 6, 7]),
+        CellType::Voxel => (3, Some(ElementType::Hex8), &[0, 1, 3, 2, 4, 5, 7, 6]),
+        CellType::Wedge => (3, Some(ElementType::Pri6), &[0, 2, 1, 3, 5, 4]),
+        _ => return None,
+    })
+}
+
+/// Adds to set `"k"` the nodes whose cell contains every vertex of a lower-dimensional cell
+/// tagged `k` (`lower`: its vertices and tag; `vertices`: each node's cell's).
+fn bounded_sets(cloud: &mut Cloud, vertices: &[Vec<u64>], lower: &[(Vec<u64>, u32)]) {
     let mut by_vertex: std::collections::HashMap<u64, Vec<u32>> = std::collections::HashMap::new();
     for (n, vs) in vertices.iter().enumerate() {
         for &p in vs {
             by_vertex.entry(p).or_default().push(n as u32);
         }
     }
-    for (side, tag) in &lower {
+    for (side, tag) in lower {
         let Some(candidates) = side.first().and_then(|p| by_vertex.get(p)) else { continue };
         let bounded = candidates.iter().copied().filter(|&n| side.iter().all(|p| vertices[n as usize].contains(p)));
         cloud.sets.entry(tag.to_string()).or_default().extend(bounded);
     }
-    crate::mesh::tidy_sets(&mut cloud);
-    Ok(cloud)
 }
 
 /// In an ASCII legacy VTK file, `(line, why)` when the count of a `POINTS n type` line (1-based

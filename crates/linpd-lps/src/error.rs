@@ -64,7 +64,8 @@ pub enum LpsError {
     /// The family does not belong to the grid (wrong length or a bond without its reverse).
     #[error("bond family is inconsistent with the grid: {0}")]
     Family(String),
-    /// A surface correction was asked of a point-cloud model (they match a lattice interior).
-    #[error("the {0} surface correction matches the bulk of a lattice; a point-cloud model has none")]
+    /// A surface correction or target that matches a lattice's interior was asked of a
+    /// point-cloud model.
+    #[error("{0} matches the interior of a lattice; a point-cloud model has none")]
     NeedsLattice(&'static str),
 }

@@ -46,7 +46,7 @@ use crate::model::norm;
 use crate::{LpsError, LpsModel};
 use linpd_core::family::lattice_stencil;
 use linpd_core::kernel::partial_volume;
-use linpd_core::surface::{family_factors, CorrectionSummary, FactorRule, SurfaceTarget};
+use linpd_core::surface::{cloud_factors, family_factors, CorrectionSummary, FactorRule, SurfaceTarget};
 
 /// The surface correction of an LPS model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -115,8 +115,8 @@ impl LpsModel {
     /// sums of the model's current weights); [`SurfaceCorrection::Energy`] and
     /// [`SurfaceCorrection::PositionAware`] rescale the bond weights and must be applied to an
     /// uncorrected model (built by [`LpsModel::new`], [`LpsModel::with_family`] or
-    /// [`LpsModel::with_defects`]), once. Every correction but `None` needs a lattice
-    /// ([`LpsError::NeedsLattice`] on a point-cloud model).
+    /// [`LpsModel::with_defects`]), once. On a point-cloud model `BulkWeightedVolume` and the
+    /// lattice target are [`LpsError::NeedsLattice`] ([`LpsModel::corrected_with_layer`]).
     pub fn corrected(self, correction: SurfaceCorrection) -> Result<(Self, Option<CorrectionSummary>), LpsError> {
         self.corrected_to(correction, SurfaceTarget::default())
     }
@@ -127,12 +127,34 @@ impl LpsModel {
     /// exactly unchanged). LPS divides by each node's own `m_i`, so only the moments' shape
     /// matters, not their trace. The other corrections ignore `target`.
     pub fn corrected_to(
-        mut self,
+        self,
         correction: SurfaceCorrection,
         target: SurfaceTarget,
     ) -> Result<(Self, Option<CorrectionSummary>), LpsError> {
-        if self.grid.is_none() && correction != SurfaceCorrection::None {
-            return Err(LpsError::NeedsLattice(correction.name()));
+        self.corrected_with_layer(correction, target, &[])
+    }
+
+    /// [`LpsModel::corrected_to`] with a point cloud's `layer` flags: on a cloud the
+    /// moment-matching corrections take the classical target only (a cloud has no interior
+    /// lattice), every node not in `layer` fitted on its own and the `layer` nodes taking the
+    /// fullest family's fit ([`linpd_core::surface::cloud_factors`]); the trace of the target
+    /// is the continuum weighted volume `m_c = int_{H} omega |xi|^2 dV`, which LPS divides out.
+    /// `layer` is ignored on a lattice (the lattice's own layer counts).
+    pub fn corrected_with_layer(
+        mut self,
+        correction: SurfaceCorrection,
+        target: SurfaceTarget,
+        layer: &[bool],
+    ) -> Result<(Self, Option<CorrectionSummary>), LpsError> {
+        let cloud = self.grid.is_none();
+        if cloud
+            && (correction == SurfaceCorrection::BulkWeightedVolume || target == SurfaceTarget::Lattice)
+            && correction != SurfaceCorrection::None
+        {
+            return Err(LpsError::NeedsLattice(match correction {
+                SurfaceCorrection::BulkWeightedVolume => "the bulk_weighted_volume surface correction",
+                _ => "the lattice surface target",
+            }));
         }
         let mut summary = None;
         match correction {
@@ -169,7 +191,11 @@ impl LpsModel {
                         self.surface.name()
                     )));
                 }
-                summary = Some(self.match_moments(correction == SurfaceCorrection::PositionAware, target));
+                let per_node = correction == SurfaceCorrection::PositionAware;
+                summary = Some(match cloud {
+                    true => self.match_moments_on_cloud(per_node, layer),
+                    false => self.match_moments(per_node, target),
+                });
             }
         }
         self.surface = correction;
@@ -208,6 +234,48 @@ impl LpsModel {
             self.index_reverse_bonds();
         }
         summary
+    }
+
+    /// [`LpsModel::match_moments`] on a point cloud: `beta_ij = omega nu_ij V_j |xi|^2` with
+    /// the cloud's partial volumes (node sizes `V^(1/d)`), the classical target of trace
+    /// [`LpsModel::continuum_weighted_volume`].
+    fn match_moments_on_cloud(&mut self, per_node: bool, layer: &[bool]) -> CorrectionSummary {
+        let (dim, delta, p) = (self.dim, self.params.horizon, self.params);
+        let size: Vec<f64> = self.volumes.iter().map(|v| v.powf(1.0 / dim as f64)).collect();
+        let bond = |i: usize, b: usize| {
+            let j = self.family.neighbors(i)[b] as usize;
+            let r = self.len[self.family.bond_offset(i) + b];
+            let xi = self.bond_vector(i, j);
+            let nu = if p.partial_volume { partial_volume(r, delta, 0.5 * (size[i] + size[j])) } else { 1.0 };
+            Some(([xi[0] / r, xi[1] / r, xi[2] / r], p.influence.omega(r) * nu * self.volumes[j] * r * r))
+        };
+        let (kind, rule) =
+            if per_node { ("position_aware", FactorRule::OwnEnd) } else { ("energy", FactorRule::MeanOfEnds) };
+        let trace = self.continuum_weighted_volume();
+        let (factors, summary) = cloud_factors(dim, &self.family, bond, layer, rule, kind, trace);
+        self.wv.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
+        for i in 0..self.n_nodes() {
+            let o = self.family.bond_offset(i);
+            let nb = self.family.neighbors(i).len();
+            self.m[i] = (o..o + nb).map(|b| self.wv[b] * self.len[b] * self.len[b]).sum();
+        }
+        if per_node {
+            self.index_reverse_bonds();
+        }
+        summary
+    }
+
+    /// The continuum weighted volume `m_c = int_{|xi| <= delta} omega(|xi|) |xi|^2 dV`:
+    /// `(2 pi, 4 pi) delta^(d+1) / (d+1)` for `omega = 1/|xi|`, `delta^(d+2) / (d+2)` times the
+    /// same for `omega = 1`.
+    pub fn continuum_weighted_volume(&self) -> f64 {
+        let d = self.dim as i32;
+        let sphere = if d == 2 { 2.0 * std::f64::consts::PI } else { 4.0 * std::f64::consts::PI };
+        let delta = self.params.horizon;
+        match self.params.influence {
+            crate::Influence::InverseDistance => sphere * delta.powi(d + 1) / (d + 1) as f64,
+            crate::Influence::Constant => sphere * delta.powi(d + 2) / (d + 2) as f64,
+        }
     }
 
     /// The surface correction in effect.

@@ -898,13 +898,15 @@ pub(crate) fn cloud_nodes(
 pub(crate) const NOT_COARSENED: &str =
     "coarsening retains every k-th node of a lattice (levels[].every); point clouds are not coarsened yet";
 
-/// The refusal of a surface correction (`correction`) or target on a point cloud.
-pub(crate) fn no_surface_correction(correction: bool) -> ProblemError {
-    ProblemError::invalid(
-        if correction { "model.surface_correction" } else { "model.surface_target" },
-        "not available on point clouds yet: the correction matches each node's bond moments to a lattice \
-         interior, and a cloud has no lattice (use \"none\", or a grid)",
-    )
+/// The lattice target of a surface correction refused on a point cloud.
+pub(crate) fn refuse_lattice_target(target: Option<crate::raw::RawSurfaceTarget>) -> Result<(), ProblemError> {
+    if target == Some(crate::raw::RawSurfaceTarget::Lattice) {
+        return Err(ProblemError::invalid(
+            "model.surface_target",
+            "\"lattice\" matches an interior lattice's moments, and a point cloud has none: use \"classical\"",
+        ));
+    }
+    Ok(())
 }
 
 /// Every defect of a cloud scene must cut a bond of the cloud.

@@ -65,12 +65,7 @@ pub(crate) fn correction_needs_continuum() -> ProblemError {
 
 /// The keys that need a lattice: the lattice target of a surface correction and `pd_regions`.
 fn refuse_lattice_keys(raw: &RawBond) -> Result<(), ProblemError> {
-    if raw.surface_target == Some(crate::raw::RawSurfaceTarget::Lattice) {
-        return Err(ProblemError::invalid(
-            "model.surface_target",
-            "\"lattice\" matches an interior lattice's moments, and a point cloud has none: use \"classical\"",
-        ));
-    }
+    crate::validate::refuse_lattice_target(raw.surface_target)?;
     if raw.pd_regions.is_some() {
         return Err(ProblemError::invalid(
             "model.pd_regions",

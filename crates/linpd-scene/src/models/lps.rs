@@ -1,7 +1,7 @@
 //! `"type": "lps"`: the linearized state-based LPS solid ([`linpd_lps::LpsModel`], crates/linpd-lps)
 //! on a grid or a point cloud, with the same volume constraints, loads and solvers as the
-//! bond-based model: pre-cracks (defects), `energy` and `position_aware` surface corrections
-//! (grids only). Its ordering, reach and support graph are documented in linpd-lps.
+//! bond-based model: pre-cracks (defects), phases, `energy` and `position_aware` surface
+//! corrections (on clouds towards the classical target only). Its ordering, reach and support graph are documented in linpd-lps.
 
 use super::bond_model::{surface_of, Surface};
 use super::registry::{struct_fields, ModelType, Validated};
@@ -10,9 +10,7 @@ use crate::nodes::{NodeSet, Nodes};
 use crate::raw::{RawInfluence, RawMaterial, RawPlane, RawSurfaceCorrection, RawSurfaceTarget};
 use crate::scene::Problem;
 use crate::solution::Solution;
-use crate::validate::{
-    check_defects, cloud_nodes, defect_cuts_nothing, material, no_surface_correction, Context, NOT_COARSENED,
-};
+use crate::validate::{check_defects, cloud_nodes, defect_cuts_nothing, material, Context, NOT_COARSENED};
 use crate::ProblemError;
 use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
@@ -89,10 +87,8 @@ impl ModelType for LpsType {
         let raw: RawLps = cx.model_keys()?;
         let dim = cx.dim();
         if let Some(spec) = &cx.raw.nodes {
-            let correction = raw.surface_correction.is_some_and(|c| c != RawSurfaceCorrection::None);
-            if correction || raw.surface_target.is_some() {
-                return Err(no_surface_correction(correction));
-            }
+            crate::validate::refuse_lattice_target(raw.surface_target)?;
+            let surface = surface_of(true, raw.surface_correction, raw.surface_target)?;
             let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::LpsAssembled, false)?;
             let ratio = raw.horizon / crate::nodes::NodeSet::spacing(&nodes);
             let n = crate::nodes::NodeSet::count(&nodes);
@@ -102,8 +98,7 @@ impl ModelType for LpsType {
             check_defects(&material, &nodes, raw.horizon)?;
             let nodes = Nodes::Cloud(nodes);
             let phases = phases(&raw.material, dim, &nodes, &params)?;
-            let model =
-                LpsSceneModel { params, defects: material.defects, surface: Surface::default(), cloud: true, phases };
+            let model = LpsSceneModel { params, defects: material.defects, surface, cloud: true, phases };
             return Ok(Validated { nodes, model: Box::new(model) });
         }
         let grid = crate::validate::lattice(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
@@ -278,8 +273,9 @@ impl LpsSceneModel {
             ),
             e => ProblemError::invalid("model", e.to_string()),
         })?;
+        let layer = p.nodes().cloud().map_or(&[][..], |c| &c.layer[..]);
         let (model, summary) = model
-            .corrected_to(surface.correction, surface.target)
+            .corrected_with_layer(surface.correction, surface.target, layer)
             .map_err(|e| ProblemError::invalid("model.surface_correction", e.to_string()))?;
         let model = match self.node_moduli(p.nodes()) {
             Some((bulk, shear)) => model
