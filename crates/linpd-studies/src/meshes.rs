@@ -49,11 +49,27 @@ struct Body {
     elements_at_unit_size: f64,
     /// The loaded set and the displacement component its mean is taken of.
     tip: (&'static str, usize),
+    /// `examples/fe_reference.py`'s mesh arguments for the converged reference.
+    reference: &'static [&'static str],
 }
 
 const BODIES: [Body; 2] = [
-    Body { name: "plate", dim: 2, sizes: &[0.02, 0.01, 0.005], elements_at_unit_size: 1.08, tip: ("right", 0) },
-    Body { name: "bracket", dim: 3, sizes: &[0.02, 0.014, 0.0095], elements_at_unit_size: 0.0301, tip: ("load", 1) },
+    Body {
+        name: "plate",
+        dim: 2,
+        sizes: &[0.02, 0.01, 0.005],
+        elements_at_unit_size: 1.08,
+        tip: ("right", 0),
+        reference: &["--size", "0.0025"],
+    },
+    Body {
+        name: "bracket",
+        dim: 3,
+        sizes: &[0.02, 0.014, 0.0095],
+        elements_at_unit_size: 0.0301,
+        tip: ("load", 1),
+        reference: &["--size", "0.01"],
+    },
 ];
 
 /// The surface corrections compared.
@@ -152,6 +168,138 @@ fn solve(body: &Body, mesh: &Path, s: f64, correction: &'static str) -> Result<S
     Ok(Solved { size: s, correction, x: sol.x, u: sol.u, tip_set, unknowns: sol.report.n, seconds })
 }
 
+/// The FE displacements at one mesh's PD nodes, keyed by its size's bits.
+type FeAtNodes = (u64, Vec<f64>);
+
+/// The FE reference of `body` at every PD node of `solved` (their meshes share nothing, the
+/// corrections share nodes: the first correction's nodes are sent), one FE solve: the
+/// script's JSON line and per solved size its nodes' FE displacements.
+fn reference(
+    body: &Body,
+    solved: &[Solved],
+    work: &Path,
+    python_exe: &str,
+) -> Result<(Value, Vec<FeAtNodes>), StudyError> {
+    let d = body.dim;
+    let firsts: Vec<&Solved> = solved.iter().filter(|sv| sv.correction == CORRECTIONS[0]).collect();
+    let mut points = ["x", "y", "z"][..d].join(",");
+    points.push('\n');
+    for x in firsts.iter().flat_map(|sv| &sv.x) {
+        let row: Vec<String> = x[..d].iter().map(|c| format!("{c:.17e}")).collect();
+        points.push_str(&row.join(","));
+        points.push('\n');
+    }
+    let (points_path, fe_path) =
+        (work.join(format!("{}-points.csv", body.name)), work.join(format!("{}-fe.csv", body.name)));
+    write_text(&points_path, &points)?;
+    let path = |p: &Path| p.to_str().unwrap_or_default().to_string();
+    let mut args = vec![body.name.to_string()];
+    args.extend(body.reference.iter().map(ToString::to_string));
+    args.extend(["--points".to_string(), path(&points_path), "--out".to_string(), path(&fe_path)]);
+    let line = python(python_exe, "fe_reference.py", &args.iter().map(String::as_str).collect::<Vec<_>>())?;
+    let info: Value = line
+        .lines()
+        .rev()
+        .find_map(|l| serde_json::from_str(l).ok())
+        .ok_or_else(|| StudyError::Check(format!("fe_reference.py printed no JSON line: {line:?}")))?;
+    let text =
+        std::fs::read_to_string(&fe_path).map_err(|source| StudyError::File { path: fe_path.clone(), source })?;
+    let fe: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .flat_map(|l| l.split(',').map(|t| t.trim().parse::<f64>().unwrap_or(f64::NAN)).collect::<Vec<_>>())
+        .collect();
+    let expected: usize = firsts.iter().map(|sv| sv.x.len() * d).sum();
+    if fe.len() != expected || fe.iter().any(|v| !v.is_finite()) {
+        return Err(StudyError::Check(format!(
+            "{}: {expected} finite values expected, {} read (or some not finite)",
+            fe_path.display(),
+            fe.len()
+        )));
+    }
+    let mut offset = 0;
+    let mut per_size = Vec::new();
+    for sv in firsts {
+        per_size.push((sv.size.to_bits(), fe[offset..offset + sv.x.len() * d].to_vec()));
+        offset += sv.x.len() * d;
+    }
+    Ok((info, per_size))
+}
+
+/// One row of the study: a solve against the FE field at its nodes.
+struct Row {
+    unknowns: f64,
+    tip_error: f64,
+    max_error: f64,
+}
+
+/// Compares `sv` with the FE displacements `ufe` at its nodes: a table line and a JSON row.
+fn compare(body: &Body, sv: &Solved, ufe: &[f64], report: &mut dyn Write) -> Result<(Row, Value), StudyError> {
+    let (d, c) = (body.dim, body.tip.1);
+    let mean = |u: &[f64]| sv.tip_set.iter().map(|&i| u[d * i as usize + c]).sum::<f64>() / sv.tip_set.len() as f64;
+    let (tip, tip_fe) = (mean(&sv.u), mean(ufe));
+    let norm = |v: &[f64]| v.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let scale = ufe.chunks(d).map(norm).fold(0.0, f64::max);
+    let diff = |(a, b): (&[f64], &[f64])| a.iter().zip(b).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+    let max_error = sv.u.chunks(d).zip(ufe.chunks(d)).map(diff).fold(0.0, f64::max) / scale;
+    let tip_error = tip / tip_fe - 1.0;
+    writeln!(
+        report,
+        "{:<8} {:>7} {:<7} {:>7} {:>9} {:>8.2} {:>11.5e} {:>11.5e} {:>8.2}% {:>7.2}%",
+        body.name,
+        sv.size,
+        sv.correction,
+        sv.x.len(),
+        sv.unknowns,
+        sv.seconds,
+        tip,
+        tip_fe,
+        100.0 * tip_error,
+        100.0 * max_error
+    )?;
+    let row = json!({"body": body.name, "size": sv.size, "horizon": 2.0 * sv.size, "correction": sv.correction,
+        "nodes": sv.x.len(), "unknowns": sv.unknowns, "seconds": sv.seconds, "tip": tip, "tip_fe": tip_fe,
+        "tip_error": tip_error, "max_error": max_error});
+    Ok((Row { unknowns: sv.unknowns as f64, tip_error, max_error }, row))
+}
+
+/// The two log-log plots: `|tip error|` and the largest nodal error against unknowns, a line
+/// per body and correction.
+fn plots(dir: &Path, lines: &[(String, Vec<Row>)]) -> Result<(), StudyError> {
+    type Pick = fn(&Row) -> f64;
+    let figures: [(&str, &str, &str, Pick); 2] = [
+        ("tip_error", "Meshed bodies against FE: loaded set's mean displacement", "|tip / tip_FE - 1|", |r| {
+            r.tip_error.abs()
+        }),
+        ("max_error", "Meshed bodies against FE: largest nodal difference", "max |u - u_FE| / max |u_FE|", |r| {
+            r.max_error
+        }),
+    ];
+    for (name, title, y_label, pick) in figures {
+        let series = lines
+            .iter()
+            .map(|(label, rows)| Series {
+                label: label.clone(),
+                x: rows.iter().map(|r| r.unknowns).collect(),
+                y: rows.iter().map(pick).collect(),
+                style: SeriesStyle::LineMarkers,
+                color: None,
+            })
+            .collect();
+        let plot = LinePlot {
+            title: title.into(),
+            x_label: "unknowns".into(),
+            y_label: y_label.into(),
+            series,
+            log_x: true,
+            log_y: true,
+            equal_aspect: false,
+        };
+        line_plot(&plot, &dir.join(name))?;
+    }
+    Ok(())
+}
+
 /// Runs the study into `dir`: the meshes of at most `max_nodes` elements, Python `python`.
 pub(crate) fn run(
     dir: &Path,
@@ -173,20 +321,15 @@ pub(crate) fn run(
         return Err(StudyError::Check(format!("--max-nodes {} leaves no mesh to solve", max_nodes.unwrap_or(0))));
     }
     let cases = Cases::new(progress, "meshes", total);
-    let mut rows = Vec::new();
-    let mut series: Vec<(String, Vec<f64>, Vec<f64>, Vec<f64>)> = Vec::new();
+    let (mut rows, mut lines) = (Vec::new(), Vec::new());
     writeln!(
         report,
         "{:<8} {:>7} {:<7} {:>7} {:>9} {:>8} {:>11} {:>11} {:>9} {:>8}",
         "body", "size", "corr.", "nodes", "unknowns", "seconds", "tip", "tip (FE)", "tip err", "max err"
     )?;
-    for body in &BODIES {
-        let sizes = sizes(body);
-        if sizes.is_empty() {
-            continue;
-        }
+    for body in BODIES.iter().filter(|b| !sizes(b).is_empty()) {
         let mut solved = Vec::new();
-        for &s in &sizes {
+        for s in sizes(body) {
             let mesh = work.join(format!("{}-{s}.msh", body.name));
             python(python_exe, "make_meshes.py", &[body.name, &s.to_string(), mesh.to_str().unwrap_or_default()])?;
             for correction in CORRECTIONS {
@@ -194,128 +337,20 @@ pub(crate) fn run(
                 solved.push(solve(body, &mesh, s, correction)?);
             }
         }
-        // one FE solve, evaluated at every PD node of every mesh (the corrections share nodes)
         cases.next(format_args!("{}: the finite-element reference", body.name));
-        let d = body.dim;
-        let mut points = String::from(["x", "y", "z"][..d].join(","));
-        points.push('\n');
-        for sv in solved.iter().filter(|sv| sv.correction == CORRECTIONS[0]) {
-            for x in &sv.x {
-                let row: Vec<String> = x[..d].iter().map(|c| format!("{c:.17e}")).collect();
-                points.push_str(&row.join(","));
-                points.push('\n');
-            }
-        }
-        let (points_path, fe_path) =
-            (work.join(format!("{}-points.csv", body.name)), work.join(format!("{}-fe.csv", body.name)));
-        write_text(&points_path, &points)?;
-        let line = python(
-            python_exe,
-            "fe_reference.py",
-            &[
-                body.name,
-                "--points",
-                points_path.to_str().unwrap_or_default(),
-                "--out",
-                fe_path.to_str().unwrap_or_default(),
-            ],
-        )?;
-        let fe_info: Value = line
-            .lines()
-            .rev()
-            .find_map(|l| serde_json::from_str(l).ok())
-            .ok_or_else(|| StudyError::Check(format!("fe_reference.py printed no JSON line: {line:?}")))?;
-        let fe_text =
-            std::fs::read_to_string(&fe_path).map_err(|source| StudyError::File { path: fe_path.clone(), source })?;
-        let fe: Vec<f64> = fe_text
-            .lines()
-            .skip(1)
-            .flat_map(|l| l.split(',').map(|t| t.trim().parse::<f64>().unwrap_or(f64::NAN)).collect::<Vec<_>>())
-            .collect();
-        let expected: usize = solved.iter().filter(|sv| sv.correction == CORRECTIONS[0]).map(|sv| sv.x.len() * d).sum();
-        if fe.len() != expected || fe.iter().any(|v| !v.is_finite()) {
-            return Err(StudyError::Check(format!(
-                "{}: {} finite values expected, {} read (or some not finite)",
-                fe_path.display(),
-                expected,
-                fe.len()
-            )));
-        }
-        // the FE values of each size's nodes, in the order the points were written
-        let mut offset = 0;
-        let mut fe_of = std::collections::HashMap::new();
-        for sv in solved.iter().filter(|sv| sv.correction == CORRECTIONS[0]) {
-            fe_of.insert(sv.size.to_bits(), &fe[offset..offset + sv.x.len() * d]);
-            offset += sv.x.len() * d;
-        }
+        let (info, fe) = reference(body, &solved, work, python_exe)?;
         for correction in CORRECTIONS {
-            let (mut xs, mut tips, mut maxs) = (Vec::new(), Vec::new(), Vec::new());
+            let mut line = Vec::new();
             for sv in solved.iter().filter(|sv| sv.correction == correction) {
-                let ufe = fe_of[&sv.size.to_bits()];
-                let c = body.tip.1;
-                let mean = |u: &[f64]| {
-                    sv.tip_set.iter().map(|&i| u[d * i as usize + c]).sum::<f64>() / sv.tip_set.len() as f64
-                };
-                let (tip, tip_fe) = (mean(&sv.u), mean(ufe));
-                let scale = ufe.chunks(d).map(|v| v.iter().map(|c| c * c).sum::<f64>().sqrt()).fold(0.0, f64::max);
-                let max_err =
-                    sv.u.chunks(d)
-                        .zip(ufe.chunks(d))
-                        .map(|(a, b)| a.iter().zip(b).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt())
-                        .fold(0.0, f64::max)
-                        / scale;
-                let tip_err = tip / tip_fe - 1.0;
-                writeln!(
-                    report,
-                    "{:<8} {:>7} {:<7} {:>7} {:>9} {:>8.2} {:>11.5e} {:>11.5e} {:>8.2}% {:>7.2}%",
-                    body.name,
-                    sv.size,
-                    correction,
-                    sv.x.len(),
-                    sv.unknowns,
-                    sv.seconds,
-                    tip,
-                    tip_fe,
-                    100.0 * tip_err,
-                    100.0 * max_err
-                )?;
-                rows.push(
-                    json!({"body": body.name, "size": sv.size, "horizon": 2.0 * sv.size, "correction": correction,
-                    "nodes": sv.x.len(), "unknowns": sv.unknowns, "seconds": sv.seconds, "tip": tip, "tip_fe": tip_fe,
-                    "tip_error": tip_err, "max_error": max_err}),
-                );
-                xs.push(sv.unknowns as f64);
-                tips.push(tip_err.abs());
-                maxs.push(max_err);
+                let ufe = fe.iter().find(|(bits, _)| *bits == sv.size.to_bits()).map(|(_, u)| u.as_slice());
+                let (row, json_row) = compare(body, sv, ufe.unwrap_or_default(), report)?;
+                line.push(row);
+                rows.push(json_row);
             }
-            series.push((format!("{}, {correction}", body.name), xs, tips, maxs));
+            lines.push((format!("{}, {correction}", body.name), line));
         }
-        rows.push(json!({"body": body.name, "reference": fe_info}));
+        rows.push(json!({"body": body.name, "reference": info}));
     }
     write(dir, &json!({"study": "meshes", "rows": rows}))?;
-    for (name, title, pick) in [
-        ("tip_error", "Meshed bodies against FE: loaded set's mean displacement", 2usize),
-        ("max_error", "Meshed bodies against FE: largest nodal difference", 3),
-    ] {
-        let plot = LinePlot {
-            title: title.into(),
-            x_label: "unknowns".into(),
-            y_label: if pick == 2 { "|tip / tip_FE - 1|" } else { "max |u - u_FE| / max |u_FE|" }.into(),
-            series: series
-                .iter()
-                .map(|(label, x, tip, max)| Series {
-                    label: label.clone(),
-                    x: x.clone(),
-                    y: if pick == 2 { tip.clone() } else { max.clone() },
-                    style: SeriesStyle::LineMarkers,
-                    color: None,
-                })
-                .collect(),
-            log_x: true,
-            log_y: true,
-            equal_aspect: false,
-        };
-        line_plot(&plot, &dir.join(name))?;
-    }
-    Ok(())
+    plots(dir, &lines)
 }
