@@ -107,8 +107,21 @@ def solve(case, size, edge_size=None):
     solved = time.perf_counter() - start
     tip = skfem.Functional(lambda w: w.u[0 if dim == 2 else 1]).assemble(face, u=face.interpolate(u)) / area
     info = {"case": case, "size": size, "edge_size": edge_size, "elements": int(m.nelements), "dofs": int(basis.N),
-            "solver": solver, "setup_s": round(setup, 2), "solve_s": round(solved, 2), "tip": float(tip)}
+            "solver": solver, "setup_s": round(setup, 2), "solve_s": round(solved, 2), "tip": float(tip),
+            "reaction_share": reaction_share(basis, K @ u - f, dim)}
     return basis, u, info
+
+
+def reaction_share(basis, r, dim):
+    """The statically indeterminate part of the support's reaction: the share of the held
+    edge's x-reaction on y > 0.375 (plate), of the clamp's y-reaction on x > 0.05 (bracket);
+    r = K u - f, the consistent nodal reactions; a DOF on the dividing line counts half."""
+    axis, comp, cut = (1, "u^1", 0.375) if dim == 2 else (0, "u^2", 0.05)
+    edge = (lambda x: np.isclose(x[0], 0.0)) if dim == 2 else (lambda x: np.isclose(x[1], 0.0))
+    dofs = basis.get_dofs(edge).all(comp)
+    at = basis.doflocs[axis, dofs]
+    weight = np.where(np.isclose(at, cut), 0.5, (at > cut).astype(float))
+    return float((r[dofs] * weight).sum() / r[dofs].sum())
 
 
 def amg_cg(basis, A, b, free):

@@ -9,6 +9,8 @@
   volume "bracket", the surfaces "clamp" (y = 0) and "load" (x = 0.4).
 
 * data/bracket-mesh-3d.e: the same tetrahedra as Exodus II ([`exodus_from_gmsh`]).
+* data/bracket-mesh-3d.vtu: the same mesh as VTU, written by meshio (sets by tag: "2" the
+  clamp, "3" the load).
 
 Run from the repository root: `python3 examples/make_meshes.py`. The files are committed;
 gmsh's meshes depend on its version, so the script pins nothing but documents how they were
@@ -165,6 +167,10 @@ if __name__ == "__main__":
         plate_hole("data/plate-hole-mesh-2d.msh")
         bracket("data/bracket-mesh-3d.msh")
         exodus_from_gmsh("data/bracket-mesh-3d.msh", "data/bracket-mesh-3d.e")
+        import meshio
+
+        # the same mesh as VTU: meshio writes the physical tags as the cell array gmsh:physical
+        meshio.write("data/bracket-mesh-3d.vtu", meshio.read("data/bracket-mesh-3d.msh"))
     elif len(sys.argv) == 4 and sys.argv[1] in ("plate", "bracket"):
         {"plate": plate_hole, "bracket": bracket}[sys.argv[1]](sys.argv[3], float(sys.argv[2]))
     else:

@@ -207,6 +207,54 @@ fn vtu_cell_types_and_inverted_cells() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A set that a mesh names but that holds no node (a VTU vertex tagged 5 at a point no cell
+/// uses) selects nothing: a constraint on it is a named error.
+#[test]
+fn an_empty_set_is_named() {
+    let dir = scratch("empty-set");
+    // 4 x 4 x 4 unit voxels (tag 1) on a 5 x 5 x 5 grid of points, and a vertex (tag 5) at a
+    // point of its own
+    let index = |i: usize, j: usize, k: usize| i + 5 * j + 25 * k;
+    let mut points: Vec<String> = (0..125).map(|n| format!("{} {} {}", n % 5, (n / 5) % 5, n / 25)).collect();
+    points.push("9 9 9".into());
+    let mut conn = Vec::new();
+    for (i, j, k) in (0..64).map(|c| (c % 4, (c / 4) % 4, c / 16)) {
+        for (a, b, c) in [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0), (0, 0, 1), (1, 0, 1), (0, 1, 1), (1, 1, 1)] {
+            conn.push(index(i + a, j + b, k + c).to_string());
+        }
+    }
+    conn.push("125".into());
+    let offsets: Vec<String> = (1..=64).map(|c| (8 * c).to_string()).chain(["513".to_string()]).collect();
+    let types = format!("{} 1", vec!["11"; 64].join(" "));
+    let tags = format!("{} 5", vec!["1"; 64].join(" "));
+    let vtu = format!(
+        r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
+<UnstructuredGrid><Piece NumberOfPoints="126" NumberOfCells="65">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">{}</DataArray></Points>
+<Cells><DataArray type="Int64" Name="connectivity" format="ascii">{}</DataArray>
+<DataArray type="Int64" Name="offsets" format="ascii">{}</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">{types}</DataArray></Cells>
+<CellData><DataArray type="Int32" Name="phase" format="ascii">{tags}</DataArray></CellData>
+</Piece></UnstructuredGrid></VTKFile>
+"#,
+        points.join(" "),
+        conn.join(" "),
+        offsets.join(" ")
+    );
+    std::fs::write(dir.join("cube.vtu"), vtu).unwrap();
+    let m = read_vtu(&dir.join("cube.vtu"), 3).unwrap();
+    assert_eq!(m.sets["1"].len(), 64);
+    assert!(m.volumes.iter().all(|&v| (v - 1.0).abs() < 1e-14));
+    assert!(m.sets["5"].is_empty());
+    let v = json!({"name": "empty", "dimension": 3, "nodes": {"mesh": "cube.vtu"},
+        "model": {"type": "bond", "horizon": 1.5, "micromodulus": {"kernel": "constant", "modulus": 1.0}},
+        "constraints": [{"region": {"set": "5"}, "displacement": {"value": [0.0, 0.0, 0.0]}}]});
+    let e = error_of(&v, &dir);
+    assert!(e.contains("constraints[0].region: contains no node"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Writes the nodes of a grid scene as Peridigm's text discretization (block 1 the body, 2
 /// the layer) and returns the scene reading it, constrained by the sets `block_2`.
 fn as_peridigm(grid_scene: &Value, dir: &Path) -> Value {
@@ -445,7 +493,7 @@ fn ball_quadrature_is_smooth_in_the_horizon() {
 /// a side set "load" of the faces on x = 0.4) reads as the Gmsh mesh: the same nodes and
 /// volumes (the same vertices, 0 difference), the node set's elements (those with a face in it)
 /// and the side set's equal to the Gmsh physical groups' of the same faces; the scenes solve to
-/// the same displacements.
+/// the same displacements, as does the bundled VTU of the mesh (data/bracket-vtu-3d.json).
 #[test]
 fn exodus_bracket_reads_and_solves_as_the_gmsh_one() {
     let (e, g) =
@@ -460,6 +508,8 @@ fn exodus_bracket_reads_and_solves_as_the_gmsh_one() {
         |name: &str| Problem::from_json_in(&scene(name).to_string(), &data("")).unwrap().solve(&NoProgress).unwrap();
     let (a, b) = (solve("bracket-exodus-3d.json"), solve("bracket-mesh-3d.json"));
     assert_eq!(a.u, b.u);
+    // the bundled VTU of the same mesh (meshio), its sets by tag
+    assert_eq!(solve("bracket-vtu-3d.json").u, b.u);
 }
 
 /// A quadratic Exodus block (TETRA10) is refused by name; written by scipy like the bundled

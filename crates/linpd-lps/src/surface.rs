@@ -100,7 +100,7 @@ impl LpsModel {
     /// The model with `correction` applied ([`LpsModel::corrected`] without its summary).
     ///
     /// # Panics
-    /// On a point-cloud model with a correction other than [`SurfaceCorrection::None`] (use
+    /// On a point-cloud model with [`SurfaceCorrection::BulkWeightedVolume`] (use
     /// [`LpsModel::corrected`] for the error).
     pub fn with_surface_correction(self, correction: SurfaceCorrection) -> Self {
         match self.corrected(correction) {

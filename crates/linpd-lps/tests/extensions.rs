@@ -251,7 +251,8 @@ fn per_node_volumes_keep_the_tangent_consistent() {
 }
 
 /// An LPS model on an irregular point cloud (lattice positions jittered by up to 0.2 h, volumes
-/// +-20 %, a cut across the middle): the same consistency as on a lattice (FD Jacobian 1e-7,
+/// +-20 %, a cut across the middle), uncorrected and with the cloud `energy` and `position_aware`
+/// corrections: the same consistency as on a lattice (FD Jacobian 1e-7,
 /// symmetry 1e-12, matrix-free = assembled 1e-12, `sum_i V_i W_i = u.A u / 2` 1e-12), in 2D and 3D.
 #[test]
 fn point_cloud_models_keep_the_tangent_consistent() {
@@ -288,8 +289,14 @@ fn point_cloud_models_keep_the_tangent_consistent() {
         let m = LpsModel::on_points(dim, positions, &volumes, &p, &[cut]).unwrap();
         assert!(m.grid().is_none());
         check_consistency(&m, dim);
-        // no correction on a cloud: a named error, not a panic
-        let e = m.corrected(SurfaceCorrection::Energy).unwrap_err().to_string();
+        // the moment-matching corrections fit each node of the cloud (classical target): the
+        // corrected model is as consistent; the lattice's bulk weighted volume is a named error
+        for c in [SurfaceCorrection::Energy, SurfaceCorrection::PositionAware] {
+            let (corrected, summary) = m.clone().corrected(c).unwrap();
+            assert!(summary.is_some(), "{c:?}");
+            check_consistency(&corrected, dim);
+        }
+        let e = m.corrected(SurfaceCorrection::BulkWeightedVolume).unwrap_err().to_string();
         assert!(e.contains("lattice"), "{e}");
     }
 }

@@ -27,9 +27,11 @@
 //!   references of the constants below (0.1 %, 0.15 %).
 //! * **Measures**: `tip` is the mean of the loaded set's `u_x` (plate) or `u_y` (bracket)
 //!   against the FE field's mean at the same nodes (relative difference); `max` is
-//!   `max_i |u_i - u_FE(x_i)| / max_i |u_FE(x_i)|` over every node. Reactions are not
-//!   compared: both loads are forces, so statics fixes them (`linpd solve` checks the
-//!   balance).
+//!   `max_i |u_i - u_FE(x_i)| / max_i |u_FE(x_i)|` over every node; `share` is the part of
+//!   the support's reaction that statics does not fix: the held edge's x-reaction on
+//!   `y > 0.375` (plate) and the clamp's y-reaction on `x > 0.05` (bracket: the couple that
+//!   holds the arm's moment, 5.65 times the total), over the total, against the FE's
+//!   consistent nodal reactions' (the totals equal the loads in both).
 //!
 //! Needs Python with gmsh, meshio, scikit-fem and pyamg (`linpd study meshes --python PY`;
 //! the test script installs them). `--max-nodes N` skips the meshes of more than `N` elements
@@ -56,6 +58,10 @@ struct Body {
     elements_at_unit_size: f64,
     /// The loaded set and the displacement component its mean is taken of.
     tip: (&'static str, usize),
+    /// The support's statically indeterminate reaction share: the reaction component `.1` of
+    /// the held nodes with coordinate `.0` above `.2`, over the whole reaction's (as
+    /// `examples/fe_reference.py` reports it).
+    share: (usize, usize, f64),
     /// `examples/fe_reference.py`'s mesh arguments for the converged reference, and for the
     /// cheaper one of a partial run (`--max-nodes`).
     reference: [&'static [&'static str]; 2],
@@ -68,6 +74,7 @@ const BODIES: [Body; 2] = [
         sizes: &[0.02, 0.01, 0.005, 0.0025],
         elements_at_unit_size: 1.08,
         tip: ("right", 0),
+        share: (1, 0, 0.375),
         // tip converged to 0.009 % (h^2, the polygonal hole's rate); 0.1 % at 0.01
         reference: [&["--size", "0.005"], &["--size", "0.01"]],
     },
@@ -77,6 +84,7 @@ const BODIES: [Body; 2] = [
         sizes: &[0.02, 0.014, 0.0095, 0.007],
         elements_at_unit_size: 0.0301,
         tip: ("load", 1),
+        share: (0, 1, 0.05),
         // graded towards the singular edges: tip to about 0.03 % (0.15 % for the cheaper one)
         reference: [&["--size", "0.01", "--edge-size", "0.00025"], &["--size", "0.02", "--edge-size", "0.001"]],
     },
@@ -117,6 +125,8 @@ struct Solved {
     x: Vec<[f64; 3]>,
     u: Vec<f64>,
     tip_set: Vec<u32>,
+    /// [`Body::share`] of the solve's nodal reactions.
+    share: f64,
     unknowns: usize,
     seconds: f64,
 }
@@ -175,7 +185,14 @@ fn solve(body: &Body, mesh: &Path, s: f64, correction: &'static str) -> Result<S
         .set(body.tip.0)
         .ok_or_else(|| StudyError::Check(format!("{}: no set {:?}", v["name"], body.tip.0)))?
         .to_vec();
-    Ok(Solved { size: s, correction, x: sol.x, u: sol.u, tip_set, unknowns: sol.report.n, seconds })
+    let (axis, c, cut) = body.share;
+    let reaction = sol.balance.as_ref().map(|b| b.nodal_reaction.as_slice()).unwrap_or_default();
+    let part = |weight: &dyn Fn(f64) -> f64| -> f64 {
+        sol.x.iter().enumerate().map(|(i, x)| weight(x[axis]) * reaction.get(body.dim * i + c).unwrap_or(&0.0)).sum()
+    };
+    let above = |x: f64| if (x - cut).abs() <= 1e-12 { 0.5 } else { f64::from(u8::from(x > cut)) };
+    let share = part(&above) / part(&|_| 1.0);
+    Ok(Solved { size: s, correction, x: sol.x, u: sol.u, tip_set, share, unknowns: sol.report.n, seconds })
 }
 
 /// The FE displacements at one mesh's PD nodes, keyed by its size's bits.
@@ -245,7 +262,13 @@ struct Row {
 }
 
 /// Compares `sv` with the FE displacements `ufe` at its nodes: a table line and a JSON row.
-fn compare(body: &Body, sv: &Solved, ufe: &[f64], report: &mut dyn Write) -> Result<(Row, Value), StudyError> {
+fn compare(
+    body: &Body,
+    sv: &Solved,
+    ufe: &[f64],
+    share_fe: f64,
+    report: &mut dyn Write,
+) -> Result<(Row, Value), StudyError> {
     let (d, c) = (body.dim, body.tip.1);
     let mean = |u: &[f64]| sv.tip_set.iter().map(|&i| u[d * i as usize + c]).sum::<f64>() / sv.tip_set.len() as f64;
     let (tip, tip_fe) = (mean(&sv.u), mean(ufe));
@@ -256,7 +279,7 @@ fn compare(body: &Body, sv: &Solved, ufe: &[f64], report: &mut dyn Write) -> Res
     let tip_error = tip / tip_fe - 1.0;
     writeln!(
         report,
-        "{:<8} {:>7} {:<7} {:>7} {:>9} {:>8.2} {:>11.5e} {:>11.5e} {:>8.2}% {:>7.2}%",
+        "{:<8} {:>7} {:<7} {:>7} {:>9} {:>8.2} {:>11.5e} {:>11.5e} {:>8.2}% {:>7.2}% {:>7.4} {:>7.4}",
         body.name,
         sv.size,
         sv.correction,
@@ -266,11 +289,13 @@ fn compare(body: &Body, sv: &Solved, ufe: &[f64], report: &mut dyn Write) -> Res
         tip,
         tip_fe,
         100.0 * tip_error,
-        100.0 * max_error
+        100.0 * max_error,
+        sv.share,
+        share_fe
     )?;
     let row = json!({"body": body.name, "size": sv.size, "horizon": 2.0 * sv.size, "correction": sv.correction,
         "nodes": sv.x.len(), "unknowns": sv.unknowns, "seconds": sv.seconds, "tip": tip, "tip_fe": tip_fe,
-        "tip_error": tip_error, "max_error": max_error});
+        "tip_error": tip_error, "max_error": max_error, "reaction_share": sv.share, "reaction_share_fe": share_fe});
     Ok((Row { unknowns: sv.unknowns as f64, tip_error, max_error }, row))
 }
 
@@ -335,8 +360,19 @@ pub(crate) fn run(
     let (mut rows, mut lines) = (Vec::new(), Vec::new());
     writeln!(
         report,
-        "{:<8} {:>7} {:<7} {:>7} {:>9} {:>8} {:>11} {:>11} {:>9} {:>8}",
-        "body", "size", "corr.", "nodes", "unknowns", "seconds", "tip", "tip (FE)", "tip err", "max err"
+        "{:<8} {:>7} {:<7} {:>7} {:>9} {:>8} {:>11} {:>11} {:>9} {:>8} {:>7} {:>7}",
+        "body",
+        "size",
+        "corr.",
+        "nodes",
+        "unknowns",
+        "seconds",
+        "tip",
+        "tip (FE)",
+        "tip err",
+        "max err",
+        "share",
+        "(FE)"
     )?;
     for body in BODIES.iter().filter(|b| !sizes(b).is_empty()) {
         let mut solved = Vec::new();
@@ -354,7 +390,8 @@ pub(crate) fn run(
             let mut line = Vec::new();
             for sv in solved.iter().filter(|sv| sv.correction == correction) {
                 let ufe = fe.iter().find(|(bits, _)| *bits == sv.size.to_bits()).map(|(_, u)| u.as_slice());
-                let (row, json_row) = compare(body, sv, ufe.unwrap_or_default(), report)?;
+                let share_fe = info["reaction_share"].as_f64().unwrap_or(f64::NAN);
+                let (row, json_row) = compare(body, sv, ufe.unwrap_or_default(), share_fe, report)?;
                 line.push(row);
                 rows.push(json_row);
             }
