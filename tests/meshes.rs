@@ -248,7 +248,7 @@ fn an_empty_set_is_named() {
     assert!(m.volumes.iter().all(|&v| (v - 1.0).abs() < 1e-14));
     assert!(m.sets["5"].is_empty());
     let v = json!({"name": "empty", "dimension": 3, "nodes": {"mesh": "cube.vtu"},
-        "model": {"type": "bond", "horizon": 1.5, "micromodulus": {"kernel": "constant", "modulus": 1.0}},
+        "model": {"type": "bond", "horizon": 1.5, "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "continuum"}},
         "constraints": [{"region": {"set": "5"}, "displacement": {"value": [0.0, 0.0, 0.0]}}]});
     let e = error_of(&v, &dir);
     assert!(e.contains("constraints[0].region: contains no node"), "{e}");

@@ -290,9 +290,10 @@ fn bounded_sets(cloud: &mut Cloud, vertices: &[Vec<u64>], lower: &[(Vec<u64>, u3
         }
     }
     for (side, tag) in lower {
+        // the set exists even when its cells bound nothing (a constraint on it is then named)
+        let set = cloud.sets.entry(tag.to_string()).or_default();
         let Some(candidates) = side.first().and_then(|p| by_vertex.get(p)) else { continue };
-        let bounded = candidates.iter().copied().filter(|&n| side.iter().all(|p| vertices[n as usize].contains(p)));
-        cloud.sets.entry(tag.to_string()).or_default().extend(bounded);
+        set.extend(candidates.iter().copied().filter(|&n| side.iter().all(|p| vertices[n as usize].contains(p))));
     }
 }
 
