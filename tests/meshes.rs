@@ -255,6 +255,86 @@ fn an_empty_set_is_named() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `"normalize": "discrete"` on a mesh averages the sums `M_i = sum_j g nu_ij V_j r^2` of the
+/// nodes a horizon (plus the largest element) inside the mesh's boundary faces: on a VTU of
+/// 12^3 voxels, whose centroids and volumes are a cell-placed lattice's, it is the lattice's
+/// stencil sum, and the mesh solves to the lattice scene's displacements (1e-10: the two
+/// Cholesky orderings). A point cloud without a boundary, and a mesh too thin for an interior
+/// node, are named errors.
+#[test]
+fn discrete_normalization_on_a_mesh_is_the_lattice_one() {
+    let dir = scratch("discrete");
+    let n = 12;
+    let h = 1.0 / n as f64;
+    let m = n + 1;
+    let index = |i: usize, j: usize, k: usize| i + m * (j + m * k);
+    let points: Vec<String> = (0..m * m * m)
+        .map(|p| format!("{} {} {}", (p % m) as f64 * h, ((p / m) % m) as f64 * h, (p / (m * m)) as f64 * h))
+        .collect();
+    let mut conn = Vec::new();
+    for c in 0..n * n * n {
+        let (i, j, k) = (c % n, (c / n) % n, c / (n * n));
+        for (a, b, d) in [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0), (0, 0, 1), (1, 0, 1), (0, 1, 1), (1, 1, 1)] {
+            conn.push(index(i + a, j + b, k + d).to_string());
+        }
+    }
+    let cells = n * n * n;
+    let offsets: Vec<String> = (1..=cells).map(|c| (8 * c).to_string()).collect();
+    let vtu = format!(
+        r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
+<UnstructuredGrid><Piece NumberOfPoints="{}" NumberOfCells="{cells}">
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">{}</DataArray></Points>
+<Cells><DataArray type="Int64" Name="connectivity" format="ascii">{}</DataArray>
+<DataArray type="Int64" Name="offsets" format="ascii">{}</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">{}</DataArray></Cells>
+</Piece></UnstructuredGrid></VTKFile>
+"#,
+        m * m * m,
+        points.join(" "),
+        conn.join(" "),
+        offsets.join(" "),
+        vec!["11"; cells].join(" ")
+    );
+    std::fs::write(dir.join("cube.vtu"), vtu).unwrap();
+    let model = json!({"type": "bond", "horizon": 2.5 * h, "partial_volume": false,
+        "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "discrete"}});
+    let lattice = json!({"name": "lattice", "dimension": 3,
+        "grid": {"min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 1.0], "spacing": h, "placement": "cell"},
+        "model": model,
+        "constraints": [{"region": {"box": {"min": [-1.0, -1.0, -1.0], "max": [0.1, 2.0, 2.0]}}, "displacement": {"value": [0.0, 0.0, 0.0]}}],
+        "loads": [{"type": "resultant", "region": {"box": {"min": [0.9, -1.0, -1.0], "max": [2.0, 2.0, 2.0]}}, "force": [0.01, 0.002, 0.0]}],
+        "solver": {"type": "cholesky"}});
+    let mut mesh = lattice.clone();
+    let o = mesh.as_object_mut().unwrap();
+    o.remove("grid");
+    o.insert("nodes".into(), json!({"mesh": "cube.vtu"}));
+    let solve = |v: &Value| Problem::from_json_in(&v.to_string(), &dir).unwrap().solve(&NoProgress).unwrap().u;
+    let (a, b) = (solve(&lattice), solve(&mesh));
+    let scale = a.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+    let diff = a.iter().zip(&b).fold(0.0f64, |s, (x, y)| s.max((x - y).abs()));
+    assert!(diff <= 1e-10 * scale, "mesh vs lattice: {:e}", diff / scale);
+    // the continuum normalization differs (the lattice sum is not the integral at 2.5 h)
+    mesh["model"]["micromodulus"]["normalize"] = json!("continuum");
+    let c = solve(&mesh);
+    let off = a.iter().zip(&c).fold(0.0f64, |s, (x, y)| s.max((x - y).abs())) / scale;
+    assert!(off > 1e-3, "continuum equals discrete to {off:e}");
+    // no boundary (a CSV cloud) and no interior node (a horizon of 0.45) are named
+    std::fs::write(dir.join("nodes.csv"), "x,y,z,volume\n0,0,0,1\n1,0,0,1\n0,1,0,1\n0,0,1,1\n").unwrap();
+    let mut csv = mesh.clone();
+    csv["nodes"] = json!({"csv": "nodes.csv"});
+    csv["model"] = json!({"type": "bond", "horizon": 1.5,
+        "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "discrete"}});
+    let e = error_of(&csv, &dir);
+    assert!(e.contains("model.micromodulus.normalize") && e.contains("only a mesh's boundary"), "{e}");
+    let mut thick = mesh.clone();
+    thick["model"] = json!({"type": "bond", "horizon": 0.45, "partial_volume": false,
+        "micromodulus": {"kernel": "constant", "modulus": 1.0, "normalize": "discrete"}});
+    let e = error_of(&thick, &dir);
+    assert!(e.contains("model.micromodulus.normalize") && e.contains("has none"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Writes the nodes of a grid scene as Peridigm's text discretization (block 1 the body, 2
 /// the layer) and returns the scene reading it, constrained by the sets `block_2`.
 fn as_peridigm(grid_scene: &Value, dir: &Path) -> Value {

@@ -236,7 +236,7 @@ fn bad_clouds_are_refused_with_the_line() {
         "{e}"
     );
     let e = cloud_error(ok, |s| s["model"]["micromodulus"]["normalize"] = json!("discrete"));
-    assert!(e.starts_with("model.micromodulus.normalize: \"discrete\" sums over a lattice stencil"), "{e}");
+    assert!(e.starts_with("model.micromodulus.normalize: \"discrete\" on a point cloud averages"), "{e}");
     let e = cloud_error(ok, |s| {
         s["constraints"] = json!([]);
         s["loads"] = json!([{"type": "traction", "face": "x+", "traction": [1.0, 0.0]}]);

@@ -107,9 +107,12 @@ impl BondOperator {
     /// `delta` ([`Quadrature::Full`]), the one-sided ramp of node size `h_ij = (V_i^(1/d) +
     /// V_j^(1/d)) / 2` ([`Quadrature::Ramp`]; a lattice's `h` when the volumes are `h^d`; the
     /// mean keeps `w_ij = w_ji`), or the fraction of the neighbour's equivalent ball inside the
-    /// horizon ball ([`Quadrature::Ball`], bonds to `delta + max R`). The micromodulus must not
-    /// use [`linpd_core::Normalization::Discrete`] (a lattice sum): the amplitude is taken with
-    /// `h = 0`, which only that normalization reads; its `partial_volume` is ignored here.
+    /// horizon ball ([`Quadrature::Ball`], bonds to `delta + max R`). With
+    /// [`linpd_core::Normalization::Discrete`] the moment is the mean over the `interior`
+    /// nodes (those whose whole horizon lies in the body; an error when there is none) of
+    /// `M_i = sum_j g(|xi|) nu_ij V_j |xi|^2`, the cloud's own sum as a lattice's stencil sum is
+    /// the lattice's; otherwise the amplitude is taken with `h = 0` and `interior` is not read.
+    /// The micromodulus' `partial_volume` is ignored here.
     #[allow(clippy::too_many_arguments)]
     pub fn on_points(
         dim: usize,
@@ -120,17 +123,16 @@ impl BondOperator {
         material: &Material,
         moduli: Option<&[f64]>,
         quadrature: Quadrature,
+        interior: &[bool],
     ) -> Result<Self, CoreError> {
         if !(horizon.is_finite() && horizon > 0.0) {
             return Err(CoreError::param("horizon", format!("must be > 0, got {horizon:e}")));
         }
-        if micromodulus.normalization == linpd_core::Normalization::Discrete {
-            return Err(CoreError::param("micromodulus", "the discrete normalization needs a lattice"));
-        }
         assert_eq!(positions.len(), volumes.len(), "one volume per node");
         micromodulus.validate(dim)?;
         material.validate(dim)?;
-        let c = micromodulus.amplitude(dim, horizon, 0.0)?;
+        let discrete = micromodulus.normalization == linpd_core::Normalization::Discrete;
+        let c = if discrete { 0.0 } else { micromodulus.amplitude(dim, horizon, 0.0)? };
         let h_min = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
         let tol = GEOMETRY_RTOL * h_min;
         let scale: Vec<f64> = volumes.iter().map(|&v| quadrature.node_scale(dim, v)).collect();
@@ -156,6 +158,33 @@ impl BondOperator {
                 BondFamily::from_lists(lists)
             }
             _ => BondFamily::from_points(&positions, dim, horizon),
+        };
+        let c = match discrete {
+            true => {
+                let moment = |i: usize| -> f64 {
+                    let xi = positions[i];
+                    family
+                        .neighbors(i)
+                        .iter()
+                        .map(|&j| {
+                            let j = j as usize;
+                            let r = (0..dim).map(|a| (positions[j][a] - xi[a]).powi(2)).sum::<f64>().sqrt();
+                            micromodulus.kernel.shape(r, horizon) * nu(i, j, r) * volumes[j] * r * r
+                        })
+                        .sum()
+                };
+                let inner: Vec<usize> =
+                    (0..positions.len()).filter(|&i| interior.get(i).copied().unwrap_or(false)).collect();
+                if inner.is_empty() {
+                    return Err(CoreError::param(
+                        "micromodulus",
+                        "the discrete normalization on a point cloud averages the interior nodes' sums, and no node lies a horizon inside the body",
+                    ));
+                }
+                let mean = inner.iter().map(|&i| moment(i)).sum::<f64>() / inner.len() as f64;
+                micromodulus.moment_target(dim) / mean
+            }
+            false => c,
         };
         let k_ref = micromodulus.reference_modulus();
         let own;

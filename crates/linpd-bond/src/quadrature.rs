@@ -61,6 +61,15 @@ pub fn volume_factor(q: Quadrature, dim: usize, r: f64, horizon: f64, s_i: f64, 
     }
 }
 
+/// How far the bonds of nodes with `volumes` reach under `q`: `horizon`, plus the largest
+/// equivalent radius with [`Quadrature::Ball`].
+pub fn reach(q: Quadrature, dim: usize, horizon: f64, volumes: &[f64]) -> f64 {
+    match q {
+        Quadrature::Ball => horizon + volumes.iter().fold(0.0f64, |m, &v| m.max(equivalent_radius(dim, v))),
+        _ => horizon,
+    }
+}
+
 /// The radius of the ball of volume `v` in dimension `dim` (the half length in 1D).
 pub fn equivalent_radius(dim: usize, v: f64) -> f64 {
     match dim {

@@ -264,9 +264,15 @@ impl Micromodulus {
             .sum()
     }
 
+    /// The moment condition's right-hand side `2 d^2 K_d` (M): the amplitude is it over the
+    /// kernel's moment.
+    pub fn moment_target(&self, dim: usize) -> f64 {
+        2.0 * (dim * dim) as f64 * dimensional_bulk_modulus(dim, self.modulus, self.plane)
+    }
+
     /// The amplitude `c` with `lambda = c g` for the reference modulus.
     pub fn amplitude(&self, dim: usize, delta: f64, h: f64) -> Result<f64, CoreError> {
-        let target = 2.0 * (dim * dim) as f64 * dimensional_bulk_modulus(dim, self.modulus, self.plane);
+        let target = self.moment_target(dim);
         let moment = match self.normalization {
             Normalization::Amplitude(c) => return Ok(c),
             Normalization::Continuum => self.continuum_moment(dim, delta),

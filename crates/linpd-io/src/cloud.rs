@@ -59,6 +59,10 @@ pub struct Cloud {
     pub lines: Vec<u64>,
     /// Named node sets of a mesh (read by `crate::mesh`; empty for CSV and VTK files).
     pub sets: Sets,
+    /// Points on a mesh's boundary: the centroid and corners of every face (edge in 2D) that
+    /// one element only has ([`crate::mesh::boundary_points`]); empty for CSV, VTK point and
+    /// Peridigm files, which carry no topology.
+    pub boundary: Vec<Point>,
 }
 
 /// Reads a CSV point cloud of dimension `dim`; errors name the file and the line.

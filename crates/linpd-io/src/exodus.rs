@@ -234,6 +234,9 @@ pub fn read_exodus(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     node_sets(&mut r, path, &ds, &mut cloud, &elements, num_nodes)?;
     side_sets(&mut r, path, &ds, &mut cloud)?;
     crate::mesh::tidy_sets(&mut cloud);
+    let faces =
+        elements.iter().flat_map(|(vs, sides)| sides.iter().map(move |f| f.iter().map(|&i| vs[i] as u64).collect()));
+    cloud.boundary = crate::mesh::boundary_points(faces, |v| coords[v as usize]);
     Ok(cloud)
 }
 

@@ -159,6 +159,7 @@ pub fn read_gmsh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     let mut cloud = Cloud::default();
     // (node tags of each PD node's element) for the sets of lower-dimensional groups
     let mut vertices: Vec<Vec<u64>> = Vec::new();
+    let mut kinds: Vec<ElementType> = Vec::new();
     let mut orientation = 0.0f64;
     let mut lower: Vec<(i32, &mshio::mshfile::ElementBlock<u64, i32>)> = Vec::new();
     let blocks: Vec<_> = data.elements.iter().flat_map(|e| &e.element_blocks).collect();
@@ -203,6 +204,7 @@ pub fn read_gmsh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
             cloud.layer.push(false);
             cloud.lines.push(e.element_tag);
             vertices.push(e.nodes.clone());
+            kinds.push(block.element_type);
             for &g in &groups {
                 cloud.sets.entry(group_name(&names, block.entity_dim, g)).or_default().push(n);
             }
@@ -213,6 +215,11 @@ pub fn read_gmsh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     }
     side_sets(&mut cloud, &vertices, &lower, &physical, &names);
     tidy_sets(&mut cloud);
+    let faces = vertices
+        .iter()
+        .zip(&kinds)
+        .flat_map(|(vs, &k)| faces(k).iter().map(move |f| f.iter().map(|&i| vs[i]).collect()));
+    cloud.boundary = boundary_points(faces, |t| coords[&t]);
     Ok(cloud)
 }
 
@@ -273,6 +280,41 @@ fn physical_names(bytes: &[u8]) -> HashMap<(i32, i32), String> {
         let (Some(d), Some(t), Some(name)) = (parts.next(), parts.next(), parts.next()) else { continue };
         if let (Ok(d), Ok(t)) = (d.parse(), t.parse()) {
             out.insert((d, t), name.trim().trim_matches('"').to_string());
+        }
+    }
+    out
+}
+
+/// The faces (edges in 2D) of a linear element as corner lists in Gmsh's order (none for
+/// lower-dimensional types).
+pub(crate) fn faces(kind: ElementType) -> &'static [&'static [usize]] {
+    match kind {
+        ElementType::Tri3 => &[&[0, 1], &[1, 2], &[2, 0]],
+        ElementType::Qua4 => &[&[0, 1], &[1, 2], &[2, 3], &[3, 0]],
+        ElementType::Tet4 => &[&[0, 1, 2], &[0, 1, 3], &[0, 2, 3], &[1, 2, 3]],
+        ElementType::Hex8 => {
+            &[&[0, 1, 2, 3], &[4, 5, 6, 7], &[0, 1, 5, 4], &[1, 2, 6, 5], &[2, 3, 7, 6], &[3, 0, 4, 7]]
+        }
+        ElementType::Pri6 => &[&[0, 1, 2], &[3, 4, 5], &[0, 1, 4, 3], &[1, 2, 5, 4], &[2, 0, 3, 5]],
+        _ => &[],
+    }
+}
+
+/// Points on a mesh's boundary: the centroid and the corners of every face (a corner list of
+/// vertex ids, `faces`) that occurs once, i.e. that one element only has.
+pub(crate) fn boundary_points(faces: impl Iterator<Item = Vec<u64>>, coord: impl Fn(u64) -> Point) -> Vec<Point> {
+    let mut count: HashMap<Vec<u64>, (u32, Vec<u64>)> = HashMap::new();
+    for f in faces {
+        let mut key = f.clone();
+        key.sort_unstable();
+        count.entry(key).or_insert((0, f)).0 += 1;
+    }
+    let mut out = Vec::new();
+    for (_, (n, f)) in count {
+        if n == 1 {
+            let corners: Vec<Point> = f.iter().map(|&v| coord(v)).collect();
+            out.push(mean(&corners));
+            out.extend(corners);
         }
     }
     out

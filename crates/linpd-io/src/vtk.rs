@@ -159,6 +159,7 @@ pub fn read_mesh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     // per PD node its cell's vertices (global point numbers); lower cells: (vertices, tag)
     let mut vertices: Vec<Vec<u64>> = Vec::new();
     let mut lower: Vec<(Vec<u64>, u32)> = Vec::new();
+    let (mut kinds, mut all_points) = (Vec::new(), Vec::new());
     let (mut first_point, mut cell_number) = (0u64, 0usize);
     for piece in pieces {
         let piece = match piece {
@@ -216,7 +217,8 @@ pub fn read_mesh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
             if local.len() != order.len() {
                 return Err(fail(format!("cell {c}: {kind:?} with {} points, not {}", local.len(), order.len())));
             }
-            let global: Vec<u64> = local.iter().map(|&p| first_point + p).collect();
+            // the corners in Gmsh's order (sets test membership only; faces need the order)
+            let global: Vec<u64> = order.iter().map(|&i| first_point + local[i]).collect();
             if edim > dim {
                 return Err(fail(format!("cell {c}: a {edim}D {kind:?} in a mesh for a {dim}D scene")));
             }
@@ -246,15 +248,21 @@ pub fn read_mesh(path: &Path, dim: usize) -> Result<Cloud, IoError> {
             if tag > 0 {
                 cloud.sets.entry(tag.to_string()).or_default().push(n);
             }
+            kinds.push(gmsh);
             vertices.push(global);
         }
         cell_number += offsets.len();
         first_point += points.len() as u64;
+        all_points.extend(points);
     }
     if cloud.positions.is_empty() {
         return Err(fail(format!("has no {dim}D cell")));
     }
     bounded_sets(&mut cloud, &vertices, &lower);
+    let faces = vertices.iter().zip(&kinds).flat_map(|(vs, k)| {
+        k.map_or(&[][..], crate::mesh::faces).iter().map(move |f| f.iter().map(|&i| vs[i]).collect())
+    });
+    cloud.boundary = crate::mesh::boundary_points(faces, |v| all_points[v as usize]);
     crate::mesh::tidy_sets(&mut cloud);
     Ok(cloud)
 }

@@ -52,6 +52,7 @@ pub(crate) fn into_nodes(cloud: Cloud, dim: usize) -> LevelNodes {
     nodes.layer = cloud.layer;
     nodes.phase = cloud.phase;
     nodes.sets = cloud.sets;
+    nodes.boundary = cloud.boundary;
     nodes.what = "the point cloud";
     nodes
 }

@@ -31,6 +31,9 @@ pub struct LevelNodes {
     pub(crate) what: &'static str,
     /// A mesh's named node sets (`{"set": name}` regions).
     pub(crate) sets: linpd_io::mesh::Sets,
+    /// Points on a mesh's boundary faces ([`linpd_io::cloud::Cloud::boundary`]; empty without
+    /// a mesh's topology).
+    pub(crate) boundary: Vec<Point>,
 }
 
 impl LevelNodes {
@@ -60,6 +63,7 @@ impl LevelNodes {
             phase: Vec::new(),
             what: "the coarsened level",
             sets: Default::default(),
+            boundary: Vec::new(),
         }
     }
 }
@@ -171,6 +175,47 @@ impl NodeSet for Nodes {
     }
     fn body_box(&self) -> Option<(Vec<f64>, Vec<f64>)> {
         self.lattice().and_then(NodeSet::body_box)
+    }
+}
+
+impl LevelNodes {
+    /// The nodes whose horizon lies inside the body: no point of the mesh's boundary faces
+    /// within `reach` (the horizon plus the quadrature's largest radius) plus the largest
+    /// boundary face's size (its centroid and corners sample it that finely). All false without
+    /// a mesh's boundary.
+    pub(crate) fn interior(&self, reach: f64) -> Vec<bool> {
+        let n = self.positions.len();
+        if self.boundary.is_empty() {
+            return vec![false; n];
+        }
+        let d = self.dim;
+        // the boundary's sampling: no point of a face is farther than the largest distance
+        // between neighbouring samples; bounded by the largest element size
+        let size = self.volumes.iter().fold(0.0f64, |m, &v| m.max(v.powf(1.0 / d as f64)));
+        let radius = reach + 2.0 * size;
+        let cell =
+            |x: &Point| -> [i64; 3] { std::array::from_fn(|a| if a < d { (x[a] / radius).floor() as i64 } else { 0 }) };
+        let mut grid: std::collections::HashMap<[i64; 3], Vec<usize>> = std::collections::HashMap::new();
+        for (k, b) in self.boundary.iter().enumerate() {
+            grid.entry(cell(b)).or_default().push(k);
+        }
+        let near = |x: &Point| -> bool {
+            let c = cell(x);
+            let span = |a: usize| if a < d { -1..=1 } else { 0..=0 };
+            span(0).any(|i| {
+                span(1).any(|j| {
+                    span(2).any(|k| {
+                        grid.get(&[c[0] + i, c[1] + j, c[2] + k]).is_some_and(|list| {
+                            list.iter().any(|&b| {
+                                let p = &self.boundary[b];
+                                (0..d).map(|a| (p[a] - x[a]).powi(2)).sum::<f64>() < radius * radius
+                            })
+                        })
+                    })
+                })
+            })
+        };
+        self.positions.iter().map(|x| !near(x)).collect()
     }
 }
 

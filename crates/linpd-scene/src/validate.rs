@@ -883,13 +883,8 @@ pub(crate) fn cloud_nodes(
         && (raw.solver.kind == crate::raw::RawSolverKind::Auto
             || raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid));
     // a ball quadrature bonds to delta + the largest equivalent radius
-    let reach = match ball {
-        true => {
-            horizon
-                + cloud.volumes.iter().fold(0.0f64, |m, &v| m.max(linpd_bond::quadrature::equivalent_radius(dim, v)))
-        }
-        false => horizon,
-    };
+    let q = if ball { linpd_bond::quadrature::Quadrature::Ball } else { linpd_bond::quadrature::Quadrature::Full };
+    let reach = linpd_bond::quadrature::reach(q, dim, horizon, &cloud.volumes);
     let _ = crate::memory::check_cloud(path, dim, &cloud.positions, reach, multigrid)?;
     Ok((crate::cloud::into_nodes(cloud, dim), h))
 }

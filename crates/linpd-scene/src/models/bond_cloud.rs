@@ -33,12 +33,26 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
     let ramp = quadrature == linpd_bond::quadrature::Quadrature::Ramp;
     let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, ramp)?;
     if micromodulus.normalization == linpd_core::Normalization::Discrete {
-        return Err(ProblemError::invalid(
-            "model.micromodulus.normalize",
-            "\"discrete\" sums over a lattice stencil; point clouds take \"continuum\" or an amplitude",
-        ));
+        // the interior nodes' own sums: a mesh's boundary says which nodes are interior
+        let reach = linpd_bond::quadrature::reach(quadrature, dim, raw.horizon, &nodes.volumes);
+        if nodes.boundary.is_empty() || !nodes.interior(reach).contains(&true) {
+            return Err(ProblemError::invalid(
+                "model.micromodulus.normalize",
+                match nodes.boundary.is_empty() {
+                    true => {
+                        "\"discrete\" on a point cloud averages the sums of the nodes a horizon inside the body, \
+                             which only a mesh's boundary (nodes.mesh) tells; use \"continuum\""
+                    }
+                    false => {
+                        "\"discrete\" averages the sums of the nodes a horizon inside the body, and this mesh \
+                              has none (a body thinner than two horizons); use \"continuum\""
+                    }
+                },
+            ));
+        }
+    } else {
+        micromodulus.amplitude(dim, raw.horizon, h).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
     }
-    micromodulus.amplitude(dim, raw.horizon, h).map_err(|e| ProblemError::invalid("model", e.to_string()))?;
     let elastic = crate::validate::bond_elastic(dim, &micromodulus);
     let material = material_with_tags(&raw.material, dim, true, elastic)?;
     let moduli = crate::validate::phase_moduli(&raw.material, elastic)?;

@@ -261,6 +261,12 @@ impl BondModel {
                 &self.material,
                 self.node_moduli.as_deref(),
                 self.quadrature,
+                &match self.micromodulus.normalization {
+                    linpd_core::Normalization::Discrete => {
+                        c.interior(linpd_bond::quadrature::reach(self.quadrature, c.dim, self.horizon, &c.volumes))
+                    }
+                    _ => Vec::new(),
+                },
             ),
             Nodes::Lattice(grid) => BondOperator::on_grid(grid, self.horizon, &self.micromodulus, &self.material),
             Nodes::Level(_) => unreachable!("a bond model lives on a lattice or a point cloud"),
