@@ -60,7 +60,7 @@ pub struct Cloud {
     /// Named node sets of a mesh (read by `crate::mesh`; empty for CSV and VTK files).
     pub sets: Sets,
     /// Points on a mesh's boundary: the centroid and corners of every face (edge in 2D) that
-    /// one element only has ([`crate::mesh::boundary_points`]); empty for CSV, VTK point and
+    /// one element only has (the Gmsh, Exodus and VTU readers); empty for CSV, VTK point and
     /// Peridigm files, which carry no topology.
     pub boundary: Vec<Point>,
 }
