@@ -1,7 +1,8 @@
 //! `"type": "lps"`: the linearized state-based LPS solid ([`linpd_lps::LpsModel`], crates/linpd-lps)
 //! on a grid or a point cloud, with the same volume constraints, loads and solvers as the
 //! bond-based model: pre-cracks (defects), phases, `energy` and `position_aware` surface
-//! corrections (on clouds towards the classical target only). Its ordering, reach and support graph are documented in linpd-lps.
+//! corrections (on clouds towards the classical target only). Its ordering, reach and
+//! support graph are documented in linpd-lps.
 
 use super::bond_model::{surface_of, Surface};
 use super::registry::{struct_fields, ModelType, Validated};
@@ -316,20 +317,10 @@ impl SceneModel for LpsSceneModel {
             let c = crate::elastic::lps_constants(k, g);
             (c.young_modulus, c.poisson_ratio)
         };
+        // a solution's nodes are the scene's (LPS has no graded mesh): per node, or none
         let constants = match self.node_moduli(p.nodes()) {
             Some((bulk, shear)) if bulk.len() == x.len() => bulk.iter().zip(&shear).map(|(&k, &g)| of(k, g)).collect(),
-            // points between nodes (probes): the region phases at the points
-            Some(_) => {
-                let tol = linpd_core::GEOMETRY_RTOL * p.nodes().spacing();
-                x.iter()
-                    .map(|x| {
-                        let last = self.phases.iter().rev().find(|ph| {
-                            ph.region.as_ref().is_some_and(|r| r.set_names().is_empty() && r.contains(x, p.dim(), tol))
-                        });
-                        last.map_or(of(self.params.K, self.params.G), |ph| of(ph.bulk, ph.shear))
-                    })
-                    .collect()
-            }
+            Some(_) => return None,
             None => vec![of(self.params.K, self.params.G); x.len()],
         };
         Some((self.params.plane, constants))
