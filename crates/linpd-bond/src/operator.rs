@@ -131,8 +131,6 @@ impl BondOperator {
         assert_eq!(positions.len(), volumes.len(), "one volume per node");
         micromodulus.validate(dim)?;
         material.validate(dim)?;
-        let discrete = micromodulus.normalization == linpd_core::Normalization::Discrete;
-        let c = if discrete { 0.0 } else { micromodulus.amplitude(dim, horizon, 0.0)? };
         let h_min = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
         let tol = GEOMETRY_RTOL * h_min;
         let scale: Vec<f64> = volumes.iter().map(|&v| quadrature.node_scale(dim, v)).collect();
@@ -159,7 +157,7 @@ impl BondOperator {
             }
             _ => BondFamily::from_points(&positions, dim, horizon),
         };
-        let c = match discrete {
+        let c = match micromodulus.normalization == linpd_core::Normalization::Discrete {
             true => {
                 let moment = |i: usize| -> f64 {
                     let xi = positions[i];
@@ -184,7 +182,7 @@ impl BondOperator {
                 let mean = inner.iter().map(|&i| moment(i)).sum::<f64>() / inner.len() as f64;
                 micromodulus.moment_target(dim) / mean
             }
-            false => c,
+            false => micromodulus.amplitude(dim, horizon, 0.0)?,
         };
         let k_ref = micromodulus.reference_modulus();
         let own;

@@ -167,17 +167,7 @@ impl LpsModel {
                     self.surface.name()
                 )));
             }
-            SurfaceCorrection::None => {
-                for i in 0..self.n_nodes() {
-                    let o = self.family.bond_offset(i);
-                    let nb = self.family.neighbors(i).len();
-                    let mut mi = 0.0;
-                    for b in o..o + nb {
-                        mi += self.wv[b] * self.len[b] * self.len[b];
-                    }
-                    self.m[i] = mi;
-                }
-            }
+            SurfaceCorrection::None => self.lattice_sums(),
             SurfaceCorrection::BulkWeightedVolume => {
                 let m0 = self.bulk_weighted_volume();
                 self.m.iter_mut().for_each(|m| *m = m0);
@@ -219,20 +209,10 @@ impl LpsModel {
             let xi = self.bond_vector(i, j);
             Some(([xi[0] / r, xi[1] / r, xi[2] / r], r))
         };
-        let (kind, rule) =
-            if per_node { ("position_aware", FactorRule::OwnEnd) } else { ("energy", FactorRule::MeanOfEnds) };
+        let (kind, rule) = factor_rule(per_node);
         let (factors, summary) =
             family_factors(self.dim, &grid, &self.family, delta, beta, bond, rule, kind, target, None);
-        self.wv.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
-        // Algorithm 3 again with the new weights: m_i = sum_j w_ij |xi|^2
-        for i in 0..self.n_nodes() {
-            let o = self.family.bond_offset(i);
-            let nb = self.family.neighbors(i).len();
-            self.m[i] = (o..o + nb).map(|b| self.wv[b] * self.len[b] * self.len[b]).sum();
-        }
-        if per_node {
-            self.index_reverse_bonds();
-        }
+        self.rescale_weights(&factors, per_node);
         summary
     }
 
@@ -249,19 +229,10 @@ impl LpsModel {
             let nu = if p.partial_volume { partial_volume(r, delta, 0.5 * (size[i] + size[j])) } else { 1.0 };
             Some(([xi[0] / r, xi[1] / r, xi[2] / r], p.influence.omega(r) * nu * self.volumes[j] * r * r))
         };
-        let (kind, rule) =
-            if per_node { ("position_aware", FactorRule::OwnEnd) } else { ("energy", FactorRule::MeanOfEnds) };
+        let (kind, rule) = factor_rule(per_node);
         let trace = self.continuum_weighted_volume();
         let (factors, summary) = cloud_factors(dim, &self.family, bond, layer, rule, kind, trace);
-        self.wv.iter_mut().zip(&factors).for_each(|(w, f)| *w *= f);
-        for i in 0..self.n_nodes() {
-            let o = self.family.bond_offset(i);
-            let nb = self.family.neighbors(i).len();
-            self.m[i] = (o..o + nb).map(|b| self.wv[b] * self.len[b] * self.len[b]).sum();
-        }
-        if per_node {
-            self.index_reverse_bonds();
-        }
+        self.rescale_weights(&factors, per_node);
         summary
     }
 
@@ -278,8 +249,36 @@ impl LpsModel {
         }
     }
 
+    /// `w_ij *= factors` (family order), then `m` from the new weights and, for per-node
+    /// factors, the reverse-bond index.
+    fn rescale_weights(&mut self, factors: &[f64], per_node: bool) {
+        self.wv.iter_mut().zip(factors).for_each(|(w, f)| *w *= f);
+        self.lattice_sums();
+        if per_node {
+            self.index_reverse_bonds();
+        }
+    }
+
+    /// Algorithm 3 with the current weights: `m_i = sum_j w_ij |xi|^2`.
+    fn lattice_sums(&mut self) {
+        for i in 0..self.n_nodes() {
+            let o = self.family.bond_offset(i);
+            let nb = self.family.neighbors(i).len();
+            self.m[i] = (o..o + nb).map(|b| self.wv[b] * self.len[b] * self.len[b]).sum();
+        }
+    }
+
     /// The surface correction in effect.
     pub fn surface_correction(&self) -> SurfaceCorrection {
         self.surface
+    }
+}
+
+/// The correction's name and factor rule: per node (`position_aware`) or the mean of the ends.
+fn factor_rule(per_node: bool) -> (&'static str, FactorRule) {
+    if per_node {
+        ("position_aware", FactorRule::OwnEnd)
+    } else {
+        ("energy", FactorRule::MeanOfEnds)
     }
 }

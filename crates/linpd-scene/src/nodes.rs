@@ -45,14 +45,7 @@ impl LevelNodes {
     /// node ("every DOF is constrained") instead of the overflow they cause.
     pub fn new(dim: usize, positions: Vec<Point>, volumes: Vec<f64>) -> Self {
         let h = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
-        let extent = (0..dim)
-            .map(|a| {
-                let (lo, hi) = positions
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x[a]), hi.max(x[a])));
-                hi - lo
-            })
-            .fold(0.0f64, f64::max);
+        let extent = extent(&positions, dim);
         let h = if extent.is_finite() && extent > 0.0 { h.min(extent) } else { h };
         LevelNodes {
             dim,
@@ -66,6 +59,17 @@ impl LevelNodes {
             boundary: Vec::new(),
         }
     }
+}
+
+/// The largest side of the bounding box of `positions` (0 for none or one).
+pub(crate) fn extent(positions: &[Point], dim: usize) -> f64 {
+    (0..dim)
+        .map(|a| {
+            let (lo, hi) =
+                positions.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x[a]), hi.max(x[a])));
+            hi - lo
+        })
+        .fold(0.0f64, f64::max)
 }
 
 impl Nodes {

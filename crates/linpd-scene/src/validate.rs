@@ -861,15 +861,7 @@ pub(crate) fn cloud_nodes(
             ),
         ));
     }
-    let extent = (0..dim)
-        .map(|a| {
-            let (lo, hi) = cloud
-                .positions
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x[a]), hi.max(x[a])));
-            hi - lo
-        })
-        .fold(0.0f64, f64::max);
+    let extent = crate::nodes::extent(&cloud.positions, dim);
     if mesh.is_some() && horizon >= extent {
         return Err(ProblemError::invalid(
             "model.horizon",
