@@ -896,6 +896,50 @@ pub(crate) fn refuse_lattice_target(target: Option<crate::raw::RawSurfaceTarget>
     Ok(())
 }
 
+/// The nodes phase `k` of a cloud's material selects: its `region`'s (a mesh's sets included)
+/// or those whose phase number (`column`, a cloud's `phase` column or a mesh's groups) is
+/// `tag`. A set or number that selects no node, and a number without a column, are named
+/// errors (a typo would otherwise leave the material silently homogeneous).
+pub(crate) fn phase_nodes<N: crate::nodes::NodeSet + ?Sized>(
+    nodes: &N,
+    column: &[u32],
+    k: usize,
+    region: Option<&Region>,
+    tag: Option<u32>,
+) -> Result<Vec<usize>, ProblemError> {
+    let p = format!("model.material.phases[{k}]");
+    match (region, tag) {
+        (Some(r), _) => {
+            let path = format!("{p}.region");
+            nodes.check_sets(r, &path)?;
+            let selected = nodes.select(r);
+            if selected.is_empty() && !r.set_names().is_empty() {
+                return Err(ProblemError::invalid(path, "selects no node of the mesh"));
+            }
+            Ok(selected)
+        }
+        (None, Some(_)) if column.is_empty() => Err(ProblemError::invalid(
+            format!("{p}.phase"),
+            format!(
+                "phase numbers come from a point cloud's `phase` column or a mesh's groups, and {} has none (give a \
+                 region)",
+                nodes.what()
+            ),
+        )),
+        (None, Some(tag)) => {
+            let selected: Vec<usize> = (0..column.len()).filter(|&n| column[n] == tag).collect();
+            if selected.is_empty() {
+                return Err(ProblemError::invalid(
+                    format!("{p}.phase"),
+                    format!("no node of the cloud has phase {tag}"),
+                ));
+            }
+            Ok(selected)
+        }
+        (None, None) => Err(ProblemError::invalid(&p, "give exactly one of \"region\" or \"phase\"")),
+    }
+}
+
 /// Every defect of a cloud scene must cut a bond of the cloud.
 pub(crate) fn check_defects(
     material: &linpd_core::Material,

@@ -194,36 +194,8 @@ pub(crate) fn tagged_moduli(
     }
     let mut moduli = vec![reference; nodes.positions.len()];
     for (k, ph) in raw.phases.iter().enumerate() {
-        match (&regions[k], ph.phase) {
-            (Some(r), _) => {
-                let path = format!("model.material.phases[{k}].region");
-                crate::nodes::NodeSet::check_sets(nodes, r, &path)?;
-                let selected = crate::nodes::NodeSet::select(nodes, r);
-                if selected.is_empty() && !r.set_names().is_empty() {
-                    return Err(ProblemError::invalid(path, "selects no node of the mesh"));
-                }
-                selected.into_iter().for_each(|n| moduli[n] = phase_moduli[k]);
-            }
-            (None, Some(tag)) => {
-                if nodes.phase.is_empty() {
-                    return Err(ProblemError::invalid(
-                        format!("model.material.phases[{k}].phase"),
-                        "the node file has no `phase` column",
-                    ));
-                }
-                let mut any = false;
-                for (n, _) in nodes.phase.iter().enumerate().filter(|(_, &p)| p == tag) {
-                    moduli[n] = phase_moduli[k];
-                    any = true;
-                }
-                if !any {
-                    return Err(ProblemError::invalid(
-                        format!("model.material.phases[{k}].phase"),
-                        format!("no node of the cloud has phase {tag}"),
-                    ));
-                }
-            }
-            (None, None) => unreachable!("checked by material_with_tags"),
+        for n in crate::validate::phase_nodes(nodes, &nodes.phase, k, regions[k].as_ref(), ph.phase)? {
+            moduli[n] = phase_moduli[k];
         }
     }
     Ok(Some(moduli))

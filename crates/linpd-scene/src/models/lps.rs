@@ -98,8 +98,8 @@ impl ModelType for LpsType {
             let material = material(&defects_only(&raw.material), dim, None)?;
             check_defects(&material, &nodes, raw.horizon)?;
             let nodes = Nodes::Cloud(nodes);
-            let phases = phases(&raw.material, dim, &nodes, &params)?;
-            let model = LpsSceneModel { params, defects: material.defects, surface, cloud: true, phases };
+            let (phases, node_moduli) = phases(&raw.material, dim, &nodes, &params)?;
+            let model = LpsSceneModel { params, defects: material.defects, surface, cloud: true, phases, node_moduli };
             return Ok(Validated { nodes, model: Box::new(model) });
         }
         let grid = crate::validate::lattice(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
@@ -112,8 +112,8 @@ impl ModelType for LpsType {
         }
         let surface = surface_of(true, raw.surface_correction, raw.surface_target)?;
         let nodes = Nodes::Lattice(grid);
-        let phases = phases(&raw.material, dim, &nodes, &params)?;
-        let model = LpsSceneModel { params, defects: material.defects, surface, cloud: false, phases };
+        let (phases, node_moduli) = phases(&raw.material, dim, &nodes, &params)?;
+        let model = LpsSceneModel { params, defects: material.defects, surface, cloud: false, phases, node_moduli };
         Ok(Validated { nodes, model: Box::new(model) })
     }
 }
@@ -183,18 +183,11 @@ pub struct LpsSceneModel {
     pub surface: Surface,
     /// On a point cloud.
     cloud: bool,
-    /// The phases: where, and their `(K, G)`.
-    phases: Vec<LpsPhase>,
-}
-
-/// A phase of an lps material: nodes in `region` (a lattice's or a mesh's, sets included) or
-/// with phase number `tag` (a cloud's column or a mesh's group) get the moduli `K`, `G`.
-#[derive(Debug, Clone)]
-struct LpsPhase {
-    region: Option<linpd_core::Region>,
-    tag: Option<u32>,
-    bulk: f64,
-    shear: f64,
+    /// `(K, G)` of every phase, in scene order.
+    phases: Vec<(f64, f64)>,
+    /// `(K_i, G_i)` of every node when the material has phases (the last phase that selects a
+    /// node wins, the model's `K`, `G` where none does).
+    node_moduli: Option<(Vec<f64>, Vec<f64>)>,
 }
 
 /// The material without its phases (the lps phases are validated by [`phases`]).
@@ -202,10 +195,16 @@ fn defects_only(raw: &RawMaterial) -> RawMaterial {
     RawMaterial { phases: Vec::new(), ..raw.clone() }
 }
 
-/// The phases of an lps material: each gives `young_modulus` and `poisson_ratio` (its `K`
-/// and `G`), and where: a `region` (a mesh's sets included) or a cloud's `phase` number; a
-/// set or number that selects no node is an error.
-fn phases(raw: &RawMaterial, dim: usize, nodes: &Nodes, params: &LpsParams) -> Result<Vec<LpsPhase>, ProblemError> {
+/// The phases of an lps material and the moduli of every node: each phase gives
+/// `young_modulus` and `poisson_ratio` (its `K` and `G`), and where: a `region` (a mesh's sets
+/// included) or a cloud's `phase` number ([`crate::validate::phase_nodes`]).
+type Phases = (Vec<(f64, f64)>, Option<(Vec<f64>, Vec<f64>)>);
+fn phases(raw: &RawMaterial, dim: usize, nodes: &Nodes, params: &LpsParams) -> Result<Phases, ProblemError> {
+    if raw.phases.is_empty() {
+        return Ok((Vec::new(), None));
+    }
+    let column = nodes.cloud().map_or(&[][..], |c| &c.phase[..]);
+    let (mut bulk, mut shear) = (vec![params.K; nodes.len()], vec![params.G; nodes.len()]);
     let mut out = Vec::new();
     for (k, ph) in raw.phases.iter().enumerate() {
         let p = format!("model.material.phases[{k}]");
@@ -215,42 +214,21 @@ fn phases(raw: &RawMaterial, dim: usize, nodes: &Nodes, params: &LpsParams) -> R
                 "an lps phase gives young_modulus and poisson_ratio (its K and G), not a bond modulus",
             ));
         }
-        let (bulk, shear) = crate::elastic::lps_moduli(&p, None, None, ph.young_modulus, ph.poisson_ratio)?;
-        let own = LpsParams { K: bulk, G: shear, ..*params };
+        let (k_phase, g_phase) = crate::elastic::lps_moduli(&p, None, None, ph.young_modulus, ph.poisson_ratio)?;
+        let own = LpsParams { K: k_phase, G: g_phase, ..*params };
         if let Some((what, value)) = own.overflow(dim) {
             return Err(ProblemError::invalid(
                 format!("{p}.young_modulus"),
                 format!("overflows: the derived constant {what} = {value:e}; use smaller units for the moduli"),
             ));
         }
-        let (region, tag) = match (&ph.region, ph.phase) {
-            (Some(r), None) => {
-                let path = format!("{p}.region");
-                let r = crate::validate::region(&path, r, dim)?;
-                nodes.check_sets(&r, &path)?;
-                if !r.set_names().is_empty() && nodes.select(&r).is_empty() {
-                    return Err(ProblemError::invalid(path, "selects no node of the mesh"));
-                }
-                (Some(r), None)
-            }
-            (None, Some(tag)) => {
-                let Some(c) = nodes.cloud().filter(|c| !c.phase.is_empty()) else {
-                    return Err(ProblemError::invalid(
-                        format!("{p}.phase"),
-                        "phase numbers come from a point cloud's `phase` column or a mesh's groups; on a grid give a \
-                         region",
-                    ));
-                };
-                if !c.phase.contains(&tag) {
-                    return Err(ProblemError::invalid(format!("{p}.phase"), format!("no node has phase {tag}")));
-                }
-                (None, Some(tag))
-            }
-            _ => return Err(ProblemError::invalid(&p, "give exactly one of \"region\" or \"phase\"")),
-        };
-        out.push(LpsPhase { region, tag, bulk, shear });
+        let region = ph.region.as_ref().map(|r| crate::validate::region(&format!("{p}.region"), r, dim)).transpose()?;
+        for n in crate::validate::phase_nodes(nodes, column, k, region.as_ref(), ph.phase)? {
+            (bulk[n], shear[n]) = (k_phase, g_phase);
+        }
+        out.push((k_phase, g_phase));
     }
-    Ok(out)
+    Ok((out, Some((bulk, shear))))
 }
 
 impl LpsSceneModel {
@@ -278,48 +256,25 @@ impl LpsSceneModel {
         let (model, summary) = model
             .corrected_with_layer(surface.correction, surface.target, layer)
             .map_err(|e| ProblemError::invalid("model.surface_correction", e.to_string()))?;
-        let model = match self.node_moduli(p.nodes()) {
+        let model = match &self.node_moduli {
             Some((bulk, shear)) => model
-                .with_node_moduli(&bulk, &shear)
+                .with_node_moduli(bulk, shear)
                 .map_err(|e| ProblemError::invalid("model.material", e.to_string()))?,
             None => model,
         };
         Ok((model, summary))
     }
-
-    /// `(K_i, G_i)` of every node when the material has phases (later phases override earlier
-    /// ones where both apply, as for bond models), `None` when it has none.
-    fn node_moduli(&self, nodes: &Nodes) -> Option<(Vec<f64>, Vec<f64>)> {
-        if self.phases.is_empty() {
-            return None;
-        }
-        let n = nodes.len();
-        let (mut bulk, mut shear) = (vec![self.params.K; n], vec![self.params.G; n]);
-        for ph in &self.phases {
-            let selected: Vec<usize> = match (&ph.region, ph.tag) {
-                (Some(r), _) => nodes.select(r),
-                (None, Some(tag)) => nodes.cloud().map_or_else(Vec::new, |c| {
-                    c.phase.iter().enumerate().filter(|(_, &t)| t == tag).map(|(i, _)| i).collect()
-                }),
-                (None, None) => Vec::new(),
-            };
-            for i in selected {
-                (bulk[i], shear[i]) = (ph.bulk, ph.shear);
-            }
-        }
-        Some((bulk, shear))
-    }
 }
 
 impl SceneModel for LpsSceneModel {
-    fn node_elastic(&self, p: &Problem, x: &[linpd_core::Point]) -> Option<crate::scene::NodeElastic> {
+    fn node_elastic(&self, _: &Problem, x: &[linpd_core::Point]) -> Option<crate::scene::NodeElastic> {
         let of = |k: f64, g: f64| {
             let c = crate::elastic::lps_constants(k, g);
             (c.young_modulus, c.poisson_ratio)
         };
         // a solution's nodes are the scene's (LPS has no graded mesh): per node, or none
-        let constants = match self.node_moduli(p.nodes()) {
-            Some((bulk, shear)) if bulk.len() == x.len() => bulk.iter().zip(&shear).map(|(&k, &g)| of(k, g)).collect(),
+        let constants = match &self.node_moduli {
+            Some((bulk, shear)) if bulk.len() == x.len() => bulk.iter().zip(shear).map(|(&k, &g)| of(k, g)).collect(),
             Some(_) => return None,
             None => vec![of(self.params.K, self.params.G); x.len()],
         };
@@ -327,10 +282,10 @@ impl SceneModel for LpsSceneModel {
     }
     fn elastic_constants(&self) -> Vec<crate::elastic::PhaseConstants> {
         let mut out = vec![crate::elastic::lps_constants(self.params.K, self.params.G)];
-        for (k, ph) in self.phases.iter().enumerate() {
+        for (k, &(bulk, shear)) in self.phases.iter().enumerate() {
             out.push(crate::elastic::PhaseConstants {
                 phase: format!("phases[{k}]"),
-                ..crate::elastic::lps_constants(ph.bulk, ph.shear)
+                ..crate::elastic::lps_constants(bulk, shear)
             });
         }
         out
