@@ -91,6 +91,10 @@ fn auto_uses_the_scenes_cg_parameters_when_it_picks_cg() {
 
 /// The 101^2 plate of the `auto` tests (`delta = 2h`, 21k unknowns), with `material` when given.
 fn plate_101(material: Option<serde_json::Value>) -> Problem {
+    Problem::from_json(&plate_101_text(material)).unwrap()
+}
+
+fn plate_101_text(material: Option<serde_json::Value>) -> String {
     let mut scene = serde_json::json!({
         "name": "plate-101", "dimension": 2,
         "grid": {"min": [0.0, 0.0], "max": [1.0, 1.0], "spacing": 0.01, "layer": 0.02},
@@ -103,7 +107,7 @@ fn plate_101(material: Option<serde_json::Value>) -> Problem {
     if let Some(m) = material {
         scene["model"]["material"] = m;
     }
-    Problem::from_json(&scene.to_string()).unwrap()
+    scene.to_string()
 }
 
 /// A bundled scene with `material` added to its model.
@@ -115,22 +119,41 @@ fn with_material(name: &str, material: serde_json::Value) -> Problem {
     Problem::from_json(&scene.to_string()).unwrap()
 }
 
+/// A bundled scene in a lattice box stretched along its last axis to `stretch` times its
+/// height, with a body that keeps the original box and its layer: the same nodes and bonds,
+/// but the kept sites are less than half the box, so the lattice has no fast apply
+/// (`linpd_bond::CorrectedStencil::fits`) and `auto` decides on the assembled models.
+fn in_a_taller_box(mut scene: serde_json::Value, stretch: f64) -> Problem {
+    let dim = scene["dimension"].as_u64().unwrap() as usize;
+    let top = scene["grid"]["max"][dim - 1].as_f64().unwrap();
+    let layer = scene["grid"]["layer"].as_f64().unwrap();
+    scene["grid"]["max"][dim - 1] = serde_json::json!(stretch * top);
+    let (mut lo, mut hi) = (vec![-1.0; dim], vec![2.0 * stretch; dim]);
+    lo[dim - 1] = -1.0;
+    hi[dim - 1] = top + layer * (1.0 + 1e-9);
+    scene["body"] = serde_json::json!({"box": {"min": lo, "max": hi}});
+    scene["output"] = serde_json::json!({"plot": false});
+    Problem::from_json(&scene.to_string()).unwrap()
+}
+
 /// `auto` decides by the cost model and says how, on assembled models: on the small 2D plate
 /// (3.5k unknowns) sparse Cholesky is estimated cheapest, on the 3D cube (28k) Jacobi-PCG (the
 /// 3D factor's fill; the multigrid setup does not pay at this size), on a 101^2 plate with
 /// `delta = 2h` (21k) multigrid-PCG (measured there: 0.34 s against 0.60 s for Cholesky and
-/// 1.26 s for Jacobi); every estimate is in the report. The cube and the 101^2 plate carry a
-/// weakened-bond defect here: homogeneous, they have a stencil apply and `auto` runs
-/// matrix-free multigrid instead (next test).
+/// 1.26 s for Jacobi); every estimate is in the report. The cube and the 101^2 plate sit in
+/// lattice boxes 2.5x their height here (`in_a_taller_box`): in their own boxes they have a
+/// stencil apply and `auto` runs matrix-free multigrid instead (next tests).
 #[test]
 fn auto_picks_by_estimated_cost_and_reports_the_estimates() {
-    let defect_2d = serde_json::json!({"defects": [{"segment": [[-1.0, 0.505], [0.3, 0.505]], "factor": 0.5}]});
-    let defect_3d = serde_json::json!({"defects": [{"plane": {"point": [0.0, 0.0, 0.53], "normal": [0.0, 0.0, 1.0],
-        "extent": {"box": {"min": [-1.0, -1.0, 0.0], "max": [0.3, 2.0, 1.0]}}}, "factor": 0.5}]});
+    let text = |name: &str| -> serde_json::Value {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name);
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    };
+    let plate: serde_json::Value = serde_json::from_str(&plate_101_text(None)).unwrap();
     let cases = [
         ("plate-tension-2d", scene("plate-tension-2d.json"), "cholesky-nd"),
-        ("cube-compression-3d + defect", with_material("cube-compression-3d.json", defect_3d), "cg-jacobi"),
-        ("plate-101 + defect", plate_101(Some(defect_2d)), "cg-multigrid"),
+        ("cube-compression-3d, taller box", in_a_taller_box(text("cube-compression-3d.json"), 2.5), "cg-jacobi"),
+        ("plate-101, taller box", in_a_taller_box(plate, 2.5), "cg-multigrid"),
     ];
     for (name, p, expect) in cases {
         let s = p.solve(&linpd::core::NoProgress).unwrap();
@@ -139,6 +162,30 @@ fn auto_picks_by_estimated_cost_and_reports_the_estimates() {
         for candidate in ["cholesky-nd est.", "cg-jacobi est.", "cg-multigrid est."] {
             assert!(line.contains(candidate), "{name}: {line}");
         }
+    }
+}
+
+/// On a cracked lattice (a plane defect through half the cube, a segment through a third of
+/// the plate) `auto` runs matrix-free multigrid-CG on the stencil with the cut bonds as
+/// corrections (`linpd_bond::CorrectedStencil`), as on a homogeneous one, within `kappa *
+/// rtol` of the sparse Cholesky (bounds as in the next test).
+#[test]
+fn auto_runs_matrix_free_multigrid_on_cracked_lattices() {
+    let defect_2d = serde_json::json!({"defects": [{"segment": [[-1.0, 0.505], [0.3, 0.505]], "factor": 0.0}]});
+    let defect_3d = serde_json::json!({"defects": [{"plane": {"point": [0.0, 0.0, 0.53], "normal": [0.0, 0.0, 1.0],
+        "extent": {"box": {"min": [-1.0, -1.0, 0.0], "max": [0.5, 2.0, 1.0]}}}, "factor": 0.0}]});
+    for (name, make) in [
+        ("plate-101 + crack", Box::new(move || plate_101(Some(defect_2d.clone()))) as Box<dyn Fn() -> Problem>),
+        ("cube-compression-3d + crack", Box::new(move || with_material("cube-compression-3d.json", defect_3d.clone()))),
+    ] {
+        let s = make().solve(&linpd::core::NoProgress).unwrap();
+        assert_eq!(s.report.solver.to_string(), "cg-multigrid-matrix-free-corrected-stencil", "{name}");
+        assert!(s.report.rel_residual <= 1e-8, "{name}: residual {:e}", s.report.rel_residual);
+        let mut direct = make();
+        direct.set_solver(linpd::solve::SolverSpec::Cholesky);
+        let exact = direct.solve(&linpd::core::NoProgress).unwrap();
+        let err = s.u.iter().zip(&exact.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(err <= 1e-4 * max_abs(&exact.u), "{name}: {err:e} against max |u| {:e}", max_abs(&exact.u));
     }
 }
 
@@ -216,7 +263,15 @@ fn multigrid_cg_agrees_with_cholesky_on_bond_lps_and_heterogeneous_scenes() {
         }
         let params = CgParams { rtol: 1e-12, max_iter: 200 };
         let mf = solve(SolverSpec::Cg { params, preconditioner: PreconditionerKind::Multigrid, matrix_free: true });
+        // the cracked plate and the two-material bar leave the plain stencil: the stencil with
+        // their cut and interface bonds applies them (linpd_bond::CorrectedStencil)
+        let fast = if name.starts_with("plate-crack") || name.starts_with("composite") {
+            "corrected-stencil"
+        } else {
+            "-stencil"
+        };
         assert!(mf.report.solver.to_string().starts_with("cg-multigrid-matrix-free"), "{name}: {}", mf.report.solver);
+        assert!(mf.report.solver.to_string().ends_with(fast), "{name}: {}", mf.report.solver);
         assert_eq!(mf.report.iterations, Some(it), "{name}: matrix-free multigrid");
         let diff: Vec<f64> = mf.u.iter().zip(&chol.u).map(|(a, b)| a - b).collect();
         assert!(

@@ -177,7 +177,7 @@ fn copy_bandwidth() -> f64 {
 }
 
 /// Average seconds of `f` over enough calls to last >= 0.3 s.
-fn time_avg(mut f: impl FnMut()) -> (f64, usize) {
+pub(crate) fn time_avg(mut f: impl FnMut()) -> (f64, usize) {
     f();
     let t = Instant::now();
     let mut calls = 0;

@@ -4,6 +4,11 @@
 //! * `3d-cantilever-N` (N = 20, 30, 40, 50, 70 nodes per side): the unit cube, `delta = 3h`,
 //!   bond-based, clamped through a `delta`-thick layer at `x <= 0`, a body-force density `-z` on
 //!   the nodes of `x >= 1` (the layer beyond the far face);
+//! * `3d-cracked-N` and `3d-two-phase-N` (N = 70; 10 with `--quick`): the same cantilever with
+//!   a crack (a plane defect normal to x at mid-span through the upper half, bonds cut) or a
+//!   ball inclusion of radius 0.3 at the centre with 10^4 times the modulus (harmonic bond
+//!   rule): the heterogeneous and cracked lattices of issue #35, matrix-free on the stencil
+//!   with their cut and interface bonds as corrections (`linpd_bond::CorrectedStencil`);
 //! * `2d-plate-N-m2` (N = 101, 201, 401, 801): the unit square, `delta = 2h`, plane stress,
 //!   clamped through the layer at `x <= 0`, body load `-y` on `x >= 1` (the setting of
 //!   PeriLab's published timing table at N = 401: 160,801 points, m = 2).
@@ -30,8 +35,16 @@ use std::time::Instant;
 /// Unknowns above which Jacobi-PCG runs matrix-free (assembled `A` ~ 1100 entries per 3D row).
 const MATRIX_FREE_FROM: usize = 600_000;
 
+/// What a case adds to the homogeneous cantilever (3D only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Variant {
+    Homogeneous,
+    Cracked,
+    TwoPhase,
+}
+
 /// The scene of a case: `dim` 2 or 3, `nodes` per side of the unit body, horizon `m h`.
-fn scene(name: &str, dim: usize, nodes: usize, m: usize) -> Problem {
+fn scene(name: &str, dim: usize, nodes: usize, m: usize, variant: Variant) -> Problem {
     let h = 1.0 / (nodes - 1) as f64;
     let delta = m as f64 * h;
     let z = vec![0.0; dim];
@@ -48,6 +61,19 @@ fn scene(name: &str, dim: usize, nodes: usize, m: usize) -> Problem {
     if dim == 2 {
         model["plane"] = json!("stress");
     }
+    // the crack's plane lies half a spacing off the node planes, so it cuts bonds, not nodes
+    let x_crack = ((0.5 / h).floor() + 0.5) * h;
+    match variant {
+        Variant::Homogeneous => {}
+        Variant::Cracked => {
+            model["material"] = json!({"defects": [{"plane": {"point": [x_crack, 0.0, 0.0], "normal": [1.0, 0.0, 0.0],
+                "extent": {"box": {"min": [-1.0, -1.0, 0.5], "max": [2.0, 2.0, 2.0]}}}, "factor": 0.0}]});
+        }
+        Variant::TwoPhase => {
+            model["material"] = json!({"phases": [{"region": {"ball": {"center": [0.5, 0.5, 0.5], "radius": 0.3}},
+                "modulus": 1e4}], "bond_rule": "harmonic"});
+        }
+    }
     let text = json!({
         "name": name, "dimension": dim,
         "grid": {"min": z, "max": one, "spacing": h, "layer": delta},
@@ -60,12 +86,14 @@ fn scene(name: &str, dim: usize, nodes: usize, m: usize) -> Problem {
     Problem::from_json(&text).expect("bench scene")
 }
 
-/// `(name, dim, nodes per side, m)`.
-fn cases(quick: bool) -> Vec<(String, usize, usize, usize)> {
-    let (cubes, plates): (&[usize], &[usize]) =
-        if quick { (&[8, 10], &[21, 41]) } else { (&[20, 30, 40, 50, 70], &[101, 201, 401, 801]) };
-    let mut v: Vec<_> = cubes.iter().map(|&n| (format!("3d-cantilever-{n}"), 3, n, 3)).collect();
-    v.extend(plates.iter().map(|&n| (format!("2d-plate-{n}-m2"), 2, n, 2)));
+/// `(name, dim, nodes per side, m, variant)`.
+fn cases(quick: bool) -> Vec<(String, usize, usize, usize, Variant)> {
+    let (cubes, plates, hetero): (&[usize], &[usize], usize) =
+        if quick { (&[8, 10], &[21, 41], 10) } else { (&[20, 30, 40, 50, 70], &[101, 201, 401, 801], 70) };
+    let mut v: Vec<_> = cubes.iter().map(|&n| (format!("3d-cantilever-{n}"), 3, n, 3, Variant::Homogeneous)).collect();
+    v.push((format!("3d-cracked-{hetero}"), 3, hetero, 3, Variant::Cracked));
+    v.push((format!("3d-two-phase-{hetero}"), 3, hetero, 3, Variant::TwoPhase));
+    v.extend(plates.iter().map(|&n| (format!("2d-plate-{n}-m2"), 2, n, 2, Variant::Homogeneous)));
     v
 }
 
@@ -154,13 +182,17 @@ fn export(dir: &Path, name: &str, p: &Problem) -> std::io::Result<()> {
 /// `export_dir`, also writes each assembled case's reduced system for the peers ([`export`]).
 pub fn run(quick: bool, filter: Option<&str>, direct_max_3d: usize, export_dir: Option<&Path>) -> Value {
     let mut out = serde_json::Map::new();
-    for (name, dim, nodes, m) in cases(quick) {
+    for (name, dim, nodes, m, variant) in cases(quick) {
         if filter.is_some_and(|f| !name.contains(f)) {
             continue;
         }
-        let mut p = scene(&name, dim, nodes, m);
+        let mut p = scene(&name, dim, nodes, m, variant);
         let n_free = dim * p.nodes().len(); // an upper bound, for the solver list
         let mut rows = Vec::new();
+        if variant != Variant::Homogeneous {
+            eprintln!("[bench] statics {name}: products, per bond and by the corrected stencil");
+            rows.push(matvecs(&p));
+        }
         let mut jacobi_total = None;
         for (label, spec) in solvers(dim, n_free, direct_max_3d) {
             eprintln!("[bench] statics {name}: {label}");
@@ -197,6 +229,32 @@ pub fn run(quick: bool, filter: Option<&str>, direct_max_3d: usize, export_dir: 
         out.insert(name, Value::Array(rows));
     }
     Value::Object(out)
+}
+
+/// One product `A u` over all DOFs by the per-bond operator (`BondOperator::apply`, 12 bytes
+/// a bond) and by the corrected stencil (`linpd_bond::CorrectedStencil`: the stencil and the
+/// bonds that differ from it), averaged over >= 0.3 s each, with their ratio and the share of
+/// bonds stored as corrections: the row `"solver": "matvec"` of a heterogeneous case.
+fn matvecs(p: &Problem) -> Value {
+    let model = match p.lattice_model() {
+        Ok(m) => m,
+        Err(e) => return json!({"solver": "matvec", "error": e.to_string()}),
+    };
+    let t = Instant::now();
+    let Some(corrected) = model.corrected_stencil() else {
+        return json!({"solver": "matvec", "error": "no corrected stencil on this lattice"});
+    };
+    let build = t.elapsed().as_secs_f64();
+    let op = model.operator();
+    let u: Vec<f64> = (0..op.n_dofs()).map(|k| (k as f64 * 0.1).sin()).collect();
+    let mut y = vec![0.0; u.len()];
+    let (per_bond, _) = crate::time_avg(|| op.apply(&u, &mut y));
+    let (stencil, _) = crate::time_avg(|| corrected.apply(&u, &mut y));
+    let bonds = op.family().n_bonds();
+    json!({"solver": "matvec", "per_bond_apply": per_bond, "corrected_stencil_apply": stencil,
+        "per_bond_over_corrected": per_bond / stencil, "corrected_stencil_build": build,
+        "bonds": bonds, "corrections": corrected.n_corrections(),
+        "correction_share": corrected.n_corrections() as f64 / bonds as f64})
 }
 
 /// Our multigrid-PCG against pyamg's on the exported cases: iterations of both and the time
@@ -243,6 +301,20 @@ pub fn print(section: &Value, w: &mut dyn std::io::Write) -> std::io::Result<()>
         for r in rows.as_array().into_iter().flatten() {
             if let Some(e) = r["error"].as_str() {
                 writeln!(w, "{name:<20} {:<24} error: {e}", r["solver"].as_str().unwrap_or("?"))?;
+                continue;
+            }
+            if r["solver"] == "matvec" {
+                let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+                writeln!(
+                    w,
+                    "{name:<20} A u: per bond {:.1} ms, corrected stencil {:.1} ms ({:.2}x; {:.1} % of the bonds \
+                     corrected, built in {:.2} s)",
+                    1e3 * f("per_bond_apply"),
+                    1e3 * f("corrected_stencil_apply"),
+                    f("per_bond_over_corrected"),
+                    100.0 * f("correction_share"),
+                    f("corrected_stencil_build")
+                )?;
                 continue;
             }
             let f = |k: &str, p: usize| r[k].as_f64().map_or("-".into(), |x| format!("{x:.p$}"));

@@ -22,11 +22,14 @@
 //!   dissection ordering, stencil apply when homogeneous);
 //! * [`stencil::StencilOperator`] applies `A` on a homogeneous full-box lattice from the
 //!   stencil alone (no per-bond storage);
+//! * [`corrected::CorrectedStencil`] applies `A` of any lattice operator (phases, defects,
+//!   corrections, bodies) as the stencil plus the bonds that differ from it;
 //! * [`surface`]: the `energy` surface correction (per-node moment matching, bond factor the
 //!   mean of its ends);
 #![deny(missing_docs)]
 
 pub mod assemble;
+pub mod corrected;
 pub mod model;
 pub mod operator;
 pub mod quadrature;
@@ -34,6 +37,7 @@ pub mod stencil;
 pub mod surface;
 
 pub use assemble::{assemble, Pattern};
+pub use corrected::CorrectedStencil;
 pub use linpd_core::{nested_dissection, planar_nested_dissection};
 pub use model::LatticeBondModel;
 pub use operator::{pmb_force, BondOperator};

@@ -2,11 +2,12 @@
 //! and [`LatticeBondModel`], the same operator on a lattice, which adds the lattice's
 //! fill-reducing ordering and, for a homogeneous material, the stencil apply for matrix-free CG.
 
-use crate::{BondOperator, StencilOperator};
+use crate::{BondOperator, CorrectedStencil, StencilOperator};
 use linpd_core::family::grid_stencil;
 use linpd_core::progress::Progress;
 use linpd_core::sparse::Csc;
 use linpd_core::{nested_dissection, DofMap, FastApply, Grid, LinearOperator, Micromodulus, Model, Ordering, Point};
+use std::sync::OnceLock;
 
 impl LinearOperator for BondOperator {
     fn n(&self) -> usize {
@@ -139,13 +140,28 @@ pub struct LatticeBondModel {
     horizon: f64,
     /// The micromodulus when the material is homogeneous (then the stencil applies `A`).
     homogeneous: Option<Micromodulus>,
+    /// Otherwise the reference micromodulus of [`CorrectedStencil`] and the operator, built
+    /// on the first request.
+    corrected: Option<(Micromodulus, OnceLock<Option<CorrectedStencil>>)>,
 }
 
 impl LatticeBondModel {
     /// The operator `op` built on `grid` with `horizon`; `homogeneous` is the micromodulus
     /// when every bond has it unmodified (no phases, no defects).
     pub fn new(op: BondOperator, grid: Grid, horizon: f64, homogeneous: Option<Micromodulus>) -> Self {
-        LatticeBondModel { op, grid, horizon, homogeneous }
+        LatticeBondModel { op, grid, horizon, homogeneous, corrected: None }
+    }
+    /// The model whose bonds `op` differ from the stencil of `micromodulus` (phases, defects,
+    /// a surface correction, a body): its fast apply is the [`CorrectedStencil`] when the box
+    /// is full enough ([`CorrectedStencil::fits`]).
+    pub fn corrected(op: BondOperator, grid: Grid, horizon: f64, micromodulus: Micromodulus) -> Self {
+        let corrected = CorrectedStencil::fits(&grid).then(|| (micromodulus, OnceLock::new()));
+        LatticeBondModel { op, grid, horizon, homogeneous: None, corrected }
+    }
+    /// The corrected stencil (built on the first call), if the model has one.
+    pub fn corrected_stencil(&self) -> Option<&CorrectedStencil> {
+        let (mm, cell) = self.corrected.as_ref()?;
+        cell.get_or_init(|| CorrectedStencil::new(&self.grid, self.horizon, mm, &self.op).ok()).as_ref()
     }
     /// The operator.
     pub fn operator(&self) -> &BondOperator {
@@ -198,9 +214,13 @@ impl Model for LatticeBondModel {
         let stencil = grid_stencil(&self.grid, self.horizon / self.grid.spacing());
         Ordering::NestedDissection(nested_dissection(&self.grid, &stencil, dofs))
     }
+    /// The stencil of a homogeneous material on the full box, or the [`CorrectedStencil`].
     fn fast_apply(&self) -> Option<FastApply<'_>> {
-        let mm = self.homogeneous.as_ref()?;
-        let stencil = StencilOperator::new(&self.grid, self.horizon, mm).ok()?;
-        Some(FastApply { op: Box::new(stencil), label: "stencil" })
+        if let Some(mm) = self.homogeneous.as_ref() {
+            let stencil = StencilOperator::new(&self.grid, self.horizon, mm).ok()?;
+            return Some(FastApply { op: Box::new(stencil), label: "stencil" });
+        }
+        let corrected = self.corrected_stencil()?;
+        Some(FastApply { op: Box::new(corrected), label: "corrected-stencil" })
     }
 }

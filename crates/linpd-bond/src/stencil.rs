@@ -20,14 +20,13 @@ pub struct StencilOperator {
     /// `K_s = w_s e_s e_s^T` per offset, upper triangle row by row (xx, xy, xz, yy, yz, zz in
     /// 3D; xx, xy, yy in 2D; x in 1D).
     blocks: Vec<[f64; 6]>,
+    /// `w_s` per offset.
+    weights: Vec<f64>,
 }
 
 impl StencilOperator {
     /// The stencil of `micromodulus` on `grid` with horizon `horizon` (homogeneous material).
     pub fn new(grid: &Grid, horizon: f64, micromodulus: &Micromodulus) -> Result<Self, CoreError> {
-        let dim = grid.dim();
-        let h = grid.spacing();
-        micromodulus.validate(dim)?;
         if !grid.is_full() || !grid.has_uniform_volumes() {
             // the row-wise apply indexes every lattice site
             return Err(CoreError::param(
@@ -35,6 +34,16 @@ impl StencilOperator {
                 "the stencil operator needs the full lattice box with volumes h^d; a body removed nodes or cut their cells",
             ));
         }
+        Self::on_box(grid, horizon, micromodulus)
+    }
+
+    /// The stencil of `micromodulus` with volumes `h^d` on every site of `grid`'s lattice box,
+    /// whatever a body removed or cut (the reference operator of
+    /// [`crate::corrected::CorrectedStencil`], which applies it over the box's sites).
+    pub(crate) fn on_box(grid: &Grid, horizon: f64, micromodulus: &Micromodulus) -> Result<Self, CoreError> {
+        let dim = grid.dim();
+        let h = grid.spacing();
+        micromodulus.validate(dim)?;
         let c = micromodulus.amplitude(dim, horizon, h)?;
         let counts = grid.counts();
         let offsets = grid_stencil(grid, horizon / h);
@@ -42,12 +51,22 @@ impl StencilOperator {
             return Err(CoreError::param("horizon", "gives no bonds"));
         }
         let vol = grid.volume();
-        let blocks = offsets
+        let length = |k: &[i64; 3]| h * ((k[0] * k[0] + k[1] * k[1] + k[2] * k[2]) as f64).sqrt();
+        // the arithmetic of `BondOperator::on_grid`'s weights, so that equal bonds are equal
+        // to the bit
+        let weights: Vec<f64> = offsets
             .iter()
             .map(|k| {
-                let r = h * ((k[0] * k[0] + k[1] * k[1] + k[2] * k[2]) as f64).sqrt();
+                let r = length(k);
                 let nu = if micromodulus.partial_volume { partial_volume(r, horizon, h) } else { 1.0 };
-                let w = c * micromodulus.kernel.shape(r, horizon) * nu * vol * vol;
+                c * micromodulus.kernel.shape(r, horizon) * nu * 1.0 * vol * vol
+            })
+            .collect();
+        let blocks = offsets
+            .iter()
+            .zip(&weights)
+            .map(|(k, &w)| {
+                let r = length(k);
                 let e = [k[0] as f64 * h / r, k[1] as f64 * h / r, k[2] as f64 * h / r];
                 let mut block = [0.0; 6];
                 let mut p = 0;
@@ -60,7 +79,24 @@ impl StencilOperator {
                 block
             })
             .collect();
-        Ok(StencilOperator { dim, counts, offsets, blocks })
+        Ok(StencilOperator { dim, counts, offsets, blocks, weights })
+    }
+
+    /// The lattice offsets `s` (those of [`grid_stencil`]).
+    pub(crate) fn offsets(&self) -> &[[i64; 3]] {
+        &self.offsets
+    }
+    /// `K_s = w_s e_s e_s^T` per offset (upper triangle, see the field).
+    pub(crate) fn blocks(&self) -> &[[f64; 6]] {
+        &self.blocks
+    }
+    /// `w_s` per offset.
+    pub(crate) fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+    /// Sites per axis of the box (1 on unused axes).
+    pub(crate) fn counts(&self) -> [usize; 3] {
+        self.counts
     }
 
     /// Number of DOFs.

@@ -34,17 +34,13 @@ impl ModelType for BondType {
         let matrix_free = cx.raw.solver.matrix_free || cx.raw.dynamics.is_some();
         let dynamics = cx.raw.dynamics.is_some();
         let uses_multigrid = cx.raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid);
-        let stencil = raw.material.phases.is_empty()
-            && raw.material.defects.is_empty()
-            && matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None))
-            && cx.raw.body.is_none();
         let auto = cx.raw.solver.kind == crate::raw::RawSolverKind::Auto && cx.raw.dynamics.is_none();
         let path_of = |grid: &linpd_core::Grid| match (matrix_free, raw.pd_regions.is_some()) {
             (_, true) if raw.local_mesh.is_some() => (crate::memory::Path::GradedBlendLattice, false),
             (_, true) => (crate::memory::Path::BlendAssembled, uses_multigrid || auto),
             (true, false) if dynamics => (crate::memory::Path::BondDynamics, false),
             (true, false) => (crate::memory::Path::BondMatrixFree, uses_multigrid),
-            (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, stencil, None) => {
+            (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, None) => {
                 (crate::memory::Path::BondMatrixFree, true)
             }
             (false, false) => (crate::memory::Path::BondAssembled, uses_multigrid || (auto && dim >= 2)),

@@ -13,7 +13,6 @@ use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
 use linpd_core::DofMap;
 use linpd_dynamics::Chain;
-use linpd_lps::SurfaceCorrection;
 use linpd_solve::{SolveReport, SolverSpec};
 use std::any::Any;
 use std::sync::Arc;
@@ -30,28 +29,28 @@ impl BondLatticeModel {
     pub fn build(&self, p: &Problem) -> Result<(LatticeBondModel, Option<CorrectionSummary>), ProblemError> {
         let b = &self.bond;
         let (op, summary) = b.operator(p.nodes())?;
-        // the stencil applies the uncorrected lattice operator only
-        let homogeneous = (b.material.is_homogeneous() && summary.is_none()).then(|| b.micromodulus.clone());
-        Ok((LatticeBondModel::new(op, p.lattice()?.clone(), b.horizon, homogeneous), summary))
+        let grid = p.lattice()?.clone();
+        // the stencil alone applies the uncorrected operator of one material on the full box;
+        // anything else is the stencil with the bonds that differ from it
+        let plain = b.material.is_homogeneous() && summary.is_none() && grid.is_full() && grid.has_uniform_volumes();
+        let model = if plain {
+            LatticeBondModel::new(op, grid, b.horizon, Some(b.micromodulus.clone()))
+        } else {
+            LatticeBondModel::corrected(op, grid, b.horizon, b.micromodulus.clone())
+        };
+        Ok((model, summary))
     }
 }
 
 /// The memory check of a bond model on a lattice before it is built for `purpose` (the
 /// solver may have changed since validation: [`Problem::set_solver`]); `Ok` holds the
 /// estimate in bytes (`None` for rows, which assemble nothing whole).
-/// `stencil`: the model has the lattice stencil's fast apply once built (a homogeneous
-/// material without a surface correction; [`auto_runs_matrix_free`]).
-pub(crate) fn check_memory(
-    p: &Problem,
-    horizon: f64,
-    purpose: Purpose,
-    stencil: bool,
-) -> Result<Option<f64>, ProblemError> {
+pub(crate) fn check_memory(p: &Problem, horizon: f64, purpose: Purpose) -> Result<Option<f64>, ProblemError> {
     let (path, multigrid) = match (purpose, p.solver()) {
         (Purpose::Rows, _) => return Ok(None),
         (Purpose::Assembled, _) => (Path::BondAssembled, false),
         (Purpose::Solve, s @ SolverSpec::Cg { matrix_free: true, .. }) => (Path::BondMatrixFree, s.uses_multigrid()),
-        (Purpose::Solve, SolverSpec::Auto(_)) if auto_runs_matrix_free(p.lattice()?, stencil, Some(n_free(p))) => {
+        (Purpose::Solve, SolverSpec::Auto(_)) if auto_runs_matrix_free(p.lattice()?, Some(n_free(p))) => {
             (Path::BondMatrixFree, true)
         }
         // auto's cost model may pick multigrid-CG on the assembled matrix (a cracked 801^2 plate:
@@ -63,8 +62,10 @@ pub(crate) fn check_memory(
 }
 
 /// Whether `auto` will solve a bond model on `grid` matrix-free (multigrid-CG on the lattice
-/// stencil, [`linpd_solve::AutoParams::matrix_free`]): `stencil` says the model is homogeneous
-/// without a surface correction, and the stencil also needs the full lattice box. The memory
+/// stencil, [`linpd_solve::statics::AutoParams::matrix_free`]): every bond model on a lattice
+/// has a fast apply, the stencil of a homogeneous full box or the stencil with the bonds
+/// that differ from it ([`linpd_bond::CorrectedStencil`]: phases, defects, a surface
+/// correction, a body), when a body leaves at least half the box's sites. The memory
 /// estimate follows the path `auto` takes: the assembled estimate of a 101^3 cube (33 GiB)
 /// refused a scene that `auto` solves matrix-free in a fraction of it.
 ///
@@ -72,10 +73,10 @@ pub(crate) fn check_memory(
 /// before the constraints are evaluated: all DOFs, which may predict matrix-free for a scene
 /// just above the threshold that then assembles, a small system either way). When matrix-free
 /// CG stalls, `auto` assembles after all; that fallback is not estimated.
-pub(crate) fn auto_runs_matrix_free(grid: &linpd_core::Grid, stencil: bool, n_free: Option<usize>) -> bool {
-    let full = grid.is_full() && grid.has_uniform_volumes();
+pub(crate) fn auto_runs_matrix_free(grid: &linpd_core::Grid, n_free: Option<usize>) -> bool {
     let n = n_free.unwrap_or(grid.len() * grid.dim());
-    linpd_solve::statics::AutoParams::default().matrix_free(grid.dim(), n, true, || stencil && full)
+    linpd_solve::statics::AutoParams::default()
+        .matrix_free(grid.dim(), n, true, || linpd_bond::CorrectedStencil::fits(grid))
 }
 
 /// The free DOFs of the scene.
@@ -101,9 +102,7 @@ impl SceneModel for BondLatticeModel {
         None
     }
     fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
-        let b = &self.bond;
-        let stencil = b.material.is_homogeneous() && b.surface.correction == SurfaceCorrection::None;
-        let memory_estimate = check_memory(p, self.bond.horizon, purpose, stencil)?;
+        let memory_estimate = check_memory(p, self.bond.horizon, purpose)?;
         progress.phase(&bond::building(p, self.bond.horizon));
         let (model, correction) = self.build(p)?;
         Ok(System {
