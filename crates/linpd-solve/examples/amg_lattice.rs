@@ -3,7 +3,7 @@
 //! ```text
 //! cargo run --release -p linpd-solve --example amg_lattice -- DIM NODES [--cantilever]
 //!     [--two-phase] [--jacobi] [--theta T] [--coarse-theta T] [--degree K] [--jacobi-sweeps S]
-//!     [--coarse N] [--lanczos S] [--matrix-free]
+//!     [--coarse N] [--lanczos S] [--matrix-free] [--filter R]
 //! ```
 //!
 //! A `NODES^DIM` lattice, `h = 1`, inverse-distance kernel with discrete normalization
@@ -73,6 +73,10 @@ fn amg_params(args: &[String]) -> AmgParams {
     }
     if let Some(s) = flag("--jacobi-sweeps") {
         params.smoother = AmgSmoother::Jacobi { omega: 4.0 / 3.0, sweeps: s as usize };
+    }
+    // `--filter 0`: smooth the prolongator with A itself
+    if let Some(r) = flag("--filter") {
+        params.filter_ratio = (r > 0.0).then_some(r);
     }
     params
 }

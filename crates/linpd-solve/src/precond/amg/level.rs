@@ -36,6 +36,8 @@ pub(crate) trait LevelMatrix: Sync {
     /// The Galerkin product `R A P` with `R = P^T` ([`super::vbr::galerkin_rows`]: `A P` is
     /// never stored).
     fn galerkin(&self, p: &Vbr, r: &Vbr) -> Vbr;
+    /// Calls `f(bj, block)` for every nonzero block of row block `bi` (row-major values).
+    fn for_each_row_block(&self, bi: usize, f: &mut dyn FnMut(usize, &[f64]));
 }
 
 impl LevelMatrix for Vbr {
@@ -65,5 +67,10 @@ impl LevelMatrix for Vbr {
     }
     fn galerkin(&self, p: &Vbr, r: &Vbr) -> Vbr {
         Vbr::galerkin(self, p, r)
+    }
+    fn for_each_row_block(&self, bi: usize, f: &mut dyn FnMut(usize, &[f64])) {
+        for b in self.bptr[bi]..self.bptr[bi + 1] {
+            f(self.bidx[b] as usize, &self.val[self.voff[b]..self.voff[b + 1]]);
+        }
     }
 }

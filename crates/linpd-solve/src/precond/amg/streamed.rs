@@ -216,6 +216,9 @@ impl LevelMatrix for Streamed<'_> {
         let _ = self.nnz.set(entries.into_inner());
         c
     }
+    fn for_each_row_block(&self, bi: usize, f: &mut dyn FnMut(usize, &[f64])) {
+        let _ = self.for_each_block(bi, f);
+    }
     /// From the blocks computed on demand, like [`LevelMatrix::mul`] (after it: the entries
     /// are counted by then).
     fn galerkin(&self, p: &Vbr, r: &Vbr) -> Vbr {
