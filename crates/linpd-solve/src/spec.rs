@@ -38,7 +38,8 @@ impl PreconditionerKind {
                     let m = input.model.ok_or_else(|| {
                         AmgError::Input("multigrid needs the assembled matrix or the model's blocks".into())
                     })?;
-                    return Ok(Box::new(Amg::matrix_free(m.model, m.dofs, m.full, &AmgParams::default())?));
+                    let known = input.geometry.map(|g| (g, input.diagonal));
+                    return Ok(Box::new(Amg::matrix_free_with(m.model, m.dofs, m.full, known, &AmgParams::default())?));
                 };
                 let amg = match input.geometry {
                     Some(g) => Amg::from_geometry(a, g, &AmgParams::default())?,

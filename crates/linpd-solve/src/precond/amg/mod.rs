@@ -496,6 +496,19 @@ impl<'a> Amg<'a> {
         full: &'a dyn LinearOperator,
         params: &AmgParams,
     ) -> Result<Self, AmgError> {
+        Self::matrix_free_with(model, dofs, full, None, params)
+    }
+
+    /// [`Amg::matrix_free`] reusing what the caller already computed: the free DOFs'
+    /// geometry ([`DofGeometry::of`] of `model` and `dofs`: its bond graph is a pass over
+    /// every bond) and the diagonal of `A_ff`.
+    pub fn matrix_free_with(
+        model: &'a dyn Model,
+        dofs: &'a DofMap,
+        full: &'a dyn LinearOperator,
+        known: Option<(&DofGeometry, &[f64])>,
+        params: &AmgParams,
+    ) -> Result<Self, AmgError> {
         let t0 = Instant::now();
         params.validate()?;
         let dim = model.dim();
@@ -507,14 +520,32 @@ impl<'a> Amg<'a> {
         }
         let mut times = AmgSetupTimes::default();
         let t = Instant::now();
-        let fine = Streamed::new(model, dofs, full).ok_or_else(|| {
+        if let Some((g, d)) = known {
+            if g.rows.len() != dofs.n_free() || d.len() != dofs.n_free() || g.positions.len() != model.n_nodes() {
+                return Err(AmgError::Input(format!(
+                    "the given geometry ({} rows, {} nodes) or diagonal ({}) is not that of the {} free DOFs",
+                    g.rows.len(),
+                    g.positions.len(),
+                    d.len(),
+                    dofs.n_free()
+                )));
+            }
+        }
+        let fine = Streamed::new(model, dofs, full, known.map(|k| k.1.to_vec())).ok_or_else(|| {
             AmgError::Input(format!(
                 "the {} model does not provide its stiffness blocks: matrix-free multigrid is not available for it \
                  (assemble: \"matrix_free\": false)",
                 model.kind()
             ))
         })?;
-        let geometry = DofGeometry::of(model, dofs);
+        let computed;
+        let geometry = match known {
+            Some((g, _)) => g,
+            None => {
+                computed = DofGeometry::of(model, dofs);
+                &computed
+            }
+        };
         let modes = rigid_body_modes(dim, &geometry.rows, &geometry.positions);
         let (n, k) = (dofs.n_free(), modes.len());
         let b: Vec<f64> = (0..n * k).map(|p| modes[p % k][p / k]).collect();

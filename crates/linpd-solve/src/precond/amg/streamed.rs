@@ -34,9 +34,14 @@ pub(crate) struct Streamed<'a> {
 
 impl<'a> Streamed<'a> {
     /// `A_ff` of `model` on the free DOFs of `dofs`, applied through `full` (the model's
-    /// operator over all DOFs, e.g. its fast stencil apply). `None` when the model does not
-    /// provide its blocks.
-    pub fn new(model: &'a dyn Model, dofs: &'a DofMap, full: &'a dyn LinearOperator) -> Option<Self> {
+    /// operator over all DOFs, e.g. its fast stencil apply), with its free diagonal `diag`
+    /// when the caller has it. `None` when the model does not provide its blocks.
+    pub fn new(
+        model: &'a dyn Model,
+        dofs: &'a DofMap,
+        full: &'a dyn LinearOperator,
+        diag: Option<Vec<f64>>,
+    ) -> Option<Self> {
         let d = model.dim();
         let n_nodes = model.n_nodes();
         let mut rptr = vec![0];
@@ -57,7 +62,7 @@ impl<'a> Streamed<'a> {
         let mut streamed = Streamed {
             model,
             op: ReducedOperator::new(full, dofs),
-            diag: dofs.gather(&model.diagonal()),
+            diag: diag.unwrap_or_else(|| dofs.gather(&model.diagonal())),
             rptr,
             block_node,
             node_block,
