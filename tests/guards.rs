@@ -86,14 +86,26 @@ fn item_3_lps_memory_guard_counts_two_delta() {
     );
 }
 
-/// Matrix-free 3D 140^3 (delta = 4h, 256 bonds a node) and a 1D matrix-free bar of 6e8 nodes:
-/// bonds, weights and the CG vectors are counted (the old guard counted 12 bytes a bond and no
-/// vectors).
+/// A bond model with a weakened plane (`factor` 0.5 across `z = 0.5`): its bonds are stored
+/// (the corrected stencil reads them), unlike the homogeneous stencil's.
+fn bond_with_bonds(horizon: f64, modulus: f64) -> Value {
+    let mut b = bond(horizon, modulus);
+    b["material"] =
+        json!({"defects": [{"plane": {"point": [0.0, 0.0, 0.5013], "normal": [0.0, 0.0, 1.0]}, "factor": 0.5}]});
+    b
+}
+
+/// Matrix-free 3D 140^3 (delta = 4h, 256 bonds a node, stored: a weakened plane) and a 1D
+/// matrix-free bar of 6e8 nodes: bonds, weights and the CG vectors are counted (the old guard
+/// counted 12 bytes a bond and no vectors). The homogeneous 140^3 stores no bonds (the stencil
+/// alone): its estimate is the solve's vectors and the outputs, 7.7 GiB, and it is accepted.
 #[test]
 fn item_3_matrix_free_memory_guard_counts_vectors() {
     let h = 1.0 / 140.0;
     let mf = json!({"type": "cg", "matrix_free": true});
-    let (out, took) = linpd("validate", "mf140", &scene(3, h, bond(4.0 * h, 1.0), mf.clone()));
+    let (out, _) = linpd("validate", "mf140-stencil", &scene(3, h, bond(4.0 * h, 1.0), mf.clone()));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (out, took) = linpd("validate", "mf140", &scene(3, h, bond_with_bonds(4.0 * h, 1.0), mf.clone()));
     assert_rejected("matrix-free 140^3", &out, took, &["2803221 nodes", "9.6 GiB", "8.0 GiB available"]);
     let h = 1.0 / 6e8;
     let (out, took) = linpd("solve", "bar6e8", &scene(1, h, bond(h, 1.0), mf));
@@ -101,17 +113,23 @@ fn item_3_matrix_free_memory_guard_counts_vectors() {
 }
 
 /// Multigrid counts its hierarchy (`P`, `R`, coarse levels, the setup's transient `A P`) on
-/// top of the matrix-free operator: a 120^3 cube at delta = 3h fits an 8 GiB machine with
-/// matrix-free Jacobi-PCG but not with matrix-free multigrid (1250 bytes a DOF), which is
-/// refused at validation (the scene names its solver) before anything per node is built.
+/// top of the matrix-free operator: a 120^3 cube at delta = 3h with stored bonds (a weakened
+/// plane) fits an 8 GiB machine with matrix-free Jacobi-PCG but not with matrix-free multigrid
+/// (1250 bytes a DOF), which is refused at validation (the scene names its solver) before
+/// anything per node is built. A homogeneous 120^3 cube stores no bonds and now fits with
+/// multigrid too; at `delta = 10h` its bond graph (4 bytes a bond, 4,168 a node) does not.
 #[test]
 fn item_3_multigrid_memory_guard_counts_the_hierarchy() {
     let h = 1.0 / 120.0;
     let jacobi = json!({"type": "cg", "matrix_free": true});
-    let (out, _) = linpd("validate", "jacobi120-validate", &scene(3, h, bond(3.0 * h, 1.0), jacobi));
+    let (out, _) = linpd("validate", "jacobi120-validate", &scene(3, h, bond_with_bonds(3.0 * h, 1.0), jacobi));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let mg = json!({"type": "cg", "matrix_free": true, "preconditioner": "multigrid"});
-    let (out, took) = linpd("validate", "mg120", &scene(3, h, bond(3.0 * h, 1.0), mg));
+    let (out, _) = linpd("validate", "mg120-stencil", &scene(3, h, bond(3.0 * h, 1.0), mg.clone()));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (out, took) = linpd("validate", "mg120-wide", &scene(3, h, bond(10.0 * h, 1.0), mg.clone()));
+    assert_rejected("multigrid 120^3, delta = 10h", &out, took, &["multigrid hierarchy", "8.0 GiB available"]);
+    let (out, took) = linpd("validate", "mg120", &scene(3, h, bond_with_bonds(3.0 * h, 1.0), mg));
     assert_rejected("multigrid 120^3", &out, took, &["multigrid hierarchy", "9.6 GiB", "8.0 GiB available"]);
 }
 

@@ -133,10 +133,17 @@ impl Model for BondOperator {
 }
 
 /// A [`BondOperator`] on the nodes of a lattice.
+///
+/// A homogeneous material on the full box ([`LatticeBondModel::stencil`]) holds no per-bond
+/// data: its products, block rows, diagonal and bonds come from the [`StencilOperator`], and
+/// the [`BondOperator`] (12 bytes a bond) is built only when [`LatticeBondModel::operator`]
+/// is asked for it (an assembly, an export).
 #[derive(Debug, Clone)]
 pub struct LatticeBondModel {
-    op: BondOperator,
+    op: OnceLock<BondOperator>,
     grid: Grid,
+    /// With [`LatticeBondModel::stencil`]: the stencil and the micromodulus that builds `op`.
+    stencil: Option<(StencilOperator, Micromodulus)>,
     horizon: f64,
     /// The micromodulus when the material is homogeneous (then the stencil applies `A`).
     homogeneous: Option<Micromodulus>,
@@ -149,23 +156,48 @@ impl LatticeBondModel {
     /// The operator `op` built on `grid` with `horizon`; `homogeneous` is the micromodulus
     /// when every bond has it unmodified (no phases, no defects).
     pub fn new(op: BondOperator, grid: Grid, horizon: f64, homogeneous: Option<Micromodulus>) -> Self {
-        LatticeBondModel { op, grid, horizon, homogeneous, corrected: None }
+        LatticeBondModel { op: OnceLock::from(op), grid, stencil: None, horizon, homogeneous, corrected: None }
+    }
+    /// The homogeneous material of `micromodulus` on the full box of `grid` (volumes `h^d`),
+    /// without per-bond storage (see the type's docs).
+    pub fn stencil(grid: Grid, horizon: f64, micromodulus: Micromodulus) -> Result<Self, linpd_core::CoreError> {
+        let stencil = StencilOperator::new(&grid, horizon, &micromodulus)?;
+        Ok(LatticeBondModel {
+            op: OnceLock::new(),
+            grid,
+            stencil: Some((stencil, micromodulus.clone())),
+            horizon,
+            homogeneous: Some(micromodulus),
+            corrected: None,
+        })
     }
     /// The model whose bonds `op` differ from the stencil of `micromodulus` (phases, defects,
     /// a surface correction, a body): its fast apply is the [`CorrectedStencil`] when the box
     /// is full enough ([`CorrectedStencil::fits`]).
     pub fn corrected(op: BondOperator, grid: Grid, horizon: f64, micromodulus: Micromodulus) -> Self {
         let corrected = CorrectedStencil::fits(&grid).then(|| (micromodulus, OnceLock::new()));
-        LatticeBondModel { op, grid, horizon, homogeneous: None, corrected }
+        LatticeBondModel { op: OnceLock::from(op), grid, stencil: None, horizon, homogeneous: None, corrected }
     }
     /// The corrected stencil (built on the first call), if the model has one.
     pub fn corrected_stencil(&self) -> Option<&CorrectedStencil> {
         let (mm, cell) = self.corrected.as_ref()?;
-        cell.get_or_init(|| CorrectedStencil::new(&self.grid, self.horizon, mm, &self.op).ok()).as_ref()
+        cell.get_or_init(|| CorrectedStencil::new(&self.grid, self.horizon, mm, self.operator()).ok()).as_ref()
     }
-    /// The operator.
+    /// The operator (built on the first call for [`LatticeBondModel::stencil`]).
     pub fn operator(&self) -> &BondOperator {
-        &self.op
+        self.op.get_or_init(|| {
+            let (_, mm) = self.stencil.as_ref().expect("a model without its operator has the stencil");
+            BondOperator::on_grid(&self.grid, self.horizon, mm, &linpd_core::Material::default())
+                .expect("the stencil was built from the same grid, horizon and micromodulus")
+        })
+    }
+    /// Bonds counted from both ends (without building the operator on the stencil).
+    pub fn n_bonds(&self) -> usize {
+        match (&self.stencil, self.op.get()) {
+            (_, Some(op)) => op.family().n_bonds(),
+            (Some((st, _)), None) => st.n_bonds(),
+            (None, None) => unreachable!("a model has its operator or its stencil"),
+        }
     }
     /// The lattice.
     pub fn grid(&self) -> &Grid {
@@ -178,37 +210,52 @@ impl Model for LatticeBondModel {
         "bond"
     }
     fn dim(&self) -> usize {
-        self.op.dim()
+        self.grid.dim()
     }
     fn n_nodes(&self) -> usize {
-        self.op.n_nodes()
+        self.grid.len()
     }
     fn position(&self, i: usize) -> Point {
-        self.op.positions()[i]
+        self.grid.position(i)
     }
     fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
-        Model::for_each_partner(&self.op, i, f)
+        match &self.stencil {
+            Some((st, _)) => st.for_each_neighbour(i, &mut |j, _| f(j)),
+            None => Model::for_each_partner(self.operator(), i, f),
+        }
     }
     fn apply(&self, u: &[f64], y: &mut [f64]) {
-        self.op.apply(u, y)
+        match &self.stencil {
+            Some((st, _)) => st.apply(u, y),
+            None => self.operator().apply(u, y),
+        }
     }
     fn diagonal(&self) -> Vec<f64> {
-        self.op.diagonal()
+        match &self.stencil {
+            Some((st, _)) => st.diagonal(),
+            None => self.operator().diagonal(),
+        }
     }
     fn assemble_free(&self, dofs: &DofMap) -> Csc {
-        self.op.assemble_free(dofs)
+        self.operator().assemble_free(dofs)
     }
     fn assemble_free_with_progress(&self, dofs: &DofMap, progress: &dyn Progress) -> Csc {
-        crate::assemble::assemble_free_with_progress(&self.op, dofs, progress)
+        crate::assemble::assemble_free_with_progress(self.operator(), dofs, progress)
     }
     fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
-        Model::for_each_block(&self.op, i, f)
+        match &self.stencil {
+            Some((st, _)) => {
+                st.for_each_block(i, f);
+                true
+            }
+            None => Model::for_each_block(self.operator(), i, f),
+        }
     }
     /// 1D: the natural order is a band, already fill-optimal (AMD's analysis of a 10^5-node
     /// band costs ~1 s for nothing). 2D/3D: nested dissection on the lattice over the bond
     /// stencil beats AMD and METIS (docs/solvers.md).
     fn ordering(&self, dofs: &DofMap) -> Ordering {
-        if self.op.dim() == 1 {
+        if self.grid.dim() == 1 {
             return Ordering::Natural;
         }
         let stencil = grid_stencil(&self.grid, self.horizon / self.grid.spacing());
@@ -216,6 +263,9 @@ impl Model for LatticeBondModel {
     }
     /// The stencil of a homogeneous material on the full box, or the [`CorrectedStencil`].
     fn fast_apply(&self) -> Option<FastApply<'_>> {
+        if let Some((st, _)) = &self.stencil {
+            return Some(FastApply { op: Box::new(st), label: "stencil" });
+        }
         if let Some(mm) = self.homogeneous.as_ref() {
             let stencil = StencilOperator::new(&self.grid, self.horizon, mm).ok()?;
             return Some(FastApply { op: Box::new(stencil), label: "stencil" });

@@ -99,6 +99,81 @@ impl StencilOperator {
         self.counts
     }
 
+    /// Calls `f(j, s)` for the node `j = i + offset s` of every offset `s` whose site lies in
+    /// the box (the bonds of node `i`: the family of `BondFamily::from_grid`).
+    pub fn for_each_neighbour(&self, i: usize, f: &mut dyn FnMut(usize, usize)) {
+        let c = self.counts;
+        let site = [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])];
+        for (s, k) in self.offsets.iter().enumerate() {
+            let mut j = 0usize;
+            let mut inside = true;
+            for a in (0..3).rev() {
+                let v = site[a] as i64 + k[a];
+                inside &= v >= 0 && v < c[a] as i64;
+                j = j * c[a] + v.max(0) as usize;
+            }
+            if inside {
+                f(j, s);
+            }
+        }
+    }
+
+    /// `K_s` of offset `s` as a row-major `d x d` block.
+    fn block(&self, s: usize) -> [f64; 9] {
+        let (d, k) = (self.dim, &self.blocks[s]);
+        let mut out = [0.0; 9];
+        let mut p = 0;
+        for a in 0..d {
+            for b in a..d {
+                out[a * d + b] = k[p];
+                out[b * d + a] = k[p];
+                p += 1;
+            }
+        }
+        out
+    }
+
+    /// Block row `i` of `A`: `A_ij = -K_s` for every neighbour `j = i + s`, then `A_ii = sum
+    /// K_s` (the order and blocks of `BondOperator`'s `for_each_block` on the same lattice).
+    pub fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) {
+        let dd = self.dim * self.dim;
+        let mut diag = [0.0; 9];
+        self.for_each_neighbour(i, &mut |j, s| {
+            let mut b = self.block(s);
+            for (d, v) in diag.iter_mut().zip(b.iter_mut()) {
+                *d += *v;
+                *v = -*v;
+            }
+            f(j, &b[..dd]);
+        });
+        f(i, &diag[..dd]);
+    }
+
+    /// The diagonal of `A` over all DOFs.
+    pub fn diagonal(&self) -> Vec<f64> {
+        let d = self.dim;
+        let n: usize = self.counts.iter().product();
+        let mut out = vec![0.0; d * n];
+        out.par_chunks_mut(d).enumerate().for_each(|(i, o)| {
+            self.for_each_neighbour(i, &mut |_, s| {
+                let b = self.block(s);
+                for a in 0..d {
+                    o[a] += b[a * d + a];
+                }
+            });
+        });
+        out
+    }
+
+    /// The number of bonds counted from both ends (`BondFamily::n_bonds` of the lattice):
+    /// `sum_s prod_a (n_a - |s_a|)`.
+    pub fn n_bonds(&self) -> usize {
+        self.offsets
+            .iter()
+            .map(|k| (0..3).map(|a| self.counts[a].saturating_sub(k[a].unsigned_abs() as usize)).product::<usize>())
+            .sum()
+    }
+
     /// Number of DOFs.
     pub fn n_dofs(&self) -> usize {
         self.dim * self.counts.iter().product::<usize>()

@@ -123,6 +123,9 @@ pub enum Path {
     BondAssembled,
     /// Bond-based operator applied matrix-free (CG or explicit dynamics).
     BondMatrixFree,
+    /// The homogeneous lattice stencil applied matrix-free, without per-bond data
+    /// (`linpd_bond::LatticeBondModel::stencil`).
+    BondStencil,
     /// The LPS tangent, assembled.
     LpsAssembled,
     /// The blended model (`pd_regions`) with its SPD companion, solved by GMRES.
@@ -167,6 +170,10 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
         Path::BondMatrixFree => (
             format!("the matrix-free operator and CG vectors of {nodes} nodes with ~{nb:.0} bonds each"),
             base + dofs * MATRIX_FREE_DOF_BYTES,
+        ),
+        Path::BondStencil => (
+            format!("the lattice stencil, the CG vectors and the outputs of {nodes} nodes"),
+            n * NODE_BYTES + dofs * stencil_dof_bytes(dim),
         ),
         Path::BlendAssembled => (
             format!("the blended model and its SPD companion on {nodes} nodes with ~{nb:.0} bonds each"),
@@ -346,6 +353,35 @@ pub fn multigrid_dof_bytes(dim: usize, matrix_free: bool) -> f64 {
     }
 }
 
+/// Per DOF, a matrix-free solve on the homogeneous stencil ([`Path::BondStencil`]): no
+/// bonds are stored, so the peak is that of writing the outputs (the nodal strain, stress and
+/// energy fields and result.json / result.vtu / u.csv built in memory). Fits of two sizes
+/// each, `/usr/bin/time` peaks of `linpd solve` with Jacobi-CG: 3D cantilevers 56^3 / 76^3
+/// (943 B), 2D plates 405^2 / 805^2 (713 B).
+pub fn stencil_dof_bytes(dim: usize) -> f64 {
+    if dim == 3 {
+        950.0
+    } else {
+        720.0
+    }
+}
+
+/// Per DOF, what multigrid adds to [`stencil_dof_bytes`] besides the bond graph it
+/// aggregates on ([`GRAPH_BOND_BYTES`] a bond): the same fits with multigrid-CG put its setup's
+/// peak (the graph, the hierarchy, the filtered level-0 matrix) 280 B a DOF above the outputs'
+/// in 3D (`delta = 3h`: 163 B of graph) and 35 B in 2D (`2h`: 24 B of graph).
+pub fn stencil_multigrid_dof_bytes(dim: usize) -> f64 {
+    if dim == 3 {
+        140.0
+    } else {
+        20.0
+    }
+}
+
+/// Per bond (counted from both ends), the interaction graph multigrid aggregates its finest
+/// level on (`linpd_solve::DofGeometry::partners`: one `u32`).
+pub const GRAPH_BOND_BYTES: f64 = 4.0;
+
 /// `Err` (at `model.horizon`) when `path` would not fit in the available memory; `Ok` holds
 /// the estimate in bytes.
 pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<f64, ProblemError> {
@@ -356,7 +392,14 @@ pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<f64, ProblemError>
 pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> Result<f64, ProblemError> {
     let (mut what, mut bytes) = estimate(path, grid, horizon);
     if multigrid {
-        bytes += (grid.len() * grid.dim()) as f64 * multigrid_dof_bytes(grid.dim(), path == Path::BondMatrixFree);
+        let dofs = (grid.len() * grid.dim()) as f64;
+        bytes += match path {
+            Path::BondStencil => {
+                let nb = neighbours(grid.dim(), horizon / grid.spacing()).min(grid.len() as f64);
+                dofs * stencil_multigrid_dof_bytes(grid.dim()) + grid.len() as f64 * nb * GRAPH_BOND_BYTES
+            }
+            _ => dofs * multigrid_dof_bytes(grid.dim(), path == Path::BondMatrixFree),
+        };
         what += " and its multigrid hierarchy";
     }
     let hint = match path {

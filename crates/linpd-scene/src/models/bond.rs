@@ -35,14 +35,23 @@ impl ModelType for BondType {
         let dynamics = cx.raw.dynamics.is_some();
         let uses_multigrid = cx.raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid);
         let auto = cx.raw.solver.kind == crate::raw::RawSolverKind::Auto && cx.raw.dynamics.is_none();
+        // the homogeneous stencil alone holds no bonds (bond_lattice::plain_stencil)
+        let plain = raw.material.phases.is_empty()
+            && raw.material.defects.is_empty()
+            && matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
+        let matrix_free_path = |grid: &linpd_core::Grid| {
+            if plain && grid.is_full() && grid.has_uniform_volumes() {
+                crate::memory::Path::BondStencil
+            } else {
+                crate::memory::Path::BondMatrixFree
+            }
+        };
         let path_of = |grid: &linpd_core::Grid| match (matrix_free, raw.pd_regions.is_some()) {
             (_, true) if raw.local_mesh.is_some() => (crate::memory::Path::GradedBlendLattice, false),
             (_, true) => (crate::memory::Path::BlendAssembled, uses_multigrid || auto),
             (true, false) if dynamics => (crate::memory::Path::BondDynamics, false),
-            (true, false) => (crate::memory::Path::BondMatrixFree, uses_multigrid),
-            (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, None) => {
-                (crate::memory::Path::BondMatrixFree, true)
-            }
+            (true, false) => (matrix_free_path(grid), uses_multigrid),
+            (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, None) => (matrix_free_path(grid), true),
             (false, false) => (crate::memory::Path::BondAssembled, uses_multigrid || (auto && dim >= 2)),
         };
         let grid = crate::validate::lattice_for(cx, raw.horizon, &path_of)?;

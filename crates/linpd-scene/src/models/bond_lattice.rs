@@ -13,6 +13,7 @@ use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
 use linpd_core::DofMap;
 use linpd_dynamics::Chain;
+use linpd_lps::SurfaceCorrection;
 use linpd_solve::{SolveReport, SolverSpec};
 use std::any::Any;
 use std::sync::Arc;
@@ -28,30 +29,47 @@ impl BondLatticeModel {
     /// The model on the scene's lattice and what its surface correction did and cost.
     pub fn build(&self, p: &Problem) -> Result<(LatticeBondModel, Option<CorrectionSummary>), ProblemError> {
         let b = &self.bond;
-        let (op, summary) = b.operator(p.nodes())?;
         let grid = p.lattice()?.clone();
-        // the stencil alone applies the uncorrected operator of one material on the full box;
-        // anything else is the stencil with the bonds that differ from it
-        let plain = b.material.is_homogeneous() && summary.is_none() && grid.is_full() && grid.has_uniform_volumes();
-        let model = if plain {
-            LatticeBondModel::new(op, grid, b.horizon, Some(b.micromodulus.clone()))
-        } else {
-            LatticeBondModel::corrected(op, grid, b.horizon, b.micromodulus.clone())
-        };
-        Ok((model, summary))
+        // one material on the full box without a surface correction: the stencil alone, no
+        // per-bond data; anything else is the stencil with the bonds that differ from it
+        if plain_stencil(b, &grid) {
+            let model = LatticeBondModel::stencil(grid, b.horizon, b.micromodulus.clone())
+                .map_err(|e| ProblemError::invalid("model", e.to_string()))?;
+            return Ok((model, None));
+        }
+        let (op, summary) = b.operator(p.nodes())?;
+        Ok((LatticeBondModel::corrected(op, grid, b.horizon, b.micromodulus.clone()), summary))
     }
+}
+
+/// Whether the bond model `b` on `grid` is the homogeneous stencil alone (one material, no
+/// surface correction, the full box with volumes `h^d`): then it holds no per-bond data
+/// ([`LatticeBondModel::stencil`]).
+pub(crate) fn plain_stencil(b: &BondModel, grid: &linpd_core::Grid) -> bool {
+    b.material.is_homogeneous()
+        && b.surface.correction == SurfaceCorrection::None
+        && grid.is_full()
+        && grid.has_uniform_volumes()
 }
 
 /// The memory check of a bond model on a lattice before it is built for `purpose` (the
 /// solver may have changed since validation: [`Problem::set_solver`]); `Ok` holds the
 /// estimate in bytes (`None` for rows, which assemble nothing whole).
-pub(crate) fn check_memory(p: &Problem, horizon: f64, purpose: Purpose) -> Result<Option<f64>, ProblemError> {
+/// `plain`: the model is the homogeneous stencil alone ([`plain_stencil`]), whose matrix-free
+/// paths hold no bonds ([`crate::memory::Path::BondStencil`]).
+pub(crate) fn check_memory(
+    p: &Problem,
+    horizon: f64,
+    purpose: Purpose,
+    plain: bool,
+) -> Result<Option<f64>, ProblemError> {
+    let matrix_free = if plain { Path::BondStencil } else { Path::BondMatrixFree };
     let (path, multigrid) = match (purpose, p.solver()) {
         (Purpose::Rows, _) => return Ok(None),
         (Purpose::Assembled, _) => (Path::BondAssembled, false),
-        (Purpose::Solve, s @ SolverSpec::Cg { matrix_free: true, .. }) => (Path::BondMatrixFree, s.uses_multigrid()),
+        (Purpose::Solve, s @ SolverSpec::Cg { matrix_free: true, .. }) => (matrix_free, s.uses_multigrid()),
         (Purpose::Solve, SolverSpec::Auto(_)) if auto_runs_matrix_free(p.lattice()?, Some(n_free(p))) => {
-            (Path::BondMatrixFree, true)
+            (matrix_free, true)
         }
         // auto's cost model may pick multigrid-CG on the assembled matrix (a cracked 801^2 plate:
         // 3.0 GiB measured, 1.8 GiB estimated without the hierarchy)
@@ -102,11 +120,11 @@ impl SceneModel for BondLatticeModel {
         None
     }
     fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
-        let memory_estimate = check_memory(p, self.bond.horizon, purpose)?;
+        let memory_estimate = check_memory(p, self.bond.horizon, purpose, plain_stencil(&self.bond, p.lattice()?))?;
         progress.phase(&bond::building(p, self.bond.horizon));
         let (model, correction) = self.build(p)?;
         Ok(System {
-            n_bonds: model.operator().family().n_bonds(),
+            n_bonds: model.n_bonds(),
             model: Arc::new(model),
             bc: p.dirichlet(),
             f: p.load_vector(),
