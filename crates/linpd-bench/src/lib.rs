@@ -83,8 +83,9 @@ pub struct BenchArgs {
     /// Also run the coarsening cases (1D 10^5-10^6 nodes two levels, 2D 200 x 200 one level).
     #[arg(long)]
     pub coarsen: bool,
-    /// Also run whole static solves (assembly + setup + solve) of the 3D cantilevers 20^3..70^3
-    /// and the 2D plates 101^2..801^2 with Jacobi-PCG, multigrid-PCG, Cholesky and `auto`.
+    /// Also run whole static solves (assembly + setup + solve) of the 3D cantilevers 20^3..150^3
+    /// (a cracked and a two-phase one at 70^3) and the 2D plates 101^2..801^2 with Jacobi-PCG,
+    /// multigrid-PCG, Cholesky and `auto` (`--case` picks some: 150^3 needs ~12 GiB).
     #[arg(long)]
     pub statics: bool,
     /// Also run the Cholesky orderings cases (nested dissection, its planar first version, AMD,

@@ -1,7 +1,8 @@
 //! `linpd bench --statics`: whole static solves of scenes (assembly + solver setup + solve), one
 //! row per case and solver, the cases of the scalable-solver issue:
 //!
-//! * `3d-cantilever-N` (N = 20, 30, 40, 50, 70 nodes per side): the unit cube, `delta = 3h`,
+//! * `3d-cantilever-N` (N = 20, 30, 40, 50, 70, 100, 150 nodes per side; 150 is 10.6M
+//!   unknowns, about 12 GiB): the unit cube, `delta = 3h`,
 //!   bond-based, clamped through a `delta`-thick layer at `x <= 0`, a body-force density `-z` on
 //!   the nodes of `x >= 1` (the layer beyond the far face);
 //! * `3d-cracked-N` and `3d-two-phase-N` (N = 70; 10 with `--quick`): the same cantilever with
@@ -89,7 +90,7 @@ fn scene(name: &str, dim: usize, nodes: usize, m: usize, variant: Variant) -> Pr
 /// `(name, dim, nodes per side, m, variant)`.
 fn cases(quick: bool) -> Vec<(String, usize, usize, usize, Variant)> {
     let (cubes, plates, hetero): (&[usize], &[usize], usize) =
-        if quick { (&[8, 10], &[21, 41], 10) } else { (&[20, 30, 40, 50, 70], &[101, 201, 401, 801], 70) };
+        if quick { (&[8, 10], &[21, 41], 10) } else { (&[20, 30, 40, 50, 70, 100, 150], &[101, 201, 401, 801], 70) };
     let mut v: Vec<_> = cubes.iter().map(|&n| (format!("3d-cantilever-{n}"), 3, n, 3, Variant::Homogeneous)).collect();
     v.push((format!("3d-cracked-{hetero}"), 3, hetero, 3, Variant::Cracked));
     v.push((format!("3d-two-phase-{hetero}"), 3, hetero, 3, Variant::TwoPhase));
