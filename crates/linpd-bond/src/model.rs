@@ -160,7 +160,11 @@ impl LatticeBondModel {
     }
     /// The homogeneous material of `micromodulus` on the full box of `grid` (volumes `h^d`),
     /// without per-bond storage (see the type's docs).
+    /// Errors as [`BondOperator::on_grid`] would (so that [`LatticeBondModel::operator`] can
+    /// build the operator later) and when the grid is not the full box.
     pub fn stencil(grid: Grid, horizon: f64, micromodulus: Micromodulus) -> Result<Self, linpd_core::CoreError> {
+        crate::operator::check_lattice_inputs(&grid, horizon, &micromodulus, &linpd_core::Material::default())?;
+        micromodulus.amplitude(grid.dim(), horizon, grid.spacing())?;
         let stencil = StencilOperator::new(&grid, horizon, &micromodulus)?;
         Ok(LatticeBondModel {
             op: OnceLock::new(),
@@ -188,7 +192,7 @@ impl LatticeBondModel {
         self.op.get_or_init(|| {
             let (_, mm) = self.stencil.as_ref().expect("a model without its operator has the stencil");
             BondOperator::on_grid(&self.grid, self.horizon, mm, &linpd_core::Material::default())
-                .expect("the stencil was built from the same grid, horizon and micromodulus")
+                .expect("LatticeBondModel::stencil checked what on_grid checks")
         })
     }
     /// Bonds counted from both ends (without building the operator on the stencil).

@@ -35,24 +35,8 @@ impl BondOperator {
     ) -> Result<Self, CoreError> {
         let dim = grid.dim();
         let h = grid.spacing();
-        if !(horizon.is_finite() && horizon > 0.0) {
-            return Err(CoreError::param("horizon", format!("must be > 0, got {horizon:e}")));
-        }
         let ratio = horizon / h;
-        if ratio < 1.0 - GEOMETRY_RTOL {
-            return Err(CoreError::param("horizon", format!("horizon/spacing = {ratio:e} gives no bonds (need >= 1)")));
-        }
-        if dim > 1 && ratio < std::f64::consts::SQRT_2 * (1.0 - GEOMETRY_RTOL) {
-            return Err(CoreError::param(
-                "horizon",
-                format!(
-                    "horizon/spacing = {ratio:e} bonds only along the axes: the bond-based operator \
-                     then has zero-energy shear modes (need >= sqrt(2))"
-                ),
-            ));
-        }
-        micromodulus.validate(dim)?;
-        material.validate(dim)?;
+        check_lattice_inputs(grid, horizon, micromodulus, material)?;
         let c = micromodulus.amplitude(dim, horizon, h)?;
         let family = BondFamily::from_grid(grid, horizon);
         let positions = grid.positions();
@@ -326,6 +310,36 @@ impl BondOperator {
 
 /// `|k_j - k_i|` in lattice units.
 #[inline]
+/// The checks of [`BondOperator::on_grid`] before anything is built: a positive horizon of at
+/// least one spacing (and `sqrt 2` spacings in 2D/3D: bonds along the axes only leave shear
+/// modes without energy), a valid micromodulus and material.
+pub(crate) fn check_lattice_inputs(
+    grid: &Grid,
+    horizon: f64,
+    micromodulus: &Micromodulus,
+    material: &Material,
+) -> Result<(), CoreError> {
+    let dim = grid.dim();
+    if !(horizon.is_finite() && horizon > 0.0) {
+        return Err(CoreError::param("horizon", format!("must be > 0, got {horizon:e}")));
+    }
+    let ratio = horizon / grid.spacing();
+    if ratio < 1.0 - GEOMETRY_RTOL {
+        return Err(CoreError::param("horizon", format!("horizon/spacing = {ratio:e} gives no bonds (need >= 1)")));
+    }
+    if dim > 1 && ratio < std::f64::consts::SQRT_2 * (1.0 - GEOMETRY_RTOL) {
+        return Err(CoreError::param(
+            "horizon",
+            format!(
+                "horizon/spacing = {ratio:e} bonds only along the axes: the bond-based operator \
+                 then has zero-energy shear modes (need >= sqrt(2))"
+            ),
+        ));
+    }
+    micromodulus.validate(dim)?;
+    material.validate(dim)
+}
+
 fn lattice_len(a: &[i32; 3], b: &[i32; 3]) -> f64 {
     let d: i64 = (0..3).map(|k| ((b[k] - a[k]) as i64).pow(2)).sum();
     (d as f64).sqrt()

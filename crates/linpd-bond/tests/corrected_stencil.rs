@@ -159,3 +159,46 @@ fn one_dimension_with_phases() {
     assert!(e <= 1e-12, "{e:e}");
     assert!(n > 0);
 }
+
+/// The homogeneous model without bonds (`LatticeBondModel::stencil`) answers every question
+/// the solvers and the nodal fields ask as the model with its bonds does: products, diagonal,
+/// block rows (the same blocks in the same order, to 1e-15 of the largest), partners and the
+/// bond count; its operator, built on request, is the per-bond one. A horizon below `sqrt 2`
+/// spacings is refused as `on_grid` refuses it.
+#[test]
+fn the_stencil_model_without_bonds_is_the_model_with_them() {
+    use linpd_bond::LatticeBondModel;
+    use linpd_core::Model;
+    let g = Grid::new(&[0.0; 3], &[1.0, 0.8, 0.6], 0.1, 0.2, Placement::Vertex).unwrap();
+    let mm = micromodulus(true);
+    let op = BondOperator::on_grid(&g, 0.3, &mm, &Material::default()).unwrap();
+    let with = LatticeBondModel::new(op, g.clone(), 0.3, Some(mm.clone()));
+    let without = LatticeBondModel::stencil(g.clone(), 0.3, mm.clone()).unwrap();
+    let u = field(&g);
+    let (mut y0, mut y1) = (vec![0.0; u.len()], vec![0.0; u.len()]);
+    with.apply(&u, &mut y0);
+    without.apply(&u, &mut y1);
+    let scale = y0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(y0.iter().zip(&y1).all(|(a, b)| (a - b).abs() <= 1e-13 * scale));
+    let (d0, d1) = (Model::diagonal(&with), Model::diagonal(&without));
+    assert!(d0.iter().zip(&d1).all(|(a, b)| (a - b).abs() <= 1e-14 * a.abs()));
+    for i in [0, 7, g.len() / 2, g.len() - 1] {
+        let (mut b0, mut b1) = (Vec::new(), Vec::new());
+        with.for_each_block(i, &mut |j, b| b0.push((j, b.to_vec())));
+        without.for_each_block(i, &mut |j, b| b1.push((j, b.to_vec())));
+        assert_eq!(b0.len(), b1.len(), "node {i}");
+        let big = b0.iter().flat_map(|(_, b)| b.iter()).fold(0.0f64, |m, v| m.max(v.abs()));
+        for ((j0, x), (j1, y)) in b0.iter().zip(&b1) {
+            assert_eq!(j0, j1, "node {i}");
+            assert!(x.iter().zip(y).all(|(a, b)| (a - b).abs() <= 1e-15 * big), "node {i}, partner {j0}");
+        }
+        let (mut p0, mut p1) = (Vec::new(), Vec::new());
+        with.for_each_partner(i, &mut |j| p0.push(j));
+        without.for_each_partner(i, &mut |j| p1.push(j));
+        assert_eq!(p0, p1, "node {i}");
+    }
+    assert_eq!(with.n_bonds(), without.n_bonds());
+    assert_eq!(without.operator().weights(3), with.operator().weights(3));
+    let e = LatticeBondModel::stencil(g, 0.12, mm).unwrap_err().to_string();
+    assert!(e.contains("only along the axes"), "{e}");
+}
