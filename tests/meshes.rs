@@ -130,26 +130,21 @@ fn vtu_meshes_written_by_meshio_read_as_gmsh() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// An ASCII VTU written here: a unit cube as a hexahedron, as a voxel (VTK's lexicographic
-/// corners) and as two wedges (VTK's triangles turn the other way from Gmsh's) reads as three
-/// (four) elements of the exact volumes and centroids; an inverted tetrahedron is named.
-#[test]
-fn vtu_cell_types_and_inverted_cells() {
-    let dir = scratch("vtu-cells");
-    let vtu = |cells: &[(u8, Vec<u32>)], points: &[[f64; 3]]| {
-        let pts: Vec<String> = points.iter().map(|p| format!("{} {} {}", p[0], p[1], p[2])).collect();
-        let conn: Vec<String> = cells.iter().flat_map(|(_, c)| c.iter().map(u32::to_string)).collect();
-        let mut end = 0;
-        let offs: Vec<String> = cells
-            .iter()
-            .map(|(_, c)| {
-                end += c.len();
-                end.to_string()
-            })
-            .collect();
-        let types: Vec<String> = cells.iter().map(|(t, _)| t.to_string()).collect();
-        format!(
-            r#"<?xml version="1.0"?>
+/// An ASCII VTK XML unstructured grid of `points` and `cells` (`(VTK cell type, corners)`).
+fn ascii_vtu(cells: &[(u8, Vec<u32>)], points: &[[f64; 3]]) -> String {
+    let pts: Vec<String> = points.iter().map(|p| format!("{} {} {}", p[0], p[1], p[2])).collect();
+    let conn: Vec<String> = cells.iter().flat_map(|(_, c)| c.iter().map(u32::to_string)).collect();
+    let mut end = 0;
+    let offs: Vec<String> = cells
+        .iter()
+        .map(|(_, c)| {
+            end += c.len();
+            end.to_string()
+        })
+        .collect();
+    let types: Vec<String> = cells.iter().map(|(t, _)| t.to_string()).collect();
+    format!(
+        r#"<?xml version="1.0"?>
 <VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
 <UnstructuredGrid><Piece NumberOfPoints="{}" NumberOfCells="{}">
 <Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">{}</DataArray></Points>
@@ -158,14 +153,21 @@ fn vtu_cell_types_and_inverted_cells() {
 <DataArray type="UInt8" Name="types" format="ascii">{}</DataArray></Cells>
 </Piece></UnstructuredGrid></VTKFile>
 "#,
-            points.len(),
-            cells.len(),
-            pts.join(" "),
-            conn.join(" "),
-            offs.join(" "),
-            types.join(" ")
-        )
-    };
+        points.len(),
+        cells.len(),
+        pts.join(" "),
+        conn.join(" "),
+        offs.join(" "),
+        types.join(" ")
+    )
+}
+
+/// An ASCII VTU written here: a unit cube as a hexahedron, as a voxel (VTK's lexicographic
+/// corners) and as two wedges (VTK's triangles turn the other way from Gmsh's) reads as three
+/// (four) elements of the exact volumes and centroids; an inverted tetrahedron is named.
+#[test]
+fn vtu_cell_types_and_inverted_cells() {
+    let dir = scratch("vtu-cells");
     // the unit cube's corners in VTK's hexahedron order, then shifted copies along x
     let cube = |x0: f64| -> Vec<[f64; 3]> {
         [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 1.], [1., 1., 1.], [0., 1., 1.]]
@@ -184,7 +186,7 @@ fn vtu_cell_types_and_inverted_cells() {
         (13, vec![16, 19, 18, 20, 23, 22]),
     ];
     let path = dir.join("cells.vtu");
-    std::fs::write(&path, vtu(&cells, &points)).unwrap();
+    std::fs::write(&path, ascii_vtu(&cells, &points)).unwrap();
     let m = read_vtu(&path, 3).unwrap();
     let want = [
         (1.0, [0.5, 0.5, 0.5]),
@@ -199,7 +201,7 @@ fn vtu_cell_types_and_inverted_cells() {
             .for_each(|a| assert!((m.positions[k][a] - c[a]).abs() < 1e-14, "cell {k}: centroid {:?}", m.positions[k]));
     }
     let bad = dir.join("inverted.vtu");
-    std::fs::write(&bad, vtu(&[(10, vec![0, 2, 1, 4])], &cube(0.0))).unwrap();
+    std::fs::write(&bad, ascii_vtu(&[(10, vec![0, 2, 1, 4])], &cube(0.0))).unwrap();
     let e = read_vtu(&bad, 3).unwrap_err().to_string();
     assert!(e.contains("inverted.vtu") && e.contains("cell 0 is inverted"), "{e}");
     let e = read_vtu(&path, 2).unwrap_err().to_string();
@@ -268,34 +270,17 @@ fn discrete_normalization_on_a_mesh_is_the_lattice_one() {
     let h = 1.0 / n as f64;
     let m = n + 1;
     let index = |i: usize, j: usize, k: usize| i + m * (j + m * k);
-    let points: Vec<String> = (0..m * m * m)
-        .map(|p| format!("{} {} {}", (p % m) as f64 * h, ((p / m) % m) as f64 * h, (p / (m * m)) as f64 * h))
+    let points: Vec<[f64; 3]> =
+        (0..m * m * m).map(|p| [(p % m) as f64 * h, ((p / m) % m) as f64 * h, (p / (m * m)) as f64 * h]).collect();
+    // voxels (VTK type 11): lexicographic corners
+    let cells: Vec<(u8, Vec<u32>)> = (0..n * n * n)
+        .map(|c| {
+            let (i, j, k) = (c % n, (c / n) % n, c / (n * n));
+            let corners = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0), (0, 0, 1), (1, 0, 1), (0, 1, 1), (1, 1, 1)];
+            (11, corners.iter().map(|&(a, b, d)| index(i + a, j + b, k + d) as u32).collect())
+        })
         .collect();
-    let mut conn = Vec::new();
-    for c in 0..n * n * n {
-        let (i, j, k) = (c % n, (c / n) % n, c / (n * n));
-        for (a, b, d) in [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0), (0, 0, 1), (1, 0, 1), (0, 1, 1), (1, 1, 1)] {
-            conn.push(index(i + a, j + b, k + d).to_string());
-        }
-    }
-    let cells = n * n * n;
-    let offsets: Vec<String> = (1..=cells).map(|c| (8 * c).to_string()).collect();
-    let vtu = format!(
-        r#"<?xml version="1.0"?>
-<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">
-<UnstructuredGrid><Piece NumberOfPoints="{}" NumberOfCells="{cells}">
-<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">{}</DataArray></Points>
-<Cells><DataArray type="Int64" Name="connectivity" format="ascii">{}</DataArray>
-<DataArray type="Int64" Name="offsets" format="ascii">{}</DataArray>
-<DataArray type="UInt8" Name="types" format="ascii">{}</DataArray></Cells>
-</Piece></UnstructuredGrid></VTKFile>
-"#,
-        m * m * m,
-        points.join(" "),
-        conn.join(" "),
-        offsets.join(" "),
-        vec!["11"; cells].join(" ")
-    );
+    let vtu = ascii_vtu(&cells, &points);
     std::fs::write(dir.join("cube.vtu"), vtu).unwrap();
     let model = json!({"type": "bond", "horizon": 2.5 * h, "partial_volume": false,
         "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "discrete"}});

@@ -178,15 +178,23 @@ fn auto_runs_matrix_free_multigrid_on_cracked_lattices() {
         ("plate-101 + crack", Box::new(move || plate_101(Some(defect_2d.clone()))) as Box<dyn Fn() -> Problem>),
         ("cube-compression-3d + crack", Box::new(move || with_material("cube-compression-3d.json", defect_3d.clone()))),
     ] {
-        let s = make().solve(&linpd::core::NoProgress).unwrap();
-        assert_eq!(s.report.solver.to_string(), "cg-multigrid-matrix-free-corrected-stencil", "{name}");
-        assert!(s.report.rel_residual <= 1e-8, "{name}: residual {:e}", s.report.rel_residual);
-        let mut direct = make();
-        direct.set_solver(linpd::solve::SolverSpec::Cholesky);
-        let exact = direct.solve(&linpd::core::NoProgress).unwrap();
-        let err = s.u.iter().zip(&exact.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-        assert!(err <= 1e-4 * max_abs(&exact.u), "{name}: {err:e} against max |u| {:e}", max_abs(&exact.u));
+        auto_agrees_with_cholesky(name, &*make, "cg-multigrid-matrix-free-corrected-stencil");
     }
+}
+
+/// Solves `make()` with `auto`, checks it ran `solver` to rtol 1e-8 and agrees with the sparse
+/// Cholesky within `kappa * rtol` (`kappa <= ~1e4` for these stiffnesses, `(L/h)^2`: 1e-4);
+/// returns `auto`'s report line.
+fn auto_agrees_with_cholesky(name: &str, make: &dyn Fn() -> Problem, solver: &str) -> String {
+    let s = make().solve(&linpd::core::NoProgress).unwrap();
+    assert_eq!(s.report.solver.to_string(), solver, "{name}: {:?}", s.report.auto);
+    assert!(s.report.rel_residual <= 1e-8, "{name}: residual {:e}", s.report.rel_residual);
+    let mut direct = make();
+    direct.set_solver(linpd::solve::SolverSpec::Cholesky);
+    let exact = direct.solve(&linpd::core::NoProgress).unwrap();
+    let err = s.u.iter().zip(&exact.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(err <= 1e-4 * max_abs(&exact.u), "{name}: {err:e} against max |u| {:e}", max_abs(&exact.u));
+    s.report.auto.unwrap_or_default()
 }
 
 /// On a homogeneous bond lattice from 20k unknowns `auto` runs multigrid-CG matrix-free (the
@@ -199,16 +207,8 @@ fn auto_runs_matrix_free_multigrid_on_homogeneous_lattices() {
         ("plate-101", (|| plate_101(None)) as fn() -> Problem),
         ("cube-compression-3d", || scene("cube-compression-3d.json")),
     ] {
-        let s = make().solve(&linpd::core::NoProgress).unwrap();
-        assert_eq!(s.report.solver.to_string(), "cg-multigrid-matrix-free-stencil", "{name}: {:?}", s.report.auto);
-        let line = s.report.auto.clone().unwrap_or_default();
+        let line = auto_agrees_with_cholesky(name, &make, "cg-multigrid-matrix-free-stencil");
         assert!(line.contains("matrix-free multigrid-CG, no assembly"), "{name}: {line}");
-        assert!(s.report.rel_residual <= 1e-8, "{name}: residual {:e}", s.report.rel_residual);
-        let mut direct = make();
-        direct.set_solver(linpd::solve::SolverSpec::Cholesky);
-        let exact = direct.solve(&linpd::core::NoProgress).unwrap();
-        let err = s.u.iter().zip(&exact.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-        assert!(err <= 1e-4 * max_abs(&exact.u), "{name}: {err:e} against max |u| {:e}", max_abs(&exact.u));
     }
 }
 

@@ -211,7 +211,6 @@ impl CorrectedStencil {
             Some(yb) => self.stencil.apply(&u_box, yb),
             None => self.stencil.apply(&u_box, y),
         }
-        let blocks = self.stencil.blocks();
         let site = |i: usize| self.sites.as_ref().map_or(i, |s| s[i] as usize);
         y.par_chunks_mut(D).enumerate().for_each(|(i, yi)| {
             let si = site(i);
@@ -230,19 +229,10 @@ impl CorrectedStencil {
                 for a in 0..D {
                     du[a] = u_box[D * si + a] - u_box[D * sj + a];
                 }
-                let k = &blocks[s];
-                let c = self.delta[p];
-                match D {
-                    1 => out[0] += c * k[0] * du[0],
-                    2 => {
-                        out[0] += c * (k[0] * du[0] + k[1] * du[1]);
-                        out[1] += c * (k[1] * du[0] + k[2] * du[1]);
-                    }
-                    _ => {
-                        out[0] += c * (k[0] * du[0] + k[1] * du[1] + k[2] * du[2]);
-                        out[1] += c * (k[1] * du[0] + k[3] * du[1] + k[4] * du[2]);
-                        out[2] += c * (k[2] * du[0] + k[4] * du[1] + k[5] * du[2]);
-                    }
+                // (f_ik - s_i) K_k (u_i - u_{i+k}), K_k row-major d x d
+                let (k, c) = (self.stencil.block(s), self.delta[p]);
+                for a in 0..D {
+                    out[a] += c * (0..D).map(|b| k[a * D + b] * du[b]).sum::<f64>();
                 }
             }
             yi.copy_from_slice(&out[..D]);

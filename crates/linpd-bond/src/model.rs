@@ -142,11 +142,11 @@ impl Model for BondOperator {
 pub struct LatticeBondModel {
     op: OnceLock<BondOperator>,
     grid: Grid,
-    /// With [`LatticeBondModel::stencil`]: the stencil and the micromodulus that builds `op`.
+    /// A homogeneous material's stencil on the full box ([`LatticeBondModel::stencil`], or
+    /// [`LatticeBondModel::new`] with its micromodulus) and that micromodulus, which builds
+    /// `op` when it was not given.
     stencil: Option<(StencilOperator, Micromodulus)>,
     horizon: f64,
-    /// The micromodulus when the material is homogeneous (then the stencil applies `A`).
-    homogeneous: Option<Micromodulus>,
     /// Otherwise the reference micromodulus of [`CorrectedStencil`] and the operator, built
     /// on the first request.
     corrected: Option<(Micromodulus, OnceLock<Option<CorrectedStencil>>)>,
@@ -154,9 +154,11 @@ pub struct LatticeBondModel {
 
 impl LatticeBondModel {
     /// The operator `op` built on `grid` with `horizon`; `homogeneous` is the micromodulus
-    /// when every bond has it unmodified (no phases, no defects).
+    /// when every bond has it unmodified (no phases, no defects): on the full box its stencil
+    /// then applies `A`.
     pub fn new(op: BondOperator, grid: Grid, horizon: f64, homogeneous: Option<Micromodulus>) -> Self {
-        LatticeBondModel { op: OnceLock::from(op), grid, stencil: None, horizon, homogeneous, corrected: None }
+        let stencil = homogeneous.and_then(|mm| Some((StencilOperator::new(&grid, horizon, &mm).ok()?, mm)));
+        LatticeBondModel { op: OnceLock::from(op), grid, stencil, horizon, corrected: None }
     }
     /// The homogeneous material of `micromodulus` on the full box of `grid` (volumes `h^d`),
     /// without per-bond storage (see the type's docs).
@@ -169,9 +171,8 @@ impl LatticeBondModel {
         Ok(LatticeBondModel {
             op: OnceLock::new(),
             grid,
-            stencil: Some((stencil, micromodulus.clone())),
+            stencil: Some((stencil, micromodulus)),
             horizon,
-            homogeneous: Some(micromodulus),
             corrected: None,
         })
     }
@@ -180,7 +181,7 @@ impl LatticeBondModel {
     /// is full enough ([`CorrectedStencil::fits`]).
     pub fn corrected(op: BondOperator, grid: Grid, horizon: f64, micromodulus: Micromodulus) -> Self {
         let corrected = CorrectedStencil::fits(&grid).then(|| (micromodulus, OnceLock::new()));
-        LatticeBondModel { op: OnceLock::from(op), grid, stencil: None, horizon, homogeneous: None, corrected }
+        LatticeBondModel { op: OnceLock::from(op), grid, stencil: None, horizon, corrected }
     }
     /// The corrected stencil (built on the first call), if the model has one.
     pub fn corrected_stencil(&self) -> Option<&CorrectedStencil> {
@@ -269,10 +270,6 @@ impl Model for LatticeBondModel {
     fn fast_apply(&self) -> Option<FastApply<'_>> {
         if let Some((st, _)) = &self.stencil {
             return Some(FastApply { op: Box::new(st), label: "stencil" });
-        }
-        if let Some(mm) = self.homogeneous.as_ref() {
-            let stencil = StencilOperator::new(&self.grid, self.horizon, mm).ok()?;
-            return Some(FastApply { op: Box::new(stencil), label: "stencil" });
         }
         let corrected = self.corrected_stencil()?;
         Some(FastApply { op: Box::new(corrected), label: "corrected-stencil" })

@@ -86,10 +86,6 @@ impl StencilOperator {
     pub(crate) fn offsets(&self) -> &[[i64; 3]] {
         &self.offsets
     }
-    /// `K_s = w_s e_s e_s^T` per offset (upper triangle, see the field).
-    pub(crate) fn blocks(&self) -> &[[f64; 6]] {
-        &self.blocks
-    }
     /// `w_s` per offset.
     pub(crate) fn weights(&self) -> &[f64] {
         &self.weights
@@ -119,7 +115,7 @@ impl StencilOperator {
     }
 
     /// `K_s` of offset `s` as a row-major `d x d` block.
-    fn block(&self, s: usize) -> [f64; 9] {
+    pub(crate) fn block(&self, s: usize) -> [f64; 9] {
         let (d, k) = (self.dim, &self.blocks[s]);
         let mut out = [0.0; 9];
         let mut p = 0;

@@ -305,6 +305,12 @@ fn bad_row_descriptions_are_errors() {
     let params = AmgParams { smoother: AmgSmoother::Jacobi { omega: 1.0, sweeps: 0 }, ..AmgParams::default() };
     let e = Amg::new(&case.a, 2, &case.rows, &case.positions, &params).unwrap_err();
     assert!(matches!(e, AmgError::Input(_)), "{e}");
+    // A filter ratio below 1 would drop even the nearest partners.
+    for r in [0.5, f64::NAN] {
+        let params = AmgParams { filter_ratio: Some(r), ..AmgParams::default() };
+        let e = Amg::new(&case.a, 2, &case.rows, &case.positions, &params).unwrap_err();
+        assert!(e.to_string().contains("filter ratio"), "{e}");
+    }
 }
 
 /// [`Amg::operator`] is `A`: its product agrees with the CSC one to round-off (the same

@@ -2,7 +2,6 @@
 //! preconditioner ([`super::Amg`]) builds its near-null space and its finest aggregates from.
 
 use linpd_core::{DofMap, Model, Point};
-use rayon::prelude::*;
 
 /// Where the unknowns of a reduced system sit: for a multilevel preconditioner's near-null
 /// space (rigid-body modes) and aggregation.
@@ -35,44 +34,24 @@ impl DofGeometry {
                 nodes.push(node);
             }
         }
-        // Two passes straight into the CSR arrays (count, then fill each row's slice in place
-        // and sort it): one short vector per node made this the largest part of a 150^3
-        // lattice's multigrid setup (14.7 s of 52.8 s, 3.4M allocations and a copy of 1.6 GB).
-        let counts: Vec<usize> = nodes
-            .par_iter()
-            .map(|&i| {
+        let keep = |i: usize, j: usize| block_of[j] != u32::MAX && j != i;
+        let (ptr, idx) = super::csr_in_place(
+            nodes.len(),
+            |r| {
                 let mut c = 0;
-                model.for_each_partner(i, &mut |j| c += usize::from(block_of[j] != u32::MAX && j != i));
+                model.for_each_partner(nodes[r], &mut |j| c += usize::from(keep(nodes[r], j)));
                 c
-            })
-            .collect();
-        let mut ptr = Vec::with_capacity(nodes.len() + 1);
-        ptr.push(0usize);
-        for c in &counts {
-            ptr.push(ptr.last().unwrap() + c);
-        }
-        drop(counts);
-        let mut idx = vec![0u32; *ptr.last().unwrap()];
-        let mut slices: Vec<&mut [u32]> = Vec::with_capacity(nodes.len());
-        let mut rest = idx.as_mut_slice();
-        for w in ptr.windows(2) {
-            let (row, tail) = std::mem::take(&mut rest).split_at_mut(w[1] - w[0]);
-            slices.push(row);
-            rest = tail;
-        }
-        let lens: Vec<usize> = slices
-            .into_par_iter()
-            .zip(nodes.par_iter())
-            .map(|(row, &i)| {
+            },
+            |r, row| {
                 let mut k = 0;
-                model.for_each_partner(i, &mut |j| {
-                    if block_of[j] != u32::MAX && j != i {
+                model.for_each_partner(nodes[r], &mut |j| {
+                    if keep(nodes[r], j) {
                         row[k] = block_of[j];
                         k += 1;
                     }
                 });
                 row.sort_unstable();
-                // repeats (a model may report a partner twice) move to the end
+                // a model may report a partner twice: the repeats are dropped
                 let mut len = 0;
                 for t in 0..row.len() {
                     if t == 0 || row[t] != row[len - 1] {
@@ -81,20 +60,8 @@ impl DofGeometry {
                     }
                 }
                 len
-            })
-            .collect();
-        // drop the repeats' slots (none on lattices and clouds: one pass that only copies)
-        if lens.iter().zip(ptr.windows(2)).any(|(&l, w)| l != w[1] - w[0]) {
-            let mut compact = Vec::with_capacity(lens.iter().sum());
-            let mut cptr = Vec::with_capacity(ptr.len());
-            cptr.push(0);
-            for (r, &l) in lens.iter().enumerate() {
-                compact.extend_from_slice(&idx[ptr[r]..ptr[r] + l]);
-                cptr.push(compact.len());
-            }
-            idx = compact;
-            ptr = cptr;
-        }
+            },
+        );
         DofGeometry {
             dim: d,
             rows,

@@ -23,3 +23,37 @@ pub use amg::{Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
 pub use factor::FactorPreconditioner;
 pub use geometry::DofGeometry;
 pub use jacobi::Jacobi;
+
+use rayon::prelude::*;
+
+/// A CSR pattern `(ptr, idx)` of `n` rows built in place, in parallel: `count(r)` bounds row
+/// `r`'s length, `fill(r, slot)` writes the row into its `count(r)` slots and returns how many
+/// it used (ascending, no repeats). Rows shorter than counted are compacted in one copy. One
+/// short vector per row instead cost 14.7 s of a 150^3 lattice's 52.8 s multigrid setup (3.4M
+/// allocations and a copy of 1.6 GB).
+pub(crate) fn csr_in_place(
+    n: usize,
+    count: impl Fn(usize) -> usize + Sync,
+    fill: impl Fn(usize, &mut [u32]) -> usize + Sync,
+) -> (Vec<usize>, Vec<u32>) {
+    let counts: Vec<usize> = (0..n).into_par_iter().map(&count).collect();
+    let mut ptr = Vec::with_capacity(n + 1);
+    ptr.push(0usize);
+    for c in counts {
+        ptr.push(ptr.last().unwrap() + c);
+    }
+    let mut idx = vec![0u32; ptr[n]];
+    let rows = amg::split_at_bounds(&mut idx, ptr.iter().copied());
+    let lens: Vec<usize> = rows.into_par_iter().enumerate().map(|(r, row)| fill(r, row)).collect();
+    if lens.iter().zip(ptr.windows(2)).all(|(&l, w)| l == w[1] - w[0]) {
+        return (ptr, idx);
+    }
+    let mut compact = Vec::with_capacity(lens.iter().sum());
+    let mut cptr = Vec::with_capacity(n + 1);
+    cptr.push(0);
+    for (r, &l) in lens.iter().enumerate() {
+        compact.extend_from_slice(&idx[ptr[r]..ptr[r] + l]);
+        cptr.push(compact.len());
+    }
+    (cptr, compact)
+}

@@ -38,32 +38,27 @@ pub(crate) fn filtered(a: &dyn LevelMatrix, pos: &[Point], ratio: f64, graph: &(
         })
         .collect();
     // the pattern: the diagonal and the partners within reach, ascending
-    let rows: Vec<Vec<u32>> = (0..nb)
-        .into_par_iter()
-        .map(|bi| {
-            let mut l: Vec<u32> = gidx[gptr[bi]..gptr[bi + 1]]
-                .iter()
-                .copied()
-                .filter(|&bj| bj as usize != bi && d2(bi, bj as usize) <= r2[bi].max(r2[bj as usize]))
-                .chain(std::iter::once(bi as u32))
-                .collect();
-            l.sort_unstable();
-            l
-        })
-        .collect();
-    let mut bptr = Vec::with_capacity(nb + 1);
-    bptr.push(0usize);
-    let mut bidx = Vec::with_capacity(rows.iter().map(Vec::len).sum());
-    let mut voff = Vec::with_capacity(bidx.capacity() + 1);
+    let kept = |bi: usize, bj: u32| bj as usize != bi && d2(bi, bj as usize) <= r2[bi].max(r2[bj as usize]);
+    let (bptr, bidx) = super::super::csr_in_place(
+        nb,
+        |bi| 1 + gidx[gptr[bi]..gptr[bi + 1]].iter().filter(|&&bj| kept(bi, bj)).count(),
+        |bi, row| {
+            let mut k = 0;
+            for &bj in gidx[gptr[bi]..gptr[bi + 1]].iter().filter(|&&bj| kept(bi, bj)).chain([&(bi as u32)]) {
+                row[k] = bj;
+                k += 1;
+            }
+            row.sort_unstable();
+            k
+        },
+    );
+    let mut voff = Vec::with_capacity(bidx.len() + 1);
     voff.push(0usize);
-    for (bi, l) in rows.iter().enumerate() {
-        for &bj in l {
-            bidx.push(bj);
+    for bi in 0..nb {
+        for &bj in &bidx[bptr[bi]..bptr[bi + 1]] {
             voff.push(voff.last().unwrap() + size(bi) * size(bj as usize));
         }
-        bptr.push(bidx.len());
     }
-    drop(rows);
     // the values, row by row in place (written first: fresh pages fault once)
     let mut val = vec![0.0; *voff.last().unwrap()];
     let row_vals = super::vbr::split_at_bounds(&mut val, bptr.iter().map(|&b| voff[b]));

@@ -126,6 +126,7 @@ use linpd_core::{DofMap, LinearOperator, Model, Point};
 use serde::Serialize;
 use std::time::Instant;
 use streamed::Streamed;
+pub(crate) use vbr::split_at_bounds;
 use vbr::Vbr;
 
 /// Setup parameters of [`Amg`].
@@ -197,6 +198,9 @@ impl AmgParams {
         }
         if !(self.prolongation_omega > 0.0 && self.prolongation_omega < 2.0) {
             return bad(format!("prolongation omega {} (need 0 < omega < 2)", self.prolongation_omega));
+        }
+        if let Some(r) = self.filter_ratio.filter(|r| !(r.is_finite() && *r >= 1.0)) {
+            return bad(format!("filter ratio {r} (need >= 1: the nearest partners are kept)"));
         }
         if self.max_levels == 0 {
             return bad("max_levels 0 (need >= 1)".into());
