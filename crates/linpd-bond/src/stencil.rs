@@ -41,27 +41,31 @@ impl StencilOperator {
     /// whatever a body removed or cut (the reference operator of
     /// [`crate::corrected::CorrectedStencil`], which applies it over the box's sites).
     pub(crate) fn on_box(grid: &Grid, horizon: f64, micromodulus: &Micromodulus) -> Result<Self, CoreError> {
-        let dim = grid.dim();
-        let h = grid.spacing();
+        let (dim, h) = (grid.dim(), grid.spacing());
         micromodulus.validate(dim)?;
         let c = micromodulus.amplitude(dim, horizon, h)?;
+        let vol = grid.volume();
+        // the arithmetic of `BondOperator::on_grid`'s weights, so that equal bonds are equal
+        // to the bit
+        Self::from_weight(grid, horizon, |r| {
+            let nu = if micromodulus.partial_volume { partial_volume(r, horizon, h) } else { 1.0 };
+            c * micromodulus.kernel.shape(r, horizon) * nu * 1.0 * vol * vol
+        })
+    }
+
+    /// The stencil of bonds with weight `w_s = weight(|k_s| h)` on every site of `grid`'s
+    /// lattice box (the offsets of [`grid_stencil`] within `horizon`): the pair part of another
+    /// model on a lattice (the LPS tangent's, `linpd-lps`).
+    pub fn from_weight(grid: &Grid, horizon: f64, weight: impl Fn(f64) -> f64) -> Result<Self, CoreError> {
+        let dim = grid.dim();
+        let h = grid.spacing();
         let counts = grid.counts();
         let offsets = grid_stencil(grid, horizon / h);
         if offsets.is_empty() {
             return Err(CoreError::param("horizon", "gives no bonds"));
         }
-        let vol = grid.volume();
         let length = |k: &[i64; 3]| h * ((k[0] * k[0] + k[1] * k[1] + k[2] * k[2]) as f64).sqrt();
-        // the arithmetic of `BondOperator::on_grid`'s weights, so that equal bonds are equal
-        // to the bit
-        let weights: Vec<f64> = offsets
-            .iter()
-            .map(|k| {
-                let r = length(k);
-                let nu = if micromodulus.partial_volume { partial_volume(r, horizon, h) } else { 1.0 };
-                c * micromodulus.kernel.shape(r, horizon) * nu * 1.0 * vol * vol
-            })
-            .collect();
+        let weights: Vec<f64> = offsets.iter().map(|k| weight(length(k))).collect();
         let blocks = offsets
             .iter()
             .zip(&weights)
@@ -83,7 +87,7 @@ impl StencilOperator {
     }
 
     /// The lattice offsets `s` (those of [`grid_stencil`]).
-    pub(crate) fn offsets(&self) -> &[[i64; 3]] {
+    pub fn offsets(&self) -> &[[i64; 3]] {
         &self.offsets
     }
     /// `w_s` per offset.
@@ -91,7 +95,7 @@ impl StencilOperator {
         &self.weights
     }
     /// Sites per axis of the box (1 on unused axes).
-    pub(crate) fn counts(&self) -> [usize; 3] {
+    pub fn counts(&self) -> [usize; 3] {
         self.counts
     }
 
@@ -115,7 +119,7 @@ impl StencilOperator {
     }
 
     /// `K_s` of offset `s` as a row-major `d x d` block.
-    pub(crate) fn block(&self, s: usize) -> [f64; 9] {
+    pub fn block(&self, s: usize) -> [f64; 9] {
         let (d, k) = (self.dim, &self.blocks[s]);
         let mut out = [0.0; 9];
         let mut p = 0;

@@ -121,6 +121,14 @@ pub trait Model: Sync {
     fn for_each_block(&self, _i: usize, _f: &mut dyn FnMut(usize, &[f64])) -> bool {
         false
     }
+    /// An SPD model spectrally equivalent to `A` (`c_1 M <= A <= c_2 M` with a modest
+    /// `c_2 / c_1`, stated by the model) on the same nodes, whose block rows are much cheaper
+    /// than `A`'s: the matrix-free multigrid builds its whole hierarchy (levels, smoothers) from
+    /// it and preconditions CG on `A` with it. `None` (the default): the hierarchy is `A`'s
+    /// own. The LPS tangent offers its pair part (one horizon against two).
+    fn multigrid_companion(&self) -> Option<Box<dyn Model + '_>> {
+        None
+    }
     /// Why the model cannot run matrix-free (`None`: it can).
     fn matrix_free_unavailable(&self) -> Option<&'static str> {
         None

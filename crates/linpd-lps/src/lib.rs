@@ -36,6 +36,10 @@
 //!   apply in factored form ([`LpsModel::apply_tangent`]);
 //! * [`surface`]: the optional bulk weighted-volume surface correction
 //!   ([`LpsModel::with_surface_correction`]);
+//! * [`stencil`]: the tangent of a homogeneous material on the full box applied from stencils
+//!   (no per-bond lists read);
+//! * [`pair`]: the pair part `A_pair` of the tangent as a model, the SPD companion the
+//!   matrix-free multigrid is built from;
 //! * [`fd`]: the finite-difference tangent ([`fd_tangent`]), the Peridigm-style baseline.
 #![deny(missing_docs)]
 
@@ -44,7 +48,9 @@ pub mod fd;
 pub mod fields;
 pub mod force;
 pub mod model;
+pub mod pair;
 pub mod static_model;
+pub mod stencil;
 pub mod surface;
 pub mod tangent;
 
@@ -53,5 +59,7 @@ pub use fd::fd_tangent;
 pub use linpd_core::surface::SurfaceTarget;
 pub use linpd_core::PlaneModel;
 pub use model::{Influence, LpsModel, LpsParams};
+pub use pair::PairPart;
+pub use stencil::LpsStencil;
 pub use surface::SurfaceCorrection;
 pub use tangent::{assemble_tangent, TangentPattern};

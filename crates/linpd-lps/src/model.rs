@@ -198,6 +198,9 @@ pub struct LpsModel {
     /// the far end's weight must be read from the far end's family. Empty otherwise (the far
     /// end's weight is then `w_ij V_i / V_j`).
     pub(crate) rev: Vec<usize>,
+    /// The stencils of a homogeneous material on the full box ([`crate::stencil`]), built on
+    /// the first request and cleared by every method that changes the weights or moduli.
+    pub(crate) stencil: std::sync::OnceLock<Option<crate::stencil::LpsStencil>>,
 }
 
 impl LpsModel {
@@ -264,6 +267,7 @@ impl LpsModel {
             node_constants: Vec::new(),
             surface: crate::SurfaceCorrection::None,
             rev: Vec::new(),
+            stencil: std::sync::OnceLock::new(),
         })
     }
 
@@ -375,6 +379,7 @@ impl LpsModel {
             node_constants: Vec::new(),
             surface: crate::SurfaceCorrection::None,
             rev: Vec::new(),
+            stencil: std::sync::OnceLock::new(),
         })
     }
 
@@ -408,6 +413,12 @@ impl LpsModel {
     /// The bond family.
     pub fn family(&self) -> &BondFamily {
         &self.family
+    }
+
+    /// The tangent applied from stencils ([`crate::stencil`]) when the model is a homogeneous
+    /// material on the full lattice box (built on the first call).
+    pub fn stencil(&self) -> Option<&crate::stencil::LpsStencil> {
+        self.stencil.get_or_init(|| crate::stencil::LpsStencil::new(self)).as_ref()
     }
     /// Weighted volume `m_i` of every node.
     pub fn m(&self) -> &[f64] {
@@ -458,6 +469,7 @@ impl LpsModel {
             constants.push([p.kappa(self.dim), a * p.G]);
         }
         self.node_constants = constants;
+        self.stencil = std::sync::OnceLock::new();
         Ok(self)
     }
     /// Reference positions.

@@ -8,8 +8,8 @@
 
 use crate::{assemble_tangent, LpsModel};
 use linpd_core::family::grid_stencil;
-use linpd_core::sparse::{diagonal, restrict_to_free, Csc};
-use linpd_core::{nested_dissection, two_hop_stencil, DofMap, Model, Ordering, Point};
+use linpd_core::sparse::{restrict_to_free, Csc};
+use linpd_core::{nested_dissection, two_hop_stencil, DofMap, FastApply, Model, Ordering, Point};
 
 impl Model for LpsModel {
     fn kind(&self) -> &'static str {
@@ -30,9 +30,9 @@ impl Model for LpsModel {
     fn apply(&self, u: &[f64], y: &mut [f64]) {
         self.apply_tangent(u, y)
     }
-    /// From the assembled tangent (there is no cheaper closed form yet).
+    /// [`LpsModel::tangent_diagonal`]: `O(|F|)` per node, nothing assembled.
     fn diagonal(&self) -> Vec<f64> {
-        diagonal(&assemble_tangent(self))
+        self.tangent_diagonal()
     }
     fn assemble_free(&self, dofs: &DofMap) -> Csc {
         restrict_to_free(&assemble_tangent(self), dofs)
@@ -51,10 +51,14 @@ impl Model for LpsModel {
         self.tangent_block_row(i, f);
         true
     }
-    /// Still refused with block rows available: the Jacobi diagonal (and the streamed
-    /// multigrid's finest level) would need them, `O(n |F|^2 d^2)` per setup, and the scene
-    /// validation, the memory estimates and the tests of a matrix-free LPS path do not exist.
-    fn matrix_free_unavailable(&self) -> Option<&'static str> {
-        Some("the Jacobi diagonal needs the assembled tangent")
+    /// The stencils of a homogeneous material on the full box ([`crate::stencil`]).
+    fn fast_apply(&self) -> Option<FastApply<'_>> {
+        let st = self.stencil()?;
+        Some(FastApply { op: Box::new(st), label: "lps-stencil" })
+    }
+    /// The pair part `A_pair` ([`crate::pair`]): one-horizon block rows, spectrally equivalent
+    /// to `A` with the constants of its module docs.
+    fn multigrid_companion(&self) -> Option<Box<dyn Model + '_>> {
+        Some(Box::new(crate::PairPart(self)))
     }
 }

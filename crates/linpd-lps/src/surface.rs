@@ -189,6 +189,7 @@ impl LpsModel {
             }
         }
         self.surface = correction;
+        self.stencil = std::sync::OnceLock::new();
         Ok((self, summary))
     }
 

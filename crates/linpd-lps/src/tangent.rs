@@ -171,6 +171,39 @@ impl LpsModel {
         }
     }
 
+    /// The diagonal of `A` over all DOFs without assembling it, `O(|F|)` per node: the
+    /// diagonal of the block
+    ///
+    /// ```text
+    /// A_pp = sum_{j in F_p} s_pj xi xi^T + sum_{k in {p} U F_p} C_k g_k[p] g_k[p]^T,
+    /// g_k[p] = (d/m_k) w_kp xi_kp (k != p),   g_p[p] = -(d/m_p) sum_q w_pq xi_pq,
+    /// ```
+    ///
+    /// the terms of [`LpsModel::column_terms`] whose row and column node are both `p`.
+    pub fn tangent_diagonal(&self) -> Vec<f64> {
+        let d = self.dim;
+        let df = d as f64;
+        let c = |k: usize| self.dilatation_coefficient(k);
+        let mut out = vec![0.0; self.n_dofs()];
+        out.par_chunks_mut(d).enumerate().for_each(|(p, o)| {
+            let v = self.volumes[p];
+            let gp = self.g_self_at(p);
+            for a in 0..d {
+                o[a] = c(p) * gp[a] * gp[a];
+            }
+            for (j, w, w_jp, r) in self.bond_pairs(p) {
+                let xi = self.bond_vector(p, j);
+                let w_far = far(w_jp, v, self.volumes[j]);
+                let s = v * (self.a_g_at(p) * w / self.m[p] + self.a_g_at(j) * w_far / self.m[j]) / (r * r);
+                let g = df / self.m[j] * w_jp;
+                for a in 0..d {
+                    o[a] += (s + c(j) * g * g) * xi[a] * xi[a];
+                }
+            }
+        });
+        out
+    }
+
     /// Linearized dilatation `theta_k = g_k . u` of every node.
     pub fn linearized_theta(&self, u: &[f64]) -> Vec<f64> {
         assert_eq!(u.len(), self.n_dofs(), "displacement length");

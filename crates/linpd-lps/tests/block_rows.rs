@@ -1,5 +1,6 @@
-//! Block rows on demand (`Model::for_each_block`, [`LpsModel::tangent_block_row`]; issue #16):
-//! every block row equals the rows of the assembled tangent ([`assemble_tangent`], the matrix
+//! Block rows on demand (`Model::for_each_block`, [`LpsModel::tangent_block_row`]; issue #16)
+//! and the closed-form diagonal ([`LpsModel::tangent_diagonal`], issue #35): every block row
+//! and the diagonal equal the rows of the assembled tangent ([`assemble_tangent`], the matrix
 //! `assemble_free` restricts) and of the matrix-free apply, on lattices in 2D and 3D with
 //! defects (a cut and a weakened bond set), per-node (cut-cell) volumes, every surface
 //! correction, and on a jittered point cloud with a cut.
@@ -105,9 +106,14 @@ fn check(m: &LpsModel, what: &str) -> f64 {
             worst_apply = worst_apply.max((yi - y[d * i + r]).abs() / y_scale);
         }
     }
+    // the closed-form diagonal against the assembled one
+    let diag = Model::diagonal(m);
+    let want = linpd_core::sparse::diagonal(&a);
+    let worst_diag = diag.iter().zip(&want).fold(0.0f64, |w, (x, y)| w.max((x - y).abs() / scale));
+    assert!(worst_diag <= RTOL, "{what}: the diagonal differs from the assembled one by {worst_diag:e} max|A|");
     assert!(worst <= RTOL, "{what}: block rows differ from the assembled tangent by {worst:e} max|A|");
     assert!(worst_apply <= RTOL, "{what}: block rows times u differ from the apply by {worst_apply:e} max|A u|");
-    worst.max(worst_apply)
+    worst.max(worst_apply).max(worst_diag)
 }
 
 #[test]

@@ -63,6 +63,12 @@ pub fn cloud_extra(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64) -> 
         _ => 0.0,
     }
 }
+/// Per bond of the matrix-free LPS tangent: the family (`u32`), `omega nu V` and `|xi|`, and
+/// the per-node lists the family is built from.
+pub const LPS_BOND_BYTES: f64 = 24.0;
+/// Per DOF, a matrix-free LPS solve: the CG vectors, the stencils' per-node data and the
+/// outputs (the nodal strain, stress and energy fields, result.json / result.vtu / u.csv).
+pub const LPS_MATRIX_FREE_DOF_BYTES: f64 = 950.0;
 /// Per DOF, assembled solve.
 pub const ASSEMBLED_DOF_BYTES: f64 = 128.0;
 /// Per DOF, matrix-free CG.
@@ -128,6 +134,9 @@ pub enum Path {
     BondStencil,
     /// The LPS tangent, assembled.
     LpsAssembled,
+    /// The LPS tangent applied matrix-free (the per-bond lists, the stencils on a homogeneous
+    /// full box); its multigrid is the pair part's ([`linpd_lps::PairPart`]), one horizon.
+    LpsMatrixFree,
     /// The blended model (`pd_regions`) with its SPD companion, solved by GMRES.
     BlendAssembled,
     /// The bond operator stepped by explicit dynamics (`linpd run`), without its snapshots
@@ -186,6 +195,12 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
         Path::GradedBlendLattice => {
             (format!("the per-node maps of the graded blend's {nodes} lattice nodes"), n * GRADED_NODE_BYTES)
         }
+        Path::LpsMatrixFree => (
+            format!(
+                "the matrix-free LPS tangent, the CG vectors and the outputs of {nodes} nodes with ~{nb:.0} bonds each"
+            ),
+            n * (NODE_BYTES + nb * LPS_BOND_BYTES) + dofs * LPS_MATRIX_FREE_DOF_BYTES,
+        ),
         Path::LpsAssembled => (
             format!(
                 "the LPS tangent of {nodes} nodes (reach 2 delta: ~{rows:.0} coupled nodes per node, ~{nb:.0} bonds)"
@@ -394,7 +409,8 @@ pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> R
     if multigrid {
         let dofs = (grid.len() * grid.dim()) as f64;
         bytes += match path {
-            Path::BondStencil => {
+            // the pair part's hierarchy: the bond stencil's (aggregates on the same graph)
+            Path::BondStencil | Path::LpsMatrixFree => {
                 let nb = neighbours(grid.dim(), horizon / grid.spacing()).min(grid.len() as f64);
                 dofs * stencil_multigrid_dof_bytes(grid.dim()) + grid.len() as f64 * nb * GRAPH_BOND_BYTES
             }

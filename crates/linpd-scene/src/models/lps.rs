@@ -16,8 +16,8 @@ use crate::ProblemError;
 use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
 use linpd_core::{Defect, PlaneModel};
-use linpd_lps::{LpsModel, LpsParams};
-use linpd_solve::SolveReport;
+use linpd_lps::{LpsModel, LpsParams, SurfaceCorrection};
+use linpd_solve::{SolveReport, SolverSpec};
 use serde::Deserialize;
 use std::any::Any;
 use std::sync::Arc;
@@ -102,7 +102,11 @@ impl ModelType for LpsType {
             let model = LpsSceneModel { params, defects: material.defects, surface, cloud: true, phases, node_moduli };
             return Ok(Validated { nodes, model: Box::new(model) });
         }
-        let grid = crate::validate::lattice(cx, raw.horizon, crate::memory::Path::LpsAssembled)?;
+        let plain = raw.material.phases.is_empty()
+            && raw.material.defects.is_empty()
+            && surface_of(true, raw.surface_correction, raw.surface_target)?.correction == SurfaceCorrection::None;
+        let grid =
+            crate::validate::lattice_for(cx, raw.horizon, &|grid| memory_path(grid, plain, &cx.raw.solver, None))?;
         let ratio = raw.horizon / grid.spacing();
         crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(dim, ratio), ratio)?;
         let params = params(dim, &raw)?;
@@ -231,7 +235,55 @@ fn phases(raw: &RawMaterial, dim: usize, nodes: &Nodes, params: &LpsParams) -> R
     Ok((out, Some((bulk, shear))))
 }
 
+/// The memory path of an lps lattice scene and whether it builds a multigrid hierarchy, at
+/// validation (`spec`: the raw solver) or before the solve (`n_free` known): matrix-free CG
+/// when asked, or when `auto` will run it ([`auto_runs_matrix_free`]); the assembled tangent
+/// otherwise.
+fn memory_path(
+    grid: &linpd_core::Grid,
+    plain: bool,
+    raw: &crate::raw::RawSolver,
+    n_free: Option<usize>,
+) -> (crate::memory::Path, bool) {
+    use crate::raw::{RawPreconditioner, RawSolverKind};
+    let multigrid = raw.preconditioner == Some(RawPreconditioner::Multigrid);
+    if raw.matrix_free {
+        return (crate::memory::Path::LpsMatrixFree, multigrid);
+    }
+    if raw.kind == RawSolverKind::Auto && auto_runs_matrix_free(grid, plain, n_free) {
+        return (crate::memory::Path::LpsMatrixFree, true);
+    }
+    (crate::memory::Path::LpsAssembled, multigrid)
+}
+
+/// [`memory_path`] for the validated solver `spec` and the scene's free DOFs.
+fn solve_path(grid: &linpd_core::Grid, plain: bool, spec: &SolverSpec, n_free: usize) -> (crate::memory::Path, bool) {
+    match spec {
+        SolverSpec::Cg { matrix_free: true, .. } => (crate::memory::Path::LpsMatrixFree, spec.uses_multigrid()),
+        SolverSpec::Auto(_) if auto_runs_matrix_free(grid, plain, Some(n_free)) => {
+            (crate::memory::Path::LpsMatrixFree, true)
+        }
+        _ => (crate::memory::Path::LpsAssembled, spec.uses_multigrid()),
+    }
+}
+
+/// Whether `auto` solves an lps lattice matrix-free (multigrid-CG with the stencils of
+/// `linpd_lps::stencil` and the pair part's hierarchy): a homogeneous material (`plain`: no
+/// phases, defects or surface correction) on the full box, from
+/// [`linpd_solve::statics::AutoParams::matrix_free`]'s size (`n_free`: `None` at validation,
+/// all DOFs).
+fn auto_runs_matrix_free(grid: &linpd_core::Grid, plain: bool, n_free: Option<usize>) -> bool {
+    let n = n_free.unwrap_or(grid.len() * grid.dim());
+    linpd_solve::statics::AutoParams::default()
+        .matrix_free(grid.dim(), n, true, || plain && grid.is_full() && grid.has_uniform_volumes())
+}
+
 impl LpsSceneModel {
+    /// A homogeneous material without surface correction (on the full box it has stencils).
+    fn plain(&self) -> bool {
+        self.defects.is_empty() && self.node_moduli.is_none() && self.surface.correction == SurfaceCorrection::None
+    }
+
     /// The LPS model on the scene's nodes and, with a moment-matching surface correction, what it
     /// did and cost (for the solve report).
     pub fn build(&self, p: &Problem) -> Result<(LpsModel, Option<CorrectionSummary>), ProblemError> {
@@ -305,9 +357,6 @@ impl SceneModel for LpsSceneModel {
     }
     fn lacks(&self, capability: Capability) -> Option<String> {
         match capability {
-            Capability::MatrixFree => {
-                Some("not available for lps models yet (the Jacobi diagonal needs the assembled tangent)".into())
-            }
             Capability::Dynamics => {
                 Some("explicit dynamics steps the bond operator (linpd-dynamics); lps models are static here".into())
             }
@@ -319,14 +368,13 @@ impl SceneModel for LpsSceneModel {
         // a point cloud was checked against memory when the scene was validated; rows assemble
         // nothing whole
         let memory_estimate = match (p.grid(), purpose) {
-            (Some(grid), Purpose::Solve | Purpose::Assembled) => {
-                let multigrid = purpose == Purpose::Solve && p.solver().uses_multigrid();
-                Some(crate::memory::check_solver(
-                    crate::memory::Path::LpsAssembled,
-                    grid,
-                    self.params.horizon,
-                    multigrid,
-                )?)
+            (Some(grid), Purpose::Assembled) => {
+                Some(crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, self.params.horizon, false)?)
+            }
+            (Some(grid), Purpose::Solve) => {
+                let n_free = p.constrained().0.iter().filter(|&&m| !m).count();
+                let (path, multigrid) = solve_path(grid, self.plain(), p.solver(), n_free);
+                Some(crate::memory::check_solver(path, grid, self.params.horizon, multigrid)?)
             }
             (None, Purpose::Solve | Purpose::Assembled) => Some(crate::memory::check_cloud(
                 crate::memory::Path::LpsAssembled,

@@ -87,13 +87,15 @@ pub(super) fn solve_system(
 }
 
 /// Whether `model` can run `auto`'s matrix-free multigrid-CG: it runs matrix-free, has a fast
-/// apply (the lattice stencil of a homogeneous bond model) and its block rows
-/// ([`Model::for_each_block`], which the multigrid setup reads instead of a stored matrix).
+/// apply (a lattice stencil) and block rows ([`Model::for_each_block`], which the multigrid
+/// setup reads instead of a stored matrix), its own or its companion's
+/// ([`Model::multigrid_companion`]).
 fn offers_matrix_free(model: &dyn Model) -> bool {
+    let has_blocks = |m: &dyn Model| m.for_each_block(0, &mut |_, _| {});
     model.matrix_free_unavailable().is_none()
         && model.n_nodes() > 0
         && model.fast_apply().is_some()
-        && model.for_each_block(0, &mut |_, _| {})
+        && model.multigrid_companion().map_or_else(|| has_blocks(model), |c| has_blocks(&*c))
 }
 
 /// `auto`'s matrix-free multigrid-CG; when CG stalls above `rtol`, the assembled choice.
@@ -103,8 +105,8 @@ fn auto_matrix_free(
     params: &CgParams,
     progress: &dyn Progress,
 ) -> Result<Solved, StaticError> {
-    let why = "the model applies A by a stencil and computes its block rows (a homogeneous bond \
-               lattice): matrix-free multigrid-CG, no assembly (the fastest solver at every size of \
+    let why = "the model applies A by a stencil and computes its block rows (a bond or LPS lattice): \
+               matrix-free multigrid-CG, no assembly (the fastest solver at every size of \
                docs/solvers.md's bench)";
     let t = Instant::now();
     match matrix_free_cg(system.model, system.dofs, system.rhs, params, PreconditionerKind::Multigrid, progress) {

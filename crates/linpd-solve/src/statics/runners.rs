@@ -330,7 +330,14 @@ pub(super) fn matrix_free_cg(
         SolverSpec::Cg { params: params.clone(), preconditioner, matrix_free: true },
         dofs.n_free()
     ));
-    let diag = dofs.gather(&model.diagonal());
+    // The multigrid's hierarchy (and the diagonal its smoothers read) come from the model's
+    // companion when it offers one (`Model::multigrid_companion`); CG runs on the model.
+    let companion = match preconditioner {
+        PreconditionerKind::Multigrid => model.multigrid_companion(),
+        PreconditionerKind::Jacobi => None,
+    };
+    let source: &dyn Model = companion.as_deref().unwrap_or(model);
+    let diag = dofs.gather(&source.diagonal());
     finite_vector("the stiffness (its diagonal over the free DOFs)", &diag)?;
     finite_vector(REDUCED_LOAD, rhs)?;
     let t = Instant::now();
@@ -340,12 +347,19 @@ pub(super) fn matrix_free_cg(
         Some(fa) => (&*fa.op, MatrixFree::Fast(fa.label)),
         None => (&model_op, MatrixFree::Model),
     };
-    let geometry = (preconditioner != PreconditionerKind::Jacobi).then(|| DofGeometry::of(model, dofs));
+    let source_fast = companion.as_deref().and_then(|c| c.fast_apply());
+    let source_op = ModelOperator(source);
+    let source_full: &dyn LinearOperator = match (&companion, &source_fast) {
+        (None, _) => full,
+        (Some(_), Some(fa)) => &*fa.op,
+        (Some(_), None) => &source_op,
+    };
+    let geometry = (preconditioner != PreconditionerKind::Jacobi).then(|| DofGeometry::of(source, dofs));
     let input = PreconditionerInput {
         diagonal: &diag,
         matrix: None,
         geometry: geometry.as_ref(),
-        model: Some(ModelInput { model, dofs, full }),
+        model: Some(ModelInput { model: source, dofs, full: source_full }),
     };
     let task = Task::start(progress, &format!("{} preconditioner setup", preconditioner.name()), None);
     let m_inv = preconditioner.build(&input)?;
@@ -357,6 +371,13 @@ pub(super) fn matrix_free_cg(
     let id = SolverId::Cg { preconditioner, matrix_free: how };
     let mut report = SolveReport::new(id, dofs.n_free(), 0);
     report.preconditioner = m_inv.summary();
+    if let Some(c) = &companion {
+        report.notes.push(format!(
+            "the multigrid hierarchy is built from the model's SPD companion ({}), CG runs on the {} model",
+            c.kind(),
+            model.kind()
+        ));
+    }
     report.iterations = Some(info.iterations);
     report.rel_residual = info.rel_residual;
     report.timings.setup = t_setup;
