@@ -86,6 +86,31 @@ fn item_3_lps_memory_guard_counts_two_delta() {
     );
 }
 
+/// Matrix-free LPS (issue #35): the estimate counts the model's bonds (20 bytes each), the CG
+/// vectors and, with multigrid, the pair part's hierarchy and bond graph, not the tangent. The
+/// 60^3 cube at `delta = 2h` that the assembled estimate refuses (11.8 GiB, above) is accepted
+/// under `auto`, which solves it matrix-free; at 120^3 and `delta = 3h` Jacobi-CG fits in 8 GiB
+/// and multigrid-CG does not.
+#[test]
+fn item_3_lps_matrix_free_memory_guard_counts_bonds_and_hierarchy() {
+    let h = 1.0 / 60.0;
+    let lps = |delta: f64| json!({"type": "lps", "horizon": delta, "bulk_modulus": 2.0, "shear_modulus": 0.5});
+    let (out, _) = linpd("validate", "lps60-auto", &scene(3, h, lps(2.0 * h), json!({"type": "auto"})));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let h = 1.0 / 120.0;
+    let jacobi = json!({"type": "cg", "matrix_free": true});
+    let (out, _) = linpd("validate", "lps120-jacobi", &scene(3, h, lps(3.0 * h), jacobi));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let multigrid = json!({"type": "cg", "matrix_free": true, "preconditioner": "multigrid"});
+    let (out, took) = linpd("validate", "lps120-mg", &scene(3, h, lps(3.0 * h), multigrid));
+    assert_rejected(
+        "LPS 120^3 multigrid",
+        &out,
+        took,
+        &["model.horizon", "matrix-free LPS tangent", "1771561 nodes", "multigrid hierarchy", "8.0 GiB available"],
+    );
+}
+
 /// A bond model with a weakened plane (`factor` 0.5 across `z = 0.5`): its bonds are stored
 /// (the corrected stencil reads them), unlike the homogeneous stencil's.
 fn bond_with_bonds(horizon: f64, modulus: f64) -> Value {

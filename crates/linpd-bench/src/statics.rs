@@ -10,6 +10,10 @@
 //!   ball inclusion of radius 0.3 at the centre with 10^4 times the modulus (harmonic bond
 //!   rule): the heterogeneous and cracked lattices of issue #35, matrix-free on the stencil
 //!   with their cut and interface bonds as corrections (`linpd_bond::CorrectedStencil`);
+//! * `3d-lps-N` (N = 70; 10 with `--quick`): the same cantilever of an LPS solid (Poisson
+//!   ratio 0.3: `K = 13/6`, `G = 1`), matrix-free on the stencils of `linpd_lps::stencil` with
+//!   the multigrid of its pair part, with a product row (per bond, tangent stencil, pair
+//!   stencil);
 //! * `2d-plate-N-m2` (N = 101, 201, 401, 801): the unit square, `delta = 2h`, plane stress,
 //!   clamped through the layer at `x <= 0`, body load `-y` on `x >= 1` (the setting of
 //!   PeriLab's published timing table at N = 401: 160,801 points, m = 2).
@@ -42,6 +46,7 @@ enum Variant {
     Homogeneous,
     Cracked,
     TwoPhase,
+    Lps,
 }
 
 /// The scene of a case: `dim` 2 or 3, `nodes` per side of the unit body, horizon `m h`.
@@ -70,6 +75,9 @@ fn scene(name: &str, dim: usize, nodes: usize, m: usize, variant: Variant) -> Pr
             model["material"] = json!({"defects": [{"plane": {"point": [x_crack, 0.0, 0.0], "normal": [1.0, 0.0, 0.0],
                 "extent": {"box": {"min": [-1.0, -1.0, 0.5], "max": [2.0, 2.0, 2.0]}}}, "factor": 0.0}]});
         }
+        Variant::Lps => {
+            model = json!({"type": "lps", "horizon": delta, "bulk_modulus": 13.0 / 6.0, "shear_modulus": 1.0});
+        }
         Variant::TwoPhase => {
             model["material"] = json!({"phases": [{"region": {"ball": {"center": [0.5, 0.5, 0.5], "radius": 0.3}},
                 "modulus": 1e4}], "bond_rule": "harmonic"});
@@ -94,6 +102,7 @@ fn cases(quick: bool) -> Vec<(String, usize, usize, usize, Variant)> {
     let mut v: Vec<_> = cubes.iter().map(|&n| (format!("3d-cantilever-{n}"), 3, n, 3, Variant::Homogeneous)).collect();
     v.push((format!("3d-cracked-{hetero}"), 3, hetero, 3, Variant::Cracked));
     v.push((format!("3d-two-phase-{hetero}"), 3, hetero, 3, Variant::TwoPhase));
+    v.push((format!("3d-lps-{hetero}"), 3, hetero, 3, Variant::Lps));
     v.extend(plates.iter().map(|&n| (format!("2d-plate-{n}-m2"), 2, n, 2, Variant::Homogeneous)));
     v
 }
@@ -190,9 +199,16 @@ pub fn run(quick: bool, filter: Option<&str>, direct_max_3d: usize, export_dir: 
         let mut p = scene(&name, dim, nodes, m, variant);
         let n_free = dim * p.nodes().len(); // an upper bound, for the solver list
         let mut rows = Vec::new();
-        if variant != Variant::Homogeneous {
-            eprintln!("[bench] statics {name}: products, per bond and by the corrected stencil");
-            rows.push(matvecs(&p));
+        match variant {
+            Variant::Homogeneous => {}
+            Variant::Lps => {
+                eprintln!("[bench] statics {name}: products, per bond and by the stencils");
+                rows.push(lps_matvecs(&p));
+            }
+            _ => {
+                eprintln!("[bench] statics {name}: products, per bond and by the corrected stencil");
+                rows.push(matvecs(&p));
+            }
         }
         let mut jacobi_total = None;
         for (label, spec) in solvers(dim, n_free, direct_max_3d) {
@@ -258,6 +274,31 @@ fn matvecs(p: &Problem) -> Value {
         "correction_share": corrected.n_corrections() as f64 / bonds as f64})
 }
 
+/// One LPS tangent product `A u` per bond (`LpsModel::apply_tangent`: the families' `omega nu
+/// V` and `|xi|`), by the stencils (`linpd_lps::LpsStencil::apply`) and the pair part alone by
+/// its stencils (the multigrid's finest level), averaged over >= 0.3 s each: the row
+/// `"solver": "matvec"` of an LPS case.
+fn lps_matvecs(p: &Problem) -> Value {
+    let built = p.model().as_any().downcast_ref::<linpd_problem::models::lps::LpsSceneModel>().map(|m| m.build(p));
+    let model = match built {
+        Some(Ok((m, _))) => m,
+        Some(Err(e)) => return json!({"solver": "matvec", "error": e.to_string()}),
+        None => return json!({"solver": "matvec", "error": "not an lps scene"}),
+    };
+    let t = Instant::now();
+    let Some(st) = model.stencil() else {
+        return json!({"solver": "matvec", "error": "no stencils for this lps model"});
+    };
+    let build = t.elapsed().as_secs_f64();
+    let u: Vec<f64> = (0..model.n_dofs()).map(|k| (k as f64 * 0.1).sin()).collect();
+    let mut y = vec![0.0; u.len()];
+    let (per_bond, _) = crate::time_avg(|| model.apply_tangent(&u, &mut y));
+    let (stencil, _) = crate::time_avg(|| st.apply(&u, &mut y));
+    let (pair, _) = crate::time_avg(|| st.apply_pair(&u, &mut y));
+    json!({"solver": "matvec", "per_bond_apply": per_bond, "stencil_apply": stencil, "pair_stencil_apply": pair,
+        "per_bond_over_stencil": per_bond / stencil, "stencil_build": build, "bonds": model.family().n_bonds()})
+}
+
 /// Our multigrid-PCG against pyamg's on the exported cases: iterations of both and the time
 /// ratios (setup, solve, setup + solve; ours / pyamg's, so below 1 is faster), from the
 /// `peers.json` of the same run.
@@ -302,6 +343,20 @@ pub fn print(section: &Value, w: &mut dyn std::io::Write) -> std::io::Result<()>
         for r in rows.as_array().into_iter().flatten() {
             if let Some(e) = r["error"].as_str() {
                 writeln!(w, "{name:<20} {:<24} error: {e}", r["solver"].as_str().unwrap_or("?"))?;
+                continue;
+            }
+            if r["solver"] == "matvec" && !r["stencil_apply"].is_null() {
+                let f = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+                writeln!(
+                    w,
+                    "{name:<20} A u: per bond {:.1} ms, stencils {:.1} ms ({:.2}x), pair part alone {:.1} ms (built in \
+                     {:.2} s)",
+                    1e3 * f("per_bond_apply"),
+                    1e3 * f("stencil_apply"),
+                    f("per_bond_over_stencil"),
+                    1e3 * f("pair_stencil_apply"),
+                    f("stencil_build")
+                )?;
                 continue;
             }
             if r["solver"] == "matvec" {

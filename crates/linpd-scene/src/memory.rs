@@ -63,12 +63,33 @@ pub fn cloud_extra(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64) -> 
         _ => 0.0,
     }
 }
-/// Per bond of the matrix-free LPS tangent: the family (`u32`), `omega nu V` and `|xi|`, and
-/// the per-node lists the family is built from.
-pub const LPS_BOND_BYTES: f64 = 24.0;
-/// Per DOF, a matrix-free LPS solve: the CG vectors, the stencils' per-node data and the
-/// outputs (the nodal strain, stress and energy fields, result.json / result.vtu / u.csv).
-pub const LPS_MATRIX_FREE_DOF_BYTES: f64 = 950.0;
+/// Per bond of the matrix-free LPS tangent: the family (`u32`), `omega nu V` and `|xi|`.
+pub const LPS_BOND_BYTES: f64 = 20.0;
+/// Per DOF, a matrix-free LPS solve besides its bonds: the CG vectors, the stencils' per-node
+/// data and the outputs. With [`LPS_BOND_BYTES`], fits of `/usr/bin/time` peaks of `linpd
+/// solve` with matrix-free Jacobi-CG at two sizes each (`delta = 3h`): 3D cantilevers 50^3 and
+/// 70^3 (115-117 bonds a node, 2934-2948 bytes a node in all; the estimate is 1.04x the peak,
+/// counting the interior's 122 bonds for every node), 2D plates 401^2 and 801^2 (28 bonds,
+/// 1218-1264 bytes a node).
+pub fn lps_matrix_free_dof_bytes(dim: usize) -> f64 {
+    if dim == 3 {
+        175.0
+    } else {
+        300.0
+    }
+}
+
+/// Per DOF, what the pair part's multigrid adds to [`lps_matrix_free_dof_bytes`] besides its
+/// bond graph ([`GRAPH_BOND_BYTES`] a bond): the same fits with multigrid-CG put the peak
+/// 973-979 bytes a DOF above Jacobi's in 3D (163 of them the graph) and 373-379 in 2D (56).
+pub fn lps_multigrid_dof_bytes(dim: usize) -> f64 {
+    if dim == 3 {
+        820.0
+    } else {
+        320.0
+    }
+}
+
 /// Per DOF, assembled solve.
 pub const ASSEMBLED_DOF_BYTES: f64 = 128.0;
 /// Per DOF, matrix-free CG.
@@ -199,7 +220,7 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
             format!(
                 "the matrix-free LPS tangent, the CG vectors and the outputs of {nodes} nodes with ~{nb:.0} bonds each"
             ),
-            n * (NODE_BYTES + nb * LPS_BOND_BYTES) + dofs * LPS_MATRIX_FREE_DOF_BYTES,
+            n * (NODE_BYTES + nb * LPS_BOND_BYTES) + dofs * lps_matrix_free_dof_bytes(dim),
         ),
         Path::LpsAssembled => (
             format!(
@@ -409,10 +430,13 @@ pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> R
     if multigrid {
         let dofs = (grid.len() * grid.dim()) as f64;
         bytes += match path {
-            // the pair part's hierarchy: the bond stencil's (aggregates on the same graph)
             Path::BondStencil | Path::LpsMatrixFree => {
                 let nb = neighbours(grid.dim(), horizon / grid.spacing()).min(grid.len() as f64);
-                dofs * stencil_multigrid_dof_bytes(grid.dim()) + grid.len() as f64 * nb * GRAPH_BOND_BYTES
+                let per_dof = match path {
+                    Path::LpsMatrixFree => lps_multigrid_dof_bytes(grid.dim()),
+                    _ => stencil_multigrid_dof_bytes(grid.dim()),
+                };
+                dofs * per_dof + grid.len() as f64 * nb * GRAPH_BOND_BYTES
             }
             _ => dofs * multigrid_dof_bytes(grid.dim(), path == Path::BondMatrixFree),
         };
