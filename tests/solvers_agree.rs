@@ -319,7 +319,8 @@ fn matrix_free_lps_multigrid_agrees_with_cholesky() {
         })
     };
     let corrected = || lps_variant("lps-tension-3d.json", |v| v["model"]["surface_correction"] = "energy".into());
-    let cases: [(&str, Box<dyn Fn() -> Problem>, &str, usize); 7] = [
+    type Make = Box<dyn Fn() -> Problem>;
+    let cases: [(&str, Make, &str, usize); 7] = [
         ("lps-plate-2d", Box::new(plain("lps-plate-2d.json")), "lps-stencil", 32),
         ("lps-tension-3d", Box::new(plain("lps-tension-3d.json")), "lps-stencil", 42),
         ("2d nu 0.3", Box::new(ratio("lps-plate-2d.json", 13.0 / 6.0, 1.0)), "lps-stencil", 24),

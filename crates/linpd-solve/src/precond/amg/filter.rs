@@ -13,6 +13,7 @@
 
 use super::level::LevelMatrix;
 use super::vbr::Vbr;
+use super::{prolongator, smoother, AmgParams};
 use linpd_core::Point;
 use rayon::prelude::*;
 
@@ -91,4 +92,29 @@ pub(crate) fn filtered(a: &dyn LevelMatrix, pos: &[Point], ratio: f64, graph: &(
         })
         .sum();
     (Vbr::new(rptr.to_vec(), rptr.to_vec(), bptr, bidx, voff, val), entries)
+}
+
+/// The tentative prolongator `tent` smoothed with `A_F` of [`filtered`]: `P = (I - omega /
+/// rho_F D_F^{-1} A_F) T`, and the scalar entries of `a`. `None` when the lumped diagonal
+/// `D_F` is not positive: bond operators' dropped blocks are negative semi-definite, so
+/// lumping them only adds to it, but a tangent with positive off-diagonal blocks (LPS near
+/// incompressibility, Poisson ratio 0.45 with `delta = 3h`) can take it to zero; the caller
+/// then smooths with `A`.
+pub(crate) fn smooth_filtered(
+    a: &dyn LevelMatrix,
+    tent: &Vbr,
+    pos: &[Point],
+    ratio: f64,
+    graph: &(Vec<usize>, Vec<u32>),
+    params: &AmgParams,
+) -> Option<(Vbr, usize)> {
+    let (af, entries) = filtered(a, pos, ratio, graph);
+    let diag = af.diagonal();
+    if !diag.iter().all(|d| *d > 0.0 && d.is_finite()) {
+        return None;
+    }
+    let dinv: Vec<f64> = diag.iter().map(|d| 1.0 / d).collect();
+    let rho = smoother::spectral_radius(&af, &dinv, params.lanczos_steps);
+    (rho > 0.0 && rho.is_finite())
+        .then(|| (prolongator::smooth(&af, tent, &dinv, params.prolongation_omega / rho), entries))
 }

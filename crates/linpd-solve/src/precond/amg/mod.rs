@@ -632,28 +632,13 @@ impl<'a> Amg<'a> {
             let t = Instant::now();
             let p = match (l, params.filter_ratio) {
                 (0, Some(ratio)) if positions.is_some() && graph.is_some_and(|g| wide(g, params)) => {
-                    let (af, entries) = filter::filtered(
-                        amat,
-                        positions.as_deref().unwrap_or_default(),
-                        ratio,
-                        graph.expect("checked"),
-                    );
-                    level_stats[0].nnz = entries;
-                    // The lumped diagonal is positive for bond operators (their dropped blocks
-                    // are negative semi-definite); a tangent with positive off-diagonal blocks
-                    // (LPS near incompressibility) can lump it to zero or below: then smooth with
-                    // `A` itself.
-                    let diag_f = af.diagonal();
-                    let dinv_f: Vec<f64> = diag_f.iter().map(|d| 1.0 / d).collect();
-                    let rho_f = match diag_f.iter().all(|d| *d > 0.0 && d.is_finite()) {
-                        true => smoother::spectral_radius(&af, &dinv_f, params.lanczos_steps),
-                        false => f64::NAN,
-                    };
-                    if rho_f > 0.0 && rho_f.is_finite() {
-                        prolongator::smooth(&af, &tent, &dinv_f, params.prolongation_omega / rho_f)
-                    } else {
-                        level_stats[0].nnz = 0;
-                        prolongator::smooth(amat, &tent, &dinv, params.prolongation_omega / rho)
+                    let pos = positions.as_deref().unwrap_or_default();
+                    match filter::smooth_filtered(amat, &tent, pos, ratio, graph.expect("checked"), params) {
+                        Some((p, entries)) => {
+                            level_stats[0].nnz = entries;
+                            p
+                        }
+                        None => prolongator::smooth(amat, &tent, &dinv, params.prolongation_omega / rho),
                     }
                 }
                 _ => prolongator::smooth(amat, &tent, &dinv, params.prolongation_omega / rho),
