@@ -170,27 +170,6 @@ impl Balance {
 /// [`linpd_lps::LpsModel::linearized_energy_density`] and coarsened levels the same split read
 /// from the columns of `K` (both have blocks too, for the distributed path's rows).
 pub fn nodal_energy(model: &dyn Model, u: &[f64]) -> Option<Vec<f64>> {
-    use rayon::prelude::*;
-    let d = model.dim();
-    let energies: Vec<Option<f64>> = (0..model.n_nodes())
-        .into_par_iter()
-        .map(|i| {
-            let mut w = 0.0;
-            let has = model.for_each_block(i, &mut |j, block| {
-                if j == i {
-                    return;
-                }
-                // per bond: no allocation (d <= 3)
-                let mut du = [0.0; 3];
-                (0..d).for_each(|a| du[a] = u[d * j + a] - u[d * i + a]);
-                for a in 0..d {
-                    for b in 0..d {
-                        w -= 0.25 * du[a] * block[a * d + b] * du[b];
-                    }
-                }
-            });
-            has.then_some(w)
-        })
-        .collect();
-    energies.into_iter().collect()
+    let volumes = vec![1.0; model.n_nodes()];
+    crate::stress::energy_and_force_flux(model, &volumes, u).map(|(energy, _)| energy)
 }

@@ -331,10 +331,11 @@ pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f6
     let nodes = p.nodes();
     let balance = p.balance(&|u, y| linpd_core::Model::apply(model, u, y), &u);
     let volumes: Vec<f64> = (0..nodes.len()).map(|n| nodes.volume(n)).collect();
-    let strain_energy_density =
-        crate::balance::nodal_energy(model, &u).map(|e| e.iter().zip(&volumes).map(|(w, v)| w / v).collect());
+    let (strain_energy_density, pd_stress) = match crate::stress::energy_and_force_flux(model, &volumes, &u) {
+        Some((e, stress)) => (Some(e.iter().zip(&volumes).map(|(w, v)| w / v).collect()), Some(stress)),
+        None => (None, None),
+    };
     let strain = Some(crate::nodal_strain(model, &volumes, &u));
-    let pd_stress = crate::stress::force_flux(model, &volumes, &u);
     Solution {
         name: p.name().to_string(),
         dim: p.dim(),
