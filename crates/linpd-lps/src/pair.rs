@@ -73,7 +73,10 @@ impl Model for PairPart<'_> {
         self.0.positions[i]
     }
     fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
-        self.0.family().neighbors(i).iter().for_each(|&j| f(j as usize));
+        match self.0.stencil() {
+            Some(st) => st.for_each_neighbour(i, f),
+            None => self.0.family().neighbors(i).iter().for_each(|&j| f(j as usize)),
+        }
     }
     fn apply(&self, u: &[f64], y: &mut [f64]) {
         let d = self.dim();
@@ -92,8 +95,15 @@ impl Model for PairPart<'_> {
     fn diagonal(&self) -> Vec<f64> {
         let d = self.dim();
         let mut out = vec![0.0; self.0.n_dofs()];
-        out.par_chunks_mut(d).enumerate().for_each(|(i, o)| {
-            self.for_each_pair(i, |_, s, xi| (0..d).for_each(|a| o[a] += s * xi[a] * xi[a]));
+        let stencil = self.0.stencil();
+        out.par_chunks_mut(d).enumerate().for_each(|(i, o)| match stencil {
+            // the last block of the row is the diagonal one
+            Some(st) => st.pair_block_row(i, &mut |j, b| {
+                if j == i {
+                    (0..d).for_each(|a| o[a] = b[a * d + a]);
+                }
+            }),
+            None => self.for_each_pair(i, |_, s, xi| (0..d).for_each(|a| o[a] += s * xi[a] * xi[a])),
         });
         out
     }
@@ -119,8 +129,13 @@ impl Model for PairPart<'_> {
         let n = dofs.n_free();
         Csc::try_new_from_triplets(n, n, &triplets).expect("free DOFs index an n x n matrix")
     }
-    /// `A_ij = -s_ij xi xi^T` per bond, then `A_ii = sum_j s_ij xi xi^T`.
+    /// `A_ij = -s_ij xi xi^T` per bond, then `A_ii = sum_j s_ij xi xi^T` (from the stencils of a
+    /// homogeneous full box: [`crate::LpsStencil::pair_block_row`]).
     fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
+        if let Some(st) = self.0.stencil() {
+            st.pair_block_row(i, f);
+            return true;
+        }
         let d = self.dim();
         let mut diag = [0.0; 9];
         self.for_each_pair(i, |j, s, xi| {

@@ -128,6 +128,29 @@ impl LpsStencil {
         self.inv_m.len() * (8 + 48 + 24)
     }
 
+    /// Block row `i` of `A_pair`: `f(j, -(1/m_i + 1/m_j) K_s)` for every neighbour `j = i + s`
+    /// in the box, then `f(i, sum of their negatives)` (the order of
+    /// [`crate::PairPart`]'s per-bond block rows).
+    pub fn pair_block_row(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) {
+        let dd = self.dim * self.dim;
+        let mut diag = [0.0; 9];
+        self.pair.for_each_neighbour(i, &mut |j, s| {
+            let (scale, mut b) = (self.inv_m[i] + self.inv_m[j], self.pair.block(s));
+            for (d, v) in diag.iter_mut().zip(b.iter_mut()) {
+                *v *= scale;
+                *d += *v;
+                *v = -*v;
+            }
+            f(j, &b[..dd]);
+        });
+        f(i, &diag[..dd]);
+    }
+
+    /// The lattice neighbours of node `i` (its bonds).
+    pub fn for_each_neighbour(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        self.pair.for_each_neighbour(i, &mut |j, _| f(j));
+    }
+
     /// `y = A_pair u` (module docs).
     pub fn apply_pair(&self, u: &[f64], y: &mut [f64]) {
         let d = self.dim;

@@ -61,6 +61,31 @@ fn stencils_apply_the_tangent_and_its_pair_part() {
             assert!(e <= 1e-12, "{dim}D {p:?}: stencil A_pair u off by {e:e}");
             worst = worst.max(e);
         }
+        // the pair part's block rows from the stencils: the per-bond blocks (same order)
+        let m_bonds = LpsModel::new(&grid(dim, counts), &p).unwrap().with_node_moduli(
+            &vec![p.K; m.n_nodes()],
+            &vec![p.G; m.n_nodes()],
+        );
+        let per_bond = m_bonds.unwrap();
+        assert!(per_bond.stencil().is_none());
+        let scale = {
+            let mut s = 0.0f64;
+            Model::for_each_block(&PairPart(&per_bond), 0, &mut |_, b| s = b.iter().fold(s, |a, v| a.max(v.abs())));
+            s
+        };
+        for i in 0..m.n_nodes() {
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            Model::for_each_block(&PairPart(&m), i, &mut |j, blk| a.push((j, blk.to_vec())));
+            Model::for_each_block(&PairPart(&per_bond), i, &mut |j, blk| b.push((j, blk.to_vec())));
+            assert_eq!(a.len(), b.len(), "{dim}D node {i}: block count");
+            for ((ja, ba), (jb, bb)) in a.iter().zip(&b) {
+                assert_eq!(ja, jb, "{dim}D node {i}: block order");
+                let e = ba.iter().zip(bb).fold(0.0f64, |w, (x, y)| w.max((x - y).abs()));
+                assert!(e <= 1e-13 * scale, "{dim}D node {i}: stencil block off by {e:e}");
+            }
+        }
+        let e = rel_diff(&Model::diagonal(&PairPart(&m)), &Model::diagonal(&PairPart(&per_bond)));
+        assert!(e <= 1e-13, "{dim}D: stencil diagonal of A_pair off by {e:e}");
         // the model's fast apply is the stencil, the companion's its pair part
         assert_eq!(Model::fast_apply(&m).map(|f| f.label), Some("lps-stencil"));
         assert_eq!(Model::fast_apply(&PairPart(&m)).map(|f| f.label), Some("lps-pair-stencil"));
