@@ -1,13 +1,16 @@
 """The measurements of docs/scale-out.md, in one run:
 
     python3 python/bench/scale_out.py [--spacing-cells 47] [--ranks 1 2 4] [--out DIR]
+        [--model bond|lps] [--linpd-solvers multigrid jacobi auto]
 
 A 3D bond scene (the unit cube, `spacing = 1 / cells`, `horizon = 2 spacing`, clamped below, a
 resultant load on top; 345,600 DOFs and 324,864 unknowns for 47 cells) is solved by linpd's own
 solvers (`linpd solve`: CG with linpd's multigrid, CG with Jacobi) and by the PETSc driver
 (`mpiexec -n P python -m linpd.petsc`, CG + GAMG) at each P; printed as a Markdown table with
 iterations, phase times, relative residuals, per-rank peak RSS, and the agreement of every
-`u` with the multigrid solve's. Environment as for python/tests/check_petsc.py (`LINPD_BIN`,
+`u` with the multigrid solve's. `--model lps`: the same cube of an LPS solid (K = 13/6, G = 1,
+Poisson ratio 0.3). `--linpd-solvers auto` adds `linpd solve` with `auto` (matrix-free
+multigrid-CG on these lattices). Environment as for python/tests/check_petsc.py (`LINPD_BIN`,
 `LINPD_PETSC_PYTHON`, `PYTHONPATH` with petsc4py and the linpd wheel).
 """
 
@@ -24,14 +27,18 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def scene(cells: int, solver: dict) -> dict:
+def scene(cells: int, solver: dict, model: str = "bond") -> dict:
     h = 1.0 / cells
+    if model == "lps":
+        physics = {"type": "lps", "horizon": 2 * h, "bulk_modulus": 13.0 / 6.0, "shear_modulus": 1.0}
+    else:
+        physics = {"type": "bond", "horizon": 2 * h,
+                   "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "continuum"}}
     return {
         "name": "cube-scale-out-3d",
         "dimension": 3,
         "grid": {"min": [0, 0, 0], "max": [1, 1, 1], "spacing": h, "layer": {"z-": 2 * h}},
-        "model": {"type": "bond", "horizon": 2 * h,
-                  "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "continuum"}},
+        "model": physics,
         "constraints": [{"region": {"box": {"min": [-1, -1, -1], "max": [2, 2, 0]}},
                          "displacement": {"value": [0, 0, 0]}}],
         "loads": [{"type": "resultant", "region": {"box": {"min": [-1, -1, 1], "max": [2, 2, 2]}},
@@ -47,6 +54,7 @@ def main() -> int:
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 4])
     ap.add_argument("--out", default=str(ROOT / "target" / "scale-out"))
     ap.add_argument("--linpd-solvers", nargs="*", default=["multigrid", "jacobi"])
+    ap.add_argument("--model", choices=["bond", "lps"], default="bond")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -54,7 +62,8 @@ def main() -> int:
     rows, u_ref = [], None
     for pre in args.linpd_solvers:
         path = out / f"scene-{pre}.json"
-        path.write_text(json.dumps(scene(args.spacing_cells, {"type": "cg", "preconditioner": pre})))
+        solver = {"type": "auto"} if pre == "auto" else {"type": "cg", "preconditioner": pre}
+        path.write_text(json.dumps(scene(args.spacing_cells, solver, args.model)))
         t = time.perf_counter()
         p = subprocess.run([binary, "solve", str(path), "--out", str(out / pre), "-q"], capture_output=True, text=True)
         wall = time.perf_counter() - t
@@ -67,7 +76,7 @@ def main() -> int:
                      s["timings"]["setup"], s["timings"]["solve"], wall, s["rel_residual"],
                      [s["peak_rss_bytes"]], np.max(np.abs(u - u_ref)) / np.max(np.abs(u_ref))))
     path = out / "scene-petsc.json"
-    path.write_text(json.dumps(scene(args.spacing_cells, {"type": "auto"})))
+    path.write_text(json.dumps(scene(args.spacing_cells, {"type": "auto"}, args.model)))
     py = os.environ.get("LINPD_PETSC_PYTHON", "/usr/bin/python3")
     for ranks in args.ranks:
         cmd = ["mpiexec", "-n", str(ranks)] + (["--allow-run-as-root"] if os.geteuid() == 0 else [])
