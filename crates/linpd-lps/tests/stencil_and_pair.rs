@@ -62,10 +62,9 @@ fn stencils_apply_the_tangent_and_its_pair_part() {
             worst = worst.max(e);
         }
         // the pair part's block rows from the stencils: the per-bond blocks (same order)
-        let m_bonds = LpsModel::new(&grid(dim, counts), &p).unwrap().with_node_moduli(
-            &vec![p.K; m.n_nodes()],
-            &vec![p.G; m.n_nodes()],
-        );
+        let m_bonds = LpsModel::new(&grid(dim, counts), &p)
+            .unwrap()
+            .with_node_moduli(&vec![p.K; m.n_nodes()], &vec![p.G; m.n_nodes()]);
         let per_bond = m_bonds.unwrap();
         assert!(per_bond.stencil().is_none());
         let scale = {
