@@ -13,7 +13,8 @@
 //! * `3d-lps-N` (N = 70; 10 with `--quick`): the same cantilever of an LPS solid (Poisson
 //!   ratio 0.3: `K = 13/6`, `G = 1`), matrix-free on the stencils of `linpd_lps::stencil` with
 //!   the multigrid of its pair part, with a product row (per bond, tangent stencil, pair
-//!   stencil);
+//!   stencil); `2d-lps-401-m3` (41 with `--quick`): the 401^2 plate of an LPS solid, plane
+//!   stress, `delta = 3h`;
 //! * `2d-plate-N-m2` (N = 101, 201, 401, 801): the unit square, `delta = 2h`, plane stress,
 //!   clamped through the layer at `x <= 0`, body load `-y` on `x >= 1` (the setting of
 //!   PeriLab's published timing table at N = 401: 160,801 points, m = 2).
@@ -77,6 +78,9 @@ fn scene(name: &str, dim: usize, nodes: usize, m: usize, variant: Variant) -> Pr
         }
         Variant::Lps => {
             model = json!({"type": "lps", "horizon": delta, "bulk_modulus": 13.0 / 6.0, "shear_modulus": 1.0});
+            if dim == 2 {
+                model["plane"] = json!("stress");
+            }
         }
         Variant::TwoPhase => {
             model["material"] = json!({"phases": [{"region": {"ball": {"center": [0.5, 0.5, 0.5], "radius": 0.3}},
@@ -104,6 +108,9 @@ fn cases(quick: bool) -> Vec<(String, usize, usize, usize, Variant)> {
     v.push((format!("3d-two-phase-{hetero}"), 3, hetero, 3, Variant::TwoPhase));
     v.push((format!("3d-lps-{hetero}"), 3, hetero, 3, Variant::Lps));
     v.extend(plates.iter().map(|&n| (format!("2d-plate-{n}-m2"), 2, n, 2, Variant::Homogeneous)));
+    // 401^2: its assembled tangent and Cholesky still fit beside the matrix-free rows
+    let lps_plate = if quick { plates[plates.len() - 1] } else { 401 };
+    v.push((format!("2d-lps-{lps_plate}-m3"), 2, lps_plate, 3, Variant::Lps));
     v
 }
 
