@@ -89,7 +89,7 @@ fn item_3_lps_memory_guard_counts_two_delta() {
 /// Matrix-free LPS (issue #35): the estimate counts the model's bonds (20 bytes each), the CG
 /// vectors and, with multigrid, the pair part's hierarchy and bond graph, not the tangent. The
 /// 60^3 cube at `delta = 2h` that the assembled estimate refuses (11.8 GiB, above) is accepted
-/// under `auto`, which solves it matrix-free; at 120^3 and `delta = 3h` Jacobi-CG fits in 8 GiB
+/// under `auto`, which solves it matrix-free (with a body it assembles and is refused); at 120^3 and `delta = 3h` Jacobi-CG fits in 8 GiB
 /// and multigrid-CG does not.
 #[test]
 fn item_3_lps_matrix_free_memory_guard_counts_bonds_and_hierarchy() {
@@ -97,6 +97,11 @@ fn item_3_lps_matrix_free_memory_guard_counts_bonds_and_hierarchy() {
     let lps = |delta: f64| json!({"type": "lps", "horizon": delta, "bulk_modulus": 2.0, "shear_modulus": 0.5});
     let (out, _) = linpd("validate", "lps60-auto", &scene(3, h, lps(2.0 * h), json!({"type": "auto"})));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // with a body the stencils do not apply and `auto` assembles: refused as before
+    let mut with_body = scene(3, h, lps(2.0 * h), json!({"type": "auto"}));
+    with_body["body"] = json!({"difference": ["all", {"ball": {"center": [0.5, 0.5, 0.5], "radius": 0.1}}]});
+    let (out, took) = linpd("validate", "lps60-body", &with_body);
+    assert_rejected("LPS 60^3 with a body", &out, took, &["model.horizon", "LPS tangent of 226981 nodes"]);
     let h = 1.0 / 120.0;
     let jacobi = json!({"type": "cg", "matrix_free": true});
     let (out, _) = linpd("validate", "lps120-jacobi", &scene(3, h, lps(3.0 * h), jacobi));

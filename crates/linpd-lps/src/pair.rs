@@ -30,8 +30,10 @@
 //! needs on `A_pair`: in 3D 1.14x at a Poisson ratio of 0.3, 1.34x at 0.35, 2.4x at 0.45 (near
 //! incompressibility the bound degrades, as for every displacement-only solver:
 //! docs/solvers.md, "Near-incompressible LPS through CG"). Per-node moduli take the extreme
-//! ratios over the nodes; a surface correction moves `kappa_pair` of the surface nodes by
-//! `m_i^lat / m_i`.
+//! ratios over the nodes. With `bulk_weighted_volume` the surface nodes' `m_i` is no longer
+//! their lattice sum, which changes their effective `kappa_pair` (up to 2x); the bound then
+//! holds with the extreme ratios over the nodes (the moment-matching corrections recompute `m`
+//! from their rescaled weights and keep it as stated).
 
 use crate::model::far;
 use crate::stencil::PairStencil;

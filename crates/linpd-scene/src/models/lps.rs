@@ -102,7 +102,10 @@ impl ModelType for LpsType {
             let model = LpsSceneModel { params, defects: material.defects, surface, cloud: true, phases, node_moduli };
             return Ok(Validated { nodes, model: Box::new(model) });
         }
-        let plain = raw.material.phases.is_empty()
+        // a body (and its cut volumes) is applied after the memory check, on the full box: the
+        // stencils need the full box, so such a scene assembles
+        let plain = cx.raw.body.is_none()
+            && raw.material.phases.is_empty()
             && raw.material.defects.is_empty()
             && surface_of(true, raw.surface_correction, raw.surface_target)?.correction == SurfaceCorrection::None;
         let grid =
@@ -377,6 +380,10 @@ impl SceneModel for LpsSceneModel {
             (Some(grid), Purpose::Solve) => {
                 let n_free = p.constrained().0.iter().filter(|&&m| !m).count();
                 let (path, multigrid) = solve_path(grid, self.plain(), p.solver(), n_free);
+                if path == crate::memory::Path::LpsAssembled {
+                    let ratio = self.params.horizon / grid.spacing();
+                    crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(p.dim(), ratio), ratio)?;
+                }
                 Some(crate::memory::check_solver(path, grid, self.params.horizon, multigrid)?)
             }
             (None, Purpose::Solve | Purpose::Assembled) => Some(crate::memory::check_cloud(

@@ -115,8 +115,13 @@ fn auto_matrix_free(
             Ok((u, report))
         }
         // As the assembled `auto` does when CG stalls above rtol (rounding): the
-        // assembled choice, which can fall back to a direct solve.
-        Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. })) => {
+        // assembled choice, which can fall back to a direct solve. Not for a model solved on
+        // its companion's hierarchy (the LPS tangent): its assembly couples two horizons and
+        // was never checked against the memory (the scene checked the matrix-free path), so
+        // the error stands.
+        Err(SolveError::Cg(e @ CgError::ResidualAboveTarget { .. }))
+            if system.model.multigrid_companion().is_none() =>
+        {
             let attempt = t.elapsed().as_secs_f64();
             let (u, mut report) = assembled_solve(system, spec, progress)?;
             report.notes.insert(

@@ -754,15 +754,19 @@ impl<'a> Amg<'a> {
             return;
         };
         let (n, nc) = (b.len(), level.r.nrows());
-        // one cycle at a time runs on a level (CG applies the preconditioner from one thread)
-        let mut work = self.work[l].lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-        let [r, d, bc, xc] = &mut *work;
+        // the kept vectors, or fresh ones when another cycle on this level holds them (a
+        // blocking lock could wait on a task its own thread has to run)
+        let mut fresh: [Vec<f64>; 4] = Default::default();
+        let mut kept = self.work[l].try_lock().ok();
+        let [r, d, bc, xc] = kept.as_deref_mut().unwrap_or(&mut fresh);
         r.resize(n, 0.0);
         d.resize(n, 0.0);
         bc.resize(nc, 0.0);
         xc.resize(nc, 0.0);
         let a = self.level_matrix(l);
         level.smoother.smooth(a, b, x, r, d, true, true);
+        // zeroed: a product that scales its output by 0 keeps a NaN of a previous cycle
+        bc.iter_mut().for_each(|v| *v = 0.0);
         level.r.matvec(r, bc);
         xc.iter_mut().for_each(|v| *v = 0.0);
         self.cycle(l + 1, bc, xc);
@@ -791,7 +795,8 @@ impl Preconditioner for Amg<'_> {
     fn operator_copy(&self) -> Option<&dyn linpd_core::LinearOperator> {
         match &self.fine {
             Fine::Assembled(a) => Some(a),
-            // The caller's matrix-free operator is the same apply.
+            // Level 0 is the caller's operator, or a companion of it
+            // (`Model::multigrid_companion`): never offered as the operator to solve.
             Fine::Streamed(_) => None,
         }
     }
