@@ -298,9 +298,9 @@ fn lps_variant(name: &str, edit: impl Fn(&mut serde_json::Value)) -> Problem {
 /// Cholesky to 1e-8 relative (rtol 1e-12, `kappa <= ~1e4`) on the bundled 2D and 3D LPS scenes
 /// (Poisson ratio 0.385: the pair part bounds the tangent within `kappa / kappa_pair = 2.4`),
 /// at a Poisson ratio of 0.3 and of 1/4 (where the pair part is the tangent), with a
-/// pre-crack and with a surface correction (both off the stencil), within the iteration caps
-/// (measured: 26, 35, 20, 26, 23, 27, 35; caps 1.2x. The assembled multigrid, built on the
-/// tangent itself, takes 18 and 29 on the bundled scenes).
+/// pre-crack, with a surface correction and on the bundled point cloud (all off the stencil),
+/// within the iteration caps (measured: 26, 35, 20, 26, 23, 27, 35, 24; caps 1.2x. The
+/// assembled multigrid, built on the tangent itself, takes 18 and 29 on the bundled scenes).
 #[test]
 fn matrix_free_lps_multigrid_agrees_with_cholesky() {
     let plain = |name: &'static str| move || scene(name);
@@ -320,7 +320,7 @@ fn matrix_free_lps_multigrid_agrees_with_cholesky() {
     };
     let corrected = || lps_variant("lps-tension-3d.json", |v| v["model"]["surface_correction"] = "energy".into());
     type Make = Box<dyn Fn() -> Problem>;
-    let cases: [(&str, Make, &str, usize); 7] = [
+    let cases: [(&str, Make, &str, usize); 8] = [
         ("lps-plate-2d", Box::new(plain("lps-plate-2d.json")), "lps-stencil", 32),
         ("lps-tension-3d", Box::new(plain("lps-tension-3d.json")), "lps-stencil", 42),
         ("2d nu 0.3", Box::new(ratio("lps-plate-2d.json", 13.0 / 6.0, 1.0)), "lps-stencil", 24),
@@ -328,6 +328,7 @@ fn matrix_free_lps_multigrid_agrees_with_cholesky() {
         ("3d nu 1/4", Box::new(ratio("lps-tension-3d.json", 5.0 / 3.0, 1.0)), "lps-stencil", 28),
         ("2d pre-crack", Box::new(crack), "matrix-free", 33),
         ("3d energy correction", Box::new(corrected), "matrix-free", 42),
+        ("2d point cloud", Box::new(plain("bracket-cloud-lps-2d.json")), "matrix-free", 29),
     ];
     for (name, make, label, cap) in cases {
         let mut direct = make();
