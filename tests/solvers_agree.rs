@@ -284,6 +284,17 @@ fn multigrid_cg_agrees_with_cholesky_on_bond_lps_and_heterogeneous_scenes() {
     }
 }
 
+/// Multigrid-CG to rtol 1e-12, on the assembled matrix or matrix-free.
+fn multigrid_cg(matrix_free: bool) -> SolverSpec {
+    let params = CgParams { rtol: 1e-12, max_iter: 500 };
+    SolverSpec::Cg { params, preconditioner: PreconditionerKind::Multigrid, matrix_free }
+}
+
+/// `max |a - b| / max |b|`.
+fn rel_max_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / max_abs(b)
+}
+
 /// An LPS scene from the text of a bundled one with `edit` applied to its JSON.
 fn lps_variant(name: &str, edit: impl Fn(&mut serde_json::Value)) -> Problem {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name);
@@ -335,14 +346,12 @@ fn matrix_free_lps_multigrid_agrees_with_cholesky() {
         direct.set_solver(SolverSpec::Cholesky);
         let exact = direct.solve(&linpd::core::NoProgress).unwrap_or_else(|e| panic!("{name}: {e}"));
         let mut p = make();
-        let params = CgParams { rtol: 1e-12, max_iter: 500 };
-        p.set_solver(SolverSpec::Cg { params, preconditioner: PreconditionerKind::Multigrid, matrix_free: true });
+        p.set_solver(multigrid_cg(true));
         let s = p.solve(&linpd::core::NoProgress).unwrap_or_else(|e| panic!("{name}: {e}"));
         let solver = s.report.solver.to_string();
         assert!(solver.starts_with("cg-multigrid-matrix-free") && solver.ends_with(label), "{name}: {solver}");
         assert!(s.report.notes.iter().any(|n| n.contains("SPD companion (lps-pair)")), "{name}: {:?}", s.report.notes);
-        let it = s.report.iterations.unwrap();
-        let err = s.u.iter().zip(&exact.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())) / max_abs(&exact.u);
+        let (it, err) = (s.report.iterations.unwrap(), rel_max_diff(&s.u, &exact.u));
         eprintln!("{name}: {it} iterations, {err:.1e} against cholesky");
         assert!(it <= cap, "{name}: {it} iterations (cap {cap})");
         assert!(err <= 1e-8, "{name}: {err:e} against cholesky");
@@ -379,10 +388,8 @@ fn multigrid_on_near_incompressible_lps_agrees_with_cholesky() {
     };
     let exact = solve(SolverSpec::Cholesky);
     for (matrix_free, cap) in [(false, 47), (true, 64)] {
-        let params = CgParams { rtol: 1e-12, max_iter: 500 };
-        let s = solve(SolverSpec::Cg { params, preconditioner: PreconditionerKind::Multigrid, matrix_free });
-        let it = s.report.iterations.unwrap();
-        let err = s.u.iter().zip(&exact.u).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())) / max_abs(&exact.u);
+        let s = solve(multigrid_cg(matrix_free));
+        let (it, err) = (s.report.iterations.unwrap(), rel_max_diff(&s.u, &exact.u));
         eprintln!("matrix_free {matrix_free}: {it} iterations, {err:.1e} against cholesky");
         assert!(it <= cap, "matrix_free {matrix_free}: {it} iterations (cap {cap})");
         assert!(err <= 1e-8, "matrix_free {matrix_free}: {err:e} against cholesky");

@@ -308,8 +308,6 @@ impl BondOperator {
     }
 }
 
-/// `|k_j - k_i|` in lattice units.
-#[inline]
 /// The checks of [`BondOperator::on_grid`] before anything is built: a positive horizon of at
 /// least one spacing (and `sqrt 2` spacings in 2D/3D: bonds along the axes only leave shear
 /// modes without energy), a valid micromodulus and material.
@@ -340,6 +338,8 @@ pub(crate) fn check_lattice_inputs(
     material.validate(dim)
 }
 
+/// `|k_j - k_i|` in lattice units.
+#[inline]
 fn lattice_len(a: &[i32; 3], b: &[i32; 3]) -> f64 {
     let d: i64 = (0..3).map(|k| ((b[k] - a[k]) as i64).pow(2)).sum();
     (d as f64).sqrt()

@@ -35,7 +35,6 @@
 //! holds with the extreme ratios over the nodes (the moment-matching corrections recompute `m`
 //! from their rescaled weights and keep it as stated).
 
-use crate::model::far;
 use crate::stencil::PairStencil;
 use crate::LpsModel;
 use linpd_core::sparse::Csc;
@@ -44,22 +43,6 @@ use rayon::prelude::*;
 
 /// `A_pair` of an [`LpsModel`] (module docs).
 pub struct PairPart<'a>(pub &'a LpsModel);
-
-impl PairPart<'_> {
-    /// `f(j, s_ij xi xi^T)` for every bond `i -> j` (the pair stiffness `s_ij / |xi|^2`
-    /// folded into `xi xi^T`): the one copy of the pair formula outside the tangent's column
-    /// terms ([`LpsModel::column_terms`]).
-    fn for_each_pair(&self, i: usize, mut f: impl FnMut(usize, f64, &[f64; 3])) {
-        let m = self.0;
-        let v = m.volumes[i];
-        for (j, w, w_jp, r) in m.bond_pairs(i) {
-            let xi = m.bond_vector(i, j);
-            let w_far = far(w_jp, v, m.volumes[j]);
-            let s = v * (m.a_g_at(i) * w / m.m[i] + m.a_g_at(j) * w_far / m.m[j]) / (r * r);
-            f(j, s, &xi);
-        }
-    }
-}
 
 impl Model for PairPart<'_> {
     fn kind(&self) -> &'static str {
@@ -86,7 +69,7 @@ impl Model for PairPart<'_> {
         assert_eq!(y.len(), self.0.n_dofs());
         y.par_chunks_mut(d).enumerate().for_each(|(i, yi)| {
             yi.iter_mut().for_each(|v| *v = 0.0);
-            self.for_each_pair(i, |j, s, xi| {
+            self.0.for_each_pair_bond(i, |j, s, _, xi| {
                 let proj: f64 = (0..d).map(|a| xi[a] * (u[d * i + a] - u[d * j + a])).sum();
                 for a in 0..d {
                     yi[a] += s * proj * xi[a];
@@ -105,7 +88,7 @@ impl Model for PairPart<'_> {
                     (0..d).for_each(|a| o[a] = b[a * d + a]);
                 }
             }),
-            None => self.for_each_pair(i, |_, s, xi| (0..d).for_each(|a| o[a] += s * xi[a] * xi[a])),
+            None => self.0.for_each_pair_bond(i, |_, s, _, xi| (0..d).for_each(|a| o[a] += s * xi[a] * xi[a])),
         });
         out
     }
@@ -140,7 +123,7 @@ impl Model for PairPart<'_> {
         }
         let d = self.dim();
         let mut diag = [0.0; 9];
-        self.for_each_pair(i, |j, s, xi| {
+        self.0.for_each_pair_bond(i, |j, s, _, xi| {
             let mut b = [0.0; 9];
             for a in 0..d {
                 for c in 0..d {

@@ -123,11 +123,6 @@ impl LpsStencil {
         self.dim * self.inv_m.len()
     }
 
-    /// Bytes held (per node `1/m`, `D`, `T`; the stencils are negligible).
-    pub fn bytes(&self) -> usize {
-        self.inv_m.len() * (8 + 48 + 24)
-    }
-
     /// Block row `i` of `A_pair`: `f(j, -(1/m_i + 1/m_j) K_s)` for every neighbour `j = i + s`
     /// in the box, then `f(i, sum of their negatives)` (the order of
     /// [`crate::PairPart`]'s per-bond block rows).

@@ -81,6 +81,20 @@ impl LpsModel {
         s
     }
 
+    /// The pair part's bonds of node `i`: `f(j, s_ij, w_ji, xi_ij)` for every bond, with
+    /// `s_ij = V_i (a G_i w_ij / m_i + a G_j w_ji^far / m_j) / |xi|^2` (`A_pair`'s block is
+    /// `s_ij xi xi^T`) and `w_ji` the weight node `j` gives its bond to `i`. The one copy of the
+    /// pair stiffness: the column terms, the apply, the diagonal and [`crate::PairPart`] read it.
+    pub(crate) fn for_each_pair_bond(&self, i: usize, mut f: impl FnMut(usize, f64, f64, &[f64; 3])) {
+        let v = self.volumes[i];
+        for (j, w, w_ji, r) in self.bond_pairs(i) {
+            let xi = self.bond_vector(i, j);
+            let w_far = far(w_ji, v, self.volumes[j]);
+            let s = v * (self.a_g_at(i) * w / self.m[i] + self.a_g_at(j) * w_far / self.m[j]) / (r * r);
+            f(j, s, w_ji, &xi);
+        }
+    }
+
     /// The terms of block column `p` of the tangent, from the families of `p` and of its
     /// partners only: `add(q, s, x, y)` for every term `A[(q, c), (p, a)] += s x[c] y[a]`, `q`
     /// in the two-hop neighbourhood `U_{k in {p} U F_p} ({k} U F_k)`. `g_self(k)` is `g_k[k]`
@@ -96,15 +110,11 @@ impl LpsModel {
     ) {
         let df = self.dim as f64;
         let c = |k: usize| self.dilatation_coefficient(k);
-        let v = self.volumes[p];
         // Pair part.
-        for (j, w, w_jp, r) in self.bond_pairs(p) {
-            let xi = self.bond_vector(p, j);
-            let w_far = far(w_jp, v, self.volumes[j]);
-            let s = v * (self.a_g_at(p) * w / self.m[p] + self.a_g_at(j) * w_far / self.m[j]) / (r * r);
-            add(p, s, &xi, &xi);
-            add(j, -s, &xi, &xi);
-        }
+        self.for_each_pair_bond(p, |j, s, _, xi| {
+            add(p, s, xi, xi);
+            add(j, -s, xi, xi);
+        });
         // Dilatation part: k = p, then k in F_p.
         let gp = g_self(p);
         add(p, c(p), &gp, &gp);
@@ -186,20 +196,16 @@ impl LpsModel {
         let c = |k: usize| self.dilatation_coefficient(k);
         let mut out = vec![0.0; self.n_dofs()];
         out.par_chunks_mut(d).enumerate().for_each(|(p, o)| {
-            let v = self.volumes[p];
             let gp = self.g_self_at(p);
             for a in 0..d {
                 o[a] = c(p) * gp[a] * gp[a];
             }
-            for (j, w, w_jp, r) in self.bond_pairs(p) {
-                let xi = self.bond_vector(p, j);
-                let w_far = far(w_jp, v, self.volumes[j]);
-                let s = v * (self.a_g_at(p) * w / self.m[p] + self.a_g_at(j) * w_far / self.m[j]) / (r * r);
+            self.for_each_pair_bond(p, |j, s, w_jp, xi| {
                 let g = df / self.m[j] * w_jp;
                 for a in 0..d {
                     o[a] += (s + c(j) * g * g) * xi[a] * xi[a];
                 }
-            }
+            });
         });
         out
     }
@@ -233,16 +239,12 @@ impl LpsModel {
         let c = |k: usize| self.dilatation_coefficient(k);
         y.par_chunks_mut(d).enumerate().for_each(|(p, yp)| {
             yp.iter_mut().for_each(|x| *x = 0.0);
-            let v = self.volumes[p];
             // k = p.
             for a in 0..d {
                 yp[a] += c(p) * theta[p] * g_self[p][a];
             }
-            for (j, w, w_jp, r) in self.bond_pairs(p) {
-                let xi = self.bond_vector(p, j);
-                // Pair: s (n . (u_p - u_j)) n with n = xi / r; the far end's omega_j nu V_j.
-                let w_far = far(w_jp, v, self.volumes[j]);
-                let s = v * (self.a_g_at(p) * w / self.m[p] + self.a_g_at(j) * w_far / self.m[j]) / (r * r);
+            self.for_each_pair_bond(p, |j, s, w_jp, xi| {
+                // Pair: s (xi . (u_p - u_j)) xi.
                 let mut proj = 0.0;
                 for a in 0..d {
                     proj += xi[a] * (u[d * p + a] - u[d * j + a]);
@@ -253,7 +255,7 @@ impl LpsModel {
                 for a in 0..d {
                     yp[a] += s * proj * xi[a] + c(j) * theta[j] * gk * xi[a];
                 }
-            }
+            });
         });
     }
 }

@@ -29,7 +29,6 @@
 //! to round-off; the transition rows of a blended model balance only when the solution is
 //! quadratic on their stencils (the linpd-blend crate docs, "Force balance").
 
-use linpd_core::Model;
 use serde::Serialize;
 
 /// One load's effect.
@@ -153,23 +152,4 @@ impl Balance {
             nodal_reaction,
         }
     }
-}
-
-/// The strain energy of node `i`, `W_i V_i`, for a model that exposes its blocks
-/// ([`Model::for_each_block`]; the bond-based models). For a symmetric `A` with zero block-row
-/// sums (`A_ii = -sum_{j != i} A_ij`),
-///
-/// ```text
-/// u.A u / 2 = -(1/4) sum_i sum_{j != i} (u_j - u_i)^T A_ij (u_j - u_i),
-/// ```
-///
-/// and node `i` takes its term of the outer sum: half of the energy of each of its bonds (for
-/// the bond-based model `A_ij = -w_ij e e^T`, so `W_i V_i = (1/4) sum_j w_ij (e . (u_j -
-/// u_i))^2`, never negative, and a rigid motion gives 0). The values sum to `u.A u / 2`.
-/// `None` for models without blocks. Used for the bond models; LPS scenes report
-/// [`linpd_lps::LpsModel::linearized_energy_density`] and coarsened levels the same split read
-/// from the columns of `K` (both have blocks too, for the distributed path's rows).
-pub fn nodal_energy(model: &dyn Model, u: &[f64]) -> Option<Vec<f64>> {
-    let volumes = vec![1.0; model.n_nodes()];
-    crate::stress::energy_and_force_flux(model, &volumes, u).map(|(energy, _)| energy)
 }

@@ -29,7 +29,7 @@ pub struct Solution {
     /// CE scenes built by [`crate::models::blend_1d`] from the solution's end reactions).
     pub balance: Option<Balance>,
     /// Strain energy density `W_i` per node (energy per volume; `sum_i W_i V_i = u.A u / 2`,
-    /// [`crate::balance::nodal_energy`] for bond-based models,
+    /// [`crate::stress::energy_and_force_flux`] for bond-based models,
     /// [`linpd_lps::LpsModel::linearized_energy_density`] for LPS, the same split of `K`'s
     /// blocks for symmetric coarsened levels): not for blend scenes and unsymmetric levels.
     pub strain_energy_density: Option<Vec<f64>>,

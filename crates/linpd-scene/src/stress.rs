@@ -183,10 +183,21 @@ pub fn force_flux(model: &dyn Model, volumes: &[f64], u: &[f64]) -> Option<Nodal
     energy_and_force_flux(model, volumes, u).map(|(_, stress)| stress)
 }
 
-/// The strain energy `W_i V_i` of every node ([`crate::balance::nodal_energy`]) and its
-/// force-flux stress ([`force_flux`]) in one pass over the block rows (each block row read
-/// once: the two passes cost 1.1 s at 70^3 with `delta = 3h`, this one 0.6 s); `None` when the
-/// model has no blocks.
+/// The strain energy `W_i V_i` of every node and its force-flux stress ([`force_flux`]), in one
+/// pass over the block rows (two passes cost 1.1 s at 70^3 with `delta = 3h`, this one 0.6 s);
+/// `None` when the model has no blocks ([`Model::for_each_block`]).
+///
+/// The energy: for a symmetric `A` with zero block-row sums (`A_ii = -sum_{j != i} A_ij`),
+///
+/// ```text
+/// u.A u / 2 = -(1/4) sum_i sum_{j != i} (u_j - u_i)^T A_ij (u_j - u_i),
+/// ```
+///
+/// and node `i` takes its term of the outer sum: half of the energy of each of its bonds (for
+/// the bond-based model `A_ij = -w_ij e e^T`, so `W_i V_i = (1/4) sum_j w_ij (e . (u_j -
+/// u_i))^2`, never negative, and a rigid motion gives 0). The values sum to `u.A u / 2`. Used
+/// for the bond models; LPS scenes report [`linpd_lps::LpsModel::linearized_energy_density`]
+/// and coarsened levels the same split read from the columns of `K`.
 pub fn energy_and_force_flux(model: &dyn Model, volumes: &[f64], u: &[f64]) -> Option<(Vec<f64>, NodalStress)> {
     let d = model.dim();
     let n = model.n_nodes();

@@ -326,7 +326,7 @@ pub(crate) fn surface_of(
 }
 
 /// The solution of a bond-based model (`n_bonds` bonds, cut ones included): balance, strain
-/// and the strain energy density from its blocks ([`crate::balance::nodal_energy`]).
+/// and the strain energy density from its blocks ([`crate::stress::energy_and_force_flux`]).
 pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f64>, report: SolveReport) -> Solution {
     let nodes = p.nodes();
     let balance = p.balance(&|u, y| linpd_core::Model::apply(model, u, y), &u);

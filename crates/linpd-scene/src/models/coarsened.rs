@@ -332,7 +332,7 @@ fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: SolveReport) -
 }
 
 /// The strain energy `W_i V_i` of every node of a level with a **symmetric** `K`: as for the
-/// bond model ([`crate::balance::nodal_energy`]), with zero block-row sums (`K_ii = -sum_{j != i}
+/// bond model ([`crate::stress::energy_and_force_flux`]), with zero block-row sums (`K_ii = -sum_{j != i}
 /// K_ij`, true of every level by construction) and `K_ji = K_ij^T`,
 ///
 /// ```text

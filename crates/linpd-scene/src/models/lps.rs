@@ -108,11 +108,11 @@ impl ModelType for LpsType {
             && raw.material.phases.is_empty()
             && raw.material.defects.is_empty()
             && surface_of(true, raw.surface_correction, raw.surface_target)?.correction == SurfaceCorrection::None;
-        let grid =
-            crate::validate::lattice_for(cx, raw.horizon, &|grid| memory_path(grid, plain, &cx.raw.solver, None))?;
+        let spec = crate::validate::solver_spec(&cx.raw.solver)?;
+        let grid = crate::validate::lattice_for(cx, raw.horizon, &|grid| memory_path(grid, plain, &spec, None))?;
         let ratio = raw.horizon / grid.spacing();
         // the tangent's assembly work, where the solve assembles it
-        if memory_path(&grid, plain, &cx.raw.solver, None).0 == crate::memory::Path::LpsAssembled {
+        if memory_path(&grid, plain, &spec, None).0 == crate::memory::Path::LpsAssembled {
             crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(dim, ratio), ratio)?;
         }
         let params = params(dim, &raw)?;
@@ -241,34 +241,18 @@ fn phases(raw: &RawMaterial, dim: usize, nodes: &Nodes, params: &LpsParams) -> R
     Ok((out, Some((bulk, shear))))
 }
 
-/// The memory path of an lps lattice scene and whether it builds a multigrid hierarchy, at
-/// validation (`spec`: the raw solver) or before the solve (`n_free` known): matrix-free CG
-/// when asked, or when `auto` will run it ([`auto_runs_matrix_free`]); the assembled tangent
-/// otherwise.
+/// The memory path of an lps lattice scene solved by `spec` and whether it builds a multigrid
+/// hierarchy: matrix-free CG when asked, or when `auto` will run it ([`auto_runs_matrix_free`];
+/// `n_free`: `None` at validation), the assembled tangent otherwise.
 fn memory_path(
     grid: &linpd_core::Grid,
     plain: bool,
-    raw: &crate::raw::RawSolver,
+    spec: &SolverSpec,
     n_free: Option<usize>,
 ) -> (crate::memory::Path, bool) {
-    use crate::raw::{RawPreconditioner, RawSolverKind};
-    let multigrid = raw.preconditioner == Some(RawPreconditioner::Multigrid);
-    if raw.matrix_free {
-        return (crate::memory::Path::LpsMatrixFree, multigrid);
-    }
-    if raw.kind == RawSolverKind::Auto && auto_runs_matrix_free(grid, plain, n_free) {
-        return (crate::memory::Path::LpsMatrixFree, true);
-    }
-    (crate::memory::Path::LpsAssembled, multigrid)
-}
-
-/// [`memory_path`] for the validated solver `spec` and the scene's free DOFs.
-fn solve_path(grid: &linpd_core::Grid, plain: bool, spec: &SolverSpec, n_free: usize) -> (crate::memory::Path, bool) {
     match spec {
         SolverSpec::Cg { matrix_free: true, .. } => (crate::memory::Path::LpsMatrixFree, spec.uses_multigrid()),
-        SolverSpec::Auto(_) if auto_runs_matrix_free(grid, plain, Some(n_free)) => {
-            (crate::memory::Path::LpsMatrixFree, true)
-        }
+        SolverSpec::Auto(_) if auto_runs_matrix_free(grid, plain, n_free) => (crate::memory::Path::LpsMatrixFree, true),
         _ => (crate::memory::Path::LpsAssembled, spec.uses_multigrid()),
     }
 }
@@ -379,7 +363,7 @@ impl SceneModel for LpsSceneModel {
             }
             (Some(grid), Purpose::Solve) => {
                 let n_free = p.constrained().0.iter().filter(|&&m| !m).count();
-                let (path, multigrid) = solve_path(grid, self.plain(), p.solver(), n_free);
+                let (path, multigrid) = memory_path(grid, self.plain(), p.solver(), Some(n_free));
                 if path == crate::memory::Path::LpsAssembled {
                     let ratio = self.params.horizon / grid.spacing();
                     crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(p.dim(), ratio), ratio)?;
