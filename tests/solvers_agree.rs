@@ -273,7 +273,15 @@ fn multigrid_cg_agrees_with_cholesky_on_bond_lps_and_heterogeneous_scenes() {
         };
         assert!(mf.report.solver.to_string().starts_with("cg-multigrid-matrix-free"), "{name}: {}", mf.report.solver);
         assert!(mf.report.solver.to_string().ends_with(fast), "{name}: {}", mf.report.solver);
-        assert_eq!(mf.report.iterations, Some(it), "{name}: matrix-free multigrid");
+        // 3D homogeneous lattices with delta >= 3h put the geometric level on top
+        // (`LatticeMultigrid`): their own iteration count, under the same cap
+        let summary = mf.report.preconditioner.clone().unwrap_or_default();
+        if summary.starts_with("geometric multigrid") {
+            let mf_it = mf.report.iterations.unwrap();
+            assert!(mf_it <= cap, "{name}: {mf_it} iterations with the geometric level (cap {cap})");
+        } else {
+            assert_eq!(mf.report.iterations, Some(it), "{name}: matrix-free multigrid");
+        }
         let diff: Vec<f64> = mf.u.iter().zip(&chol.u).map(|(a, b)| a - b).collect();
         assert!(
             max_abs(&diff) <= 1e-8 * max_abs(&chol.u),

@@ -49,7 +49,9 @@ pub use family::BondFamily;
 pub use grid::{Grid, Placement};
 pub use kernel::{Kernel, Micromodulus, Normalization, PlaneModel};
 pub use material::{BondRule, Defect, Material};
-pub use model::{AssembledModel, FastApply, Model, ModelOperator, Ordering, SpdApproximation, SpdApproximationKind};
+pub use model::{
+    AssembledModel, CoarseLattice, FastApply, Model, ModelOperator, Ordering, SpdApproximation, SpdApproximationKind,
+};
 pub use op::{FnOperator, LinearOperator};
 pub use ordering::{nested_dissection, planar_nested_dissection, two_hop_stencil};
 pub use progress::{NoProgress, Progress};

@@ -67,6 +67,28 @@ pub struct FastApply<'a> {
     pub label: &'static str,
 }
 
+/// The same model re-discretized on the lattice of twice the spacing: the coarse level of a
+/// geometric multigrid ([`Model::coarse_lattice`]).
+///
+/// The fine model's nodes are the sites of a full lattice box with `counts` sites per axis,
+/// numbered lexicographically (axis 0 fastest); the coarse model's nodes are the sites
+/// `(2I, 2J, 2K)` of that lattice, extended by one fine spacing where a count is even, so
+/// that every fine site lies in a coarse cell: coarse node `(I, J, K)` is number
+/// `I + nc_0 (J + nc_1 K)` with `nc_a = ceil((counts_a - 1) / 2) + 1`.
+pub struct CoarseLattice<'a> {
+    /// The coarse model (same material and horizon, spacing `2h`).
+    pub model: Box<dyn Model + 'a>,
+    /// Fine sites per axis (1 on unused axes).
+    pub counts: [usize; 3],
+}
+
+impl CoarseLattice<'_> {
+    /// Coarse sites per axis for `counts` fine sites (see the type's docs).
+    pub fn coarse_counts(counts: [usize; 3]) -> [usize; 3] {
+        counts.map(|n| (n.max(1) - 1).div_ceil(2) + 1)
+    }
+}
+
 /// A static linear peridynamic model: `F_int = -A u` (see the module docs).
 pub trait Model: Sync {
     /// The model family for messages (`"bond"`, `"lps"`, `"coarsened"`).
@@ -127,6 +149,13 @@ pub trait Model: Sync {
     /// it and preconditions CG on `A` with it. `None` (the default): the hierarchy is `A`'s
     /// own. The LPS tangent offers its pair part (one horizon against two).
     fn multigrid_companion(&self) -> Option<Box<dyn Model + '_>> {
+        None
+    }
+    /// The model re-discretized on the lattice of twice its spacing, when it is a homogeneous
+    /// lattice model for which that coarse model is a good coarse space (see
+    /// [`CoarseLattice`]); the matrix-free multigrid then puts a geometric level on top of its
+    /// algebraic ones. `None` (the default): algebraic levels only.
+    fn coarse_lattice(&self) -> Option<CoarseLattice<'_>> {
         None
     }
     /// Why the model cannot run matrix-free (`None`: it can).

@@ -29,7 +29,7 @@ pub use krylov::gmres::{gmres, gmres_with_progress, GmresError, GmresInfo, Gmres
 pub use linpd_core::sparse::{diagonal, matvec, relative_residual, sym_matvec, GeneralCsc, SymCsc};
 pub use linpd_core::LinearOperator;
 pub use precond::amg::{rigid_body_modes, Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
-pub use precond::{DofGeometry, FactorPreconditioner, Identity, Jacobi, Preconditioner};
+pub use precond::{CoarseSpace, DofGeometry, FactorPreconditioner, Identity, Jacobi, LatticeMultigrid, Preconditioner};
 pub use report::{peak_rss_bytes, SolveReport, Timings};
 pub use spec::{
     CholeskyOrdering, GmresPreconditioner, MatrixFree, ModelInput, PreconditionerInput, PreconditionerKind, SolverId,

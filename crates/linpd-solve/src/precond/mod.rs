@@ -19,7 +19,7 @@ mod geometry;
 mod jacobi;
 
 pub use crate::krylov::preconditioner::{Identity, Preconditioner};
-pub use amg::{Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
+pub use amg::{Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats, CoarseSpace, LatticeMultigrid};
 pub use factor::FactorPreconditioner;
 pub use geometry::DofGeometry;
 pub use jacobi::Jacobi;

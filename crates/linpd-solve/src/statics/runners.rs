@@ -11,7 +11,7 @@ use crate::bc::ReducedOperator;
 use crate::direct::{dense_lu_solve, dense_solve, Cholesky, Lu, LuOrdering};
 use crate::krylov::cg::{pcg_with_progress, CgError, CgParams};
 use crate::krylov::gmres::{gmres_with_progress, GmresParams};
-use crate::precond::{DofGeometry, FactorPreconditioner};
+use crate::precond::{AmgParams, CoarseSpace, DofGeometry, FactorPreconditioner, LatticeMultigrid, Preconditioner};
 use crate::report::{peak_rss_bytes, SolveReport};
 use crate::spec::{
     CholeskyOrdering, MatrixFree, ModelInput, PreconditionerInput, PreconditionerKind, SolverId, SolverSpec,
@@ -354,15 +354,34 @@ pub(super) fn matrix_free_cg(
         (Some(_), Some(fa)) => &*fa.op,
         (Some(_), None) => &source_op,
     };
-    let geometry = (preconditioner != PreconditionerKind::Jacobi).then(|| DofGeometry::of(source, dofs));
-    let input = PreconditionerInput {
-        diagonal: &diag,
-        matrix: None,
-        geometry: geometry.as_ref(),
-        model: Some(ModelInput { model: source, dofs, full: source_full }),
+    // A lattice model with a coarse lattice gets the geometric top level
+    // (`LatticeMultigrid`); the others the SA hierarchy of the model (or its companion).
+    let space = match (preconditioner, &companion) {
+        (PreconditionerKind::Multigrid, None) => CoarseSpace::new(model, dofs),
+        _ => None,
     };
+    let geometry =
+        (preconditioner != PreconditionerKind::Jacobi && space.is_none()).then(|| DofGeometry::of(source, dofs));
+    let coarse_fast = space.as_ref().map(|s| (s.model().fast_apply(), ModelOperator(s.model())));
     let task = Task::start(progress, &format!("{} preconditioner setup", preconditioner.name()), None);
-    let m_inv = preconditioner.build(&input)?;
+    let m_inv: Box<dyn Preconditioner> = match (&space, &coarse_fast) {
+        (Some(space), Some((cfast, cmodel))) => {
+            let cfull: &dyn LinearOperator = match cfast {
+                Some(fa) => &*fa.op,
+                None => cmodel,
+            };
+            Box::new(LatticeMultigrid::new(full, dofs, &diag, space, cfull, &AmgParams::default())?)
+        }
+        _ => {
+            let input = PreconditionerInput {
+                diagonal: &diag,
+                matrix: None,
+                geometry: geometry.as_ref(),
+                model: Some(ModelInput { model: source, dofs, full: source_full }),
+            };
+            preconditioner.build(&input)?
+        }
+    };
     drop(task);
     let t_setup = t.elapsed().as_secs_f64();
     let mut u = vec![0.0; dofs.n_free()];

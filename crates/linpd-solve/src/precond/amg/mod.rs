@@ -108,12 +108,14 @@
 
 mod aggregate;
 mod filter;
+mod geometric;
 mod level;
 mod prolongator;
 mod smoother;
 mod streamed;
 mod vbr;
 
+pub use geometric::{CoarseSpace, LatticeMultigrid};
 pub use prolongator::rigid_body_modes;
 pub use smoother::AmgSmoother;
 

@@ -4,6 +4,23 @@
 use super::level::LevelMatrix;
 use rayon::prelude::*;
 
+/// What the smoothers and the spectral estimate need of a level's matrix: its products.
+pub(crate) trait Product: Sync {
+    /// `y = A x`.
+    fn matvec(&self, x: &[f64], y: &mut [f64]);
+    /// `y -= A x`.
+    fn matvec_sub(&self, x: &[f64], y: &mut [f64]);
+}
+
+impl<T: LevelMatrix + ?Sized> Product for T {
+    fn matvec(&self, x: &[f64], y: &mut [f64]) {
+        LevelMatrix::matvec(self, x, y)
+    }
+    fn matvec_sub(&self, x: &[f64], y: &mut [f64]) {
+        LevelMatrix::matvec_sub(self, x, y)
+    }
+}
+
 /// Vector kernels below this length run sequentially (a rayon task costs more).
 const PAR_MIN: usize = 4096;
 
@@ -12,8 +29,8 @@ const PAR_MIN: usize = 4096;
 /// bound that converges fastest at the spectrum's ends (Saad, *Numerical Methods for Large
 /// Eigenvalue Problems*, ch. 6). No reorthogonalization: lost orthogonality only duplicates
 /// converged Ritz values, it does not move the largest one.
-pub(crate) fn spectral_radius(a: &dyn LevelMatrix, dinv: &[f64], steps: usize) -> f64 {
-    let n = a.nrows();
+pub(crate) fn spectral_radius<A: Product + ?Sized>(a: &A, dinv: &[f64], steps: usize) -> f64 {
+    let n = dinv.len();
     let steps = steps.min(n).max(1);
     let sq: Vec<f64> = dinv.iter().map(|d| d.sqrt()).collect();
     let mut seed = 0x9E37_79B9_7F4A_7C15u64;
@@ -125,9 +142,9 @@ impl Smoother {
     /// `D^{-1} A` times the error, self-adjoint in the `A` inner product, so running the same
     /// smoother before and after the coarse correction keeps the V-cycle symmetric.
     #[allow(clippy::too_many_arguments)]
-    pub fn smooth(
+    pub fn smooth<A: Product + ?Sized>(
         &self,
-        a: &dyn LevelMatrix,
+        a: &A,
         b: &[f64],
         x: &mut [f64],
         r: &mut [f64],

@@ -1,0 +1,463 @@
+//! A geometric top level for lattice models: the model re-discretized on the lattice of twice
+//! its spacing ([`Model::coarse_lattice`]) is the first coarse level, reached by trilinear
+//! interpolation; smoothed aggregation ([`Amg`]) takes over from there.
+//!
+//! # The cycle
+//!
+//! With `A = A_ff` on the fine lattice, `A_c` the coarse model's `A_ff` on the coarse free
+//! DOFs, `P` the interpolation and `R = P^T`, one application `x = M^{-1} b` is
+//!
+//! ```text
+//! x = S(0, b)                 Chebyshev smoothing in D^{-1} A (the SA levels' smoother)
+//! x = x + P B_c R (b - A x)   B_c: one SA-AMG V-cycle for A_c
+//! x = S(x, b)
+//! ```
+//!
+//! `B_c` is symmetric positive definite and the smoother's error propagator self-adjoint in
+//! the `A` inner product with norm below 1, so `M^{-1}` is symmetric positive definite, as CG
+//! requires: the coarse correction need not be Galerkin (`A_c != R A P`) for that.
+//!
+//! # Why re-discretize rather than `R A P`
+//!
+//! The Galerkin product of a `delta = 3h` stencil (123 sites) with trilinear `P` couples coarse
+//! sites up to 3.5 coarse spacings apart: ~300 blocks a coarse row, 8x fewer rows than the
+//! fine level but about as many entries as `A` itself. The PD operator on the coarse lattice
+//! with the same horizon (`delta = 1.5 (2h)`, 18 partners) is a stencil, applied without
+//! storage, and is the same continuum operator at the wavelengths the coarse level has to
+//! correct: smooth errors see the same elastic moduli (the micromodulus is normalized on each
+//! lattice). Where the two differ (the surface skin, the clamp one fine spacing off) the
+//! smoother and CG absorb it: on the `linpd bench` cantilevers CG takes 18-22 iterations from
+//! 30^3 to 100^3 against SA-AMG's 15-19, with a setup of one spectral estimate and an SA
+//! hierarchy of an 8x smaller stencil (docs/solvers.md).
+//!
+//! # Interpolation
+//!
+//! Along each axis a fine site `s` takes the coarse site `s / 2` with weight 1 when `s` is
+//! even, the coarse sites `(s - 1) / 2` and `(s + 1) / 2` with weight 1/2 each when odd; the
+//! weights of a 3D site are the products (1, 1/2, 1/4 or 1/8, exact in `f32`). This
+//! reproduces every affine displacement field, the rigid motions among them. Component `q` of
+//! a coarse site is a coarse unknown when some free fine DOF of component `q` interpolates
+//! from it; the others are held at zero, like the fine constrained DOFs they cover.
+//!
+//! # Supports the coarse lattice does not see
+//!
+//! A coarse unknown stays free while one of its fine DOFs is free, so a support narrower than
+//! two spacings (a held node, a roller line) does not reach the coarse model, which can then
+//! move rigidly: on a block held by rollers and two point supports the coarse matrix was
+//! singular. The coarse model therefore carries springs where the fine one is held: each held
+//! fine DOF `(n, q)` adds `a_nn w_c` to the diagonal of every free coarse DOF `(c, q)` it
+//! interpolates from with weight `w_c`, `a_nn` its fine diagonal entry (the lumped form of
+//! the Galerkin penalty `a_nn p p^T` that a stiff spring at the held DOF gives). On a clamped
+//! face the springs sit on the coarse sites beside the face and move the coarse clamp onto the
+//! fine one.
+
+use super::smoother::{self, Product, Smoother};
+use super::{split_at_bounds, Amg, AmgError, AmgParams};
+use crate::bc::ReducedOperator;
+use crate::krylov::preconditioner::Preconditioner;
+use linpd_core::{CoarseLattice, DofMap, LinearOperator, Model};
+use rayon::prelude::*;
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// The coarse lattice of a model: the coarse model, its free DOFs and the interpolation from
+/// them to the fine free DOFs (see the module docs).
+pub struct CoarseSpace<'m> {
+    model: Held<'m>,
+    dofs: DofMap,
+    /// `P`: a row per fine free DOF.
+    p: Csr,
+    /// `R = P^T`: a row per coarse free DOF.
+    r: Csr,
+}
+
+/// A compressed sparse row matrix of interpolation weights.
+struct Csr {
+    ptr: Vec<usize>,
+    idx: Vec<u32>,
+    val: Vec<f32>,
+}
+
+impl Csr {
+    /// Row `i`'s entries from `row(i, push)`, in parallel.
+    fn build(n: usize, max_row: usize, row: impl Fn(usize, &mut dyn FnMut(u32, f32)) + Sync) -> Csr {
+        let counts: Vec<usize> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let mut c = 0;
+                row(i, &mut |_, _| c += 1);
+                c
+            })
+            .collect();
+        let mut ptr = Vec::with_capacity(n + 1);
+        ptr.push(0);
+        for c in counts {
+            ptr.push(ptr.last().unwrap() + c);
+        }
+        debug_assert!(ptr.windows(2).all(|w| w[1] - w[0] <= max_row));
+        let mut idx = vec![0u32; ptr[n]];
+        let mut val = vec![0f32; ptr[n]];
+        let rows_i = split_at_bounds(&mut idx, ptr.iter().copied());
+        let rows_v = split_at_bounds(&mut val, ptr.iter().copied());
+        rows_i.into_par_iter().zip(rows_v).enumerate().for_each(|(i, (ri, rv))| {
+            let mut k = 0;
+            row(i, &mut |j, w| {
+                ri[k] = j;
+                rv[k] = w;
+                k += 1;
+            });
+        });
+        Csr { ptr, idx, val }
+    }
+
+    /// `y = A x` (`add`: `y += A x`).
+    fn matvec(&self, x: &[f64], y: &mut [f64], add: bool) {
+        y.par_iter_mut().with_min_len(1024).enumerate().for_each(|(i, y)| {
+            let s: f64 = (self.ptr[i]..self.ptr[i + 1]).map(|e| self.val[e] as f64 * x[self.idx[e] as usize]).sum();
+            *y = if add { *y + s } else { s };
+        });
+    }
+
+    fn bytes(&self) -> usize {
+        8 * self.ptr.len() + 8 * self.idx.len()
+    }
+}
+
+/// Lexicographic number of site `s` in a box of `counts` sites per axis.
+fn site_number(s: [usize; 3], counts: [usize; 3]) -> usize {
+    s[0] + counts[0] * (s[1] + counts[1] * s[2])
+}
+
+/// Site of number `n` (the inverse of [`site_number`]).
+fn site_of(n: usize, counts: [usize; 3]) -> [usize; 3] {
+    [n % counts[0], (n / counts[0]) % counts[1], n / (counts[0] * counts[1])]
+}
+
+/// Per axis, the coarse sites of fine site `s` and their weights (module docs).
+fn axis_weights(s: usize) -> ([usize; 2], [f32; 2], usize) {
+    if s.is_multiple_of(2) {
+        ([s / 2, 0], [1.0, 0.0], 1)
+    } else {
+        ([s / 2, s.div_ceil(2)], [0.5, 0.5], 2)
+    }
+}
+
+/// Calls `f(coarse site, weight)` for the (up to 8) coarse sites of fine site `s`.
+fn for_each_coarse(s: [usize; 3], f: &mut dyn FnMut([usize; 3], f32)) {
+    let w = s.map(axis_weights);
+    for a in 0..w[0].2 {
+        for b in 0..w[1].2 {
+            for c in 0..w[2].2 {
+                f([w[0].0[a], w[1].0[b], w[2].0[c]], w[0].1[a] * w[1].1[b] * w[2].1[c]);
+            }
+        }
+    }
+}
+
+/// Calls `f(fine site, weight)` for the (up to 27) fine sites that coarse site `c` reaches.
+fn for_each_fine(c: [usize; 3], counts: [usize; 3], f: &mut dyn FnMut([usize; 3], f32)) {
+    let range = |a: usize| {
+        let centre = 2 * c[a];
+        let lo = centre.saturating_sub(1);
+        let hi = (centre + 1).min(counts[a] - 1);
+        (lo..=hi).map(move |s| (s, if s == centre { 1.0f32 } else { 0.5 }))
+    };
+    for (k, wk) in range(2) {
+        for (j, wj) in range(1) {
+            for (i, wi) in range(0) {
+                f([i, j, k], wi * wj * wk);
+            }
+        }
+    }
+}
+
+impl<'m> CoarseSpace<'m> {
+    /// The coarse space of `model` for the free DOFs `dofs`, when the model offers a coarse
+    /// lattice ([`Model::coarse_lattice`]) and it keeps some free DOF.
+    pub fn new(model: &'m dyn Model, dofs: &DofMap) -> Option<Self> {
+        let CoarseLattice { model: coarse, counts } = model.coarse_lattice()?;
+        let d = model.dim();
+        let nc = CoarseLattice::coarse_counts(counts);
+        if site_number([0, 0, counts[2]], counts) != model.n_nodes()
+            || site_number([0, 0, nc[2]], nc) != coarse.n_nodes()
+            || coarse.dim() != d
+            || dofs.n_dofs() > u32::MAX as usize
+        {
+            return None;
+        }
+        let fine_free = |n: usize, q: usize| dofs.free(d * n + q);
+        // A coarse component is free when a free fine DOF of that component interpolates from it.
+        let mask: Vec<bool> = (0..coarse.n_nodes() * d)
+            .into_par_iter()
+            .map(|dof| {
+                let (c, q) = (dof / d, dof % d);
+                let mut free = false;
+                for_each_fine(site_of(c, nc), counts, &mut |s, _| {
+                    free |= fine_free(site_number(s, counts), q).is_some();
+                });
+                !free
+            })
+            .collect();
+        let cdofs = DofMap::new(d, &mask);
+        if cdofs.n_free() == 0 {
+            return None;
+        }
+        let diag = model.diagonal();
+        let springs: Vec<f64> = (0..coarse.n_nodes() * d)
+            .into_par_iter()
+            .map(|dof| {
+                let (c, q) = (dof / d, dof % d);
+                let mut k = 0.0;
+                if !mask[dof] {
+                    for_each_fine(site_of(c, nc), counts, &mut |s, w| {
+                        let fine = d * site_number(s, counts) + q;
+                        if dofs.is_constrained(fine) {
+                            k += diag[fine] * w as f64;
+                        }
+                    });
+                }
+                k
+            })
+            .collect();
+        let fine_rows = dofs.free_dofs();
+        let coarse_rows = cdofs.free_dofs();
+        let p = Csr::build(fine_rows.len(), 8, |i, push| {
+            let (n, q) = (fine_rows[i] / d, fine_rows[i] % d);
+            for_each_coarse(site_of(n, counts), &mut |c, w| {
+                if let Some(j) = cdofs.free(d * site_number(c, nc) + q) {
+                    push(j as u32, w);
+                }
+            });
+        });
+        let r = Csr::build(coarse_rows.len(), 27, |j, push| {
+            let (c, q) = (coarse_rows[j] / d, coarse_rows[j] % d);
+            for_each_fine(site_of(c, nc), counts, &mut |s, w| {
+                if let Some(i) = fine_free(site_number(s, counts), q) {
+                    push(i as u32, w);
+                }
+            });
+        });
+        Some(CoarseSpace { model: Held { inner: coarse, springs }, dofs: cdofs, p, r })
+    }
+
+    /// The coarse model, with the springs of the fine supports (module docs).
+    pub fn model(&self) -> &dyn Model {
+        &self.model
+    }
+
+    /// The coarse free DOFs.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// `x += P x_c`: the coarse free values `x_c` interpolated to the fine free DOFs.
+    pub fn interpolate_add(&self, xc: &[f64], x: &mut [f64]) {
+        assert_eq!((xc.len(), x.len()), (self.dofs.n_free(), self.p.ptr.len() - 1), "vector sizes");
+        self.p.matvec(xc, x, true);
+    }
+
+    /// `y_c = R y = P^T y`: fine free values restricted to the coarse free DOFs.
+    pub fn restrict(&self, y: &[f64], yc: &mut [f64]) {
+        assert_eq!((y.len(), yc.len()), (self.p.ptr.len() - 1, self.dofs.n_free()), "vector sizes");
+        self.r.matvec(y, yc, false);
+    }
+}
+
+/// The coarse model plus diagonal springs (module docs, "Supports the coarse lattice does not
+/// see").
+struct Held<'m> {
+    inner: Box<dyn Model + 'm>,
+    /// Spring stiffness per coarse DOF (0 on most).
+    springs: Vec<f64>,
+}
+
+/// `y = A x + K x` of the inner operator `A` and the springs `K`.
+struct WithSprings<'s> {
+    inner: Box<dyn LinearOperator + 's>,
+    springs: &'s [f64],
+}
+
+impl LinearOperator for WithSprings<'_> {
+    fn n(&self) -> usize {
+        self.inner.n()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        self.inner.apply(x, y);
+        y.par_iter_mut().with_min_len(4096).zip(x).zip(self.springs).for_each(|((y, x), k)| *y += k * x);
+    }
+}
+
+impl Model for Held<'_> {
+    fn kind(&self) -> &'static str {
+        self.inner.kind()
+    }
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+    fn n_nodes(&self) -> usize {
+        self.inner.n_nodes()
+    }
+    fn position(&self, i: usize) -> linpd_core::Point {
+        self.inner.position(i)
+    }
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        self.inner.for_each_partner(i, f)
+    }
+    fn apply(&self, u: &[f64], y: &mut [f64]) {
+        WithSprings { inner: Box::new(linpd_core::ModelOperator(&*self.inner)), springs: &self.springs }.apply(u, y)
+    }
+    fn diagonal(&self) -> Vec<f64> {
+        self.inner.diagonal().iter().zip(&self.springs).map(|(a, k)| a + k).collect()
+    }
+    fn assemble_free(&self, dofs: &DofMap) -> linpd_core::sparse::Csc {
+        let a = self.inner.assemble_free(dofs);
+        let (n, mut triplets) = (a.nrows(), Vec::new());
+        let (cp, ri, v) = (a.symbolic().col_ptr(), a.symbolic().row_idx(), a.val());
+        for j in 0..n {
+            for e in cp[j]..cp[j + 1] {
+                triplets.push(faer::sparse::Triplet::new(ri[e], j, v[e]));
+            }
+        }
+        for (dof, &k) in self.springs.iter().enumerate() {
+            if let Some(i) = dofs.free(dof).filter(|_| k != 0.0) {
+                triplets.push(faer::sparse::Triplet::new(i, i, k));
+            }
+        }
+        linpd_core::sparse::Csc::try_new_from_triplets(n, n, &triplets).expect("the inner matrix's pattern")
+    }
+    fn fast_apply(&self) -> Option<linpd_core::FastApply<'_>> {
+        let inner = self.inner.fast_apply()?;
+        Some(linpd_core::FastApply {
+            op: Box::new(WithSprings { inner: inner.op, springs: &self.springs }),
+            label: inner.label,
+        })
+    }
+    fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
+        let d = self.inner.dim();
+        self.inner.for_each_block(i, &mut |j, block| {
+            if j == i {
+                let mut b = block.to_vec();
+                (0..d).for_each(|q| b[q * d + q] += self.springs[d * i + q]);
+                f(j, &b);
+            } else {
+                f(j, block);
+            }
+        })
+    }
+}
+
+/// `A_ff` through the model's apply, with the `y -= A x` the smoother needs.
+struct Fine<'a> {
+    op: ReducedOperator<'a>,
+    scratch: Mutex<Vec<f64>>,
+}
+
+impl Product for Fine<'_> {
+    fn matvec(&self, x: &[f64], y: &mut [f64]) {
+        self.op.apply(x, y);
+    }
+    fn matvec_sub(&self, x: &[f64], y: &mut [f64]) {
+        let mut t = self.scratch.lock().unwrap_or_else(|p| p.into_inner());
+        t.resize(y.len(), 0.0);
+        self.op.apply(x, &mut t);
+        smoother::add(y, &t, -1.0);
+    }
+}
+
+/// Multigrid-CG's preconditioner on a lattice model with a coarse lattice: the geometric
+/// top level over SA-AMG (see the module docs).
+pub struct LatticeMultigrid<'a> {
+    fine: Fine<'a>,
+    smoother: Smoother,
+    space: &'a CoarseSpace<'a>,
+    coarse: Amg<'a>,
+    /// `[r, d, b_c, x_c]` of the cycle, kept between applications.
+    work: Mutex<[Vec<f64>; 4]>,
+    rho: f64,
+    setup_seconds: f64,
+}
+
+impl std::fmt::Debug for LatticeMultigrid<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "LatticeMultigrid({:?})", self.summary())
+    }
+}
+
+impl<'a> LatticeMultigrid<'a> {
+    /// The preconditioner for `A_ff` of the model applied by `full` (over all DOFs) on `dofs`,
+    /// with its free diagonal `diag`; `space` is the model's [`CoarseSpace`] and `coarse_full`
+    /// the coarse model's apply over all its DOFs (its stencil).
+    pub fn new(
+        full: &'a dyn LinearOperator,
+        dofs: &'a DofMap,
+        diag: &[f64],
+        space: &'a CoarseSpace<'a>,
+        coarse_full: &'a dyn LinearOperator,
+        params: &AmgParams,
+    ) -> Result<Self, AmgError> {
+        let t = Instant::now();
+        params.validate()?;
+        if let Some((row, &value)) = diag.iter().enumerate().find(|(_, &v)| !(v > 0.0)) {
+            return Err(AmgError::NonPositiveDiagonal { level: 0, row, value });
+        }
+        let fine = Fine { op: ReducedOperator::new(full, dofs), scratch: Mutex::new(Vec::new()) };
+        let dinv: Vec<f64> = diag.iter().map(|v| 1.0 / v).collect();
+        let rho = smoother::spectral_radius(&fine, &dinv, params.lanczos_steps);
+        if !(rho > 0.0 && rho.is_finite()) {
+            return Err(AmgError::BadSpectrum { level: 0, value: rho });
+        }
+        let coarse = Amg::matrix_free(space.model(), space.dofs(), coarse_full, params)?;
+        Ok(LatticeMultigrid {
+            fine,
+            smoother: Smoother::new(params.smoother, dinv, rho),
+            space,
+            coarse,
+            work: Mutex::new(Default::default()),
+            rho,
+            setup_seconds: t.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Bytes the preconditioner holds besides the model: `P`, `R`, the smoother's diagonal
+    /// and the coarse hierarchy.
+    pub fn memory_bytes(&self) -> usize {
+        self.space.p.bytes() + self.space.r.bytes() + 8 * self.space.p.ptr.len() + self.coarse.stats().memory_bytes
+    }
+
+    /// The SA-AMG hierarchy below the geometric level.
+    pub fn coarse(&self) -> &Amg<'a> {
+        &self.coarse
+    }
+}
+
+impl Preconditioner for LatticeMultigrid<'_> {
+    fn apply(&self, b: &[f64], x: &mut [f64]) {
+        let nc = self.space.dofs.n_free();
+        let mut fresh: [Vec<f64>; 4] = Default::default();
+        let mut kept = self.work.try_lock().ok();
+        let [r, d, bc, xc] = kept.as_deref_mut().unwrap_or(&mut fresh);
+        r.resize(b.len(), 0.0);
+        d.resize(b.len(), 0.0);
+        bc.resize(nc, 0.0);
+        xc.resize(nc, 0.0);
+        self.smoother.smooth(&self.fine, b, x, r, d, true, true);
+        self.space.restrict(r, bc);
+        xc.iter_mut().for_each(|v| *v = 0.0);
+        self.coarse.apply(bc, xc);
+        self.space.interpolate_add(xc, x);
+        self.smoother.smooth(&self.fine, b, x, r, d, false, false);
+    }
+    fn summary(&self) -> Option<String> {
+        let rows: Vec<String> = self.coarse.stats().levels.iter().map(|l| l.rows.to_string()).collect();
+        Some(format!(
+            "geometric multigrid: {} rows > lattice 2h re-discretized > SA-AMG, {} levels ({} rows), \
+             rho(D^-1 A) {:.3}, finest level matrix-free, {:.1} MiB, setup {:.2} s",
+            self.space.p.ptr.len() - 1,
+            rows.len(),
+            rows.join(" > "),
+            self.rho,
+            self.memory_bytes() as f64 / 1048576.0,
+            self.setup_seconds
+        ))
+    }
+}
