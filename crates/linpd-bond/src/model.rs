@@ -210,6 +210,13 @@ impl LatticeBondModel {
     }
 }
 
+/// Whether a homogeneous stencil in dimension `dim` with `ratio = delta / h` offers its
+/// coarse lattice ([`Model::coarse_lattice`]): 3D with `delta >= 3h` (the reasons are on
+/// that method).
+pub fn coarse_lattice_applies(dim: usize, ratio: f64) -> bool {
+    dim == 3 && ratio >= 3.0 * (1.0 - 1e-9)
+}
+
 impl Model for LatticeBondModel {
     fn kind(&self) -> &'static str {
         "bond"
@@ -276,7 +283,7 @@ impl Model for LatticeBondModel {
         let (_, mm) = self.stencil.as_ref()?;
         let g = &self.grid;
         let h = g.spacing();
-        if g.dim() != 3 || !g.is_full() || !g.has_uniform_volumes() || self.horizon < 3.0 * h * (1.0 - 1e-9) {
+        if !coarse_lattice_applies(g.dim(), self.horizon / h) || !g.is_full() || !g.has_uniform_volumes() {
             return None;
         }
         let counts = g.counts();

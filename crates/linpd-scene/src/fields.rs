@@ -161,13 +161,15 @@ pub fn nodal_strain(model: &dyn Model, volumes: &[f64], u: &[f64]) -> NodalStrai
     let n = model.n_nodes();
     assert_eq!(volumes.len(), n, "one volume per node");
     assert_eq!(u.len(), d * n, "displacement length");
+    // positions read once (see `stress::energy_and_force_flux`)
+    let x: Vec<linpd_core::Point> = (0..n).into_par_iter().map(|i| model.position(i)).collect();
     let per_node: Vec<Option<[f64; 9]>> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let xi_i = model.position(i);
+            let xi_i = x[i];
             let mut moments = Moments::default();
             model.for_each_partner(i, &mut |j| {
-                let xj = model.position(j);
+                let xj = x[j];
                 let (mut xi, mut eta) = ([0.0; 3], [0.0; 3]);
                 for a in 0..d {
                     xi[a] = xj[a] - xi_i[a];

@@ -393,25 +393,41 @@ pub fn multigrid_dof_bytes(dim: usize, matrix_free: bool) -> f64 {
 /// bonds are stored, so the peak is that of writing the outputs (the nodal strain, stress and
 /// energy fields and result.json / result.vtu / u.csv built in memory). Fits of two sizes
 /// each, `/usr/bin/time` peaks of `linpd solve` with Jacobi-CG: 3D cantilevers 56^3 / 76^3
-/// (943 B), 2D plates 405^2 / 805^2 (713 B).
+/// (617 B, refitted 2026-11-27 after the VTU writer and the nodal fields were rewritten;
+/// 943 B before), 2D plates 405^2 / 805^2 (713 B).
 pub fn stencil_dof_bytes(dim: usize) -> f64 {
     if dim == 3 {
-        950.0
+        620.0
     } else {
         720.0
     }
 }
 
-/// Per DOF, what multigrid adds to [`stencil_dof_bytes`] besides the bond graph it
-/// aggregates on ([`GRAPH_BOND_BYTES`] a bond): the same fits with multigrid-CG put its setup's
-/// peak (the graph, the hierarchy, the filtered level-0 matrix) 280 B a DOF above the outputs'
-/// in 3D (`delta = 3h`: 163 B of graph) and 35 B in 2D (`2h`: 24 B of graph).
+/// Per DOF, what smoothed-aggregation multigrid adds to [`stencil_dof_bytes`] besides the bond
+/// graph it aggregates on ([`GRAPH_BOND_BYTES`] a bond): its setup's peak (the graph, the
+/// hierarchy, the filtered level-0 matrix) lies above the outputs'. Fits of the same two sizes
+/// with multigrid-CG: 3D at `delta = 2h` (54^3 / 74^3: 1207 B a DOF in all, 43 B of graph), 2D
+/// at `2h` (35 B above the outputs, 24 B of graph). 3D lattices with `delta >= 3h` take the
+/// geometric level instead ([`geometric_multigrid_bytes`]).
 pub fn stencil_multigrid_dof_bytes(dim: usize) -> f64 {
     if dim == 3 {
-        140.0
+        470.0
     } else {
         20.0
     }
+}
+
+/// What the geometric multigrid of a 3D stencil with `delta >= 3h` adds to the outputs'
+/// peak ([`stencil_dof_bytes`]) for `nodes` nodes with `ratio = delta / h`
+/// (`linpd_solve::LatticeMultigrid`): the SA hierarchy of the coarse lattice, an eighth of the
+/// nodes with the families of `ratio / 2`, counted like [`stencil_multigrid_dof_bytes`]; the
+/// interpolation (8 bytes an entry, ~3.4 entries a fine DOF, and its transpose) and the
+/// smoother's vectors are freed before the outputs are built. Against `/usr/bin/time` peaks of
+/// `linpd solve` on the 56^3 / 76^3 cantilevers at `delta = 3h`: estimates 1.04x / 1.06x.
+pub fn geometric_multigrid_bytes(nodes: usize, ratio: f64) -> f64 {
+    let coarse_nodes = nodes as f64 / 8.0;
+    let nb = neighbours(3, ratio / 2.0).min(coarse_nodes);
+    coarse_nodes * (3.0 * stencil_multigrid_dof_bytes(3) + nb * GRAPH_BOND_BYTES)
 }
 
 /// Per bond (counted from both ends), the interaction graph multigrid aggregates its finest
@@ -430,6 +446,9 @@ pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> R
     if multigrid {
         let dofs = (grid.len() * grid.dim()) as f64;
         bytes += match path {
+            Path::BondStencil if linpd_bond::coarse_lattice_applies(grid.dim(), horizon / grid.spacing()) => {
+                geometric_multigrid_bytes(grid.len(), horizon / grid.spacing())
+            }
             Path::BondStencil | Path::LpsMatrixFree => {
                 let nb = neighbours(grid.dim(), horizon / grid.spacing()).min(grid.len() as f64);
                 let per_dof = match path {

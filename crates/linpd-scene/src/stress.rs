@@ -204,16 +204,19 @@ pub fn energy_and_force_flux(model: &dyn Model, volumes: &[f64], u: &[f64]) -> O
     if n > 0 && !model.for_each_block(0, &mut |_, _| {}) {
         return None;
     }
+    // positions read once: a model's `position` may compute them (a lattice's from its index),
+    // and each is read from every partner's row
+    let x: Vec<linpd_core::Point> = (0..n).into_par_iter().map(|i| model.position(i)).collect();
     let (energy, tensor) = (0..n)
         .into_par_iter()
         .map(|i| {
-            let xi_i = model.position(i);
+            let xi_i = x[i];
             let (mut w, mut s) = (0.0, [0.0; 9]);
             model.for_each_block(i, &mut |j, b| {
                 if j == i {
                     return;
                 }
-                let xj = model.position(j);
+                let xj = x[j];
                 let mut du = [0.0; 3];
                 (0..d).for_each(|a| du[a] = u[d * j + a] - u[d * i + a]);
                 // f = -A_ij du; the energy's term -(1/4) du . A_ij du = du . f / 4

@@ -52,7 +52,8 @@ fn interpolation_reproduces_affine_fields_and_restriction_is_its_transpose() {
     for nodes in [9, 10] {
         let fine = model(3, nodes, 3.0);
         let free = DofMap::all_free(fine.n_nodes(), 3);
-        let space = CoarseSpace::new(&fine, &free).expect("a 3D stencil with delta = 3h has a coarse lattice");
+        let space = CoarseSpace::new(&fine, &free, &fine.diagonal())
+            .expect("a 3D stencil with delta = 3h has a coarse lattice");
         let coarse = space.model();
         assert_eq!(space.dofs().n_free(), 3 * coarse.n_nodes());
         let xc: Vec<f64> = (0..3 * coarse.n_nodes()).map(|dof| affine(coarse.position(dof / 3), dof % 3)).collect();
@@ -77,7 +78,7 @@ fn interpolation_reproduces_affine_fields_and_restriction_is_its_transpose() {
 fn coarse_unknowns_follow_the_fine_constraints() {
     let fine = model(3, 9, 3.0);
     let free = dofs(&fine, |k, _| k[0] <= 2);
-    let space = CoarseSpace::new(&fine, &free).unwrap();
+    let space = CoarseSpace::new(&fine, &free, &fine.diagonal()).unwrap();
     let coarse = space.model();
     for n in 0..coarse.n_nodes() {
         let x = coarse.position(n)[0];
@@ -89,7 +90,7 @@ fn coarse_unknowns_follow_the_fine_constraints() {
 
 /// Multigrid-PCG with the geometric top level, to rtol 1e-12: the solution, the iterations.
 fn solve(model: &LatticeBondModel, dofs: &DofMap, load: [f64; 3]) -> (Vec<f64>, usize, String) {
-    let space = CoarseSpace::new(model, dofs).unwrap();
+    let space = CoarseSpace::new(model, dofs, &model.diagonal()).unwrap();
     let fast = model.fast_apply().unwrap();
     let cfast = space.model().fast_apply().unwrap();
     let diag = dofs.gather(&model.diagonal());
@@ -134,7 +135,7 @@ fn iterations_are_flat_in_the_size() {
         .map(|&n| {
             let fine = model(3, n, 3.0);
             let dofs = dofs(&fine, |k, _| k[0] < 3);
-            let space = CoarseSpace::new(&fine, &dofs).unwrap();
+            let space = CoarseSpace::new(&fine, &dofs, &fine.diagonal()).unwrap();
             let fast = fine.fast_apply().unwrap();
             let cfast = space.model().fast_apply().unwrap();
             let diag = dofs.gather(&fine.diagonal());
@@ -159,7 +160,7 @@ fn iterations_are_flat_in_the_size() {
 fn v_cycle_is_symmetric_positive_definite() {
     let fine = model(3, 12, 3.0);
     let dofs = dofs(&fine, |k, _| k[0] < 3);
-    let space = CoarseSpace::new(&fine, &dofs).unwrap();
+    let space = CoarseSpace::new(&fine, &dofs, &fine.diagonal()).unwrap();
     let fast = fine.fast_apply().unwrap();
     let cfast = space.model().fast_apply().unwrap();
     let diag = dofs.gather(&fine.diagonal());

@@ -337,7 +337,8 @@ pub(super) fn matrix_free_cg(
         PreconditionerKind::Jacobi => None,
     };
     let source: &dyn Model = companion.as_deref().unwrap_or(model);
-    let diag = dofs.gather(&source.diagonal());
+    let full_diag = source.diagonal();
+    let diag = dofs.gather(&full_diag);
     finite_vector("the stiffness (its diagonal over the free DOFs)", &diag)?;
     finite_vector(REDUCED_LOAD, rhs)?;
     let t = Instant::now();
@@ -357,7 +358,7 @@ pub(super) fn matrix_free_cg(
     // A lattice model with a coarse lattice gets the geometric top level
     // (`LatticeMultigrid`); the others the SA hierarchy of the model (or its companion).
     let space = match (preconditioner, &companion) {
-        (PreconditionerKind::Multigrid, None) => CoarseSpace::new(model, dofs),
+        (PreconditionerKind::Multigrid, None) => CoarseSpace::new(model, dofs, &full_diag),
         _ => None,
     };
     let geometry =

@@ -69,6 +69,8 @@ pub struct CoarseSpace<'m> {
     p: Csr,
     /// `R = P^T`: a row per coarse free DOF.
     r: Csr,
+    /// Seconds to build it.
+    seconds: f64,
 }
 
 /// A compressed sparse row matrix of interpolation weights.
@@ -173,8 +175,10 @@ fn for_each_fine(c: [usize; 3], counts: [usize; 3], f: &mut dyn FnMut([usize; 3]
 
 impl<'m> CoarseSpace<'m> {
     /// The coarse space of `model` for the free DOFs `dofs`, when the model offers a coarse
-    /// lattice ([`Model::coarse_lattice`]) and it keeps some free DOF.
-    pub fn new(model: &'m dyn Model, dofs: &DofMap) -> Option<Self> {
+    /// lattice ([`Model::coarse_lattice`]) and it keeps some free DOF; `diag` is the model's
+    /// diagonal over all DOFs ([`Model::diagonal`]: the springs read its held entries).
+    pub fn new(model: &'m dyn Model, dofs: &DofMap, diag: &[f64]) -> Option<Self> {
+        let t = Instant::now();
         let CoarseLattice { model: coarse, counts } = model.coarse_lattice()?;
         let d = model.dim();
         let nc = CoarseLattice::coarse_counts(counts);
@@ -182,6 +186,7 @@ impl<'m> CoarseSpace<'m> {
             || site_number([0, 0, nc[2]], nc) != coarse.n_nodes()
             || coarse.dim() != d
             || dofs.n_dofs() > u32::MAX as usize
+            || diag.len() != dofs.n_dofs()
         {
             return None;
         }
@@ -202,7 +207,6 @@ impl<'m> CoarseSpace<'m> {
         if cdofs.n_free() == 0 {
             return None;
         }
-        let diag = model.diagonal();
         let springs: Vec<f64> = (0..coarse.n_nodes() * d)
             .into_par_iter()
             .map(|dof| {
@@ -237,7 +241,13 @@ impl<'m> CoarseSpace<'m> {
                 }
             });
         });
-        Some(CoarseSpace { model: Held { inner: coarse, springs }, dofs: cdofs, p, r })
+        Some(CoarseSpace {
+            model: Held { inner: coarse, springs },
+            dofs: cdofs,
+            p,
+            r,
+            seconds: t.elapsed().as_secs_f64(),
+        })
     }
 
     /// The coarse model, with the springs of the fine supports (module docs).
@@ -374,7 +384,8 @@ pub struct LatticeMultigrid<'a> {
     /// `[r, d, b_c, x_c]` of the cycle, kept between applications.
     work: Mutex<[Vec<f64>; 4]>,
     rho: f64,
-    setup_seconds: f64,
+    /// Seconds of the spectral estimate and of the SA hierarchy.
+    times: [f64; 2],
 }
 
 impl std::fmt::Debug for LatticeMultigrid<'_> {
@@ -406,6 +417,7 @@ impl<'a> LatticeMultigrid<'a> {
         if !(rho > 0.0 && rho.is_finite()) {
             return Err(AmgError::BadSpectrum { level: 0, value: rho });
         }
+        let t_spectral = t.elapsed().as_secs_f64();
         let coarse = Amg::matrix_free(space.model(), space.dofs(), coarse_full, params)?;
         Ok(LatticeMultigrid {
             fine,
@@ -414,7 +426,7 @@ impl<'a> LatticeMultigrid<'a> {
             coarse,
             work: Mutex::new(Default::default()),
             rho,
-            setup_seconds: t.elapsed().as_secs_f64(),
+            times: [t_spectral, t.elapsed().as_secs_f64() - t_spectral],
         })
     }
 
@@ -451,13 +463,17 @@ impl Preconditioner for LatticeMultigrid<'_> {
         let rows: Vec<String> = self.coarse.stats().levels.iter().map(|l| l.rows.to_string()).collect();
         Some(format!(
             "geometric multigrid: {} rows > lattice 2h re-discretized > SA-AMG, {} levels ({} rows), \
-             rho(D^-1 A) {:.3}, finest level matrix-free, {:.1} MiB, setup {:.2} s",
+             rho(D^-1 A) {:.3}, finest level matrix-free, {:.1} MiB, setup {:.2} s (interpolation {:.2}, \
+             spectral estimate {:.2}, SA levels {:.2})",
             self.space.p.ptr.len() - 1,
             rows.len(),
             rows.join(" > "),
             self.rho,
             self.memory_bytes() as f64 / 1048576.0,
-            self.setup_seconds
+            self.space.seconds + self.times[0] + self.times[1],
+            self.space.seconds,
+            self.times[0],
+            self.times[1]
         ))
     }
 }
