@@ -1,7 +1,7 @@
 """The measurements of docs/scale-out.md, in one run:
 
     python3 python/bench/scale_out.py [--spacing-cells 47] [--ranks 1 2 4] [--out DIR]
-        [--model bond|lps] [--linpd-solvers multigrid jacobi auto]
+        [--model bond|lps] [--horizon-cells 2] [--linpd-solvers multigrid jacobi auto]
 
 A 3D bond scene (the unit cube, `spacing = 1 / cells`, `horizon = 2 spacing`, clamped below, a
 resultant load on top; 345,600 DOFs and 324,864 unknowns for 47 cells) is solved by linpd's own
@@ -27,17 +27,17 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def scene(cells: int, solver: dict, model: str = "bond") -> dict:
+def scene(cells: int, solver: dict, model: str = "bond", m: int = 2) -> dict:
     h = 1.0 / cells
     if model == "lps":
-        physics = {"type": "lps", "horizon": 2 * h, "bulk_modulus": 13.0 / 6.0, "shear_modulus": 1.0}
+        physics = {"type": "lps", "horizon": m * h, "bulk_modulus": 13.0 / 6.0, "shear_modulus": 1.0}
     else:
-        physics = {"type": "bond", "horizon": 2 * h,
+        physics = {"type": "bond", "horizon": m * h,
                    "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0, "normalize": "continuum"}}
     return {
         "name": "cube-scale-out-3d",
         "dimension": 3,
-        "grid": {"min": [0, 0, 0], "max": [1, 1, 1], "spacing": h, "layer": {"z-": 2 * h}},
+        "grid": {"min": [0, 0, 0], "max": [1, 1, 1], "spacing": h, "layer": {"z-": m * h}},
         "model": physics,
         "constraints": [{"region": {"box": {"min": [-1, -1, -1], "max": [2, 2, 0]}},
                          "displacement": {"value": [0, 0, 0]}}],
@@ -55,6 +55,8 @@ def main() -> int:
     ap.add_argument("--out", default=str(ROOT / "target" / "scale-out"))
     ap.add_argument("--linpd-solvers", nargs="*", default=["multigrid", "jacobi"])
     ap.add_argument("--model", choices=["bond", "lps"], default="bond")
+    ap.add_argument("--horizon-cells", type=int, default=2,
+                    help="delta / h (3 puts linpd's geometric multigrid level on bond lattices)")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -63,7 +65,7 @@ def main() -> int:
     for pre in args.linpd_solvers:
         path = out / f"scene-{pre}.json"
         solver = {"type": "auto"} if pre == "auto" else {"type": "cg", "preconditioner": pre}
-        path.write_text(json.dumps(scene(args.spacing_cells, solver, args.model)))
+        path.write_text(json.dumps(scene(args.spacing_cells, solver, args.model, args.horizon_cells)))
         t = time.perf_counter()
         p = subprocess.run([binary, "solve", str(path), "--out", str(out / pre), "-q"], capture_output=True, text=True)
         wall = time.perf_counter() - t
@@ -76,7 +78,7 @@ def main() -> int:
                      s["timings"]["setup"], s["timings"]["solve"], wall, s["rel_residual"],
                      [s["peak_rss_bytes"]], np.max(np.abs(u - u_ref)) / np.max(np.abs(u_ref))))
     path = out / "scene-petsc.json"
-    path.write_text(json.dumps(scene(args.spacing_cells, {"type": "auto"}, args.model)))
+    path.write_text(json.dumps(scene(args.spacing_cells, {"type": "auto"}, args.model, args.horizon_cells)))
     py = os.environ.get("LINPD_PETSC_PYTHON", "/usr/bin/python3")
     for ranks in args.ranks:
         cmd = ["mpiexec", "-n", str(ranks)] + (["--allow-run-as-root"] if os.geteuid() == 0 else [])

@@ -477,3 +477,61 @@ impl Preconditioner for LatticeMultigrid<'_> {
         ))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The coarse model with springs is one operator four ways: its apply, fast apply, blocks,
+    /// diagonal and assembled `A_ff` agree to round-off (`1e-12` relative to the largest
+    /// entry: sums of ~20 terms).
+    #[test]
+    fn springs_are_one_operator_every_way() {
+        let mm = linpd_core::Micromodulus {
+            kernel: linpd_core::Kernel::InverseDistance,
+            normalization: linpd_core::Normalization::Discrete,
+            modulus: 1.0,
+            plane: None,
+            partial_volume: false,
+        };
+        let grid = linpd_core::Grid::new(&[0.0; 3], &[8.0; 3], 1.0, 0.0, linpd_core::Placement::Vertex).unwrap();
+        let fine = linpd_bond::LatticeBondModel::stencil(grid, 3.0, mm).unwrap();
+        let mask: Vec<bool> = (0..3 * fine.n_nodes()).map(|dof| dof / 3 % 9 == 0 || dof == 3 * 40 + 2).collect();
+        let dofs = DofMap::new(3, &mask);
+        let space = CoarseSpace::new(&fine, &dofs, &fine.diagonal()).unwrap();
+        let held = &space.model;
+        assert!(held.springs.iter().any(|&k| k > 0.0));
+        let n = 3 * held.n_nodes();
+        let x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64 / 101.0 - 0.5).collect();
+        let (mut y_model, mut y_fast, mut y_blocks) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        held.apply(&x, &mut y_model);
+        held.fast_apply().unwrap().op.apply(&x, &mut y_fast);
+        let mut diag = vec![0.0; n];
+        for i in 0..held.n_nodes() {
+            assert!(held.for_each_block(i, &mut |j, b| {
+                for a in 0..3 {
+                    for c in 0..3 {
+                        y_blocks[3 * i + a] += b[3 * a + c] * x[3 * j + c];
+                    }
+                    if j == i {
+                        diag[3 * i + a] = b[3 * a + a];
+                    }
+                }
+            }));
+        }
+        let scale = held.diagonal().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(p, q)| (p - q).abs() <= 1e-12 * scale);
+        assert!(close(&y_model, &y_fast) && close(&y_model, &y_blocks));
+        assert!(close(&diag, &held.diagonal()));
+        let cd = space.dofs();
+        let a = held.assemble_free(cd);
+        let xf = cd.gather(&x);
+        let mut yf = vec![0.0; cd.n_free()];
+        linpd_core::sparse::matvec(&a, &xf, &mut yf);
+        let mut x_zero = vec![0.0; n];
+        cd.scatter(&xf, &mut x_zero);
+        let mut y_full = vec![0.0; n];
+        held.apply(&x_zero, &mut y_full);
+        assert!(close(&yf, &cd.gather(&y_full)));
+    }
+}
