@@ -39,6 +39,6 @@ pub mod surface;
 pub use assemble::{assemble, Pattern};
 pub use corrected::CorrectedStencil;
 pub use linpd_core::{nested_dissection, planar_nested_dissection};
-pub use model::{coarse_lattice_applies, LatticeBondModel};
+pub use model::{offers_coarse_lattice, LatticeBondModel};
 pub use operator::{pmb_force, BondOperator};
 pub use stencil::StencilOperator;

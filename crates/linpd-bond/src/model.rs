@@ -210,11 +210,49 @@ impl LatticeBondModel {
     }
 }
 
-/// Whether a homogeneous stencil in dimension `dim` with `ratio = delta / h` offers its
-/// coarse lattice ([`Model::coarse_lattice`]): 3D with `delta >= 3h` (the reasons are on
-/// that method).
-pub fn coarse_lattice_applies(dim: usize, ratio: f64) -> bool {
-    dim == 3 && ratio >= 3.0 * (1.0 - 1e-9)
+/// Whether the homogeneous stencil of `micromodulus` with `horizon` on `grid` offers its coarse
+/// lattice ([`Model::coarse_lattice`] of [`LatticeBondModel::stencil`]): see
+/// [`coarse_lattice_of`]. The memory estimate asks it before anything is built.
+pub fn offers_coarse_lattice(grid: &Grid, horizon: f64, micromodulus: &Micromodulus) -> bool {
+    coarse_lattice_of(grid, horizon, micromodulus).is_some()
+}
+
+/// The lattice of spacing `2h` whose site `I` is the fine site `2I` (one spacing beyond the box
+/// where a count is even: [`linpd_core::CoarseLattice`]) and the stencil of the same
+/// micromodulus and horizon on it, when they make a good coarse level:
+///
+/// * 3D (on the 401^2 plate with `delta = 2h` a coarse level with its horizon raised to 3 or
+///   4 fine spacings took 30 iterations against SA's 17: 2D keeps the algebraic levels);
+/// * `delta >= 3h`, so `delta >= 1.5 (2h)`: the 18 nearest coarse sites or more (at `2h` the
+///   coarse lattice would keep only the 6 axis bonds, which carry no shear);
+/// * at least 3 sites along every axis, the full box with volumes `h^3`;
+/// * a kernel that does not vanish at the coarse axis and face-diagonal offsets (a tabulated
+///   kernel zero beyond `0.6 delta` leaves a fine lattice SPD and its coarse stencil empty).
+pub(crate) fn coarse_lattice_of(grid: &Grid, horizon: f64, mm: &Micromodulus) -> Option<(Grid, StencilOperator)> {
+    let h = grid.spacing();
+    let counts = grid.counts();
+    if grid.dim() != 3
+        || horizon < 3.0 * h * (1.0 - 1e-9)
+        || !grid.is_full()
+        || !grid.has_uniform_volumes()
+        || counts.iter().any(|&n| n < 3)
+    {
+        return None;
+    }
+    let nc = linpd_core::CoarseLattice::coarse_counts(counts);
+    let min = grid.site_position([0; 3]);
+    let max: Vec<f64> = (0..3).map(|a| min[a] + 2.0 * h * (nc[a] - 1) as f64).collect();
+    let coarse = Grid::new(&min, &max, 2.0 * h, 0.0, linpd_core::Placement::Vertex).ok()?;
+    crate::operator::check_lattice_inputs(&coarse, horizon, mm, &linpd_core::Material::default()).ok()?;
+    mm.amplitude(3, horizon, 2.0 * h).ok()?;
+    let stencil = StencilOperator::new(&coarse, horizon, mm).ok()?;
+    let stiff = |k: [i64; 3]| {
+        stencil.offsets().iter().position(|o| *o == k).is_some_and(|s| {
+            let b = stencil.block(s);
+            b[0] + b[4] + b[8] > 0.0
+        })
+    };
+    (stiff([1, 0, 0]) && stiff([1, 1, 0])).then_some((coarse, stencil))
 }
 
 impl Model for LatticeBondModel {
@@ -273,30 +311,20 @@ impl Model for LatticeBondModel {
         let stencil = grid_stencil(&self.grid, self.horizon / self.grid.spacing());
         Ordering::NestedDissection(nested_dissection(&self.grid, &stencil, dofs))
     }
-    /// The stencil of a homogeneous material on the full box, or the [`CorrectedStencil`].
-    /// The homogeneous 3D stencil on a full box with `delta >= 3h`: the same micromodulus and
-    /// horizon on the lattice of spacing `2h` (so `delta >= 1.5 (2h)`: the 18 nearest sites or
-    /// more; at `delta = 2h` the coarse lattice would keep only the 6 axis bonds, which carry
-    /// no shear). 2D lattices keep the algebraic levels: on the 401^2 plate with
-    /// `delta = 2h` the geometric level took 30 iterations against 17 (docs/solvers.md).
+    /// The homogeneous stencil's model on the coarse lattice of [`coarse_lattice_of`].
     fn coarse_lattice(&self) -> Option<linpd_core::CoarseLattice<'_>> {
         let (_, mm) = self.stencil.as_ref()?;
-        let g = &self.grid;
-        let h = g.spacing();
-        if !coarse_lattice_applies(g.dim(), self.horizon / h) || !g.is_full() || !g.has_uniform_volumes() {
-            return None;
-        }
-        let counts = g.counts();
-        if counts.iter().any(|&n| n < 3) {
-            return None;
-        }
-        let nc = linpd_core::CoarseLattice::coarse_counts(counts);
-        let min = g.site_position([0; 3]);
-        let max: Vec<f64> = (0..3).map(|a| min[a] + 2.0 * h * (nc[a] - 1) as f64).collect();
-        let coarse = Grid::new(&min, &max, 2.0 * h, 0.0, linpd_core::Placement::Vertex).ok()?;
-        let model = LatticeBondModel::stencil(coarse, self.horizon, mm.clone()).ok()?;
-        Some(linpd_core::CoarseLattice { model: Box::new(model), counts })
+        let (coarse, stencil) = coarse_lattice_of(&self.grid, self.horizon, mm)?;
+        let model = LatticeBondModel {
+            op: OnceLock::new(),
+            grid: coarse,
+            stencil: Some((stencil, mm.clone())),
+            horizon: self.horizon,
+            corrected: None,
+        };
+        Some(linpd_core::CoarseLattice { model: Box::new(model), counts: self.grid.counts() })
     }
+    /// The stencil of a homogeneous material on the full box, or the [`CorrectedStencil`].
     fn fast_apply(&self) -> Option<FastApply<'_>> {
         if let Some((st, _)) = &self.stencil {
             return Some(FastApply { op: Box::new(st), label: "stencil" });

@@ -151,8 +151,12 @@ pub enum Path {
     /// Bond-based operator applied matrix-free (CG or explicit dynamics).
     BondMatrixFree,
     /// The homogeneous lattice stencil applied matrix-free, without per-bond data
-    /// (`linpd_bond::LatticeBondModel::stencil`).
+    /// (`linpd_bond::LatticeBondModel::stencil`); its multigrid is smoothed aggregation.
     BondStencil,
+    /// [`Path::BondStencil`] on a lattice that offers its coarse lattice
+    /// (`linpd_bond::offers_coarse_lattice`): the multigrid puts the geometric level on top
+    /// (`linpd_solve::LatticeMultigrid`).
+    BondStencilGeometric,
     /// The LPS tangent, assembled.
     LpsAssembled,
     /// The LPS tangent applied matrix-free (the per-bond lists, the stencils on a homogeneous
@@ -201,7 +205,7 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
             format!("the matrix-free operator and CG vectors of {nodes} nodes with ~{nb:.0} bonds each"),
             base + dofs * MATRIX_FREE_DOF_BYTES,
         ),
-        Path::BondStencil => (
+        Path::BondStencil | Path::BondStencilGeometric => (
             format!("the lattice stencil, the CG vectors and the outputs of {nodes} nodes"),
             n * NODE_BYTES + dofs * stencil_dof_bytes(dim),
         ),
@@ -430,6 +434,16 @@ pub fn geometric_multigrid_bytes(nodes: usize, ratio: f64) -> f64 {
     coarse_nodes * (3.0 * stencil_multigrid_dof_bytes(3) + nb * GRAPH_BOND_BYTES)
 }
 
+/// The path of the homogeneous stencil of `micromodulus` on `grid`: [`Path::BondStencilGeometric`]
+/// when it offers its coarse lattice, else [`Path::BondStencil`].
+pub fn stencil_path(grid: &Grid, horizon: f64, micromodulus: &linpd_core::Micromodulus) -> Path {
+    if linpd_bond::offers_coarse_lattice(grid, horizon, micromodulus) {
+        Path::BondStencilGeometric
+    } else {
+        Path::BondStencil
+    }
+}
+
 /// Per bond (counted from both ends), the interaction graph multigrid aggregates its finest
 /// level on (`linpd_solve::DofGeometry::partners`: one `u32`).
 pub const GRAPH_BOND_BYTES: f64 = 4.0;
@@ -446,9 +460,7 @@ pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> R
     if multigrid {
         let dofs = (grid.len() * grid.dim()) as f64;
         bytes += match path {
-            Path::BondStencil if linpd_bond::coarse_lattice_applies(grid.dim(), horizon / grid.spacing()) => {
-                geometric_multigrid_bytes(grid.len(), horizon / grid.spacing())
-            }
+            Path::BondStencilGeometric => geometric_multigrid_bytes(grid.len(), horizon / grid.spacing()),
             Path::BondStencil | Path::LpsMatrixFree => {
                 let nb = neighbours(grid.dim(), horizon / grid.spacing()).min(grid.len() as f64);
                 let per_dof = match path {

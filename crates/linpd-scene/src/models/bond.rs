@@ -39,9 +39,16 @@ impl ModelType for BondType {
         let plain = raw.material.phases.is_empty()
             && raw.material.defects.is_empty()
             && matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
+        // for the memory estimate only: BondModel::validate below reports a bad micromodulus
+        let ramp = crate::models::bond_model::RawPartialVolume::quadrature(raw.partial_volume, false)
+            == linpd_bond::quadrature::Quadrature::Ramp;
+        let mm = crate::validate::bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, ramp).ok();
         let matrix_free_path = |grid: &linpd_core::Grid| {
             if plain && grid.is_full() && grid.has_uniform_volumes() {
-                crate::memory::Path::BondStencil
+                match &mm {
+                    Some(mm) => crate::memory::stencil_path(grid, raw.horizon, mm),
+                    None => crate::memory::Path::BondStencil,
+                }
             } else {
                 crate::memory::Path::BondMatrixFree
             }

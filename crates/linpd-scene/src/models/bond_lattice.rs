@@ -55,15 +55,15 @@ pub(crate) fn plain_stencil(b: &BondModel, grid: &linpd_core::Grid) -> bool {
 /// The memory check of a bond model on a lattice before it is built for `purpose` (the
 /// solver may have changed since validation: [`Problem::set_solver`]); `Ok` holds the
 /// estimate in bytes (`None` for rows, which assemble nothing whole).
-/// `plain`: the model is the homogeneous stencil alone ([`plain_stencil`]), whose matrix-free
-/// paths hold no bonds ([`crate::memory::Path::BondStencil`]).
+/// `stencil`: the path of the homogeneous stencil alone when the model is one
+/// ([`plain_stencil`], [`crate::memory::stencil_path`]), whose matrix-free paths hold no bonds.
 pub(crate) fn check_memory(
     p: &Problem,
     horizon: f64,
     purpose: Purpose,
-    plain: bool,
+    stencil: Option<Path>,
 ) -> Result<Option<f64>, ProblemError> {
-    let matrix_free = if plain { Path::BondStencil } else { Path::BondMatrixFree };
+    let matrix_free = stencil.unwrap_or(Path::BondMatrixFree);
     let (path, multigrid) = match (purpose, p.solver()) {
         (Purpose::Rows, _) => return Ok(None),
         (Purpose::Assembled, _) => (Path::BondAssembled, false),
@@ -120,7 +120,10 @@ impl SceneModel for BondLatticeModel {
         None
     }
     fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
-        let memory_estimate = check_memory(p, self.bond.horizon, purpose, plain_stencil(&self.bond, p.lattice()?))?;
+        let grid = p.lattice()?;
+        let stencil = plain_stencil(&self.bond, grid)
+            .then(|| crate::memory::stencil_path(grid, self.bond.horizon, &self.bond.micromodulus));
+        let memory_estimate = check_memory(p, self.bond.horizon, purpose, stencil)?;
         progress.phase(&bond::building(p, self.bond.horizon));
         let (model, correction) = self.build(p)?;
         Ok(System {

@@ -361,19 +361,28 @@ pub(super) fn matrix_free_cg(
         (PreconditionerKind::Multigrid, None) => CoarseSpace::new(model, dofs, &full_diag),
         _ => None,
     };
-    let geometry =
-        (preconditioner != PreconditionerKind::Jacobi && space.is_none()).then(|| DofGeometry::of(source, dofs));
     let coarse_fast = space.as_ref().map(|s| (s.model().fast_apply(), ModelOperator(s.model())));
     let task = Task::start(progress, &format!("{} preconditioner setup", preconditioner.name()), None);
-    let m_inv: Box<dyn Preconditioner> = match (&space, &coarse_fast) {
+    // The geometric level, or why it failed (its coarse SA setup: a smoothed aggregation of the
+    // fine level may still work, so that runs instead and the report says why).
+    let mut fallback = None;
+    let geometric = match (&space, &coarse_fast) {
         (Some(space), Some((cfast, cmodel))) => {
             let cfull: &dyn LinearOperator = match cfast {
                 Some(fa) => &*fa.op,
                 None => cmodel,
             };
-            Box::new(LatticeMultigrid::new(full, dofs, &diag, space, cfull, &AmgParams::default())?)
+            LatticeMultigrid::new(full, dofs, &diag, space, cfull, &AmgParams::default())
+                .map_err(|e| fallback = Some(e.to_string()))
+                .ok()
         }
-        _ => {
+        _ => None,
+    };
+    let geometry =
+        (preconditioner != PreconditionerKind::Jacobi && geometric.is_none()).then(|| DofGeometry::of(source, dofs));
+    let m_inv: Box<dyn Preconditioner> = match geometric {
+        Some(m) => Box::new(m),
+        None => {
             let input = PreconditionerInput {
                 diagonal: &diag,
                 matrix: None,
@@ -391,6 +400,9 @@ pub(super) fn matrix_free_cg(
     let id = SolverId::Cg { preconditioner, matrix_free: how };
     let mut report = SolveReport::new(id, dofs.n_free(), 0);
     report.preconditioner = m_inv.summary();
+    if let Some(e) = fallback {
+        report.notes.push(format!("the geometric multigrid level failed ({e}): smoothed aggregation ran instead"));
+    }
     if let Some(c) = &companion {
         report.notes.push(format!(
             "the multigrid hierarchy is built from the model's SPD companion ({}), CG runs on the {} model",

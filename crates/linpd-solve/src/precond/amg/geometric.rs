@@ -14,20 +14,25 @@
 //! ```
 //!
 //! `B_c` is symmetric positive definite and the smoother's error propagator self-adjoint in
-//! the `A` inner product with norm below 1, so `M^{-1}` is symmetric positive definite, as CG
-//! requires: the coarse correction need not be Galerkin (`A_c != R A P`) for that.
+//! the `A` inner product, with norm below 1 when the Chebyshev interval's upper end
+//! (`1.1 rho`, `rho` the Lanczos estimate, a lower bound) lies above the true
+//! `rho(D^{-1} A)` by enough (for degree 1: `rho(D^{-1} A) < (1.1 + 1/30) rho`), as for the SA
+//! levels. Then `M^{-1}` is symmetric positive definite, as CG requires: the coarse correction
+//! need not be Galerkin (`A_c != R A P`) for that. (With 6 Lanczos steps instead of 15 the
+//! 70^3 cantilever took 68 iterations instead of 21: the estimate was too low.)
 //!
 //! # Why re-discretize rather than `R A P`
 //!
-//! The Galerkin product of a `delta = 3h` stencil (123 sites) with trilinear `P` couples coarse
-//! sites up to 3.5 coarse spacings apart: ~300 blocks a coarse row, 8x fewer rows than the
-//! fine level but about as many entries as `A` itself. The PD operator on the coarse lattice
+//! The Galerkin product of a `delta = 3h` stencil (123 sites) with trilinear `P` couples a
+//! coarse site with 117 others (up to 3 coarse spacings apart), and computing it means forming
+//! `A P`, 33-56 blocks a fine row: about the flops of SA's Galerkin product, which is what the
+//! setup should lose. The PD operator on the coarse lattice
 //! with the same horizon (`delta = 1.5 (2h)`, 18 partners) is a stencil, applied without
 //! storage, and is the same continuum operator at the wavelengths the coarse level has to
 //! correct: smooth errors see the same elastic moduli (the micromodulus is normalized on each
 //! lattice). Where the two differ (the surface skin, the clamp one fine spacing off) the
-//! smoother and CG absorb it: on the `linpd bench` cantilevers CG takes 18-22 iterations from
-//! 30^3 to 100^3 against SA-AMG's 15-19, with a setup of one spectral estimate and an SA
+//! smoother and CG absorb it: on the `linpd bench` cantilevers CG takes 16-19 iterations from
+//! 20^3 to 150^3 against SA-AMG's 14-19, with a setup of one spectral estimate and an SA
 //! hierarchy of an 8x smaller stencil (docs/solvers.md).
 //!
 //! # Interpolation
@@ -384,6 +389,8 @@ pub struct LatticeMultigrid<'a> {
     /// `[r, d, b_c, x_c]` of the cycle, kept between applications.
     work: Mutex<[Vec<f64>; 4]>,
     rho: f64,
+    /// DOFs of the fine model (free and held).
+    fine_dofs: usize,
     /// Seconds of the spectral estimate and of the SA hierarchy.
     times: [f64; 2],
 }
@@ -408,6 +415,24 @@ impl<'a> LatticeMultigrid<'a> {
     ) -> Result<Self, AmgError> {
         let t = Instant::now();
         params.validate()?;
+        let n = dofs.n_free();
+        if diag.len() != n || space.p.ptr.len() != n + 1 || full.n() != dofs.n_dofs() {
+            return Err(AmgError::Input(format!(
+                "the diagonal ({}), the interpolation's rows ({}) or the operator ({}) do not match the {n} free of \
+                 {} DOFs",
+                diag.len(),
+                space.p.ptr.len() - 1,
+                full.n(),
+                dofs.n_dofs()
+            )));
+        }
+        if coarse_full.n() != space.dofs.n_dofs() {
+            return Err(AmgError::Input(format!(
+                "the coarse operator has {} DOFs, the coarse model {}",
+                coarse_full.n(),
+                space.dofs.n_dofs()
+            )));
+        }
         if let Some((row, &value)) = diag.iter().enumerate().find(|(_, &v)| !(v > 0.0)) {
             return Err(AmgError::NonPositiveDiagonal { level: 0, row, value });
         }
@@ -426,14 +451,20 @@ impl<'a> LatticeMultigrid<'a> {
             coarse,
             work: Mutex::new(Default::default()),
             rho,
+            fine_dofs: dofs.n_dofs(),
             times: [t_spectral, t.elapsed().as_secs_f64() - t_spectral],
         })
     }
 
-    /// Bytes the preconditioner holds besides the model: `P`, `R`, the smoother's diagonal
-    /// and the coarse hierarchy.
+    /// Bytes the preconditioner holds besides the model: `P`, `R`, the smoother's diagonal,
+    /// the fine level's work vectors (the reduced operator's two over all DOFs, three over the
+    /// free ones) and the coarse hierarchy with its two vectors.
     pub fn memory_bytes(&self) -> usize {
-        self.space.p.bytes() + self.space.r.bytes() + 8 * self.space.p.ptr.len() + self.coarse.stats().memory_bytes
+        let (n, nc) = (self.space.p.ptr.len() - 1, self.space.dofs.n_free());
+        self.space.p.bytes()
+            + self.space.r.bytes()
+            + 8 * (n + 2 * self.fine_dofs + 3 * n + 2 * nc)
+            + self.coarse.stats().memory_bytes
     }
 
     /// The SA-AMG hierarchy below the geometric level.
