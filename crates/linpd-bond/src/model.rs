@@ -211,15 +211,10 @@ impl LatticeBondModel {
 }
 
 /// Whether the homogeneous stencil of `micromodulus` with `horizon` on `grid` offers its coarse
-/// lattice ([`Model::coarse_lattice`] of [`LatticeBondModel::stencil`]): see
-/// [`coarse_lattice_of`]. The memory estimate asks it before anything is built.
-pub fn offers_coarse_lattice(grid: &Grid, horizon: f64, micromodulus: &Micromodulus) -> bool {
-    coarse_lattice_of(grid, horizon, micromodulus).is_some()
-}
-
-/// The lattice of spacing `2h` whose site `I` is the fine site `2I` (one spacing beyond the box
-/// where a count is even: [`linpd_core::CoarseLattice`]) and the stencil of the same
-/// micromodulus and horizon on it, when they make a good coarse level:
+/// lattice ([`Model::coarse_lattice`] of [`LatticeBondModel::stencil`]): the lattice of spacing
+/// `2h` whose site `I` is the fine site `2I` (one spacing beyond the box where a count is even:
+/// [`linpd_core::CoarseLattice`]) with the same micromodulus and horizon, when it makes a good
+/// coarse level:
 ///
 /// * 3D (on the 401^2 plate with `delta = 2h` a coarse level with its horizon raised to 3 or
 ///   4 fine spacings took 30 iterations against SA's 17: 2D keeps the algebraic levels);
@@ -228,6 +223,13 @@ pub fn offers_coarse_lattice(grid: &Grid, horizon: f64, micromodulus: &Micromodu
 /// * at least 3 sites along every axis, the full box with volumes `h^3`;
 /// * a kernel that does not vanish at the coarse axis and face-diagonal offsets (a tabulated
 ///   kernel zero beyond `0.6 delta` leaves a fine lattice SPD and its coarse stencil empty).
+///
+/// The model and the memory estimate both ask it.
+pub fn offers_coarse_lattice(grid: &Grid, horizon: f64, micromodulus: &Micromodulus) -> bool {
+    coarse_lattice_of(grid, horizon, micromodulus).is_some()
+}
+
+/// The coarse grid and stencil of [`offers_coarse_lattice`], when it offers them.
 pub(crate) fn coarse_lattice_of(grid: &Grid, horizon: f64, mm: &Micromodulus) -> Option<(Grid, StencilOperator)> {
     let h = grid.spacing();
     let counts = grid.counts();
@@ -311,7 +313,7 @@ impl Model for LatticeBondModel {
         let stencil = grid_stencil(&self.grid, self.horizon / self.grid.spacing());
         Ordering::NestedDissection(nested_dissection(&self.grid, &stencil, dofs))
     }
-    /// The homogeneous stencil's model on the coarse lattice of [`coarse_lattice_of`].
+    /// The homogeneous stencil's model on the coarse lattice (see [`offers_coarse_lattice`]).
     fn coarse_lattice(&self) -> Option<linpd_core::CoarseLattice<'_>> {
         let (_, mm) = self.stencil.as_ref()?;
         let (coarse, stencil) = coarse_lattice_of(&self.grid, self.horizon, mm)?;
