@@ -222,7 +222,8 @@ impl LatticeBondModel {
 ///   coarse lattice would keep only the 6 axis bonds, which carry no shear);
 /// * at least 3 sites along every axis, the full box with volumes `h^3`;
 /// * a kernel that does not vanish at the coarse axis and face-diagonal offsets (a tabulated
-///   kernel zero beyond `0.6 delta` leaves a fine lattice SPD and its coarse stencil empty).
+///   kernel zero beyond `0.6 delta` leaves a fine lattice SPD and its coarse stencil empty),
+///   and is nowhere negative (the smoother's bound needs positive semi-definite bonds).
 ///
 /// The model and the memory estimate both ask it.
 pub fn offers_coarse_lattice(grid: &Grid, horizon: f64, micromodulus: &Micromodulus) -> bool {
@@ -248,6 +249,12 @@ pub(crate) fn coarse_lattice_of(grid: &Grid, horizon: f64, mm: &Micromodulus) ->
     crate::operator::check_lattice_inputs(&coarse, horizon, mm, &linpd_core::Material::default()).ok()?;
     mm.amplitude(3, horizon, 2.0 * h).ok()?;
     let stencil = StencilOperator::new(&coarse, horizon, mm).ok()?;
+    // the geometric level's smoother needs A = sum of positive semi-definite bond terms
+    // (Model::coarse_lattice): no negative micromodulus on the fine lattice
+    let fine = StencilOperator::new(grid, horizon, mm).ok()?;
+    if fine.weights().iter().any(|w| !(*w >= 0.0)) {
+        return None;
+    }
     let stiff = |k: [i64; 3]| {
         stencil.offsets().iter().position(|o| *o == k).is_some_and(|s| {
             let b = stencil.block(s);
@@ -293,6 +300,22 @@ impl Model for LatticeBondModel {
     }
     fn assemble_free_with_progress(&self, dofs: &DofMap, progress: &dyn Progress) -> Csc {
         crate::assemble::assemble_free_with_progress(self.operator(), dofs, progress)
+    }
+    fn diagonal_block(&self, i: usize, out: &mut [f64]) -> bool {
+        match &self.stencil {
+            Some((st, _)) => {
+                st.diagonal_block(i, out);
+                true
+            }
+            None => {
+                let d = self.grid.dim();
+                self.for_each_block(i, &mut |j, b| {
+                    if j == i {
+                        out[..d * d].copy_from_slice(&b[..d * d]);
+                    }
+                })
+            }
+        }
     }
     fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
         match &self.stencil {

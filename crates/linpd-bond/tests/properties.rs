@@ -172,3 +172,36 @@ fn support_check_finds_floating_pieces() {
     }
     assert!(check_support(&o, &DofMap::new(2, &c)).is_ok());
 }
+
+/// `StencilOperator::diagonal_block` (one block per boundary class) equals the diagonal block
+/// of the block row (`for_each_block`, a sum over the node's own offsets) at every node, exactly
+/// (the same terms added in the same order), on boxes with fewer and more sites per axis than
+/// the stencil's width, in 2D and 3D.
+#[test]
+fn diagonal_blocks_by_class_equal_the_block_rows() {
+    for (dim, counts, horizon) in [(3, [4.0, 9.0, 12.0], 3.0), (3, [10.0, 10.0, 10.0], 2.0), (2, [5.0, 20.0, 0.0], 3.5)]
+    {
+        let max: Vec<f64> = counts[..dim].iter().map(|n| n - 1.0).collect();
+        let g = Grid::new(&vec![0.0; dim], &max, 1.0, 0.0, Placement::Vertex).unwrap();
+        let mm = Micromodulus {
+            kernel: Kernel::InverseDistance,
+            normalization: Normalization::Discrete,
+            modulus: 1.0,
+            plane: (dim == 2).then_some(PlaneModel::Stress),
+            partial_volume: false,
+        };
+        let st = StencilOperator::new(&g, horizon, &mm).unwrap();
+        let dd = dim * dim;
+        for i in 0..g.len() {
+            let mut want = vec![0.0; dd];
+            st.for_each_block(i, &mut |j, b| {
+                if j == i {
+                    want.copy_from_slice(&b[..dd]);
+                }
+            });
+            let mut got = [0.0; 9];
+            st.diagonal_block(i, &mut got);
+            assert_eq!(&got[..dd], &want[..], "{dim}D node {i}");
+        }
+    }
+}

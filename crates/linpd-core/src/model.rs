@@ -143,6 +143,17 @@ pub trait Model: Sync {
     fn for_each_block(&self, _i: usize, _f: &mut dyn FnMut(usize, &[f64])) -> bool {
         false
     }
+    /// The diagonal block `A_ii` of node `i` (row-major `d x d` into `out`); `false` when
+    /// the model has no blocks ([`Model::for_each_block`], which the default reads: a whole
+    /// block row for one block; a lattice stencil answers from its boundary classes).
+    fn diagonal_block(&self, i: usize, out: &mut [f64]) -> bool {
+        let d = self.dim();
+        self.for_each_block(i, &mut |j, b| {
+            if j == i {
+                out[..d * d].copy_from_slice(&b[..d * d]);
+            }
+        })
+    }
     /// An SPD model spectrally equivalent to `A` (`c_1 M <= A <= c_2 M` with a modest
     /// `c_2 / c_1`, stated by the model) on the same nodes, whose block rows are much cheaper
     /// than `A`'s: the matrix-free multigrid builds its whole hierarchy (levels, smoothers) from
@@ -154,7 +165,11 @@ pub trait Model: Sync {
     /// The model re-discretized on the lattice of twice its spacing, when it is a homogeneous
     /// lattice model for which that coarse model is a good coarse space (see
     /// [`CoarseLattice`]); the matrix-free multigrid then puts a geometric level on top of its
-    /// algebraic ones. `None` (the default): algebraic levels only.
+    /// algebraic ones. `None` (the default): algebraic levels only. A model that offers it
+    /// must be a sum of positive semi-definite pair terms,
+    /// `u^T A u = sum (u_i - u_j)^T K_ij (u_i - u_j)` (bond-based), so that
+    /// `A <= 2 blockdiag(A)`: the geometric level's smoother takes that bound as its spectral
+    /// radius.
     fn coarse_lattice(&self) -> Option<CoarseLattice<'_>> {
         None
     }

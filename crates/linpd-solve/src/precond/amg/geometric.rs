@@ -8,18 +8,31 @@
 //! DOFs, `P` the interpolation and `R = P^T`, one application `x = M^{-1} b` is
 //!
 //! ```text
-//! x = S(0, b)                 Chebyshev smoothing in D^{-1} A (the SA levels' smoother)
+//! x = S(0, b)                 Chebyshev smoothing in D_b^{-1} A on [2/30, 2] (below)
 //! x = x + P B_c R (b - A x)   B_c: one SA-AMG V-cycle for A_c
 //! x = S(x, b)
 //! ```
 //!
-//! `B_c` is symmetric positive definite and the smoother's error propagator self-adjoint in
-//! the `A` inner product, with norm below 1 when the Chebyshev interval's upper end
-//! (`1.1 rho`, `rho` the Lanczos estimate, a lower bound) lies above the true
-//! `rho(D^{-1} A)` by enough (for degree 1: `rho(D^{-1} A) < (1.1 + 1/30) rho`), as for the SA
-//! levels. Then `M^{-1}` is symmetric positive definite, as CG requires: the coarse correction
-//! need not be Galerkin (`A_c != R A P`) for that. (With 6 Lanczos steps instead of 15 the
-//! 70^3 cantilever took 68 iterations instead of 21: the estimate was too low.)
+//! # The smoother: block Jacobi with a bound instead of an estimate
+//!
+//! `D_b` is the block diagonal of `A` (the free components of each node). A model that offers
+//! a coarse lattice is bond-based: `u^T A u = sum_bonds (u_i - u_j)^T K_ij (u_i - u_j)` with
+//! positive semi-definite `K_ij` (`c e e^T`, `c >= 0`), and `(a - b)^T K (a - b) <= 2 (a^T K
+//! a + b^T K b)`, so
+//!
+//! ```text
+//! u^T A u <= 2 u^T D_b u,    rho(D_b^{-1} A) <= 2,
+//! ```
+//!
+//! also for `A_ff` (held neighbours only drop terms). The Chebyshev interval's upper end is
+//! then this bound, not a Lanczos estimate (a lower bound, 15 products, 0.42 s of a 0.85 s
+//! setup at 70^3; with 6 steps the 70^3 cantilever took 68 iterations instead of 21, the
+//! estimate being too low). The smoother's error propagator is then self-adjoint in the `A`
+//! inner product with norm below 1 whatever the lattice, `B_c` is symmetric positive
+//! definite, and so is `M^{-1}`, as CG requires: the coarse correction need not be Galerkin
+//! (`A_c != R A P`) for that. In the interior of a lattice `D_b` is a multiple of the
+//! identity (cubic symmetry), the scalar Jacobi of the SA levels; at faces, edges and corners
+//! it couples the components the missing bonds leave coupled.
 //!
 //! # Why re-discretize rather than `R A P`
 //!
@@ -32,8 +45,8 @@
 //! correct: smooth errors see the same elastic moduli (the micromodulus is normalized on each
 //! lattice). Where the two differ (the surface skin, the clamp one fine spacing off) the
 //! smoother and CG absorb it: on the `linpd bench` cantilevers CG takes 16-19 iterations from
-//! 20^3 to 150^3 against SA-AMG's 14-19, with a setup of one spectral estimate and an SA
-//! hierarchy of an 8x smaller stencil (docs/solvers.md).
+//! 20^3 to 150^3 against SA-AMG's 14-19, with a setup of one pass over the diagonal blocks
+//! and an SA hierarchy of an 8x smaller stencil (docs/solvers.md).
 //!
 //! # Interpolation
 //!
@@ -56,7 +69,7 @@
 //! face the springs sit on the coarse sites beside the face and move the coarse clamp onto the
 //! fine one.
 
-use super::smoother::{self, Product, Smoother};
+use super::smoother::{self, AmgSmoother, Product, Scaling, Smoother};
 use super::{split_at_bounds, Amg, AmgError, AmgParams};
 use crate::bc::ReducedOperator;
 use crate::krylov::preconditioner::Preconditioner;
@@ -68,6 +81,8 @@ use std::time::Instant;
 /// The coarse lattice of a model: the coarse model, its free DOFs and the interpolation from
 /// them to the fine free DOFs (see the module docs).
 pub struct CoarseSpace<'m> {
+    /// The fine model.
+    fine: &'m dyn Model,
     model: Held<'m>,
     dofs: DofMap,
     /// `P`: a row per fine free DOF.
@@ -247,6 +262,7 @@ impl<'m> CoarseSpace<'m> {
             });
         });
         Some(CoarseSpace {
+            fine: model,
             model: Held { inner: coarse, springs },
             dofs: cdofs,
             p,
@@ -347,6 +363,12 @@ impl Model for Held<'_> {
             label: inner.label,
         })
     }
+    fn diagonal_block(&self, i: usize, out: &mut [f64]) -> bool {
+        let d = self.inner.dim();
+        let has = self.inner.diagonal_block(i, out);
+        (0..d).for_each(|q| out[q * d + q] += self.springs[d * i + q]);
+        has
+    }
     fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
         let d = self.inner.dim();
         self.inner.for_each_block(i, &mut |j, block| {
@@ -359,6 +381,86 @@ impl Model for Held<'_> {
             }
         })
     }
+}
+
+/// The inverses of the diagonal blocks of `A_ff` (the free components of each node, rows
+/// consecutive in the node-major free numbering), by Cholesky: a block that is not positive
+/// definite is an error naming its first row.
+fn block_scaling(model: &dyn Model, dofs: &DofMap) -> Result<Scaling, AmgError> {
+    let d = model.dim();
+    let per_node: Vec<Option<(usize, [f64; 9])>> = (0..model.n_nodes())
+        .into_par_iter()
+        .map(|i| {
+            let free: Vec<usize> = (0..d).filter(|&c| !dofs.is_constrained(d * i + c)).collect();
+            if free.is_empty() {
+                return None;
+            }
+            let mut full = [0.0; 9];
+            model.diagonal_block(i, &mut full);
+            let k = free.len();
+            let mut m = [0.0; 9];
+            for (a, &p) in free.iter().enumerate() {
+                for (c, &q) in free.iter().enumerate() {
+                    m[k * a + c] = full[d * p + q];
+                }
+            }
+            Some((k, m))
+        })
+        .collect();
+    let (mut rows, mut at, mut inv) = (vec![0usize], Vec::new(), Vec::new());
+    for (k, m) in per_node.into_iter().flatten() {
+        let row = *rows.last().expect("starts with 0");
+        let Some(mi) = spd_inverse(k, &m) else {
+            let value = (0..k).map(|a| m[k * a + a]).fold(f64::INFINITY, f64::min);
+            return Err(AmgError::NonPositiveDiagonal { level: 0, row, value });
+        };
+        at.push(inv.len());
+        inv.extend_from_slice(&mi[..k * k]);
+        rows.push(row + k);
+    }
+    if *rows.last().expect("starts with 0") != dofs.n_free() {
+        return Err(AmgError::Input(format!(
+            "the model's blocks cover {} of the {} free DOFs",
+            rows.last().unwrap_or(&0),
+            dofs.n_free()
+        )));
+    }
+    let n_blocks = at.len();
+    let groups: Vec<usize> = (0..n_blocks).step_by(4096).chain(std::iter::once(n_blocks)).collect();
+    Ok(Scaling::Block { rows, at, inv, groups })
+}
+
+/// The inverse of the symmetric positive definite `k x k` matrix `m` (row-major, `k <= 3`) by
+/// Cholesky, `None` when a pivot is not positive.
+fn spd_inverse(k: usize, m: &[f64; 9]) -> Option<[f64; 9]> {
+    let mut l = [0.0; 9];
+    for i in 0..k {
+        for j in 0..=i {
+            let s = m[k * i + j] - (0..j).map(|p| l[k * i + p] * l[k * j + p]).sum::<f64>();
+            if i == j {
+                if !(s > 0.0) {
+                    return None;
+                }
+                l[k * i + i] = s.sqrt();
+            } else {
+                l[k * i + j] = s / l[k * j + j];
+            }
+        }
+    }
+    // columns of the inverse: solve L L^T x = e_c
+    let mut inv = [0.0; 9];
+    for c in 0..k {
+        let mut y = [0.0; 3];
+        for i in 0..k {
+            let e = if i == c { 1.0 } else { 0.0 };
+            y[i] = (e - (0..i).map(|p| l[k * i + p] * y[p]).sum::<f64>()) / l[k * i + i];
+        }
+        for i in (0..k).rev() {
+            let x = (y[i] - (i + 1..k).map(|p| l[k * p + i] * inv[k * p + c]).sum::<f64>()) / l[k * i + i];
+            inv[k * i + c] = x;
+        }
+    }
+    Some(inv)
 }
 
 /// `A_ff` through the model's apply, with the `y -= A x` the smoother needs.
@@ -388,10 +490,9 @@ pub struct LatticeMultigrid<'a> {
     coarse: Amg<'a>,
     /// `[r, d, b_c, x_c]` of the cycle, kept between applications.
     work: Mutex<[Vec<f64>; 4]>,
-    rho: f64,
     /// DOFs of the fine model (free and held).
     fine_dofs: usize,
-    /// Seconds of the spectral estimate and of the SA hierarchy.
+    /// Seconds of the diagonal blocks' inverses and of the SA hierarchy.
     times: [f64; 2],
 }
 
@@ -437,22 +538,22 @@ impl<'a> LatticeMultigrid<'a> {
             return Err(AmgError::NonPositiveDiagonal { level: 0, row, value });
         }
         let fine = Fine { op: ReducedOperator::new(full, dofs), scratch: Mutex::new(Vec::new()) };
-        let dinv: Vec<f64> = diag.iter().map(|v| 1.0 / v).collect();
-        let rho = smoother::spectral_radius(&fine, &dinv, params.lanczos_steps);
-        if !(rho > 0.0 && rho.is_finite()) {
-            return Err(AmgError::BadSpectrum { level: 0, value: rho });
-        }
-        let t_spectral = t.elapsed().as_secs_f64();
+        let scaling = block_scaling(space.fine, dofs)?;
+        // rho(D_b^{-1} A) <= 2 (module docs): the interval's upper end is the bound itself
+        let rho = match params.smoother {
+            AmgSmoother::Chebyshev { upper, .. } => 2.0 / upper,
+            AmgSmoother::Jacobi { .. } => 2.0,
+        };
+        let t_blocks = t.elapsed().as_secs_f64();
         let coarse = Amg::matrix_free(space.model(), space.dofs(), coarse_full, params)?;
         Ok(LatticeMultigrid {
             fine,
-            smoother: Smoother::new(params.smoother, dinv, rho),
+            smoother: Smoother::with_scaling(params.smoother, scaling, rho),
             space,
             coarse,
             work: Mutex::new(Default::default()),
-            rho,
             fine_dofs: dofs.n_dofs(),
-            times: [t_spectral, t.elapsed().as_secs_f64() - t_spectral],
+            times: [t_blocks, t.elapsed().as_secs_f64() - t_blocks],
         })
     }
 
@@ -494,12 +595,11 @@ impl Preconditioner for LatticeMultigrid<'_> {
         let rows: Vec<String> = self.coarse.stats().levels.iter().map(|l| l.rows.to_string()).collect();
         Some(format!(
             "geometric multigrid: {} rows > lattice 2h re-discretized > SA-AMG, {} levels ({} rows), \
-             rho(D^-1 A) {:.3}, finest level matrix-free, {:.1} MiB, setup {:.2} s (interpolation {:.2}, \
-             spectral estimate {:.2}, SA levels {:.2})",
+             block Jacobi-Chebyshev on [2/30, 2], finest level matrix-free, {:.1} MiB, setup {:.2} s \
+             (interpolation {:.2}, diagonal blocks {:.2}, SA levels {:.2})",
             self.space.p.ptr.len() - 1,
             rows.len(),
             rows.join(" > "),
-            self.rho,
             self.memory_bytes() as f64 / 1048576.0,
             self.space.seconds + self.times[0] + self.times[1],
             self.space.seconds,
@@ -512,6 +612,29 @@ impl Preconditioner for LatticeMultigrid<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `spd_inverse` inverts 1x1, 2x2 and 3x3 SPD blocks to round-off and refuses indefinite
+    /// ones.
+    #[test]
+    fn small_spd_inverses() {
+        let cases: [(usize, [f64; 9]); 3] = [
+            (1, [4.0, 0., 0., 0., 0., 0., 0., 0., 0.]),
+            (2, [2.0, 0.5, 0.5, 1.0, 0., 0., 0., 0., 0.]),
+            (3, [4.0, 1.0, 0.5, 1.0, 3.0, -0.2, 0.5, -0.2, 2.0]),
+        ];
+        for (k, m) in cases {
+            let inv = spd_inverse(k, &m).unwrap();
+            for i in 0..k {
+                for j in 0..k {
+                    let p: f64 = (0..k).map(|q| m[k * i + q] * inv[k * q + j]).sum();
+                    let want = if i == j { 1.0 } else { 0.0 };
+                    assert!((p - want).abs() <= 1e-14, "{k}x{k}: (M M^-1)_{i}{j} = {p}");
+                }
+            }
+        }
+        assert!(spd_inverse(2, &[1.0, 2.0, 2.0, 1.0, 0., 0., 0., 0., 0.]).is_none());
+        assert!(spd_inverse(1, &[0.0; 9]).is_none());
+    }
 
     /// The coarse model with springs is one operator four ways: its apply, fast apply, blocks,
     /// diagonal and assembled `A_ff` agree to round-off (`1e-12` relative to the largest

@@ -123,16 +123,73 @@ impl Default for AmgSmoother {
     }
 }
 
+/// The `D^{-1}` a smoother scales residuals with.
+#[derive(Debug)]
+pub(crate) enum Scaling {
+    /// The inverse of the scalar diagonal, per row.
+    Point(Vec<f64>),
+    /// The inverses of diagonal blocks of consecutive rows (block `b` covers rows
+    /// `rows[b]..rows[b + 1]` and its `k x k` inverse, row-major, starts at `inv[at[b]]`),
+    /// processed in parallel by `groups` (block bounds).
+    Block {
+        /// Row bounds of the blocks.
+        rows: Vec<usize>,
+        /// Offset of each block's inverse in `inv`.
+        at: Vec<usize>,
+        /// The inverses, packed.
+        inv: Vec<f64>,
+        /// Block bounds of the parallel groups.
+        groups: Vec<usize>,
+    },
+}
+
+impl Scaling {
+    /// `d_i = f(d_i, (D^{-1} r)_i)` for every row `i`.
+    fn apply(&self, d: &mut [f64], r: &[f64], f: impl Fn(f64, f64) -> f64 + Sync) {
+        match self {
+            Scaling::Point(m) => zip3(d, r, m, |d, r, m| *d = f(*d, m * r)),
+            Scaling::Block { rows, at, inv, groups } => {
+                let bounds = groups.iter().map(|&g| rows[g]);
+                let parts = super::split_at_bounds(d, bounds);
+                parts.into_par_iter().zip(groups.par_windows(2)).for_each(|(dg, g)| {
+                    let base = rows[g[0]];
+                    for b in g[0]..g[1] {
+                        let (lo, hi) = (rows[b], rows[b + 1]);
+                        let k = hi - lo;
+                        let m = &inv[at[b]..at[b] + k * k];
+                        let mut t = [0.0; 3];
+                        for i in 0..k {
+                            t[i] = (0..k).map(|j| m[k * i + j] * r[lo + j]).sum();
+                        }
+                        for i in 0..k {
+                            let di = &mut dg[lo - base + i];
+                            *di = f(*di, t[i]);
+                        }
+                    }
+                });
+            }
+        }
+    }
+}
+
 /// A smoother set up on one level.
 #[derive(Debug)]
 pub(crate) struct Smoother {
     kind: AmgSmoother,
-    dinv: Vec<f64>,
+    dinv: Scaling,
     rho: f64,
 }
 
 impl Smoother {
+    /// The smoother `kind` in `D^{-1} A` (`dinv`: the inverse scalar diagonal) with `rho`
+    /// the spectral radius of `D^{-1} A` (an estimate).
     pub fn new(kind: AmgSmoother, dinv: Vec<f64>, rho: f64) -> Self {
+        Smoother { kind, dinv: Scaling::Point(dinv), rho }
+    }
+
+    /// The smoother `kind` in `D_b^{-1} A` for a block scaling, with `rho` a bound of the
+    /// spectral radius of `D_b^{-1} A`.
+    pub fn with_scaling(kind: AmgSmoother, dinv: Scaling, rho: f64) -> Self {
         Smoother { kind, dinv, rho }
     }
 
@@ -164,7 +221,7 @@ impl Smoother {
             AmgSmoother::Jacobi { omega, sweeps } => {
                 let w = omega / self.rho;
                 for s in 0..sweeps {
-                    zip3(d, r, dinv, |d, r, m| *d = w * m * r);
+                    dinv.apply(d, r, |_, s| w * s);
                     add(x, d, 1.0);
                     if s + 1 < sweeps || want_residual {
                         a.matvec_sub(d, r);
@@ -179,13 +236,13 @@ impl Smoother {
                 let delta = 0.5 * (lmax - lmin);
                 let sigma = theta / delta;
                 let mut rho_k = 1.0 / sigma;
-                zip3(d, r, dinv, |d, r, m| *d = m * r / theta);
+                dinv.apply(d, r, |_, s| s / theta);
                 add(x, d, 1.0);
                 for _ in 1..degree.max(1) {
                     a.matvec_sub(d, r);
                     let rho_next = 1.0 / (2.0 * sigma - rho_k);
                     let (c1, c2) = (rho_next * rho_k, 2.0 * rho_next / delta);
-                    zip3(d, r, dinv, |d, r, m| *d = c1 * *d + c2 * m * r);
+                    dinv.apply(d, r, |d, s| c1 * d + c2 * s);
                     add(x, d, 1.0);
                     rho_k = rho_next;
                 }
