@@ -301,6 +301,15 @@ impl Model for LatticeBondModel {
     fn assemble_free_with_progress(&self, dofs: &DofMap, progress: &dyn Progress) -> Csc {
         crate::assemble::assemble_free_with_progress(self.operator(), dofs, progress)
     }
+    fn lattice_stencil(&self) -> Option<linpd_core::LatticeStencil<'_>> {
+        let (st, _) = self.stencil.as_ref()?;
+        Some(linpd_core::LatticeStencil {
+            counts: st.counts(),
+            offsets: st.offsets(),
+            blocks: st.blocks(),
+            spacing: self.grid.spacing(),
+        })
+    }
     fn diagonal_block(&self, i: usize, out: &mut [f64]) -> bool {
         match &self.stencil {
             Some((st, _)) => {

@@ -175,6 +175,10 @@ impl StencilOperator {
         }
     }
 
+    /// `K_s` of every offset, row-major `d x d` in the first `d * d` entries.
+    pub fn blocks(&self) -> &[[f64; 9]] {
+        &self.full_blocks
+    }
     /// `K_s` of offset `s` as a row-major `d x d` block.
     pub fn block(&self, s: usize) -> [f64; 9] {
         self.full_blocks[s]

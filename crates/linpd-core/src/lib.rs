@@ -50,7 +50,8 @@ pub use grid::{Grid, Placement};
 pub use kernel::{Kernel, Micromodulus, Normalization, PlaneModel};
 pub use material::{BondRule, Defect, Material};
 pub use model::{
-    AssembledModel, CoarseLattice, FastApply, Model, ModelOperator, Ordering, SpdApproximation, SpdApproximationKind,
+    AssembledModel, CoarseLattice, FastApply, LatticeStencil, Model, ModelOperator, Ordering, SpdApproximation,
+    SpdApproximationKind,
 };
 pub use op::{FnOperator, LinearOperator};
 pub use ordering::{nested_dissection, planar_nested_dissection, two_hop_stencil};

@@ -89,6 +89,43 @@ impl CoarseLattice<'_> {
     }
 }
 
+/// A homogeneous bond model on a full lattice box, as its stencil: node `i` (site `(i_0, i_1,
+/// i_2)`, numbered lexicographically with axis 0 fastest) is bonded to the site `i + k_s` of
+/// every offset `k_s` that stays in the box, with the block `A_ij = -K_s` (and `A_ii = sum_s
+/// K_s`). Loops over bonds (the nodal fields) run on it without a call per bond.
+#[derive(Clone, Copy)]
+pub struct LatticeStencil<'a> {
+    /// Sites per axis (1 on unused axes).
+    pub counts: [usize; 3],
+    /// The lattice offsets `k_s`.
+    pub offsets: &'a [[i64; 3]],
+    /// `K_s`, row-major `d x d` in the first `d * d` entries.
+    pub blocks: &'a [[f64; 9]],
+    /// The lattice spacing `h` (`xi_s = h k_s`).
+    pub spacing: f64,
+}
+
+impl LatticeStencil<'_> {
+    /// Calls `f(j, s)` for the node `j = i + k_s` of every offset `s` that stays in the box,
+    /// in offset order (a monomorphized loop: no call per bond through a trait object).
+    #[inline]
+    pub fn for_each_bond(&self, i: usize, mut f: impl FnMut(usize, usize)) {
+        let c = self.counts;
+        let site = [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])];
+        let stride = [1i64, c[0] as i64, (c[0] * c[1]) as i64];
+        for (s, k) in self.offsets.iter().enumerate() {
+            let inside = (0..3).all(|a| {
+                let v = site[a] as i64 + k[a];
+                v >= 0 && v < c[a] as i64
+            });
+            if inside {
+                let j = i as i64 + k[0] * stride[0] + k[1] * stride[1] + k[2] * stride[2];
+                f(j as usize, s);
+            }
+        }
+    }
+}
+
 /// A static linear peridynamic model: `F_int = -A u` (see the module docs).
 pub trait Model: Sync {
     /// The model family for messages (`"bond"`, `"lps"`, `"coarsened"`).
@@ -142,6 +179,12 @@ pub trait Model: Sync {
     /// is then not called).
     fn for_each_block(&self, _i: usize, _f: &mut dyn FnMut(usize, &[f64])) -> bool {
         false
+    }
+    /// The model as a lattice stencil, when it is one ([`LatticeStencil`]; the homogeneous
+    /// bond lattice). `None` (the default): loops over bonds go through
+    /// [`Model::for_each_block`].
+    fn lattice_stencil(&self) -> Option<LatticeStencil<'_>> {
+        None
     }
     /// The diagonal block `A_ii` of node `i` (row-major `d x d` into `out`); `false` when
     /// the model has no blocks ([`Model::for_each_block`], which the default reads: a whole

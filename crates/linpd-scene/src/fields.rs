@@ -161,22 +161,37 @@ pub fn nodal_strain(model: &dyn Model, volumes: &[f64], u: &[f64]) -> NodalStrai
     let n = model.n_nodes();
     assert_eq!(volumes.len(), n, "one volume per node");
     assert_eq!(u.len(), d * n, "displacement length");
-    // positions read once (see `stress::energy_and_force_flux`)
-    let x: Vec<linpd_core::Point> = (0..n).into_par_iter().map(|i| model.position(i)).collect();
+    // positions read once (see `stress::energy_and_force_flux`); a lattice stencil gives the
+    // bonds' `xi = h k_s` itself
+    let stencil = model.lattice_stencil();
+    let x: Vec<linpd_core::Point> = match stencil {
+        Some(_) => Vec::new(),
+        None => (0..n).into_par_iter().map(|i| model.position(i)).collect(),
+    };
     let per_node: Vec<Option<[f64; 9]>> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let xi_i = x[i];
             let mut moments = Moments::default();
-            model.for_each_partner(i, &mut |j| {
-                let xj = x[j];
-                let (mut xi, mut eta) = ([0.0; 3], [0.0; 3]);
+            let mut bond = |j: usize, xi: [f64; 3]| {
+                let mut eta = [0.0; 3];
                 for a in 0..d {
-                    xi[a] = xj[a] - xi_i[a];
                     eta[a] = u[d * j + a] - u[d * i + a];
                 }
                 moments.add(d, &xi, &eta, volumes[j]);
-            });
+            };
+            match &stencil {
+                Some(st) => st.for_each_bond(i, |j, s| {
+                    let k = st.offsets[s];
+                    bond(j, [0, 1, 2].map(|a| st.spacing * k[a] as f64));
+                }),
+                None => {
+                    let xi_i = x[i];
+                    model.for_each_partner(i, &mut |j| {
+                        let xj = x[j];
+                        bond(j, [0, 1, 2].map(|a| xj[a] - xi_i[a]));
+                    })
+                }
+            }
             moments.gradient(d).map(|g| {
                 let mut eps = [0.0; 9];
                 for a in 0..d {

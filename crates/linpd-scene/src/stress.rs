@@ -204,6 +204,9 @@ pub fn energy_and_force_flux(model: &dyn Model, volumes: &[f64], u: &[f64]) -> O
     if n > 0 && !model.for_each_block(0, &mut |_, _| {}) {
         return None;
     }
+    if let Some(st) = model.lattice_stencil() {
+        return Some(stencil_energy_and_force_flux(&st, d, volumes, u));
+    }
     // positions read once: a model's `position` may compute them (a lattice's from its index),
     // and each is read from every partner's row
     let x: Vec<linpd_core::Point> = (0..n).into_par_iter().map(|i| model.position(i)).collect();
@@ -235,4 +238,85 @@ pub fn energy_and_force_flux(model: &dyn Model, volumes: &[f64], u: &[f64]) -> O
         })
         .unzip();
     Some((energy, NodalStress { dim: d, tensor }))
+}
+
+/// [`energy_and_force_flux`] on a lattice stencil: the same terms in the same order, with
+/// `A_ij = -K_s` and `x_j - x_i = h k_s` read from the stencil instead of per-bond calls (0.42 ->
+/// 0.08 s on the 70^3 cantilever).
+fn stencil_energy_and_force_flux(
+    st: &linpd_core::LatticeStencil,
+    d: usize,
+    volumes: &[f64],
+    u: &[f64],
+) -> (Vec<f64>, NodalStress) {
+    let h = st.spacing;
+    let n = volumes.len();
+    let (energy, tensor) = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let (mut w, mut s) = (0.0, [0.0; 9]);
+            st.for_each_bond(i, |j, b| {
+                let k = &st.blocks[b];
+                let off = st.offsets[b];
+                let mut du = [0.0; 3];
+                (0..d).for_each(|a| du[a] = u[d * j + a] - u[d * i + a]);
+                let mut f = [0.0; 3];
+                for a in 0..d {
+                    f[a] = (0..d).map(|c| k[d * a + c] * du[c]).sum::<f64>();
+                    w += 0.25 * du[a] * f[a];
+                }
+                for a in 0..d {
+                    for c in 0..d {
+                        s[3 * a + c] += 0.5 * (h * off[a] as f64) * f[c] / volumes[i];
+                    }
+                }
+            });
+            (w, s)
+        })
+        .unzip();
+    (energy, NodalStress { dim: d, tensor })
+}
+
+#[cfg(test)]
+mod lattice_stencil_tests {
+    use super::*;
+    use linpd_core::{Grid, Kernel, Material, Micromodulus, Normalization, Placement, PlaneModel};
+
+    /// The stencil paths of the nodal fields ([`Model::lattice_stencil`]) give the per-bond
+    /// paths' energy, force-flux stress and strain (the same terms summed in another order:
+    /// `1e-12` relative to each field's largest value) on a 2D and a 3D lattice under a
+    /// non-affine displacement.
+    #[test]
+    fn stencil_fields_equal_the_per_bond_fields() {
+        for (dim, n, horizon) in [(3usize, 9usize, 3.0), (2, 15, 2.5)] {
+            let max = vec![(n - 1) as f64 * 0.1; dim];
+            let grid = Grid::new(&vec![0.0; dim], &max, 0.1, 0.0, Placement::Vertex).unwrap();
+            let mm = Micromodulus {
+                kernel: Kernel::InverseDistance,
+                normalization: Normalization::Discrete,
+                modulus: 1.0,
+                plane: (dim == 2).then_some(PlaneModel::Stress),
+                partial_volume: false,
+            };
+            let delta = horizon * 0.1;
+            let fast = linpd_bond::LatticeBondModel::stencil(grid.clone(), delta, mm.clone()).unwrap();
+            let op = linpd_bond::BondOperator::on_grid(&grid, delta, &mm, &Material::default()).unwrap();
+            let slow = linpd_bond::LatticeBondModel::corrected(op, grid.clone(), delta, mm);
+            assert!(fast.lattice_stencil().is_some() && slow.lattice_stencil().is_none());
+            let u: Vec<f64> = (0..dim * grid.len()).map(|k| ((k * 7919) % 97) as f64 / 97.0 - 0.4).collect();
+            let volumes = vec![grid.volume(); grid.len()];
+            let (ef, sf) = energy_and_force_flux(&fast, &volumes, &u).unwrap();
+            let (es, ss) = energy_and_force_flux(&slow, &volumes, &u).unwrap();
+            let close = |a: &[f64], b: &[f64]| {
+                let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                a.iter().zip(b).all(|(p, q)| (p - q).abs() <= 1e-12 * scale)
+            };
+            assert!(close(&ef, &es), "{dim}D energy");
+            let flat = |t: &[[f64; 9]]| t.iter().flatten().copied().collect::<Vec<f64>>();
+            assert!(close(&flat(&sf.tensor), &flat(&ss.tensor)), "{dim}D stress");
+            let (gf, gs) = (crate::nodal_strain(&fast, &volumes, &u), crate::nodal_strain(&slow, &volumes, &u));
+            assert!(close(&flat(&gf.tensor), &flat(&gs.tensor)), "{dim}D strain");
+            assert_eq!(gf.singular, gs.singular);
+        }
+    }
 }
