@@ -201,8 +201,9 @@ impl StencilOperator {
     }
 
     /// The diagonal block `A_ii = sum K_s` of node `i` (row-major `d x d` into `out`), from a
-    /// table of the boundary classes ([`DiagTable`]) built on the first call: one pass over the
-    /// offsets per class instead of per node.
+    /// table of the boundary classes (the nodes with the same distances to the faces, capped
+    /// at the stencil's reach), built on the first call: one pass over the offsets per class
+    /// instead of per node.
     pub fn diagonal_block(&self, i: usize, out: &mut [f64]) {
         let t = self.diag_table.get_or_init(|| self.diag_table());
         let c = self.counts;
