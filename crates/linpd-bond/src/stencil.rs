@@ -159,20 +159,7 @@ impl StencilOperator {
     /// Calls `f(j, s)` for the node `j = i + offset s` of every offset `s` whose site lies in
     /// the box (the bonds of node `i`: the family of `BondFamily::from_grid`).
     pub fn for_each_neighbour(&self, i: usize, f: &mut dyn FnMut(usize, usize)) {
-        let c = self.counts;
-        let site = [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])];
-        for (s, k) in self.offsets.iter().enumerate() {
-            let mut j = 0usize;
-            let mut inside = true;
-            for a in (0..3).rev() {
-                let v = site[a] as i64 + k[a];
-                inside &= v >= 0 && v < c[a] as i64;
-                j = j * c[a] + v.max(0) as usize;
-            }
-            if inside {
-                f(j, s);
-            }
-        }
+        linpd_core::for_each_box_offset(i, self.counts, &self.offsets, f)
     }
 
     /// `K_s` of every offset, row-major `d x d` in the first `d * d` entries.
@@ -206,8 +193,7 @@ impl StencilOperator {
     /// instead of per node.
     pub fn diagonal_block(&self, i: usize, out: &mut [f64]) {
         let t = self.diag_table.get_or_init(|| self.diag_table());
-        let c = self.counts;
-        let site = [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])];
+        let site = linpd_core::box_site(i, self.counts);
         let k = t.class[0][site[0]] as usize
             + t.n[0] * (t.class[1][site[1]] as usize + t.n[1] * t.class[2][site[2]] as usize);
         let dd = self.dim * self.dim;
@@ -242,7 +228,7 @@ impl StencilOperator {
             .into_par_iter()
             .map(|k| {
                 let site = [rep[0][k % n[0]], rep[1][(k / n[0]) % n[1]], rep[2][k / (n[0] * n[1])]];
-                let node = site[0] + c[0] * (site[1] + c[1] * site[2]);
+                let node = linpd_core::box_node(site, c);
                 let mut b = [0.0; 9];
                 self.for_each_neighbour(node, &mut |_, s| {
                     b.iter_mut().zip(self.full_blocks[s].iter()).for_each(|(b, k)| *b += k);

@@ -28,6 +28,38 @@ pub enum Placement {
     Cell,
 }
 
+/// The site `(i, j, k)` of number `n` in a full box of `counts` sites per axis, numbered
+/// lexicographically with axis 0 fastest (a full [`Grid`]'s node numbering).
+#[inline]
+pub fn box_site(n: usize, counts: [usize; 3]) -> [usize; 3] {
+    [n % counts[0], (n / counts[0]) % counts[1], n / (counts[0] * counts[1])]
+}
+
+/// The number of site `s` in a full box of `counts` sites per axis (the inverse of
+/// [`box_site`]).
+#[inline]
+pub fn box_node(s: [usize; 3], counts: [usize; 3]) -> usize {
+    s[0] + counts[0] * (s[1] + counts[1] * s[2])
+}
+
+/// Calls `f(j, s)` for the node `j = n + offsets[s]` of every lattice offset that stays in a
+/// full box of `counts` sites per axis, in offset order (monomorphized: no call through a
+/// trait object per offset).
+#[inline]
+pub fn for_each_box_offset(n: usize, counts: [usize; 3], offsets: &[[i64; 3]], mut f: impl FnMut(usize, usize)) {
+    let site = box_site(n, counts);
+    let stride = [1i64, counts[0] as i64, (counts[0] * counts[1]) as i64];
+    for (s, k) in offsets.iter().enumerate() {
+        let inside = (0..3).all(|a| {
+            let v = site[a] as i64 + k[a];
+            v >= 0 && v < counts[a] as i64
+        });
+        if inside {
+            f((n as i64 + k[0] * stride[0] + k[1] * stride[1] + k[2] * stride[2]) as usize, s);
+        }
+    }
+}
+
 /// A uniform lattice of nodes covering a box plus an optional outer layer.
 #[derive(Debug, Clone)]
 pub struct Grid {

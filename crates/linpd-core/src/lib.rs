@@ -46,7 +46,7 @@ pub mod surface;
 pub use dof::DofMap;
 pub use error::CoreError;
 pub use family::BondFamily;
-pub use grid::{Grid, Placement};
+pub use grid::{box_node, box_site, for_each_box_offset, Grid, Placement};
 pub use kernel::{Kernel, Micromodulus, Normalization, PlaneModel};
 pub use material::{BondRule, Defect, Material};
 pub use model::{

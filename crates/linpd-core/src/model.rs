@@ -107,22 +107,10 @@ pub struct LatticeStencil<'a> {
 
 impl LatticeStencil<'_> {
     /// Calls `f(j, s)` for the node `j = i + k_s` of every offset `s` that stays in the box,
-    /// in offset order (a monomorphized loop: no call per bond through a trait object).
+    /// in offset order ([`crate::grid::for_each_box_offset`]).
     #[inline]
-    pub fn for_each_bond(&self, i: usize, mut f: impl FnMut(usize, usize)) {
-        let c = self.counts;
-        let site = [i % c[0], (i / c[0]) % c[1], i / (c[0] * c[1])];
-        let stride = [1i64, c[0] as i64, (c[0] * c[1]) as i64];
-        for (s, k) in self.offsets.iter().enumerate() {
-            let inside = (0..3).all(|a| {
-                let v = site[a] as i64 + k[a];
-                v >= 0 && v < c[a] as i64
-            });
-            if inside {
-                let j = i as i64 + k[0] * stride[0] + k[1] * stride[1] + k[2] * stride[2];
-                f(j as usize, s);
-            }
-        }
+    pub fn for_each_bond(&self, i: usize, f: impl FnMut(usize, usize)) {
+        crate::grid::for_each_box_offset(i, self.counts, self.offsets, f)
     }
 }
 

@@ -372,7 +372,7 @@ pub(super) fn matrix_free_cg(
                 Some(fa) => &*fa.op,
                 None => cmodel,
             };
-            LatticeMultigrid::new(full, dofs, &diag, space, cfull, &AmgParams::default())
+            LatticeMultigrid::new(full, dofs, space, cfull, &AmgParams::default())
                 .map_err(|e| fallback = Some(e.to_string()))
                 .ok()
         }

@@ -73,7 +73,7 @@ use super::smoother::{self, AmgSmoother, Product, Scaling, Smoother};
 use super::{split_at_bounds, Amg, AmgError, AmgParams};
 use crate::bc::ReducedOperator;
 use crate::krylov::preconditioner::Preconditioner;
-use linpd_core::{CoarseLattice, DofMap, LinearOperator, Model};
+use linpd_core::{box_node, box_site, CoarseLattice, DofMap, LinearOperator, Model};
 use rayon::prelude::*;
 use std::sync::Mutex;
 use std::time::Instant;
@@ -145,16 +145,6 @@ impl Csr {
     }
 }
 
-/// Lexicographic number of site `s` in a box of `counts` sites per axis.
-fn site_number(s: [usize; 3], counts: [usize; 3]) -> usize {
-    s[0] + counts[0] * (s[1] + counts[1] * s[2])
-}
-
-/// Site of number `n` (the inverse of [`site_number`]).
-fn site_of(n: usize, counts: [usize; 3]) -> [usize; 3] {
-    [n % counts[0], (n / counts[0]) % counts[1], n / (counts[0] * counts[1])]
-}
-
 /// Per axis, the coarse sites of fine site `s` and their weights (module docs).
 fn axis_weights(s: usize) -> ([usize; 2], [f32; 2], usize) {
     if s.is_multiple_of(2) {
@@ -202,8 +192,8 @@ impl<'m> CoarseSpace<'m> {
         let CoarseLattice { model: coarse, counts } = model.coarse_lattice()?;
         let d = model.dim();
         let nc = CoarseLattice::coarse_counts(counts);
-        if site_number([0, 0, counts[2]], counts) != model.n_nodes()
-            || site_number([0, 0, nc[2]], nc) != coarse.n_nodes()
+        if box_node([0, 0, counts[2]], counts) != model.n_nodes()
+            || box_node([0, 0, nc[2]], nc) != coarse.n_nodes()
             || coarse.dim() != d
             || dofs.n_dofs() > u32::MAX as usize
             || diag.len() != dofs.n_dofs()
@@ -217,8 +207,8 @@ impl<'m> CoarseSpace<'m> {
             .map(|dof| {
                 let (c, q) = (dof / d, dof % d);
                 let mut free = false;
-                for_each_fine(site_of(c, nc), counts, &mut |s, _| {
-                    free |= fine_free(site_number(s, counts), q).is_some();
+                for_each_fine(box_site(c, nc), counts, &mut |s, _| {
+                    free |= fine_free(box_node(s, counts), q).is_some();
                 });
                 !free
             })
@@ -233,8 +223,8 @@ impl<'m> CoarseSpace<'m> {
                 let (c, q) = (dof / d, dof % d);
                 let mut k = 0.0;
                 if !mask[dof] {
-                    for_each_fine(site_of(c, nc), counts, &mut |s, w| {
-                        let fine = d * site_number(s, counts) + q;
+                    for_each_fine(box_site(c, nc), counts, &mut |s, w| {
+                        let fine = d * box_node(s, counts) + q;
                         if dofs.is_constrained(fine) {
                             k += diag[fine] * w as f64;
                         }
@@ -247,16 +237,16 @@ impl<'m> CoarseSpace<'m> {
         let coarse_rows = cdofs.free_dofs();
         let p = Csr::build(fine_rows.len(), 8, |i, push| {
             let (n, q) = (fine_rows[i] / d, fine_rows[i] % d);
-            for_each_coarse(site_of(n, counts), &mut |c, w| {
-                if let Some(j) = cdofs.free(d * site_number(c, nc) + q) {
+            for_each_coarse(box_site(n, counts), &mut |c, w| {
+                if let Some(j) = cdofs.free(d * box_node(c, nc) + q) {
                     push(j as u32, w);
                 }
             });
         });
         let r = Csr::build(coarse_rows.len(), 27, |j, push| {
             let (c, q) = (coarse_rows[j] / d, coarse_rows[j] % d);
-            for_each_fine(site_of(c, nc), counts, &mut |s, w| {
-                if let Some(i) = fine_free(site_number(s, counts), q) {
+            for_each_fine(box_site(c, nc), counts, &mut |s, w| {
+                if let Some(i) = fine_free(box_node(s, counts), q) {
                     push(i as u32, w);
                 }
             });
@@ -373,9 +363,10 @@ impl Model for Held<'_> {
         let d = self.inner.dim();
         self.inner.for_each_block(i, &mut |j, block| {
             if j == i {
-                let mut b = block.to_vec();
+                let mut b = [0.0; 9];
+                b[..d * d].copy_from_slice(&block[..d * d]);
                 (0..d).for_each(|q| b[q * d + q] += self.springs[d * i + q]);
-                f(j, &b);
+                f(j, &b[..d * d]);
             } else {
                 f(j, block);
             }
@@ -503,13 +494,12 @@ impl std::fmt::Debug for LatticeMultigrid<'_> {
 }
 
 impl<'a> LatticeMultigrid<'a> {
-    /// The preconditioner for `A_ff` of the model applied by `full` (over all DOFs) on `dofs`,
-    /// with its free diagonal `diag`; `space` is the model's [`CoarseSpace`] and `coarse_full`
-    /// the coarse model's apply over all its DOFs (its stencil).
+    /// The preconditioner for `A_ff` of the model applied by `full` (over all DOFs) on `dofs`;
+    /// `space` is the model's [`CoarseSpace`] (whose fine model gives the diagonal blocks) and
+    /// `coarse_full` the coarse model's apply over all its DOFs (its stencil).
     pub fn new(
         full: &'a dyn LinearOperator,
         dofs: &'a DofMap,
-        diag: &[f64],
         space: &'a CoarseSpace<'a>,
         coarse_full: &'a dyn LinearOperator,
         params: &AmgParams,
@@ -517,11 +507,9 @@ impl<'a> LatticeMultigrid<'a> {
         let t = Instant::now();
         params.validate()?;
         let n = dofs.n_free();
-        if diag.len() != n || space.p.ptr.len() != n + 1 || full.n() != dofs.n_dofs() {
+        if space.p.ptr.len() != n + 1 || full.n() != dofs.n_dofs() {
             return Err(AmgError::Input(format!(
-                "the diagonal ({}), the interpolation's rows ({}) or the operator ({}) do not match the {n} free of \
-                 {} DOFs",
-                diag.len(),
+                "the interpolation's rows ({}) or the operator ({}) do not match the {n} free of {} DOFs",
                 space.p.ptr.len() - 1,
                 full.n(),
                 dofs.n_dofs()
@@ -533,9 +521,6 @@ impl<'a> LatticeMultigrid<'a> {
                 coarse_full.n(),
                 space.dofs.n_dofs()
             )));
-        }
-        if let Some((row, &value)) = diag.iter().enumerate().find(|(_, &v)| !(v > 0.0)) {
-            return Err(AmgError::NonPositiveDiagonal { level: 0, row, value });
         }
         let fine = Fine { op: ReducedOperator::new(full, dofs), scratch: Mutex::new(Vec::new()) };
         let scaling = block_scaling(space.fine, dofs)?;
@@ -557,14 +542,15 @@ impl<'a> LatticeMultigrid<'a> {
         })
     }
 
-    /// Bytes the preconditioner holds besides the model: `P`, `R`, the smoother's diagonal,
-    /// the fine level's work vectors (the reduced operator's two over all DOFs, three over the
-    /// free ones) and the coarse hierarchy with its two vectors.
+    /// Bytes the preconditioner holds besides the model: `P`, `R`, the smoother's inverse
+    /// diagonal blocks, the fine level's work vectors (the reduced operator's two over all DOFs,
+    /// three over the free ones) and the coarse hierarchy with its two vectors.
     pub fn memory_bytes(&self) -> usize {
         let (n, nc) = (self.space.p.ptr.len() - 1, self.space.dofs.n_free());
         self.space.p.bytes()
             + self.space.r.bytes()
-            + 8 * (n + 2 * self.fine_dofs + 3 * n + 2 * nc)
+            + self.smoother.scaling_bytes()
+            + 8 * (2 * self.fine_dofs + 3 * n + 2 * nc)
             + self.coarse.stats().memory_bytes
     }
 

@@ -187,6 +187,14 @@ impl Smoother {
         Smoother { kind, dinv: Scaling::Point(dinv), rho }
     }
 
+    /// Bytes of the scaling (`D^{-1}` or the inverse blocks with their offsets).
+    pub fn scaling_bytes(&self) -> usize {
+        match &self.dinv {
+            Scaling::Point(m) => 8 * m.len(),
+            Scaling::Block { rows, at, inv, groups } => 8 * (rows.len() + at.len() + inv.len() + groups.len()),
+        }
+    }
+
     /// The smoother `kind` in `D_b^{-1} A` for a block scaling, with `rho` a bound of the
     /// spectral radius of `D_b^{-1} A`.
     pub fn with_scaling(kind: AmgSmoother, dinv: Scaling, rho: f64) -> Self {
