@@ -330,8 +330,9 @@ impl StencilOperator {
                         }
                         let own = row * n0;
                         let src = (s1 as usize + n1 * s2 as usize) * n0;
-                        let shift = (src as i64 + k[0]) as usize;
-                        let rows = RowPair { soa, nodes, own: own + lo, src: shift + lo, len: hi - lo };
+                        // lo >= -k[0], so the source start is never below 0 (src + k[0] alone may be)
+                        let start = (src as i64 + k[0] + lo as i64) as usize;
+                        let rows = RowPair { soa, nodes, own: own + lo, src: start, len: hi - lo };
                         #[cfg(target_arch = "x86_64")]
                         if wide {
                             // SAFETY: AVX2 was detected at run time just above.

@@ -385,6 +385,24 @@ impl Grid {
         Ok(g)
     }
 
+    /// The slab of sites `first..last` along the slowest axis (`dim - 1`: z in 3D, y in 2D;
+    /// 0-based site numbers, layers included) as a grid of its own: one rank's part of a
+    /// distributed scene. Every kept site keeps its lattice index, position, layer flag and
+    /// body box, so regions, faces and tractions select the same nodes they select in the
+    /// whole grid; neighbour searches see the slab's ends as the end of the box. Only for a
+    /// grid before any body or cut volumes (apply those to the slab); `None` when the range
+    /// is empty or leaves the box.
+    pub fn window(&self, first: usize, last: usize) -> Option<Grid> {
+        let axis = self.dim - 1;
+        if first >= last || last > self.counts[axis] || self.mask.is_some() || self.volumes.is_some() {
+            return None;
+        }
+        let mut g = self.clone();
+        g.lo[axis] = self.lo[axis] + first as i64;
+        g.counts[axis] = last - first;
+        Some(g)
+    }
+
     /// Lexicographic site index of node `n`.
     fn site(&self, n: usize) -> usize {
         match &self.mask {
@@ -531,6 +549,28 @@ mod tests {
         assert!((g.position(15)[0] - 0.0).abs() < 1e-15);
         assert!((g.position(315)[0] - 1.0).abs() < 1e-12);
         assert!(g.is_layer(14) && !g.is_layer(15) && !g.is_layer(315) && g.is_layer(316));
+    }
+
+    #[test]
+    fn window_keeps_positions_layers_and_body_box() {
+        let whole =
+            Grid::with_layers(&[0.0, 0.0], &[1.0, 2.0], 0.25, [[0.0; 2], [0.5, 0.25], [0.0; 2]], Placement::Vertex)
+                .unwrap();
+        assert_eq!(whole.counts(), [5, 12, 1]);
+        let w = whole.window(1, 4).unwrap();
+        assert_eq!(w.counts(), [5, 3, 1]);
+        assert_eq!((w.min(), w.max()), (whole.min(), whole.max()));
+        for n in 0..w.len() {
+            // node n of the window is node n + 5 of the whole grid (one plane of 5 below it)
+            assert_eq!(w.lattice_index(n), whole.lattice_index(n + 5));
+            assert_eq!(w.position(n), whole.position(n + 5));
+            assert_eq!(w.is_layer(n), whole.is_layer(n + 5));
+        }
+        // a neighbour search stops at the window's ends
+        assert_eq!(w.node_at(whole.lattice_index(0)), None);
+        assert!(whole.window(4, 4).is_none() && whole.window(0, 13).is_none());
+        let body = whole.with_body(|x| x[0] < 0.6).unwrap();
+        assert!(body.window(0, 2).is_none(), "a window is cut before the body");
     }
 
     #[test]

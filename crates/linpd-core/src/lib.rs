@@ -58,7 +58,7 @@ pub use ordering::{nested_dissection, planar_nested_dissection, two_hop_stencil}
 pub use progress::{NoProgress, Progress};
 pub use region::Region;
 pub use sparse::Csc;
-pub use support::{check_support, Unsupported};
+pub use support::{check_support, RigidGram, Unsupported};
 
 /// Points are stored with three coordinates; in 1D and 2D the unused ones are zero.
 pub type Point = [f64; 3];

@@ -264,18 +264,27 @@ impl Material {
     /// does cut costs little and one that does not costs one pass over the bonds, as building
     /// the operator does.
     pub fn defect_cutting_nothing(&self, grid: &Grid, horizon: f64) -> Option<usize> {
+        self.defects_cutting(grid, horizon).iter().position(|cuts| !cuts)
+    }
+
+    /// Per defect, whether it crosses a bond of `grid` (see
+    /// [`Material::defect_cutting_nothing`]).
+    pub fn defects_cutting(&self, grid: &Grid, horizon: f64) -> Vec<bool> {
         use rayon::prelude::*;
         let offsets = crate::family::grid_stencil(grid, horizon / grid.spacing());
         let tol = crate::GEOMETRY_RTOL * grid.spacing();
-        self.defects.iter().position(|d| {
-            !(0..grid.len()).into_par_iter().any(|i| {
-                let (k, x) = (grid.lattice_index(i), grid.position(i));
-                offsets.iter().any(|o| {
-                    grid.node_at([k[0] + o[0], k[1] + o[1], k[2] + o[2]])
-                        .is_some_and(|j| d.crosses(&x, &grid.position(j), tol))
+        self.defects
+            .iter()
+            .map(|d| {
+                (0..grid.len()).into_par_iter().any(|i| {
+                    let (k, x) = (grid.lattice_index(i), grid.position(i));
+                    offsets.iter().any(|o| {
+                        grid.node_at([k[0] + o[0], k[1] + o[1], k[2] + o[2]])
+                            .is_some_and(|j| d.crosses(&x, &grid.position(j), tol))
+                    })
                 })
             })
-        })
+            .collect()
     }
 
     /// [`Material::defect_cutting_nothing`] for the bonds of `family` on `positions` (a point

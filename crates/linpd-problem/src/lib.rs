@@ -31,4 +31,4 @@ pub use commands::Commands;
 pub use dynamics_run::{DynamicsRun, StabilityLimit};
 pub use export::ReducedSystem;
 pub use pipeline::{level0_model, Pipeline, PipelineResult};
-pub use rows::{RowBlock, RowSystem};
+pub use rows::{part_rows, PartRows, RowBlock, RowSystem};

@@ -73,3 +73,43 @@ pub struct GradedMeshSummary {
     /// Stored entries of the bond model's `A` on the whole lattice.
     pub nnz_pd: usize,
 }
+
+impl Solution {
+    /// The solution on `nodes` only (ascending), renumbered `0..nodes.len()`: a rank's owned
+    /// nodes of its window, for its piece of a distributed result. The balance keeps its
+    /// totals (the window's) and only the nodal reactions of `nodes`.
+    pub fn restricted(&self, nodes: &[usize]) -> Solution {
+        let d = self.dim;
+        let pick = |v: &[f64], per: usize| -> Vec<f64> {
+            nodes.iter().flat_map(|&n| v[per * n..per * n + per].iter().copied()).collect()
+        };
+        let tensors = |t: &[[f64; 9]]| nodes.iter().map(|&n| t[n]).collect::<Vec<_>>();
+        let mut out = self.clone();
+        out.x = nodes.iter().map(|&n| self.x[n]).collect();
+        out.u = pick(&self.u, d);
+        out.is_layer = nodes.iter().map(|&n| self.is_layer[n]).collect();
+        if self.volumes.len() == self.x.len() {
+            out.volumes = pick(&self.volumes, 1);
+        }
+        out.strain_energy_density = self.strain_energy_density.as_ref().map(|e| pick(e, 1));
+        out.dilatation = self.dilatation.as_ref().map(|t| pick(t, 1));
+        if let (Some(s), Some(o)) = (&self.strain, &mut out.strain) {
+            o.tensor = tensors(&s.tensor);
+            o.singular =
+                nodes.iter().enumerate().filter(|(_, n)| s.singular.binary_search(n).is_ok()).map(|(k, _)| k).collect();
+        }
+        if let (Some(s), Some(o)) = (&self.stress, &mut out.stress) {
+            o.tensor = tensors(&s.tensor);
+        }
+        if let (Some(s), Some(o)) = (&self.pd_stress, &mut out.pd_stress) {
+            o.tensor = tensors(&s.tensor);
+        }
+        if let Some(b) = &mut out.balance {
+            if b.nodal_reaction.len() == d * self.x.len() {
+                b.nodal_reaction = pick(&b.nodal_reaction, d);
+            }
+        }
+        out.cells = None;
+        out
+    }
+}

@@ -5,6 +5,7 @@
 use crate::cloud::{mean_spacing, read_csv};
 use crate::elastic::BondElastic;
 use crate::nodes::{LevelNodes, NodeSet};
+use crate::part::{halo_reaches, Part, Presences, Slab};
 use crate::raw::*;
 use crate::scene::{Constraint, Load};
 use crate::ProblemError;
@@ -21,6 +22,19 @@ pub struct Context<'a> {
     pub raw: &'a RawProblem,
     /// Relative file names in the scene start here (the scene file's directory).
     pub base_dir: &'a Path,
+    /// The rank's part of a distributed scene ([`crate::part`]); `None`: the whole scene.
+    pub(crate) part: Option<Part>,
+    /// The part's slab, once [`lattice_for`] cut the window.
+    pub(crate) slab: std::cell::RefCell<Option<Slab>>,
+    /// The checks a part records rather than decides.
+    pub(crate) presences: Presences,
+}
+
+impl<'a> Context<'a> {
+    /// The context of a whole scene (`part: None`) or of one rank's part.
+    pub(crate) fn new(raw: &'a RawProblem, base_dir: &'a Path, part: Option<Part>) -> Self {
+        Context { raw, base_dir, part, slab: Default::default(), presences: Presences::new(part.is_some()) }
+    }
 }
 
 pub(crate) fn core(path: &str, e: CoreError) -> ProblemError {
@@ -128,14 +142,19 @@ pub fn output_dir(dir: Option<&str>, name: &str) -> Result<String, ProblemError>
 /// The lattice of a scene with a `grid` (and optionally a `body`), checked against the
 /// horizon and the memory of `path` before anything per node is allocated.
 pub(crate) fn lattice(cx: &Context, horizon: f64, path: crate::memory::Path) -> Result<Grid, ProblemError> {
-    lattice_for(cx, horizon, &|_| (path, false))
+    lattice_for(cx, horizon, None, &|_| (path, false))
 }
 
 /// [`lattice`] with the memory path and whether it builds a multigrid hierarchy decided on the
 /// grid (`auto` solves large homogeneous lattices matrix-free).
+///
+/// On a rank's part ([`Context::part`]) the grid is the rank's window ([`crate::part`]), whose
+/// halo holds `reaches` reaches of the horizon; `reaches: None` (a model without per-rank
+/// geometry) refuses a part by name.
 pub(crate) fn lattice_for(
     cx: &Context,
     horizon: f64,
+    reaches: Option<usize>,
     path_of: &dyn Fn(&Grid) -> (crate::memory::Path, bool),
 ) -> Result<Grid, ProblemError> {
     let (raw, dim) = (cx.raw, cx.dim());
@@ -155,11 +174,15 @@ pub(crate) fn lattice_for(
     // lattice site, and the check on the full box is an upper bound for the body
     let body = raw.body.as_ref().map(|b| region("body", b, dim)).transpose()?;
     check_horizon(horizon, grid.spacing(), dim)?;
+    let cut = raw.boundary_volumes == Some(crate::raw::RawBoundaryVolumes::Cut);
+    let grid = match cx.part {
+        None => grid,
+        Some(part) => window(cx, grid, part, horizon, reaches, cut)?,
+    };
     // Refuse scenes that cannot fit before anything per node is allocated (the regions below
     // already walk every node).
     let (path, multigrid) = path_of(&grid);
     let _ = crate::memory::check_solver(path, &grid, horizon, multigrid)?;
-    let cut = raw.boundary_volumes == Some(crate::raw::RawBoundaryVolumes::Cut);
     Ok(match &body {
         None if cut => {
             return Err(ProblemError::invalid("boundary_volumes", "\"cut\" needs a \"body\" whose boundary cuts cells"))
@@ -181,6 +204,39 @@ pub(crate) fn lattice_for(
             }
         }
     })
+}
+
+/// The rank's window of the whole lattice `whole` (see [`crate::part`]), its slab recorded in
+/// `cx`.
+fn window(
+    cx: &Context,
+    whole: Grid,
+    part: Part,
+    horizon: f64,
+    reaches: Option<usize>,
+    cut: bool,
+) -> Result<Grid, ProblemError> {
+    let refuse = |what: &str| {
+        Err(ProblemError::invalid(
+            "model.type",
+            format!("{what} has no per-rank geometry yet: run the distributed solve with --gather (every rank builds the whole scene)"),
+        ))
+    };
+    let Some(reaches) = reaches else {
+        return refuse(&format!("the {} model", cx.raw.model.kind()));
+    };
+    if cut {
+        return refuse("a body with \"boundary_volumes\": \"cut\"");
+    }
+    if whole.dim() < 2 {
+        return refuse("a 1D lattice");
+    }
+    let slab = Slab::of(&whole, part, halo_reaches(reaches, horizon / whole.spacing()));
+    let grid = whole
+        .window(slab.window.start, slab.window.end)
+        .ok_or_else(|| ProblemError::invalid("grid", format!("no window {:?} of the lattice", slab.window)))?;
+    *cx.slab.borrow_mut() = Some(slab);
+    Ok(grid)
 }
 
 /// The error of a body with cut-cell volumes whose part holds no node and borders no kept
@@ -345,7 +401,13 @@ fn nodal_load(
 /// body-force density `t / h` on the body's outermost slab of nodes at that face (the nodes
 /// within one spacing of it, layers excluded): the applied force is `t sum_i V_i / h`, i.e.
 /// `t` times the face's area when the slab is one full row of cells.
-fn traction(p: &str, l: &crate::raw::RawLoad, dim: usize, nodes: &dyn NodeSet) -> Result<Load, ProblemError> {
+fn traction(
+    p: &str,
+    l: &crate::raw::RawLoad,
+    dim: usize,
+    nodes: &dyn NodeSet,
+    presences: &Presences,
+) -> Result<Load, ProblemError> {
     const FACES: [&str; 6] = ["x-", "x+", "y-", "y+", "z-", "z+"];
     let face = l.face.as_deref().ok_or_else(|| ProblemError::invalid(format!("{p}.face"), "missing"))?;
     let Some(k) = FACES[..2 * dim].iter().position(|f| *f == face) else {
@@ -373,12 +435,12 @@ fn traction(p: &str, l: &crate::raw::RawLoad, dim: usize, nodes: &dyn NodeSet) -
         hi[axis] = min[axis] + depth;
     }
     let region = Region::Box { min: lo, max: hi };
-    if nodes.select(&region).is_empty() {
-        return Err(ProblemError::invalid(
+    presences.require(!nodes.select(&region).is_empty(), || {
+        ProblemError::invalid(
             format!("{p}.face"),
             format!("no node of the body lies within one spacing of the face {face}"),
-        ));
-    }
+        )
+    })?;
     Ok(Load::Body { region, density: t.iter().map(|v| v / h).collect() })
 }
 
@@ -389,6 +451,7 @@ fn affine_constraint(
     c: &crate::raw::RawConstraint,
     dim: usize,
     nodes: &dyn NodeSet,
+    presences: &Presences,
 ) -> Result<Constraint, ProblemError> {
     let (Some(raw_region), Some(displacement)) = (&c.region, &c.displacement) else {
         let key = if c.region.is_none() { "region" } else { "displacement" };
@@ -428,24 +491,36 @@ fn affine_constraint(
             cs.clone()
         }
     };
-    if nodes.select(&region).is_empty() {
-        return Err(ProblemError::invalid(format!("{p}.region"), format!("contains no node of {}", nodes.what())));
-    }
+    presences.require(!nodes.select(&region).is_empty(), || {
+        ProblemError::invalid(format!("{p}.region"), format!("contains no node of {}", nodes.what()))
+    })?;
     Ok(Constraint::Affine { region, value: displacement.value.clone(), gradient, components })
 }
 
+/// On a rank's part (`presences.is_part()`) the nodes are the rank's window: the checks that a
+/// region holds a node are recorded ([`crate::part`]), a point load off the window loads
+/// nothing here, and node-numbered files (whose numbers are the whole lattice's) are refused.
 pub(crate) fn constraints_and_loads(
     raw: &RawProblem,
     dim: usize,
     nodes: &dyn NodeSet,
     base_dir: &Path,
+    presences: &Presences,
 ) -> Result<(Vec<Constraint>, Vec<Load>), ProblemError> {
+    let per_node_file = |p: &str| {
+        Err(ProblemError::invalid(
+            format!("{p}.file"),
+            "numbers the whole lattice's nodes, which a rank's part does not hold: run the distributed solve \
+             with --gather",
+        ))
+    };
     let mut constraints = Vec::new();
     for (k, c) in raw.constraints.iter().enumerate() {
         let p = format!("constraints[{k}]");
         constraints.push(match &c.file {
+            Some(_) if presences.is_part() => return per_node_file(&p),
             Some(file) => nodal_constraint(&p, c, file, dim, nodes, base_dir)?,
-            None => affine_constraint(&p, c, dim, nodes)?,
+            None => affine_constraint(&p, c, dim, nodes, presences)?,
         });
     }
     check_constraints_agree(&constraints, dim, nodes)?;
@@ -471,12 +546,9 @@ pub(crate) fn constraints_and_loads(
             let r = l.region.as_ref().ok_or_else(|| ProblemError::invalid(format!("{p}.region"), "missing"))?;
             let region = region(&format!("{p}.region"), r, dim)?;
             nodes.check_sets(&region, &format!("{p}.region"))?;
-            if nodes.select(&region).is_empty() {
-                return Err(ProblemError::invalid(
-                    format!("{p}.region"),
-                    format!("contains no node of {}", nodes.what()),
-                ));
-            }
+            presences.require(!nodes.select(&region).is_empty(), || {
+                ProblemError::invalid(format!("{p}.region"), format!("contains no node of {}", nodes.what()))
+            })?;
             Ok(region)
         };
         loads.push(match l.kind {
@@ -492,6 +564,9 @@ pub(crate) fn constraints_and_loads(
                         ("traction", l.traction.is_some()),
                     ],
                 )?;
+                if presences.is_part() {
+                    return per_node_file(&p);
+                }
                 nodal_load(&p, l, dim, nodes, base_dir)?
             }
             RawLoadKind::Point => {
@@ -500,15 +575,18 @@ pub(crate) fn constraints_and_loads(
                 let force = need("force", &l.force)?;
                 let (node, d) = nodes.nearest(&at);
                 let tol = 1e-6 * nodes.spacing();
-                if d > tol {
-                    return Err(ProblemError::invalid(
+                presences.require(d <= tol, || {
+                    let nearest = match presences.is_part() {
+                        true => String::new(),
+                        false => format!(" (nearest node {node} is at {:?}, {d:e} away)", &nodes.position(node)[..dim]),
+                    };
+                    ProblemError::invalid(
                         format!("{p}.at"),
-                        format!(
-                            "no node at {at:?} (nearest node {node} is at {:?}, {d:e} away); point loads must sit on a node",
-                            &nodes.position(node)[..dim]
-                        ),
-                    ));
-                }
+                        format!("no node at {at:?}{nearest}; point loads must sit on a node"),
+                    )
+                })?;
+                // off a rank's window the load acts on another rank's node: nothing here
+                let force = if d <= tol { force } else { vec![0.0; dim] };
                 Load::Point { node, force }
             }
             RawLoadKind::Resultant => {
@@ -529,7 +607,7 @@ pub(crate) fn constraints_and_loads(
                         ("region", l.region.is_some()),
                     ],
                 )?;
-                traction(&p, l, dim, nodes)?
+                traction(&p, l, dim, nodes, presences)?
             }
         });
     }
@@ -957,6 +1035,20 @@ pub(crate) fn check_defects(
 }
 
 /// The error of a defect that crosses no bond.
+/// Every defect of `material` crosses a bond of `grid` (on a rank's part: recorded, see
+/// [`crate::part`]).
+pub(crate) fn require_defects_cut(
+    material: &Material,
+    grid: &Grid,
+    horizon: f64,
+    presences: &Presences,
+) -> Result<(), ProblemError> {
+    for (k, cuts) in material.defects_cutting(grid, horizon).into_iter().enumerate() {
+        presences.require(cuts, || defect_cuts_nothing(k))?;
+    }
+    Ok(())
+}
+
 pub(crate) fn defect_cuts_nothing(k: usize) -> ProblemError {
     ProblemError::invalid(
         format!("model.material.defects[{k}]"),

@@ -61,8 +61,12 @@ impl ModelType for BondType {
             (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, None) => (matrix_free_path(grid), true),
             (false, false) => (crate::memory::Path::BondAssembled, uses_multigrid || (auto && dim >= 2)),
         };
-        let grid = crate::validate::lattice_for(cx, raw.horizon, &path_of)?;
-        let bond = BondModel::validate(&raw, &grid, dim)?;
+        // the halo of a rank's part: one reach of the bonds, one more for the surface
+        // correction's per-node factors (crate::part); the blend has no per-rank rows
+        let corrected = !matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
+        let reaches = raw.pd_regions.is_none().then_some(1 + usize::from(corrected));
+        let grid = crate::validate::lattice_for(cx, raw.horizon, reaches, &path_of)?;
+        let bond = BondModel::validate(&raw, &grid, dim, &cx.presences)?;
         // The amplitude now, not at the first solve: a modulus that overflows it (1e308) is a
         // validation error naming the overflow.
         bond.micromodulus.amplitude(dim, bond.horizon, grid.spacing()).map_err(|e| core("model", e))?;

@@ -9,7 +9,7 @@ use crate::raw::{
 };
 use crate::scene::Problem;
 use crate::solution::Solution;
-use crate::validate::{bond_elastic, bond_micromodulus, defect_cuts_nothing, material, phase_moduli};
+use crate::validate::{bond_elastic, bond_micromodulus, material, phase_moduli};
 use crate::ProblemError;
 use linpd_bond::quadrature::Quadrature;
 use linpd_bond::BondOperator;
@@ -166,7 +166,12 @@ pub struct Surface {
 
 impl BondModel {
     /// Validates the keys of a bond model on `grid` (every defect must cut a bond of it).
-    pub(crate) fn validate(raw: &RawBond, grid: &Grid, dim: usize) -> Result<Self, ProblemError> {
+    pub(crate) fn validate(
+        raw: &RawBond,
+        grid: &Grid,
+        dim: usize,
+        presences: &crate::part::Presences,
+    ) -> Result<Self, ProblemError> {
         let horizon = raw.horizon;
         if raw.partial_volume == Some(RawPartialVolume::Named(RawPartialVolumeName::Ball)) {
             return Err(ProblemError::invalid(
@@ -179,9 +184,7 @@ impl BondModel {
         let micromodulus = bond_micromodulus(dim, horizon, raw.micromodulus.as_ref(), raw.plane, ramp)?;
         let elastic = bond_elastic(dim, &micromodulus);
         let material = material(&raw.material, dim, elastic)?;
-        if let Some(k) = material.defect_cutting_nothing(grid, horizon) {
-            return Err(defect_cuts_nothing(k));
-        }
+        crate::validate::require_defects_cut(&material, grid, horizon, presences)?;
         let surface = surface_of(false, raw.surface_correction, raw.surface_target)?;
         let phase_moduli = phase_moduli(&raw.material, elastic)?;
         let quadrature = Quadrature::Full;

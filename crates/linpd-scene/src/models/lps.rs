@@ -11,7 +11,7 @@ use crate::nodes::{NodeSet, Nodes};
 use crate::raw::{RawInfluence, RawMaterial, RawPlane, RawSurfaceCorrection, RawSurfaceTarget};
 use crate::scene::Problem;
 use crate::solution::Solution;
-use crate::validate::{check_defects, cloud_nodes, defect_cuts_nothing, material, Context, NOT_COARSENED};
+use crate::validate::{check_defects, cloud_nodes, material, Context, NOT_COARSENED};
 use crate::ProblemError;
 use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
@@ -109,7 +109,13 @@ impl ModelType for LpsType {
             && raw.material.defects.is_empty()
             && surface_of(true, raw.surface_correction, raw.surface_target)?.correction == SurfaceCorrection::None;
         let spec = crate::validate::solver_spec(&cx.raw.solver)?;
-        let grid = crate::validate::lattice_for(cx, raw.horizon, &|grid| memory_path(grid, plain, &spec, None))?;
+        // the halo of a rank's part: two reaches (the dilatation of a common partner), one more
+        // for the surface correction's per-node factors (crate::part)
+        let corrected =
+            surface_of(true, raw.surface_correction, raw.surface_target)?.correction != SurfaceCorrection::None;
+        let reaches = Some(2 + usize::from(corrected));
+        let grid =
+            crate::validate::lattice_for(cx, raw.horizon, reaches, &|grid| memory_path(grid, plain, &spec, None))?;
         let ratio = raw.horizon / grid.spacing();
         // the tangent's assembly work, where the solve assembles it
         if memory_path(&grid, plain, &spec, None).0 == crate::memory::Path::LpsAssembled {
@@ -117,9 +123,7 @@ impl ModelType for LpsType {
         }
         let params = params(dim, &raw)?;
         let material = material(&defects_only(&raw.material), dim, None)?;
-        if let Some(k) = material.defect_cutting_nothing(&grid, raw.horizon) {
-            return Err(defect_cuts_nothing(k));
-        }
+        crate::validate::require_defects_cut(&material, &grid, raw.horizon, &cx.presences)?;
         let surface = surface_of(true, raw.surface_correction, raw.surface_target)?;
         let nodes = Nodes::Lattice(grid);
         let (phases, node_moduli) = phases(&raw.material, dim, &nodes, &params)?;

@@ -230,6 +230,28 @@ impl Problem {
     /// loads by the model type ([`crate::models::ModelType::validate`]); a scene that asks a
     /// model for what it lacks (`solver.matrix_free`, `dynamics`) is refused by name.
     pub fn from_raw_with(raw: RawProblem, base_dir: &Path, registry: &Registry) -> Result<Self, ProblemError> {
+        Self::validate_part(raw, base_dir, registry, None)
+    }
+
+    /// Reads and validates rank `part.rank`'s part of a scene file for a distributed solve:
+    /// the nodes are the rank's window of the lattice ([`crate::part`]); bond and LPS models
+    /// on a grid only, others are refused by name. The checks a window cannot decide alone are
+    /// in [`Problem::part`] for the caller to settle over the ranks.
+    pub fn from_path_part(path: &Path, part: crate::part::Part) -> Result<Self, ProblemError> {
+        if part.ranks == 0 || part.rank >= part.ranks {
+            return Err(ProblemError::invalid("ranks", format!("rank {} of {} ranks", part.rank, part.ranks)));
+        }
+        let text = read_json_file(path)?;
+        let raw = parse_raw(&text)?;
+        Self::validate_part(raw, path.parent().unwrap_or(Path::new("")), &Registry::default(), Some(part))
+    }
+
+    fn validate_part(
+        raw: RawProblem,
+        base_dir: &Path,
+        registry: &Registry,
+        part: Option<crate::part::Part>,
+    ) -> Result<Self, ProblemError> {
         let dim = raw.dimension;
         if !(1..=3).contains(&dim) {
             return Err(ProblemError::invalid("dimension", format!("must be 1, 2 or 3, got {dim}")));
@@ -238,7 +260,8 @@ impl Problem {
             return Err(ProblemError::invalid("name", "must not be empty"));
         }
         let model_type = registry.resolve(&raw.model)?;
-        let v = model_type.validate(&Context { raw: &raw, base_dir })?;
+        let cx = Context::new(&raw, base_dir, part);
+        let v = model_type.validate(&cx)?;
         let mut model = v.model;
         if raw.solver.matrix_free {
             model.require(Capability::MatrixFree)?;
@@ -246,7 +269,22 @@ impl Problem {
         if raw.dynamics.is_some() {
             model.require(Capability::Dynamics)?;
         }
-        let (constraints, loads) = constraints_and_loads(&raw, dim, &v.nodes, base_dir)?;
+        let (constraints, loads) = constraints_and_loads(&raw, dim, &v.nodes, base_dir, &cx.presences)?;
+        let part = match (part, cx.slab.take()) {
+            (None, _) => None,
+            (Some(_), Some(slab)) => {
+                Some(crate::scene::PartScene { slab, presences: cx.presences.take(), resultant_volumes: None })
+            }
+            (Some(_), None) => {
+                return Err(ProblemError::invalid(
+                    "model.type",
+                    format!(
+                        "the {} model has no per-rank geometry yet: run the distributed solve with --gather",
+                        raw.model.kind()
+                    ),
+                ))
+            }
+        };
         model.bind(&raw, &v.nodes, &constraints, &loads)?;
         let model: Arc<dyn SceneModel> = Arc::from(model);
         let solver = solver_spec(&raw.solver)?;
@@ -292,6 +330,7 @@ impl Problem {
             constraints,
             loads,
             solver,
+            part,
         })
     }
 }

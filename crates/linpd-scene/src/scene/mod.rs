@@ -9,5 +9,5 @@ mod problem;
 mod solve;
 
 pub use model::{foreign_system, refusal, Built, DynamicsOperator, NodeElastic, Purpose, SceneModel, System};
-pub use problem::{Constraint, Load, Problem};
+pub use problem::{Constraint, Load, PartBalance, PartScene, Problem};
 pub use solve::solve_system;

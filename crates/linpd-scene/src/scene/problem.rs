@@ -134,9 +134,76 @@ pub struct Problem {
     pub(crate) stress_map: crate::stress::StressMap,
     /// `output.deformed_scale`.
     pub(crate) deformed_scale: Option<f64>,
+    /// A rank's part of a distributed scene: the nodes are its window.
+    pub(crate) part: Option<PartScene>,
+}
+
+/// A rank's share of a distributed solution's force balance ([`Problem::part_balance`]): the
+/// ranks' values add up to the whole body's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartBalance {
+    /// Per load, its force on the owned nodes.
+    pub loads: Vec<Vec<f64>>,
+    /// Per constraint, the supports' force at the owned DOFs it holds (a DOF two constraints
+    /// hold counts for the first, as in [`crate::Balance`]).
+    pub reactions: Vec<Vec<f64>>,
+    /// Per constraint, the owned DOFs it holds.
+    pub held_dofs: Vec<usize>,
+}
+
+/// What a rank's part of a scene knows beyond its window's nodes ([`crate::part`]).
+#[derive(Debug, Clone)]
+pub struct PartScene {
+    /// The planes it owns and builds.
+    pub slab: crate::part::Slab,
+    /// The checks it recorded, in the same order on every rank.
+    pub presences: Vec<crate::part::Presence>,
+    /// Per load, the volume `sum_j v_j` over the whole body of a resultant load's region (the
+    /// ranks' [`Problem::resultant_volumes`] summed), once [`Problem::with_resultant_volumes`]
+    /// set them; `None` before.
+    pub resultant_volumes: Option<Vec<f64>>,
 }
 
 impl Problem {
+    /// A rank's part of a distributed scene ([`Problem::from_path_part`]), `None` for a whole
+    /// scene.
+    pub fn part(&self) -> Option<&PartScene> {
+        self.part.as_ref()
+    }
+    /// Whether node `n` is one this rank owns (every node of a whole scene).
+    pub fn owns(&self, n: usize) -> bool {
+        match (&self.part, self.nodes.lattice()) {
+            (Some(part), Some(grid)) => part.slab.owned.contains(&part.slab.plane(grid.lattice_index(n), grid.dim())),
+            _ => true,
+        }
+    }
+    /// Per load, the volume of a resultant load's region over the nodes this rank owns (0 for
+    /// other loads): the ranks' values summed are the whole body's `sum_j v_j`.
+    pub fn resultant_volumes(&self) -> Vec<f64> {
+        self.loads
+            .iter()
+            .map(|l| match l {
+                Load::Resultant { region, .. } => {
+                    self.nodes.select(region).into_iter().filter(|&n| self.owns(n)).map(|n| self.nodes.volume(n)).sum()
+                }
+                _ => 0.0,
+            })
+            .collect()
+    }
+    /// A rank's part with the whole body's resultant volumes `totals` (per load, the ranks'
+    /// [`Problem::resultant_volumes`] summed), which its loads then use; an error on a whole
+    /// scene or for a wrong count.
+    pub fn with_resultant_volumes(mut self, totals: Vec<f64>) -> Result<Problem, ProblemError> {
+        let n = self.loads.len();
+        match &mut self.part {
+            Some(part) if totals.len() == n => {
+                part.resultant_volumes = Some(totals);
+                Ok(self)
+            }
+            Some(_) => Err(ProblemError::invalid("loads", format!("{} resultant volumes for {n} loads", totals.len()))),
+            None => Err(ProblemError::invalid("loads", "a whole scene computes its resultant volumes itself")),
+        }
+    }
     /// Spatial dimension.
     pub fn dim(&self) -> usize {
         self.nodes.dim()
@@ -236,8 +303,8 @@ impl Problem {
     /// External force per full DOF (point forces plus density times node volume).
     pub fn load_vector(&self) -> Vec<f64> {
         let mut f = vec![0.0; self.dim() * self.nodes.len()];
-        for l in &self.loads {
-            self.add_load(l, &mut f);
+        for k in 0..self.loads.len() {
+            self.add_load(k, &mut f);
         }
         f
     }
@@ -249,10 +316,14 @@ impl Problem {
 }
 
 impl Problem {
-    /// Adds the nodal forces of `load` to `f` (full DOFs); returns the nodes it loaded.
-    pub(crate) fn add_load(&self, load: &Load, f: &mut [f64]) -> usize {
-        let d = self.dim();
+    /// Adds the nodal forces of load `k` to `f` (full DOFs); returns the nodes it loaded.
+    pub(crate) fn add_load(&self, k: usize, f: &mut [f64]) -> usize {
+        let (d, load) = (self.dim(), &self.loads[k]);
         // f_i = density v_i (body), or force v_i / sum_j v_j (resultant)
+        let total = |nodes: &[usize]| match self.part.as_ref().and_then(|p| p.resultant_volumes.as_ref()) {
+            Some(totals) => totals[k],
+            None => nodes.iter().map(|&n| self.nodes.volume(n)).sum::<f64>(),
+        };
         let (region, vector, resultant) = match load {
             Load::Point { node, force } => {
                 (0..d).for_each(|a| f[d * node + a] += force[a]);
@@ -268,7 +339,7 @@ impl Problem {
             Load::Resultant { region, force } => (region, force, true),
         };
         let nodes = self.nodes.select(region);
-        let per_volume = if resultant { 1.0 / nodes.iter().map(|&n| self.nodes.volume(n)).sum::<f64>() } else { 1.0 };
+        let per_volume = if resultant { 1.0 / total(&nodes) } else { 1.0 };
         for &node in &nodes {
             let v = self.nodes.volume(node) * per_volume;
             (0..d).for_each(|a| f[d * node + a] += vector[a] * v);
@@ -297,9 +368,9 @@ impl Problem {
         };
         let mut f = vec![0.0; n];
         let mut loads = Vec::new();
-        for l in &self.loads {
+        for (k, l) in self.loads.iter().enumerate() {
             let mut fl = vec![0.0; n];
-            let nodes = self.add_load(l, &mut fl);
+            let nodes = self.add_load(k, &mut fl);
             let force: Vec<f64> = (0..d).map(|a| fl.iter().skip(a).step_by(d).sum()).collect();
             let loaded = &mut (0..self.nodes.len()).filter(|&i| fl[d * i..d * i + d].iter().any(|&x| x != 0.0));
             let moment = moment_of(loaded, &fl);
@@ -351,6 +422,40 @@ impl Problem {
             constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction, centroid, moment });
         }
         Balance::from_parts(d, loads, constraints, frame, nodal_reaction)
+    }
+
+    /// A rank's share of the force balance of the solution `u` of its window on `model` (its
+    /// full operator): the sums over the nodes it owns ([`PartBalance`]), which the ranks add.
+    pub fn part_balance(&self, apply: &dyn Fn(&[f64], &mut [f64]), u: &[f64]) -> PartBalance {
+        let d = self.dim();
+        let n = d * self.nodes.len();
+        let f = self.load_vector();
+        let owned = |dof: usize| self.owns(dof / d);
+        let mut loads = Vec::new();
+        for k in 0..self.loads.len() {
+            let mut fl = vec![0.0; n];
+            self.add_load(k, &mut fl);
+            loads.push((0..d).map(|a| (a..n).step_by(d).filter(|&i| owned(i)).map(|i| fl[i]).sum()).collect());
+        }
+        let mut au = vec![0.0; n];
+        apply(u, &mut au);
+        let mut held = vec![false; n];
+        let mut reactions = Vec::new();
+        let mut held_dofs = Vec::new();
+        for c in &self.constraints {
+            let (mut reaction, mut dofs) = (vec![0.0; d], 0);
+            for (node, a, _) in c.prescribed(&self.nodes, d) {
+                let dof = d * node + a;
+                if !held[dof] && owned(dof) {
+                    held[dof] = true;
+                    reaction[a] += au[dof] - f[dof];
+                    dofs += 1;
+                }
+            }
+            reactions.push(reaction);
+            held_dofs.push(dofs);
+        }
+        PartBalance { loads, reactions, held_dofs }
     }
 
     /// The mean position of the nodes and the diagonal of their bounding box (none in 1D).

@@ -41,6 +41,10 @@
 //! `f_f - (A u_bar)_f` needs; see `docs/scale-out.md` for the plan that removes them
 //! (per-rank geometry).
 
+mod part;
+
+pub use part::{part_rows, PartRows};
+
 use crate::models::{Capability, Purpose, System};
 use crate::scene::Problem;
 use crate::solution::Solution;
@@ -215,38 +219,59 @@ impl RowSystem {
         // the nodes of the range, in order (rows are node-major, so each node's rows are adjacent)
         let mut nodes: Vec<usize> = rows.iter().map(|g| g / d).collect();
         nodes.dedup();
-        let per_node: Vec<Vec<Row>> = nodes
-            .par_iter()
-            .map(|&i| {
-                let mut block_row: Vec<Vec<(usize, f64)>> = vec![Vec::new(); d];
-                let dofs = self.dofs();
-                let offered = self.model().for_each_block(i, &mut |j, b| {
-                    for c in 0..d {
-                        if let Some(col) = dofs.free(d * j + c) {
-                            for (a, row) in block_row.iter_mut().enumerate() {
-                                row.push((col, b[a * d + c]));
-                            }
-                        }
-                    }
-                });
-                debug_assert!(offered, "row_system checked that the model has block rows");
-                (0..d)
-                    .filter_map(|a| dofs.free(d * i + a).filter(|r| (first..last).contains(r)).map(|r| (r, a)))
-                    .map(|(r, a)| {
-                        let mut row = std::mem::take(&mut block_row[a]);
-                        row.sort_unstable_by_key(|e| e.0);
-                        (r, row)
-                    })
-                    .collect()
-            })
-            .collect();
+        let rows = block_rows(self.model(), self.dofs(), &nodes, &|r| (first..last).contains(&r), &|c| c);
+        Ok(RowBlock::of(first, last, rows))
+    }
+}
+
+impl RowBlock {
+    /// The block of rows `first..last` from `rows` (in order, one per row of the range).
+    fn of(first: usize, last: usize, rows: Vec<Row>) -> RowBlock {
         let mut block = RowBlock { first, last, indptr: vec![0], indices: Vec::new(), data: Vec::new() };
-        for (r, row) in per_node.into_iter().flatten() {
+        for (r, row) in rows {
             debug_assert_eq!(r, first + block.indptr.len() - 1);
             block.indices.extend(row.iter().map(|e| e.0));
             block.data.extend(row.iter().map(|e| e.1));
             block.indptr.push(block.indices.len());
         }
-        Ok(block)
+        block
     }
+}
+
+/// The rows of `A_ff` of `nodes` (ascending) whose free index `keep` accepts, from the nodes'
+/// block rows, in row order, each sorted by column; a column is the free index `c` renumbered
+/// `column(c)` (which must keep the order).
+fn block_rows(
+    model: &dyn Model,
+    dofs: &DofMap,
+    nodes: &[usize],
+    keep: &(dyn Fn(usize) -> bool + Sync),
+    column: &(dyn Fn(usize) -> usize + Sync),
+) -> Vec<Row> {
+    let d = model.dim();
+    let per_node: Vec<Vec<Row>> = nodes
+        .par_iter()
+        .map(|&i| {
+            let mut block_row: Vec<Vec<(usize, f64)>> = vec![Vec::new(); d];
+            let offered = model.for_each_block(i, &mut |j, b| {
+                for c in 0..d {
+                    if let Some(col) = dofs.free(d * j + c) {
+                        for (a, row) in block_row.iter_mut().enumerate() {
+                            row.push((column(col), b[a * d + c]));
+                        }
+                    }
+                }
+            });
+            debug_assert!(offered, "row_system checked that the model has block rows");
+            (0..d)
+                .filter_map(|a| dofs.free(d * i + a).filter(|&r| keep(r)).map(|r| (r, a)))
+                .map(|(r, a)| {
+                    let mut row = std::mem::take(&mut block_row[a]);
+                    row.sort_unstable_by_key(|e| e.0);
+                    (r, row)
+                })
+                .collect()
+        })
+        .collect();
+    per_node.into_iter().flatten().collect()
 }

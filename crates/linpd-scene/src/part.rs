@@ -1,0 +1,180 @@
+//! One rank's part of a distributed scene (`python -m linpd.petsc`): the slab of lattice planes
+//! it owns and the window it builds, owned planes plus a halo (docs/scale-out.md, "Per-rank
+//! geometry").
+//!
+//! A lattice scene of `P` ranks is cut along its slowest axis (z in 3D, y in 2D): rank `p` owns
+//! the planes `first..last` of an even split of the `planes` sites along that axis and builds
+//! the scene on the window `first - halo .. last + halo` only ([`linpd_core::Grid::window`]), so
+//! no rank holds an array over the whole lattice. The halo holds every node the owned rows
+//! couple to and every node whose data those couplings read: one reach of the bonds for the
+//! bond model, two for LPS (the dilatation of a common partner), one more where a surface
+//! correction fits per-node factors from the families of the halo's nodes
+//! ([`halo_reaches`]). A reach is `floor(delta / h) + 1` planes: the `+ 1` covers the partial
+//! volumes' ramp beyond `delta` and round-off in the family test.
+//!
+//! What a window cannot decide alone (a constraint's region holding a node, a point load
+//! sitting on one, a defect cutting a bond) is recorded as a [`Presence`] per rank in the same
+//! order on every rank, and settled by one reduction (a logical or over the ranks):
+//! [`crate::Problem::presences`].
+
+use crate::ProblemError;
+use linpd_core::Grid;
+use std::cell::RefCell;
+use std::ops::Range;
+
+/// Rank `rank` of `ranks`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Part {
+    /// This rank, `0..ranks`.
+    pub rank: usize,
+    /// Number of ranks, `>= 1`.
+    pub ranks: usize,
+}
+
+/// The planes a rank owns and the window it builds, in site numbers `0..planes` along the
+/// lattice's slowest axis (layers included).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Slab {
+    /// Sites along the slowest axis of the whole lattice.
+    pub planes: usize,
+    /// The planes this rank owns (empty when there are more ranks than planes).
+    pub owned: Range<usize>,
+    /// The planes it builds: the owned ones and `halo` on each side (one plane, owning
+    /// nothing, when `owned` is empty).
+    pub window: Range<usize>,
+    /// Lattice index of plane 0 along the slowest axis (below 0 inside a lower layer).
+    pub index0: i64,
+}
+
+impl Slab {
+    /// The slab of `part` on `whole` (a grid before any body) with `halo` planes on each side:
+    /// an even split of the planes, the first `planes % ranks` ranks one plane more.
+    pub fn of(whole: &Grid, part: Part, halo: usize) -> Slab {
+        let axis = whole.dim() - 1;
+        let planes = whole.counts()[axis];
+        let (q, r) = (planes / part.ranks, planes % part.ranks);
+        let first = part.rank * q + part.rank.min(r);
+        let last = first + q + usize::from(part.rank < r);
+        let window = if first == last {
+            let p = first.min(planes - 1);
+            p..p + 1
+        } else {
+            first.saturating_sub(halo)..(last + halo).min(planes)
+        };
+        Slab { planes, owned: first..last, window, index0: whole.lattice_index(0)[axis] }
+    }
+
+    /// The plane (`0..planes`) of a node with lattice index `idx`.
+    pub fn plane(&self, idx: [i64; 3], dim: usize) -> usize {
+        (idx[dim - 1] - self.index0) as usize
+    }
+}
+
+/// Halo planes of a model whose rows reach `reaches` horizons (1: bond, 2: LPS; one more with a
+/// surface correction) at `horizon / spacing = ratio`.
+pub fn halo_reaches(reaches: usize, ratio: f64) -> usize {
+    reaches * ((ratio * (1.0 + 1e-9)).floor() as usize + 1)
+}
+
+/// A check a window cannot decide alone: does some rank's part hold what `path` needs?
+#[derive(Debug, Clone, PartialEq)]
+pub struct Presence {
+    /// The JSON path the error names.
+    pub path: String,
+    /// The error's reason when no rank found it.
+    pub reason: String,
+    /// Whether this rank's window found it.
+    pub found: bool,
+}
+
+/// Presence checks during validation: errors at once on a whole scene, recorded on a part.
+#[derive(Debug, Default)]
+pub(crate) struct Presences(Option<RefCell<Vec<Presence>>>);
+
+impl Presences {
+    /// For a part (`true`) or a whole scene.
+    pub(crate) fn new(part: bool) -> Self {
+        Presences(part.then(|| RefCell::new(Vec::new())))
+    }
+    /// Whether this validates a part.
+    pub(crate) fn is_part(&self) -> bool {
+        self.0.is_some()
+    }
+    /// `found`, or the error `missing()` (on a whole scene at once; on a part recorded).
+    pub(crate) fn require(&self, found: bool, missing: impl FnOnce() -> ProblemError) -> Result<(), ProblemError> {
+        match &self.0 {
+            None if found => Ok(()),
+            None => Err(missing()),
+            Some(list) => {
+                let (path, reason) = match missing() {
+                    ProblemError::Invalid { path, reason } => (path, reason),
+                    other => (String::new(), other.to_string()),
+                };
+                list.borrow_mut().push(Presence { path, reason, found });
+                Ok(())
+            }
+        }
+    }
+    /// The recorded checks.
+    pub(crate) fn take(&self) -> Vec<Presence> {
+        self.0.as_ref().map(|l| l.take()).unwrap_or_default()
+    }
+}
+
+/// The first check no rank found (`found_anywhere[k]`: the or over the ranks of check `k`'s
+/// `found`), as the error a whole scene would give.
+pub fn settle(presences: &[Presence], found_anywhere: &[bool]) -> Result<(), ProblemError> {
+    if presences.len() != found_anywhere.len() {
+        return Err(ProblemError::invalid(
+            "ranks",
+            format!(
+                "the ranks recorded different checks ({} here, {} reduced): every rank must read the same scene",
+                presences.len(),
+                found_anywhere.len()
+            ),
+        ));
+    }
+    match presences.iter().zip(found_anywhere).find(|(_, f)| !**f) {
+        Some((p, _)) => Err(ProblemError::invalid(p.path.clone(), p.reason.clone())),
+        None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use linpd_core::Placement;
+
+    #[test]
+    fn slabs_cover_the_planes_once_with_halos_inside_the_box() {
+        let whole = Grid::new(&[0.0, 0.0, 0.0], &[1.0, 1.0, 1.0], 0.1, 0.0, Placement::Vertex).unwrap();
+        for ranks in [1, 2, 3, 4, 11, 13] {
+            let mut next = 0;
+            for rank in 0..ranks {
+                let s = Slab::of(&whole, Part { rank, ranks }, 4);
+                assert_eq!(s.owned.start, next);
+                next = s.owned.end;
+                assert!(s.window.start < s.window.end && s.window.end <= 11);
+                if !s.owned.is_empty() {
+                    assert_eq!(s.window.start, s.owned.start.saturating_sub(4));
+                    assert_eq!(s.window.end, (s.owned.end + 4).min(11));
+                }
+            }
+            assert_eq!(next, 11, "{ranks} ranks");
+        }
+        assert_eq!(halo_reaches(2, 3.0), 8);
+    }
+
+    #[test]
+    fn a_check_fails_only_where_no_rank_found() {
+        let p = Presences::new(true);
+        p.require(false, || ProblemError::invalid("loads[0].region", "contains no node")).unwrap();
+        p.require(true, || ProblemError::invalid("loads[1].region", "contains no node")).unwrap();
+        let list = p.take();
+        assert!(settle(&list, &[true, true]).is_ok());
+        let e = settle(&list, &[false, true]).unwrap_err().to_string();
+        assert_eq!(e, "loads[0].region: contains no node");
+        assert!(settle(&list, &[true]).is_err());
+        assert!(Presences::new(false).require(false, || ProblemError::invalid("x", "y")).is_err());
+    }
+}

@@ -1,0 +1,261 @@
+//! Per-rank geometry (issue #34; `Problem::from_path_part`, `linpd::problem::part_rows`): a
+//! scene cut into 1, 2, 3 and 5 slabs, each rank building only its window, gives the whole
+//! scene's reduced system and solution. The reductions MPI does in the PETSc driver (an or over
+//! the presence checks, sums of the resultant volumes, of the rigid-mode Gram matrices and of the
+//! balance, a gather of the per-plane counts) are done here in-process, so these tests run the
+//! numbering and the windows without MPI; `python/tests/check_petsc.py` runs them under MPI.
+//!
+//! Compared with the whole scene's `RowSystem` (itself checked against `linpd export` in
+//! tests/rows.rs): row numbers and columns exactly; values to `1e-13 max|A_ff|` (an entry is a
+//! sum over a node's bonds that the window adds in the same order, so in practice bit for bit;
+//! the bound is the one tests/rows.rs gives sums in another order); the right-hand side to
+//! `1e-13 max|f|` for the same reason. The pieces' displacements, strains and stresses from the
+//! whole solution's values equal the whole solution's on the owned nodes to `1e-12` of their
+//! largest value (the fields read the halo's displacements; a halo one plane too thin changes
+//! a boundary node's strain by O(1)).
+
+use linpd::problem::{part_rows, Commands, Part, PartRows, Problem};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(name)
+}
+
+/// `name` from data/ with `edit` applied, written to a temporary file (parts read files).
+fn scene_file(name: &str, tag: &str, edit: impl FnOnce(&mut Value)) -> PathBuf {
+    let mut v: Value = serde_json::from_str(&std::fs::read_to_string(data(name)).unwrap()).unwrap();
+    edit(&mut v);
+    let dir = std::env::temp_dir().join(format!("linpd-part-rows-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{tag}.json"));
+    std::fs::write(&path, v.to_string()).unwrap();
+    path
+}
+
+/// Every rank's part and rows after the reductions the driver does.
+fn parts(path: &Path, ranks: usize) -> Result<Vec<(Problem, PartRows)>, String> {
+    let mut problems = Vec::new();
+    for rank in 0..ranks {
+        problems.push(Problem::from_path_part(path, Part { rank, ranks }).map_err(|e| e.to_string())?);
+    }
+    // the presence checks: an or over the ranks
+    let checks = problems[0].part().unwrap().presences.len();
+    let found: Vec<bool> = (0..checks).map(|k| problems.iter().any(|p| p.part().unwrap().presences[k].found)).collect();
+    for p in &problems {
+        linpd::scene::part::settle(&p.part().unwrap().presences, &found).map_err(|e| e.to_string())?;
+    }
+    // the resultant volumes: a sum
+    let mut volumes = vec![0.0; problems[0].loads().len()];
+    for p in &problems {
+        volumes.iter_mut().zip(p.resultant_volumes()).for_each(|(t, v)| *t += v);
+    }
+    let problems: Vec<Problem> =
+        problems.into_iter().map(|p| p.with_resultant_volumes(volumes.clone()).unwrap()).collect();
+    let mut rows: Vec<PartRows> = Vec::new();
+    for p in &problems {
+        rows.push(part_rows(p).map_err(|e| e.to_string())?);
+    }
+    // the per-plane counts: a gather in rank order
+    let counts: Vec<usize> = rows.iter().flat_map(|r| r.plane_free_counts().to_vec()).collect();
+    for r in &mut rows {
+        r.number(&counts).unwrap();
+    }
+    // the support: a sum of the Gram matrices
+    let mut gram = rows[0].support(&problems[0]).unwrap();
+    for (p, r) in problems.iter().zip(&rows).skip(1) {
+        let g = r.support(p).unwrap();
+        gram.add_gram(&g.all, &g.held);
+    }
+    if gram.free_modes() > 0 {
+        return Err(format!("{} rigid motions free", gram.free_modes()));
+    }
+    Ok(problems.into_iter().zip(rows).collect())
+}
+
+fn max_abs(v: impl IntoIterator<Item = f64>) -> f64 {
+    v.into_iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+/// The parts of `path` over `ranks` against the whole scene.
+fn check(path: &Path, ranks: usize) {
+    let whole = Problem::from_path(path).unwrap();
+    let rows = whole.row_system().unwrap();
+    let n = rows.n();
+    let block = rows.rows(0, n).unwrap();
+    let scale = max_abs(block.data.iter().copied());
+    let parts = parts(path, ranks).unwrap();
+    let solution = whole.solve(&linpd::core::NoProgress).unwrap();
+    let d = whole.dim();
+    let u_free: Vec<f64> = rows.free_dofs().iter().map(|&g| solution.u[g]).collect();
+    let mut next = 0;
+    let mut owned_nodes = 0;
+    for (rank, (p, r)) in parts.iter().enumerate() {
+        let what = format!("{} rank {rank}/{ranks}", whole.name());
+        assert_eq!(r.n_global().unwrap(), n, "{what}: unknowns");
+        let range = r.row_range().unwrap();
+        assert_eq!(range.start, next, "{what}: the ranks' rows follow each other");
+        next = range.end;
+        let mine = r.rows().unwrap();
+        for (k, row) in range.clone().enumerate() {
+            let (a, b) = (block.indptr[row], block.indptr[row + 1]);
+            let (c, e) = (mine.indptr[k], mine.indptr[k + 1]);
+            assert_eq!(&mine.indices[c..e], &block.indices[a..b], "{what}: row {row}'s columns");
+            let worst = max_abs(mine.data[c..e].iter().zip(&block.data[a..b]).map(|(x, y)| x - y));
+            assert!(worst <= 1e-13 * scale, "{what}: row {row} differs by {worst:e} (max|A| {scale:e})");
+        }
+        let f_scale = max_abs(rows.rhs().iter().copied()).max(f64::MIN_POSITIVE);
+        let worst = max_abs(r.rhs().iter().zip(&rows.rhs()[range.clone()]).map(|(x, y)| x - y));
+        assert!(worst <= 1e-13 * f_scale, "{what}: rhs differs by {worst:e}");
+        // the piece from the whole solution's values at the window's rows
+        let u_window: Vec<f64> = r.window_rows().unwrap().iter().map(|&g| u_free[g]).collect();
+        let report = linpd::solve::SolveReport::new(linpd::solve::SolverId::Lu, n, 0);
+        let piece = r.solution(p, &u_window, report).unwrap();
+        let grid = whole.lattice().unwrap();
+        for (k, x) in piece.x.iter().enumerate() {
+            let (node, dist) = grid.nearest_node(x);
+            assert!(dist < 1e-12, "{what}: piece node {k} at {x:?} is a node of the scene");
+            let du = max_abs((0..d).map(|a| piece.u[d * k + a] - solution.u[d * node + a]));
+            assert!(du <= 1e-12 * max_abs(solution.u.iter().copied()), "{what}: u at {x:?} differs by {du:e}");
+            for (mine, all) in [
+                (piece.strain.as_ref().map(|s| s.tensor[k]), solution.strain.as_ref().map(|s| s.tensor[node])),
+                (piece.stress.as_ref().map(|s| s.tensor[k]), solution.stress.as_ref().map(|s| s.tensor[node])),
+            ] {
+                let (Some(mine), Some(all)) = (mine, all) else { continue };
+                let scale = max_abs(solution.stress.as_ref().unwrap().tensor.iter().flatten().copied())
+                    .max(max_abs(solution.strain.as_ref().unwrap().tensor.iter().flatten().copied()));
+                let worst = max_abs(mine.iter().zip(all).map(|(a, b)| a - b));
+                assert!(worst <= 1e-12 * scale, "{what}: a field at {x:?} differs by {worst:e}");
+            }
+        }
+        owned_nodes += piece.x.len();
+    }
+    assert_eq!(next, n, "{}: the ranks' rows cover the unknowns", whole.name());
+    assert_eq!(owned_nodes, whole.nodes().len(), "{}: every node in one piece", whole.name());
+    // the balance: the ranks' shares add up to the whole body's
+    let b = solution.balance.as_ref().unwrap();
+    for (k, l) in b.loads.iter().enumerate() {
+        for a in 0..d {
+            let sum: f64 = parts
+                .iter()
+                .map(|(p, r)| {
+                    let u_window: Vec<f64> = r.window_rows().unwrap().iter().map(|&g| u_free[g]).collect();
+                    r.balance(p, &u_window).unwrap().loads[k][a]
+                })
+                .sum();
+            assert!((sum - l.force[a]).abs() <= 1e-12 * max_abs(l.force.iter().copied()).max(1e-300), "load {k}");
+        }
+    }
+    eprintln!("{}: {ranks} ranks agree ({n} unknowns)", whole.name());
+}
+
+#[test]
+fn bond_3d_cantilever_with_a_resultant_load() {
+    let path = scene_file("cantilever-3d.json", "cantilever", |_| {});
+    for ranks in [1, 2, 3, 5] {
+        check(&path, ranks);
+    }
+}
+
+#[test]
+fn bond_2d_plate_with_a_hole_a_point_load_and_a_constraint_on_one_line() {
+    // the constraint on y = 0.25 and the point load lie in one rank's planes only
+    let path = scene_file("plate-hole-2d.json", "hole", |v| {
+        v["grid"]["spacing"] = 0.025.into();
+        v["model"]["horizon"] = 0.075.into();
+        v["grid"]["layer"] = serde_json::json!({"x-": 0.075, "x+": 0.075});
+        v["loads"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!({"type": "point", "at": [0.5, 0.5], "force": [0.0, 0.1]}));
+    });
+    for ranks in [1, 2, 3] {
+        check(&path, ranks);
+    }
+}
+
+#[test]
+fn lps_2d_plate_two_reaches_of_halo() {
+    let path = scene_file("lps-plate-2d.json", "lps", |_| {});
+    for ranks in [2, 3, 5] {
+        check(&path, ranks);
+    }
+}
+
+#[test]
+fn heterogeneous_cracked_plate() {
+    let path = scene_file("plate-crack-2d.json", "crack", |v| {
+        v["grid"]["spacing"] = 0.04.into();
+        v["grid"]["layer"] = 0.12.into();
+        v["model"]["horizon"] = 0.12.into();
+        v["model"]["material"]["phases"] =
+            serde_json::json!([{"region": {"box": {"min": [0.0, 0.6], "max": [1.0, 1.0]}}, "modulus": 3.0}]);
+    });
+    for ranks in [2, 3] {
+        check(&path, ranks);
+    }
+}
+
+#[test]
+fn surface_corrected_bond_3d() {
+    // a slab of 15 planes along z, so that the windows cut it
+    let path = scene_file("surface-bar-3d.json", "surface", |v| {
+        v["grid"]["max"][2] = 0.45.into();
+    });
+    for ranks in [2, 3] {
+        check(&path, ranks);
+    }
+}
+
+#[test]
+fn more_ranks_than_planes_leave_some_ranks_empty() {
+    let path = scene_file("lps-plate-2d.json", "lps-many", |v| {
+        v["grid"]["max"] = serde_json::json!([1.0, 0.1]);
+        v["grid"]["layer"] = serde_json::json!({"x-": 0.075, "x+": 0.075});
+    });
+    // 5 planes along y over 8 ranks: three own nothing
+    let parts = parts(&path, 8).unwrap();
+    assert_eq!(parts.iter().filter(|(_, r)| r.row_range().unwrap().is_empty()).count(), 3);
+    check(&path, 8);
+}
+
+#[test]
+fn what_no_rank_finds_is_the_whole_scenes_error() {
+    let path = scene_file("cantilever-3d.json", "nowhere", |v| {
+        v["loads"][0]["region"] = serde_json::json!({"box": {"min": [5.0, 5.0, 5.0], "max": [6.0, 6.0, 6.0]}});
+    });
+    let whole = Problem::from_path(&path).unwrap_err().to_string();
+    let parted = parts(&path, 3).err().unwrap();
+    assert_eq!(parted, whole);
+    assert!(whole.starts_with("loads[0].region: contains no node"), "{whole}");
+
+    let path = scene_file("plate-hole-2d.json", "off-node", |v| {
+        v["loads"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!({"type": "point", "at": [0.505, 0.5], "force": [0.0, 1.0]}));
+    });
+    let parted = parts(&path, 2).err().unwrap();
+    assert!(parted.starts_with("loads[1].at: no node at [0.505, 0.5]"), "{parted}");
+
+    // held only against x: the plate may move along y and rotate
+    let path = scene_file("plate-hole-2d.json", "floating", |v| {
+        v["constraints"].as_array_mut().unwrap().pop();
+    });
+    assert!(Problem::from_path(&path).unwrap().row_system().is_err());
+    assert_eq!(parts(&path, 3).err().unwrap(), "1 rigid motions free");
+}
+
+#[test]
+fn models_without_per_rank_geometry_are_refused_by_name() {
+    for (name, key) in [
+        ("bracket-cloud-2d.json", "model.type: the bond model has no per-rank geometry"),
+        ("plate-crack-blend-2d.json", "model.type: the bond model has no per-rank geometry"),
+        ("blend-bar-crack.json", "model.type"),
+    ] {
+        let e = Problem::from_path_part(&data(name), Part { rank: 0, ranks: 2 }).unwrap_err().to_string();
+        assert!(e.starts_with(key) && e.contains("--gather"), "{name}: {e}");
+    }
+    let e = Problem::from_path_part(&data("cantilever-3d.json"), Part { rank: 2, ranks: 2 }).unwrap_err();
+    assert!(e.to_string().starts_with("ranks:"), "{e}");
+}
