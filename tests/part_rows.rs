@@ -250,7 +250,7 @@ fn what_no_rank_finds_is_the_whole_scenes_error() {
 fn models_without_per_rank_geometry_are_refused_by_name() {
     for (name, key) in [
         ("bracket-cloud-2d.json", "model.type: the bond model has no per-rank geometry"),
-        ("plate-crack-blend-2d.json", "model.type: the bond model has no per-rank geometry"),
+        ("plate-crack-blend-2d.json", "model.pd_regions: the blended model has no per-rank geometry"),
         ("blend-bar-crack.json", "model.type"),
     ] {
         let e = Problem::from_path_part(&data(name), Part { rank: 0, ranks: 2 }).unwrap_err().to_string();

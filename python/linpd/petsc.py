@@ -86,9 +86,10 @@ _REASONS = {
 }
 
 
-def _split_args(argv: List[str]) -> Tuple[Optional[str], Optional[str], List[str]]:
-    """``(scene, out, petsc_args)`` from the command line (PETSc options are everything else)."""
-    scene, out, rest = None, None, []
+def _split_args(argv: List[str]) -> Tuple[Optional[str], Optional[str], bool, List[str]]:
+    """``(scene, out, gather, petsc_args)`` from the command line (PETSc options are everything
+    else)."""
+    scene, out, gather, rest = None, None, False, []
     k = 0
     while k < len(argv):
         a = argv[k]
@@ -98,12 +99,14 @@ def _split_args(argv: List[str]) -> Tuple[Optional[str], Optional[str], List[str
             continue
         if a.startswith("--out="):
             out = a[len("--out="):]
+        elif a == "--gather":
+            gather = True
         elif scene is None and not a.startswith("-"):
             scene = a
         else:
             rest.append(a)
         k += 1
-    return scene, out, rest
+    return scene, out, gather, rest
 
 
 def _peak_rss_bytes() -> int:
@@ -126,79 +129,46 @@ def _default_pc(PETSc, symmetric: bool, d: int) -> str:
     return "gamg"
 
 
-def main(argv: Optional[List[str]] = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    scene_path, out, petsc_args = _split_args(argv)
+class _Stop(Exception):
+    """Every rank stops with this status (the message was printed)."""
 
-    import petsc4py
+    def __init__(self, status: int):
+        super().__init__(status)
+        self.status = status
 
-    petsc4py.init([sys.argv[0]] + petsc_args)
-    from petsc4py import PETSc
 
-    comm = PETSc.COMM_WORLD
-    if comm.getSize() > 1:
-        # the ranks are the parallelism: one rayon thread each (linpd's pool starts at its first
-        # parallel call, after this), unless the user says otherwise
-        os.environ.setdefault("RAYON_NUM_THREADS", "1")
-    import linpd
-
-    mpi = comm.tompi4py()
-    rank, size = comm.getRank(), comm.getSize()
-    t0 = time.perf_counter()
-
-    # 1. every rank validates; nobody enters a PETSc collective before all have succeeded
-    error = None
-    scene = None
-    if scene_path is None:
-        error = USAGE
-    else:
-        try:
-            scene = linpd.Scene(scene_path)
-            n, bs, free_dofs, rhs = scene.row_info()
-            symmetric = scene.is_symmetric()
-            if n >= 2**31 and PETSc.IntType == np.int32:
-                error = f"{n} unknowns need a PETSc built with 64-bit indices (docs/scale-out.md)"
-        except linpd.LinpdError as e:
-            error = f"{scene_path}: {e}"
-        except OSError as e:
-            error = f"{scene_path}: {e}"
+def _agree(mpi, rank: int, error: Optional[str], what: str = "error") -> None:
+    """One ``allgather`` of every rank's outcome: if any rank failed, every rank prints the
+    first failure (naming the rank when the ranks differ) and stops with status 1, so no rank is
+    left waiting in a later collective."""
     errors = mpi.allgather(error)
     failed = [(r, e) for r, e in enumerate(errors) if e is not None]
     if failed:
         r, e = failed[0]
         where = "" if all(x == e for x in errors) else f" (rank {r})"
-        print(f"error{where}: {e}", file=sys.stderr, flush=True)
-        return 1
+        print(f"{what}{where}: {e}", file=sys.stderr, flush=True)
+        raise _Stop(1)
 
-    d = scene.dim
-    t_model = time.perf_counter() - t0
 
-    # 2. own rows only: a contiguous range of blocks (nodes when bs == d)
-    n_blocks = n // bs
-    b0, b1 = _node_range(n_blocks, size, rank)
-    first, last = bs * b0, bs * b1
-    t1 = time.perf_counter()
-    indptr, indices, data = scene.assemble_rows(first, last)
-    A = PETSc.Mat().createAIJ(size=((last - first, n), (last - first, n)), bsize=bs, comm=comm)
-    A.setPreallocationCSR((indptr.astype(PETSc.IntType), indices.astype(PETSc.IntType), data))
-    A.assemble()
-    del indptr, indices, data
-    b = PETSc.Vec().createMPI((last - first, n), bsize=bs, comm=comm)
-    b.setArray(rhs[first:last])
-    x = b.duplicate()
-    t_assemble = time.perf_counter() - t1
+def _attempt(fn, prefix: str = ""):
+    """``(value, None)`` or ``(None, message)`` of ``fn()`` (linpd's and the OS's errors)."""
+    import linpd
 
-    # 3. rigid-body modes from the coordinates of the owned rows (whole nodes only)
-    positions = scene.positions()
-    near_null = bs == d and d > 1
-    if near_null:
-        rows = free_dofs[first:last]
-        coords = PETSc.Vec().createMPI((last - first, n), bsize=d, comm=comm)
-        coords.setArray(positions[rows // d, rows % d])
+    try:
+        return fn(), None
+    except linpd.LinpdError as e:
+        return None, f"{prefix}{e}"
+    except OSError as e:
+        return None, f"{prefix}{e}"
+
+
+def _solve(PETSc, comm, A, b, symmetric: bool, d: int, coords) -> dict:
+    """CG or GMRES with GAMG (see the module docstring) on ``A x = b``; ``coords`` (or None)
+    the owned rows' coordinates for the rigid-body near-null space. Returns the solution and
+    the KSP's figures."""
+    if coords is not None:
         A.setNearNullSpace(PETSc.NullSpace().createRigidBody(coords))
-    del positions
-
-    # 4. the KSP: defaults first, then the command line's options override them
+    x = b.duplicate()
     ksp = PETSc.KSP().create(comm=comm)
     ksp.setOperators(A)
     default_type = "cg" if symmetric else "gmres"
@@ -221,60 +191,126 @@ def main(argv: Optional[List[str]] = None) -> int:
     t3 = time.perf_counter()
     ksp.solve(b, x)
     t_solve = time.perf_counter() - t3
-    reason = ksp.getConvergedReason()
-    iterations = ksp.getIterationNumber()
     r = b.duplicate()
     A.mult(x, r)
     r.aypx(-1.0, b)  # r = b - A x
     b_norm = b.norm()
-    rel_residual = r.norm() / b_norm if b_norm > 0 else r.norm()
-    nnz = int(A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"])
-    pc_type = ksp.getPC().getType()
-    ksp_type = ksp.getType()
+    return {
+        "x": x,
+        "reason": ksp.getConvergedReason(),
+        "iterations": ksp.getIterationNumber(),
+        "rel_residual": r.norm() / b_norm if b_norm > 0 else r.norm(),
+        "nnz": int(A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"]),
+        "pc_type": ksp.getPC().getType(),
+        "ksp_type": ksp.getType(),
+        "setup": t_setup,
+        "solve": t_solve,
+    }
 
-    # gather u to rank 0
-    scatter, x0 = PETSc.Scatter.toZero(x)
-    scatter.scatter(x, x0, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-    rss = mpi.gather(_peak_rss_bytes(), root=0)
-    status = 0
-    if reason < 0 or not np.isfinite(rel_residual):
-        # a diverged or failed KSP (negative converged reason: -3 max_it, -4 dtol, -5 breakdown,
-        # -9 nan or inf, ...) or a non-finite residual: an error, nothing written
+
+def _check_converged(rank: int, k: dict) -> None:
+    """A diverged or failed KSP (negative converged reason: -3 max_it, -4 dtol, -5 breakdown,
+    -9 nan or inf, ...) or a non-finite residual: an error on every rank, nothing written."""
+    if k["reason"] < 0 or not np.isfinite(k["rel_residual"]):
         if rank == 0:
-            why = _REASONS.get(int(reason), "")
+            why = _REASONS.get(int(k["reason"]), "")
             print(
-                f"error: solver: the KSP ({ksp_type}, {pc_type}) did not converge: reason {reason}"
-                f"{f' ({why})' if why else ''}, {iterations} iterations, relative residual {rel_residual:.3e}; "
-                f"nothing written",
+                f"error: solver: the KSP ({k['ksp_type']}, {k['pc_type']}) did not converge: reason {k['reason']}"
+                f"{f' ({why})' if why else ''}, {k['iterations']} iterations, relative residual "
+                f"{k['rel_residual']:.3e}; nothing written",
                 file=sys.stderr,
                 flush=True,
             )
-        status = 1
-    elif rank == 0:
-        report = {
-            "solver": f"petsc-{ksp_type}-{pc_type}",
-            "n": n,
-            "nnz_a": nnz,
-            "iterations": iterations,
-            "rel_residual": rel_residual,
-            "ksp_converged_reason": int(reason),
-            "ranks": size,
-            "block_size": bs,
-            "symmetric": bool(symmetric),
-            "asymmetry": float(scene.asymmetry()),
-            "near_null_space": "rigid-body modes" if near_null else None,
-            "timings": {
-                "model": t_model,
-                "assemble": t_assemble,
-                "setup": t_setup,
-                "solve": t_solve,
-                "total": time.perf_counter() - t0,
-            },
-            "peak_rss_bytes": max(rss),
-            "peak_rss_bytes_per_rank": rss,
-            "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())),
-            "petsc_options": petsc_args,
-        }
+        raise _Stop(1)
+
+
+def _report(PETSc, k: dict, n: int, size: int, bs: int, symmetric: bool, asymmetry: float, near_null: bool,
+            timings: dict, rss: List[int], petsc_args: List[str], geometry: str) -> dict:
+    """``stats.solve`` of ``result.json``."""
+    return {
+        "solver": f"petsc-{k['ksp_type']}-{k['pc_type']}",
+        "n": n,
+        "nnz_a": k["nnz"],
+        "iterations": k["iterations"],
+        "rel_residual": k["rel_residual"],
+        "ksp_converged_reason": int(k["reason"]),
+        "ranks": size,
+        "block_size": bs,
+        "symmetric": bool(symmetric),
+        "asymmetry": float(asymmetry),
+        "near_null_space": "rigid-body modes" if near_null else None,
+        "geometry": geometry,
+        "timings": timings,
+        "peak_rss_bytes": max(rss),
+        "peak_rss_bytes_per_rank": rss,
+        "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())),
+        "petsc_options": petsc_args,
+    }
+
+
+def _summary(name: str, n: int, size: int, k: dict, timings: dict, rss: List[int], files: int, dest: str) -> str:
+    return (
+        f"{name}: {n} unknowns on {size} ranks, {k['ksp_type']} + {k['pc_type']}: {k['iterations']} iterations, "
+        f"relative residual {k['rel_residual']:.3e}, assemble {timings['assemble']:.3f} s, setup "
+        f"{timings['setup']:.3f} s, solve {timings['solve']:.3f} s, peak memory per rank "
+        f"{', '.join(f'{m / 2**20:.0f}' for m in rss)} MiB; wrote {files} files into {dest}"
+    )
+
+
+def _whole(PETSc, comm, mpi, scene_path: str, out: Optional[str], petsc_args: List[str], t0: float) -> int:
+    """Every rank builds the whole scene and assembles its rows; rank 0 gathers ``u`` and writes
+    ``linpd solve``'s files (``--gather``, and scenes without per-rank geometry)."""
+    import linpd
+
+    rank, size = comm.getRank(), comm.getSize()
+
+    def validate():
+        scene = linpd.Scene(scene_path)
+        n, bs, free_dofs, rhs = scene.row_info()
+        if n >= 2**31 and PETSc.IntType == np.int32:
+            raise linpd.LinpdError(f"{n} unknowns need a PETSc built with 64-bit indices (docs/scale-out.md)")
+        return scene, n, bs, free_dofs, rhs, scene.is_symmetric()
+
+    got, error = _attempt(validate, f"{scene_path}: ")
+    _agree(mpi, rank, error)
+    scene, n, bs, free_dofs, rhs, symmetric = got
+    d = scene.dim
+    t_model = time.perf_counter() - t0
+
+    # own rows only: a contiguous range of blocks (nodes when bs == d)
+    b0, b1 = _node_range(n // bs, size, rank)
+    first, last = bs * b0, bs * b1
+    t1 = time.perf_counter()
+    indptr, indices, data = scene.assemble_rows(first, last)
+    A = PETSc.Mat().createAIJ(size=((last - first, n), (last - first, n)), bsize=bs, comm=comm)
+    A.setPreallocationCSR((indptr.astype(PETSc.IntType), indices.astype(PETSc.IntType), data))
+    A.assemble()
+    del indptr, indices, data
+    b = PETSc.Vec().createMPI((last - first, n), bsize=bs, comm=comm)
+    b.setArray(rhs[first:last])
+    t_assemble = time.perf_counter() - t1
+
+    # rigid-body modes from the coordinates of the owned rows (whole nodes only)
+    near_null = bs == d and d > 1
+    coords = None
+    if near_null:
+        positions = scene.positions()
+        rows = free_dofs[first:last]
+        coords = PETSc.Vec().createMPI((last - first, n), bsize=d, comm=comm)
+        coords.setArray(positions[rows // d, rows % d])
+        del positions
+    k = _solve(PETSc, comm, A, b, symmetric, d, coords)
+
+    scatter, x0 = PETSc.Scatter.toZero(k["x"])
+    scatter.scatter(k["x"], x0, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    rss = mpi.gather(_peak_rss_bytes(), root=0)
+    _check_converged(rank, k)
+    status = 0
+    if rank == 0:
+        timings = {"model": t_model, "assemble": t_assemble, "setup": k["setup"], "solve": k["solve"],
+                   "total": time.perf_counter() - t0}
+        report = _report(PETSc, k, n, size, bs, symmetric, scene.asymmetry(), near_null, timings, rss, petsc_args,
+                         "whole")
         u = scene.expand(x0.getArray())
         dest = out if out is not None else scene.output_dir
         try:
@@ -283,15 +319,196 @@ def main(argv: Optional[List[str]] = None) -> int:
             print(f"error: {e}", file=sys.stderr, flush=True)
             status = 1
         else:
-            print(
-                f"{scene.name}: {n} unknowns on {size} ranks, {ksp_type} + {pc_type}: {iterations} iterations, "
-                f"relative residual {rel_residual:.3e}, assemble {t_assemble:.3f} s, setup {t_setup:.3f} s, "
-                f"solve {t_solve:.3f} s, peak memory per rank {', '.join(f'{m / 2**20:.0f}' for m in rss)} MiB; "
-                f"wrote {len(files)} files into {dest}",
-                flush=True,
-            )
+            print(_summary(scene.name, n, size, k, timings, rss, len(files), dest), flush=True)
     # every rank returns the same status (rank 0's writing may have failed)
     return int(mpi.bcast(status, root=0))
+
+
+def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_args: List[str], t0: float) -> int:
+    """Every rank builds only its slab of the lattice (``part``, see the module docstring);
+    the ranks write one piece each and rank 0 the index and ``result.json``."""
+    from ._linpd import NativeOutput
+
+    rank, size = comm.getRank(), comm.getSize()
+    # what no window decides alone: the presence checks (an or), the resultant volumes (a sum)
+    found = np.array(part.presences(), dtype=bool)
+    found_any = mpi.allreduce(found.astype(np.int64), op=_mpi_sum()) > 0 if len(found) else found
+    _, error = _attempt(lambda: part.settle([bool(f) for f in found_any]), f"{scene_path}: ")
+    _agree(mpi, rank, error, "error")
+    volumes = mpi.allreduce(np.array(part.resultant_volumes(), dtype=float), op=_mpi_sum())
+    _, error = _attempt(lambda: part.build([float(v) for v in np.atleast_1d(volumes)]), f"{scene_path}: ")
+    _agree(mpi, rank, error)
+    # the numbering: every plane's count of free DOFs, gathered in rank order
+    counts = [c for rank_counts in mpi.allgather(part.plane_free_counts()) for c in rank_counts]
+    part.number(counts)
+    all_, held = part.support_gram()
+    all_ = mpi.allreduce(np.array(all_), op=_mpi_sum())
+    held = mpi.allreduce(np.array(held), op=_mpi_sum())
+    _, error = _attempt(lambda: part.check_support(list(all_), list(held)), f"{scene_path}: ")
+    _agree(mpi, rank, error)
+    first, last, n = part.row_range()
+    symmetric, asymmetry, whole_nodes = part.row_kind()
+    symmetric = mpi.allreduce(int(symmetric), op=_mpi_min()) == 1
+    asymmetry = mpi.allreduce(asymmetry, op=_mpi_max())
+    d = part.dim
+    bs = d if mpi.allreduce(int(whole_nodes), op=_mpi_min()) == 1 else 1
+    error = None
+    if n >= 2**31 and PETSc.IntType == np.int32:
+        error = f"{scene_path}: {n} unknowns need a PETSc built with 64-bit indices (docs/scale-out.md)"
+    _agree(mpi, rank, error)
+    t_model = time.perf_counter() - t0
+
+    t1 = time.perf_counter()
+    indptr, indices, data = part.assemble_rows()
+    A = PETSc.Mat().createAIJ(size=((last - first, n), (last - first, n)), bsize=bs, comm=comm)
+    A.setPreallocationCSR((indptr.astype(PETSc.IntType), indices.astype(PETSc.IntType), data))
+    A.assemble()
+    del indptr, indices, data
+    b = PETSc.Vec().createMPI((last - first, n), bsize=bs, comm=comm)
+    b.setArray(part.rhs())
+    t_assemble = time.perf_counter() - t1
+    near_null = bs == d and d > 1
+    coords = None
+    if near_null:
+        coords = PETSc.Vec().createMPI((last - first, n), bsize=d, comm=comm)
+        coords.setArray(part.row_coordinates())
+    k = _solve(PETSc, comm, A, b, symmetric, d, coords)
+    _check_converged(rank, k)
+
+    # the window's values (owned rows and the halo's) for the piece's fields
+    rows = part.window_rows().astype(PETSc.IntType)
+    where = PETSc.IS().createGeneral(rows, comm=PETSc.COMM_SELF)
+    u_window = PETSc.Vec().createSeq(len(rows), comm=PETSc.COMM_SELF)
+    PETSc.Scatter().create(k["x"], where, u_window, None).scatter(
+        k["x"], u_window, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    u_window = u_window.getArray().copy()
+
+    # output: rank 0 stages the directory, every rank writes its piece, rank 0 commits
+    dest = out if out is not None else part.output_dir
+    staged, error = (None, None)
+    if rank == 0:
+        staged, error = _attempt(lambda: NativeOutput.begin(dest, [scene_path]))
+    _agree(mpi, rank, error)
+    path = mpi.bcast(staged.path() if rank == 0 else None, root=0)
+    pieces = [f"result-{r}.vtu" for r in range(size)]
+    share, error = _attempt(lambda: part.balance(u_window))
+    owned_nodes = 0
+    if error is None:
+        owned_nodes, error = _attempt(lambda: part.write_piece(u_window, path, pieces[rank],
+                                                               "result.pvtu" if rank == 0 else None, pieces))
+    try:
+        _agree(mpi, rank, error)
+    except _Stop:
+        if staged is not None:
+            staged.discard()
+        raise
+    nodes = mpi.gather(owned_nodes, root=0)
+    shares = mpi.gather(share, root=0)
+    slabs = mpi.gather(part.slab(), root=0)
+    rss = mpi.gather(_peak_rss_bytes(), root=0)
+    status = 0
+    if rank == 0:
+        timings = {"model": t_model, "assemble": t_assemble, "setup": k["setup"], "solve": k["solve"],
+                   "total": time.perf_counter() - t0}
+        report = _report(PETSc, k, n, size, bs, symmetric, asymmetry, near_null, timings, rss, petsc_args, "per-rank")
+        report["slabs"] = [{"owned_planes": [s[1], s[2]], "window_planes": [s[3], s[4]], "window_nodes": s[5],
+                            "owned_nodes": m} for s, m in zip(slabs, nodes)]
+        doc = {
+            "name": part.name,
+            "dimension": d,
+            "nodes": int(sum(nodes)),
+            "unknowns": n,
+            "pieces": pieces,
+            "index": "result.pvtu",
+            "balance": _balance(d, shares),
+            "stats": {"solve": report},
+        }
+        try:
+            files = staged.commit("result.json", json.dumps(doc))
+        except Exception as e:  # noqa: BLE001 (linpd's and the OS's errors)
+            print(f"error: {e}", file=sys.stderr, flush=True)
+            status = 1
+        else:
+            print(_summary(part.name, n, size, k, timings, rss, len(files), dest), flush=True)
+    return int(mpi.bcast(status, root=0))
+
+
+def _balance(d: int, shares) -> dict:
+    """The force balance from the ranks' shares ``(loads, reactions, held_dofs)``: per load its
+    force, per constraint its reaction and held DOFs, their totals and ``max_a |applied_a +
+    reaction_a| / (largest force)`` (as ``result.json``'s ``balance`` of ``linpd solve``)."""
+    loads = np.sum([np.array(s[0], dtype=float).reshape(-1, d) for s in shares], axis=0)
+    reactions = np.sum([np.array(s[1], dtype=float).reshape(-1, d) for s in shares], axis=0)
+    held = np.sum([np.array(s[2], dtype=np.int64) for s in shares], axis=0)
+    applied, reaction = loads.sum(axis=0), reactions.sum(axis=0)
+    scale = max([0.0] + [abs(v) for v in np.concatenate([applied, loads.ravel(), reactions.ravel()])])
+    worst = float(np.max(np.abs(applied + reaction))) if d else 0.0
+    return {
+        "loads": [{"force": list(map(float, f))} for f in loads],
+        "constraints": [{"reaction": list(map(float, r)), "dofs": int(h)} for r, h in zip(reactions, held)],
+        "applied": list(map(float, applied)),
+        "reaction": list(map(float, reaction)),
+        "relative_imbalance": worst / scale if scale > 0 else 0.0,
+    }
+
+
+def _mpi_sum():
+    from mpi4py import MPI
+
+    return MPI.SUM
+
+
+def _mpi_min():
+    from mpi4py import MPI
+
+    return MPI.MIN
+
+
+def _mpi_max():
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
+# A model without per-rank geometry says so with this phrase (linpd_scene::validate::window).
+_NO_PARTS = "has no per-rank geometry yet"
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    scene_path, out, gather, petsc_args = _split_args(argv)
+
+    import petsc4py
+
+    petsc4py.init([sys.argv[0]] + petsc_args)
+    from petsc4py import PETSc
+
+    comm = PETSc.COMM_WORLD
+    if comm.getSize() > 1:
+        # the ranks are the parallelism: one rayon thread each (linpd's pool starts at its first
+        # parallel call, after this), unless the user says otherwise
+        os.environ.setdefault("RAYON_NUM_THREADS", "1")
+    from ._linpd import NativePart
+
+    mpi = comm.tompi4py()
+    rank, size = comm.getRank(), comm.getSize()
+    t0 = time.perf_counter()
+    try:
+        if scene_path is None:
+            _agree(mpi, rank, USAGE, "error")
+        if gather:
+            return _whole(PETSc, comm, mpi, scene_path, out, petsc_args, t0)
+        part, error = _attempt(lambda: NativePart.from_path(scene_path, rank, size), f"{scene_path}: ")
+        # a model without per-rank geometry: the whole scene on every rank, said once
+        whole = mpi.allgather(error is not None and _NO_PARTS in error)
+        if all(whole):
+            if rank == 0:
+                print(f"note: {error.split(': ', 1)[-1]}", file=sys.stderr, flush=True)
+            return _whole(PETSc, comm, mpi, scene_path, out, petsc_args, t0)
+        _agree(mpi, rank, error)
+        return _parts(PETSc, comm, mpi, part, scene_path, out, petsc_args, t0)
+    except _Stop as stop:
+        return stop.status
 
 
 if __name__ == "__main__":

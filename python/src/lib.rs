@@ -10,7 +10,9 @@
 //! the GIL.
 
 use linpd_core::NoProgress;
-use linpd_problem::{Commands, OutputDir, Pipeline, Problem, ProblemError, RowSystem, RunIdentity};
+use linpd_problem::{
+    part_rows, Commands, OutputDir, Part, PartRows, Pipeline, Problem, ProblemError, RowSystem, RunIdentity,
+};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
@@ -53,6 +55,8 @@ type Csc<'py> = (
 
 /// `(n, block_size, free_dofs, rhs)` of [`NativeScene::row_info`].
 type RowInfo<'py> = (usize, usize, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>);
+/// `(loads, reactions, held_dofs)` of [`NativePart::balance`].
+type PartShare = (Vec<Vec<f64>>, Vec<Vec<f64>>, Vec<usize>);
 /// `(indptr, indices, data)` of a block of rows.
 type Csr<'py> = (Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>);
 
@@ -223,6 +227,207 @@ impl NativeScene {
     }
 }
 
+/// One MPI rank's part of a lattice scene (`linpd.petsc`'s per-rank geometry): the stages in
+/// the order the driver calls them, each after the reduction over the ranks it needs.
+#[pyclass(module = "linpd._linpd")]
+struct NativePart {
+    /// The validated part (taken while `build` adds the resultant volumes).
+    problem: Option<Problem>,
+    path: PathBuf,
+    rows: Option<PartRows>,
+}
+
+impl NativePart {
+    fn problem(&self) -> PyResult<&Problem> {
+        self.problem.as_ref().ok_or_else(|| LinpdError::new_err("the part's scene was lost in a failed build"))
+    }
+    fn rows(&self) -> PyResult<&PartRows> {
+        self.rows.as_ref().ok_or_else(|| LinpdError::new_err("build the part's rows first (NativePart.build)"))
+    }
+}
+
+#[pymethods]
+impl NativePart {
+    /// Reads and validates rank `rank` of `ranks`'s part of a scene file.
+    #[staticmethod]
+    fn from_path(py: Python<'_>, path: PathBuf, rank: usize, ranks: usize) -> PyResult<Self> {
+        let problem = py.detach(|| Problem::from_path_part(&path, Part { rank, ranks })).map_err(err)?;
+        Ok(NativePart { problem: Some(problem), path, rows: None })
+    }
+    #[getter]
+    fn name(&self) -> PyResult<String> {
+        Ok(self.problem()?.name().to_string())
+    }
+    #[getter]
+    fn dim(&self) -> PyResult<usize> {
+        Ok(self.problem()?.dim())
+    }
+    #[getter]
+    fn output_dir(&self) -> PyResult<String> {
+        Ok(self.problem()?.output_dir().to_string())
+    }
+    /// `(planes, owned_first, owned_last, window_first, window_last, window_nodes)`.
+    fn slab(&self) -> PyResult<(usize, usize, usize, usize, usize, usize)> {
+        let p = self.problem()?;
+        let s = &p.part().ok_or_else(|| LinpdError::new_err("not a part"))?.slab;
+        Ok((s.planes, s.owned.start, s.owned.end, s.window.start, s.window.end, p.nodes().len()))
+    }
+    /// Whether this rank found what each presence check looks for (or them over the ranks).
+    fn presences(&self) -> PyResult<Vec<bool>> {
+        Ok(self.problem()?.part().map(|p| p.presences.iter().map(|c| c.found).collect()).unwrap_or_default())
+    }
+    /// The first check no rank found, as the whole scene's error.
+    fn settle(&self, found_anywhere: Vec<bool>) -> PyResult<()> {
+        let presences = self.problem()?.part().map(|p| p.presences.clone()).unwrap_or_default();
+        linpd_problem::part::settle(&presences, &found_anywhere).map_err(err)
+    }
+    /// Per load, its region's volume over the owned nodes (sum them over the ranks).
+    fn resultant_volumes(&self) -> PyResult<Vec<f64>> {
+        Ok(self.problem()?.resultant_volumes())
+    }
+    /// Builds the window's model and the owned rows' right-hand side with the whole body's
+    /// resultant volumes.
+    fn build(&mut self, py: Python<'_>, volumes: Vec<f64>) -> PyResult<()> {
+        let problem = self.problem.take().ok_or_else(|| LinpdError::new_err("built twice"))?;
+        let problem = problem.with_resultant_volumes(volumes).map_err(err)?;
+        let rows = py.detach(|| part_rows(&problem));
+        self.problem = Some(problem);
+        self.rows = Some(rows.map_err(err)?);
+        Ok(())
+    }
+    /// Free DOFs per owned plane (gather them in rank order).
+    fn plane_free_counts(&self) -> PyResult<Vec<usize>> {
+        Ok(self.rows()?.plane_free_counts().to_vec())
+    }
+    /// Numbers the rows from every plane's count.
+    fn number(&mut self, counts: Vec<usize>) -> PyResult<()> {
+        self.rows.as_mut().ok_or_else(|| LinpdError::new_err("build first"))?.number(&counts).map_err(err)
+    }
+    /// `(M^T M, R^T R)` of the rigid modes over the owned nodes (sum them over the ranks).
+    fn support_gram(&self) -> PyResult<(Vec<f64>, Vec<f64>)> {
+        let g = self.rows()?.support(self.problem()?).map_err(err)?;
+        Ok((g.all, g.held))
+    }
+    /// The error of a body the summed Gram matrices leave free to move.
+    fn check_support(&self, all: Vec<f64>, held: Vec<f64>) -> PyResult<()> {
+        let mut g = self.rows()?.support(self.problem()?).map_err(err)?;
+        let m = g.all.len();
+        if all.len() != m || held.len() != m {
+            return Err(LinpdError::new_err(format!("Gram matrices of {m} entries expected")));
+        }
+        g.all = all;
+        g.held = held;
+        match g.free_modes() {
+            0 => Ok(()),
+            k => Err(LinpdError::new_err(format!(
+                "constraints: {k} rigid motion(s) of the body are not constrained (summed over the ranks' nodes); add \
+                 displacement constraints"
+            ))),
+        }
+    }
+    /// `(first, last, n)`: the owned rows and the unknowns of the whole scene.
+    fn row_range(&self) -> PyResult<(usize, usize, usize)> {
+        let r = self.rows()?;
+        let range = r.row_range().map_err(err)?;
+        Ok((range.start, range.end, r.n_global().map_err(err)?))
+    }
+    /// `(symmetric, asymmetry, whole_nodes)` of the window's rows.
+    fn row_kind(&self) -> PyResult<(bool, f64, bool)> {
+        let r = self.rows()?;
+        Ok((r.is_symmetric(), r.asymmetry(), r.whole_nodes()))
+    }
+    /// The owned rows of `A_ff` (`indptr` from 0, global columns).
+    fn assemble_rows<'py>(&self, py: Python<'py>) -> PyResult<Csr<'py>> {
+        let r = self.rows()?;
+        let b = py.detach(|| r.rows()).map_err(err)?;
+        Ok((b.indptr.into_pyarray(py), b.indices.into_pyarray(py), b.data.into_pyarray(py)))
+    }
+    /// `f_f - (A u_bar)_f` of the owned rows.
+    fn rhs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        Ok(self.rows()?.rhs().to_vec().into_pyarray(py))
+    }
+    /// Each owned row's node coordinate along its component.
+    fn row_coordinates<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        Ok(self.rows()?.row_coordinates().into_pyarray(py))
+    }
+    /// The global row of each free DOF of the window (where to gather the window's values).
+    fn window_rows<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<usize>>> {
+        Ok(self.rows()?.window_rows().map_err(err)?.to_vec().into_pyarray(py))
+    }
+    /// `(loads, reactions, held_dofs)`: the rank's share of the balance (sum over the ranks).
+    fn balance(&self, py: Python<'_>, u_window: PyReadonlyArray1<'_, f64>) -> PyResult<PartShare> {
+        let u = u_window.as_slice()?;
+        let (r, p) = (self.rows()?, self.problem()?);
+        let b = py.detach(|| r.balance(p, u)).map_err(err)?;
+        Ok((b.loads, b.reactions, b.held_dofs))
+    }
+    /// Writes the owned nodes' solution into `dir/name` (a piece of `result.pvtu`); with
+    /// `index`, also the index `dir/index` over `pieces`.
+    #[pyo3(signature = (u_window, dir, name, index=None, pieces=Vec::new()))]
+    fn write_piece(
+        &self,
+        py: Python<'_>,
+        u_window: PyReadonlyArray1<'_, f64>,
+        dir: PathBuf,
+        name: &str,
+        index: Option<&str>,
+        pieces: Vec<String>,
+    ) -> PyResult<usize> {
+        let u = u_window.as_slice()?;
+        let (r, p) = (self.rows()?, self.problem()?);
+        py.detach(|| {
+            let report = linpd_solve::SolveReport::new(linpd_solve::SolverId::Lu, u.len(), 0);
+            let piece = r.solution(p, u, report)?;
+            piece.write_vtu(&dir.join(name))?;
+            if let Some(index) = index {
+                piece.write_pvtu(&dir.join(index), &pieces)?;
+            }
+            Ok(piece.x.len())
+        })
+        .map_err(err)
+    }
+    /// The identity of the run (the scene file's hash) for `result.json`.
+    fn scene_path(&self) -> String {
+        self.path.display().to_string()
+    }
+}
+
+/// A run's output directory while the ranks write their pieces (rank 0 holds it).
+#[pyclass(module = "linpd._linpd")]
+struct NativeOutput {
+    staged: Option<OutputDir>,
+    inputs: Vec<PathBuf>,
+}
+
+#[pymethods]
+impl NativeOutput {
+    /// Locks `dir` and creates its staging directory (nothing is in `dir` until `commit`).
+    #[staticmethod]
+    fn begin(dir: PathBuf, inputs: Vec<PathBuf>) -> PyResult<Self> {
+        Ok(NativeOutput { staged: Some(OutputDir::begin(&dir).map_err(err)?), inputs })
+    }
+    /// Where the ranks write.
+    fn path(&self) -> PyResult<String> {
+        let s = self.staged.as_ref().ok_or_else(|| LinpdError::new_err("committed"))?;
+        Ok(s.path().display().to_string())
+    }
+    /// Writes `main` (the JSON text `doc`, with the run member) and swaps the directory into
+    /// place; returns the paths written.
+    fn commit(&mut self, main: &str, doc: &str) -> PyResult<Vec<String>> {
+        let doc: serde_json::Value =
+            serde_json::from_str(doc).map_err(|e| LinpdError::new_err(format!("result document: {e}")))?;
+        let inputs: Vec<&Path> = self.inputs.iter().map(PathBuf::as_path).collect();
+        let identity = RunIdentity::of_inputs(&inputs).map_err(err)?;
+        let staged = self.staged.take().ok_or_else(|| LinpdError::new_err("committed twice"))?;
+        let paths = staged.commit(main, doc, &identity).map_err(err)?;
+        Ok(paths.iter().map(|p| p.display().to_string()).collect())
+    }
+    /// Drops the staging directory: nothing is written.
+    fn discard(&mut self) {
+        self.staged = None;
+    }
+}
+
 /// Runs a coarsening pipeline (file or JSON text with `base_dir`) into `out` (default: the
 /// pipeline's output directory), as `linpd coarsen`; returns `(output_dir, summary_json)`.
 #[pyfunction]
@@ -260,6 +465,8 @@ fn coarsen(
 fn _linpd(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("LinpdError", m.py().get_type::<LinpdError>())?;
     m.add_class::<NativeScene>()?;
+    m.add_class::<NativePart>()?;
+    m.add_class::<NativeOutput>()?;
     m.add_function(wrap_pyfunction!(coarsen, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

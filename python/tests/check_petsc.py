@@ -26,6 +26,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -41,11 +42,70 @@ def mpiexec(ranks: int, args, timeout: float) -> subprocess.CompletedProcess:
     return subprocess.run(cmd + args, cwd=ROOT, capture_output=True, text=True, timeout=timeout)
 
 
+def vtu_arrays(path: Path, names) -> dict:
+    """The named point arrays of an ASCII VTU file (linpd's own pieces), each ``(n, components)``."""
+    root = ET.parse(path).getroot()
+    out = {}
+    for a in root.iter("DataArray"):
+        name = a.get("Name")
+        if name in names:
+            k = int(a.get("NumberOfComponents", "1"))
+            out[name] = np.array((a.text or "").split(), dtype=float).reshape(-1, k)
+    return out
+
+
+def check_pieces(scene: Path, ranks: int, own: Path, dist: Path, tol: float) -> float:
+    """The per-rank run's pieces against ``linpd solve``'s result: every node in exactly one
+    piece, ``u`` to ``tol`` of ``max|u|`` (returned: the measured difference), the index naming
+    the pieces, and the balance's totals to ``1e-8`` of the applied force."""
+    a = json.loads((own / "result.json").read_text())
+    b = json.loads((dist / "result.json").read_text())
+    assert b["stats"]["solve"]["geometry"] == "per-rank", b["stats"]["solve"]["geometry"]
+    assert b["pieces"] == [f"result-{r}.vtu" for r in range(ranks)] and len(b["stats"]["solve"]["slabs"]) == ranks
+    index = (dist / "result.pvtu").read_text()
+    assert all(f'Source="{p}"' in index for p in b["pieces"]), index
+    x = np.asarray(a["x"], dtype=float).reshape(len(a["x"]), -1)
+    ua = np.asarray(a["u"], dtype=float).reshape(len(a["x"]), -1)
+    where = {tuple(np.round(p / np.max(np.abs(x)) * 1e9).astype(np.int64)): k for k, p in enumerate(x)}
+    seen = np.zeros(len(x), dtype=int)
+    ub = np.zeros_like(ua)
+    for piece in b["pieces"]:
+        arrays = vtu_arrays(dist / piece, {"points", "u"})
+        for p, u in zip(arrays["points"][:, : x.shape[1]], arrays["u"][:, : ua.shape[1]]):
+            k = where[tuple(np.round(p / np.max(np.abs(x)) * 1e9).astype(np.int64))]
+            seen[k] += 1
+            ub[k] = u
+    assert np.all(seen == 1), f"{scene.name}: nodes in no piece or in two: {np.flatnonzero(seen != 1)[:5]}"
+    assert b["nodes"] == len(x), (b["nodes"], len(x))
+    rel = float(np.max(np.abs(ua - ub)) / np.max(np.abs(ua)))
+    assert rel <= tol, f"{scene.name}: per-rank PETSc and linpd differ by {rel:.3e} > {tol:.0e}"
+    fa, fb = np.asarray(a["balance"]["applied"], dtype=float), np.asarray(b["balance"]["applied"], dtype=float)
+    # the largest force of the balance (a scene held by displacements alone has no load, and its
+    # constraints' reactions cancel each other)
+    scale = max([np.max(np.abs(fa))] + [np.max(np.abs(np.asarray(c["reaction"], dtype=float)))
+                                        for c in a["balance"]["constraints"]])
+    for ca, cb in zip(a["balance"]["constraints"], b["balance"]["constraints"]):
+        assert np.max(np.abs(np.subtract(ca["reaction"], cb["reaction"]))) <= 1e-8 * scale, (ca, cb)
+    assert np.max(np.abs(fa - fb)) <= 1e-12 * scale, (fa, fb)
+    ra, rb = np.asarray(a["balance"]["reaction"], dtype=float), np.asarray(b["balance"]["reaction"], dtype=float)
+    assert np.max(np.abs(ra - rb)) <= 1e-8 * scale, (ra, rb)
+    return rel
+
+
 def check_scene(scene: Path, ranks: int, petsc, tmp: Path, binary: str) -> None:
     own, dist = tmp / scene.stem / "linpd", tmp / scene.stem / "petsc"
     p = subprocess.run([binary, "solve", str(scene), "--out", str(own), "-q"], capture_output=True, text=True)
     assert p.returncode == 0, f"linpd solve: {p.stderr}"
-    p = mpiexec(ranks, [str(scene), "--out", str(dist), "-ksp_rtol", "1e-12"] + petsc, timeout=600)
+    parts = tmp / scene.stem / "parts"
+    p = mpiexec(ranks, [str(scene), "--out", str(parts), "-ksp_rtol", "1e-12"] + petsc, timeout=600)
+    assert p.returncode == 0, f"linpd.petsc failed ({p.returncode}):\n{p.stdout}\n{p.stderr}"
+    if "has no per-rank geometry" in p.stderr:
+        print(f"check_petsc: {scene.name}: {p.stderr.strip()}")
+    else:
+        rel = check_pieces(scene, ranks, own, parts, 1e-10)
+        print(f"check_petsc: {scene.name} on {ranks} ranks, per-rank geometry: max|u_petsc - u_linpd| / max|u_linpd| "
+              f"= {rel:.2e}; {p.stdout.strip()}")
+    p = mpiexec(ranks, [str(scene), "--gather", "--out", str(dist), "-ksp_rtol", "1e-12"] + petsc, timeout=600)
     assert p.returncode == 0, f"linpd.petsc failed ({p.returncode}):\n{p.stdout}\n{p.stderr}"
     print(p.stdout.strip())
     a = json.loads((own / "result.json").read_text())
@@ -76,6 +136,25 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for scene in scenes:
             check_scene(scene, args.ranks, petsc, Path(tmp), binary)
+
+        # more ranks than lattice planes: the ranks that own nothing take part in every
+        # collective with no rows and an empty piece
+        doc = json.loads((ROOT / "data" / "lps-plate-2d.json").read_text())
+        doc["name"], doc["grid"]["max"] = "thin-plate", [1.0, 0.1]
+        doc["grid"]["layer"] = {"x-": 0.075, "x+": 0.075}
+        thin = Path(tmp) / "thin-plate.json"
+        thin.write_text(json.dumps(doc))
+        own = Path(tmp) / "thin" / "linpd"
+        p = subprocess.run([binary, "solve", str(thin), "--out", str(own), "-q"], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+        p = mpiexec(7, [str(thin), "--out", str(Path(tmp) / "thin" / "parts"), "-ksp_rtol", "1e-12"], timeout=300)
+        assert p.returncode == 0, f"{p.stdout}\n{p.stderr}"
+        rel = check_pieces(thin, 7, own, Path(tmp) / "thin" / "parts", 1e-10)
+        slabs = json.loads((Path(tmp) / "thin" / "parts" / "result.json").read_text())["stats"]["solve"]["slabs"]
+        empty = sum(1 for s in slabs if s["owned_planes"][0] == s["owned_planes"][1])
+        assert empty == 2, slabs
+        print(f"check_petsc: 5 lattice planes on 7 ranks ({empty} own nothing): max|u_petsc - u_linpd| / "
+              f"max|u_linpd| = {rel:.2e}")
 
         # a bad scene: linpd's message on every rank, non-zero exit, no hang
         doc = json.loads(scenes[0].read_text())

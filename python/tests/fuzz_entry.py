@@ -168,6 +168,14 @@ def finite_result(path):
             return all(ok(x) for x in v)
         return isinstance(v, (int, float)) and math.isfinite(v)
 
+    if "pieces" in doc:
+        # the driver's per-rank output: finite balance, every piece present without NaN/inf
+        pieces = [path.parent / p for p in doc["pieces"]]
+        if not all(p.exists() for p in pieces):
+            return None
+        text = " ".join(p.read_text().lower() for p in pieces)
+        return ok(doc["balance"]["applied"]) and ok(doc["balance"]["reaction"]) and not any(
+            w in text.split() for w in ("nan", "inf", "-inf"))
     return ok(doc.get("u")) and ok(doc.get("x"))
 
 

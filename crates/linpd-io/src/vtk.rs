@@ -509,6 +509,39 @@ pub fn write_vtu_cells(
     body().map_err(IoError::os(path))
 }
 
+/// Writes a parallel VTU index (`.pvtu`): the point arrays' names, types and components (the
+/// values of `arrays` are not read) and one `<Piece Source=".."/>` per file of `pieces`
+/// (relative to the index's directory), each written by [`write_vtu`] with the same arrays:
+/// ParaView opens the pieces as one dataset.
+pub fn write_pvtu(path: &Path, arrays: &[PointArray], pieces: &[String]) -> Result<(), IoError> {
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(IoError::os(path))?);
+    let mut body = || -> std::io::Result<()> {
+        writeln!(w, r#"<?xml version="1.0"?>"#)?;
+        writeln!(
+            w,
+            r#"<VTKFile type="PUnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#
+        )?;
+        writeln!(w, "  <PUnstructuredGrid GhostLevel=\"0\">\n    <PPointData>")?;
+        for a in arrays {
+            let (ty, components) = match &a.values {
+                PointValues::Float64 { components, .. } => ("Float64", *components),
+                PointValues::UInt8(_) => ("UInt8", 1),
+            };
+            let nc = if components == 1 { String::new() } else { format!(r#" NumberOfComponents="{components}""#) };
+            writeln!(w, r#"      <PDataArray type="{ty}" Name="{}"{nc}/>"#, a.name)?;
+        }
+        writeln!(w, "    </PPointData>\n    <PPoints>")?;
+        writeln!(w, r#"      <PDataArray type="Float64" Name="points" NumberOfComponents="3"/>"#)?;
+        writeln!(w, "    </PPoints>")?;
+        for piece in pieces {
+            writeln!(w, r#"    <Piece Source="{piece}"/>"#)?;
+        }
+        writeln!(w, "  </PUnstructuredGrid>\n</VTKFile>")?;
+        w.flush()
+    };
+    body().map_err(IoError::os(path))
+}
+
 /// Writes a ParaView collection (`.pvd`): one `<DataSet timestep=".." file=".."/>` per
 /// `(time, file)`, the file names relative to the collection's directory; ParaView opens it
 /// as a time series.

@@ -202,6 +202,20 @@ impl Solution {
     /// `dilatation` (LPS) and `strain` (the full `3 x 3` tensor, 9 components row-major, 0
     /// outside the `d x d` block: VTK's tensor convention).
     pub fn write_vtu(&self, path: &Path) -> Result<(), ProblemError> {
+        self.with_point_arrays(&|arrays| {
+            linpd_io::vtk::write_vtu_cells(path, self.dim, &self.x, arrays, self.cells.as_ref())
+                .map_err(ProblemError::from)
+        })
+    }
+
+    /// Writes the parallel index `result.pvtu` over the pieces `pieces` (files beside it, each
+    /// a [`Solution::write_vtu`] of a rank's solution with the same arrays as this one).
+    pub fn write_pvtu(&self, path: &Path, pieces: &[String]) -> Result<(), ProblemError> {
+        self.with_point_arrays(&|arrays| linpd_io::vtk::write_pvtu(path, arrays, pieces).map_err(ProblemError::from))
+    }
+
+    /// Calls `write` with the point arrays of [`Solution::write_vtu`].
+    fn with_point_arrays(&self, write: &dyn Fn(&[PointArray]) -> Result<(), ProblemError>) -> Result<(), ProblemError> {
         let (d, n) = (self.dim, self.x.len());
         let u = |k: usize, a: usize| if a < d { self.u[d * k + a] } else { 0.0 };
         let layer = |k: usize| self.is_layer[k] as u8;
@@ -254,6 +268,6 @@ impl Solution {
         if self.strain.is_some() {
             arrays.push(PointArray { name: "strain", values: PointValues::Float64 { components: 9, value: &strain } });
         }
-        linpd_io::vtk::write_vtu_cells(path, d, &self.x, &arrays, self.cells.as_ref()).map_err(ProblemError::from)
+        write(&arrays)
     }
 }

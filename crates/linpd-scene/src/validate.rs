@@ -206,6 +206,11 @@ pub(crate) fn lattice_for(
     })
 }
 
+/// The end of the refusal of a scene without per-rank geometry (the PETSc driver falls back
+/// to the whole scene on every rank when it reads it).
+pub(crate) const NO_PER_RANK_GEOMETRY: &str =
+    "has no per-rank geometry yet: every rank of the distributed solve builds the whole scene (--gather)";
+
 /// The rank's window of the whole lattice `whole` (see [`crate::part`]), its slab recorded in
 /// `cx`.
 fn window(
@@ -216,12 +221,7 @@ fn window(
     reaches: Option<usize>,
     cut: bool,
 ) -> Result<Grid, ProblemError> {
-    let refuse = |what: &str| {
-        Err(ProblemError::invalid(
-            "model.type",
-            format!("{what} has no per-rank geometry yet: run the distributed solve with --gather (every rank builds the whole scene)"),
-        ))
-    };
+    let refuse = |what: &str| Err(ProblemError::invalid("model.type", format!("{what} {NO_PER_RANK_GEOMETRY}")));
     let Some(reaches) = reaches else {
         return refuse(&format!("the {} model", cx.raw.model.kind()));
     };
@@ -508,11 +508,7 @@ pub(crate) fn constraints_and_loads(
     presences: &Presences,
 ) -> Result<(Vec<Constraint>, Vec<Load>), ProblemError> {
     let per_node_file = |p: &str| {
-        Err(ProblemError::invalid(
-            format!("{p}.file"),
-            "numbers the whole lattice's nodes, which a rank's part does not hold: run the distributed solve \
-             with --gather",
-        ))
+        Err(ProblemError::invalid(format!("{p}.file"), format!("a node-numbered file {NO_PER_RANK_GEOMETRY}")))
     };
     let mut constraints = Vec::new();
     for (k, c) in raw.constraints.iter().enumerate() {

@@ -21,7 +21,7 @@ use crate::scene::PartBalance;
 use crate::scene::Problem;
 use crate::solution::Solution;
 use crate::{ProblemError, Slab};
-use linpd_core::{ModelOperator, RigidGram};
+use linpd_core::RigidGram;
 use linpd_solve::SolveReport;
 use std::ops::Range;
 
@@ -80,27 +80,8 @@ pub fn part_rows(p: &Problem) -> Result<PartRows, ProblemError> {
         let k = plane_of[n] as usize - slab.owned.start;
         plane_free[k] += (0..d).filter(|&a| !dofs.is_constrained(d * n + a)).count();
     }
-    linpd_solve::statics::finite_vector("the load vector", &system.f).map_err(|e| p.model().static_error(e.into()))?;
-    let diagonal = m.diagonal();
-    for n in first..last {
-        for a in 0..d {
-            let a_ii = diagonal[d * n + a];
-            let positive = a_ii > 0.0 && a_ii.is_finite();
-            if !(positive || dofs.is_constrained(d * n + a)) {
-                return Err(ProblemError::invalid(
-                    "constraints",
-                    format!(
-                        "the stiffness's diagonal is {a_ii:e} at node x = {:?}, component {a}: nothing holds that DOF \
-                         (a mechanism); constrain it",
-                        &grid.position(n)[..d]
-                    ),
-                ));
-            }
-        }
-    }
-    let rhs_all = system.bc.reduced_rhs(&ModelOperator(m), &system.f);
-    let rhs = rhs_all[owned.clone()].to_vec();
-    linpd_solve::statics::finite_vector("the reduced load", &rhs).map_err(|e| p.model().static_error(e.into()))?;
+    let rhs = linpd_solve::statics::reduced_rhs_of_rows(m, &system.bc, &system.f, owned.clone())
+        .map_err(|e| p.model().static_error(e))?;
     let asymmetry = m.asymmetry(dofs);
     let built_for = (p.name().to_string(), p.model().name());
     Ok(PartRows {

@@ -64,7 +64,13 @@ impl ModelType for BondType {
         // the halo of a rank's part: one reach of the bonds, one more for the surface
         // correction's per-node factors (crate::part); the blend has no per-rank rows
         let corrected = !matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
-        let reaches = raw.pd_regions.is_none().then_some(1 + usize::from(corrected));
+        if cx.part.is_some() && raw.pd_regions.is_some() {
+            return Err(ProblemError::invalid(
+                "model.pd_regions",
+                format!("the blended model {}", crate::validate::NO_PER_RANK_GEOMETRY),
+            ));
+        }
+        let reaches = Some(1 + usize::from(corrected));
         let grid = crate::validate::lattice_for(cx, raw.horizon, reaches, &path_of)?;
         let bond = BondModel::validate(&raw, &grid, dim, &cx.presences)?;
         // The amplitude now, not at the first solve: a modulus that overflows it (1e308) is a

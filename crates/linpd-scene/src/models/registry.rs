@@ -278,10 +278,7 @@ impl Problem {
             (Some(_), None) => {
                 return Err(ProblemError::invalid(
                     "model.type",
-                    format!(
-                        "the {} model has no per-rank geometry yet: run the distributed solve with --gather",
-                        raw.model.kind()
-                    ),
+                    format!("the {} model {}", raw.model.kind(), crate::validate::NO_PER_RANK_GEOMETRY),
                 ))
             }
         };

@@ -76,12 +76,40 @@ pub fn reduced_system(
 /// load orthogonal to that motion, or report a residual of 1e17.
 pub fn reduced_rhs_checked(model: &dyn Model, bc: &Dirichlet, f: &[f64]) -> Result<Vec<f64>, StaticError> {
     check_static(model, bc, f)?;
+    rhs_of_rows(model, bc, f, 0..bc.dofs().n_free())
+}
+
+/// [`reduced_rhs_checked`] of the free DOFs `rows` (in the free numbering) only, for one rank's
+/// window of a distributed scene: the diagonal and the right-hand side of those rows, without
+/// the support check (a window's own constraints need not hold it; the ranks check the support
+/// together).
+pub fn reduced_rhs_of_rows(
+    model: &dyn Model,
+    bc: &Dirichlet,
+    f: &[f64],
+    rows: std::ops::Range<usize>,
+) -> Result<Vec<f64>, StaticError> {
+    finite_vector("the load vector", f)?;
+    rhs_of_rows(model, bc, f, rows)
+}
+
+fn rhs_of_rows(
+    model: &dyn Model,
+    bc: &Dirichlet,
+    f: &[f64],
+    rows: std::ops::Range<usize>,
+) -> Result<Vec<f64>, StaticError> {
     let dofs = bc.dofs();
-    let diag = dofs.gather(&model.diagonal());
-    finite_vector("the stiffness (its diagonal over the free DOFs)", &diag)?;
+    let diag = &dofs.gather(&model.diagonal())[rows.clone()];
+    finite_vector("the stiffness (its diagonal over the free DOFs)", diag)?;
     let spd = model.asymmetry(dofs) <= linpd_core::sparse::SYMMETRY_RTOL;
-    nonzero_diagonal("the row system", &diag, spd).map_err(|e| at_free_dof(model, dofs, e))?;
-    let rhs = bc.reduced_rhs(&ModelOperator(model), f);
+    nonzero_diagonal("the row system", diag, spd).map_err(|e| match e {
+        crate::SolveError::ZeroDiagonal { solver, dof, value } => {
+            at_free_dof(model, dofs, crate::SolveError::ZeroDiagonal { solver, dof: dof + rows.start, value })
+        }
+        other => StaticError::Solve(other),
+    })?;
+    let rhs = bc.reduced_rhs(&ModelOperator(model), f)[rows].to_vec();
     finite_vector(REDUCED_LOAD, &rhs)?;
     Ok(rhs)
 }
