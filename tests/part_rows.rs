@@ -96,7 +96,17 @@ fn check(path: &Path, ranks: usize) {
         let range = r.row_range().unwrap();
         assert_eq!(range.start, next, "{what}: the ranks' rows follow each other");
         next = range.end;
-        let mine = r.rows().unwrap();
+        let mine = r.rows(0, range.len()).unwrap();
+        // in chunks, as the driver hands them to PETSc: the same rows
+        let half = range.len() / 2;
+        let (a, b) = (r.rows(0, half).unwrap(), r.rows(half, range.len()).unwrap());
+        assert_eq!([a.indices, b.indices].concat(), mine.indices, "{what}: chunks");
+        let (diagonal, off) = r.row_lengths(7).unwrap();
+        for (k, (dn, on)) in diagonal.iter().zip(&off).enumerate() {
+            let cols = &mine.indices[mine.indptr[k]..mine.indptr[k + 1]];
+            assert_eq!((*dn + *on) as usize, cols.len(), "{what}: row length");
+            assert_eq!(*dn as usize, cols.iter().filter(|c| range.contains(c)).count(), "{what}: own columns");
+        }
         for (k, row) in range.clone().enumerate() {
             let (a, b) = (block.indptr[row], block.indptr[row + 1]);
             let (c, e) = (mine.indptr[k], mine.indptr[k + 1]);

@@ -58,7 +58,7 @@ import os
 import resource
 import sys
 import time
-from typing import List, Optional, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -69,6 +69,9 @@ USAGE = "usage: python -m linpd.petsc SCENE.json [--out DIR] [PETSc options]"
 GMRES_FAMILY = ("gmres", "lgmres", "dgmres", "pgmres")
 # GMRES's restart for unsymmetric scenes (see the module docstring).
 GMRES_RESTART = 100
+# Rows a rank hands to PETSc at a time (per-rank geometry): at most about 16384 x 370 entries x
+# 24 bytes = 145 MB of linpd's arrays beside PETSc's matrix (a 3D bond lattice at delta = 3h).
+ROW_CHUNK = 16384
 
 
 # PETSc's negative KSPConvergedReason values (KSP_DIVERGED_*), for the error message.
@@ -127,6 +130,30 @@ def _default_pc(PETSc, symmetric: bool, d: int) -> str:
     if not symmetric and d == 1 and PETSc.Sys.hasExternalPackage("hypre"):
         return "hypre"
     return "gamg"
+
+
+def read_pieces(directory) -> Tuple[np.ndarray, Dict[str, np.ndarray]]:
+    """``(x, arrays)`` of a per-rank result directory: the nodes' positions ``(n, 3)`` and the
+    point arrays (``u``: ``(n, 3)``, ``strain``: ``(n, 9)``, ...) of all pieces of ``result.json``
+    in piece order (each piece's nodes in lattice order). Reads linpd's own ASCII pieces."""
+    import xml.etree.ElementTree as ET
+    from pathlib import Path
+
+    directory = Path(directory)
+    doc = json.loads((directory / "result.json").read_text())
+    xs, arrays = [], {}
+    for piece in doc["pieces"]:
+        for a in ET.parse(directory / piece).getroot().iter("DataArray"):
+            name = a.get("Name")
+            if name in ("connectivity", "offsets", "types"):
+                continue
+            k = int(a.get("NumberOfComponents", "1"))
+            values = np.array((a.text or "").split(), dtype=float).reshape(-1, k)
+            if name == "points":
+                xs.append(values)
+            else:
+                arrays.setdefault(name, []).append(values)
+    return np.concatenate(xs), {k: np.concatenate(v) for k, v in arrays.items()}
 
 
 class _Stop(Exception):
@@ -324,7 +351,8 @@ def _whole(PETSc, comm, mpi, scene_path: str, out: Optional[str], petsc_args: Li
     return int(mpi.bcast(status, root=0))
 
 
-def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_args: List[str], t0: float) -> int:
+def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_args: List[str], t0: float,
+           rss_baseline: int) -> int:
     """Every rank builds only its slab of the lattice (``part``, see the module docstring);
     the ranks write one piece each and rank 0 the index and ``result.json``."""
     from ._linpd import NativeOutput
@@ -347,6 +375,7 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
     _, error = _attempt(lambda: part.check_support(list(all_), list(held)), f"{scene_path}: ")
     _agree(mpi, rank, error)
     first, last, n = part.row_range()
+    rss_model = _peak_rss_bytes()
     symmetric, asymmetry, whole_nodes = part.row_kind()
     symmetric = mpi.allreduce(int(symmetric), op=_mpi_min()) == 1
     asymmetry = mpi.allreduce(asymmetry, op=_mpi_max())
@@ -359,11 +388,27 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
     t_model = time.perf_counter() - t0
 
     t1 = time.perf_counter()
-    indptr, indices, data = part.assemble_rows()
+    # chunked insertion into the preallocated matrix: a rank holds its rows once (PETSc's), plus
+    # one chunk of linpd's
+    d_nnz, o_nnz = part.row_lengths(ROW_CHUNK)
+    error = None
+    if PETSc.IntType == np.int32 and int(d_nnz.sum(dtype=np.int64) + o_nnz.sum(dtype=np.int64)) >= 2**31:
+        error = (f"{scene_path}: this rank's {int(d_nnz.sum(dtype=np.int64) + o_nnz.sum(dtype=np.int64))} stored "
+                 f"entries need a PETSc built with 64-bit indices (docs/scale-out.md), or more ranks")
+    _agree(mpi, rank, error)
     A = PETSc.Mat().createAIJ(size=((last - first, n), (last - first, n)), bsize=bs, comm=comm)
-    A.setPreallocationCSR((indptr.astype(PETSc.IntType), indices.astype(PETSc.IntType), data))
+    # (a rank without rows passes counts, not empty arrays: with empty arrays there, PETSc 3.18.5's
+    # assembly never returned on 6 ranks over 5 lattice planes)
+    A.setPreallocationNNZ((d_nnz.astype(PETSc.IntType), o_nnz.astype(PETSc.IntType)) if len(d_nnz) else (0, 0))
+    del d_nnz, o_nnz
+    for lo in range(0, last - first, ROW_CHUNK):
+        hi = min(lo + ROW_CHUNK, last - first)
+        indptr, indices, data = part.assemble_rows(lo, hi)
+        A.setValuesIJV(indptr.astype(PETSc.IntType), indices.astype(PETSc.IntType), data,
+                       rowmap=np.arange(first + lo, first + hi, dtype=PETSc.IntType))
+        del indptr, indices, data
     A.assemble()
-    del indptr, indices, data
+    rss_assembled = _peak_rss_bytes()
     b = PETSc.Vec().createMPI((last - first, n), bsize=bs, comm=comm)
     b.setArray(part.rhs())
     t_assemble = time.perf_counter() - t1
@@ -406,6 +451,7 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
     shares = mpi.gather(share, root=0)
     slabs = mpi.gather(part.slab(), root=0)
     rss = mpi.gather(_peak_rss_bytes(), root=0)
+    rss_stages = mpi.gather((rss_baseline, rss_model, rss_assembled), root=0)
     status = 0
     if rank == 0:
         timings = {"model": t_model, "assemble": t_assemble, "setup": k["setup"], "solve": k["solve"],
@@ -413,6 +459,11 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
         report = _report(PETSc, k, n, size, bs, symmetric, asymmetry, near_null, timings, rss, petsc_args, "per-rank")
         report["slabs"] = [{"owned_planes": [s[1], s[2]], "window_planes": [s[3], s[4]], "window_nodes": s[5],
                             "owned_nodes": m} for s, m in zip(slabs, nodes)]
+        # peak RSS per rank after the imports (the runtime), after the model and its rows
+        # (before PETSc's matrix), after the matrix's assembly, and at the end
+        report["rss_baseline_bytes_per_rank"] = [s[0] for s in rss_stages]
+        report["rss_model_bytes_per_rank"] = [s[1] for s in rss_stages]
+        report["rss_assembled_bytes_per_rank"] = [s[2] for s in rss_stages]
         doc = {
             "name": part.name,
             "dimension": d,
@@ -493,6 +544,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     mpi = comm.tompi4py()
     rank, size = comm.getRank(), comm.getSize()
     t0 = time.perf_counter()
+    rss_baseline = _peak_rss_bytes()
     try:
         if scene_path is None:
             _agree(mpi, rank, USAGE, "error")
@@ -506,7 +558,7 @@ def main(argv: Optional[List[str]] = None) -> int:
                 print(f"note: {error.split(': ', 1)[-1]}", file=sys.stderr, flush=True)
             return _whole(PETSc, comm, mpi, scene_path, out, petsc_args, t0)
         _agree(mpi, rank, error)
-        return _parts(PETSc, comm, mpi, part, scene_path, out, petsc_args, t0)
+        return _parts(PETSc, comm, mpi, part, scene_path, out, petsc_args, t0, rss_baseline)
     except _Stop as stop:
         return stop.status
 

@@ -55,6 +55,8 @@ type Csc<'py> = (
 
 /// `(n, block_size, free_dofs, rhs)` of [`NativeScene::row_info`].
 type RowInfo<'py> = (usize, usize, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>);
+/// `(d_nnz, o_nnz)` of [`NativePart::row_lengths`].
+type RowLengths<'py> = (Bound<'py, PyArray1<u32>>, Bound<'py, PyArray1<u32>>);
 /// `(loads, reactions, held_dofs)` of [`NativePart::balance`].
 type PartShare = (Vec<Vec<f64>>, Vec<Vec<f64>>, Vec<usize>);
 /// `(indptr, indices, data)` of a block of rows.
@@ -336,11 +338,18 @@ impl NativePart {
         let r = self.rows()?;
         Ok((r.is_symmetric(), r.asymmetry(), r.whole_nodes()))
     }
-    /// The owned rows of `A_ff` (`indptr` from 0, global columns).
-    fn assemble_rows<'py>(&self, py: Python<'py>) -> PyResult<Csr<'py>> {
+    /// The owned rows `lo..hi` (from the rank's first) of `A_ff` (`indptr` from 0, global
+    /// columns).
+    fn assemble_rows<'py>(&self, py: Python<'py>, lo: usize, hi: usize) -> PyResult<Csr<'py>> {
         let r = self.rows()?;
-        let b = py.detach(|| r.rows()).map_err(err)?;
+        let b = py.detach(|| r.rows(lo, hi)).map_err(err)?;
         Ok((b.indptr.into_pyarray(py), b.indices.into_pyarray(py), b.data.into_pyarray(py)))
+    }
+    /// `(d_nnz, o_nnz)`: per owned row, its entries in the rank's columns and in the others'.
+    fn row_lengths<'py>(&self, py: Python<'py>, chunk: usize) -> PyResult<RowLengths<'py>> {
+        let r = self.rows()?;
+        let (d, o) = py.detach(|| r.row_lengths(chunk)).map_err(err)?;
+        Ok((d.into_pyarray(py), o.into_pyarray(py)))
     }
     /// `f_f - (A u_bar)_f` of the owned rows.
     fn rhs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {

@@ -26,12 +26,12 @@ import os
 import subprocess
 import sys
 import tempfile
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
+from linpd.petsc import read_pieces  # noqa: E402 (the installed package's reader of a per-rank result)
 
 
 def mpiexec(ranks: int, args, timeout: float) -> subprocess.CompletedProcess:
@@ -40,18 +40,6 @@ def mpiexec(ranks: int, args, timeout: float) -> subprocess.CompletedProcess:
         cmd += ["--allow-run-as-root"]
     cmd += ["--oversubscribe", os.environ.get("LINPD_PETSC_PYTHON", "/usr/bin/python3"), "-m", "linpd.petsc"]
     return subprocess.run(cmd + args, cwd=ROOT, capture_output=True, text=True, timeout=timeout)
-
-
-def vtu_arrays(path: Path, names) -> dict:
-    """The named point arrays of an ASCII VTU file (linpd's own pieces), each ``(n, components)``."""
-    root = ET.parse(path).getroot()
-    out = {}
-    for a in root.iter("DataArray"):
-        name = a.get("Name")
-        if name in names:
-            k = int(a.get("NumberOfComponents", "1"))
-            out[name] = np.array((a.text or "").split(), dtype=float).reshape(-1, k)
-    return out
 
 
 def check_pieces(scene: Path, ranks: int, own: Path, dist: Path, tol: float) -> float:
@@ -69,12 +57,11 @@ def check_pieces(scene: Path, ranks: int, own: Path, dist: Path, tol: float) -> 
     where = {tuple(np.round(p / np.max(np.abs(x)) * 1e9).astype(np.int64)): k for k, p in enumerate(x)}
     seen = np.zeros(len(x), dtype=int)
     ub = np.zeros_like(ua)
-    for piece in b["pieces"]:
-        arrays = vtu_arrays(dist / piece, {"points", "u"})
-        for p, u in zip(arrays["points"][:, : x.shape[1]], arrays["u"][:, : ua.shape[1]]):
-            k = where[tuple(np.round(p / np.max(np.abs(x)) * 1e9).astype(np.int64))]
-            seen[k] += 1
-            ub[k] = u
+    points, arrays = read_pieces(dist)
+    for p, u in zip(points[:, : x.shape[1]], arrays["u"][:, : ua.shape[1]]):
+        k = where[tuple(np.round(p / np.max(np.abs(x)) * 1e9).astype(np.int64))]
+        seen[k] += 1
+        ub[k] = u
     assert np.all(seen == 1), f"{scene.name}: nodes in no piece or in two: {np.flatnonzero(seen != 1)[:5]}"
     assert b["nodes"] == len(x), (b["nodes"], len(x))
     rel = float(np.max(np.abs(ua - ub)) / np.max(np.abs(ua)))

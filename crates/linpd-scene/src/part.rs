@@ -15,7 +15,7 @@
 //! What a window cannot decide alone (a constraint's region holding a node, a point load
 //! sitting on one, a defect cutting a bond) is recorded as a [`Presence`] per rank in the same
 //! order on every rank, and settled by one reduction (a logical or over the ranks):
-//! [`crate::Problem::presences`].
+//! ([`crate::scene::PartScene::presences`]).
 
 use crate::ProblemError;
 use linpd_core::Grid;

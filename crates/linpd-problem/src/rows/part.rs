@@ -40,6 +40,8 @@ pub struct PartRows {
     plane_free: Vec<usize>,
     /// Plane of each window node.
     plane_of: Vec<u32>,
+    /// The window's DOF (`d * node + component`) of each owned row.
+    row_dofs: Vec<usize>,
     /// `f_f - (A u_bar)_f` at the owned free DOFs.
     rhs: Vec<f64>,
     asymmetry: f64,
@@ -83,6 +85,7 @@ pub fn part_rows(p: &Problem) -> Result<PartRows, ProblemError> {
     let rhs = linpd_solve::statics::reduced_rhs_of_rows(m, &system.bc, &system.f, owned.clone())
         .map_err(|e| p.model().static_error(e))?;
     let asymmetry = m.asymmetry(dofs);
+    let row_dofs = (d * first..d * last).filter(|&g| !dofs.is_constrained(g)).collect();
     let built_for = (p.name().to_string(), p.model().name());
     Ok(PartRows {
         system,
@@ -92,6 +95,7 @@ pub fn part_rows(p: &Problem) -> Result<PartRows, ProblemError> {
         owned,
         plane_free,
         plane_of,
+        row_dofs,
         rhs,
         asymmetry,
         numbering: None,
@@ -194,16 +198,41 @@ impl PartRows {
             .map(|g| m.position(g / d)[g % d])
             .collect()
     }
-    /// The owned rows of `A_ff` with global columns (after [`PartRows::number`]).
-    pub fn rows(&self) -> Result<RowBlock, ProblemError> {
-        let (global, _, _) = self.numbering()?;
-        let range = self.row_range()?;
-        let nodes: Vec<usize> = self.owned_nodes.clone().collect();
-        let owned = self.owned.clone();
+    /// The owned rows `lo..hi` (counted from the rank's first row) of `A_ff` with global
+    /// columns (after [`PartRows::number`]): the rank hands its rows to PETSc a chunk at a
+    /// time, so that it never holds them twice.
+    pub fn rows(&self, lo: usize, hi: usize) -> Result<RowBlock, ProblemError> {
+        let (global, first, _) = self.numbering()?;
+        if lo > hi || hi > self.owned.len() {
+            return Err(ProblemError::invalid(
+                "rows",
+                format!("{lo}..{hi} is not a range of the rank's {} rows", self.owned.len()),
+            ));
+        }
+        let d = self.dim();
+        let mut nodes: Vec<usize> = self.row_dofs[lo..hi].iter().map(|g| g / d).collect();
+        nodes.dedup();
+        let keep = (self.owned.start + lo)..(self.owned.start + hi);
         let rows =
-            block_rows(self.system.model(), self.system.bc.dofs(), &nodes, &|r| owned.contains(&r), &|c| global[c]);
+            block_rows(self.system.model(), self.system.bc.dofs(), &nodes, &|r| keep.contains(&r), &|c| global[c]);
         let rows = rows.into_iter().map(|(r, row)| (global[r], row)).collect();
-        Ok(RowBlock::of(range.start, range.end, rows))
+        Ok(RowBlock::of(first + lo, first + hi, rows))
+    }
+    /// Per owned row, its entries in the rank's own columns and in the others' (PETSc's
+    /// `d_nnz`, `o_nnz`), counted `chunk` rows at a time.
+    pub fn row_lengths(&self, chunk: usize) -> Result<(Vec<u32>, Vec<u32>), ProblemError> {
+        let range = self.row_range()?;
+        let (mut diagonal, mut off) = (Vec::with_capacity(range.len()), Vec::with_capacity(range.len()));
+        for lo in (0..range.len()).step_by(chunk.max(1)) {
+            let b = self.rows(lo, (lo + chunk.max(1)).min(range.len()))?;
+            for r in 0..b.last - b.first {
+                let cols = &b.indices[b.indptr[r]..b.indptr[r + 1]];
+                let own = cols.iter().filter(|c| range.contains(c)).count();
+                diagonal.push(own as u32);
+                off.push((cols.len() - own) as u32);
+            }
+        }
+        Ok((diagonal, off))
     }
     /// The Gram matrices of the rigid modes over the owned nodes (all DOFs, held DOFs) about the
     /// centre of the lattice's body box, lengths scaled by its half diagonal: the ranks' sums
