@@ -99,6 +99,33 @@ fn petsc_export_equals_matrix_market_2d_and_1d() {
     check_scene("bar-point-load.json", 1, 1);
 }
 
+/// `--format petsc64`: the same matrix and vectors with 64-bit integers (PETSc configured
+/// `--with-64-bit-indices`): the class id as an 8-byte big-endian integer, every size, row
+/// length and column 8 bytes, so the file is `4 * 8 + M * 8 + nnz * (8 + 8)` bytes long.
+#[test]
+fn petsc64_export_holds_the_same_system_with_64_bit_integers() {
+    let scene = data("cantilever-3d.json");
+    let (p32, p64) = (temp_dir("cantilever-32"), temp_dir("cantilever-64"));
+    export(&scene, &p32, "petsc");
+    export(&scene, &p64, "petsc64");
+    let (a, b) = (read_mat(&p32.join("K.petsc")).unwrap(), read_mat(&p64.join("K.petsc")).unwrap());
+    assert_eq!(a, b, "K.petsc");
+    for f in ["f.petsc", "coords.petsc"] {
+        assert_eq!(read_vec(&p32.join(f)).unwrap(), read_vec(&p64.join(f)).unwrap(), "{f}");
+    }
+    let bytes = std::fs::read(p64.join("K.petsc")).unwrap();
+    assert_eq!(bytes[..8], 1_211_216i64.to_be_bytes());
+    assert_eq!(bytes.len(), 4 * 8 + a.nrows * 8 + a.val.len() * 16);
+    assert_eq!(bytes[8..16], (a.nrows as i64).to_be_bytes());
+    let f = std::fs::read(p64.join("f.petsc")).unwrap();
+    assert_eq!(f[..8], 1_211_214i64.to_be_bytes());
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p64.join("export.json")).unwrap()).unwrap();
+    assert!(doc["format"]["K.petsc"].as_str().unwrap().contains("int64"), "{doc}");
+    let _ = std::fs::remove_dir_all(&p32);
+    let _ = std::fs::remove_dir_all(&p64);
+}
+
 #[test]
 fn petsc_reader_refuses_damaged_files() {
     let dir = temp_dir("damaged");

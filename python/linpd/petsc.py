@@ -271,6 +271,7 @@ def _report(PETSc, k: dict, n: int, size: int, bs: int, symmetric: bool, asymmet
         "peak_rss_bytes": max(rss),
         "peak_rss_bytes_per_rank": rss,
         "petsc_version": ".".join(map(str, PETSc.Sys.getVersion())),
+        "petsc_int_bits": np.dtype(PETSc.IntType).itemsize * 8,
         "petsc_options": petsc_args,
     }
 

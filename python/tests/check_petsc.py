@@ -34,12 +34,12 @@ ROOT = Path(__file__).resolve().parents[2]
 from linpd.petsc import read_pieces  # noqa: E402 (the installed package's reader of a per-rank result)
 
 
-def mpiexec(ranks: int, args, timeout: float) -> subprocess.CompletedProcess:
+def mpiexec(ranks: int, args, timeout: float, env=None) -> subprocess.CompletedProcess:
     cmd = ["mpiexec", "-n", str(ranks)]
     if os.geteuid() == 0:
         cmd += ["--allow-run-as-root"]
     cmd += ["--oversubscribe", os.environ.get("LINPD_PETSC_PYTHON", "/usr/bin/python3"), "-m", "linpd.petsc"]
-    return subprocess.run(cmd + args, cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(cmd + args, cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=env)
 
 
 def check_pieces(scene: Path, ranks: int, own: Path, dist: Path, tol: float) -> float:
@@ -113,6 +113,50 @@ def check_scene(scene: Path, ranks: int, petsc, tmp: Path, binary: str) -> None:
     assert sorted(b["run"]) == sorted(a["run"]), "result.json's run member differs in keys"
 
 
+def check_petsc64(path64: str, tmp: Path, binary: str) -> None:
+    """With a PETSc built with 64-bit indices (``path64``: its petsc4py's directory, e.g. Debian's
+    python3-petsc4py-64-real): ``linpd export --format petsc64`` loads with its ``MatLoad`` to
+    the entries of ``K.mtx`` (bit for bit: both print shortest round-trip or binary doubles), and
+    the driver's per-rank solve on 2 ranks matches ``linpd solve`` as above."""
+    scene = ROOT / "data" / "cantilever-3d.json"
+    e64, emtx = tmp / "export64", tmp / "exportmtx"
+    for fmt, out in (("petsc64", e64), ("mtx", emtx)):
+        p = subprocess.run([binary, "export", str(scene), "--format", fmt, "--out", str(out), "-q"],
+                           capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+    site = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p and "petscdir" not in p]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(site + [path64]))
+    load = (
+        "import sys, numpy as np\n"
+        "from petsc4py import PETSc\n"
+        "A = PETSc.Mat().load(PETSc.Viewer().createBinary(sys.argv[1], 'r'))\n"
+        "I, J, V = A.getValuesCSR()\n"
+        "np.savez(sys.argv[2], I=I, J=J, V=V, bits=np.dtype(PETSc.IntType).itemsize * 8)\n"
+    )
+    py = os.environ.get("LINPD_PETSC_PYTHON", "/usr/bin/python3")
+    p = subprocess.run([py, "-c", load, str(e64 / "K.petsc"), str(tmp / "k64.npz")], capture_output=True, text=True,
+                       env=env)
+    assert p.returncode == 0, p.stderr
+    got = np.load(tmp / "k64.npz")
+    assert int(got["bits"]) == 64, "not a 64-bit PETSc"
+    import scipy.io
+    import scipy.sparse
+
+    want = scipy.sparse.csr_matrix(scipy.io.mmread(str(emtx / "K.mtx")))
+    mine = scipy.sparse.csr_matrix((got["V"], got["J"], got["I"]), shape=want.shape)
+    assert abs(mine - want).max() == 0.0, "K.petsc (64-bit) and K.mtx differ"
+    print(f"check_petsc: 64-bit PETSc MatLoad of `linpd export --format petsc64` equals K.mtx ({want.nnz} entries)")
+    own, parts = tmp / "c64" / "linpd", tmp / "c64" / "parts"
+    p = subprocess.run([binary, "solve", str(scene), "--out", str(own), "-q"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    p = mpiexec(2, [str(scene), "--out", str(parts), "-ksp_rtol", "1e-12"], timeout=300, env=env)
+    assert p.returncode == 0, f"{p.stdout}\n{p.stderr}"
+    rel = check_pieces(scene, 2, own, parts, 1e-10)
+    bits = json.loads((parts / "result.json").read_text())["stats"]["solve"]["petsc_int_bits"]
+    assert bits == 64, bits
+    print(f"check_petsc: the driver on a 64-bit PETSc, 2 ranks: max|u_petsc - u_linpd| / max|u_linpd| = {rel:.2e}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--ranks", type=int, default=2)
@@ -142,6 +186,9 @@ def main() -> int:
         assert empty == 2, slabs
         print(f"check_petsc: 5 lattice planes on 7 ranks ({empty} own nothing): max|u_petsc - u_linpd| / "
               f"max|u_linpd| = {rel:.2e}")
+
+        if os.environ.get("LINPD_PETSC64_PATH"):
+            check_petsc64(os.environ["LINPD_PETSC64_PATH"], Path(tmp), binary)
 
         # a bad scene: linpd's message on every rank, non-zero exit, no hang
         doc = json.loads(scenes[0].read_text())

@@ -113,7 +113,8 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
         /// File format: `mtx` (Matrix Market: K.mtx, f.mtx) or `petsc` (PETSc binary: K.petsc
-        /// with K.petsc.info giving the block size, f.petsc, coords.petsc for rigid-body modes).
+        /// with K.petsc.info giving the block size, f.petsc, coords.petsc for rigid-body modes),
+        /// `petsc64` for a PETSc built with 64-bit indices.
         #[arg(long, value_enum, default_value_t = ExportFormat::Mtx)]
         format: ExportFormat,
         /// Print no progress messages (no phase lines, no progress bars).
@@ -227,8 +228,10 @@ enum ExportFormat {
     /// Matrix Market (`K.mtx`, `f.mtx`), 1-based, readable by every sparse library.
     Mtx,
     /// PETSc binary (`K.petsc`, `f.petsc`, `coords.petsc`), read by MatLoad/VecLoad on any
-    /// number of ranks.
+    /// number of ranks: 32-bit indices (a default PETSc build).
     Petsc,
+    /// PETSc binary with 64-bit indices (a PETSc configured `--with-64-bit-indices`).
+    Petsc64,
 }
 
 fn input(file: &std::path::Path) -> impl Fn(ProblemError) -> CliError + '_ {

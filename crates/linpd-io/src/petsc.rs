@@ -3,9 +3,11 @@
 //!
 //! # The format (PETSc's `MatView`/`VecView` on a binary viewer)
 //!
-//! Big-endian throughout; integers are 32-bit (`PetscInt` of a default PETSc build: a PETSc
-//! configured `--with-64-bit-indices` reads 64-bit ones, which this writer does not produce; it
-//! refuses matrices past `2^31 - 1` rows or entries instead):
+//! Big-endian throughout; integers are PETSc's `PetscInt`: 32-bit in a default PETSc build
+//! ([`PetscInt::I32`]; the writer refuses matrices past `2^31 - 1` rows or entries by name), 64-bit
+//! in one configured `--with-64-bit-indices` ([`PetscInt::I64`], e.g. Debian's
+//! `python3-petsc4py-64-real`). The class id is a `PetscInt` too, so the readers tell the two
+//! apart by it:
 //!
 //! * Mat (`K.petsc`): `1211216` (`MAT_FILE_CLASSID`), `M`, `N`, `nnz`; then `M` row lengths;
 //!   then `nnz` column indices (0-based, row by row, ascending in a row); then `nnz` `float64`
@@ -57,18 +59,39 @@ fn bad(path: &Path, what: String) -> IoError {
     IoError::Io { path: path.display().to_string(), source: std::io::Error::new(std::io::ErrorKind::InvalidData, what) }
 }
 
-/// A size as PETSc's 32-bit `PetscInt`, or an error naming what overflowed.
-fn petsc_int(path: &Path, what: &str, v: usize) -> Result<i32, IoError> {
-    i32::try_from(v).map_err(|_| {
-        bad(
-            path,
-            format!(
-                "{what} = {v} does not fit PETSc's 32-bit indices (at most {}): a PETSc built with 64-bit \
-                 indices and a 64-bit writer are needed (docs/scale-out.md)",
-                i32::MAX
-            ),
-        )
-    })
+/// The width of PETSc's integers (`PetscInt`) in a file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PetscInt {
+    /// 32-bit: a default PETSc build.
+    I32,
+    /// 64-bit: a PETSc configured `--with-64-bit-indices`.
+    I64,
+}
+
+impl PetscInt {
+    /// `v` as this width's big-endian bytes, or an error naming what overflowed.
+    fn bytes(self, path: &Path, what: &str, v: usize) -> Result<Vec<u8>, IoError> {
+        match self {
+            PetscInt::I32 => i32::try_from(v).map(|x| x.to_be_bytes().to_vec()).map_err(|_| {
+                bad(
+                    path,
+                    format!(
+                        "{what} = {v} does not fit PETSc's 32-bit indices (at most {}): export with --format \
+                         petsc64 for a PETSc built with 64-bit indices (docs/scale-out.md)",
+                        i32::MAX
+                    ),
+                )
+            }),
+            PetscInt::I64 => Ok((v as i64).to_be_bytes().to_vec()),
+        }
+    }
+    /// Bytes per integer.
+    pub fn width(self) -> usize {
+        match self {
+            PetscInt::I32 => 4,
+            PetscInt::I64 => 8,
+        }
+    }
 }
 
 /// `d` when the free DOFs (ascending, `d` per node) come in whole nodes, else 1.
@@ -83,9 +106,10 @@ pub fn whole_nodes_block_size(dim: usize, free_dofs: &[usize]) -> usize {
     }
 }
 
-/// Writes a CSR matrix as a PETSc binary Mat.
+/// Writes a CSR matrix as a PETSc binary Mat with integers of width `int`.
 pub fn write_mat(
     path: &Path,
+    int: PetscInt,
     nrows: usize,
     ncols: usize,
     row_ptr: &[usize],
@@ -93,21 +117,22 @@ pub fn write_mat(
     val: &[f64],
 ) -> Result<(), IoError> {
     let header = [
-        MAT_FILE_CLASSID,
-        petsc_int(path, "rows", nrows)?,
-        petsc_int(path, "columns", ncols)?,
-        petsc_int(path, "stored entries", val.len())?,
+        int.bytes(path, "the class id", MAT_FILE_CLASSID as usize)?,
+        int.bytes(path, "rows", nrows)?,
+        int.bytes(path, "columns", ncols)?,
+        int.bytes(path, "stored entries", val.len())?,
     ];
     let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(io(path))?);
     let e = io(path);
     for h in header {
-        w.write_all(&h.to_be_bytes()).map_err(&e)?;
+        w.write_all(&h).map_err(&e)?;
     }
+    // every row length and column is at most the sizes checked above
     for r in 0..nrows {
-        w.write_all(&((row_ptr[r + 1] - row_ptr[r]) as i32).to_be_bytes()).map_err(&e)?;
+        w.write_all(&int.bytes(path, "a row length", row_ptr[r + 1] - row_ptr[r])?).map_err(&e)?;
     }
     for &c in col {
-        w.write_all(&(c as i32).to_be_bytes()).map_err(&e)?;
+        w.write_all(&int.bytes(path, "a column", c)?).map_err(&e)?;
     }
     for &x in val {
         w.write_all(&x.to_be_bytes()).map_err(&e)?;
@@ -115,12 +140,13 @@ pub fn write_mat(
     w.flush().map_err(&e)
 }
 
-/// Writes a vector as a PETSc binary Vec.
-pub fn write_vec(path: &Path, v: &[f64]) -> Result<(), IoError> {
+/// Writes a vector as a PETSc binary Vec with integers of width `int`.
+pub fn write_vec(path: &Path, int: PetscInt, v: &[f64]) -> Result<(), IoError> {
+    let (id, len) = (int.bytes(path, "the class id", VEC_FILE_CLASSID as usize)?, int.bytes(path, "length", v.len())?);
     let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(io(path))?);
     let e = io(path);
-    w.write_all(&VEC_FILE_CLASSID.to_be_bytes()).map_err(&e)?;
-    w.write_all(&petsc_int(path, "length", v.len())?.to_be_bytes()).map_err(&e)?;
+    w.write_all(&id).map_err(&e)?;
+    w.write_all(&len).map_err(&e)?;
     for &x in v {
         w.write_all(&x.to_be_bytes()).map_err(&e)?;
     }
@@ -132,6 +158,7 @@ struct Reader<'a> {
     path: &'a Path,
     bytes: &'a [u8],
     at: usize,
+    int: PetscInt,
 }
 
 impl Reader<'_> {
@@ -145,8 +172,11 @@ impl Reader<'_> {
         out.copy_from_slice(b);
         Ok(out)
     }
-    fn int(&mut self, what: &str) -> Result<i32, IoError> {
-        Ok(i32::from_be_bytes(self.take::<4>(what)?))
+    fn int(&mut self, what: &str) -> Result<i64, IoError> {
+        Ok(match self.int {
+            PetscInt::I32 => i32::from_be_bytes(self.take::<4>(what)?) as i64,
+            PetscInt::I64 => i64::from_be_bytes(self.take::<8>(what)?),
+        })
     }
     fn size(&mut self, what: &str) -> Result<usize, IoError> {
         let v = self.int(what)?;
@@ -170,21 +200,26 @@ impl Reader<'_> {
     }
 }
 
+/// Reads the class id, and from it the integers' width: a 64-bit id starts with four zero
+/// bytes, which no 32-bit id does.
 fn classid(r: &mut Reader, want: i32, what: &str) -> Result<(), IoError> {
+    if r.bytes.get(..4) == Some(&[0, 0, 0, 0]) {
+        r.int = PetscInt::I64;
+    }
     let id = r.int("the class id")?;
-    if id != want {
+    if id != want as i64 {
         return Err(bad(r.path, format!("class id {id}, not {want} ({what}): not a PETSc binary {what}")));
     }
     Ok(())
 }
 
-/// Reads a PETSc binary Mat (one object, 32-bit indices) into CSR.
+/// Reads a PETSc binary Mat (one object, 32- or 64-bit indices) into CSR.
 pub fn read_mat(path: &Path) -> Result<PetscMat, IoError> {
     let bytes = std::fs::read(path).map_err(io(path))?;
-    let r = &mut Reader { path, bytes: &bytes, at: 0 };
+    let r = &mut Reader { path, bytes: &bytes, at: 0, int: PetscInt::I32 };
     classid(r, MAT_FILE_CLASSID, "Mat")?;
     let (nrows, ncols, nnz) = (r.size("M")?, r.size("N")?, r.size("nnz")?);
-    r.room(nrows, 4, "row lengths")?;
+    r.room(nrows, r.int.width(), "row lengths")?;
     let mut row_ptr = Vec::with_capacity(nrows + 1);
     row_ptr.push(0usize);
     for k in 0..nrows {
@@ -194,7 +229,7 @@ pub fn read_mat(path: &Path) -> Result<PetscMat, IoError> {
     if row_ptr[nrows] != nnz {
         return Err(bad(path, format!("row lengths sum to {}, the header says nnz = {nnz}", row_ptr[nrows])));
     }
-    r.room(nnz, 12, "entries")?;
+    r.room(nnz, r.int.width() + 8, "entries")?;
     let mut col = Vec::with_capacity(nnz);
     for k in 0..nnz {
         let c = r.size("a column index")?;
@@ -211,7 +246,7 @@ pub fn read_mat(path: &Path) -> Result<PetscMat, IoError> {
 /// Reads a PETSc binary Vec (one object).
 pub fn read_vec(path: &Path) -> Result<Vec<f64>, IoError> {
     let bytes = std::fs::read(path).map_err(io(path))?;
-    let r = &mut Reader { path, bytes: &bytes, at: 0 };
+    let r = &mut Reader { path, bytes: &bytes, at: 0, int: PetscInt::I32 };
     classid(r, VEC_FILE_CLASSID, "Vec")?;
     let n = r.size("n")?;
     r.room(n, 8, "values")?;

@@ -12,7 +12,8 @@ use crate::export::ReducedSystem;
 use crate::ProblemError;
 use linpd_core::Point;
 pub use linpd_io::petsc::{
-    read_mat, read_vec, whole_nodes_block_size, write_mat, write_vec, PetscMat, MAT_FILE_CLASSID, VEC_FILE_CLASSID,
+    read_mat, read_vec, whole_nodes_block_size, write_mat, write_vec, PetscInt, PetscMat, MAT_FILE_CLASSID,
+    VEC_FILE_CLASSID,
 };
 use std::path::{Path, PathBuf};
 
@@ -28,8 +29,14 @@ impl ReducedSystem {
     }
 
     /// Writes `K.petsc`, `K.petsc.info`, `f.petsc`, `dofs.csv` and, when `positions` has one
-    /// point per node, `coords.petsc` into `dir` (which must exist); returns their paths.
-    pub fn write_petsc(&self, dir: &Path, positions: Option<&[Point]>) -> Result<Vec<PathBuf>, ProblemError> {
+    /// point per node, `coords.petsc` into `dir` (which must exist), with PETSc integers of
+    /// width `int`; returns their paths.
+    pub fn write_petsc(
+        &self,
+        dir: &Path,
+        positions: Option<&[Point]>,
+        int: PetscInt,
+    ) -> Result<Vec<PathBuf>, ProblemError> {
         let n = self.n();
         let mut paths = Vec::new();
 
@@ -52,7 +59,7 @@ impl ReducedSystem {
             }
         }
         let k_path = dir.join(PETSC_FILES[0]);
-        write_mat(&k_path, n, n, &row_ptr, &col, &v)?;
+        write_mat(&k_path, int, n, n, &row_ptr, &col, &v)?;
         paths.push(k_path);
 
         let info = dir.join(PETSC_FILES[1]);
@@ -61,13 +68,13 @@ impl ReducedSystem {
         paths.push(info);
 
         let f_path = dir.join(PETSC_FILES[2]);
-        write_vec(&f_path, &self.f)?;
+        write_vec(&f_path, int, &self.f)?;
         paths.push(f_path);
 
         if let Some(x) = positions.filter(|x| x.len() == self.n_nodes) {
             let coords: Vec<f64> = self.free_dofs.iter().map(|&g| x[g / self.dim][g % self.dim]).collect();
             let c_path = dir.join(PETSC_FILES[3]);
-            write_vec(&c_path, &coords)?;
+            write_vec(&c_path, int, &coords)?;
             paths.push(c_path);
         }
 
@@ -78,9 +85,10 @@ impl ReducedSystem {
     }
 
     /// `export.json`'s `format` member for a PETSc export.
-    pub fn petsc_format_json(&self, with_coords: bool) -> serde_json::Value {
+    pub fn petsc_format_json(&self, with_coords: bool, int: PetscInt) -> serde_json::Value {
+        let bits = 8 * int.width();
         let mut f = serde_json::json!({
-            "K.petsc": "A_ff: PETSc binary Mat (big-endian, int32 indices, CSR rows, 0-based, float64)",
+            "K.petsc": format!("A_ff: PETSc binary Mat (big-endian, int{bits} indices, CSR rows, 0-based, float64)"),
             "K.petsc.info": format!("-matload_block_size {}", self.block_size()),
             "f.petsc": "f_f - (A u_bar)_f: PETSc binary Vec (big-endian, float64)",
             "dofs.csv": "row,node,component (0-based): the DOF dim * node + component of each row",

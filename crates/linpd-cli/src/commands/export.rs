@@ -20,14 +20,18 @@ pub(crate) fn export(scene: &Path, out: &Path, format: ExportFormat, quiet: bool
             progress.phase(&format!("writing K.mtx ({} entries), f.mtx, dofs.csv", system.nnz()));
             system.write(staged.path()).map_err(output)?;
         }
-        ExportFormat::Petsc => {
+        ExportFormat::Petsc | ExportFormat::Petsc64 => {
+            let int = match format {
+                ExportFormat::Petsc64 => linpd_problem::petsc::PetscInt::I64,
+                _ => linpd_problem::petsc::PetscInt::I32,
+            };
             progress.phase(&format!("writing K.petsc ({} entries), f.petsc, coords.petsc, dofs.csv", system.nnz()));
             // coordinates of the scene's nodes (a blend scene's operator may have others:
             // then no coords.petsc)
             let nodes = problem.nodes();
             let x = (nodes.len() == system.n_nodes).then(|| nodes.positions());
-            system.write_petsc(staged.path(), x.as_deref()).map_err(output)?;
-            doc["format"] = system.petsc_format_json(x.is_some());
+            system.write_petsc(staged.path(), x.as_deref(), int).map_err(output)?;
+            doc["format"] = system.petsc_format_json(x.is_some(), int);
             doc["block_size"] = system.block_size().into();
         }
     }
