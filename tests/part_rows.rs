@@ -207,12 +207,29 @@ fn heterogeneous_cracked_plate() {
 }
 
 #[test]
-fn surface_corrected_bond_3d() {
-    // a slab of 15 planes along z, so that the windows cut it
-    let path = scene_file("surface-bar-3d.json", "surface", |v| {
-        v["grid"]["max"][2] = 0.45.into();
+fn surface_corrected_lps_3d() {
+    // a slab of 30 planes along z, so that the windows (a halo of 9 planes) cut it
+    for correction in ["position_aware", "energy"] {
+        let path = scene_file("surface-bar-3d.json", correction, |v| {
+            v["grid"]["max"][2] = 0.95.into();
+            v["model"]["surface_correction"] = correction.into();
+        });
+        for ranks in [3, 5] {
+            check(&path, ranks);
+        }
+    }
+}
+
+#[test]
+fn surface_corrected_bond_2d() {
+    // the bond model's factor is the mean of its ends': a halo node's own factor enters
+    let path = scene_file("plate-hole-2d.json", "bond-energy", |v| {
+        v["model"]["surface_correction"] = "energy".into();
+        v["grid"]["spacing"] = 0.025.into();
+        v["model"]["horizon"] = 0.075.into();
+        v["grid"]["layer"] = serde_json::json!({"x-": 0.075, "x+": 0.075});
     });
-    for ranks in [2, 3] {
+    for ranks in [3, 4] {
         check(&path, ranks);
     }
 }

@@ -6,11 +6,14 @@
 //! the planes `first..last` of an even split of the `planes` sites along that axis and builds
 //! the scene on the window `first - halo .. last + halo` only ([`linpd_core::Grid::window`]), so
 //! no rank holds an array over the whole lattice. The halo holds every node the owned rows
-//! couple to and every node whose data those couplings read: one reach of the bonds for the
-//! bond model, two for LPS (the dilatation of a common partner), one more where a surface
-//! correction fits per-node factors from the families of the halo's nodes
-//! ([`halo_reaches`]). A reach is `floor(delta / h) + 1` planes: the `+ 1` covers the partial
-//! volumes' ramp beyond `delta` and round-off in the family test.
+//! couple to and every node whose data those couplings read ([`halo_reaches`]): one reach of
+//! the bonds for the bond model, three with its `energy` surface correction (a bond's factor
+//! reads its ends' trace ratios, made of their bonds' factors, each the mean of two nodes' fits
+//! over their families); two for LPS (the dilatation of a common partner), three with its
+//! `energy` correction (a partner's dilatation reads the mean of two nodes' fits;
+//! `position_aware`'s factors are the partner's own). A reach is `floor(delta / h)` planes, the lattice stencil's own reach
+//! ([`linpd_core::family::lattice_stencil`], with its tolerance: a bond of length exactly
+//! `delta` is one; the partial volumes' ramp stays inside `delta`).
 //!
 //! What a window cannot decide alone (a constraint's region holding a node, a point load
 //! sitting on one, a defect cutting a bond) is recorded as a [`Presence`] per rank in the same
@@ -73,7 +76,7 @@ impl Slab {
 /// Halo planes of a model whose rows reach `reaches` horizons (1: bond, 2: LPS; one more with a
 /// surface correction) at `horizon / spacing = ratio`.
 pub fn halo_reaches(reaches: usize, ratio: f64) -> usize {
-    reaches * ((ratio * (1.0 + 1e-9)).floor() as usize + 1)
+    reaches * (ratio * (1.0 + linpd_core::GEOMETRY_RTOL)).floor() as usize
 }
 
 /// A check a window cannot decide alone: does some rank's part hold what `path` needs?
@@ -162,7 +165,7 @@ mod tests {
             }
             assert_eq!(next, 11, "{ranks} ranks");
         }
-        assert_eq!(halo_reaches(2, 3.0), 8);
+        assert_eq!((halo_reaches(2, 3.0), halo_reaches(1, 2.999)), (6, 2));
     }
 
     #[test]

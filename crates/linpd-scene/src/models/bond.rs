@@ -61,8 +61,9 @@ impl ModelType for BondType {
             (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, None) => (matrix_free_path(grid), true),
             (false, false) => (crate::memory::Path::BondAssembled, uses_multigrid || (auto && dim >= 2)),
         };
-        // the halo of a rank's part: one reach of the bonds, one more for the surface
-        // correction's per-node factors (crate::part); the blend has no per-rank rows
+        // the halo of a rank's part (crate::part): one reach of the bonds; with the energy
+        // correction two more, as a bond's factor reads its ends' trace ratios, each made of
+        // the factors of that end's bonds, each the mean of two nodes' fits over their families
         let corrected = !matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
         if cx.part.is_some() && raw.pd_regions.is_some() {
             return Err(ProblemError::invalid(
@@ -70,7 +71,7 @@ impl ModelType for BondType {
                 format!("the blended model {}", crate::validate::NO_PER_RANK_GEOMETRY),
             ));
         }
-        let reaches = Some(1 + usize::from(corrected));
+        let reaches = Some(if corrected { 3 } else { 1 });
         let grid = crate::validate::lattice_for(cx, raw.horizon, reaches, &path_of)?;
         let bond = BondModel::validate(&raw, &grid, dim, &cx.presences)?;
         // The amplitude now, not at the first solve: a modulus that overflows it (1e308) is a
