@@ -113,6 +113,32 @@ def check_scene(scene: Path, ranks: int, petsc, tmp: Path, binary: str) -> None:
     assert sorted(b["run"]) == sorted(a["run"]), "result.json's run member differs in keys"
 
 
+def check_memory_limit(tmp: Path, binary: str) -> None:
+    """No rank builds the whole body: under ``LINPD_MEMORY_GIB=0.08`` per process, a cube of
+    31,713 nodes whose whole lattice linpd estimates at about 0.1 GiB is refused by ``linpd
+    solve`` and by the driver's ``--gather`` (every rank builds it whole), and solved by the
+    driver on 2 ranks, each of whose windows (17-18 of 33 planes) it estimates at about 0.06 GiB."""
+    sys.path.insert(0, str(ROOT / "python" / "bench"))
+    import scale_out
+
+    scene = tmp / "cube-limit.json"
+    scene.write_text(json.dumps(scale_out.scene(30, {"type": "auto"})))
+    limited = dict(os.environ, LINPD_MEMORY_GIB="0.08")
+    p = subprocess.run([binary, "solve", str(scene), "--out", str(tmp / "limit-linpd"), "-q"], capture_output=True,
+                       text=True, env=limited)
+    assert p.returncode != 0 and "more than the 0.1 GiB available (LINPD_MEMORY_GIB)" in p.stderr, p.stderr
+    p = mpiexec(2, [str(scene), "--gather", "--out", str(tmp / "limit-gather")], timeout=300, env=limited)
+    assert p.returncode != 0 and p.stderr.count("LINPD_MEMORY_GIB") == 2, p.stderr
+    p = mpiexec(2, [str(scene), "--out", str(tmp / "limit-parts"), "-ksp_rtol", "1e-12"], timeout=300, env=limited)
+    assert p.returncode == 0, f"{p.stdout}\n{p.stderr}"
+    own = tmp / "limit-linpd-free"
+    p = subprocess.run([binary, "solve", str(scene), "--out", str(own), "-q"], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    rel = check_pieces(scene, 2, own, tmp / "limit-parts", 1e-10)
+    print(f"check_petsc: LINPD_MEMORY_GIB=0.08 refuses the whole cube (linpd solve, --gather) and 2 ranks solve it "
+          f"per rank: max|u_petsc - u_linpd| / max|u_linpd| = {rel:.2e}")
+
+
 def check_petsc64(path64: str, tmp: Path, binary: str) -> None:
     """With a PETSc built with 64-bit indices (``path64``: its petsc4py's directory, e.g. Debian's
     python3-petsc4py-64-real): ``linpd export --format petsc64`` loads with its ``MatLoad`` to
@@ -186,6 +212,8 @@ def main() -> int:
         assert empty == 2, slabs
         print(f"check_petsc: 5 lattice planes on 7 ranks ({empty} own nothing): max|u_petsc - u_linpd| / "
               f"max|u_linpd| = {rel:.2e}")
+
+        check_memory_limit(Path(tmp), binary)
 
         if os.environ.get("LINPD_PETSC64_PATH"):
             check_petsc64(os.environ["LINPD_PETSC64_PATH"], Path(tmp), binary)
