@@ -60,7 +60,9 @@ def main() -> int:
     ap.add_argument("--weak", action="store_true",
                     help="weak scaling: P ranks solve a box of height P (the same unknowns per rank)")
     ap.add_argument("--gather", action="store_true", help="the driver's --gather (every rank builds the whole scene)")
-    ap.add_argument("--petsc-options", default="", help="PETSc options for the driver, e.g. '-matptap_via allatonce'")
+    ap.add_argument("--parallel-petsc-options", default="",
+                    help="PETSc options for the driver on more than one rank, e.g. '-matptap_via allatonce' "
+                         "(an MPIAIJ option: one rank's SeqAIJ refuses it)")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -90,7 +92,7 @@ def main() -> int:
         cmd = ["mpiexec", "-n", str(ranks)] + (["--allow-run-as-root"] if os.geteuid() == 0 else [])
         cmd += ["--oversubscribe", py, "-m", "linpd.petsc", str(path), "--out", str(out / f"petsc-{ranks}")]
         cmd += ["--gather"] if args.gather else []
-        cmd += args.petsc_options.split()
+        cmd += args.parallel_petsc_options.split() if ranks > 1 else []
         t = time.perf_counter()
         p = subprocess.run(cmd, capture_output=True, text=True)
         wall = time.perf_counter() - t

@@ -2,20 +2,26 @@
 
 Usage (under the site's MPI; as root OpenMPI also needs ``--allow-run-as-root``)::
 
-    mpiexec -n P python -m linpd.petsc SCENE.json [--out DIR] [PETSc options]
+    mpiexec -n P python -m linpd.petsc SCENE.json [--out DIR] [--gather] [PETSc options]
 
 Each rank
 
-1. reads and validates the scene and builds its model (bonds, constraints, right-hand side),
-   with the checks of ``linpd solve`` (and a free DOF whose diagonal entry is zero, a mechanism
+1. reads and validates **its part** of a lattice scene (bond or LPS, 2D or 3D): the slab of
+   lattice planes it owns plus a halo, the only nodes it ever builds (docs/scale-out.md,
+   "Per-rank geometry"); what no part decides alone (a region holding a node, a resultant
+   load's volume, the support) is settled by reductions. With ``--gather``, and for scenes
+   without per-rank geometry (point clouds, meshes, blends, coarsened levels, node-numbered
+   files: rank 0 prints a note naming why), every rank builds the whole scene instead. The
+   checks are those of ``linpd solve`` (and a free DOF whose diagonal entry is zero, a mechanism
    such as the out-of-plane motion of a plate one node thick, is refused by name: ``linpd
-   solve`` finds it when it factorizes, a KSP might not). Then every rank learns every other rank's outcome
-   (one ``allgather``): a bad scene stops **all** ranks with linpd's message and exit code 1,
-   and none of them is left waiting in a collective;
-2. owns a contiguous range of nodes (the lattice's nodes are numbered with x fastest, so the
-   range is a slab; a point cloud's file order should be locality-preserving) and assembles
-   **only its rows** of the reduced stiffness ``A_ff`` with :meth:`linpd.Scene.assemble_rows`
-   into a PETSc MPIAIJ matrix of block size ``d``;
+   solve`` finds it when it factorizes, a KSP might not). After each stage that can fail every
+   rank learns every other rank's outcome (one ``allgather``): a bad scene stops **all** ranks
+   with linpd's message and exit code 1, and none of them is left waiting in a collective;
+2. owns a contiguous range of rows (per rank: its planes' free DOFs in the whole scene's
+   numbering, from one ``allgather`` of per-plane counts; ``--gather``: PETSc's balanced split
+   of the nodes) and hands **only its rows** of the reduced stiffness ``A_ff`` to a PETSc MPIAIJ
+   matrix of block size ``d`` (per rank: preallocated from its rows' lengths and filled 16384
+   rows at a time, so it never holds them twice);
 3. attaches the rigid-body modes (``MatNullSpaceCreateRigidBody`` of the nodes' coordinates)
    as the near-null space GAMG builds its coarse spaces from;
 4. solves with ``-ksp_type cg -pc_type gamg -ksp_rtol 1e-10 -ksp_norm_type unpreconditioned``
@@ -40,12 +46,17 @@ aggregation does not cope with that graded, unsymmetric 1D operator. The unsymme
 blend falls back to GAMG (slow but convergent on the bundled scenes).
 
 A KSP that did not converge (a negative converged reason) or a non-finite residual is an
-error on every rank (exit 1) and nothing is written. Otherwise rank 0 gathers ``u`` and writes
-``result.json``, ``u.csv`` and ``result.vtu`` into the scene's output directory (or ``--out
-DIR``), as ``linpd solve`` does (no plots), with ``stats.solve``
-holding the KSP's type, iterations, converged reason, the relative residual
-``||f - A u|| / ||f||`` recomputed after the solve, the timings, every rank's peak resident
-memory and whether ``A_ff`` is symmetric.
+error on every rank (exit 1) and nothing is written. Otherwise, into the scene's output
+directory (or ``--out DIR``), all or none: per rank, every rank writes ``result-<rank>.vtu``
+with its owned nodes' displacements and fields (which read its halo's displacements), and rank 0
+``result.pvtu`` over the pieces and ``result.json`` with the aggregates (the force balance from
+the ranks' shares, nodes, unknowns, the pieces); :func:`read_pieces` reads them back. With
+``--gather`` rank 0 gathers ``u`` and writes ``result.json``, ``u.csv`` and ``result.vtu`` as
+``linpd solve`` does (no plots). ``stats.solve`` holds the KSP's type, iterations, converged
+reason, the relative residual ``||f - A u|| / ||f||`` recomputed after the solve, the timings,
+every rank's peak resident memory (per rank also after the imports, the model and the matrix),
+the slabs, the width of PETSc's integers and whether ``A_ff`` is symmetric. A PETSc built with
+64-bit indices works as it is (``petsc_int_bits: 64``).
 
 Every static model assembles its own rows (bond, LPS, coarsened levels, 1D blend/CE; see
 ``docs/scale-out.md`` for what each costs per rank).
