@@ -74,7 +74,6 @@ class NativePart:
         index: Optional[str] = ...,
         pieces: List[str] = ...,
     ) -> int: ...
-    def scene_path(self) -> str: ...
 
 class NativeOutput:
     """A run's staged output directory (rank 0 of linpd.petsc holds it)."""

@@ -235,7 +235,6 @@ impl NativeScene {
 struct NativePart {
     /// The validated part (taken while `build` adds the resultant volumes).
     problem: Option<Problem>,
-    path: PathBuf,
     rows: Option<PartRows>,
 }
 
@@ -254,7 +253,7 @@ impl NativePart {
     #[staticmethod]
     fn from_path(py: Python<'_>, path: PathBuf, rank: usize, ranks: usize) -> PyResult<Self> {
         let problem = py.detach(|| Problem::from_path_part(&path, Part { rank, ranks })).map_err(err)?;
-        Ok(NativePart { problem: Some(problem), path, rows: None })
+        Ok(NativePart { problem: Some(problem), rows: None })
     }
     #[getter]
     fn name(&self) -> PyResult<String> {
@@ -394,10 +393,6 @@ impl NativePart {
             Ok(piece.x.len())
         })
         .map_err(err)
-    }
-    /// The identity of the run (the scene file's hash) for `result.json`.
-    fn scene_path(&self) -> String {
-        self.path.display().to_string()
     }
 }
 
