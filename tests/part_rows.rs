@@ -283,6 +283,15 @@ fn models_without_per_rank_geometry_are_refused_by_name() {
         let e = Problem::from_path_part(&data(name), Part { rank: 0, ranks: 2 }).unwrap_err().to_string();
         assert!(e.starts_with(key) && e.contains("--gather"), "{name}: {e}");
     }
+    // a body that leaves a rank's slab empty: named, with what to do
+    let path = scene_file("lps-plate-2d.json", "half-body", |v| {
+        v["body"] = serde_json::json!({"box": {"min": [-1.0, -1.0], "max": [2.0, 0.2]}});
+    });
+    if let Err(e) = parts(&path, 2) {
+        panic!("{e}");
+    }
+    let e = parts(&path, 3).err().unwrap();
+    assert!(e.starts_with("body: rank 2 of 3: its slab of the lattice (planes 12..27 of 27"), "{e}");
     let e = Problem::from_path_part(&data("cantilever-3d.json"), Part { rank: 2, ranks: 2 }).unwrap_err();
     assert!(e.to_string().starts_with("ranks:"), "{e}");
 }

@@ -192,7 +192,19 @@ pub(crate) fn lattice_for(
             let tol = linpd_core::GEOMETRY_RTOL * grid.spacing();
             let body = linpd_core::polygon_index::PreparedRegion::new(body);
             let inside = |x: &Point| body.contains(x, dim, tol);
-            let kept = grid.with_body(inside).map_err(|e| core("body", e))?;
+            let kept = grid.with_body(inside).map_err(|e| match (cx.part, cx.slab.borrow().as_ref()) {
+                // the rank's window is a slab of the grid's box: it may miss a body that does
+                // not fill the box
+                (Some(part), Some(slab)) => ProblemError::invalid(
+                    "body",
+                    format!(
+                        "rank {} of {}: its slab of the lattice (planes {}..{} of {}, halo included) holds no node of \
+                         the body: run on fewer ranks, or with a grid box the body fills",
+                        part.rank, part.ranks, slab.window.start, slab.window.end, slab.planes
+                    ),
+                ),
+                _ => core("body", e),
+            })?;
             if cut {
                 let (cut, dropped) = kept.with_cut_volumes_dropping(inside);
                 if !dropped.is_empty() {
