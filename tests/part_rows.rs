@@ -9,9 +9,9 @@
 //! tests/rows.rs): row numbers and columns exactly; values to `1e-13 max|A_ff|` (an entry is a
 //! sum over a node's bonds that the window adds in the same order, so in practice bit for bit;
 //! the bound is the one tests/rows.rs gives sums in another order); the right-hand side to
-//! `1e-13 max|f|` for the same reason. The pieces' displacements, strains and stresses from the
-//! whole solution's values equal the whole solution's on the owned nodes to `1e-12` of their
-//! largest value (the fields read the halo's displacements; a halo one plane too thin changes
+//! `1e-13 max|f|` for the same reason. The pieces' displacements, strains, stresses (Hooke and
+//! force flux), energy densities and dilatations from the whole solution's values equal the
+//! whole solution's on the owned nodes to `1e-12` of each field's largest value (the fields read the halo's displacements; a halo one plane too thin changes
 //! a boundary node's strain by O(1)).
 
 use linpd::problem::{part_rows, Commands, Part, PartRows, Problem};
@@ -73,6 +73,20 @@ fn parts(path: &Path, ranks: usize) -> Result<Vec<(Problem, PartRows)>, String> 
     Ok(problems.into_iter().zip(rows).collect())
 }
 
+/// A solution's nodal tensors (strain, Hooke stress, force-flux stress).
+fn tensors(s: &linpd::scene::Solution) -> [Option<&[[f64; 9]]>; 3] {
+    [
+        s.strain.as_ref().map(|f| &f.tensor[..]),
+        s.stress.as_ref().map(|f| &f.tensor[..]),
+        s.pd_stress.as_ref().map(|f| &f.tensor[..]),
+    ]
+}
+
+/// A solution's nodal scalars (strain energy density, dilatation).
+fn scalars(s: &linpd::scene::Solution) -> [Option<&[f64]>; 2] {
+    [s.strain_energy_density.as_deref(), s.dilatation.as_deref()]
+}
+
 fn max_abs(v: impl IntoIterator<Item = f64>) -> f64 {
     v.into_iter().fold(0.0, |m, x| m.max(x.abs()))
 }
@@ -127,33 +141,55 @@ fn check(path: &Path, ranks: usize) {
             assert!(dist < 1e-12, "{what}: piece node {k} at {x:?} is a node of the scene");
             let du = max_abs((0..d).map(|a| piece.u[d * k + a] - solution.u[d * node + a]));
             assert!(du <= 1e-12 * max_abs(solution.u.iter().copied()), "{what}: u at {x:?} differs by {du:e}");
-            for (mine, all) in [
-                (piece.strain.as_ref().map(|s| s.tensor[k]), solution.strain.as_ref().map(|s| s.tensor[node])),
-                (piece.stress.as_ref().map(|s| s.tensor[k]), solution.stress.as_ref().map(|s| s.tensor[node])),
-            ] {
+            // each field against its own largest value
+            for (mine, all) in tensors(&piece).into_iter().zip(tensors(&solution)) {
                 let (Some(mine), Some(all)) = (mine, all) else { continue };
-                let scale = max_abs(solution.stress.as_ref().unwrap().tensor.iter().flatten().copied())
-                    .max(max_abs(solution.strain.as_ref().unwrap().tensor.iter().flatten().copied()));
-                let worst = max_abs(mine.iter().zip(all).map(|(a, b)| a - b));
-                assert!(worst <= 1e-12 * scale, "{what}: a field at {x:?} differs by {worst:e}");
+                let scale = max_abs(all.iter().flatten().copied());
+                let worst = max_abs(mine[k].iter().zip(&all[node]).map(|(a, b)| a - b));
+                assert!(worst <= 1e-12 * scale, "{what}: a field at {x:?} differs by {worst:e} (of {scale:e})");
+            }
+            for (mine, all) in scalars(&piece).into_iter().zip(scalars(&solution)) {
+                let (Some(mine), Some(all)) = (mine, all) else { continue };
+                let worst = (mine[k] - all[node]).abs();
+                assert!(worst <= 1e-12 * max_abs(all.iter().copied()), "{what}: a nodal scalar at {x:?} differs");
             }
         }
         owned_nodes += piece.x.len();
     }
     assert_eq!(next, n, "{}: the ranks' rows cover the unknowns", whole.name());
     assert_eq!(owned_nodes, whole.nodes().len(), "{}: every node in one piece", whole.name());
-    // the balance: the ranks' shares add up to the whole body's
+    // the balance: the ranks' shares add up to the whole body's (loads, reactions and the DOFs
+    // each constraint holds, a DOF two constraints hold counted for the first), to 1e-12 of
+    // the largest force: sums of the same nodal forces in another order
     let b = solution.balance.as_ref().unwrap();
+    let shares: Vec<_> = parts
+        .iter()
+        .map(|(p, r)| {
+            let u_window: Vec<f64> = r.window_rows().unwrap().iter().map(|&g| u_free[g]).collect();
+            r.balance(p, &u_window).unwrap()
+        })
+        .collect();
+    let scale = b
+        .loads
+        .iter()
+        .flat_map(|l| l.force.iter())
+        .chain(b.constraints.iter().flat_map(|c| c.reaction.iter()))
+        .fold(0.0f64, |m, x| m.max(x.abs()));
     for (k, l) in b.loads.iter().enumerate() {
         for a in 0..d {
-            let sum: f64 = parts
-                .iter()
-                .map(|(p, r)| {
-                    let u_window: Vec<f64> = r.window_rows().unwrap().iter().map(|&g| u_free[g]).collect();
-                    r.balance(p, &u_window).unwrap().loads[k][a]
-                })
-                .sum();
-            assert!((sum - l.force[a]).abs() <= 1e-12 * max_abs(l.force.iter().copied()).max(1e-300), "load {k}");
+            let sum: f64 = shares.iter().map(|s| s.loads[k][a]).sum();
+            assert!((sum - l.force[a]).abs() <= 1e-12 * scale, "load {k}");
+        }
+    }
+    for (k, c) in b.constraints.iter().enumerate() {
+        assert_eq!(shares.iter().map(|s| s.held_dofs[k]).sum::<usize>(), c.dofs, "constraint {k}'s DOFs");
+        for a in 0..d {
+            let sum: f64 = shares.iter().map(|s| s.reactions[k][a]).sum();
+            assert!(
+                (sum - c.reaction[a]).abs() <= 1e-12 * scale,
+                "constraint {k}'s reaction {sum:e} vs {:e}",
+                c.reaction[a]
+            );
         }
     }
     eprintln!("{}: {ranks} ranks agree ({n} unknowns)", whole.name());

@@ -73,7 +73,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-USAGE = "usage: python -m linpd.petsc SCENE.json [--out DIR] [PETSc options]"
+USAGE = "usage: python -m linpd.petsc SCENE.json [--out DIR] [--gather] [PETSc options]"
 
 # The KSP types that take -ksp_gmres_restart and need the preconditioner on the right for an
 # unpreconditioned norm.
@@ -189,14 +189,14 @@ def _agree(mpi, rank: int, error: Optional[str], what: str = "error") -> None:
 
 
 def _attempt(fn, prefix: str = ""):
-    """``(value, None)`` or ``(None, message)`` of ``fn()`` (linpd's and the OS's errors)."""
+    """``(value, None)`` or ``(None, message)`` of ``fn()`` (linpd's, the OS's, PETSc's errors and
+    running out of memory: what one rank may meet alone)."""
     import linpd
+    from petsc4py import PETSc
 
     try:
         return fn(), None
-    except linpd.LinpdError as e:
-        return None, f"{prefix}{e}"
-    except OSError as e:
+    except (linpd.LinpdError, OSError, MemoryError, PETSc.Error) as e:
         return None, f"{prefix}{e}"
 
 
@@ -370,9 +370,13 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
     from ._linpd import NativeOutput
 
     rank, size = comm.getRank(), comm.getSize()
-    # what no window decides alone: the presence checks (an or), the resultant volumes (a sum)
-    found = np.array(part.presences(), dtype=bool)
-    found_any = mpi.allreduce(found.astype(np.int64), op=_mpi_sum()) > 0 if len(found) else found
+    # what no window decides alone: the presence checks (an or; every rank records the same
+    # checks in the same order, which the count checks), the resultant volumes (a sum)
+    found = np.array(part.presences(), dtype=np.int64)
+    counts = mpi.allgather(len(found))
+    _agree(mpi, rank, None if len(set(counts)) == 1 else
+           f"{scene_path}: the ranks recorded {sorted(set(counts))} checks: every rank must read the same scene")
+    found_any = mpi.allreduce(found, op=_mpi_sum()) > 0
     _, error = _attempt(lambda: part.settle([bool(f) for f in found_any]), f"{scene_path}: ")
     _agree(mpi, rank, error, "error")
     volumes = mpi.allreduce(np.array(part.resultant_volumes(), dtype=float), op=_mpi_sum())
@@ -380,7 +384,8 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
     _agree(mpi, rank, error)
     # the numbering: every plane's count of free DOFs, gathered in rank order
     counts = [c for rank_counts in mpi.allgather(part.plane_free_counts()) for c in rank_counts]
-    part.number(counts)
+    _, error = _attempt(lambda: part.number(counts), f"{scene_path}: ")
+    _agree(mpi, rank, error)
     all_, held = part.support_gram()
     all_ = mpi.allreduce(np.array(all_), op=_mpi_sum())
     held = mpi.allreduce(np.array(held), op=_mpi_sum())
@@ -402,23 +407,28 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
     t1 = time.perf_counter()
     # chunked insertion into the preallocated matrix: a rank holds its rows once (PETSc's), plus
     # one chunk of linpd's
-    d_nnz, o_nnz = part.row_lengths(ROW_CHUNK)
-    error = None
-    if PETSc.IntType == np.int32 and int(d_nnz.sum(dtype=np.int64) + o_nnz.sum(dtype=np.int64)) >= 2**31:
-        error = (f"{scene_path}: this rank's {int(d_nnz.sum(dtype=np.int64) + o_nnz.sum(dtype=np.int64))} stored "
-                 f"entries need a PETSc built with 64-bit indices (docs/scale-out.md), or more ranks")
+    lengths, error = _attempt(lambda: part.row_lengths(ROW_CHUNK), f"{scene_path}: ")
+    entries = 0 if lengths is None else int(lengths[0].sum(dtype=np.int64) + lengths[1].sum(dtype=np.int64))
+    if error is None and PETSc.IntType == np.int32 and entries >= 2**31:
+        error = (f"{scene_path}: this rank's {entries} stored entries need a PETSc built with 64-bit indices "
+                 f"(docs/scale-out.md), or more ranks")
     _agree(mpi, rank, error)
+    d_nnz, o_nnz = lengths
     A = PETSc.Mat().createAIJ(size=((last - first, n), (last - first, n)), bsize=bs, comm=comm)
     # (a rank without rows passes counts, not empty arrays: with empty arrays there, PETSc 3.18.5's
     # assembly never returned on 6 ranks over 5 lattice planes)
     A.setPreallocationNNZ((d_nnz.astype(PETSc.IntType), o_nnz.astype(PETSc.IntType)) if len(d_nnz) else (0, 0))
     del d_nnz, o_nnz
-    for lo in range(0, last - first, ROW_CHUNK):
-        hi = min(lo + ROW_CHUNK, last - first)
-        indptr, indices, data = part.assemble_rows(lo, hi)
-        A.setValuesIJV(indptr.astype(PETSc.IntType), indices.astype(PETSc.IntType), data,
-                       rowmap=np.arange(first + lo, first + hi, dtype=PETSc.IntType))
-        del indptr, indices, data
+
+    def insert():
+        for lo in range(0, last - first, ROW_CHUNK):
+            hi = min(lo + ROW_CHUNK, last - first)
+            indptr, indices, data = part.assemble_rows(lo, hi)
+            A.setValuesIJV(indptr.astype(PETSc.IntType), indices.astype(PETSc.IntType), data,
+                           rowmap=np.arange(first + lo, first + hi, dtype=PETSc.IntType))
+
+    _, error = _attempt(insert, f"{scene_path}: ")
+    _agree(mpi, rank, error)
     A.assemble()
     rss_assembled = _peak_rss_bytes()
     b = PETSc.Vec().createMPI((last - first, n), bsize=bs, comm=comm)
@@ -486,7 +496,15 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
             "balance": _balance(d, shares),
             "stats": {"solve": report},
         }
+        from pathlib import Path
+
+        missing = [p for p in pieces if not (Path(path) / p).exists()]
         try:
+            if missing:
+                # the output directory must be one file system for all ranks
+                staged.discard()
+                raise OSError(f"{dest}: the pieces {missing} are not in {path}: the output directory must be on a "
+                              f"file system every rank shares")
             files = staged.commit("result.json", json.dumps(doc))
         except Exception as e:  # noqa: BLE001 (linpd's and the OS's errors)
             print(f"error: {e}", file=sys.stderr, flush=True)
@@ -499,13 +517,14 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
 def _balance(d: int, shares) -> dict:
     """The force balance from the ranks' shares ``(loads, reactions, held_dofs)``: per load its
     force, per constraint its reaction and held DOFs, their totals and ``max_a |applied_a +
-    reaction_a| / (largest force)`` (as ``result.json``'s ``balance`` of ``linpd solve``)."""
+    reaction_a| / (largest force)``, as in ``linpd solve``'s ``result.json`` (whose balance also
+    has moments, load kinds and node counts: not summed here)."""
     loads = np.sum([np.array(s[0], dtype=float).reshape(-1, d) for s in shares], axis=0)
     reactions = np.sum([np.array(s[1], dtype=float).reshape(-1, d) for s in shares], axis=0)
     held = np.sum([np.array(s[2], dtype=np.int64) for s in shares], axis=0)
     applied, reaction = loads.sum(axis=0), reactions.sum(axis=0)
     scale = max([0.0] + [abs(v) for v in np.concatenate([applied, loads.ravel(), reactions.ravel()])])
-    worst = float(np.max(np.abs(applied + reaction))) if d else 0.0
+    worst = float(np.max(np.abs(applied + reaction)))
     return {
         "loads": [{"force": list(map(float, f))} for f in loads],
         "constraints": [{"reaction": list(map(float, r)), "dofs": int(h)} for r, h in zip(reactions, held)],
@@ -563,16 +582,23 @@ def main(argv: Optional[List[str]] = None) -> int:
         if gather:
             return _whole(PETSc, comm, mpi, scene_path, out, petsc_args, t0)
         part, error = _attempt(lambda: NativePart.from_path(scene_path, rank, size), f"{scene_path}: ")
-        # a model without per-rank geometry: the whole scene on every rank, said once
-        whole = mpi.allgather(error is not None and _NO_PARTS in error)
-        if all(whole):
+        # a model without per-rank geometry (any rank may be the one that finds out, e.g. the
+        # others' windows failed first on something else): the whole scene on every rank, said once
+        whole = mpi.allgather(error if error is not None and _NO_PARTS in error else None)
+        refusal = next((w for w in whole if w is not None), None)
+        if refusal is not None:
             if rank == 0:
-                print(f"note: {error.split(': ', 1)[-1]}", file=sys.stderr, flush=True)
+                print(f"note: {refusal.split(': ', 1)[-1]}", file=sys.stderr, flush=True)
             return _whole(PETSc, comm, mpi, scene_path, out, petsc_args, t0)
         _agree(mpi, rank, error)
         return _parts(PETSc, comm, mpi, part, scene_path, out, petsc_args, t0, rss_baseline)
     except _Stop as stop:
         return stop.status
+    except BaseException as e:  # noqa: BLE001 (a bug, or a panic in linpd's module, on one rank)
+        # the other ranks may wait in a collective: abort them all rather than hang
+        print(f"error (rank {rank}): {type(e).__name__}: {e}", file=sys.stderr, flush=True)
+        mpi.Abort(1)
+        return 1
 
 
 if __name__ == "__main__":

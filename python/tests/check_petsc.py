@@ -34,6 +34,12 @@ ROOT = Path(__file__).resolve().parents[2]
 from linpd.petsc import read_pieces  # noqa: E402 (the installed package's reader of a per-rank result)
 
 
+# The bundled scenes the driver runs whole on every rank (no per-rank geometry for their model);
+# every other scene must run per rank.
+WHOLE = {"bracket-cloud-2d.json", "blend-point-load.json", "blend-bar-crack.json", "blend-coarse-ce.json",
+         "ce-point-load.json", "bracket-cloud-lps-2d.json"}
+
+
 def mpiexec(ranks: int, args, timeout: float, env=None) -> subprocess.CompletedProcess:
     cmd = ["mpiexec", "-n", str(ranks)]
     if os.geteuid() == 0:
@@ -86,7 +92,11 @@ def check_scene(scene: Path, ranks: int, petsc, tmp: Path, binary: str) -> None:
     parts = tmp / scene.stem / "parts"
     p = mpiexec(ranks, [str(scene), "--out", str(parts), "-ksp_rtol", "1e-12"] + petsc, timeout=600)
     assert p.returncode == 0, f"linpd.petsc failed ({p.returncode}):\n{p.stdout}\n{p.stderr}"
-    if "has no per-rank geometry" in p.stderr:
+    geometry = json.loads((parts / "result.json").read_text())["stats"]["solve"]["geometry"]
+    want = "whole" if scene.name in WHOLE else "per-rank"
+    assert geometry == want, f"{scene.name}: the driver ran with {geometry} geometry, expected {want}"
+    if want == "whole":
+        assert "has no per-rank geometry" in p.stderr, p.stderr
         print(f"check_petsc: {scene.name}: {p.stderr.strip()}")
     else:
         rel = check_pieces(scene, ranks, own, parts, 1e-10)

@@ -69,21 +69,25 @@ pub enum PetscInt {
 }
 
 impl PetscInt {
-    /// `v` as this width's big-endian bytes, or an error naming what overflowed.
-    fn bytes(self, path: &Path, what: &str, v: usize) -> Result<Vec<u8>, IoError> {
-        match self {
-            PetscInt::I32 => i32::try_from(v).map(|x| x.to_be_bytes().to_vec()).map_err(|_| {
-                bad(
-                    path,
-                    format!(
-                        "{what} = {v} does not fit PETSc's 32-bit indices (at most {}): export with --format \
-                         petsc64 for a PETSc built with 64-bit indices (docs/scale-out.md)",
-                        i32::MAX
-                    ),
-                )
-            }),
-            PetscInt::I64 => Ok((v as i64).to_be_bytes().to_vec()),
-        }
+    /// Writes `v` as this width's big-endian integer, or an error naming what overflowed.
+    fn write(self, w: &mut impl Write, path: &Path, what: &str, v: usize) -> Result<(), IoError> {
+        let bytes = match self {
+            PetscInt::I32 => match i32::try_from(v) {
+                Ok(x) => w.write_all(&x.to_be_bytes()),
+                Err(_) => {
+                    return Err(bad(
+                        path,
+                        format!(
+                            "{what} = {v} does not fit PETSc's 32-bit indices (at most {}): export with --format \
+                             petsc64 for a PETSc built with 64-bit indices (docs/scale-out.md)",
+                            i32::MAX
+                        ),
+                    ))
+                }
+            },
+            PetscInt::I64 => w.write_all(&(v as i64).to_be_bytes()),
+        };
+        bytes.map_err(io(path))
     }
     /// Bytes per integer.
     pub fn width(self) -> usize {
@@ -116,23 +120,22 @@ pub fn write_mat(
     col: &[usize],
     val: &[f64],
 ) -> Result<(), IoError> {
-    let header = [
-        int.bytes(path, "the class id", MAT_FILE_CLASSID as usize)?,
-        int.bytes(path, "rows", nrows)?,
-        int.bytes(path, "columns", ncols)?,
-        int.bytes(path, "stored entries", val.len())?,
-    ];
+    // the sizes first, so that an overflow creates no file
+    for (what, v) in [("rows", nrows), ("columns", ncols), ("stored entries", val.len())] {
+        int.write(&mut std::io::sink(), path, what, v)?;
+    }
     let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(io(path))?);
     let e = io(path);
-    for h in header {
-        w.write_all(&h).map_err(&e)?;
+    let header = [MAT_FILE_CLASSID as usize, nrows, ncols, val.len()];
+    for (what, v) in ["the class id", "rows", "columns", "stored entries"].into_iter().zip(header) {
+        int.write(&mut w, path, what, v)?;
     }
     // every row length and column is at most the sizes checked above
     for r in 0..nrows {
-        w.write_all(&int.bytes(path, "a row length", row_ptr[r + 1] - row_ptr[r])?).map_err(&e)?;
+        int.write(&mut w, path, "a row length", row_ptr[r + 1] - row_ptr[r])?;
     }
     for &c in col {
-        w.write_all(&int.bytes(path, "a column", c)?).map_err(&e)?;
+        int.write(&mut w, path, "a column", c)?;
     }
     for &x in val {
         w.write_all(&x.to_be_bytes()).map_err(&e)?;
@@ -142,11 +145,11 @@ pub fn write_mat(
 
 /// Writes a vector as a PETSc binary Vec with integers of width `int`.
 pub fn write_vec(path: &Path, int: PetscInt, v: &[f64]) -> Result<(), IoError> {
-    let (id, len) = (int.bytes(path, "the class id", VEC_FILE_CLASSID as usize)?, int.bytes(path, "length", v.len())?);
+    int.write(&mut std::io::sink(), path, "length", v.len())?;
     let mut w = std::io::BufWriter::new(std::fs::File::create(path).map_err(io(path))?);
     let e = io(path);
-    w.write_all(&id).map_err(&e)?;
-    w.write_all(&len).map_err(&e)?;
+    int.write(&mut w, path, "the class id", VEC_FILE_CLASSID as usize)?;
+    int.write(&mut w, path, "length", v.len())?;
     for &x in v {
         w.write_all(&x.to_be_bytes()).map_err(&e)?;
     }

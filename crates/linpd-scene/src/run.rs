@@ -78,6 +78,10 @@ impl Problem {
     /// Solves the static problem ([`crate::models::SceneModel::solve`]). `progress` receives one
     /// line per phase and the tasks of the assembly and the solver.
     pub fn solve(&self, progress: &dyn Progress) -> Result<Solution, ProblemError> {
+        if self.part.is_some() {
+            // its window's ends are not the body's: linpd_problem::part_rows is its row system
+            return Err(ProblemError::invalid("ranks", "this is one rank's part of the scene: it is not solved alone"));
+        }
         self.model.require(Capability::StaticSolve)?;
         // the solver may have changed since validation ([`Problem::set_solver`])
         if let linpd_solve::SolverSpec::Cg { matrix_free: true, .. } = self.solver {

@@ -26,6 +26,9 @@ pub struct Context<'a> {
     pub(crate) part: Option<Part>,
     /// The part's slab, once [`lattice_for`] cut the window.
     pub(crate) slab: std::cell::RefCell<Option<Slab>>,
+    /// The part's whole lattice box (no body: nothing per node), for what is checked against
+    /// the whole lattice (`output.slice`).
+    pub(crate) whole: std::cell::RefCell<Option<Grid>>,
     /// The checks a part records rather than decides.
     pub(crate) presences: Presences,
 }
@@ -33,7 +36,8 @@ pub struct Context<'a> {
 impl<'a> Context<'a> {
     /// The context of a whole scene (`part: None`) or of one rank's part.
     pub(crate) fn new(raw: &'a RawProblem, base_dir: &'a Path, part: Option<Part>) -> Self {
-        Context { raw, base_dir, part, slab: Default::default(), presences: Presences::new(part.is_some()) }
+        let presences = Presences::new(part.is_some());
+        Context { raw, base_dir, part, slab: Default::default(), whole: Default::default(), presences }
     }
 }
 
@@ -177,7 +181,10 @@ pub(crate) fn lattice_for(
     let cut = raw.boundary_volumes == Some(crate::raw::RawBoundaryVolumes::Cut);
     let grid = match cx.part {
         None => grid,
-        Some(part) => window(cx, grid, part, horizon, reaches, cut)?,
+        Some(part) => {
+            *cx.whole.borrow_mut() = Some(grid.clone());
+            window(cx, grid, part, horizon, reaches, cut)?
+        }
     };
     // Refuse scenes that cannot fit before anything per node is allocated (the regions below
     // already walk every node).
@@ -1042,7 +1049,6 @@ pub(crate) fn check_defects(
     Ok(())
 }
 
-/// The error of a defect that crosses no bond.
 /// Every defect of `material` crosses a bond of `grid` (on a rank's part: recorded, see
 /// [`crate::part`]).
 pub(crate) fn require_defects_cut(
@@ -1057,6 +1063,7 @@ pub(crate) fn require_defects_cut(
     Ok(())
 }
 
+/// The error of a defect that crosses no bond.
 pub(crate) fn defect_cuts_nothing(k: usize) -> ProblemError {
     ProblemError::invalid(
         format!("model.material.defects[{k}]"),

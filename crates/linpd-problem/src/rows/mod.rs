@@ -37,9 +37,9 @@
 //! [`linpd_core::sparse::SYMMETRY_RTOL`], as the static solve decides between CG and GMRES/LU),
 //! so that the PETSc driver picks GMRES for them.
 //!
-//! Every rank also holds the vectors over all DOFs that the right-hand side
-//! `f_f - (A u_bar)_f` needs; see `docs/scale-out.md` for the plan that removes them
-//! (per-rank geometry).
+//! A scene built whole gives every rank the vectors over all DOFs that the right-hand side
+//! `f_f - (A u_bar)_f` needs; a rank's part ([`part_rows`], per-rank geometry) holds only its
+//! window's.
 
 mod part;
 
@@ -90,6 +90,7 @@ pub struct RowBlock {
 /// solve of this scene would raise before its solver runs is raised here. Every model with
 /// [`Capability::BlockRows`] (see the module docs for what each costs).
 pub fn row_system(p: &Problem) -> Result<RowSystem, ProblemError> {
+    refuse_part(p)?;
     p.model().require(Capability::BlockRows)?;
     let system = p.model().system(p, Purpose::Rows, &linpd_core::NoProgress)?;
     let m = system.model();
@@ -109,6 +110,15 @@ pub fn row_system(p: &Problem) -> Result<RowSystem, ProblemError> {
     let free_dofs = system.bc.dofs().free_dofs();
     let built_for = (p.name().to_string(), p.model().name());
     Ok(RowSystem { system, built_for, free_dofs, rhs, asymmetry })
+}
+
+/// A rank's part is not a scene of its own: its window's rows and solve would be wrong at the
+/// window's ends ([`part_rows`] is its row system).
+fn refuse_part(p: &Problem) -> Result<(), ProblemError> {
+    match p.part() {
+        Some(_) => Err(ProblemError::invalid("ranks", "this is one rank's part of the scene: use part_rows")),
+        None => Ok(()),
+    }
 }
 
 /// The [`Solution`] `linpd solve` would write for displacements `u` over all DOFs computed
@@ -239,8 +249,8 @@ impl RowBlock {
 }
 
 /// The rows of `A_ff` of `nodes` (ascending) whose free index `keep` accepts, from the nodes'
-/// block rows, in row order, each sorted by column; a column is the free index `c` renumbered
-/// `column(c)` (which must keep the order).
+/// block rows, in row order, each sorted by column after its free indices `c` are renumbered
+/// `column(c)`.
 fn block_rows(
     model: &dyn Model,
     dofs: &DofMap,

@@ -117,18 +117,24 @@ impl PartRows {
     }
     /// Numbers the window's free DOFs from every plane's count of free DOFs (`counts[k]` for
     /// plane `k`, all `planes` of them: the ranks' [`PartRows::plane_free_counts`] in rank
-    /// order), which must agree with this rank's own.
+    /// order), which must agree with this rank's own over its whole window; nothing free in
+    /// the whole scene is the static solve's error.
     pub fn number(&mut self, counts: &[usize]) -> Result<(), ProblemError> {
-        let owned = &counts.get(self.slab.owned.clone()).unwrap_or_default();
-        if counts.len() != self.slab.planes || *owned != self.plane_free.as_slice() {
+        let (d, dofs) = (self.dim(), self.system.bc.dofs());
+        // every plane of the window, halo included, must count as the ranks that own it do
+        let mut mine = vec![0usize; self.slab.window.len()];
+        for (n, &k) in self.plane_of.iter().enumerate() {
+            mine[k as usize - self.slab.window.start] += (0..d).filter(|&a| !dofs.is_constrained(d * n + a)).count();
+        }
+        if counts.len() != self.slab.planes || counts.get(self.slab.window.clone()) != Some(&mine[..]) {
             return Err(ProblemError::invalid(
                 "ranks",
                 format!(
-                    "the per-plane free counts ({} planes) disagree with this rank's ({} planes, owned {:?}): every \
-                     rank must read the same scene",
+                    "the per-plane free counts ({} planes) disagree with this rank's window ({} planes, window {:?}): \
+                     every rank must read the same scene",
                     counts.len(),
                     self.slab.planes,
-                    self.slab.owned
+                    self.slab.window
                 ),
             ));
         }
@@ -136,7 +142,9 @@ impl PartRows {
         for k in 0..counts.len() {
             start[k + 1] = start[k] + counts[k];
         }
-        let (d, dofs) = (self.dim(), self.system.bc.dofs());
+        if start[counts.len()] == 0 {
+            return Err(ProblemError::Static(linpd_solve::StaticError::NothingFree));
+        }
         let mut global = Vec::with_capacity(dofs.n_free());
         let mut next = start.clone();
         for (n, &k) in self.plane_of.iter().enumerate() {
@@ -252,6 +260,12 @@ impl PartRows {
         }
         Ok(gram)
     }
+    fn check_scene(&self, p: &Problem) -> Result<(), ProblemError> {
+        match self.built_for == (p.name().to_string(), p.model().name()) {
+            true => Ok(()),
+            false => Err(ProblemError::invalid("rows", "these rows were built for another scene")),
+        }
+    }
     /// `u` over the window's DOFs from the window's free values (see [`PartRows::window_rows`]).
     fn expand(&self, u_window: &[f64]) -> Result<Vec<f64>, ProblemError> {
         let n = self.system.bc.dofs().n_free();
@@ -268,6 +282,7 @@ impl PartRows {
     }
     /// The rank's share of the force balance for the window's free values `u_window`.
     pub fn balance(&self, p: &Problem, u_window: &[f64]) -> Result<PartBalance, ProblemError> {
+        self.check_scene(p)?;
         let u = self.expand(u_window)?;
         let m = self.system.model();
         Ok(p.part_balance(&|x, y| m.apply(x, y), &u))
@@ -275,9 +290,7 @@ impl PartRows {
     /// The solution on the owned nodes (its fields read the halo's values) for the window's
     /// free values `u_window`, `report` as the solve's report.
     pub fn solution(&self, p: &Problem, u_window: &[f64], report: SolveReport) -> Result<Solution, ProblemError> {
-        if self.built_for != (p.name().to_string(), p.model().name()) {
-            return Err(ProblemError::invalid("rows", "these rows were built for another scene"));
-        }
+        self.check_scene(p)?;
         let u = self.expand(u_window)?;
         let whole = p.with_material(p.model().solution(p, &self.system, u, report)?);
         let nodes: Vec<usize> = self.owned_nodes.clone().collect();

@@ -109,11 +109,13 @@ impl ModelType for LpsType {
             && raw.material.defects.is_empty()
             && surface_of(true, raw.surface_correction, raw.surface_target)?.correction == SurfaceCorrection::None;
         let spec = crate::validate::solver_spec(&cx.raw.solver)?;
-        // the halo of a rank's part: two reaches (the dilatation of a common partner), one more
-        // for the surface correction's per-node factors (crate::part)
-        let corrected =
-            surface_of(true, raw.surface_correction, raw.surface_target)?.correction != SurfaceCorrection::None;
-        let reaches = Some(2 + usize::from(corrected));
+        // the halo of a rank's part (crate::part): two reaches (the dilatation of a common
+        // partner); one more with the energy correction, whose bond factors in a partner's
+        // dilatation are the mean of two nodes' fits over their families (position_aware's are
+        // the partner's own)
+        let mean_of_ends =
+            surface_of(true, raw.surface_correction, raw.surface_target)?.correction == SurfaceCorrection::Energy;
+        let reaches = Some(2 + usize::from(mean_of_ends));
         let grid =
             crate::validate::lattice_for(cx, raw.horizon, reaches, &|grid| memory_path(grid, plain, &spec, None))?;
         let ratio = raw.horizon / grid.spacing();

@@ -292,8 +292,10 @@ impl Problem {
                 Some(crate::dynamics::validate(d, dim, v.nodes.len(), ratio)?)
             }
         };
-        let slice = match &v.nodes {
-            Nodes::Lattice(grid) => output_slice(&raw, grid)?,
+        // a part checks it against the whole lattice, not its window
+        let slice = match (&v.nodes, cx.whole.take()) {
+            (Nodes::Lattice(_), Some(whole)) => output_slice(&raw, &whole)?,
+            (Nodes::Lattice(grid), None) => output_slice(&raw, grid)?,
             _ => None,
         };
         let lattice_output = raw.output.nodes == Some(crate::raw::RawOutputNodes::Lattice);
