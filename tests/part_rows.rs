@@ -158,40 +158,7 @@ fn check(path: &Path, ranks: usize) {
     }
     assert_eq!(next, n, "{}: the ranks' rows cover the unknowns", whole.name());
     assert_eq!(owned_nodes, whole.nodes().len(), "{}: every node in one piece", whole.name());
-    // the balance: the ranks' shares add up to the whole body's (loads, reactions and the DOFs
-    // each constraint holds, a DOF two constraints hold counted for the first), to 1e-12 of
-    // the largest force: sums of the same nodal forces in another order
-    let b = solution.balance.as_ref().unwrap();
-    let shares: Vec<_> = parts
-        .iter()
-        .map(|(p, r)| {
-            let u_window: Vec<f64> = r.window_rows().unwrap().iter().map(|&g| u_free[g]).collect();
-            r.balance(p, &u_window).unwrap()
-        })
-        .collect();
-    let scale = b
-        .loads
-        .iter()
-        .flat_map(|l| l.force.iter())
-        .chain(b.constraints.iter().flat_map(|c| c.reaction.iter()))
-        .fold(0.0f64, |m, x| m.max(x.abs()));
-    for (k, l) in b.loads.iter().enumerate() {
-        for a in 0..d {
-            let sum: f64 = shares.iter().map(|s| s.loads[k][a]).sum();
-            assert!((sum - l.force[a]).abs() <= 1e-12 * scale, "load {k}");
-        }
-    }
-    for (k, c) in b.constraints.iter().enumerate() {
-        assert_eq!(shares.iter().map(|s| s.held_dofs[k]).sum::<usize>(), c.dofs, "constraint {k}'s DOFs");
-        for a in 0..d {
-            let sum: f64 = shares.iter().map(|s| s.reactions[k][a]).sum();
-            assert!(
-                (sum - c.reaction[a]).abs() <= 1e-12 * scale,
-                "constraint {k}'s reaction {sum:e} vs {:e}",
-                c.reaction[a]
-            );
-        }
-    }
+    check_balance(&parts, &solution, &u_free);
     eprintln!("{}: {ranks} ranks agree ({n} unknowns)", whole.name());
 }
 
@@ -330,4 +297,75 @@ fn models_without_per_rank_geometry_are_refused_by_name() {
     assert!(e.starts_with("body: rank 2 of 3: its slab of the lattice (planes 12..27 of 27"), "{e}");
     let e = Problem::from_path_part(&data("cantilever-3d.json"), Part { rank: 2, ranks: 2 }).unwrap_err();
     assert!(e.to_string().starts_with("ranks:"), "{e}");
+}
+
+/// The ranks' shares of the balance add up to the whole body's (loads, reactions and the DOFs
+/// each constraint holds, a DOF two constraints hold counted for the first; the moments about
+/// the mean position, itself reduced from the ranks' sums), to 1e-12 of the largest force (times
+/// the body's diagonal for moments): sums of the same nodal forces in another order.
+fn check_balance(parts: &[(Problem, PartRows)], solution: &linpd::scene::Solution, u_free: &[f64]) {
+    let d = solution.dim;
+    let b = solution.balance.as_ref().unwrap();
+    // the reference point of the moments: the ranks' position sums reduced
+    let (mut sum, mut count) = ([0.0; 3], 0);
+    for (p, _) in parts {
+        let (s, c, _, _) = p.owned_frame();
+        (0..3).for_each(|a| sum[a] += s[a]);
+        count += c;
+    }
+    let reference: Vec<f64> = (0..d).map(|a| sum[a] / count as f64).collect();
+    if d > 1 {
+        let off = max_abs(reference.iter().zip(&b.reference).map(|(x, y)| x - y));
+        assert!(off <= 1e-12 * max_abs(b.reference.iter().copied()).max(1.0), "reference point");
+    }
+    let shares: Vec<_> = parts
+        .iter()
+        .map(|(p, r)| {
+            let u_window: Vec<f64> = r.window_rows().unwrap().iter().map(|&g| u_free[g]).collect();
+            r.balance(p, &u_window, &reference).unwrap()
+        })
+        .collect();
+    let scale = b
+        .loads
+        .iter()
+        .flat_map(|l| l.force.iter())
+        .chain(b.constraints.iter().flat_map(|c| c.reaction.iter()))
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    for (k, l) in b.loads.iter().enumerate() {
+        for a in 0..d {
+            let sum: f64 = shares.iter().map(|s| s.loads[k][a]).sum();
+            assert!((sum - l.force[a]).abs() <= 1e-12 * scale, "load {k}");
+        }
+    }
+    // moments about the reference, to 1e-12 of the largest force times the body's diagonal
+    let diagonal = (0..d)
+        .map(|a| {
+            let (lo, hi) =
+                solution.x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x[a]), h.max(x[a])));
+            (hi - lo).powi(2)
+        })
+        .sum::<f64>()
+        .sqrt();
+    let arm = scale * diagonal;
+    for (k, l) in b.loads.iter().enumerate() {
+        for (c, want) in l.moment.iter().enumerate() {
+            let sum: f64 = shares.iter().map(|s| s.load_moments[k][c]).sum();
+            assert!((sum - want).abs() <= 1e-12 * arm, "load {k}'s moment {sum:e} vs {want:e}");
+        }
+    }
+    for (c, want) in b.reaction_moment.iter().enumerate() {
+        let sum: f64 = shares.iter().flat_map(|s| s.reaction_moments.iter().map(move |m| m[c])).sum();
+        assert!((sum - want).abs() <= 1e-12 * arm, "reactions' moment {sum:e} vs {want:e}");
+    }
+    for (k, c) in b.constraints.iter().enumerate() {
+        assert_eq!(shares.iter().map(|s| s.held_dofs[k]).sum::<usize>(), c.dofs, "constraint {k}'s DOFs");
+        for a in 0..d {
+            let sum: f64 = shares.iter().map(|s| s.reactions[k][a]).sum();
+            assert!(
+                (sum - c.reaction[a]).abs() <= 1e-12 * scale,
+                "constraint {k}'s reaction {sum:e} vs {:e}",
+                c.reaction[a]
+            );
+        }
+    }
 }

@@ -458,7 +458,14 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
     _agree(mpi, rank, error)
     path = mpi.bcast(staged.path() if rank == 0 else None, root=0)
     pieces = [f"result-{r}.vtu" for r in range(size)]
-    share, error = _attempt(lambda: part.balance(u_window))
+    # the moments' reference point and scale: the mean position of all nodes and the diagonal
+    # of their bounding box, as linpd solve's balance has them
+    sums, count, lo, hi = part.owned_frame()
+    total = mpi.allreduce(count, op=_mpi_sum())
+    reference = list(mpi.allreduce(np.array(sums), op=_mpi_sum())[:d] / max(total, 1))
+    lo, hi = np.min(mpi.allgather(np.array(lo)), axis=0), np.max(mpi.allgather(np.array(hi)), axis=0)
+    diagonal = float(np.sqrt(np.sum((hi[:d] - lo[:d]) ** 2)))
+    share, error = _attempt(lambda: part.balance(u_window, reference))
     owned_nodes = 0
     if error is None:
         owned_nodes, error = _attempt(lambda: part.write_piece(u_window, path, pieces[rank],
@@ -493,7 +500,7 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
             "unknowns": n,
             "pieces": pieces,
             "index": "result.pvtu",
-            "balance": _balance(d, shares),
+            "balance": _balance(d, shares, reference, diagonal),
             "stats": {"solve": report},
         }
         from pathlib import Path
@@ -514,23 +521,34 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
     return int(mpi.bcast(status, root=0))
 
 
-def _balance(d: int, shares) -> dict:
-    """The force balance from the ranks' shares ``(loads, reactions, held_dofs)``: per load its
-    force, per constraint its reaction and held DOFs, their totals and ``max_a |applied_a +
-    reaction_a| / (largest force)``, as in ``linpd solve``'s ``result.json`` (whose balance also
-    has moments, load kinds and node counts: not summed here)."""
+def _balance(d: int, shares, reference: List[float], diagonal: float) -> dict:
+    """The force balance from the ranks' shares ``(loads, load_moments, reactions,
+    reaction_moments, held_dofs)``: per load its force and moment, per constraint its reaction
+    and held DOFs, the totals, ``max_a |applied_a + reaction_a| / (largest force)`` and the
+    moments' ``max |applied + reaction| / (largest force x diagonal)`` about ``reference``, as in
+    ``linpd solve``'s ``result.json`` (whose balance also has the load kinds, node counts and
+    each constraint's centroid and moment about it: not summed here)."""
+    m = {2: 1, 3: 3}.get(d, 0)
     loads = np.sum([np.array(s[0], dtype=float).reshape(-1, d) for s in shares], axis=0)
-    reactions = np.sum([np.array(s[1], dtype=float).reshape(-1, d) for s in shares], axis=0)
-    held = np.sum([np.array(s[2], dtype=np.int64) for s in shares], axis=0)
+    load_moments = np.sum([np.array(s[1], dtype=float).reshape(-1, m) for s in shares], axis=0)
+    reactions = np.sum([np.array(s[2], dtype=float).reshape(-1, d) for s in shares], axis=0)
+    reaction_moments = np.sum([np.array(s[3], dtype=float).reshape(-1, m) for s in shares], axis=0)
+    held = np.sum([np.array(s[4], dtype=np.int64) for s in shares], axis=0)
     applied, reaction = loads.sum(axis=0), reactions.sum(axis=0)
+    applied_moment, reaction_moment = load_moments.sum(axis=0), reaction_moments.sum(axis=0)
     scale = max([0.0] + [abs(v) for v in np.concatenate([applied, loads.ravel(), reactions.ravel()])])
     worst = float(np.max(np.abs(applied + reaction)))
+    worst_moment = float(np.max(np.abs(applied_moment + reaction_moment))) if m else 0.0
     return {
-        "loads": [{"force": list(map(float, f))} for f in loads],
+        "loads": [{"force": list(map(float, f)), "moment": list(map(float, t))} for f, t in zip(loads, load_moments)],
         "constraints": [{"reaction": list(map(float, r)), "dofs": int(h)} for r, h in zip(reactions, held)],
         "applied": list(map(float, applied)),
         "reaction": list(map(float, reaction)),
         "relative_imbalance": worst / scale if scale > 0 else 0.0,
+        "reference": list(map(float, reference)),
+        "applied_moment": list(map(float, applied_moment)),
+        "reaction_moment": list(map(float, reaction_moment)),
+        "relative_moment_imbalance": worst_moment / (scale * diagonal) if scale * diagonal > 0 else 0.0,
     }
 
 

@@ -57,8 +57,10 @@ type Csc<'py> = (
 type RowInfo<'py> = (usize, usize, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>);
 /// `(d_nnz, o_nnz)` of [`NativePart::row_lengths`].
 type RowLengths<'py> = (Bound<'py, PyArray1<u32>>, Bound<'py, PyArray1<u32>>);
-/// `(loads, reactions, held_dofs)` of [`NativePart::balance`].
-type PartShare = (Vec<Vec<f64>>, Vec<Vec<f64>>, Vec<usize>);
+/// `(sum of positions, count, lower corner, upper corner)` of [`NativePart::owned_frame`].
+type Frame = ([f64; 3], usize, [f64; 3], [f64; 3]);
+/// `(loads, load_moments, reactions, reaction_moments, held_dofs)` of [`NativePart::balance`].
+type PartShare = (Vec<Vec<f64>>, Vec<Vec<f64>>, Vec<Vec<f64>>, Vec<Vec<f64>>, Vec<usize>);
 /// `(indptr, indices, data)` of a block of rows.
 type Csr<'py> = (Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<usize>>, Bound<'py, PyArray1<f64>>);
 
@@ -362,12 +364,18 @@ impl NativePart {
     fn window_rows<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<usize>>> {
         Ok(self.rows()?.window_rows().map_err(err)?.to_vec().into_pyarray(py))
     }
-    /// `(loads, reactions, held_dofs)`: the rank's share of the balance (sum over the ranks).
-    fn balance(&self, py: Python<'_>, u_window: PyReadonlyArray1<'_, f64>) -> PyResult<PartShare> {
+    /// `(sum of positions, count, lower corner, upper corner)` of the owned nodes (reduce them:
+    /// the moments' reference point is the mean position).
+    fn owned_frame(&self) -> PyResult<Frame> {
+        Ok(self.problem()?.owned_frame())
+    }
+    /// `(loads, load_moments, reactions, reaction_moments, held_dofs)`: the rank's share of the
+    /// balance, moments about `reference` (sum them over the ranks).
+    fn balance(&self, py: Python<'_>, u_window: PyReadonlyArray1<'_, f64>, reference: Vec<f64>) -> PyResult<PartShare> {
         let u = u_window.as_slice()?;
         let (r, p) = (self.rows()?, self.problem()?);
-        let b = py.detach(|| r.balance(p, u)).map_err(err)?;
-        Ok((b.loads, b.reactions, b.held_dofs))
+        let b = py.detach(|| r.balance(p, u, &reference)).map_err(err)?;
+        Ok((b.loads, b.load_moments, b.reactions, b.reaction_moments, b.held_dofs))
     }
     /// Writes the owned nodes' solution into `dir/name` (a piece of `result.pvtu`); with
     /// `index`, also the index `dir/index` over `pieces`.

@@ -77,7 +77,15 @@ def check_pieces(scene: Path, ranks: int, own: Path, dist: Path, tol: float) -> 
     # constraints' reactions cancel each other)
     scale = max([np.max(np.abs(fa))] + [np.max(np.abs(np.asarray(c["reaction"], dtype=float)))
                                         for c in a["balance"]["constraints"]])
+    # the moments about the same reference point, to 1e-8 of the largest force times the body
+    diagonal = float(np.sqrt(np.sum((x.max(axis=0) - x.min(axis=0)) ** 2)))
+    assert np.allclose(a["balance"]["reference"], b["balance"]["reference"], rtol=0, atol=1e-12 * diagonal)
+    for key in ("applied_moment", "reaction_moment"):
+        diff = np.max(np.abs(np.subtract(a["balance"][key], b["balance"][key])), initial=0.0)
+        assert diff <= 1e-8 * scale * diagonal, (key, a["balance"][key], b["balance"][key])
+    assert len(a["balance"]["constraints"]) == len(b["balance"]["constraints"])
     for ca, cb in zip(a["balance"]["constraints"], b["balance"]["constraints"]):
+        assert ca["dofs"] == cb["dofs"], (ca, cb)
         assert np.max(np.abs(np.subtract(ca["reaction"], cb["reaction"]))) <= 1e-8 * scale, (ca, cb)
     assert np.max(np.abs(fa - fb)) <= 1e-12 * scale, (fa, fb)
     ra, rb = np.asarray(a["balance"]["reaction"], dtype=float), np.asarray(b["balance"]["reaction"], dtype=float)

@@ -280,12 +280,13 @@ impl PartRows {
         }
         Ok(self.system.bc.expand(u_window))
     }
-    /// The rank's share of the force balance for the window's free values `u_window`.
-    pub fn balance(&self, p: &Problem, u_window: &[f64]) -> Result<PartBalance, ProblemError> {
+    /// The rank's share of the force balance for the window's free values `u_window`, moments
+    /// about `reference` ([`Problem::part_balance`]).
+    pub fn balance(&self, p: &Problem, u_window: &[f64], reference: &[f64]) -> Result<PartBalance, ProblemError> {
         self.check_scene(p)?;
         let u = self.expand(u_window)?;
         let m = self.system.model();
-        Ok(p.part_balance(&|x, y| m.apply(x, y), &u))
+        Ok(p.part_balance(&|x, y| m.apply(x, y), &u, reference))
     }
     /// The solution on the owned nodes (its fields read the halo's values) for the window's
     /// free values `u_window`, `report` as the solve's report.

@@ -144,9 +144,14 @@ pub struct Problem {
 pub struct PartBalance {
     /// Per load, its force on the owned nodes.
     pub loads: Vec<Vec<f64>>,
+    /// Per load, the moment of that force about the reference point (1 component in 2D, 3
+    /// in 3D, none in 1D).
+    pub load_moments: Vec<Vec<f64>>,
     /// Per constraint, the supports' force at the owned DOFs it holds (a DOF two constraints
     /// hold counts for the first, as in [`crate::Balance`]).
     pub reactions: Vec<Vec<f64>>,
+    /// Per constraint, the moment of that force about the reference point.
+    pub reaction_moments: Vec<Vec<f64>>,
     /// Per constraint, the owned DOFs it holds.
     pub held_dofs: Vec<usize>,
 }
@@ -425,37 +430,73 @@ impl Problem {
     }
 
     /// A rank's share of the force balance of the solution `u` of its window on `model` (its
-    /// full operator): the sums over the nodes it owns ([`PartBalance`]), which the ranks add.
-    pub fn part_balance(&self, apply: &dyn Fn(&[f64], &mut [f64]), u: &[f64]) -> PartBalance {
+    /// full operator): the sums over the nodes it owns ([`PartBalance`]), which the ranks add;
+    /// moments about `reference` (the ranks' [`Problem::owned_frame`] reduced: the mean position
+    /// of all nodes).
+    pub fn part_balance(&self, apply: &dyn Fn(&[f64], &mut [f64]), u: &[f64], reference: &[f64]) -> PartBalance {
         let d = self.dim();
         let n = d * self.nodes.len();
         let f = self.load_vector();
         let owned = |dof: usize| self.owns(dof / d);
-        let mut loads = Vec::new();
+        // the moment about `reference` of the force `v` along `a` at node `i` (none in 1D)
+        let moment_at = |i: usize, a: usize, v: f64| {
+            let x = self.nodes.position(i);
+            let arm: Vec<f64> = (0..d).map(|b| x[b] - reference.get(b).copied().unwrap_or(0.0)).collect();
+            let mut force = [0.0; 3];
+            force[a] = v;
+            moment(d, &arm, &force[..d])
+        };
+        let add = |total: &mut Vec<f64>, m: Vec<f64>| total.iter_mut().zip(m).for_each(|(t, v)| *t += v);
+        let zero_moment = moment(d, &[0.0; 3], &[0.0; 3]);
+        let (mut loads, mut load_moments) = (Vec::new(), Vec::new());
         for k in 0..self.loads.len() {
             let mut fl = vec![0.0; n];
             self.add_load(k, &mut fl);
-            loads.push((0..d).map(|a| (a..n).step_by(d).filter(|&i| owned(i)).map(|i| fl[i]).sum()).collect());
+            let (mut force, mut about) = (vec![0.0; d], zero_moment.clone());
+            for dof in (0..n).filter(|&g| owned(g) && fl[g] != 0.0) {
+                force[dof % d] += fl[dof];
+                add(&mut about, moment_at(dof / d, dof % d, fl[dof]));
+            }
+            loads.push(force);
+            load_moments.push(about);
         }
         let mut au = vec![0.0; n];
         apply(u, &mut au);
         let mut held = vec![false; n];
-        let mut reactions = Vec::new();
-        let mut held_dofs = Vec::new();
+        let (mut reactions, mut reaction_moments, mut held_dofs) = (Vec::new(), Vec::new(), Vec::new());
         for c in &self.constraints {
-            let (mut reaction, mut dofs) = (vec![0.0; d], 0);
+            let (mut reaction, mut about, mut dofs) = (vec![0.0; d], zero_moment.clone(), 0);
             for (node, a, _) in c.prescribed(&self.nodes, d) {
                 let dof = d * node + a;
                 if !held[dof] && owned(dof) {
                     held[dof] = true;
                     reaction[a] += au[dof] - f[dof];
+                    add(&mut about, moment_at(node, a, au[dof] - f[dof]));
                     dofs += 1;
                 }
             }
             reactions.push(reaction);
+            reaction_moments.push(about);
             held_dofs.push(dofs);
         }
-        PartBalance { loads, reactions, held_dofs }
+        PartBalance { loads, load_moments, reactions, reaction_moments, held_dofs }
+    }
+
+    /// `(sum of positions, count, lower corner, upper corner)` of the nodes this rank owns: the
+    /// ranks' values reduced give the moments' reference point (the mean position) and the
+    /// bounding box whose diagonal scales the moment imbalance, as [`crate::Balance`] has them.
+    pub fn owned_frame(&self) -> ([f64; 3], usize, [f64; 3], [f64; 3]) {
+        let (mut sum, mut count, mut lo, mut hi) = ([0.0; 3], 0, [f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for i in (0..self.nodes.len()).filter(|&i| self.owns(i)) {
+            let x = self.nodes.position(i);
+            for a in 0..self.dim() {
+                sum[a] += x[a];
+                lo[a] = lo[a].min(x[a]);
+                hi[a] = hi[a].max(x[a]);
+            }
+            count += 1;
+        }
+        (sum, count, lo, hi)
     }
 
     /// The mean position of the nodes and the diagonal of their bounding box (none in 1D).
