@@ -115,7 +115,7 @@ fn check(path: &Path, ranks: usize) {
         let half = range.len() / 2;
         let (a, b) = (r.rows(0, half).unwrap(), r.rows(half, range.len()).unwrap());
         assert_eq!([a.indices, b.indices].concat(), mine.indices, "{what}: chunks");
-        let (diagonal, off) = r.row_lengths(7).unwrap();
+        let (diagonal, off) = r.row_lengths().unwrap();
         for (k, (dn, on)) in diagonal.iter().zip(&off).enumerate() {
             let cols = &mine.indices[mine.indptr[k]..mine.indptr[k + 1]];
             assert_eq!((*dn + *on) as usize, cols.len(), "{what}: row length");

@@ -407,7 +407,7 @@ def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_ar
     t1 = time.perf_counter()
     # chunked insertion into the preallocated matrix: a rank holds its rows once (PETSc's), plus
     # one chunk of linpd's
-    lengths, error = _attempt(lambda: part.row_lengths(ROW_CHUNK), f"{scene_path}: ")
+    lengths, error = _attempt(lambda: part.row_lengths(), f"{scene_path}: ")
     entries = 0 if lengths is None else int(lengths[0].sum(dtype=np.int64) + lengths[1].sum(dtype=np.int64))
     if error is None and PETSc.IntType == np.int32 and entries >= 2**31:
         error = (f"{scene_path}: this rank's {entries} stored entries need a PETSc built with 64-bit indices "

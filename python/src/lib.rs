@@ -347,9 +347,9 @@ impl NativePart {
         Ok((b.indptr.into_pyarray(py), b.indices.into_pyarray(py), b.data.into_pyarray(py)))
     }
     /// `(d_nnz, o_nnz)`: per owned row, its entries in the rank's columns and in the others'.
-    fn row_lengths<'py>(&self, py: Python<'py>, chunk: usize) -> PyResult<RowLengths<'py>> {
+    fn row_lengths<'py>(&self, py: Python<'py>) -> PyResult<RowLengths<'py>> {
         let r = self.rows()?;
-        let (d, o) = py.detach(|| r.row_lengths(chunk)).map_err(err)?;
+        let (d, o) = py.detach(|| r.row_lengths()).map_err(err)?;
         Ok((d.into_pyarray(py), o.into_pyarray(py)))
     }
     /// `f_f - (A u_bar)_f` of the owned rows.

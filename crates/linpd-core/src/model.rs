@@ -168,6 +168,13 @@ pub trait Model: Sync {
     fn for_each_block(&self, _i: usize, _f: &mut dyn FnMut(usize, &[f64])) -> bool {
         false
     }
+    /// The nodes `j` of the blocks [`Model::for_each_block`] offers for row `i` (`j = i`
+    /// included, each once, in any order), without computing the blocks: what a sparse matrix's
+    /// preallocation needs. `false` when the model has no block rows. The default computes
+    /// the blocks and drops them; a model whose blocks cost more than their pattern overrides it.
+    fn for_each_coupled(&self, i: usize, f: &mut dyn FnMut(usize)) -> bool {
+        self.for_each_block(i, &mut |j, _| f(j))
+    }
     /// The model as a lattice stencil, when it is one ([`LatticeStencil`]; the homogeneous
     /// bond lattice). `None` (the default): loops over bonds go through
     /// [`Model::for_each_block`].

@@ -51,6 +51,11 @@ impl Model for LpsModel {
         self.tangent_block_row(i, f);
         true
     }
+    /// [`LpsModel::two_hop_nodes`]: the pattern without the `O(|F|^2 d^2)` terms.
+    fn for_each_coupled(&self, i: usize, f: &mut dyn FnMut(usize)) -> bool {
+        self.two_hop_nodes(i).into_iter().for_each(f);
+        true
+    }
     /// The stencils of a homogeneous material on the full box ([`crate::stencil`]).
     fn fast_apply(&self) -> Option<FastApply<'_>> {
         let st = self.stencil()?;

@@ -148,15 +148,8 @@ impl LpsModel {
     /// in column `j` by the assembly).
     pub fn tangent_block_row(&self, i: usize, mut f: impl FnMut(usize, &[f64])) {
         let d = self.dim;
-        let family = &self.family;
-        let fam_i = family.neighbors(i);
-        let mut nodes: Vec<usize> = vec![i];
-        for &k in fam_i {
-            nodes.push(k as usize);
-            nodes.extend(family.neighbors(k as usize).iter().map(|&q| q as usize));
-        }
-        nodes.sort_unstable();
-        nodes.dedup();
+        let fam_i = self.family.neighbors(i);
+        let nodes = self.two_hop_nodes(i);
         // g_k[k] of i and of its partners (the only k the terms of column i read), once each
         let g: Vec<[f64; 3]> =
             std::iter::once(i).chain(fam_i.iter().map(|&k| k as usize)).map(|k| self.g_self_at(k)).collect();
@@ -179,6 +172,19 @@ impl LpsModel {
         for (j, b) in nodes.iter().zip(&blocks) {
             f(*j, &b[..d * d]);
         }
+    }
+
+    /// The nodes of block row `i` of the tangent, ascending: `i`, its partners and theirs.
+    pub fn two_hop_nodes(&self, i: usize) -> Vec<usize> {
+        let family = &self.family;
+        let mut nodes: Vec<usize> = vec![i];
+        for &k in family.neighbors(i) {
+            nodes.push(k as usize);
+            nodes.extend(family.neighbors(k as usize).iter().map(|&q| q as usize));
+        }
+        nodes.sort_unstable();
+        nodes.dedup();
+        nodes
     }
 
     /// The diagonal of `A` over all DOFs without assembling it, `O(|F|)` per node: the

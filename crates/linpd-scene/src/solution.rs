@@ -76,40 +76,37 @@ pub struct GradedMeshSummary {
 
 impl Solution {
     /// The solution on `nodes` only (ascending), renumbered `0..nodes.len()`: a rank's owned
-    /// nodes of its window, for its piece of a distributed result. The balance keeps its
-    /// totals (the window's) and only the nodal reactions of `nodes`.
-    pub fn restricted(&self, nodes: &[usize]) -> Solution {
-        let d = self.dim;
+    /// nodes of its window, for its piece of a distributed result. Takes the solution, so no
+    /// array is copied whole. The balance keeps its totals (the window's) and only the nodal
+    /// reactions of `nodes`.
+    pub fn restricted(mut self, nodes: &[usize]) -> Solution {
+        let (d, n) = (self.dim, self.x.len());
         let pick = |v: &[f64], per: usize| -> Vec<f64> {
-            nodes.iter().flat_map(|&n| v[per * n..per * n + per].iter().copied()).collect()
+            nodes.iter().flat_map(|&k| v[per * k..per * k + per].iter().copied()).collect()
         };
-        let tensors = |t: &[[f64; 9]]| nodes.iter().map(|&n| t[n]).collect::<Vec<_>>();
-        let mut out = self.clone();
-        out.x = nodes.iter().map(|&n| self.x[n]).collect();
-        out.u = pick(&self.u, d);
-        out.is_layer = nodes.iter().map(|&n| self.is_layer[n]).collect();
-        if self.volumes.len() == self.x.len() {
-            out.volumes = pick(&self.volumes, 1);
+        let tensors = |t: &[[f64; 9]]| nodes.iter().map(|&k| t[k]).collect::<Vec<_>>();
+        self.x = nodes.iter().map(|&k| self.x[k]).collect();
+        self.u = pick(&self.u, d);
+        self.is_layer = nodes.iter().map(|&k| self.is_layer[k]).collect();
+        if self.volumes.len() == n {
+            self.volumes = pick(&self.volumes, 1);
         }
-        out.strain_energy_density = self.strain_energy_density.as_ref().map(|e| pick(e, 1));
-        out.dilatation = self.dilatation.as_ref().map(|t| pick(t, 1));
-        if let (Some(s), Some(o)) = (&self.strain, &mut out.strain) {
-            o.tensor = tensors(&s.tensor);
-            o.singular =
-                nodes.iter().enumerate().filter(|(_, n)| s.singular.binary_search(n).is_ok()).map(|(k, _)| k).collect();
+        self.strain_energy_density = self.strain_energy_density.as_deref().map(|e| pick(e, 1));
+        self.dilatation = self.dilatation.as_deref().map(|t| pick(t, 1));
+        if let Some(s) = &mut self.strain {
+            s.tensor = tensors(&s.tensor);
+            s.singular =
+                nodes.iter().enumerate().filter(|(_, k)| s.singular.binary_search(k).is_ok()).map(|(r, _)| r).collect();
         }
-        if let (Some(s), Some(o)) = (&self.stress, &mut out.stress) {
-            o.tensor = tensors(&s.tensor);
+        for s in [&mut self.stress, &mut self.pd_stress].into_iter().flatten() {
+            s.tensor = tensors(&s.tensor);
         }
-        if let (Some(s), Some(o)) = (&self.pd_stress, &mut out.pd_stress) {
-            o.tensor = tensors(&s.tensor);
-        }
-        if let Some(b) = &mut out.balance {
-            if b.nodal_reaction.len() == d * self.x.len() {
+        if let Some(b) = &mut self.balance {
+            if b.nodal_reaction.len() == d * n {
                 b.nodal_reaction = pick(&b.nodal_reaction, d);
             }
         }
-        out.cells = None;
-        out
+        self.cells = None;
+        self
     }
 }

@@ -23,6 +23,7 @@ use crate::solution::Solution;
 use crate::{ProblemError, Slab};
 use linpd_core::RigidGram;
 use linpd_solve::SolveReport;
+use rayon::prelude::*;
 use std::ops::Range;
 
 /// A rank's rows of `A_ff u_f = f_f - (A u_bar)_f` (see the module docs).
@@ -227,20 +228,35 @@ impl PartRows {
         Ok(RowBlock::of(first + lo, first + hi, rows))
     }
     /// Per owned row, its entries in the rank's own columns and in the others' (PETSc's
-    /// `d_nnz`, `o_nnz`), counted `chunk` rows at a time.
-    pub fn row_lengths(&self, chunk: usize) -> Result<(Vec<u32>, Vec<u32>), ProblemError> {
+    /// `d_nnz`, `o_nnz`), from the blocks' pattern ([`linpd_core::Model::for_each_coupled`]),
+    /// without computing the rows: every free component of a node has the same columns.
+    pub fn row_lengths(&self) -> Result<(Vec<u32>, Vec<u32>), ProblemError> {
+        let (global, _, _) = self.numbering()?;
         let range = self.row_range()?;
-        let (mut diagonal, mut off) = (Vec::with_capacity(range.len()), Vec::with_capacity(range.len()));
-        for lo in (0..range.len()).step_by(chunk.max(1)) {
-            let b = self.rows(lo, (lo + chunk.max(1)).min(range.len()))?;
-            for r in 0..b.last - b.first {
-                let cols = &b.indices[b.indptr[r]..b.indptr[r + 1]];
-                let own = cols.iter().filter(|c| range.contains(c)).count();
-                diagonal.push(own as u32);
-                off.push((cols.len() - own) as u32);
-            }
+        let (d, m, dofs) = (self.dim(), self.system.model(), self.system.bc.dofs());
+        let per_node: Vec<(usize, u32, u32)> = self
+            .owned_nodes
+            .clone()
+            .into_par_iter()
+            .map(|i| {
+                let (mut own, mut other) = (0u32, 0u32);
+                m.for_each_coupled(i, &mut |j| {
+                    for c in (0..d).filter_map(|c| dofs.free(d * j + c)) {
+                        match range.contains(&global[c]) {
+                            true => own += 1,
+                            false => other += 1,
+                        }
+                    }
+                });
+                ((0..d).filter(|&a| !dofs.is_constrained(d * i + a)).count(), own, other)
+            })
+            .collect();
+        let mut lengths = (Vec::with_capacity(range.len()), Vec::with_capacity(range.len()));
+        for (rows, own, other) in per_node {
+            lengths.0.extend(std::iter::repeat_n(own, rows));
+            lengths.1.extend(std::iter::repeat_n(other, rows));
         }
-        Ok((diagonal, off))
+        Ok(lengths)
     }
     /// The Gram matrices of the rigid modes over the owned nodes (all DOFs, held DOFs) about the
     /// centre of the lattice's body box, lengths scaled by its half diagonal: the ranks' sums
