@@ -91,6 +91,39 @@ fn max_abs(v: impl IntoIterator<Item = f64>) -> f64 {
     v.into_iter().fold(0.0, |m, x| m.max(x.abs()))
 }
 
+/// The whole scene's row of every distributed row: a lattice's parts number the free DOFs as
+/// the whole scene does (asserted); a point cloud's by bin, then by the file's order (the window
+/// nodes' numbers in the file give the map). Every rank's window must map each row it sees to
+/// the same whole row.
+fn whole_rows(whole: &Problem, whole_free: &[usize], parts: &[(Problem, PartRows)]) -> Vec<usize> {
+    let d = whole.dim();
+    let mut free_of = vec![usize::MAX; d * whole.nodes().len()];
+    whole_free.iter().enumerate().for_each(|(k, &g)| free_of[g] = k);
+    let mut perm = vec![usize::MAX; whole_free.len()];
+    for (p, r) in parts {
+        let cloud = p.part().unwrap().cloud.as_ref();
+        let grid = whole.grid();
+        for (&g, &wd) in r.window_rows().unwrap().iter().zip(&r.window_free_dofs()) {
+            let node = match (cloud, grid) {
+                (Some(c), _) => c.file_node[wd / d] as usize,
+                (None, Some(grid)) => grid.nearest_node(&p.nodes().position(wd / d)).0,
+                (None, None) => panic!("a part without a lattice or a cloud"),
+            };
+            let w = free_of[d * node + wd % d];
+            assert!(w != usize::MAX, "a window's free DOF is held in the whole scene");
+            assert!(perm[g] == usize::MAX || perm[g] == w, "two ranks map row {g} differently");
+            perm[g] = w;
+        }
+    }
+    let mut seen = perm.clone();
+    seen.sort_unstable();
+    assert!(seen.iter().enumerate().all(|(k, &w)| k == w), "the distributed rows are not a permutation");
+    if whole.grid().is_some() {
+        assert!(perm.iter().enumerate().all(|(k, &w)| k == w), "a lattice's parts number as the whole scene");
+    }
+    perm
+}
+
 /// The parts of `path` over `ranks` against the whole scene.
 fn check(path: &Path, ranks: usize) {
     let whole = Problem::from_path(path).unwrap();
@@ -102,8 +135,14 @@ fn check(path: &Path, ranks: usize) {
     let solution = whole.solve(&linpd::core::NoProgress).unwrap();
     let d = whole.dim();
     let u_free: Vec<f64> = rows.free_dofs().iter().map(|&g| solution.u[g]).collect();
+    let perm = whole_rows(&whole, rows.free_dofs(), &parts);
+    // the whole scene's nodes by position, for the pieces' nodes
+    let key = |x: &linpd::core::Point| -> [i64; 3] { std::array::from_fn(|a| (x[a] * 1e9).round() as i64) };
+    let node_at: std::collections::HashMap<[i64; 3], usize> =
+        (0..whole.nodes().len()).map(|k| (key(&whole.nodes().position(k)), k)).collect();
     let mut next = 0;
     let mut owned_nodes = 0;
+    let mut u_windows = Vec::new();
     for (rank, (p, r)) in parts.iter().enumerate() {
         let what = format!("{} rank {rank}/{ranks}", whole.name());
         assert_eq!(r.n_global().unwrap(), n, "{what}: unknowns");
@@ -122,23 +161,26 @@ fn check(path: &Path, ranks: usize) {
             assert_eq!(*dn as usize, cols.iter().filter(|c| range.contains(c)).count(), "{what}: own columns");
         }
         for (k, row) in range.clone().enumerate() {
-            let (a, b) = (block.indptr[row], block.indptr[row + 1]);
+            let w = perm[row];
+            let (a, b) = (block.indptr[w], block.indptr[w + 1]);
             let (c, e) = (mine.indptr[k], mine.indptr[k + 1]);
-            assert_eq!(&mine.indices[c..e], &block.indices[a..b], "{what}: row {row}'s columns");
-            let worst = max_abs(mine.data[c..e].iter().zip(&block.data[a..b]).map(|(x, y)| x - y));
+            let mut entries: Vec<(usize, f64)> =
+                mine.indices[c..e].iter().zip(&mine.data[c..e]).map(|(&col, &v)| (perm[col], v)).collect();
+            entries.sort_by_key(|e| e.0);
+            let columns: Vec<usize> = entries.iter().map(|e| e.0).collect();
+            assert_eq!(&columns[..], &block.indices[a..b], "{what}: row {row}'s columns");
+            let worst = max_abs(entries.iter().zip(&block.data[a..b]).map(|(x, y)| x.1 - y));
             assert!(worst <= 1e-13 * scale, "{what}: row {row} differs by {worst:e} (max|A| {scale:e})");
         }
         let f_scale = max_abs(rows.rhs().iter().copied()).max(f64::MIN_POSITIVE);
-        let worst = max_abs(r.rhs().iter().zip(&rows.rhs()[range.clone()]).map(|(x, y)| x - y));
+        let worst = max_abs(r.rhs().iter().zip(range.clone()).map(|(x, g)| x - rows.rhs()[perm[g]]));
         assert!(worst <= 1e-13 * f_scale, "{what}: rhs differs by {worst:e}");
         // the piece from the whole solution's values at the window's rows
-        let u_window: Vec<f64> = r.window_rows().unwrap().iter().map(|&g| u_free[g]).collect();
+        let u_window: Vec<f64> = r.window_rows().unwrap().iter().map(|&g| u_free[perm[g]]).collect();
         let report = linpd::solve::SolveReport::new(linpd::solve::SolverId::Lu, n, 0);
         let piece = r.solution(p, &u_window, report).unwrap();
-        let grid = whole.lattice().unwrap();
         for (k, x) in piece.x.iter().enumerate() {
-            let (node, dist) = grid.nearest_node(x);
-            assert!(dist < 1e-12, "{what}: piece node {k} at {x:?} is a node of the scene");
+            let node = *node_at.get(&key(x)).unwrap_or_else(|| panic!("{what}: piece node {k} at {x:?}"));
             let du = max_abs((0..d).map(|a| piece.u[d * k + a] - solution.u[d * node + a]));
             assert!(du <= 1e-12 * max_abs(solution.u.iter().copied()), "{what}: u at {x:?} differs by {du:e}");
             // each field against its own largest value
@@ -155,10 +197,11 @@ fn check(path: &Path, ranks: usize) {
             }
         }
         owned_nodes += piece.x.len();
+        u_windows.push(u_window);
     }
     assert_eq!(next, n, "{}: the ranks' rows cover the unknowns", whole.name());
     assert_eq!(owned_nodes, whole.nodes().len(), "{}: every node in one piece", whole.name());
-    check_balance(&parts, &solution, &u_free);
+    check_balance(&parts, &solution, &u_windows);
     eprintln!("{}: {ranks} ranks agree ({n} unknowns)", whole.name());
 }
 
@@ -238,6 +281,29 @@ fn surface_corrected_bond_2d() {
 }
 
 #[test]
+fn point_clouds_and_meshes() {
+    // bond and LPS on the CSV bracket (2D), the Gmsh bracket with named sets (3D), the holed
+    // plate's mesh with the energy correction (three reaches of halo)
+    for (name, ranks) in [
+        ("bracket-cloud-2d.json", &[1, 2, 3, 5][..]),
+        ("bracket-cloud-lps-2d.json", &[2, 3][..]),
+        ("bracket-mesh-3d.json", &[2, 3][..]),
+        ("plate-hole-mesh-2d.json", &[2, 3][..]),
+    ] {
+        let path = scene_file(name, name.trim_end_matches(".json"), |v| {
+            for key in ["csv", "mesh"] {
+                if let Some(f) = v["nodes"][key].as_str() {
+                    v["nodes"][key] = data(f).to_str().unwrap().into();
+                }
+            }
+        });
+        for &r in ranks {
+            check(&path, r);
+        }
+    }
+}
+
+#[test]
 fn more_ranks_than_planes_leave_some_ranks_empty() {
     let path = scene_file("lps-plate-2d.json", "lps-many", |v| {
         v["grid"]["max"] = serde_json::json!([1.0, 0.1]);
@@ -279,7 +345,6 @@ fn what_no_rank_finds_is_the_whole_scenes_error() {
 #[test]
 fn models_without_per_rank_geometry_are_refused_by_name() {
     for (name, key) in [
-        ("bracket-cloud-2d.json", "model.type: the bond model has no per-rank geometry"),
         ("plate-crack-blend-2d.json", "model.pd_regions: the blended model has no per-rank geometry"),
         ("blend-bar-crack.json", "model.type"),
     ] {
@@ -303,7 +368,7 @@ fn models_without_per_rank_geometry_are_refused_by_name() {
 /// each constraint holds, a DOF two constraints hold counted for the first; the moments about
 /// the mean position, itself reduced from the ranks' sums), to 1e-12 of the largest force (times
 /// the body's diagonal for moments): sums of the same nodal forces in another order.
-fn check_balance(parts: &[(Problem, PartRows)], solution: &linpd::scene::Solution, u_free: &[f64]) {
+fn check_balance(parts: &[(Problem, PartRows)], solution: &linpd::scene::Solution, u_windows: &[Vec<f64>]) {
     let d = solution.dim;
     let b = solution.balance.as_ref().unwrap();
     // the reference point of the moments: the ranks' position sums reduced
@@ -318,13 +383,8 @@ fn check_balance(parts: &[(Problem, PartRows)], solution: &linpd::scene::Solutio
         let off = max_abs(reference.iter().zip(&b.reference).map(|(x, y)| x - y));
         assert!(off <= 1e-12 * max_abs(b.reference.iter().copied()).max(1.0), "reference point");
     }
-    let shares: Vec<_> = parts
-        .iter()
-        .map(|(p, r)| {
-            let u_window: Vec<f64> = r.window_rows().unwrap().iter().map(|&g| u_free[g]).collect();
-            r.balance(p, &u_window, &reference).unwrap()
-        })
-        .collect();
+    let shares: Vec<_> =
+        parts.iter().zip(u_windows).map(|((p, r), u_window)| r.balance(p, u_window, &reference).unwrap()).collect();
     let scale = b
         .loads
         .iter()

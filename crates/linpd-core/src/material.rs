@@ -287,20 +287,18 @@ impl Material {
             .collect()
     }
 
-    /// [`Material::defect_cutting_nothing`] for the bonds of `family` on `positions` (a point
-    /// cloud); `tol` is the length tolerance of the crossing test.
-    pub fn defect_cutting_nothing_in(
-        &self,
-        family: &crate::BondFamily,
-        positions: &[Point],
-        tol: f64,
-    ) -> Option<usize> {
+    /// Per defect, whether it crosses a bond of `family` on `positions` (a point cloud);
+    /// `tol` is the length tolerance of the crossing test.
+    pub fn defects_cutting_in(&self, family: &crate::BondFamily, positions: &[Point], tol: f64) -> Vec<bool> {
         use rayon::prelude::*;
-        self.defects.iter().position(|d| {
-            !(0..family.len())
-                .into_par_iter()
-                .any(|i| family.neighbors(i).iter().any(|&j| d.crosses(&positions[i], &positions[j as usize], tol)))
-        })
+        self.defects
+            .iter()
+            .map(|d| {
+                (0..family.len())
+                    .into_par_iter()
+                    .any(|i| family.neighbors(i).iter().any(|&j| d.crosses(&positions[i], &positions[j as usize], tol)))
+            })
+            .collect()
     }
 
     /// Modulus of every node (`reference` outside all phases).

@@ -15,6 +15,12 @@
 //! ([`linpd_core::family::lattice_stencil`], with its tolerance: a bond of length exactly
 //! `delta` is one; the partial volumes' ramp stays inside `delta`).
 //!
+//! A point cloud (`"nodes"`, a CSV, VTK or mesh file) is cut the same way along its longest
+//! axis, its planes being bins of a quarter of the bonds' reach ([`Bins`]): every rank reads
+//! the file and keeps the nodes of its window only ([`Slab::balanced`] splits the bins so that
+//! the ranks own as many nodes each as whole bins allow); the window's nodes are ordered by bin,
+//! then by their number in the file, and that order numbers the distributed unknowns.
+//!
 //! What a window cannot decide alone (a constraint's region holding a node, a point load
 //! sitting on one, a defect cutting a bond) is recorded as a [`Presence`] per rank in the same
 //! order on every rank, and settled by one reduction (a logical or over the ranks):
@@ -67,6 +73,34 @@ impl Slab {
         Slab { planes, owned: first..last, window, index0: whole.lattice_index(0)[axis] }
     }
 
+    /// The slab of `part` over planes holding `counts[k]` nodes each, with `halo` planes on each
+    /// side: contiguous runs of planes, rank `p`'s starting at the first plane `k` with
+    /// `sum_{l < k} counts[l] >= p N / P` (`N` nodes in all), so that the ranks own about
+    /// `N / P` nodes each; a rank owning nothing builds one plane (as in [`Slab::of`]).
+    pub fn balanced(counts: &[usize], part: Part, halo: usize) -> Slab {
+        let planes = counts.len();
+        let total: u128 = counts.iter().map(|&c| c as u128).sum();
+        let (p, ranks) = (part.rank as u128, part.ranks as u128);
+        let cut = |q: u128| -> usize {
+            let mut before = 0u128;
+            for (k, &c) in counts.iter().enumerate() {
+                if before * ranks >= q * total {
+                    return k;
+                }
+                before += c as u128;
+            }
+            planes
+        };
+        let (first, last) = (cut(p), if p + 1 == ranks { planes } else { cut(p + 1) });
+        let window = if first == last {
+            let k = first.min(planes.saturating_sub(1));
+            k..k + 1
+        } else {
+            first.saturating_sub(halo)..(last + halo).min(planes)
+        };
+        Slab { planes, owned: first..last, window, index0: 0 }
+    }
+
     /// The plane (`0..planes`) of a node with lattice index `idx`.
     pub fn plane(&self, idx: [i64; 3], dim: usize) -> usize {
         (idx[dim - 1] - self.index0) as usize
@@ -77,6 +111,65 @@ impl Slab {
 /// surface correction) at `horizon / spacing = ratio`.
 pub fn halo_reaches(reaches: usize, ratio: f64) -> usize {
     reaches * (ratio * (1.0 + linpd_core::GEOMETRY_RTOL)).floor() as usize
+}
+
+/// A point cloud's planes: bins of equal width along the axis the cloud is longest in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bins {
+    /// The axis (`0..d`).
+    pub axis: usize,
+    /// The smallest coordinate along it.
+    pub origin: f64,
+    /// The width of a bin.
+    pub width: f64,
+    /// The number of bins.
+    pub count: usize,
+}
+
+impl Bins {
+    /// At most this many bins (a cloud far longer than its reach gets wider bins).
+    pub const MAX: usize = 1 << 20;
+
+    /// Bins of `reach / 4` (wider if there would be more than [`Bins::MAX`]) over `positions`
+    /// along their longest axis (the last of equally long ones, as a lattice's slowest axis).
+    pub fn of(positions: &[linpd_core::Point], dim: usize, reach: f64) -> Bins {
+        let span = |a: usize| {
+            positions.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x[a]), hi.max(x[a])))
+        };
+        let axis = (0..dim).rev().max_by(|&a, &b| {
+            let (sa, sb) = (span(a), span(b));
+            (sa.1 - sa.0).total_cmp(&(sb.1 - sb.0))
+        });
+        let axis = axis.unwrap_or(0);
+        let (lo, hi) = span(axis);
+        let extent = if hi > lo { hi - lo } else { 0.0 };
+        let width = (reach / 4.0).max(extent / Self::MAX as f64);
+        let width = if width.is_finite() && width > 0.0 { width } else { 1.0 };
+        let count = ((extent / width).floor() as usize + 1).min(Self::MAX);
+        Bins { axis, origin: if lo.is_finite() { lo } else { 0.0 }, width, count }
+    }
+
+    /// The bin of a node at `x`.
+    pub fn of_point(&self, x: &linpd_core::Point) -> usize {
+        (((x[self.axis] - self.origin) / self.width).floor().max(0.0) as usize).min(self.count - 1)
+    }
+
+    /// Bins on each side that hold every node within `distance` of a node's own bin (one more
+    /// for the rounding of the bins' edges).
+    pub fn halo(&self, distance: f64) -> usize {
+        (distance * (1.0 + 1e-6) / self.width).ceil() as usize + 1
+    }
+}
+
+/// A rank's window of a point cloud: the file's nodes the rank keeps, in bin order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CloudWindow {
+    /// The bins.
+    pub bins: Bins,
+    /// Each window node's number in the file (0-based, in the order the file lists them).
+    pub file_node: Vec<u32>,
+    /// The whole cloud's bounding box, lower and upper corners (unused coordinates 0).
+    pub bounds: [linpd_core::Point; 2],
 }
 
 /// A check a window cannot decide alone: does some rank's part hold what `path` needs?

@@ -31,13 +31,23 @@ pub struct Context<'a> {
     pub(crate) whole: std::cell::RefCell<Option<Grid>>,
     /// The checks a part records rather than decides.
     pub(crate) presences: Presences,
+    /// The part's window of a point cloud, once [`cloud_nodes`] cut it.
+    pub(crate) cloud: std::cell::RefCell<Option<crate::part::CloudWindow>>,
 }
 
 impl<'a> Context<'a> {
     /// The context of a whole scene (`part: None`) or of one rank's part.
     pub(crate) fn new(raw: &'a RawProblem, base_dir: &'a Path, part: Option<Part>) -> Self {
         let presences = Presences::new(part.is_some());
-        Context { raw, base_dir, part, slab: Default::default(), whole: Default::default(), presences }
+        Context {
+            raw,
+            base_dir,
+            part,
+            slab: Default::default(),
+            whole: Default::default(),
+            presences,
+            cloud: Default::default(),
+        }
     }
 }
 
@@ -900,10 +910,15 @@ pub(crate) fn material_with_tags(
 /// against the horizon and the memory of `path` (with `ball`, the bonds of a ball quadrature,
 /// which reach `delta + max R`: [`linpd_bond::quadrature`]); and their mean spacing
 /// ([`mean_spacing`]).
+///
+/// On a rank's part ([`Context::part`]) every rank reads the whole file and keeps its window
+/// ([`crate::cloud::window`]), whose halo holds `reaches` reaches of the bonds; `reaches: None`
+/// refuses a part by name. The mean spacing returned is the whole cloud's.
 pub(crate) fn cloud_nodes(
     cx: &Context,
     spec: &RawNodes,
     horizon: f64,
+    reaches: Option<usize>,
     path: crate::memory::Path,
     ball: bool,
 ) -> Result<(LevelNodes, f64), ProblemError> {
@@ -970,8 +985,27 @@ pub(crate) fn cloud_nodes(
     // a ball quadrature bonds to delta + the largest equivalent radius
     let q = if ball { linpd_bond::quadrature::Quadrature::Ball } else { linpd_bond::quadrature::Quadrature::Full };
     let reach = linpd_bond::quadrature::reach(q, dim, horizon, &cloud.volumes);
-    let _ = crate::memory::check_cloud(path, dim, &cloud.positions, reach, multigrid)?;
-    Ok((crate::cloud::into_nodes(cloud, dim), h))
+    let nodes = crate::cloud::into_nodes(cloud, dim);
+    let nodes = match (cx.part, reaches) {
+        (None, _) => nodes,
+        (Some(_), None) => {
+            return Err(ProblemError::invalid(
+                "model.type",
+                format!("the {} model on a point cloud {NO_PER_RANK_GEOMETRY}", raw.model.kind()),
+            ))
+        }
+        (Some(_), Some(_)) if dim < 2 => {
+            return Err(ProblemError::invalid("nodes", format!("a 1D point cloud {NO_PER_RANK_GEOMETRY}")))
+        }
+        (Some(part), Some(reaches)) => {
+            let (window, slab, cloud) = crate::cloud::window(nodes, part, reaches, reach)?;
+            *cx.slab.borrow_mut() = Some(slab);
+            *cx.cloud.borrow_mut() = Some(cloud);
+            window
+        }
+    };
+    let _ = crate::memory::check_cloud(path, dim, &nodes.positions, reach, multigrid)?;
+    Ok((nodes, h))
 }
 
 /// Why a model on a point cloud lacks [`crate::Capability::Coarsen`].
@@ -992,13 +1026,14 @@ pub(crate) fn refuse_lattice_target(target: Option<crate::raw::RawSurfaceTarget>
 /// The nodes phase `k` of a cloud's material selects: its `region`'s (a mesh's sets included)
 /// or those whose phase number (`column`, a cloud's `phase` column or a mesh's groups) is
 /// `tag`. A set or number that selects no node, and a number without a column, are named
-/// errors (a typo would otherwise leave the material silently homogeneous).
+/// errors (a typo would otherwise leave the material silently homogeneous); on a rank's part
+/// the selections are recorded in `presences`.
 pub(crate) fn phase_nodes<N: crate::nodes::NodeSet + ?Sized>(
     nodes: &N,
     column: &[u32],
     k: usize,
-    region: Option<&Region>,
-    tag: Option<u32>,
+    (region, tag): (Option<&Region>, Option<u32>),
+    presences: &Presences,
 ) -> Result<Vec<usize>, ProblemError> {
     let p = format!("model.material.phases[{k}]");
     match (region, tag) {
@@ -1006,9 +1041,9 @@ pub(crate) fn phase_nodes<N: crate::nodes::NodeSet + ?Sized>(
             let path = format!("{p}.region");
             nodes.check_sets(r, &path)?;
             let selected = nodes.select(r);
-            if selected.is_empty() && !r.set_names().is_empty() {
-                return Err(ProblemError::invalid(path, "selects no node of the mesh"));
-            }
+            presences.require(!selected.is_empty() || r.set_names().is_empty(), || {
+                ProblemError::invalid(path, "selects no node of the mesh")
+            })?;
             Ok(selected)
         }
         (None, Some(_)) if column.is_empty() => Err(ProblemError::invalid(
@@ -1021,12 +1056,9 @@ pub(crate) fn phase_nodes<N: crate::nodes::NodeSet + ?Sized>(
         )),
         (None, Some(tag)) => {
             let selected: Vec<usize> = (0..column.len()).filter(|&n| column[n] == tag).collect();
-            if selected.is_empty() {
-                return Err(ProblemError::invalid(
-                    format!("{p}.phase"),
-                    format!("no node of the cloud has phase {tag}"),
-                ));
-            }
+            presences.require(!selected.is_empty(), || {
+                ProblemError::invalid(format!("{p}.phase"), format!("no node of the cloud has phase {tag}"))
+            })?;
             Ok(selected)
         }
         (None, None) => Err(ProblemError::invalid(&p, "give exactly one of \"region\" or \"phase\"")),
@@ -1038,12 +1070,13 @@ pub(crate) fn check_defects(
     material: &linpd_core::Material,
     nodes: &LevelNodes,
     horizon: f64,
+    presences: &Presences,
 ) -> Result<(), ProblemError> {
     if !material.defects.is_empty() {
         let family = BondFamily::from_points(&nodes.positions, nodes.dim, horizon);
         let tol = linpd_core::GEOMETRY_RTOL * nodes.h;
-        if let Some(k) = material.defect_cutting_nothing_in(&family, &nodes.positions, tol) {
-            return Err(defect_cuts_nothing(k));
+        for (k, cuts) in material.defects_cutting_in(&family, &nodes.positions, tol).into_iter().enumerate() {
+            presences.require(cuts, || defect_cuts_nothing(k))?;
         }
     }
     Ok(())

@@ -70,9 +70,12 @@ pub fn part_rows(p: &Problem) -> Result<PartRows, ProblemError> {
     if m.n_nodes() > 0 && !m.for_each_block(0, &mut |_, _| {}) {
         return Err(ProblemError::invalid("model.type", format!("the {} model has no per-node block rows", m.kind())));
     }
-    let (grid, d) = (p.lattice()?, p.dim());
+    let d = p.dim();
     let slab = part.slab.clone();
-    let plane_of: Vec<u32> = (0..grid.len()).map(|n| slab.plane(grid.lattice_index(n), d) as u32).collect();
+    let plane_of = part.planes.clone();
+    if plane_of.len() != m.n_nodes() || plane_of.windows(2).any(|w| w[0] > w[1]) {
+        return Err(ProblemError::invalid("ranks", "the window's nodes are not in plane order"));
+    }
     let first = plane_of.partition_point(|&k| (k as usize) < slab.owned.start);
     let last = plane_of.partition_point(|&k| (k as usize) < slab.owned.end);
     let dofs = system.bc.dofs();
@@ -179,6 +182,11 @@ impl PartRows {
     pub fn window_rows(&self) -> Result<&[usize], ProblemError> {
         Ok(&self.numbering()?.0)
     }
+    /// The window's DOF (`d * node + component`) of every free DOF of the window, in the
+    /// window's free order (that of [`PartRows::window_rows`]).
+    pub fn window_free_dofs(&self) -> Vec<usize> {
+        self.system.bc.dofs().free_dofs()
+    }
     /// `f_f - (A u_bar)_f` of the owned rows.
     pub fn rhs(&self) -> &[f64] {
         &self.rhs
@@ -263,16 +271,20 @@ impl PartRows {
     /// added give the whole body's, whose [`RigidGram::free_modes`] must be 0. Treats the body
     /// as one piece: a piece that a crack or a gap cuts off is found by the KSP's failure.
     pub fn support(&self, p: &Problem) -> Result<RigidGram, ProblemError> {
-        let grid = p.lattice()?;
         let d = self.dim();
-        let (lo, hi) = (grid.min(), grid.max());
+        // the same centre and scale on every rank: the whole lattice's box or cloud's bounds
+        let (lo, hi) = match (p.part().and_then(|part| part.cloud.as_ref()), p.grid()) {
+            (Some(c), _) => (&c.bounds[0][..d], &c.bounds[1][..d]),
+            (None, Some(grid)) => (grid.min(), grid.max()),
+            (None, None) => return Err(ProblemError::invalid("ranks", "a part without a lattice or a cloud")),
+        };
         let mut centre = [0.0; 3];
         (0..d).for_each(|a| centre[a] = 0.5 * (lo[a] + hi[a]));
         let size = 0.5 * (0..d).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt();
         let mut gram = RigidGram::new(d, centre, size);
         let dofs = self.system.bc.dofs();
         for n in self.owned_nodes.clone() {
-            gram.add(&grid.position(n), |a| dofs.is_constrained(d * n + a));
+            gram.add(&p.nodes().position(n), |a| dofs.is_constrained(d * n + a));
         }
         Ok(gram)
     }

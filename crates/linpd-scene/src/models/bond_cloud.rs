@@ -29,9 +29,21 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
     refuse_lattice_keys(raw)?;
     let quadrature = super::bond_model::RawPartialVolume::quadrature(raw.partial_volume, true);
     let ball = quadrature == linpd_bond::quadrature::Quadrature::Ball;
-    let (nodes, h) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::BondAssembled, ball)?;
+    // a rank's halo (crate::part): as on a lattice, one reach, three with the energy correction
+    let corrected = !matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
+    let reaches = Some(if corrected { 3 } else { 1 });
+    let (nodes, h) = cloud_nodes(cx, spec, raw.horizon, reaches, crate::memory::Path::BondAssembled, ball)?;
     let ramp = quadrature == linpd_bond::quadrature::Quadrature::Ramp;
     let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, ramp)?;
+    if micromodulus.normalization == linpd_core::Normalization::Discrete && cx.part.is_some() {
+        return Err(ProblemError::invalid(
+            "model.micromodulus.normalize",
+            format!(
+                "\"discrete\" on a point cloud (a mean over the whole body's interior nodes) {}",
+                crate::validate::NO_PER_RANK_GEOMETRY
+            ),
+        ));
+    }
     if micromodulus.normalization == linpd_core::Normalization::Discrete {
         // the interior nodes' own sums: a mesh's boundary says which nodes are interior
         let reach = linpd_bond::quadrature::reach(quadrature, dim, raw.horizon, &nodes.volumes);
@@ -56,8 +68,8 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
     let elastic = crate::validate::bond_elastic(dim, &micromodulus);
     let material = material_with_tags(&raw.material, dim, true, elastic)?;
     let moduli = crate::validate::phase_moduli(&raw.material, elastic)?;
-    let node_moduli = tagged_moduli(&raw.material, &moduli, &nodes, micromodulus.reference_modulus())?;
-    check_defects(&material, &nodes, raw.horizon)?;
+    let node_moduli = tagged_moduli(&raw.material, &moduli, &nodes, micromodulus.reference_modulus(), &cx.presences)?;
+    check_defects(&material, &nodes, raw.horizon, &cx.presences)?;
     let surface = bond_model::surface_of(false, raw.surface_correction, raw.surface_target)?;
     if surface.correction != linpd_lps::SurfaceCorrection::None
         && micromodulus.normalization != linpd_core::Normalization::Continuum
@@ -178,6 +190,7 @@ pub(crate) fn tagged_moduli(
     phase_moduli: &[f64],
     nodes: &LevelNodes,
     reference: f64,
+    presences: &crate::part::Presences,
 ) -> Result<Option<Vec<f64>>, ProblemError> {
     let dim = nodes.dim;
     let regions = raw
@@ -194,7 +207,7 @@ pub(crate) fn tagged_moduli(
     }
     let mut moduli = vec![reference; nodes.positions.len()];
     for (k, ph) in raw.phases.iter().enumerate() {
-        for n in crate::validate::phase_nodes(nodes, &nodes.phase, k, regions[k].as_ref(), ph.phase)? {
+        for n in crate::validate::phase_nodes(nodes, &nodes.phase, k, (regions[k].as_ref(), ph.phase), presences)? {
             moduli[n] = phase_moduli[k];
         }
     }

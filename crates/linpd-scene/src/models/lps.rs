@@ -90,15 +90,18 @@ impl ModelType for LpsType {
         if let Some(spec) = &cx.raw.nodes {
             crate::validate::refuse_lattice_target(raw.surface_target)?;
             let surface = surface_of(true, raw.surface_correction, raw.surface_target)?;
-            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, crate::memory::Path::LpsAssembled, false)?;
+            // a rank's halo: as on a lattice (below)
+            let mean_of_ends = surface.correction == SurfaceCorrection::Energy;
+            let reaches = Some(2 + usize::from(mean_of_ends));
+            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, reaches, crate::memory::Path::LpsAssembled, false)?;
             let ratio = raw.horizon / crate::nodes::NodeSet::spacing(&nodes);
             let n = crate::nodes::NodeSet::count(&nodes);
             crate::memory::check_lps_work(n, crate::memory::neighbours(dim, ratio), ratio)?;
             let params = params(dim, &raw)?;
             let material = material(&defects_only(&raw.material), dim, None)?;
-            check_defects(&material, &nodes, raw.horizon)?;
+            check_defects(&material, &nodes, raw.horizon, &cx.presences)?;
             let nodes = Nodes::Cloud(nodes);
-            let (phases, node_moduli) = phases(&raw.material, dim, &nodes, &params)?;
+            let (phases, node_moduli) = phases(&raw.material, dim, &nodes, &params, &cx.presences)?;
             let model = LpsSceneModel { params, defects: material.defects, surface, cloud: true, phases, node_moduli };
             return Ok(Validated { nodes, model: Box::new(model) });
         }
@@ -128,7 +131,7 @@ impl ModelType for LpsType {
         crate::validate::require_defects_cut(&material, &grid, raw.horizon, &cx.presences)?;
         let surface = surface_of(true, raw.surface_correction, raw.surface_target)?;
         let nodes = Nodes::Lattice(grid);
-        let (phases, node_moduli) = phases(&raw.material, dim, &nodes, &params)?;
+        let (phases, node_moduli) = phases(&raw.material, dim, &nodes, &params, &cx.presences)?;
         let model = LpsSceneModel { params, defects: material.defects, surface, cloud: false, phases, node_moduli };
         Ok(Validated { nodes, model: Box::new(model) })
     }
@@ -215,7 +218,13 @@ fn defects_only(raw: &RawMaterial) -> RawMaterial {
 /// `young_modulus` and `poisson_ratio` (its `K` and `G`), and where: a `region` (a mesh's sets
 /// included) or a cloud's `phase` number ([`crate::validate::phase_nodes`]).
 type Phases = (Vec<(f64, f64)>, Option<(Vec<f64>, Vec<f64>)>);
-fn phases(raw: &RawMaterial, dim: usize, nodes: &Nodes, params: &LpsParams) -> Result<Phases, ProblemError> {
+fn phases(
+    raw: &RawMaterial,
+    dim: usize,
+    nodes: &Nodes,
+    params: &LpsParams,
+    presences: &crate::part::Presences,
+) -> Result<Phases, ProblemError> {
     if raw.phases.is_empty() {
         return Ok((Vec::new(), None));
     }
@@ -239,7 +248,7 @@ fn phases(raw: &RawMaterial, dim: usize, nodes: &Nodes, params: &LpsParams) -> R
             ));
         }
         let region = ph.region.as_ref().map(|r| crate::validate::region(&format!("{p}.region"), r, dim)).transpose()?;
-        for n in crate::validate::phase_nodes(nodes, column, k, region.as_ref(), ph.phase)? {
+        for n in crate::validate::phase_nodes(nodes, column, k, (region.as_ref(), ph.phase), presences)? {
             (bulk[n], shear[n]) = (k_phase, g_phase);
         }
         out.push((k_phase, g_phase));

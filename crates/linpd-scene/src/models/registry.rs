@@ -273,7 +273,16 @@ impl Problem {
         let part = match (part, cx.slab.take()) {
             (None, _) => None,
             (Some(_), Some(slab)) => {
-                Some(crate::scene::PartScene { slab, presences: cx.presences.take(), resultant_volumes: None })
+                let cloud = cx.cloud.take();
+                let planes = match (&cloud, v.nodes.lattice()) {
+                    (Some(c), _) => (0..v.nodes.len()).map(|n| c.bins.of_point(&v.nodes.position(n)) as u32).collect(),
+                    (None, Some(grid)) => {
+                        (0..grid.len()).map(|n| slab.plane(grid.lattice_index(n), dim) as u32).collect()
+                    }
+                    (None, None) => Vec::new(),
+                };
+                let presences = cx.presences.take();
+                Some(crate::scene::PartScene { slab, planes, cloud, presences, resultant_volumes: None })
             }
             (Some(_), None) => {
                 return Err(ProblemError::invalid(

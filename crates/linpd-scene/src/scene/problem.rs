@@ -161,6 +161,11 @@ pub struct PartBalance {
 pub struct PartScene {
     /// The planes it owns and builds.
     pub slab: crate::part::Slab,
+    /// The plane of each window node (its slowest-axis plane on a lattice, its bin in a
+    /// cloud), ascending.
+    pub planes: Vec<u32>,
+    /// A point cloud's bins and the window's nodes' numbers in the file (`None` on a lattice).
+    pub cloud: Option<crate::part::CloudWindow>,
     /// The checks it recorded, in the same order on every rank.
     pub presences: Vec<crate::part::Presence>,
     /// Per load, the volume `sum_j v_j` over the whole body of a resultant load's region (the
@@ -177,9 +182,9 @@ impl Problem {
     }
     /// Whether node `n` is one this rank owns (every node of a whole scene).
     pub fn owns(&self, n: usize) -> bool {
-        match (&self.part, self.nodes.lattice()) {
-            (Some(part), Some(grid)) => part.slab.owned.contains(&part.slab.plane(grid.lattice_index(n), grid.dim())),
-            _ => true,
+        match &self.part {
+            Some(part) => part.planes.get(n).is_some_and(|&k| part.slab.owned.contains(&(k as usize))),
+            None => true,
         }
     }
     /// Per load, the volume of a resultant load's region over the nodes this rank owns (0 for
