@@ -48,6 +48,31 @@ def scene(cells: int, solver: dict, model: str = "bond", m: int = 2, length: int
     }
 
 
+def cloud_scene(cells: int, solver: dict, model: str, m: int, length: int, directory: Path) -> dict:
+    """:func:`scene` on a point cloud: the lattice's nodes (its ``z-`` layer flagged ``layer``)
+    each moved by up to ``0.1 h`` along every axis (numpy's generator, seed 34), volume ``h^3``,
+    written to ``directory/cube-<cells>-<length>.csv``; held where ``z <= 0.5 h``, loaded where
+    ``z >= length - 0.5 h``."""
+    h = 1.0 / cells
+    doc = scene(cells, solver, model, m, length)
+    axes = [np.arange(cells + 1) * h, np.arange(cells + 1) * h, np.arange(-m, cells * length + 1) * h]
+    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    xyz = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    xyz += np.random.default_rng(34).uniform(-0.1 * h, 0.1 * h, size=xyz.shape)
+    layer = (z.ravel() < -0.5 * h).astype(int)
+    path = directory / f"cube-{cells}-{length}.csv"
+    with path.open("w") as f:
+        f.write("x,y,z,volume,layer\n")
+        for (a, b, c), k in zip(xyz, layer):
+            f.write(f"{float(a)!r},{float(b)!r},{float(c)!r},{h ** 3!r},{k}\n")
+    del doc["grid"]
+    doc["name"] = "cloud-scale-out-3d"
+    doc["nodes"] = {"csv": str(path.resolve())}
+    doc["constraints"][0]["region"]["box"]["max"][2] = 0.5 * h
+    doc["loads"][0]["region"]["box"]["min"][2] = length - 0.5 * h
+    return doc
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--spacing-cells", type=int, default=47)
@@ -60,6 +85,8 @@ def main() -> int:
     ap.add_argument("--weak", action="store_true",
                     help="weak scaling: P ranks solve a box of height P (the same unknowns per rank)")
     ap.add_argument("--gather", action="store_true", help="the driver's --gather (every rank builds the whole scene)")
+    ap.add_argument("--cloud", action="store_true",
+                    help="the cube as a CSV point cloud (the lattice's nodes moved by up to 0.1 h)")
     ap.add_argument("--parallel-petsc-options", default="",
                     help="PETSc options for the driver on more than one rank, e.g. '-matptap_via allatonce' "
                          "(an MPIAIJ option: one rank's SeqAIJ refuses it)")
@@ -67,11 +94,17 @@ def main() -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     binary = os.environ.get("LINPD_BIN", str(ROOT / "target" / "release" / "linpd"))
-    rows, u_ref = [], None
+    rows, u_ref, x_ref = [], None, None
+
+    def make(solver: dict, length: int) -> dict:
+        if args.cloud:
+            return cloud_scene(args.spacing_cells, solver, args.model, args.horizon_cells, length, out)
+        return scene(args.spacing_cells, solver, args.model, args.horizon_cells, length)
+
     for pre in args.linpd_solvers:
         path = out / f"scene-{pre}.json"
         solver = {"type": "auto"} if pre == "auto" else {"type": "cg", "preconditioner": pre}
-        path.write_text(json.dumps(scene(args.spacing_cells, solver, args.model, args.horizon_cells)))
+        path.write_text(json.dumps(make(solver, 1)))
         t = time.perf_counter()
         p = subprocess.run([binary, "solve", str(path), "--out", str(out / pre), "-q"], capture_output=True, text=True)
         wall = time.perf_counter() - t
@@ -80,6 +113,7 @@ def main() -> int:
         s = doc["stats"]["solve"]
         u = np.asarray(doc["u"], dtype=float)
         u_ref = u if u_ref is None else u_ref
+        x_ref = np.asarray(doc["x"], dtype=float) if x_ref is None else x_ref
         rows.append((f"linpd {s['solver']}", 1, s["n"], s["iterations"], s["timings"]["assemble"],
                      s["timings"]["setup"], s["timings"]["solve"], wall, s["rel_residual"],
                      [s["peak_rss_bytes"]], np.max(np.abs(u - u_ref)) / np.max(np.abs(u_ref))))
@@ -88,7 +122,7 @@ def main() -> int:
     for ranks in args.ranks:
         length = ranks if args.weak else 1
         path = out / f"scene-petsc-{length}.json"
-        path.write_text(json.dumps(scene(args.spacing_cells, {"type": "auto"}, args.model, args.horizon_cells, length)))
+        path.write_text(json.dumps(make({"type": "auto"}, length)))
         cmd = ["mpiexec", "-n", str(ranks)] + (["--allow-run-as-root"] if os.geteuid() == 0 else [])
         cmd += ["--oversubscribe", py, "-m", "linpd.petsc", str(path), "--out", str(out / f"petsc-{ranks}")]
         cmd += ["--gather"] if args.gather else []
@@ -103,8 +137,11 @@ def main() -> int:
             from linpd.petsc import read_pieces
 
             x, arrays = read_pieces(out / f"petsc-{ranks}")
-            order = np.lexsort((x[:, 0], x[:, 1], x[:, 2]))  # lattice order: x fastest
-            u = arrays["u"][order]
+            u = arrays["u"]
+            if x_ref is not None and len(x) == len(x_ref):
+                # the pieces' nodes in the reference's order, matched by position
+                where = {tuple(np.round(p * 1e9).astype(np.int64)): k for k, p in enumerate(x)}
+                u = u[[where[tuple(np.round(p * 1e9).astype(np.int64))] for p in x_ref]]
             memory.append((ranks, s["n"], s["rss_baseline_bytes_per_rank"], s["rss_model_bytes_per_rank"],
                            s["rss_assembled_bytes_per_rank"], s["peak_rss_bytes_per_rank"]))
         else:

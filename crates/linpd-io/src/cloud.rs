@@ -67,6 +67,60 @@ pub struct Cloud {
 
 /// Reads a CSV point cloud of dimension `dim`; errors name the file and the line.
 pub fn read_csv(path: &Path, dim: usize) -> Result<Cloud, IoError> {
+    let mut cloud = Cloud::default();
+    let columns = visit_csv(path, dim, &mut |node| {
+        cloud.positions.push(node.x);
+        cloud.volumes.push(node.volume);
+        cloud.layer.push(node.layer);
+        if let Some(p) = node.phase {
+            cloud.phase.push(p);
+        }
+        cloud.lines.push(node.line);
+    })?;
+    debug_assert!(columns.phase || cloud.phase.is_empty());
+    let size = cloud.volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
+    check_duplicates_at(&cloud.positions, dim, size).map_err(|(a, b)| duplicate(path, &cloud, dim, a, b))?;
+    Ok(cloud)
+}
+
+/// The error of node `b` coinciding with node `a` of a CSV file's `cloud`.
+pub fn duplicate(path: &Path, cloud: &Cloud, dim: usize, a: usize, b: usize) -> IoError {
+    CsvErrors { path: path.display().to_string() }.at(
+        cloud.lines[b],
+        format!(
+            "the node at {:?} coincides with the node of line {} (closer than {DUPLICATE_RTOL:e} node sizes)",
+            &cloud.positions[b][..dim],
+            cloud.lines[a]
+        ),
+    )
+}
+
+/// One data line of a CSV node file.
+#[derive(Debug, Clone, Copy)]
+pub struct CsvNode {
+    /// Position (unused coordinates 0).
+    pub x: Point,
+    /// Volume, `> 0`.
+    pub volume: f64,
+    /// Layer flag (false without a `layer` column).
+    pub layer: bool,
+    /// Phase number (`None` without a `phase` column).
+    pub phase: Option<u32>,
+    /// 1-based line in the file.
+    pub line: u64,
+}
+
+/// The optional columns a CSV node file has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CsvColumns {
+    /// Whether it has a `phase` column.
+    pub phase: bool,
+}
+
+/// Visits every node of the CSV file at `path` in file order, each line checked as
+/// [`read_csv`] checks it (every check but the duplicates', which needs the nodes), holding
+/// one line at a time: a distributed solve's ranks stream the file to keep their part of it.
+pub fn visit_csv(path: &Path, dim: usize, visit: &mut dyn FnMut(&CsvNode)) -> Result<CsvColumns, IoError> {
     let err = CsvErrors { path: path.display().to_string() };
     let mut reader = open_csv(path, &err)?;
     let headers = reader.headers().map_err(|e| err.at(1, format!("unreadable header ({e})")))?.clone();
@@ -78,8 +132,8 @@ pub fn read_csv(path: &Path, dim: usize) -> Result<Cloud, IoError> {
     };
     // every coordinate column of the dimension is present (checked by of_header)
     let coord_cols: Vec<usize> = cols.coord[..dim].iter().flatten().copied().collect();
-    let mut cloud = Cloud::default();
     let mut record = csv::StringRecord::new();
+    let mut count = 0u64;
     loop {
         let more = reader.read_record(&mut record).map_err(|e| {
             let line = e.position().map_or(0, |p| p.line());
@@ -94,40 +148,22 @@ pub fn read_csv(path: &Path, dim: usize) -> Result<Cloud, IoError> {
         }
         let node = Node { record: &record, line, err: &err };
         let x = node.position(&coord_cols)?;
-        let v = node.volume(volume_col)?;
-        if let Some(k) = cols.layer {
-            cloud.layer.push(node.layer(k)?);
-        }
-        if let Some(k) = cols.phase {
-            cloud.phase.push(node.phase(k)?);
-        }
-        if cloud.positions.len() == u32::MAX as usize {
+        let volume = node.volume(volume_col)?;
+        let layer = cols.layer.map(|k| node.layer(k)).transpose()?.unwrap_or(false);
+        let phase = cols.phase.map(|k| node.phase(k)).transpose()?;
+        if count == u32::MAX as u64 {
             return Err(err.at(line, "more than 2^32 - 1 nodes".into()));
         }
-        cloud.positions.push(x);
-        cloud.volumes.push(v);
-        cloud.lines.push(line);
+        count += 1;
+        visit(&CsvNode { x, volume, layer, phase, line });
     }
     if reader.position().byte() > MAX_CLOUD_BYTES {
         return Err(err.whole(format!("grew beyond {MAX_CLOUD_BYTES} bytes while read")));
     }
-    if cloud.positions.is_empty() {
+    if count == 0 {
         return Err(err.at(hline, "no nodes (a header and no data lines)".into()));
     }
-    if cloud.layer.is_empty() {
-        cloud.layer = vec![false; cloud.positions.len()];
-    }
-    check_duplicates(&cloud, dim).map_err(|(a, b)| {
-        err.at(
-            cloud.lines[b],
-            format!(
-                "the node at {:?} coincides with the node of line {} (closer than {DUPLICATE_RTOL:e} node sizes)",
-                &cloud.positions[b][..dim],
-                cloud.lines[a]
-            ),
-        )
-    })?;
-    Ok(cloud)
+    Ok(CsvColumns { phase: cols.phase.is_some() })
 }
 
 /// The errors of one node file: at a line, or of the whole file.
@@ -262,6 +298,12 @@ impl Node<'_> {
 /// coincides with an earlier one, `a`.
 pub fn check_duplicates(cloud: &Cloud, dim: usize) -> Result<(), (usize, usize)> {
     let size = cloud.volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
+    check_duplicates_at(&cloud.positions, dim, size)
+}
+
+/// [`check_duplicates`] of `positions` for the smallest node size `size` (a rank's part of a
+/// cloud checks its nodes against the whole cloud's).
+pub fn check_duplicates_at(positions: &[Point], dim: usize, size: f64) -> Result<(), (usize, usize)> {
     let tol = DUPLICATE_RTOL * size;
     if !(tol > 0.0 && tol.is_finite()) {
         return Ok(());
@@ -281,14 +323,14 @@ pub fn check_duplicates(cloud: &Cloud, dim: usize) -> Result<(), (usize, usize)>
     };
     let span = |a: usize| if a < dim { -1i64..=1 } else { 0..=0 };
     let mut cells: std::collections::HashMap<[i64; 3], Vec<u32>> = std::collections::HashMap::new();
-    for (i, x) in cloud.positions.iter().enumerate() {
+    for (i, x) in positions.iter().enumerate() {
         let c = cell(x);
         for d2 in span(2) {
             for d1 in span(1) {
                 for d0 in span(0) {
                     let key = [c[0].saturating_add(d0), c[1].saturating_add(d1), c[2].saturating_add(d2)];
                     for &j in cells.get(&key).map_or(&[][..], |v| v.as_slice()) {
-                        let y = &cloud.positions[j as usize];
+                        let y = &positions[j as usize];
                         let d: f64 = (0..dim).map(|a| (y[a] - x[a]).powi(2)).sum();
                         if d <= r2 {
                             return Err((j as usize, i));

@@ -58,8 +58,82 @@ pub(crate) fn into_nodes(cloud: Cloud, dim: usize) -> LevelNodes {
     nodes
 }
 
+/// What one pass over a whole cloud learns: the scale of its checks and the box its bins cut.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Summary {
+    pub(crate) count: usize,
+    /// `sum_i V_i`, added in file order.
+    pub(crate) volume_sum: f64,
+    pub(crate) max_volume: f64,
+    /// `min_i V_i^(1/d)`.
+    pub(crate) min_size: f64,
+    /// Lower and upper corners of the nodes' box (unused coordinates 0).
+    pub(crate) bounds: [linpd_core::Point; 2],
+}
+
+impl Summary {
+    pub(crate) fn new() -> Self {
+        Summary {
+            count: 0,
+            volume_sum: 0.0,
+            max_volume: 0.0,
+            min_size: f64::INFINITY,
+            bounds: [[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]],
+        }
+    }
+    pub(crate) fn add(&mut self, x: &linpd_core::Point, v: f64, dim: usize) {
+        self.count += 1;
+        self.volume_sum += v;
+        self.max_volume = self.max_volume.max(v);
+        self.min_size = self.min_size.min(v.powf(1.0 / dim as f64));
+        for a in 0..3 {
+            let x = if a < dim { x[a] } else { 0.0 };
+            self.bounds[0][a] = self.bounds[0][a].min(x);
+            self.bounds[1][a] = self.bounds[1][a].max(x);
+        }
+    }
+    pub(crate) fn of(positions: &[linpd_core::Point], volumes: &[f64], dim: usize) -> Self {
+        let mut s = Summary::new();
+        positions.iter().zip(volumes).for_each(|(x, &v)| s.add(x, v, dim));
+        s
+    }
+    /// [`mean_spacing`] of the cloud.
+    pub(crate) fn mean_spacing(&self, dim: usize) -> f64 {
+        (self.volume_sum / self.count as f64).powf(1.0 / dim as f64)
+    }
+    /// The tolerance scale of [`LevelNodes::new`]: the smallest node size capped by the box's
+    /// largest side.
+    pub(crate) fn tolerance_scale(&self) -> f64 {
+        let extent = (0..3).map(|a| self.bounds[1][a] - self.bounds[0][a]).fold(0.0f64, f64::max);
+        let h = if extent.is_finite() && extent > 0.0 { self.min_size.min(extent) } else { self.min_size };
+        if h.is_finite() {
+            h
+        } else {
+            1.0
+        }
+    }
+}
+
+/// Rank `part`'s slab of a cloud whose nodes fall in bins with `counts` nodes each: the halo's
+/// bins hold everything within `distance` of an owned node.
+fn slab_of(bins: &Bins, counts: &[usize], part: Part, distance: f64) -> Slab {
+    Slab::balanced(counts, part, bins.halo(distance))
+}
+
+/// The error of a rank whose window holds no node.
+fn empty_window(part: Part, slab: &Slab, bins: &Bins) -> ProblemError {
+    ProblemError::invalid(
+        "nodes",
+        format!(
+            "rank {} of {}: its slab of the point cloud (bins {}..{} of {} along axis {}, halo included) holds no \
+             node: run on fewer ranks",
+            part.rank, part.ranks, slab.window.start, slab.window.end, slab.planes, bins.axis
+        ),
+    )
+}
+
 /// Rank `part`'s window of the whole cloud `whole` ([`crate::part`]): the cloud's bins along
-/// its longest axis ([`Bins::of`], a quarter of `reach`, the bonds' longest length), split
+/// its longest axis ([`Bins::over`], a quarter of `reach`, the bonds' longest length), split
 /// into runs of about equal node counts ([`Slab::balanced`]), and the halo's bins holding
 /// everything within `reaches * reach` of an owned node. The window's nodes are in bin order,
 /// then in file order; they keep the whole cloud's tolerance scale `h` (so that every rank
@@ -71,28 +145,17 @@ pub(crate) fn window(
     reaches: usize,
     reach: f64,
 ) -> Result<(LevelNodes, Slab, CloudWindow), ProblemError> {
-    let bins = Bins::of(&whole.positions, whole.dim, reach);
-    let mut bounds = [[0.0; 3]; 2];
-    for a in 0..whole.dim {
-        bounds[0][a] = whole.positions.iter().map(|x| x[a]).fold(f64::INFINITY, f64::min);
-        bounds[1][a] = whole.positions.iter().map(|x| x[a]).fold(f64::NEG_INFINITY, f64::max);
-    }
+    let summary = Summary::of(&whole.positions, &whole.volumes, whole.dim);
+    let bins = Bins::over(&summary.bounds, whole.dim, reach);
     let bin: Vec<u32> = whole.positions.iter().map(|x| bins.of_point(x) as u32).collect();
     let mut counts = vec![0usize; bins.count];
     bin.iter().for_each(|&b| counts[b as usize] += 1);
-    let slab = Slab::balanced(&counts, part, bins.halo(reaches as f64 * reach));
+    let slab = slab_of(&bins, &counts, part, reaches as f64 * reach);
     let mut kept: Vec<u32> =
         (0..bin.len() as u32).filter(|&n| slab.window.contains(&(bin[n as usize] as usize))).collect();
     kept.sort_by_key(|&n| (bin[n as usize], n));
     if kept.is_empty() {
-        return Err(ProblemError::invalid(
-            "nodes",
-            format!(
-                "rank {} of {}: its slab of the point cloud (bins {}..{} of {} along axis {}, halo included) holds \
-                 no node: run on fewer ranks",
-                part.rank, part.ranks, slab.window.start, slab.window.end, slab.planes, bins.axis
-            ),
-        ));
+        return Err(empty_window(part, &slab, &bins));
     }
     let pick = |v: &[u32]| -> Vec<u32> {
         if v.is_empty() {
@@ -128,5 +191,66 @@ pub(crate) fn window(
         sets,
         boundary,
     };
-    Ok((nodes, slab, CloudWindow { bins, file_node: kept, bounds }))
+    Ok((nodes, slab, CloudWindow { bins, file_node: kept, bounds: summary.bounds }))
+}
+
+/// [`window`] of the CSV node file at `path`, streamed ([`linpd_io::cloud::visit_csv`]): a
+/// first pass `summary` (the caller's, which checked every line), a second counts the nodes
+/// per bin, a third keeps the window's nodes; no pass holds more than the window (and the
+/// bins' counts). `key` is the JSON path of the file name.
+pub(crate) fn csv_window(
+    path: &Path,
+    key: &str,
+    dim: usize,
+    summary: &Summary,
+    part: Part,
+    (reaches, reach): (usize, f64),
+) -> Result<(LevelNodes, Slab, CloudWindow), ProblemError> {
+    let io = |e: linpd_io::IoError| ProblemError::invalid(key, e.to_string());
+    let bins = Bins::over(&summary.bounds, dim, reach);
+    let mut counts = vec![0usize; bins.count];
+    linpd_io::cloud::visit_csv(path, dim, &mut |node| counts[bins.of_point(&node.x)] += 1).map_err(io)?;
+    let slab = slab_of(&bins, &counts, part, reaches as f64 * reach);
+    let mut cloud = Cloud::default();
+    let (mut file_node, mut bin) = (Vec::new(), Vec::new());
+    let mut next = 0u32;
+    linpd_io::cloud::visit_csv(path, dim, &mut |node| {
+        let b = bins.of_point(&node.x);
+        if slab.window.contains(&b) {
+            cloud.positions.push(node.x);
+            cloud.volumes.push(node.volume);
+            cloud.layer.push(node.layer);
+            cloud.phase.extend(node.phase);
+            cloud.lines.push(node.line);
+            file_node.push(next);
+            bin.push(b as u32);
+        }
+        next += 1;
+    })
+    .map_err(io)?;
+    let expected: usize = counts[slab.window.clone()].iter().sum();
+    if next as usize != summary.count || cloud.positions.len() != expected {
+        return Err(ProblemError::invalid(key, format!("{}: the file changed while read", path.display())));
+    }
+    if cloud.positions.is_empty() {
+        return Err(empty_window(part, &slab, &bins));
+    }
+    let mut order: Vec<usize> = (0..file_node.len()).collect();
+    order.sort_by_key(|&k| (bin[k], file_node[k]));
+    let sorted = Cloud {
+        positions: order.iter().map(|&k| cloud.positions[k]).collect(),
+        volumes: order.iter().map(|&k| cloud.volumes[k]).collect(),
+        layer: order.iter().map(|&k| cloud.layer[k]).collect(),
+        phase: if cloud.phase.is_empty() { Vec::new() } else { order.iter().map(|&k| cloud.phase[k]).collect() },
+        lines: order.iter().map(|&k| cloud.lines[k]).collect(),
+        ..Cloud::default()
+    };
+    let file_node = order.iter().map(|&k| file_node[k]).collect();
+    // two coincident nodes share a bin or neighbouring ones: the ranks whose windows hold them
+    // find them, at the whole cloud's tolerance
+    linpd_io::cloud::check_duplicates_at(&sorted.positions, dim, summary.min_size)
+        .map_err(|(a, b)| io(linpd_io::cloud::duplicate(path, &sorted, dim, a, b)))?;
+    let mut nodes = into_nodes(sorted, dim);
+    nodes.h = summary.tolerance_scale();
+    Ok((nodes, slab, CloudWindow { bins, file_node, bounds: summary.bounds }))
 }

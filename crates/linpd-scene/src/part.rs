@@ -130,18 +130,13 @@ impl Bins {
     /// At most this many bins (a cloud far longer than its reach gets wider bins).
     pub const MAX: usize = 1 << 20;
 
-    /// Bins of `reach / 4` (wider if there would be more than [`Bins::MAX`]) over `positions`
-    /// along their longest axis (the last of equally long ones, as a lattice's slowest axis).
-    pub fn of(positions: &[linpd_core::Point], dim: usize, reach: f64) -> Bins {
-        let span = |a: usize| {
-            positions.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x[a]), hi.max(x[a])))
-        };
-        let axis = (0..dim).rev().max_by(|&a, &b| {
-            let (sa, sb) = (span(a), span(b));
-            (sa.1 - sa.0).total_cmp(&(sb.1 - sb.0))
-        });
-        let axis = axis.unwrap_or(0);
-        let (lo, hi) = span(axis);
+    /// Bins of `reach / 4` (wider if there would be more than [`Bins::MAX`]) over the box
+    /// `bounds` (lower and upper corners of the nodes) along its longest axis (the last of
+    /// equally long ones, as a lattice's slowest axis).
+    pub fn over(bounds: &[linpd_core::Point; 2], dim: usize, reach: f64) -> Bins {
+        let side = |a: usize| bounds[1][a] - bounds[0][a];
+        let axis = (0..dim).rev().max_by(|&a, &b| side(a).total_cmp(&side(b))).unwrap_or(0);
+        let (lo, hi) = (bounds[0][axis], bounds[1][axis]);
         let extent = if hi > lo { hi - lo } else { 0.0 };
         let width = (reach / 4.0).max(extent / Self::MAX as f64);
         let width = if width.is_finite() && width > 0.0 { width } else { 1.0 };

@@ -2,7 +2,7 @@
 //! the point cloud of a scene, constraints and loads, the solver and the output sections. Each
 //! error names the JSON path of what is wrong.
 
-use crate::cloud::{mean_spacing, read_csv};
+use crate::cloud::read_csv;
 use crate::elastic::BondElastic;
 use crate::nodes::{LevelNodes, NodeSet};
 use crate::part::{halo_reaches, Part, Presences, Slab};
@@ -936,16 +936,36 @@ pub(crate) fn cloud_nodes(
             "point clouds get no map (their nodes are not on a lattice)",
         ));
     }
-    let cloud = match (&spec.csv, &spec.vtk, &spec.mesh, &spec.peridigm) {
-        (Some(f), None, None, None) => read_csv(&cx.base_dir.join(f), dim, "nodes.csv")?,
-        (None, Some(f), None, None) => crate::cloud::read_vtk(&cx.base_dir.join(f), dim, "nodes.vtk")?,
-        (None, None, Some(f), None) => crate::cloud::read_mesh(&cx.base_dir.join(f), dim, "nodes.mesh")?,
-        (None, None, None, Some(f)) => crate::cloud::read_peridigm(&cx.base_dir.join(f), dim, "nodes.peridigm")?,
-        _ => {
-            return Err(ProblemError::invalid(
-                "nodes",
-                "give exactly one of \"csv\", \"vtk\", \"mesh\" or \"peridigm\"",
-            ))
+    // a rank's part streams a CSV file (crate::cloud::csv_window): this first pass checks every
+    // line and sums what the checks below need; other formats are read whole, then cut
+    let streamed = match (&spec.csv, &spec.vtk, &spec.mesh, &spec.peridigm, cx.part, reaches) {
+        (Some(f), None, None, None, Some(_), Some(_)) if dim >= 2 => Some(cx.base_dir.join(f)),
+        _ => None,
+    };
+    let (cloud, summary) = match &streamed {
+        Some(file) => {
+            let mut summary = crate::cloud::Summary::new();
+            linpd_io::cloud::visit_csv(file, dim, &mut |node| summary.add(&node.x, node.volume, dim))
+                .map_err(|e| ProblemError::invalid("nodes.csv", e.to_string()))?;
+            (None, summary)
+        }
+        None => {
+            let cloud = match (&spec.csv, &spec.vtk, &spec.mesh, &spec.peridigm) {
+                (Some(f), None, None, None) => read_csv(&cx.base_dir.join(f), dim, "nodes.csv")?,
+                (None, Some(f), None, None) => crate::cloud::read_vtk(&cx.base_dir.join(f), dim, "nodes.vtk")?,
+                (None, None, Some(f), None) => crate::cloud::read_mesh(&cx.base_dir.join(f), dim, "nodes.mesh")?,
+                (None, None, None, Some(f)) => {
+                    crate::cloud::read_peridigm(&cx.base_dir.join(f), dim, "nodes.peridigm")?
+                }
+                _ => {
+                    return Err(ProblemError::invalid(
+                        "nodes",
+                        "give exactly one of \"csv\", \"vtk\", \"mesh\" or \"peridigm\"",
+                    ))
+                }
+            };
+            let summary = crate::cloud::Summary::of(&cloud.positions, &cloud.volumes, dim);
+            (Some(cloud), summary)
         }
     };
     if !(horizon.is_finite() && horizon > 0.0) {
@@ -959,7 +979,7 @@ pub(crate) fn cloud_nodes(
         Some((key, file)) => format!(" (is {key} {file:?} in another unit than the horizon?)"),
         None => String::new(),
     };
-    let h = mean_spacing(&cloud.volumes, dim);
+    let h = summary.mean_spacing(dim);
     let ratio = horizon / h;
     if ratio < 1.0 {
         return Err(ProblemError::invalid(
@@ -969,7 +989,7 @@ pub(crate) fn cloud_nodes(
             ),
         ));
     }
-    let extent = crate::nodes::extent(&cloud.positions, dim);
+    let extent = (0..dim).map(|a| summary.bounds[1][a] - summary.bounds[0][a]).fold(0.0f64, f64::max);
     if mesh.is_some() && horizon >= extent {
         return Err(ProblemError::invalid(
             "model.horizon",
@@ -984,25 +1004,33 @@ pub(crate) fn cloud_nodes(
             || raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid));
     // a ball quadrature bonds to delta + the largest equivalent radius
     let q = if ball { linpd_bond::quadrature::Quadrature::Ball } else { linpd_bond::quadrature::Quadrature::Full };
-    let reach = linpd_bond::quadrature::reach(q, dim, horizon, &cloud.volumes);
-    let nodes = crate::cloud::into_nodes(cloud, dim);
-    let nodes = match (cx.part, reaches) {
-        (None, _) => nodes,
-        (Some(_), None) => {
+    let reach = linpd_bond::quadrature::reach(q, dim, horizon, &[summary.max_volume]);
+    let nodes = match (cx.part, reaches, cloud, &streamed) {
+        (None, _, Some(cloud), _) => crate::cloud::into_nodes(cloud, dim),
+        (Some(_), None, _, _) => {
             return Err(ProblemError::invalid(
                 "model.type",
                 format!("the {} model on a point cloud {NO_PER_RANK_GEOMETRY}", raw.model.kind()),
             ))
         }
-        (Some(_), Some(_)) if dim < 2 => {
+        (Some(_), Some(_), _, _) if dim < 2 => {
             return Err(ProblemError::invalid("nodes", format!("a 1D point cloud {NO_PER_RANK_GEOMETRY}")))
         }
-        (Some(part), Some(reaches)) => {
-            let (window, slab, cloud) = crate::cloud::window(nodes, part, reaches, reach)?;
+        (Some(part), Some(reaches), Some(cloud), None) => {
+            let (window, slab, cloud) =
+                crate::cloud::window(crate::cloud::into_nodes(cloud, dim), part, reaches, reach)?;
             *cx.slab.borrow_mut() = Some(slab);
             *cx.cloud.borrow_mut() = Some(cloud);
             window
         }
+        (Some(part), Some(reaches), None, Some(file)) => {
+            let (window, slab, cloud) =
+                crate::cloud::csv_window(file, "nodes.csv", dim, &summary, part, (reaches, reach))?;
+            *cx.slab.borrow_mut() = Some(slab);
+            *cx.cloud.borrow_mut() = Some(cloud);
+            window
+        }
+        _ => return Err(ProblemError::invalid("nodes", "a cloud neither read nor streamed")),
     };
     let _ = crate::memory::check_cloud(path, dim, &nodes.positions, reach, multigrid)?;
     Ok((nodes, h))
