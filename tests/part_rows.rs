@@ -429,3 +429,99 @@ fn check_balance(parts: &[(Problem, PartRows)], solution: &linpd::scene::Solutio
         }
     }
 }
+
+/// The CSV bracket with a `phase` column (1 where `x > 0.5`), written beside the scenes; `edit`
+/// changes its data lines (0-based) first.
+fn phased_bracket(tag: &str, edit: impl Fn(usize, String) -> String) -> PathBuf {
+    let text = std::fs::read_to_string(data("bracket-nodes.csv")).unwrap();
+    let mut out = String::from("x,y,volume,phase\n");
+    for (k, line) in text.lines().filter(|l| !l.starts_with('#')).skip(1).enumerate() {
+        let x: f64 = line.split(',').next().unwrap().parse().unwrap();
+        out.push_str(&edit(k, format!("{line},{}", u8::from(x > 0.5))));
+        out.push('\n');
+    }
+    let dir = std::env::temp_dir().join(format!("linpd-part-rows-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{tag}.csv"));
+    std::fs::write(&path, out).unwrap();
+    path
+}
+
+#[test]
+fn heterogeneous_cracked_cloud() {
+    // a phase by number (the file's column) and a crack that only some windows hold
+    let csv = phased_bracket("phased", |_, l| l);
+    let path = scene_file("bracket-cloud-2d.json", "cloud-crack", |v| {
+        v["nodes"]["csv"] = csv.to_str().unwrap().into();
+        v["model"]["material"] = serde_json::json!({
+            "phases": [{"phase": 1, "modulus": 3.0}],
+            "defects": [{"segment": [[0.05, 0.2], [0.25, 0.2]], "factor": 0.0}]
+        });
+    });
+    for ranks in [2, 3] {
+        check(&path, ranks);
+    }
+}
+
+#[test]
+fn more_ranks_than_a_clouds_bins_can_share() {
+    // 3200 nodes in about 70 bins over 100 ranks: the ranks whose share a single bin exceeds
+    // own nothing and build one bin that holds nodes
+    let path = scene_file("bracket-cloud-2d.json", "cloud-many", |v| {
+        v["nodes"]["csv"] = data("bracket-nodes.csv").to_str().unwrap().into();
+    });
+    let parts = parts(&path, 100).unwrap();
+    let empty = parts.iter().filter(|(_, r)| r.row_range().unwrap().is_empty()).count();
+    assert!(empty > 0, "no rank owns nothing");
+    check(&path, 100);
+}
+
+#[test]
+fn a_cloud_part_gives_the_whole_scenes_errors() {
+    let parted = |path: &Path, ranks: usize| parts(path, ranks).err().unwrap();
+    // a phase number no node carries, a crack that cuts no bond: the whole scene's message from
+    // the ranks' or
+    for (tag, material, want) in [
+        ("no-phase", serde_json::json!({"phases": [{"phase": 7, "modulus": 3.0}]}), "model.material.phases[0].phase"),
+        (
+            "no-cut",
+            serde_json::json!({"defects": [{"segment": [[5.0, 5.0], [6.0, 5.0]], "factor": 0.0}]}),
+            "model.material.defects[0]",
+        ),
+    ] {
+        let csv = phased_bracket(tag, |_, l| l);
+        let path = scene_file("bracket-cloud-2d.json", tag, |v| {
+            v["nodes"]["csv"] = csv.to_str().unwrap().into();
+            v["model"]["material"] = material.clone();
+        });
+        let whole = Problem::from_path(&path).unwrap_err().to_string();
+        assert!(whole.starts_with(want), "{whole}");
+        assert_eq!(parted(&path, 3), whole);
+    }
+    // a bad line far from rank 0's nodes: rank 0's first pass reads every line
+    let csv = phased_bracket("bad-line", |k, l| if k == 3100 { l.replacen(',', ",abc,", 1) } else { l });
+    let path = scene_file("bracket-cloud-2d.json", "bad-line", |v| v["nodes"]["csv"] = csv.to_str().unwrap().into());
+    let whole = Problem::from_path(&path).unwrap_err().to_string();
+    assert!(whole.contains("line 3102: 5 fields, the header has 4"), "{whole}");
+    let e = Problem::from_path_part(&path, Part { rank: 0, ranks: 4 }).unwrap_err().to_string();
+    assert_eq!(e, whole);
+    // two coincident nodes: the ranks whose windows hold them name them as the whole scene does
+    let csv = phased_bracket("twins", |k, l| if k == 2000 { format!("{l}\n{l}") } else { l });
+    let path = scene_file("bracket-cloud-2d.json", "twins", |v| v["nodes"]["csv"] = csv.to_str().unwrap().into());
+    let whole = Problem::from_path(&path).unwrap_err().to_string();
+    assert!(whole.contains("coincides with the node of line"), "{whole}");
+    let found: Vec<String> = (0..3)
+        .filter_map(|rank| Problem::from_path_part(&path, Part { rank, ranks: 3 }).err().map(|e| e.to_string()))
+        .collect();
+    assert!(!found.is_empty() && found.iter().all(|e| *e == whole), "{found:?} vs {whole}");
+    // the discrete normalization's mean over the whole interior: refused by name (the driver
+    // then runs the whole scene on every rank)
+    let path = scene_file("plate-hole-mesh-2d.json", "discrete", |v| {
+        v["nodes"]["mesh"] = data("plate-hole-mesh-2d.msh").to_str().unwrap().into();
+        v["model"]["surface_correction"] = "none".into();
+        v["model"]["micromodulus"]["normalize"] = "discrete".into();
+    });
+    assert!(Problem::from_path(&path).is_ok());
+    let e = Problem::from_path_part(&path, Part { rank: 0, ranks: 2 }).unwrap_err().to_string();
+    assert!(e.starts_with("model.micromodulus.normalize: \"discrete\"") && e.contains("--gather"), "{e}");
+}

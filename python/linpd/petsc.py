@@ -6,20 +6,21 @@ Usage (under the site's MPI; as root OpenMPI also needs ``--allow-run-as-root``)
 
 Each rank
 
-1. reads and validates **its part** of a lattice scene (bond or LPS, 2D or 3D): the slab of
-   lattice planes it owns plus a halo, the only nodes it ever builds (docs/scale-out.md,
-   "Per-rank geometry"); what no part decides alone (a region holding a node, a resultant
-   load's volume, the support) is settled by reductions. With ``--gather``, and for scenes
-   without per-rank geometry (point clouds, meshes, blends, coarsened levels, node-numbered
-   files: rank 0 prints a note naming why), every rank builds the whole scene instead. The
+1. reads and validates **its part** of a lattice or point-cloud scene (bond or LPS, 2D or 3D):
+   the slab of lattice planes (of a cloud's bins along its longest axis) it owns plus a halo,
+   the only nodes it ever builds (docs/scale-out.md, "Per-rank geometry"); what no part decides
+   alone (a region holding a node, a resultant load's volume, the support) is settled by
+   reductions. With ``--gather``, and for scenes without per-rank geometry (blends, coarsened
+   levels, 1D, node-numbered files, a cloud's ``discrete`` normalization: rank 0 prints a note
+   naming why), every rank builds the whole scene instead. The
    checks are those of ``linpd solve`` (and a free DOF whose diagonal entry is zero, a mechanism
    such as the out-of-plane motion of a plate one node thick, is refused by name: ``linpd
    solve`` finds it when it factorizes, a KSP might not). After each stage that can fail every
    rank learns every other rank's outcome (one ``allgather``): a bad scene stops **all** ranks
    with linpd's message and exit code 1, and none of them is left waiting in a collective;
 2. owns a contiguous range of rows (per rank: its planes' free DOFs in the whole scene's
-   numbering, from one ``allgather`` of per-plane counts; ``--gather``: PETSc's balanced split
-   of the nodes) and hands **only its rows** of the reduced stiffness ``A_ff`` to a PETSc MPIAIJ
+   numbering, from one ``allgather`` of per-plane counts; a cloud's are numbered bin by bin,
+   then in file order; ``--gather``: PETSc's balanced split of the nodes) and hands **only its rows** of the reduced stiffness ``A_ff`` to a PETSc MPIAIJ
    matrix of block size ``d`` (per rank: preallocated from its rows' lengths and filled 16384
    rows at a time, so it never holds them twice);
 3. attaches the rigid-body modes (``MatNullSpaceCreateRigidBody`` of the nodes' coordinates)
@@ -365,7 +366,7 @@ def _whole(PETSc, comm, mpi, scene_path: str, out: Optional[str], petsc_args: Li
 
 def _parts(PETSc, comm, mpi, part, scene_path: str, out: Optional[str], petsc_args: List[str], t0: float,
            rss_baseline: int) -> int:
-    """Every rank builds only its slab of the lattice (``part``, see the module docstring);
+    """Every rank builds only its slab of the lattice or cloud (``part``, see the module docstring);
     the ranks write one piece each and rank 0 the index and ``result.json``."""
     from ._linpd import NativeOutput
 

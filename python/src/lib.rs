@@ -231,7 +231,7 @@ impl NativeScene {
     }
 }
 
-/// One MPI rank's part of a lattice scene (`linpd.petsc`'s per-rank geometry): the stages in
+/// One MPI rank's part of a lattice or point-cloud scene (`linpd.petsc`'s per-rank geometry): the stages in
 /// the order the driver calls them, each after the reduction over the ranks it needs.
 #[pyclass(module = "linpd._linpd")]
 struct NativePart {

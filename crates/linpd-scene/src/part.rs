@@ -76,7 +76,8 @@ impl Slab {
     /// The slab of `part` over planes holding `counts[k]` nodes each, with `halo` planes on each
     /// side: contiguous runs of planes, rank `p`'s starting at the first plane `k` with
     /// `sum_{l < k} counts[l] >= p N / P` (`N` nodes in all), so that the ranks own about
-    /// `N / P` nodes each; a rank owning nothing builds one plane (as in [`Slab::of`]).
+    /// `N / P` nodes each; a rank owning nothing builds one plane, the last plane before its
+    /// empty run (which holds nodes: a run starts just after the plane that reached its share).
     pub fn balanced(counts: &[usize], part: Part, halo: usize) -> Slab {
         let planes = counts.len();
         let total: u128 = counts.iter().map(|&c| c as u128).sum();
@@ -93,7 +94,7 @@ impl Slab {
         };
         let (first, last) = (cut(p), if p + 1 == ranks { planes } else { cut(p + 1) });
         let window = if first == last {
-            let k = first.min(planes.saturating_sub(1));
+            let k = first.saturating_sub(1).min(planes.saturating_sub(1));
             k..k + 1
         } else {
             first.saturating_sub(halo)..(last + halo).min(planes)

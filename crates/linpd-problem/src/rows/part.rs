@@ -3,10 +3,13 @@
 //! rows of its owned nodes are exact (the halo holds everything they reach), and the global
 //! numbering of the free DOFs comes from one exchange of per-plane counts.
 //!
-//! The numbering is the whole scene's (the one of [`super::RowSystem`] and `linpd export`):
-//! free DOFs ascend node-major, and the lattice's nodes ascend plane by plane along the slowest
-//! axis, so the free DOFs of plane `k` are numbered from `sum_{l < k} c_l`, `c_l` being plane
-//! `l`'s count of free DOFs. A rank counts its owned planes' ([`PartRows::plane_free_counts`]);
+//! On a lattice the numbering is the whole scene's (the one of [`super::RowSystem`] and `linpd
+//! export`): free DOFs ascend node-major, and the lattice's nodes ascend plane by plane along
+//! the slowest axis, so the free DOFs of plane `k` are numbered from `sum_{l < k} c_l`, `c_l`
+//! being plane `l`'s count of free DOFs. A point cloud's planes are its bins
+//! ([`linpd_scene::part::Bins`]) and its window's nodes ascend bin by bin, then in file order:
+//! the same rule numbers them, in that order rather than the file's
+//! ([`linpd_scene::scene::PartScene::cloud`] maps a window node to its number in the file). A rank counts its owned planes' ([`PartRows::plane_free_counts`]);
 //! the ranks gather everyone's, and [`PartRows::number`] numbers the window's free DOFs.
 //!
 //! What no window decides alone is handed to the caller to reduce: the presence checks
