@@ -132,29 +132,35 @@ def check_scene(scene: Path, ranks: int, petsc, tmp: Path, binary: str) -> None:
 
 
 def check_memory_limit(tmp: Path, binary: str) -> None:
-    """No rank builds the whole body: under ``LINPD_MEMORY_GIB=0.08`` per process, a cube of
-    31,713 nodes whose whole lattice linpd estimates at about 0.1 GiB is refused by ``linpd
-    solve`` and by the driver's ``--gather`` (every rank builds it whole), and solved by the
-    driver on 2 ranks, each of whose windows (17-18 of 33 planes) it estimates at about 0.06 GiB."""
+    """No rank builds the whole body: under ``LINPD_MEMORY_GIB`` per process, a scene whose whole
+    model linpd estimates above the limit is refused by ``linpd solve`` and by the driver's
+    ``--gather`` (every rank builds it whole), and solved by the driver on 2 ranks, each of whose
+    windows it estimates below: a cube of 31,713 lattice nodes (0.1 GiB whole, 0.06 GiB a window
+    of 17-18 of 33 planes; limit 0.08 GiB) and the same nodes as a CSV point cloud, each moved by
+    up to 0.1 h (0.7 GiB whole with the ball quadrature's longer bonds, 0.45-0.5 GiB a window;
+    limit 0.55 GiB)."""
     sys.path.insert(0, str(ROOT / "python" / "bench"))
     import scale_out
 
-    scene = tmp / "cube-limit.json"
-    scene.write_text(json.dumps(scale_out.scene(30, {"type": "auto"})))
-    limited = dict(os.environ, LINPD_MEMORY_GIB="0.08")
-    p = subprocess.run([binary, "solve", str(scene), "--out", str(tmp / "limit-linpd"), "-q"], capture_output=True,
-                       text=True, env=limited)
-    assert p.returncode != 0 and "more than the 0.1 GiB available (LINPD_MEMORY_GIB)" in p.stderr, p.stderr
-    p = mpiexec(2, [str(scene), "--gather", "--out", str(tmp / "limit-gather")], timeout=300, env=limited)
-    assert p.returncode != 0 and p.stderr.count("LINPD_MEMORY_GIB") == 2, p.stderr
-    p = mpiexec(2, [str(scene), "--out", str(tmp / "limit-parts"), "-ksp_rtol", "1e-12"], timeout=300, env=limited)
-    assert p.returncode == 0, f"{p.stdout}\n{p.stderr}"
-    own = tmp / "limit-linpd-free"
-    p = subprocess.run([binary, "solve", str(scene), "--out", str(own), "-q"], capture_output=True, text=True)
-    assert p.returncode == 0, p.stderr
-    rel = check_pieces(scene, 2, own, tmp / "limit-parts", 1e-10)
-    print(f"check_petsc: LINPD_MEMORY_GIB=0.08 refuses the whole cube (linpd solve, --gather) and 2 ranks solve it "
-          f"per rank: max|u_petsc - u_linpd| / max|u_linpd| = {rel:.2e}")
+    for tag, doc, limit in (("cube", scale_out.scene(30, {"type": "auto"}), "0.08"),
+                            ("cloud", scale_out.cloud_scene(30, {"type": "auto"}, "bond", 2, 1, tmp), "0.55")):
+        scene = tmp / f"{tag}-limit.json"
+        scene.write_text(json.dumps(doc))
+        limited = dict(os.environ, LINPD_MEMORY_GIB=limit)
+        p = subprocess.run([binary, "solve", str(scene), "--out", str(tmp / f"{tag}-limit-linpd"), "-q"],
+                           capture_output=True, text=True, env=limited)
+        assert p.returncode != 0 and "available (LINPD_MEMORY_GIB)" in p.stderr, p.stderr
+        p = mpiexec(2, [str(scene), "--gather", "--out", str(tmp / f"{tag}-limit-gather")], timeout=300, env=limited)
+        assert p.returncode != 0 and p.stderr.count("LINPD_MEMORY_GIB") == 2, p.stderr
+        p = mpiexec(2, [str(scene), "--out", str(tmp / f"{tag}-limit-parts"), "-ksp_rtol", "1e-12"], timeout=300,
+                    env=limited)
+        assert p.returncode == 0, f"{p.stdout}\n{p.stderr}"
+        own = tmp / f"{tag}-limit-linpd-free"
+        p = subprocess.run([binary, "solve", str(scene), "--out", str(own), "-q"], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+        rel = check_pieces(scene, 2, own, tmp / f"{tag}-limit-parts", 1e-10)
+        print(f"check_petsc: LINPD_MEMORY_GIB={limit} refuses the whole {tag} (linpd solve, --gather) and 2 ranks "
+              f"solve it per rank: max|u_petsc - u_linpd| / max|u_linpd| = {rel:.2e}")
 
 
 def check_petsc64(path64: str, tmp: Path, binary: str) -> None:
