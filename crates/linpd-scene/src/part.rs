@@ -150,10 +150,12 @@ impl Bins {
         (((x[self.axis] - self.origin) / self.width).floor().max(0.0) as usize).min(self.count - 1)
     }
 
-    /// Bins on each side that hold every node within `distance` of a node's own bin (one more
-    /// for the rounding of the bins' edges).
+    /// Bins on each side that hold every node within `distance` of a node in a given bin:
+    /// nodes `a` and `b` bins apart are more than `(a - b - 1) width` apart along the axis, so
+    /// `ceil(distance / width)` bins (the distance widened by `1e-6` for the family's own
+    /// tolerance and the bins' rounding).
     pub fn halo(&self, distance: f64) -> usize {
-        (distance * (1.0 + 1e-6) / self.width).ceil() as usize + 1
+        (distance * (1.0 + 1e-6) / self.width).ceil() as usize
     }
 }
 
