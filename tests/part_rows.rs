@@ -525,3 +525,20 @@ fn a_cloud_part_gives_the_whole_scenes_errors() {
     let e = Problem::from_path_part(&path, Part { rank: 0, ranks: 2 }).unwrap_err().to_string();
     assert!(e.starts_with("model.micromodulus.normalize: \"discrete\"") && e.contains("--gather"), "{e}");
 }
+
+#[test]
+fn a_mechanism_is_named_by_its_nodes_position() {
+    // a plate one node thick in 3D: nothing holds its nodes out of plane (tests/robust_entry.rs)
+    let path = scene_file("cantilever-3d.json", "flat", |v| {
+        v["grid"] =
+            serde_json::json!({"min": [0.0, 0.0, 0.0], "max": [1.0, 0.5, 0.1], "spacing": 0.1, "layer": {"x-": 0.3}});
+        v["body"] = serde_json::json!({"box": {"min": [-1.0, -1.0, -1.0], "max": [2.0, 2.0, 0.01]}});
+        v["model"]["horizon"] = 0.3.into();
+    });
+    assert!(Problem::from_path(&path).unwrap().row_system().is_err());
+    let e = parts(&path, 1).err().unwrap();
+    assert!(
+        e.starts_with("constraints: the stiffness's diagonal entry at the node at [") && e.contains("component 2"),
+        "{e}"
+    );
+}

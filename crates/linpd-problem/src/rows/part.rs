@@ -89,8 +89,27 @@ pub fn part_rows(p: &Problem) -> Result<PartRows, ProblemError> {
         let k = plane_of[n] as usize - slab.owned.start;
         plane_free[k] += (0..d).filter(|&a| !dofs.is_constrained(d * n + a)).count();
     }
-    let rhs = linpd_solve::statics::reduced_rhs_of_rows(m, &system.bc, &system.f, owned.clone())
-        .map_err(|e| p.model().static_error(e))?;
+    let rhs =
+        linpd_solve::statics::reduced_rhs_of_rows(m, &system.bc, &system.f, owned.clone()).map_err(|e| match e {
+            // a window's free DOF number means nothing outside the rank: name the node by its position
+            linpd_solve::StaticError::AtDof {
+                source: linpd_solve::SolveError::ZeroDiagonal { value, dof, .. },
+                ..
+            } => {
+                let g = dofs.free_dofs()[dof];
+                let x = p.nodes().position(g / d);
+                ProblemError::invalid(
+                    "constraints",
+                    format!(
+                    "the stiffness's diagonal entry at the node at {:?}, component {}, is {value:e}: the stiffness is \
+                     singular there (a DOF nothing holds: a mechanism or a missing constraint)",
+                    &x[..d],
+                    g % d
+                ),
+                )
+            }
+            e => p.model().static_error(e),
+        })?;
     let asymmetry = m.asymmetry(dofs);
     let row_dofs = (d * first..d * last).filter(|&g| !dofs.is_constrained(g)).collect();
     let built_for = (p.name().to_string(), p.model().name());
