@@ -181,6 +181,13 @@ fn check(path: &Path, ranks: usize) {
         let piece = r.solution(p, &u_window, report).unwrap();
         for (k, x) in piece.x.iter().enumerate() {
             let node = *node_at.get(&key(x)).unwrap_or_else(|| panic!("{what}: piece node {k} at {x:?}"));
+            // a cloud's piece names each node's number in the file: the whole scene's node
+            let file_node = piece.file_node.as_ref().map(|f| f[k] as usize);
+            assert_eq!(file_node.is_some(), whole.grid().is_none(), "{what}: file numbers on clouds only");
+            assert!(
+                file_node.is_none_or(|f| f == node),
+                "{what}: piece node {k} is file node {file_node:?}, not {node}"
+            );
             let du = max_abs((0..d).map(|a| piece.u[d * k + a] - solution.u[d * node + a]));
             assert!(du <= 1e-12 * max_abs(solution.u.iter().copied()), "{what}: u at {x:?} differs by {du:e}");
             // each field against its own largest value
@@ -538,7 +545,8 @@ fn a_mechanism_is_named_by_its_nodes_position() {
     assert!(Problem::from_path(&path).unwrap().row_system().is_err());
     let e = parts(&path, 1).err().unwrap();
     assert!(
-        e.starts_with("constraints: the stiffness's diagonal entry at the node at [") && e.contains("component 2"),
+        e.starts_with("constraints: the row system: the stiffness's diagonal entry at the node at [")
+            && e.contains("component 2"),
         "{e}"
     );
 }

@@ -307,6 +307,7 @@ impl SceneModel for ScaledBond {
             dilatation: None,
             cells: None,
             graded_mesh: None,
+            file_node: None,
             material: Vec::new(),
             stress: None,
             pd_stress: None,

@@ -147,7 +147,9 @@ def _default_pc(PETSc, symmetric: bool, d: int) -> str:
 def read_pieces(directory) -> Tuple[np.ndarray, Dict[str, np.ndarray]]:
     """``(x, arrays)`` of a per-rank result directory: the nodes' positions ``(n, 3)`` and the
     point arrays (``u``: ``(n, 3)``, ``strain``: ``(n, 9)``, ...) of all pieces of ``result.json``
-    in piece order (each piece's nodes in lattice order). Reads linpd's own ASCII pieces."""
+    in piece order (each piece's nodes in lattice order; a point cloud's bin by bin, with
+    ``file_node``: each node's 0-based number in the cloud's file, so ``u[argsort(file_node)]``
+    is in the file's order). Reads linpd's own ASCII pieces."""
     import xml.etree.ElementTree as ET
     from pathlib import Path
 

@@ -69,6 +69,11 @@ def check_pieces(scene: Path, ranks: int, own: Path, dist: Path, tol: float) -> 
         seen[k] += 1
         ub[k] = u
     assert np.all(seen == 1), f"{scene.name}: nodes in no piece or in two: {np.flatnonzero(seen != 1)[:5]}"
+    if "file_node" in arrays:
+        # a cloud's pieces name each node's number in the file: linpd solve's node order
+        k = arrays["file_node"][:, 0].astype(np.int64)
+        assert np.array_equal(np.sort(k), np.arange(len(x))), f"{scene.name}: file_node is not a permutation"
+        assert np.allclose(x[k], points[:, : x.shape[1]], rtol=0, atol=1e-12 * np.max(np.abs(x))), scene.name
     assert b["nodes"] == len(x), (b["nodes"], len(x))
     rel = float(np.max(np.abs(ua - ub)) / np.max(np.abs(ua)))
     assert rel <= tol, f"{scene.name}: per-rank PETSc and linpd differ by {rel:.3e} > {tol:.0e}"

@@ -377,6 +377,8 @@ pub enum PointValues<'a> {
     },
     /// One `UInt8` per node (flags).
     UInt8(&'a dyn Fn(usize) -> u8),
+    /// One `UInt32` per node (node numbers).
+    UInt32(&'a dyn Fn(usize) -> u32),
 }
 
 /// One point-data array of a VTU file.
@@ -481,6 +483,7 @@ pub fn write_vtu_cells(
             match &a.values {
                 PointValues::Float64 { components, value } => floats(&mut w, a.name, *components, value)?,
                 PointValues::UInt8(value) => ints(&mut w, a.name, "UInt8", &|k| value(k).to_string())?,
+                PointValues::UInt32(value) => ints(&mut w, a.name, "UInt32", &|k| value(k).to_string())?,
             }
         }
         writeln!(w, "      </PointData>\n      <Points>")?;
@@ -526,6 +529,7 @@ pub fn write_pvtu(path: &Path, arrays: &[PointArray], pieces: &[String]) -> Resu
             let (ty, components) = match &a.values {
                 PointValues::Float64 { components, .. } => ("Float64", *components),
                 PointValues::UInt8(_) => ("UInt8", 1),
+                PointValues::UInt32(_) => ("UInt32", 1),
             };
             let nc = if components == 1 { String::new() } else { format!(r#" NumberOfComponents="{components}""#) };
             writeln!(w, r#"      <PDataArray type="{ty}" Name="{}"{nc}/>"#, a.name)?;

@@ -223,6 +223,10 @@ impl Solution {
             PointArray { name: "u", values: PointValues::Float64 { components: 3, value: &u } },
             PointArray { name: "layer", values: PointValues::UInt8(&layer) },
         ];
+        let file_node = |k: usize| self.file_node.as_ref().map_or(0, |f| f[k]);
+        if self.file_node.as_ref().is_some_and(|f| f.len() == n) {
+            arrays.push(PointArray { name: "file_node", values: PointValues::UInt32(&file_node) });
+        }
         let volume = |k: usize, _: usize| self.volumes[k];
         if self.volumes.len() == n {
             arrays.push(PointArray { name: "volume", values: PointValues::Float64 { components: 1, value: &volume } });

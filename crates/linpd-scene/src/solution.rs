@@ -52,6 +52,9 @@ pub struct Solution {
     pub material: Vec<crate::elastic::PhaseConstants>,
     /// The graded local mesh of a blended scene against its lattice (`stats.graded_mesh`).
     pub graded_mesh: Option<GradedMeshSummary>,
+    /// A rank's piece of a point cloud: each node's number in the cloud's file (0-based), the
+    /// VTU array `file_node` (the pieces are in the distributed order, bin by bin).
+    pub file_node: Option<Vec<u32>>,
 }
 
 /// `result.json`'s `stats.graded_mesh`: the graded local mesh (`model.local_mesh`) of a blended

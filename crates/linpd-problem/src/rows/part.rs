@@ -101,8 +101,8 @@ pub fn part_rows(p: &Problem) -> Result<PartRows, ProblemError> {
                 ProblemError::invalid(
                     "constraints",
                     format!(
-                    "the stiffness's diagonal entry at the node at {:?}, component {}, is {value:e}: the stiffness is \
-                     singular there (a DOF nothing holds: a mechanism or a missing constraint)",
+                    "the row system: the stiffness's diagonal entry at the node at {:?}, component {}, is {value:e}: \
+                     the stiffness is singular there (a DOF nothing holds: a mechanism or a missing constraint)",
                     &x[..d],
                     g % d
                 ),
@@ -345,6 +345,10 @@ impl PartRows {
         let u = self.expand(u_window)?;
         let whole = p.with_material(p.model().solution(p, &self.system, u, report)?);
         let nodes: Vec<usize> = self.owned_nodes.clone().collect();
-        Ok(whole.restricted(&nodes))
+        let mut piece = whole.restricted(&nodes);
+        if let Some(cloud) = p.part().and_then(|part| part.cloud.as_ref()) {
+            piece.file_node = Some(nodes.iter().map(|&k| cloud.file_node[k]).collect());
+        }
+        Ok(piece)
     }
 }

@@ -601,6 +601,7 @@ pub(crate) fn solution(name: &str, b: &BlendScene, s: linpd_blend::BlendSolution
         dilatation: None,
         cells: None,
         graded_mesh: None,
+        file_node: None,
         material: Vec::new(),
         stress: None,
         pd_stress: None,

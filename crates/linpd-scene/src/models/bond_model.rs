@@ -353,6 +353,7 @@ pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f6
         dilatation: None,
         cells: None,
         graded_mesh: None,
+        file_node: None,
         material: Vec::new(),
         stress: None,
         pd_stress,

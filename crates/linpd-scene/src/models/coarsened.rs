@@ -324,6 +324,7 @@ fn solution(p: &Problem, c: &CoarsenedModel, u: Vec<f64>, report: SolveReport) -
         dilatation: None,
         cells: None,
         graded_mesh: None,
+        file_node: None,
         material: Vec::new(),
         stress: None,
         pd_stress: None,

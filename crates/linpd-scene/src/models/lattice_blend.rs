@@ -503,6 +503,7 @@ fn graded_solution(
             nnz: graded.zones().nnz,
             nnz_pd: graded.zones().nnz_pd,
         }),
+        file_node: None,
         report,
     })
 }

@@ -464,6 +464,7 @@ pub(crate) fn solution(p: &Problem, model: &LpsModel, u: Vec<f64>, report: Solve
         dilatation,
         cells: None,
         graded_mesh: None,
+        file_node: None,
         material: Vec::new(),
         stress: None,
         pd_stress: None,
