@@ -308,6 +308,16 @@ fn point_clouds_and_meshes() {
             check(&path, r);
         }
     }
+    // LPS on the graded mesh (its windows' mean spacings differ from the whole mesh's) with the
+    // position-aware correction
+    let path = scene_file("plate-hole-mesh-2d.json", "mesh-lps", |v| {
+        v["nodes"]["mesh"] = data("plate-hole-mesh-2d.msh").to_str().unwrap().into();
+        v["model"] = serde_json::json!({"type": "lps", "horizon": 0.02, "plane": "stress", "bulk_modulus": 1.0,
+                                        "shear_modulus": 0.6, "surface_correction": "position_aware"});
+    });
+    for ranks in [2, 3] {
+        check(&path, ranks);
+    }
 }
 
 #[test]
@@ -521,6 +531,28 @@ fn a_cloud_part_gives_the_whole_scenes_errors() {
         .filter_map(|rank| Problem::from_path_part(&path, Part { rank, ranks: 3 }).err().map(|e| e.to_string()))
         .collect();
     assert!(!found.is_empty() && found.iter().all(|e| *e == whole), "{found:?} vs {whole}");
+    // a surface correction with layer nodes: their fit is the whole cloud's fullest family's,
+    // which no window knows: refused by name
+    let text = std::fs::read_to_string(data("bracket-nodes.csv")).unwrap();
+    let mut layered = String::from("x,y,volume,layer\n");
+    for line in text.lines().filter(|l| !l.starts_with('#')).skip(1) {
+        let y: f64 = line.split(',').nth(1).unwrap().parse().unwrap();
+        layered.push_str(&format!("{line},{}\n", u8::from(y > 0.97)));
+    }
+    let csv = std::env::temp_dir().join(format!("linpd-part-rows-{}", std::process::id())).join("layered.csv");
+    std::fs::write(&csv, layered).unwrap();
+    let path = scene_file("bracket-cloud-2d.json", "layered", |v| {
+        v["nodes"]["csv"] = csv.to_str().unwrap().into();
+        v["model"]["surface_correction"] = "energy".into();
+    });
+    assert!(Problem::from_path(&path).is_ok());
+    let e = Problem::from_path_part(&path, Part { rank: 1, ranks: 2 }).unwrap_err().to_string();
+    assert!(
+        e.starts_with(
+            "model.surface_correction: a surface correction on a point cloud with `layer` nodes has no per-rank"
+        ),
+        "{e}"
+    );
     // the discrete normalization's mean over the whole interior: refused by name (the driver
     // then runs the whole scene on every rank)
     let path = scene_file("plate-hole-mesh-2d.json", "discrete", |v| {
@@ -549,4 +581,33 @@ fn a_mechanism_is_named_by_its_nodes_position() {
             && e.contains("component 2"),
         "{e}"
     );
+}
+
+#[test]
+fn a_graded_clouds_windows_keep_the_whole_clouds_tolerance() {
+    // fine nodes (h = 0.01) on x < 0.5, coarse ones (0.02) beyond: the windows of the coarse
+    // part alone have a smallest node twice the whole cloud's. A phase boundary 1.5e-11 beyond a
+    // column of coarse nodes (x = 1.5) leaves them outside at the whole cloud's tolerance
+    // (1e-9 x 0.01), inside at a coarse window's (1e-9 x 0.02)
+    let mut text = String::from("x,y,volume\n");
+    for (x0, x1, h) in [(0.0, 0.5, 0.01), (0.5, 2.0, 0.02)] {
+        let (nx, ny) = (((x1 - x0) / h) as usize, (0.5 / h) as usize);
+        for i in 0..nx {
+            for j in 0..ny {
+                text.push_str(&format!("{},{},{}\n", x0 + (i as f64 + 0.5) * h, (j as f64 + 0.5) * h, h * h));
+            }
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("linpd-part-rows-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = dir.join("graded.csv");
+    std::fs::write(&csv, text).unwrap();
+    let path = scene_file("bracket-cloud-2d.json", "graded", |v| {
+        v["nodes"]["csv"] = csv.to_str().unwrap().into();
+        v["model"]["horizon"] = 0.05.into();
+        v["model"]["material"] = serde_json::json!({"phases": [{"region": {"box": {"min": [1.51 + 1.5e-11, -1.0], "max": [3.0, 1.0]}}, "modulus": 3.0}]});
+        v["constraints"][0]["region"] = serde_json::json!({"box": {"min": [-1.0, -1.0], "max": [0.02, 1.0]}});
+        v["loads"][0]["region"] = serde_json::json!({"box": {"min": [1.98, -1.0], "max": [3.0, 1.0]}});
+    });
+    check(&path, 8);
 }

@@ -96,7 +96,8 @@ impl BondOperator {
     /// nodes (those whose whole horizon lies in the body; an error when there is none) of
     /// `M_i = sum_j g(|xi|) nu_ij V_j |xi|^2`, the cloud's own sum as a lattice's stencil sum is
     /// the lattice's; otherwise the amplitude is taken with `h = 0` and `interior` is not read.
-    /// The micromodulus' `partial_volume` is ignored here.
+    /// The micromodulus' `partial_volume` is ignored here. `whole`: the nodes are a rank's part
+    /// of a larger cloud, whose smallest node size scales the crossing and phase tolerances.
     #[allow(clippy::too_many_arguments)]
     pub fn on_points(
         dim: usize,
@@ -108,6 +109,7 @@ impl BondOperator {
         moduli: Option<&[f64]>,
         quadrature: Quadrature,
         interior: &[bool],
+        whole: Option<linpd_core::family::CloudScales>,
     ) -> Result<Self, CoreError> {
         if !(horizon.is_finite() && horizon > 0.0) {
             return Err(CoreError::param("horizon", format!("must be > 0, got {horizon:e}")));
@@ -115,7 +117,11 @@ impl BondOperator {
         assert_eq!(positions.len(), volumes.len(), "one volume per node");
         micromodulus.validate(dim)?;
         material.validate(dim)?;
-        let h_min = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
+        // a part of a cloud tests crossings and phases at the whole cloud's tolerance
+        let h_min = match whole {
+            Some(w) => w.min_size,
+            None => volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64))),
+        };
         let tol = GEOMETRY_RTOL * h_min;
         let scale: Vec<f64> = volumes.iter().map(|&v| quadrature.node_scale(dim, v)).collect();
         // the largest equivalent radius (the ball quadrature's scales), how far bonds reach

@@ -201,6 +201,17 @@ impl CellList {
     }
 }
 
+/// What a rank's part of a point cloud takes from the whole cloud (a distributed solve: the
+/// part holds only the rank's window of the nodes), so that the rows it builds are the whole
+/// cloud's: the scales its geometric tolerances and checks are relative to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CloudScales {
+    /// The whole cloud's smallest node size `min_i V_i^(1/d)` (tolerances `GEOMETRY_RTOL` times it).
+    pub min_size: f64,
+    /// The whole cloud's mean node volume `sum_i V_i / n`.
+    pub mean_volume: f64,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -324,14 +324,48 @@ impl LpsModel {
         params: &LpsParams,
         defects: &[linpd_core::Defect],
     ) -> Result<Self, LpsError> {
+        Self::on_points_of(dim, positions, volumes, (params, defects), None)
+    }
+
+    /// [`LpsModel::on_points`] on a rank's part of a larger cloud (a distributed solve): the
+    /// whole cloud's `scales` set the horizon check, the tolerances and the mean node volume,
+    /// and a node without weighted volume is an error only where `owned` (a node at the
+    /// window's edge may have lost its bonds to nodes beyond it; its rows are not used, and a
+    /// node that has none in the whole cloud is an error on the rank that owns it).
+    pub fn on_part_of_points(
+        dim: usize,
+        positions: Vec<Point>,
+        volumes: &[f64],
+        (params, defects): (&LpsParams, &[linpd_core::Defect]),
+        scales: linpd_core::family::CloudScales,
+        owned: &dyn Fn(usize) -> bool,
+    ) -> Result<Self, LpsError> {
+        Self::on_points_of(dim, positions, volumes, (params, defects), Some((scales, owned)))
+    }
+
+    fn on_points_of(
+        dim: usize,
+        positions: Vec<Point>,
+        volumes: &[f64],
+        (params, defects): (&LpsParams, &[linpd_core::Defect]),
+        part: Option<(linpd_core::family::CloudScales, &dyn Fn(usize) -> bool)>,
+    ) -> Result<Self, LpsError> {
         assert_eq!(positions.len(), volumes.len(), "one volume per node");
         let n = positions.len();
         let size: Vec<f64> = volumes.iter().map(|v| v.powf(1.0 / dim as f64)).collect();
-        let mean = if n == 0 { 0.0 } else { (volumes.iter().sum::<f64>() / n as f64).powf(1.0 / dim as f64) };
+        let mean_volume = match part {
+            Some((scales, _)) => scales.mean_volume,
+            None if n == 0 => 0.0,
+            None => volumes.iter().sum::<f64>() / n as f64,
+        };
+        let mean = mean_volume.powf(1.0 / dim as f64);
         params.validate(dim, mean)?;
         let delta = params.horizon;
         let full = BondFamily::from_points(&positions, dim, delta);
-        let h_min = size.iter().fold(f64::INFINITY, |m, &s| m.min(s));
+        let h_min = match part {
+            Some((scales, _)) => scales.min_size,
+            None => size.iter().fold(f64::INFINITY, |m, &s| m.min(s)),
+        };
         let tol = linpd_core::GEOMETRY_RTOL * h_min;
         let factor = |i: usize, j: usize| -> f64 {
             let (a, b) = (i.min(j), i.max(j));
@@ -358,8 +392,11 @@ impl LpsModel {
                 wv.push(w);
                 len.push(r);
             }
-            if *mi <= 0.0 {
-                return Err(LpsError::ZeroWeightedVolume { node: i, position: positions[i] });
+            match part {
+                // beyond the owned nodes: never read by an owned row when its bonds were cut
+                Some((_, owned)) if *mi <= 0.0 && !owned(i) => *mi = 1.0,
+                _ if *mi <= 0.0 => return Err(LpsError::ZeroWeightedVolume { node: i, position: positions[i] }),
+                _ => {}
             }
         }
         Ok(LpsModel {

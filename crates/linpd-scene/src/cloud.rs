@@ -62,6 +62,8 @@ pub(crate) fn into_nodes(cloud: Cloud, dim: usize) -> LevelNodes {
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Summary {
     pub(crate) count: usize,
+    /// Nodes with the `layer` flag.
+    pub(crate) layers: usize,
     /// `sum_i V_i`, added in file order.
     pub(crate) volume_sum: f64,
     pub(crate) max_volume: f64,
@@ -75,14 +77,16 @@ impl Summary {
     pub(crate) fn new() -> Self {
         Summary {
             count: 0,
+            layers: 0,
             volume_sum: 0.0,
             max_volume: 0.0,
             min_size: f64::INFINITY,
             bounds: [[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]],
         }
     }
-    pub(crate) fn add(&mut self, x: &linpd_core::Point, v: f64, dim: usize) {
+    pub(crate) fn add(&mut self, x: &linpd_core::Point, v: f64, layer: bool, dim: usize) {
         self.count += 1;
+        self.layers += usize::from(layer);
         self.volume_sum += v;
         self.max_volume = self.max_volume.max(v);
         self.min_size = self.min_size.min(v.powf(1.0 / dim as f64));
@@ -92,10 +96,23 @@ impl Summary {
             self.bounds[1][a] = self.bounds[1][a].max(x);
         }
     }
-    pub(crate) fn of(positions: &[linpd_core::Point], volumes: &[f64], dim: usize) -> Self {
+    pub(crate) fn of(positions: &[linpd_core::Point], volumes: &[f64], layer: &[bool], dim: usize) -> Self {
         let mut s = Summary::new();
-        positions.iter().zip(volumes).for_each(|(x, &v)| s.add(x, v, dim));
+        for (k, (x, &v)) in positions.iter().zip(volumes).enumerate() {
+            s.add(x, v, layer.get(k).copied().unwrap_or(false), dim);
+        }
         s
+    }
+    /// The scales a window of this cloud keeps.
+    pub(crate) fn scales(&self) -> linpd_core::family::CloudScales {
+        linpd_core::family::CloudScales { min_size: self.min_size, mean_volume: self.volume_sum / self.count as f64 }
+    }
+    /// Whether a second pass saw the same cloud (every sum in the same order: bit for bit).
+    fn same(&self, other: &Summary) -> bool {
+        self.count == other.count
+            && self.layers == other.layers
+            && self.volume_sum.to_bits() == other.volume_sum.to_bits()
+            && self.bounds == other.bounds
     }
     /// [`mean_spacing`] of the cloud.
     pub(crate) fn mean_spacing(&self, dim: usize) -> f64 {
@@ -145,7 +162,7 @@ pub(crate) fn window(
     reaches: usize,
     reach: f64,
 ) -> Result<(LevelNodes, Slab, CloudWindow), ProblemError> {
-    let summary = Summary::of(&whole.positions, &whole.volumes, whole.dim);
+    let summary = Summary::of(&whole.positions, &whole.volumes, &whole.layer, whole.dim);
     let bins = Bins::over(&summary.bounds, whole.dim, reach);
     let bin: Vec<u32> = whole.positions.iter().map(|x| bins.of_point(x) as u32).collect();
     let mut counts = vec![0usize; bins.count];
@@ -190,6 +207,7 @@ pub(crate) fn window(
         what: whole.what,
         sets,
         boundary,
+        whole: Some(summary.scales()),
     };
     Ok((nodes, slab, CloudWindow { bins, file_node: kept, bounds: summary.bounds }))
 }
@@ -209,7 +227,16 @@ pub(crate) fn csv_window(
     let io = |e: linpd_io::IoError| ProblemError::invalid(key, e.to_string());
     let bins = Bins::over(&summary.bounds, dim, reach);
     let mut counts = vec![0usize; bins.count];
-    linpd_io::cloud::visit_csv(path, dim, &mut |node| counts[bins.of_point(&node.x)] += 1).map_err(io)?;
+    let mut again = Summary::new();
+    linpd_io::cloud::visit_csv(path, dim, &mut |node| {
+        counts[bins.of_point(&node.x)] += 1;
+        again.add(&node.x, node.volume, node.layer, dim);
+    })
+    .map_err(io)?;
+    let changed = || ProblemError::invalid(key, format!("{}: the file changed while read", path.display()));
+    if !summary.same(&again) {
+        return Err(changed());
+    }
     let slab = slab_of(&bins, &counts, part, reaches as f64 * reach);
     let mut cloud = Cloud::default();
     let (mut file_node, mut bin) = (Vec::new(), Vec::new());
@@ -230,7 +257,7 @@ pub(crate) fn csv_window(
     .map_err(io)?;
     let expected: usize = counts[slab.window.clone()].iter().sum();
     if next as usize != summary.count || cloud.positions.len() != expected {
-        return Err(ProblemError::invalid(key, format!("{}: the file changed while read", path.display())));
+        return Err(changed());
     }
     if cloud.positions.is_empty() {
         return Err(empty_window(part, &slab, &bins));
@@ -245,12 +272,15 @@ pub(crate) fn csv_window(
         lines: order.iter().map(|&k| cloud.lines[k]).collect(),
         ..Cloud::default()
     };
-    let file_node = order.iter().map(|&k| file_node[k]).collect();
+    let file_node: Vec<u32> = order.iter().map(|&k| file_node[k]).collect();
     // two coincident nodes share a bin or neighbouring ones: the ranks whose windows hold them
-    // find them, at the whole cloud's tolerance
-    linpd_io::cloud::check_duplicates_at(&sorted.positions, dim, summary.min_size)
-        .map_err(|(a, b)| io(linpd_io::cloud::duplicate(path, &sorted, dim, a, b)))?;
+    // find them, at the whole cloud's tolerance (named in file order, as a whole read names them)
+    linpd_io::cloud::check_duplicates_at(&sorted.positions, dim, summary.min_size).map_err(|(a, b)| {
+        let (a, b) = if file_node[a] < file_node[b] { (a, b) } else { (b, a) };
+        io(linpd_io::cloud::duplicate(path, &sorted, dim, a, b))
+    })?;
     let mut nodes = into_nodes(sorted, dim);
     nodes.h = summary.tolerance_scale();
+    nodes.whole = Some(summary.scales());
     Ok((nodes, slab, CloudWindow { bins, file_node, bounds: summary.bounds }))
 }

@@ -34,6 +34,8 @@ pub struct LevelNodes {
     /// Points on a mesh's boundary faces ([`linpd_io::cloud::Cloud::boundary`]; empty without
     /// a mesh's topology).
     pub(crate) boundary: Vec<Point>,
+    /// A rank's window of a point cloud: the whole cloud's scales (`None`: the nodes are whole).
+    pub(crate) whole: Option<linpd_core::family::CloudScales>,
 }
 
 impl LevelNodes {
@@ -57,6 +59,7 @@ impl LevelNodes {
             what: "the coarsened level",
             sets: Default::default(),
             boundary: Vec::new(),
+            whole: None,
         }
     }
 }

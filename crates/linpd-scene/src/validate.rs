@@ -912,13 +912,14 @@ pub(crate) fn material_with_tags(
 /// ([`mean_spacing`]).
 ///
 /// On a rank's part ([`Context::part`]) every rank reads the whole file and keeps its window
-/// ([`crate::cloud::window`]), whose halo holds `reaches` reaches of the bonds; `reaches: None`
-/// refuses a part by name. The mean spacing returned is the whole cloud's.
+/// ([`crate::cloud::window`]), whose halo holds `reaches` reaches of the bonds; `reaches: None`,
+/// and a surface correction (`corrected`) on a cloud with layer nodes, refuse a part by name.
+/// The mean spacing returned is the whole cloud's.
 pub(crate) fn cloud_nodes(
     cx: &Context,
     spec: &RawNodes,
     horizon: f64,
-    reaches: Option<usize>,
+    (reaches, corrected): (Option<usize>, bool),
     path: crate::memory::Path,
     ball: bool,
 ) -> Result<(LevelNodes, f64), ProblemError> {
@@ -945,7 +946,7 @@ pub(crate) fn cloud_nodes(
     let (cloud, summary) = match &streamed {
         Some(file) => {
             let mut summary = crate::cloud::Summary::new();
-            linpd_io::cloud::visit_csv(file, dim, &mut |node| summary.add(&node.x, node.volume, dim))
+            linpd_io::cloud::visit_csv(file, dim, &mut |node| summary.add(&node.x, node.volume, node.layer, dim))
                 .map_err(|e| ProblemError::invalid("nodes.csv", e.to_string()))?;
             (None, summary)
         }
@@ -964,7 +965,7 @@ pub(crate) fn cloud_nodes(
                     ))
                 }
             };
-            let summary = crate::cloud::Summary::of(&cloud.positions, &cloud.volumes, dim);
+            let summary = crate::cloud::Summary::of(&cloud.positions, &cloud.volumes, &cloud.layer, dim);
             (Some(cloud), summary)
         }
     };
@@ -1015,6 +1016,14 @@ pub(crate) fn cloud_nodes(
         }
         (Some(_), Some(_), _, _) if dim < 2 => {
             return Err(ProblemError::invalid("nodes", format!("a 1D point cloud {NO_PER_RANK_GEOMETRY}")))
+        }
+        // the layer's nodes take the fit of the whole cloud's fullest family
+        // (linpd_core::surface), which no window knows
+        (Some(_), Some(_), _, _) if corrected && summary.layers > 0 => {
+            return Err(ProblemError::invalid(
+                "model.surface_correction",
+                format!("a surface correction on a point cloud with `layer` nodes {NO_PER_RANK_GEOMETRY}"),
+            ))
         }
         (Some(part), Some(reaches), Some(cloud), None) => {
             let (window, slab, cloud) =

@@ -32,7 +32,8 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
     // a rank's halo (crate::part): as on a lattice, one reach, three with the energy correction
     let corrected = !matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
     let reaches = Some(if corrected { 3 } else { 1 });
-    let (nodes, h) = cloud_nodes(cx, spec, raw.horizon, reaches, crate::memory::Path::BondAssembled, ball)?;
+    let (nodes, h) =
+        cloud_nodes(cx, spec, raw.horizon, (reaches, corrected), crate::memory::Path::BondAssembled, ball)?;
     let ramp = quadrature == linpd_bond::quadrature::Quadrature::Ramp;
     let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, ramp)?;
     if micromodulus.normalization == linpd_core::Normalization::Discrete && cx.part.is_some() {

@@ -270,6 +270,7 @@ impl BondModel {
                     }
                     _ => Vec::new(),
                 },
+                c.whole,
             ),
             Nodes::Lattice(grid) => BondOperator::on_grid(grid, self.horizon, &self.micromodulus, &self.material),
             Nodes::Level(_) => unreachable!("a bond model lives on a lattice or a point cloud"),

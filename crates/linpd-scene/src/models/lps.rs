@@ -93,7 +93,9 @@ impl ModelType for LpsType {
             // a rank's halo: as on a lattice (below)
             let mean_of_ends = surface.correction == SurfaceCorrection::Energy;
             let reaches = Some(2 + usize::from(mean_of_ends));
-            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, reaches, crate::memory::Path::LpsAssembled, false)?;
+            let corrected = surface.correction != SurfaceCorrection::None;
+            let path = crate::memory::Path::LpsAssembled;
+            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, (reaches, corrected), path, false)?;
             let ratio = raw.horizon / crate::nodes::NodeSet::spacing(&nodes);
             let n = crate::nodes::NodeSet::count(&nodes);
             crate::memory::check_lps_work(n, crate::memory::neighbours(dim, ratio), ratio)?;
@@ -294,7 +296,20 @@ impl LpsSceneModel {
     pub fn build(&self, p: &Problem) -> Result<(LpsModel, Option<CorrectionSummary>), ProblemError> {
         let (params, defects, surface) = (&self.params, &self.defects, &self.surface);
         let built = match p.nodes().cloud() {
-            Some(c) => LpsModel::on_points(c.dim, c.positions.clone(), &c.volumes, params, defects),
+            Some(c) => match c.whole {
+                None => LpsModel::on_points(c.dim, c.positions.clone(), &c.volumes, params, defects),
+                Some(scales) => {
+                    let owned = |i: usize| p.owns(i);
+                    LpsModel::on_part_of_points(
+                        c.dim,
+                        c.positions.clone(),
+                        &c.volumes,
+                        (params, defects),
+                        scales,
+                        &owned,
+                    )
+                }
+            },
             None => LpsModel::with_defects(p.lattice()?, params, defects),
         };
         let model = built.map_err(|e| match e {
