@@ -11,8 +11,9 @@ Each rank
    the only nodes it ever builds (docs/scale-out.md, "Per-rank geometry"); what no part decides
    alone (a region holding a node, a resultant load's volume, the support) is settled by
    reductions. With ``--gather``, and for scenes without per-rank geometry (blends, coarsened
-   levels, 1D, node-numbered files, a cloud's ``discrete`` normalization: rank 0 prints a note
-   naming why), every rank builds the whole scene instead. The
+   levels, 1D, node-numbered files, a cloud's ``discrete`` normalization or a surface correction
+   on a cloud with ``layer`` nodes: rank 0 prints a note naming why), every rank builds the
+   whole scene instead. The
    checks are those of ``linpd solve`` (and a free DOF whose diagonal entry is zero, a mechanism
    such as the out-of-plane motion of a plate one node thick, is refused by name: ``linpd
    solve`` finds it when it factorizes, a KSP might not). After each stage that can fail every
