@@ -308,8 +308,7 @@ fn point_clouds_and_meshes() {
             check(&path, r);
         }
     }
-    // LPS on the graded mesh (its windows' mean spacings differ from the whole mesh's) with the
-    // position-aware correction
+    // LPS on the graded mesh with the position-aware correction (two reaches of halo)
     let path = scene_file("plate-hole-mesh-2d.json", "mesh-lps", |v| {
         v["nodes"]["mesh"] = data("plate-hole-mesh-2d.msh").to_str().unwrap().into();
         v["model"] = serde_json::json!({"type": "lps", "horizon": 0.02, "plane": "stress", "bulk_modulus": 1.0,

@@ -5,6 +5,7 @@
 use crate::nodes::LevelNodes;
 use crate::part::{Bins, CloudWindow, Part, Slab};
 use crate::ProblemError;
+use linpd_io::cloud::CsvNode;
 pub use linpd_io::cloud::{mean_spacing, Cloud, DUPLICATE_RTOL, MAX_CLOUD_BYTES};
 use std::path::Path;
 
@@ -116,25 +117,13 @@ impl Summary {
     }
     /// [`mean_spacing`] of the cloud.
     pub(crate) fn mean_spacing(&self, dim: usize) -> f64 {
-        (self.volume_sum / self.count as f64).powf(1.0 / dim as f64)
+        self.scales().mean_volume.powf(1.0 / dim as f64)
     }
-    /// The tolerance scale of [`LevelNodes::new`]: the smallest node size capped by the box's
-    /// largest side.
+    /// The tolerance scale of [`LevelNodes::new`] for the whole cloud.
     pub(crate) fn tolerance_scale(&self) -> f64 {
         let extent = (0..3).map(|a| self.bounds[1][a] - self.bounds[0][a]).fold(0.0f64, f64::max);
-        let h = if extent.is_finite() && extent > 0.0 { self.min_size.min(extent) } else { self.min_size };
-        if h.is_finite() {
-            h
-        } else {
-            1.0
-        }
+        crate::nodes::tolerance_scale(self.min_size, extent)
     }
-}
-
-/// Rank `part`'s slab of a cloud whose nodes fall in bins with `counts` nodes each: the halo's
-/// bins hold everything within `distance` of an owned node.
-fn slab_of(bins: &Bins, counts: &[usize], part: Part, distance: f64) -> Slab {
-    Slab::balanced(counts, part, bins.halo(distance))
 }
 
 /// The error of a rank whose window holds no node.
@@ -149,99 +138,40 @@ fn empty_window(part: Part, slab: &Slab, bins: &Bins) -> ProblemError {
     )
 }
 
-/// Rank `part`'s window of the whole cloud `whole` ([`crate::part`]): the cloud's bins along
-/// its longest axis ([`Bins::over`], a quarter of `reach`, the bonds' longest length), split
-/// into runs of about equal node counts ([`Slab::balanced`]), and the halo's bins holding
-/// everything within `reaches * reach` of an owned node. The window's nodes are in bin order,
-/// then in file order; they keep the whole cloud's tolerance scale `h` (so that every rank
-/// tests regions as the whole scene does), phases, layers, the sets' members among them and
-/// the boundary points in the window's bins.
-pub(crate) fn window(
-    whole: LevelNodes,
-    part: Part,
-    reaches: usize,
-    reach: f64,
-) -> Result<(LevelNodes, Slab, CloudWindow), ProblemError> {
-    let summary = Summary::of(&whole.positions, &whole.volumes, &whole.layer, whole.dim);
-    let bins = Bins::over(&summary.bounds, whole.dim, reach);
-    let bin: Vec<u32> = whole.positions.iter().map(|x| bins.of_point(x) as u32).collect();
-    let mut counts = vec![0usize; bins.count];
-    bin.iter().for_each(|&b| counts[b as usize] += 1);
-    let slab = slab_of(&bins, &counts, part, reaches as f64 * reach);
-    let mut kept: Vec<u32> =
-        (0..bin.len() as u32).filter(|&n| slab.window.contains(&(bin[n as usize] as usize))).collect();
-    kept.sort_by_key(|&n| (bin[n as usize], n));
-    if kept.is_empty() {
-        return Err(empty_window(part, &slab, &bins));
-    }
-    let pick = |v: &[u32]| -> Vec<u32> {
-        if v.is_empty() {
-            Vec::new()
-        } else {
-            kept.iter().map(|&n| v[n as usize]).collect()
-        }
-    };
-    let mut new_of = vec![u32::MAX; bin.len()];
-    kept.iter().enumerate().for_each(|(k, &n)| new_of[n as usize] = k as u32);
-    let sets = whole
-        .sets
-        .iter()
-        .map(|(name, members)| {
-            let mut mine: Vec<u32> = members.iter().map(|&n| new_of[n as usize]).filter(|&k| k != u32::MAX).collect();
-            mine.sort_unstable();
-            (name.clone(), mine)
-        })
-        .collect();
-    let boundary = whole.boundary.iter().filter(|b| slab.window.contains(&bins.of_point(b))).copied().collect();
-    let nodes = LevelNodes {
-        dim: whole.dim,
-        positions: kept.iter().map(|&n| whole.positions[n as usize]).collect(),
-        volumes: kept.iter().map(|&n| whole.volumes[n as usize]).collect(),
-        h: whole.h,
-        layer: if whole.layer.is_empty() {
-            Vec::new()
-        } else {
-            kept.iter().map(|&n| whole.layer[n as usize]).collect()
-        },
-        phase: pick(&whole.phase),
-        what: whole.what,
-        sets,
-        boundary,
-        whole: Some(summary.scales()),
-    };
-    Ok((nodes, slab, CloudWindow { bins, file_node: kept, bounds: summary.bounds }))
-}
+/// Visits a cloud's nodes in file order: a CSV file streamed, or a cloud read whole.
+type Visit<'a> = dyn FnMut(&mut dyn FnMut(&CsvNode)) -> Result<(), ProblemError> + 'a;
 
-/// [`window`] of the CSV node file at `path`, streamed ([`linpd_io::cloud::visit_csv`]): a
-/// first pass `summary` (the caller's, which checked every line), a second counts the nodes
-/// per bin, a third keeps the window's nodes; no pass holds more than the window (and the
-/// bins' counts). `key` is the JSON path of the file name.
-pub(crate) fn csv_window(
-    path: &Path,
-    key: &str,
+/// Rank `part`'s window of the cloud `visit` passes over, whose first pass gave `summary` (a
+/// second counts the nodes per bin and sums the cloud again, a third keeps the window's
+/// nodes): the cloud's bins along its longest axis ([`Bins::over`], a quarter of `reach`, the
+/// bonds' longest length), split into runs of about equal node counts ([`Slab::balanced`]),
+/// and the halo's bins holding everything within `reaches * reach` of an owned node. The
+/// window's nodes, in bin order then file order, and their numbers in the file; no pass holds
+/// more than the window and the bins' counts. `changed()` is the error of a cloud that
+/// changed between the passes.
+fn cut(
+    visit: &mut Visit<'_>,
     dim: usize,
     summary: &Summary,
     part: Part,
     (reaches, reach): (usize, f64),
-) -> Result<(LevelNodes, Slab, CloudWindow), ProblemError> {
-    let io = |e: linpd_io::IoError| ProblemError::invalid(key, e.to_string());
+    changed: &dyn Fn() -> ProblemError,
+) -> Result<(Cloud, Slab, CloudWindow), ProblemError> {
     let bins = Bins::over(&summary.bounds, dim, reach);
     let mut counts = vec![0usize; bins.count];
     let mut again = Summary::new();
-    linpd_io::cloud::visit_csv(path, dim, &mut |node| {
+    visit(&mut |node| {
         counts[bins.of_point(&node.x)] += 1;
         again.add(&node.x, node.volume, node.layer, dim);
-    })
-    .map_err(io)?;
-    let changed = || ProblemError::invalid(key, format!("{}: the file changed while read", path.display()));
+    })?;
     if !summary.same(&again) {
         return Err(changed());
     }
-    let slab = slab_of(&bins, &counts, part, reaches as f64 * reach);
+    let slab = Slab::balanced(&counts, part, bins.halo(reaches as f64 * reach));
     let mut cloud = Cloud::default();
     let (mut file_node, mut bin) = (Vec::new(), Vec::new());
     let mut next = 0u32;
-    linpd_io::cloud::visit_csv(path, dim, &mut |node| {
+    visit(&mut |node| {
         let b = bins.of_point(&node.x);
         if slab.window.contains(&b) {
             cloud.positions.push(node.x);
@@ -253,8 +183,7 @@ pub(crate) fn csv_window(
             bin.push(b as u32);
         }
         next += 1;
-    })
-    .map_err(io)?;
+    })?;
     let expected: usize = counts[slab.window.clone()].iter().sum();
     if next as usize != summary.count || cloud.positions.len() != expected {
         return Err(changed());
@@ -272,15 +201,81 @@ pub(crate) fn csv_window(
         lines: order.iter().map(|&k| cloud.lines[k]).collect(),
         ..Cloud::default()
     };
-    let file_node: Vec<u32> = order.iter().map(|&k| file_node[k]).collect();
-    // two coincident nodes share a bin or neighbouring ones: the ranks whose windows hold them
-    // find them, at the whole cloud's tolerance (named in file order, as a whole read names them)
-    linpd_io::cloud::check_duplicates_at(&sorted.positions, dim, summary.min_size).map_err(|(a, b)| {
-        let (a, b) = if file_node[a] < file_node[b] { (a, b) } else { (b, a) };
-        io(linpd_io::cloud::duplicate(path, &sorted, dim, a, b))
-    })?;
-    let mut nodes = into_nodes(sorted, dim);
+    let file_node = order.iter().map(|&k| file_node[k]).collect();
+    Ok((sorted, slab, CloudWindow { bins, file_node, bounds: summary.bounds }))
+}
+
+/// The window's nodes of [`cut`], with the whole cloud's tolerance scale `h` (so that every
+/// rank tests regions as the whole scene does) and scales.
+fn window_nodes(cloud: Cloud, dim: usize, summary: &Summary) -> LevelNodes {
+    let mut nodes = into_nodes(cloud, dim);
     nodes.h = summary.tolerance_scale();
     nodes.whole = Some(summary.scales());
-    Ok((nodes, slab, CloudWindow { bins, file_node, bounds: summary.bounds }))
+    nodes
+}
+
+/// Rank `part`'s window ([`cut`]) of the cloud `whole` read whole (a mesh, a VTK file: their
+/// readers checked the duplicates) and summed in `summary`, with the sets' members among the window's nodes and the
+/// boundary points in its bins.
+pub(crate) fn window(
+    whole: Cloud,
+    dim: usize,
+    summary: &Summary,
+    part: Part,
+    reach: (usize, f64),
+) -> Result<(LevelNodes, Slab, CloudWindow), ProblemError> {
+    let mut visit = |f: &mut dyn FnMut(&CsvNode)| {
+        for k in 0..whole.positions.len() {
+            f(&CsvNode {
+                x: whole.positions[k],
+                volume: whole.volumes[k],
+                layer: whole.layer.get(k).copied().unwrap_or(false),
+                phase: whole.phase.get(k).copied(),
+                line: whole.lines.get(k).copied().unwrap_or(k as u64),
+            });
+        }
+        Ok(())
+    };
+    let changed = || ProblemError::invalid("nodes", "the cloud changed while cut");
+    let (mut cloud, slab, window) = cut(&mut visit, dim, summary, part, reach, &changed)?;
+    let mut new_of = vec![u32::MAX; whole.positions.len()];
+    window.file_node.iter().enumerate().for_each(|(k, &n)| new_of[n as usize] = k as u32);
+    cloud.sets = whole
+        .sets
+        .iter()
+        .map(|(name, members)| {
+            let mut mine: Vec<u32> = members.iter().map(|&n| new_of[n as usize]).filter(|&k| k != u32::MAX).collect();
+            mine.sort_unstable();
+            (name.clone(), mine)
+        })
+        .collect();
+    cloud.boundary =
+        whole.boundary.iter().filter(|b| slab.window.contains(&window.bins.of_point(b))).copied().collect();
+    Ok((window_nodes(cloud, dim, summary), slab, window))
+}
+
+/// Rank `part`'s window ([`cut`]) of the CSV node file at `path`, streamed
+/// ([`linpd_io::cloud::visit_csv`]) after the caller's first pass `summary` (which checked
+/// every line), with the duplicates checked among the window's nodes. `key` is the JSON path
+/// of the file name.
+pub(crate) fn csv_window(
+    path: &Path,
+    key: &str,
+    dim: usize,
+    summary: &Summary,
+    part: Part,
+    reach: (usize, f64),
+) -> Result<(LevelNodes, Slab, CloudWindow), ProblemError> {
+    let io = |e: linpd_io::IoError| ProblemError::invalid(key, e.to_string());
+    let mut visit = |f: &mut dyn FnMut(&CsvNode)| linpd_io::cloud::visit_csv(path, dim, f).map(|_| ()).map_err(io);
+    let changed = || ProblemError::invalid(key, format!("{}: the file changed while read", path.display()));
+    let (cloud, slab, window) = cut(&mut visit, dim, summary, part, reach, &changed)?;
+    // two coincident nodes share a bin or neighbouring ones: the ranks whose windows hold them
+    // find them, at the whole cloud's tolerance (named in file order, as a whole read names them)
+    let file_node = &window.file_node;
+    linpd_io::cloud::check_duplicates_at(&cloud.positions, dim, summary.min_size).map_err(|(a, b)| {
+        let (a, b) = if file_node[a] < file_node[b] { (a, b) } else { (b, a) };
+        io(linpd_io::cloud::duplicate(path, &cloud, dim, a, b))
+    })?;
+    Ok((window_nodes(cloud, dim, summary), slab, window))
 }

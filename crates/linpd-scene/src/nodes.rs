@@ -46,14 +46,13 @@ impl LevelNodes {
     /// volumes of 1e300 would otherwise give a region tolerance (`1e-9 h`) that swallows every
     /// node ("every DOF is constrained") instead of the overflow they cause.
     pub fn new(dim: usize, positions: Vec<Point>, volumes: Vec<f64>) -> Self {
-        let h = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
-        let extent = extent(&positions, dim);
-        let h = if extent.is_finite() && extent > 0.0 { h.min(extent) } else { h };
+        let min_size = volumes.iter().fold(f64::INFINITY, |m, &v| m.min(v.powf(1.0 / dim as f64)));
+        let h = tolerance_scale(min_size, extent(&positions, dim));
         LevelNodes {
             dim,
             positions,
             volumes,
-            h: if h.is_finite() { h } else { 1.0 },
+            h,
             layer: Vec::new(),
             phase: Vec::new(),
             what: "the coarsened level",
@@ -61,6 +60,17 @@ impl LevelNodes {
             boundary: Vec::new(),
             whole: None,
         }
+    }
+}
+
+/// The scale of the geometric tolerances of nodes whose smallest size is `min_size` and whose
+/// bounding box's largest side is `extent` (see [`LevelNodes::new`]).
+pub(crate) fn tolerance_scale(min_size: f64, extent: f64) -> f64 {
+    let h = if extent.is_finite() && extent > 0.0 { min_size.min(extent) } else { min_size };
+    if h.is_finite() {
+        h
+    } else {
+        1.0
     }
 }
 

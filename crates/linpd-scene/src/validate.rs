@@ -1026,8 +1026,7 @@ pub(crate) fn cloud_nodes(
             ))
         }
         (Some(part), Some(reaches), Some(cloud), None) => {
-            let (window, slab, cloud) =
-                crate::cloud::window(crate::cloud::into_nodes(cloud, dim), part, reaches, reach)?;
+            let (window, slab, cloud) = crate::cloud::window(cloud, dim, &summary, part, (reaches, reach))?;
             *cx.slab.borrow_mut() = Some(slab);
             *cx.cloud.borrow_mut() = Some(cloud);
             window
