@@ -461,8 +461,31 @@ impl BlendRows<'_> {
         rb: &mut RowBuilder,
         mb: &mut RowBuilder,
     ) -> Result<(BlockRow, BlockRow), BlendError> {
+        self.row_with(i, true, rb, mb)
+    }
+
+    /// Row `i` of `A` and of `M` without the nonlocal shares `a_ij w_ij e e^T`, which both
+    /// rows have alike: what [`crate::GradedBlend`] stores, applying the shares from the
+    /// bonds. The rows' checks are those of [`BlendRows::row`].
+    pub(crate) fn rest_row(
+        &self,
+        i: usize,
+        rb: &mut RowBuilder,
+        mb: &mut RowBuilder,
+    ) -> Result<(BlockRow, BlockRow), BlendError> {
+        self.row_with(i, false, rb, mb)
+    }
+
+    /// [`BlendRows::row`], with the nonlocal shares when `shares`.
+    fn row_with(
+        &self,
+        i: usize,
+        shares: bool,
+        rb: &mut RowBuilder,
+        mb: &mut RowBuilder,
+    ) -> Result<(BlockRow, BlockRow), BlendError> {
         let bi = self.beta[i];
-        let s = self.nonlocal_shares(i, rb, mb);
+        let s = self.nonlocal_shares(i, shares, rb, mb);
         let local = bi < 1.0;
         if (local || !s.is_empty()) && !self.is_regular(i) {
             return Err(BlendError::param(
@@ -486,10 +509,11 @@ impl BlendRows<'_> {
         Ok((rb.take(), mb.take()))
     }
 
-    /// Adds the nonlocal shares `a_ij w_ij e e^T (u_i - u_j)`, `a_ij = (beta_i + beta_j) / 2`,
-    /// to the rows of `A` and `M`; returns the transition shares `(j, s_ij)`,
-    /// `s_ij = (beta_i - beta_j) / 2 w_ij`, of the bonds with `beta_j != beta_i`.
-    fn nonlocal_shares(&self, i: usize, rb: &mut RowBuilder, mb: &mut RowBuilder) -> Vec<(usize, f64)> {
+    /// Adds (when `add`) the nonlocal shares `a_ij w_ij e e^T (u_i - u_j)`,
+    /// `a_ij = (beta_i + beta_j) / 2`, to the rows of `A` and `M`; returns the transition
+    /// shares `(j, s_ij)`, `s_ij = (beta_i - beta_j) / 2 w_ij`, of the bonds with
+    /// `beta_j != beta_i`.
+    fn nonlocal_shares(&self, i: usize, add: bool, rb: &mut RowBuilder, mb: &mut RowBuilder) -> Vec<(usize, f64)> {
         let (op, beta, d) = (self.op, self.beta, self.op.dim());
         let bi = beta[i];
         let mut s = Vec::new();
@@ -497,7 +521,7 @@ impl BlendRows<'_> {
             let j = j as usize;
             let a_ij = 0.5 * (bi + beta[j]);
             let e = op.unit(i, j);
-            if a_ij > 0.0 {
+            if add && a_ij > 0.0 {
                 for a in 0..d {
                     for b in 0..d {
                         let v = a_ij * w * e[a] * e[b];

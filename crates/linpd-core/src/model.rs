@@ -227,6 +227,39 @@ pub fn n_dofs(model: &dyn Model) -> usize {
     model.dim() * model.n_nodes()
 }
 
+/// `A_ff` of a model assembled from its block rows ([`Model::for_each_block`]; `None` when
+/// the model has none): the free entries of every block, summed where repeated. What a model
+/// whose rows are computed on demand answers to [`Model::assemble_free`].
+pub fn assemble_free_from_blocks(model: &dyn Model, dofs: &DofMap) -> Option<Csc> {
+    use rayon::prelude::*;
+    let d = model.dim();
+    let mut has_blocks = true;
+    if model.n_nodes() > 0 {
+        has_blocks = model.for_each_block(0, &mut |_, _| {});
+    }
+    if !has_blocks {
+        return None;
+    }
+    let triplets: Vec<faer::sparse::Triplet<usize, usize, f64>> = (0..model.n_nodes())
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            let mut out = Vec::new();
+            model.for_each_block(i, &mut |j, b| {
+                for a in 0..d {
+                    for c in 0..d {
+                        if let (Some(r), Some(col)) = (dofs.free(d * i + a), dofs.free(d * j + c)) {
+                            out.push(faer::sparse::Triplet::new(r, col, b[a * d + c]));
+                        }
+                    }
+                }
+            });
+            out
+        })
+        .collect();
+    let n = dofs.n_free();
+    Some(Csc::try_new_from_triplets(n, n, &triplets).expect("free DOFs index an n x n matrix"))
+}
+
 /// A model's full-DOF `apply` as a [`LinearOperator`].
 pub struct ModelOperator<'a>(pub &'a dyn Model);
 

@@ -94,25 +94,7 @@ impl Model for PairPart<'_> {
     }
     /// From the block rows (a check and a fallback; the multigrid reads block rows).
     fn assemble_free(&self, dofs: &DofMap) -> Csc {
-        let d = self.dim();
-        let triplets: Vec<faer::sparse::Triplet<usize, usize, f64>> = (0..self.n_nodes())
-            .into_par_iter()
-            .flat_map_iter(|i| {
-                let mut out = Vec::new();
-                self.for_each_block(i, &mut |j, b| {
-                    for a in 0..d {
-                        for c in 0..d {
-                            if let (Some(r), Some(col)) = (dofs.free(d * i + a), dofs.free(d * j + c)) {
-                                out.push(faer::sparse::Triplet::new(r, col, b[a * d + c]));
-                            }
-                        }
-                    }
-                });
-                out
-            })
-            .collect();
-        let n = dofs.n_free();
-        Csc::try_new_from_triplets(n, n, &triplets).expect("free DOFs index an n x n matrix")
+        linpd_core::model::assemble_free_from_blocks(self, dofs).expect("the pair part has block rows")
     }
     /// `A_ij = -s_ij xi xi^T` per bond, then `A_ii = sum_j s_ij xi xi^T` (from the stencils of a
     /// homogeneous full box: [`crate::LpsStencil::pair_block_row`]).

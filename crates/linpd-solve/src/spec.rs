@@ -229,6 +229,9 @@ pub enum SolverId {
     Gmres(GmresPreconditioner),
     /// GMRES with an iterative preconditioner.
     GmresIterative(PreconditionerKind),
+    /// GMRES on the model's matrix-free apply, preconditioned by the multigrid of its SPD
+    /// companion's block rows ([`linpd_core::Model::multigrid_companion`]).
+    GmresMatrixFree(PreconditionerKind),
 }
 
 impl fmt::Display for SolverId {
@@ -260,6 +263,7 @@ impl fmt::Display for SolverId {
             SolverId::Gmres(GmresPreconditioner::SymmetricPart) => write!(f, "cholesky(sym part)+gmres"),
             SolverId::Gmres(GmresPreconditioner::EnergyForm) => write!(f, "cholesky(energy form)+gmres"),
             SolverId::GmresIterative(p) => write!(f, "gmres-{}", p.name()),
+            SolverId::GmresMatrixFree(p) => write!(f, "gmres-{}-matrix-free", p.name()),
         }
     }
 }

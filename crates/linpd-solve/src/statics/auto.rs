@@ -115,6 +115,17 @@ impl AutoParams {
         n_free >= self.matrix_free_min_unknowns && dim >= 2 && symmetric && capable()
     }
 
+    /// Whether `auto` runs GMRES matrix-free on an unsymmetric model of `n_free` unknowns in
+    /// dimension `dim`, preconditioned by the multigrid of its SPD companion: where the
+    /// assembled plan runs GMRES + multigrid from `M` first ([`AutoParams::plan_unsymmetric`],
+    /// 2D and 3D from [`AutoParams::gmres_multigrid_2d_min_unknowns`]) and `capable()`: the
+    /// model runs matrix-free and offers a companion with block rows (the graded blend, whose
+    /// `A` is never stored whole). The same iterations as assembled, without `A_ff` and
+    /// `M_ff`.
+    pub fn gmres_matrix_free(&self, dim: usize, n_free: usize, capable: impl FnOnce() -> bool) -> bool {
+        dim >= 2 && n_free >= self.gmres_multigrid_2d_min_unknowns && capable()
+    }
+
     /// Why `auto` refuses to factor (sparse Cholesky of `A` or of `M`) a system of `n` unknowns
     /// in dimension `dim` without analysing it: in 3D past
     /// [`AutoParams::cholesky_3d_max_unknowns`] (`None`: it analyses it).
@@ -205,5 +216,10 @@ mod tests {
         );
         assert_eq!(p.plan_unsymmetric(1, 200_000, true).multigrid_first, None);
         assert!(p.plan_unsymmetric(3, 200_000, true).factor_excluded.is_some());
+        assert!(p.gmres_matrix_free(3, 20_000, || true));
+        assert!(!p.gmres_matrix_free(3, 19_999, || true));
+        assert!(!p.gmres_matrix_free(1, 50_000, || true));
+        assert!(!p.gmres_matrix_free(2, 50_000, || false));
+        assert!(!p.gmres_matrix_free(3, 10, || panic!("capabilities asked for a small system")));
     }
 }

@@ -7,7 +7,7 @@ use super::assembled::{solve_assembled_with_progress, MatrixHints};
 use super::auto::AutoParams;
 use super::error::StaticError;
 use super::guards::{finite_matrix, finite_vector, REDUCED_LOAD};
-use super::runners::{matrix_free_cg, Solved};
+use super::runners::{matrix_free_cg, matrix_free_gmres, Solved};
 use crate::cost;
 use crate::krylov::cg::{CgError, CgParams};
 use crate::precond::DofGeometry;
@@ -82,8 +82,31 @@ pub(super) fn solve_system(
         {
             auto_matrix_free(system, spec, params, progress)?
         }
+        SolverSpec::Auto(params)
+            if system.asymmetry > SYMMETRY_RTOL
+                && auto.gmres_matrix_free(model.dim(), dofs.n_free(), || offers_companion_gmres(model)) =>
+        {
+            let mut solved =
+                matrix_free_gmres(model, dofs, system.rhs, params, progress).map_err(|e| system.at_dof(e))?;
+            solved.1.auto = Some(format!(
+                "the model is unsymmetric and applies A matrix-free with an SPD companion's block rows \
+                 ({}D, {} >= {} unknowns): GMRES + multigrid from the companion, neither stored whole",
+                model.dim(),
+                dofs.n_free(),
+                auto.gmres_multigrid_2d_min_unknowns
+            ));
+            solved
+        }
         _ => assembled_solve(system, spec, progress)?,
     })
+}
+
+/// Whether `model` can run [`matrix_free_gmres`]: it runs matrix-free and offers an SPD
+/// companion with block rows ([`Model::multigrid_companion`], [`Model::for_each_block`]).
+fn offers_companion_gmres(model: &dyn Model) -> bool {
+    model.matrix_free_unavailable().is_none()
+        && model.n_nodes() > 0
+        && model.multigrid_companion().is_some_and(|c| c.for_each_block(0, &mut |_, _| {}))
 }
 
 /// Whether `model` can run `auto`'s matrix-free multigrid-CG: it runs matrix-free, has a fast

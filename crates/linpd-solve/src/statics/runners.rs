@@ -418,3 +418,57 @@ pub(super) fn matrix_free_cg(
     report.peak_rss_bytes = peak_rss_bytes();
     Ok((u, report))
 }
+
+/// GMRES on the [`ReducedOperator`] of the model's apply, preconditioned by the multigrid
+/// built from the block rows of its SPD companion ([`Model::multigrid_companion`], required),
+/// never assembling `A_ff` or `M_ff` (restart 50, as the assembled GMRES + multigrid).
+pub(super) fn matrix_free_gmres(
+    model: &dyn Model,
+    dofs: &DofMap,
+    rhs: &[f64],
+    params: &CgParams,
+    progress: &dyn Progress,
+) -> Result<Solved, SolveError> {
+    let preconditioner = PreconditionerKind::Multigrid;
+    progress.phase(&format!(
+        "solving matrix-free with GMRES + multigrid from the model's SPD companion: {} unknowns",
+        dofs.n_free()
+    ));
+    let companion = model.multigrid_companion().expect("the caller checked the model offers a companion");
+    let full_diag = companion.diagonal();
+    let diag = dofs.gather(&full_diag);
+    finite_vector("the companion's diagonal over the free DOFs", &diag)?;
+    finite_vector(REDUCED_LOAD, rhs)?;
+    let t = Instant::now();
+    let task = Task::start(progress, "multigrid preconditioner setup", None);
+    let geometry = DofGeometry::of(&*companion, dofs);
+    let companion_op = ModelOperator(&*companion);
+    let input = PreconditionerInput {
+        diagonal: &diag,
+        matrix: None,
+        geometry: Some(&geometry),
+        model: Some(ModelInput { model: &*companion, dofs, full: &companion_op }),
+    };
+    let m_inv = preconditioner.build(&input)?;
+    drop(task);
+    let t_setup = t.elapsed().as_secs_f64();
+    let model_op = ModelOperator(model);
+    let mut u = vec![0.0; dofs.n_free()];
+    let gp = GmresParams { rtol: params.rtol, restart: 50, max_iter: params.max_iter };
+    let info = gmres_with_progress(&ReducedOperator::new(&model_op, dofs), &m_inv, rhs, &mut u, &gp, progress)
+        .map_err(|source| SolveError::Gmres { preconditioner: preconditioner.name(), source })?;
+    let mut report = SolveReport::new(SolverId::GmresMatrixFree(preconditioner), dofs.n_free(), 0);
+    report.preconditioner = m_inv.summary();
+    report.notes.push(format!(
+        "the multigrid hierarchy is built from the model's SPD companion ({}), GMRES runs on the {} model",
+        companion.kind(),
+        model.kind()
+    ));
+    report.iterations = Some(info.iterations);
+    report.rel_residual = info.rel_residual;
+    report.timings.setup = t_setup;
+    report.timings.total = t.elapsed().as_secs_f64();
+    report.timings.solve = report.timings.total - t_setup;
+    report.peak_rss_bytes = peak_rss_bytes();
+    Ok((u, report))
+}

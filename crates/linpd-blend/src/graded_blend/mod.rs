@@ -82,16 +82,17 @@
 //! Forces given on lattice nodes reach the masters as `P^T f` and the solution is drawn on
 //! every lattice node as `P u_M` ([`GradedMesh::interpolation_row`]).
 
+mod operator;
+
 use crate::graded::{Cell, GradedMesh, Grading, LatticeBox};
 use crate::lattice::{
-    block_rows_to_csc, cells_at, element_moduli, node_moduli, squared_lattice_distances, BlendRows, BlockRow,
-    RowBuilder,
+    cells_at, element_moduli, node_moduli, squared_lattice_distances, BlendRows, BlockRow, RowBuilder,
 };
 use crate::{BlendError, Zones};
 use linpd_bond::BondOperator;
 use linpd_core::family::lattice_stencil;
-use linpd_core::sparse::Csc;
-use linpd_core::{AssembledModel, DofMap, Grid, Material, Micromodulus, Model, Ordering, Point, GEOMETRY_RTOL};
+use linpd_core::{Grid, Material, Micromodulus, Point, GEOMETRY_RTOL};
+use operator::{BlockCsr, Shares};
 use rayon::prelude::*;
 
 /// The bond model a graded blend is built from: [`GradedBlend::new`] builds its operator on
@@ -154,10 +155,19 @@ pub struct GradedBlend {
     /// The lattice nodes of no leaf (all their cells void: a body thinner than a cell there),
     /// ascending; masters `mesh.n_masters()..` in this order, with Algorithm A's rows.
     extra: Vec<usize>,
-    /// `A` over the masters' DOFs (positions: the masters').
-    a: AssembledModel,
-    /// The SPD companion of `A` (see the module docs).
-    m: Csc,
+    /// The masters' positions.
+    positions: Vec<Point>,
+    /// The nonlocal shares `N` of `A` and `M`, applied from the window's bonds
+    /// ([`operator`]).
+    shares: Shares,
+    /// The rest of `A`'s rows: Algorithm A's without the shares for the masters of `R` and
+    /// the extra nodes, `K_M`'s for the others.
+    rest_a: BlockCsr,
+    /// The rest of `M`'s rows for the masters of `R` and the extra nodes (the companion's
+    /// elements); empty for the others, whose `M` row is `K_M`'s, in `rest_a`.
+    rest_m: BlockCsr,
+    /// `max |A - A^T| / max |A|` over all DOFs (a bound: see [`operator`]).
+    asymmetry: f64,
     /// The nodes whose bonds were built (the window, a sub-grid of the lattice box) and the
     /// bond operator on them.
     window: Grid,
@@ -229,18 +239,6 @@ impl GradedBlend {
             sub_of[i] = w as u32;
         }
         let pick = |v: &[bool]| -> Vec<bool> { full_of.iter().map(|&i| v[i]).collect() };
-        let beta_w: Vec<f64> = full_of.iter().map(|&i| beta[i]).collect();
-        let regular_w = regular.map(pick);
-        let mirrored_w = pick(mirrored);
-        let rows = BlendRows {
-            op: &op,
-            grid: &sub,
-            beta: &beta_w,
-            regular: regular_w.as_deref(),
-            d_tensor: element_moduli(&op, &sub, &beta_w, &mirrored_w),
-            n_cells: (0..sub.len()).map(|w| cells_at(&sub, w).count() as u8).collect(),
-        };
-        let bulk = if homogeneous { Some(bulk_moduli(bond, grid)?) } else { None };
         let master_node: Vec<usize> = (0..mesh.nodes().len())
             .filter(|&g| mesh.master_of(g).is_some())
             .map(|g| grid.node_at_site(mesh.nodes()[g]).expect("a leaf's corners are nodes"))
@@ -252,6 +250,38 @@ impl GradedBlend {
                 master_of_window[sub_of[i] as usize] = m as u32;
             }
         }
+        // Algorithm A's rows: the masters of R and the extra nodes
+        let window_of: Vec<u32> = master_node
+            .iter()
+            .enumerate()
+            .map(|(m, &i)| if in_r[i] || m >= mesh.n_masters() { sub_of[i] } else { u32::MAX })
+            .collect();
+        let shares =
+            Shares { window_of, master_of: master_of_window, beta: full_of.iter().map(|&i| beta[i]).collect() };
+        drop(beta);
+        let unkept = |w: usize, j: usize| {
+            BlendError::param(
+                "local_mesh",
+                format!(
+                    "the row of lattice node {} reads node {}, which the graded mesh does not keep",
+                    full_of[w], full_of[j]
+                ),
+            )
+        };
+        (0..master_node.len()).into_par_iter().try_for_each(|m| {
+            shares.for_each(&op, m, |_, _, _| {}).map_err(|j| unkept(shares.window_of[m] as usize, j))
+        })?;
+        let regular_w = regular.map(pick);
+        let mirrored_w = pick(mirrored);
+        let rows = BlendRows {
+            op: &op,
+            grid: &sub,
+            beta: &shares.beta,
+            regular: regular_w.as_deref(),
+            d_tensor: element_moduli(&op, &sub, &shares.beta, &mirrored_w),
+            n_cells: (0..sub.len()).map(|w| cells_at(&sub, w).count() as u8).collect(),
+        };
+        let bulk = if homogeneous { Some(bulk_moduli(bond, grid)?) } else { None };
         let moduli = |e: &Cell| match (&bulk, e.level) {
             (Some(c), 1..) => c.map(|x| x / h.powi(d as i32)),
             _ => cell_moduli(&sub, &sub_of, grid, &rows, e, h),
@@ -259,57 +289,57 @@ impl GradedBlend {
         let k_rows = mesh.row_assembler();
         let to_master = |row: BlockRow, w: usize| -> Result<BlockRow, BlendError> {
             row.into_iter()
-                .map(|(j, b)| match master_of_window[j] {
-                    u32::MAX => Err(BlendError::param(
-                        "local_mesh",
-                        format!(
-                            "the row of lattice node {} reads node {}, which the graded mesh does not keep",
-                            full_of[w], full_of[j]
-                        ),
-                    )),
+                .map(|(j, b)| match shares.master_of[j] {
+                    u32::MAX => Err(unkept(w, j)),
                     m => Ok((m as usize, b)),
                 })
                 .collect()
         };
+        // the rows in chunks, each stored compactly as soon as it is built (a block row under
+        // construction takes 80 bytes a block)
         let n_sub = sub.len();
-        let built: Vec<Result<(BlockRow, BlockRow), BlendError>> = master_node
-            .par_iter()
-            .enumerate()
-            .map_init(
-                || (RowBuilder::new(n_sub), RowBuilder::new(n_sub)),
-                |(rb, mb), (m, &i)| {
-                    if in_r[i] || m >= mesh.n_masters() {
-                        let w = sub_of[i] as usize;
-                        let (ra, rm) = rows.row(w, rb, mb)?;
-                        Ok((to_master(ra, w)?, to_master(rm, w)?))
-                    } else {
-                        let r = k_rows.stiffness_row(m, &moduli);
-                        Ok((r.clone(), r))
-                    }
-                },
-            )
-            .collect();
-        let (a_rows, m_rows): (Vec<BlockRow>, Vec<BlockRow>) =
-            built.into_iter().collect::<Result<Vec<_>, _>>()?.into_iter().unzip();
+        let (mut rest_a, mut rest_m) = (BlockCsr::new(d), BlockCsr::new(d));
+        for start in (0..master_node.len()).step_by(ROW_CHUNK) {
+            let end = (start + ROW_CHUNK).min(master_node.len());
+            let built: Vec<Result<(BlockRow, BlockRow), BlendError>> = (start..end)
+                .into_par_iter()
+                .map_init(
+                    || (RowBuilder::new(n_sub), RowBuilder::new(n_sub)),
+                    |(rb, mb), m| match shares.window_of[m] {
+                        u32::MAX => Ok((k_rows.stiffness_row(m, &moduli), Vec::new())),
+                        w => {
+                            let w = w as usize;
+                            let (ra, rm) = rows.rest_row(w, rb, mb)?;
+                            Ok((to_master(ra, w)?, to_master(rm, w)?))
+                        }
+                    },
+                )
+                .collect();
+            let (a_rows, m_rows): (Vec<BlockRow>, Vec<BlockRow>) =
+                built.into_iter().collect::<Result<Vec<_>, _>>()?.into_iter().unzip();
+            rest_a.extend(&a_rows);
+            rest_m.extend(&m_rows);
+        }
         drop(k_rows);
         drop(rows);
-        let a = block_rows_to_csc(d, &a_rows);
-        drop(a_rows);
-        let m = block_rows_to_csc(d, &m_rows);
-        drop(m_rows);
-        let zones = Zones { nnz: a.val().len(), ..zones };
         let positions: Vec<Point> = master_node.iter().map(|&i| grid.position(i)).collect();
-        Ok(GradedBlend {
+        let mut graded = GradedBlend {
             mesh,
             master_node,
             extra,
-            a: AssembledModel::new("blend", d, positions, a),
-            m,
+            positions,
+            shares,
+            rest_a,
+            rest_m,
+            asymmetry: 0.0,
             window: sub,
             op,
             zones,
             estimate,
-        })
+        };
+        graded.asymmetry = graded.full_asymmetry();
+        graded.zones.nnz = graded.count_blocks() * d * d;
+        Ok(graded)
     }
 
     /// The estimate of the peak bytes of building and solving this model (checked against the
@@ -333,18 +363,10 @@ impl GradedBlend {
     pub fn master_nodes(&self) -> &[usize] {
         &self.master_node
     }
-    /// The zone counts (over the lattice nodes) and the stored entries of `A` (over the
-    /// masters) against the bond model's on the whole lattice.
+    /// The zone counts (over the lattice nodes) and the entries of `A` (over the masters,
+    /// whether stored or applied from the bonds) against the bond model's on the whole lattice.
     pub fn zones(&self) -> Zones {
         self.zones
-    }
-    /// `A` over the masters' DOFs.
-    pub fn stiffness(&self) -> &Csc {
-        self.a.stiffness()
-    }
-    /// The SPD companion `M` over the masters' DOFs.
-    pub fn companion(&self) -> &Csc {
-        &self.m
     }
 
     /// The lattice nodes of no leaf (their cells all void), ascending: masters
@@ -463,17 +485,21 @@ fn layout(
     Ok((in_r, zones, mesh))
 }
 
+/// Masters whose rows are built together and stored before the next ones (the block rows
+/// under construction take 80 bytes a block).
+const ROW_CHUNK: usize = 1 << 16;
 /// Bytes per lattice node held through the build: `beta`, the distances to the nonlocal
 /// nodes, the window's numbering and the per-node flags (R, near, window, mirrored, keep,
 /// regular, the mesh's leaf level).
 const LATTICE_NODE_BYTES: f64 = 8.0 + 8.0 + 4.0 + 12.0;
-/// Bytes per window node: the bond operator's per-node lists and the rows' per-node arrays.
-const WINDOW_NODE_BYTES: f64 = 96.0 + 8.0 + 24.0;
+/// Bytes per window node: the bond operator's per-node lists, the rows' per-node arrays and
+/// the shares' `beta` and master number.
+const WINDOW_NODE_BYTES: f64 = 96.0 + 8.0 + 24.0 + 12.0;
 /// Bytes per window node of the element moduli `D_i` (81 values), dropped after the rows.
 const MODULI_BYTES: f64 = 648.0;
 /// Bytes per bond of the bond operator (neighbour index and weight).
 const BOND_BYTES: f64 = 12.0;
-/// Bytes per master DOF of the solve: the assembled solve's vectors, GMRES's basis and a
+/// Bytes per master DOF of the solve: the vectors, GMRES's basis (restart 50) and a
 /// multigrid hierarchy from `M` (the scene's blend estimate, `crates/linpd-scene/src/memory.rs`:
 /// 1500 in 3D, 700 in 2D).
 fn master_dof_bytes(d: usize) -> f64 {
@@ -483,29 +509,28 @@ fn master_dof_bytes(d: usize) -> f64 {
 /// The peak bytes of [`GradedBlend::new`] and its solve (`n` lattice nodes, `n_window` of them
 /// with bonds, `stencil` bonds a node at most), the larger of its two phases over what the
 /// whole run holds (the per-node maps and the window's bond operator, `L`):
-/// 1. the rows: `L`, the moduli, the block rows of `A` and `M` (80 bytes a block each:
-///    Algorithm A's `|F| + 1` for the nodes of `R`, `3^d` of `K_M` for the others) and `A`, `M`
-///    (16 bytes an entry each);
-/// 2. the solve: `L`, `A`, `M` and their free restrictions (16 bytes an entry each), `A`'s
-///    interaction graph, the vectors and the multigrid hierarchy per master DOF.
+/// 1. the rows: `L`, the moduli and the stored rests (`4 + 8 d^2` bytes a block: `3^d` of
+///    `K_M` for a master off `R`, twice that for one of `R`: `A`'s and `M`'s);
+/// 2. the solve: `L`, the rests, the interaction graph (4 bytes a partner: the family and the
+///    rests' nodes for a master of `R`), the vectors and the multigrid hierarchy per master
+///    DOF. The shares are applied from `L`'s bonds, never stored.
 fn peak_bytes(grid: &Grid, n_window: usize, stencil: usize, mesh: &GradedMesh, extra: usize, in_r: &[bool]) -> f64 {
     let (d, n) = (grid.dim(), grid.len());
     let held = n as f64 * LATTICE_NODE_BYTES + n_window as f64 * (WINDOW_NODE_BYTES + stencil as f64 * BOND_BYTES);
     let moduli = n_window as f64 * MODULI_BYTES;
-    let local_blocks = 3f64.powi(d as i32);
-    let blocks: f64 = (0..mesh.nodes().len())
+    let local = 3f64.powi(d as i32);
+    let rows_a = (0..mesh.nodes().len())
         .filter(|&g| mesh.master_of(g).is_some())
-        .map(|g| match grid.node_at_site(mesh.nodes()[g]) {
-            Some(i) if !in_r[i] => local_blocks,
-            _ => stencil as f64 + 1.0,
-        })
-        .sum::<f64>()
-        + extra as f64 * (stencil as f64 + 1.0);
-    let dd = (d * d) as f64;
-    let (entries, masters) = (blocks * dd, (mesh.n_masters() + extra) as f64);
-    let build = held + moduli + 2.0 * blocks * 80.0 + 2.0 * entries * 16.0;
-    // A, M, their free restrictions, and the interaction graph of A (4 bytes a block each way)
-    let solve = held + 4.0 * entries * 16.0 + 8.0 * blocks + d as f64 * masters * master_dof_bytes(d);
+        .filter(|&g| grid.node_at_site(mesh.nodes()[g]).is_none_or(|i| in_r[i]))
+        .count()
+        + extra;
+    let masters = (mesh.n_masters() + extra) as f64;
+    let rows_a = rows_a as f64;
+    let blocks = masters * local + rows_a * local;
+    let partners = masters * local + rows_a * (stencil as f64 + local);
+    let stored = blocks * (4.0 + 8.0 * (d * d) as f64);
+    let build = held + moduli + stored;
+    let solve = held + stored + 4.0 * partners + d as f64 * masters * master_dof_bytes(d);
     build.max(solve)
 }
 
@@ -603,54 +628,4 @@ fn cell_moduli(sub: &Grid, sub_of: &[u32], grid: &Grid, rows: &BlendRows, e: &Ce
     }
     let vol = (h * s as f64).powi(d as i32);
     sum.map(|x| x / vol)
-}
-
-/// `A`'s own methods are those of the stored matrix ([`AssembledModel`]) over the masters.
-impl Model for GradedBlend {
-    fn kind(&self) -> &'static str {
-        "blend"
-    }
-    fn dim(&self) -> usize {
-        self.a.dim()
-    }
-    fn n_nodes(&self) -> usize {
-        self.a.n_nodes()
-    }
-    fn position(&self, i: usize) -> Point {
-        self.a.position(i)
-    }
-    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
-        self.a.for_each_partner(i, f)
-    }
-    fn apply(&self, u: &[f64], y: &mut [f64]) {
-        self.a.apply(u, y)
-    }
-    fn diagonal(&self) -> Vec<f64> {
-        self.a.diagonal()
-    }
-    fn assemble_free(&self, dofs: &DofMap) -> Csc {
-        self.a.assemble_free(dofs)
-    }
-    /// That of the full `A` (a bound for `A_ff`).
-    fn asymmetry(&self, dofs: &DofMap) -> f64 {
-        self.a.asymmetry(dofs)
-    }
-    /// AMD: the masters are not a lattice.
-    fn ordering(&self, _dofs: &DofMap) -> Ordering {
-        Ordering::Amd
-    }
-    fn spd_approximation(&self, dofs: &DofMap) -> Option<linpd_core::SpdApproximation> {
-        Some(linpd_core::SpdApproximation {
-            matrix: linpd_core::sparse::restrict_to_free(&self.m, dofs),
-            kind: linpd_core::SpdApproximationKind::EnergyForm,
-        })
-    }
-    fn matrix_free_unavailable(&self) -> Option<&'static str> {
-        Some("the blended model is assembled")
-    }
-    /// The lattice node and position of master `i` (the numbers users see are the lattice's).
-    fn describe_node(&self, i: usize) -> String {
-        let x = self.a.position(i);
-        format!("node {} (master {i}) at {:?}", self.master_node[i], &x[..self.a.dim()])
-    }
 }

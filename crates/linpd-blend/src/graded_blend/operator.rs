@@ -1,0 +1,386 @@
+//! The graded blend's `A` and its SPD companion `M` over the masters, as applied: each row is
+//! its nonlocal shares plus a stored rest,
+//!
+//! ```text
+//! A = N + L_A,    M = N + L_M,    N u|_i = sum_j a_ij w_ij e e^T (u_i - u_j),   a_ij = (beta_i + beta_j) / 2,
+//! ```
+//!
+//! `N` from the window's bonds ([`Shares`], never stored: 12 bytes a bond are already in the
+//! bond operator, where a stored block row of Algorithm A's 123 blocks in 3D at `delta = 3h`
+//! took 17.7 KB in `A` and again in `M`), and the rests `L_A`, `L_M` as block rows
+//! ([`BlockCsr`]): for a master of `R` the transition terms and the `1 - beta_i` elements of
+//! `A`, the weighted elements of `M` (at most `3^d` blocks from the cells and the difference
+//! stencils' few more); for any other master its row of `K_M`, the same in `A` and `M` and
+//! stored once. `N` is symmetric (`a_ij w_ij e e^T` is the same block seen from either end) and
+//! positive semi-definite; it reads only masters: a share with `a_ij > 0` has an end with
+//! `beta > 0`, so both ends are in `R`, on level-0 cells.
+
+use super::GradedBlend;
+use crate::lattice::BlockRow;
+use linpd_bond::BondOperator;
+use linpd_core::sparse::Csc;
+use linpd_core::{DofMap, Model, Ordering, Point};
+use rayon::prelude::*;
+use std::cell::RefCell;
+
+/// `d x d` block rows (CSR over nodes, `u32` columns, each block's `d * d` values row-major),
+/// rows in ascending column order.
+#[derive(Debug, Clone)]
+pub(crate) struct BlockCsr {
+    d: usize,
+    row_ptr: Vec<usize>,
+    col: Vec<u32>,
+    val: Vec<f64>,
+}
+
+impl BlockCsr {
+    /// No rows yet.
+    pub(crate) fn new(d: usize) -> Self {
+        BlockCsr { d, row_ptr: vec![0], col: Vec::new(), val: Vec::new() }
+    }
+
+    /// Appends block rows (each sorted by node, blocks in a 3 x 3 array), in order.
+    pub(crate) fn extend(&mut self, rows: &[BlockRow]) {
+        let d = self.d;
+        let blocks: usize = rows.iter().map(Vec::len).sum();
+        self.col.reserve(blocks);
+        self.val.reserve(blocks * d * d);
+        for row in rows {
+            for (j, b) in row {
+                self.col.push(*j as u32);
+                for a in 0..d {
+                    self.val.extend_from_slice(&b[a * 3..a * 3 + d]);
+                }
+            }
+            self.row_ptr.push(self.col.len());
+        }
+    }
+
+    /// Number of rows.
+    pub(crate) fn n_rows(&self) -> usize {
+        self.row_ptr.len() - 1
+    }
+
+    /// Row `i`: `(node, block)`, ascending.
+    pub(crate) fn row(&self, i: usize) -> impl Iterator<Item = (usize, &[f64])> + '_ {
+        let dd = self.d * self.d;
+        (self.row_ptr[i]..self.row_ptr[i + 1]).map(move |p| (self.col[p] as usize, &self.val[p * dd..p * dd + dd]))
+    }
+
+    /// Block `(i, j)`, if stored.
+    fn block(&self, i: usize, j: usize) -> Option<&[f64]> {
+        let dd = self.d * self.d;
+        let (lo, hi) = (self.row_ptr[i], self.row_ptr[i + 1]);
+        let p = lo + self.col[lo..hi].binary_search(&(j as u32)).ok()?;
+        Some(&self.val[p * dd..p * dd + dd])
+    }
+
+    /// `max |L - L^T|` over the blocks (a block missing on one side counts as zero) and
+    /// `max |L|`.
+    pub(crate) fn asymmetry_and_max(&self) -> (f64, f64) {
+        let d = self.d;
+        (0..self.n_rows())
+            .into_par_iter()
+            .map(|i| {
+                let (mut diff, mut max) = (0.0f64, 0.0f64);
+                for (j, b) in self.row(i) {
+                    max = b.iter().fold(max, |m, x| m.max(x.abs()));
+                    let t = self.block(j, i);
+                    for a in 0..d {
+                        for c in 0..d {
+                            let other = t.map_or(0.0, |t| t[c * d + a]);
+                            diff = diff.max((b[a * d + c] - other).abs());
+                        }
+                    }
+                }
+                (diff, max)
+            })
+            .reduce(|| (0.0, 0.0), |x, y| (x.0.max(y.0), x.1.max(y.1)))
+    }
+}
+
+/// `N`'s data: the window's `beta` and the masters of its nodes (see the module docs).
+#[derive(Debug, Clone)]
+pub(crate) struct Shares {
+    /// The window node of each master whose row is Algorithm A's (`R` and the extra nodes);
+    /// `u32::MAX` for the others, which have no shares.
+    pub(crate) window_of: Vec<u32>,
+    /// The master of each window node (`u32::MAX`: none).
+    pub(crate) master_of: Vec<u32>,
+    /// `beta` per window node.
+    pub(crate) beta: Vec<f64>,
+}
+
+impl Shares {
+    /// Whether master `m`'s row is Algorithm A's.
+    pub(crate) fn is_row_a(&self, m: usize) -> bool {
+        self.window_of[m] != u32::MAX
+    }
+
+    /// `f(j, c, e)` for each share of master `m`'s row with `c = a_ij w_ij != 0`: `j` the
+    /// master at the bond's other end, `e` the unit bond vector. `Err(window node)` for a share
+    /// whose other end is no master (checked once when the model is built).
+    pub(crate) fn for_each(
+        &self,
+        op: &BondOperator,
+        m: usize,
+        mut f: impl FnMut(usize, f64, [f64; 3]),
+    ) -> Result<(), usize> {
+        let w = self.window_of[m];
+        if w == u32::MAX {
+            return Ok(());
+        }
+        let w = w as usize;
+        let bi = self.beta[w];
+        for (&j, &wt) in op.family().neighbors(w).iter().zip(op.weights(w)) {
+            let j = j as usize;
+            let c = 0.5 * (bi + self.beta[j]) * wt;
+            if c != 0.0 {
+                match self.master_of[j] {
+                    u32::MAX => return Err(j),
+                    mj => f(mj as usize, c, op.unit(w, j)),
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Which of the graded blend's two operators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Which {
+    /// `A`.
+    A,
+    /// Its SPD companion `M`.
+    M,
+}
+
+thread_local! {
+    /// A dense slot per master and the blocks of one row being merged (see `for_each_block`).
+    static MERGE: RefCell<(Vec<u32>, Vec<(usize, [f64; 9])>)> = const { RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// The position of node `j`'s block in the row being merged, a zero block added if new.
+fn merge_slot(slot: &mut [u32], row: &mut Vec<(usize, [f64; 9])>, j: usize) -> usize {
+    if slot[j] == u32::MAX {
+        slot[j] = row.len() as u32;
+        row.push((j, [0.0; 9]));
+    }
+    slot[j] as usize
+}
+
+impl GradedBlend {
+    /// The stored rest of master `m`'s row of `which` (see the module docs).
+    fn rest(&self, which: Which, m: usize) -> impl Iterator<Item = (usize, &[f64])> + '_ {
+        let rows = if which == Which::M && self.shares.is_row_a(m) { &self.rest_m } else { &self.rest_a };
+        rows.row(m)
+    }
+
+    /// `f(j, c, e)` for the shares of master `m` (see [`Shares::for_each`]).
+    fn shares_of(&self, m: usize, f: impl FnMut(usize, f64, [f64; 3])) {
+        self.shares.for_each(&self.op, m, f).expect("every share's ends are masters (checked when built)");
+    }
+
+    fn apply_op(&self, which: Which, u: &[f64], y: &mut [f64]) {
+        let d = self.dim();
+        assert_eq!(u.len(), d * self.master_node.len(), "one value per master DOF");
+        assert_eq!(y.len(), u.len(), "one value per master DOF");
+        y.par_chunks_mut(d).enumerate().for_each(|(m, ym)| {
+            ym.iter_mut().for_each(|v| *v = 0.0);
+            for (j, b) in self.rest(which, m) {
+                for a in 0..d {
+                    ym[a] += (0..d).map(|c| b[a * d + c] * u[d * j + c]).sum::<f64>();
+                }
+            }
+            self.shares_of(m, |j, c, e| {
+                let proj: f64 = (0..d).map(|k| e[k] * (u[d * m + k] - u[d * j + k])).sum();
+                for k in 0..d {
+                    ym[k] += c * proj * e[k];
+                }
+            });
+        });
+    }
+
+    fn diagonal_op(&self, which: Which) -> Vec<f64> {
+        let d = self.dim();
+        let mut out = vec![0.0; d * self.master_node.len()];
+        out.par_chunks_mut(d).enumerate().for_each(|(m, o)| {
+            if let Some((_, b)) = self.rest(which, m).find(|(j, _)| *j == m) {
+                (0..d).for_each(|a| o[a] = b[a * d + a]);
+            }
+            self.shares_of(m, |_, c, e| (0..d).for_each(|a| o[a] += c * e[a] * e[a]));
+        });
+        out
+    }
+
+    /// The blocks of row `m` of `which`: the shares' and the rest's, merged per node.
+    fn for_each_block_op(&self, which: Which, m: usize, f: &mut dyn FnMut(usize, &[f64])) {
+        let d = self.dim();
+        if !self.shares.is_row_a(m) {
+            self.rest(which, m).for_each(|(j, b)| f(j, b));
+            return;
+        }
+        MERGE.with_borrow_mut(|(slot, row)| {
+            slot.resize(self.master_node.len(), u32::MAX);
+            merge_slot(slot, row, m);
+            for (j, b) in self.rest(which, m) {
+                let k = merge_slot(slot, row, j);
+                row[k].1[..d * d].iter_mut().zip(b).for_each(|(x, y)| *x += y);
+            }
+            self.shares_of(m, |j, c, e| {
+                let (ki, kj) = (merge_slot(slot, row, m), merge_slot(slot, row, j));
+                for a in 0..d {
+                    for b in 0..d {
+                        let v = c * e[a] * e[b];
+                        row[ki].1[a * d + b] += v;
+                        row[kj].1[a * d + b] -= v;
+                    }
+                }
+            });
+            for (j, b) in row.drain(..) {
+                slot[j] = u32::MAX;
+                f(j, &b[..d * d]);
+            }
+        });
+    }
+
+    fn for_each_partner_op(&self, m: usize, f: &mut dyn FnMut(usize)) {
+        self.rest_a.row(m).filter(|&(j, _)| j != m).for_each(|(j, _)| f(j));
+        if self.shares.is_row_a(m) {
+            self.rest_m.row(m).filter(|&(j, _)| j != m).for_each(|(j, _)| f(j));
+        }
+        self.shares_of(m, |j, _, _| f(j));
+    }
+
+    /// `max |A - A^T| / max |A|` over all DOFs, bounded from above: `N` is symmetric (each
+    /// share's block is the same product from either end), so the difference is the rest's,
+    /// and `max |A|` is taken as the larger of the rest's entries and `A`'s diagonal (an
+    /// entry of `N` is at most the diagonal's).
+    pub(super) fn full_asymmetry(&self) -> f64 {
+        let (diff, max_rest) = self.rest_a.asymmetry_and_max();
+        let max = self.diagonal_op(Which::A).iter().fold(max_rest, |m, x| m.max(x.abs()));
+        if max > 0.0 {
+            diff / max
+        } else {
+            0.0
+        }
+    }
+
+    /// The blocks of `A`'s rows (shares and rest merged per node).
+    pub(super) fn count_blocks(&self) -> usize {
+        (0..self.master_node.len())
+            .into_par_iter()
+            .map(|m| {
+                let mut count = 0;
+                self.for_each_block_op(Which::A, m, &mut |_, _| count += 1);
+                count
+            })
+            .sum()
+    }
+
+    /// `A` over all the masters' DOFs, assembled (for checks and small solves; the solvers
+    /// apply it matrix-free).
+    pub fn stiffness(&self) -> Csc {
+        self.assemble_free(&DofMap::all_free(self.master_node.len(), self.dim()))
+    }
+
+    /// The SPD companion `M` over all the masters' DOFs, assembled (see [`Self::stiffness`]).
+    pub fn companion(&self) -> Csc {
+        Companion(self).assemble_free(&DofMap::all_free(self.master_node.len(), self.dim()))
+    }
+}
+
+/// `A`: its shares from the window's bonds, its rest stored (see the module docs).
+impl Model for GradedBlend {
+    fn kind(&self) -> &'static str {
+        "blend"
+    }
+    fn dim(&self) -> usize {
+        self.mesh.dim()
+    }
+    fn n_nodes(&self) -> usize {
+        self.master_node.len()
+    }
+    fn position(&self, i: usize) -> Point {
+        self.positions[i]
+    }
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        self.for_each_partner_op(i, f)
+    }
+    fn apply(&self, u: &[f64], y: &mut [f64]) {
+        self.apply_op(Which::A, u, y)
+    }
+    fn diagonal(&self) -> Vec<f64> {
+        self.diagonal_op(Which::A)
+    }
+    fn assemble_free(&self, dofs: &DofMap) -> Csc {
+        linpd_core::model::assemble_free_from_blocks(self, dofs).expect("the graded blend has block rows")
+    }
+    fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
+        self.for_each_block_op(Which::A, i, f);
+        true
+    }
+    /// That of the full `A`, computed when it was built (a bound for `A_ff`; see
+    /// `GradedBlend::asymmetry`).
+    fn asymmetry(&self, _dofs: &DofMap) -> f64 {
+        self.asymmetry
+    }
+    /// AMD: the masters are not a lattice.
+    fn ordering(&self, _dofs: &DofMap) -> Ordering {
+        Ordering::Amd
+    }
+    fn spd_approximation(&self, dofs: &DofMap) -> Option<linpd_core::SpdApproximation> {
+        Some(linpd_core::SpdApproximation {
+            matrix: Companion(self).assemble_free(dofs),
+            kind: linpd_core::SpdApproximationKind::EnergyForm,
+        })
+    }
+    /// `M` (see the module docs): the multigrid that preconditions GMRES on `A` is built from
+    /// its blocks, never stored whole.
+    fn multigrid_companion(&self) -> Option<Box<dyn Model + '_>> {
+        Some(Box::new(Companion(self)))
+    }
+    /// The lattice node and position of master `i` (the numbers users see are the lattice's).
+    fn describe_node(&self, i: usize) -> String {
+        let x = self.positions[i];
+        format!("node {} (master {i}) at {:?}", self.master_node[i], &x[..self.dim()])
+    }
+}
+
+/// The graded blend's SPD companion `M` (see the module docs), as a model whose blocks the
+/// multigrid reads.
+struct Companion<'a>(&'a GradedBlend);
+
+impl Model for Companion<'_> {
+    fn kind(&self) -> &'static str {
+        "blend companion"
+    }
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn n_nodes(&self) -> usize {
+        self.0.n_nodes()
+    }
+    fn position(&self, i: usize) -> Point {
+        self.0.position(i)
+    }
+    fn for_each_partner(&self, i: usize, f: &mut dyn FnMut(usize)) {
+        self.0.for_each_partner_op(i, f)
+    }
+    fn apply(&self, u: &[f64], y: &mut [f64]) {
+        self.0.apply_op(Which::M, u, y)
+    }
+    fn diagonal(&self) -> Vec<f64> {
+        self.0.diagonal_op(Which::M)
+    }
+    fn assemble_free(&self, dofs: &DofMap) -> Csc {
+        linpd_core::model::assemble_free_from_blocks(self, dofs).expect("the companion has block rows")
+    }
+    fn for_each_block(&self, i: usize, f: &mut dyn FnMut(usize, &[f64])) -> bool {
+        self.0.for_each_block_op(Which::M, i, f);
+        true
+    }
+    fn describe_node(&self, i: usize) -> String {
+        self.0.describe_node(i)
+    }
+}
