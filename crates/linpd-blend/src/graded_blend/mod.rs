@@ -287,39 +287,7 @@ impl GradedBlend {
             _ => cell_moduli(&sub, &sub_of, grid, &rows, e, h),
         };
         let k_rows = mesh.row_assembler();
-        let to_master = |row: BlockRow, w: usize| -> Result<BlockRow, BlendError> {
-            row.into_iter()
-                .map(|(j, b)| match shares.master_of[j] {
-                    u32::MAX => Err(unkept(w, j)),
-                    m => Ok((m as usize, b)),
-                })
-                .collect()
-        };
-        // the rows in chunks, each stored compactly as soon as it is built (a block row under
-        // construction takes 80 bytes a block)
-        let n_sub = sub.len();
-        let (mut rest_a, mut rest_m) = (BlockCsr::new(d), BlockCsr::new(d));
-        for start in (0..master_node.len()).step_by(ROW_CHUNK) {
-            let end = (start + ROW_CHUNK).min(master_node.len());
-            let built: Vec<Result<(BlockRow, BlockRow), BlendError>> = (start..end)
-                .into_par_iter()
-                .map_init(
-                    || (RowBuilder::new(n_sub), RowBuilder::new(n_sub)),
-                    |(rb, mb), m| match shares.window_of[m] {
-                        u32::MAX => Ok((k_rows.stiffness_row(m, &moduli), Vec::new())),
-                        w => {
-                            let w = w as usize;
-                            let (ra, rm) = rows.rest_row(w, rb, mb)?;
-                            Ok((to_master(ra, w)?, to_master(rm, w)?))
-                        }
-                    },
-                )
-                .collect();
-            let (a_rows, m_rows): (Vec<BlockRow>, Vec<BlockRow>) =
-                built.into_iter().collect::<Result<Vec<_>, _>>()?.into_iter().unzip();
-            rest_a.extend(&a_rows);
-            rest_m.extend(&m_rows);
-        }
+        let (rest_a, rest_m) = rests(d, &rows, &shares, &k_rows, &moduli, &unkept)?;
         drop(k_rows);
         drop(rows);
         let positions: Vec<Point> = master_node.iter().map(|&i| grid.position(i)).collect();
@@ -417,6 +385,54 @@ impl GradedBlend {
         }
         out
     }
+}
+
+/// The stored rests of `A` and `M` over the masters (see [`operator`]): for a master of
+/// `R` or an extra node (window node `shares.window_of[m]`) Algorithm A's rows without the
+/// shares, renumbered to masters; for the others its row of `K_M` (`k_rows`, the leaves'
+/// moduli from `moduli`), in `A`'s rest only. Built in chunks of [`ROW_CHUNK`] masters, each
+/// stored before the next. `unkept(w, j)`: the error for window node `w`'s row reading window
+/// node `j`, which is no master.
+fn rests(
+    d: usize,
+    rows: &BlendRows,
+    shares: &Shares,
+    k_rows: &crate::graded::RowAssembler,
+    moduli: &(dyn Fn(&Cell) -> [f64; 81] + Sync),
+    unkept: &(dyn Fn(usize, usize) -> BlendError + Sync),
+) -> Result<(BlockCsr, BlockCsr), BlendError> {
+    let to_master = |row: BlockRow, w: usize| -> Result<BlockRow, BlendError> {
+        row.into_iter()
+            .map(|(j, b)| match shares.master_of[j] {
+                u32::MAX => Err(unkept(w, j)),
+                m => Ok((m as usize, b)),
+            })
+            .collect()
+    };
+    let (n_sub, n_masters) = (shares.master_of.len(), shares.window_of.len());
+    let (mut rest_a, mut rest_m) = (BlockCsr::new(d), BlockCsr::new(d));
+    for start in (0..n_masters).step_by(ROW_CHUNK) {
+        let end = (start + ROW_CHUNK).min(n_masters);
+        let built: Vec<Result<(BlockRow, BlockRow), BlendError>> = (start..end)
+            .into_par_iter()
+            .map_init(
+                || (RowBuilder::new(n_sub), RowBuilder::new(n_sub)),
+                |(rb, mb), m| match shares.window_of[m] {
+                    u32::MAX => Ok((k_rows.stiffness_row(m, moduli), Vec::new())),
+                    w => {
+                        let w = w as usize;
+                        let (ra, rm) = rows.rest_row(w, rb, mb)?;
+                        Ok((to_master(ra, w)?, to_master(rm, w)?))
+                    }
+                },
+            )
+            .collect();
+        let (a_rows, m_rows): (Vec<BlockRow>, Vec<BlockRow>) =
+            built.into_iter().collect::<Result<Vec<_>, _>>()?.into_iter().unzip();
+        rest_a.extend(&a_rows);
+        rest_m.extend(&m_rows);
+    }
+    Ok((rest_a, rest_m))
 }
 
 /// The rows of `R` (nodes with a nonlocal share or transition terms), the zone counts and the

@@ -155,9 +155,11 @@ enum Which {
     M,
 }
 
+/// A dense slot per master and the blocks of one row being merged (see `for_each_block_op`).
+type Merge = (Vec<u32>, Vec<(usize, [f64; 9])>);
+
 thread_local! {
-    /// A dense slot per master and the blocks of one row being merged (see `for_each_block`).
-    static MERGE: RefCell<(Vec<u32>, Vec<(usize, [f64; 9])>)> = const { RefCell::new((Vec::new(), Vec::new())) };
+    static MERGE: RefCell<Merge> = const { RefCell::new((Vec::new(), Vec::new())) };
 }
 
 /// The position of node `j`'s block in the row being merged, a zero block added if new.
