@@ -57,6 +57,56 @@ fn graded_crack_plate_matches_the_bond_model() {
     assert!(imbalance <= 1e-6, "relative imbalance {imbalance:e}");
 }
 
+/// `auto` on a graded scene past 20,000 unknowns runs GMRES on `A` applied matrix-free
+/// (shares from the bonds, the rest stored) with the multigrid of the companion's block rows;
+/// the assembled GMRES + multigrid (`A_ff`, `M_ff` stored) solves the same system: the two
+/// agree to their tolerance (rtol 1e-10 each; 1e-7 of max |u| allows a condition number of
+/// 1e3 between residual and error), in the same iterations give or take two (the same
+/// hierarchy, built from blocks instead of a stored `M_ff`). The balance is taken on the
+/// masters with the loads as `P^T f`: each load's resultant and moment are the lattice's (the
+/// pure bond model's balance, same loads) to round-off (1e-12), and the supports' nodal
+/// reactions reach the output's nodes, summing to the constraints' reactions.
+#[test]
+fn graded_matrix_free_gmres_matches_the_assembled_one() {
+    let h = 0.005;
+    let mut auto = plate(h);
+    auto["model"]["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": 4});
+    auto["solver"] = json!({"type": "auto", "rtol": 1e-10});
+    let mut assembled = auto.clone();
+    assembled["solver"] = json!({"type": "gmres", "preconditioner": "multigrid", "rtol": 1e-10});
+    let (a, b) = (solve(&auto), solve(&assembled));
+    assert!(a.report.n >= 20_000, "{} unknowns", a.report.n);
+    assert_eq!(a.report.solver.to_string(), "gmres-multigrid-matrix-free", "{:?}", a.report.notes);
+    assert_eq!(b.report.solver.to_string(), "gmres-multigrid", "{:?}", b.report.notes);
+    let err = max_rel_diff(&a.u, &b.u);
+    let (ia, ib) = (a.report.iterations.unwrap(), b.report.iterations.unwrap());
+    println!("matrix-free vs assembled: {err:.2e}, iterations {ia} vs {ib}");
+    assert!(err <= 1e-7, "max |u_mf - u_asm| / max |u| = {err:e}");
+    assert!(ia.abs_diff(ib) <= 2, "iterations {ia} vs {ib}");
+    let mut pd = plate(h);
+    pd["model"].as_object_mut().unwrap().remove("pd_regions");
+    let p = solve(&pd);
+    let (bg, bp) = (a.balance.as_ref().unwrap(), p.balance.as_ref().unwrap());
+    assert_eq!(bg.loads.len(), bp.loads.len());
+    for (lg, lp) in bg.loads.iter().zip(&bp.loads) {
+        let scale = lp.force.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (x, y) in lg.force.iter().chain(&lg.moment).zip(lp.force.iter().chain(&lp.moment)) {
+            assert!((x - y).abs() <= 1e-12 * scale, "load {:?} against the lattice's {:?}", lg, lp);
+        }
+        assert_eq!(lg.nodes, lp.nodes, "the lattice nodes a load puts forces on");
+    }
+    let d = 2;
+    assert_eq!(bg.nodal_reaction.len(), d * a.x.len(), "a reaction per output node");
+    // (the plate is pulled by prescribed displacements: the constraints' reactions cancel)
+    let scale = bg.constraints.iter().flat_map(|c| &c.reaction).fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(scale > 0.0);
+    for c in 0..d {
+        let nodal: f64 = bg.nodal_reaction.iter().skip(c).step_by(d).sum();
+        let total = bg.reaction[c];
+        assert!((nodal - total).abs() <= 1e-12 * scale, "component {c}: {nodal} vs {total}");
+    }
+}
+
 /// `max_cell` equal to the spacing keeps every cell on the lattice: the same model as without
 /// `local_mesh`, to the round-off of sparse LU (1e-12).
 #[test]

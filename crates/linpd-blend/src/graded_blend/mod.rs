@@ -343,6 +343,42 @@ impl GradedBlend {
         &self.extra
     }
 
+    /// The master at lattice node `i` of `grid` (`None`: a hanging node, or inside a coarse
+    /// leaf).
+    pub fn master_at(&self, grid: &Grid, i: usize) -> Option<usize> {
+        match self.extra.binary_search(&i) {
+            Ok(x) => Some(self.mesh.n_masters() + x),
+            Err(_) => self.mesh.node_at(grid.site_of(i)).and_then(|g| self.mesh.master_of(g)),
+        }
+    }
+
+    /// Row `i` of `P` for lattice node `i` of `grid`: `(master, weight)` (`u_i = sum w u_m`;
+    /// a force `f` at node `i` is `w f` on each master).
+    pub fn interpolation(&self, grid: &Grid, i: usize) -> Vec<(usize, f64)> {
+        self.p_row(grid, i)
+    }
+
+    /// `P^T v` for one value `value(i)` per lattice node `i` of `grid`, without a lattice-sized
+    /// array (e.g. the masters' shares of the nodes' volumes).
+    pub fn restrict_scalar(&self, grid: &Grid, value: &(dyn Fn(usize) -> f64 + Sync)) -> Vec<f64> {
+        let n = self.master_node.len();
+        (0..grid.len())
+            .into_par_iter()
+            .fold(
+                || vec![0.0; n],
+                |mut out, i| {
+                    let v = value(i);
+                    if v != 0.0 {
+                        for (m, w) in self.p_row(grid, i) {
+                            out[m] += w * v;
+                        }
+                    }
+                    out
+                },
+            )
+            .reduce(|| vec![0.0; n], |a, b| a.into_iter().zip(b).map(|(x, y)| x + y).collect())
+    }
+
     /// Row `i` of `P` for lattice node `i` of `grid`: `(master, weight)`.
     fn p_row(&self, grid: &Grid, i: usize) -> Vec<(usize, f64)> {
         match self.extra.binary_search(&i) {

@@ -254,20 +254,6 @@ impl super::Built for GradedSystem {
     }
 }
 
-/// The graded model's forces seen on the lattice, for the balance: `A_M` applied to the
-/// displacements at the masters' nodes, its forces put back on those nodes (the other lattice
-/// nodes carry none: their loads reached the masters through `P^T`).
-fn apply_on_lattice(g: &GradedBlend, d: usize, u: &[f64], y: &mut [f64]) {
-    let masters = g.master_nodes();
-    let um: Vec<f64> = masters.iter().flat_map(|&i| u[d * i..d * i + d].to_vec()).collect();
-    let mut ym = vec![0.0; um.len()];
-    linpd_core::Model::apply(g, &um, &mut ym);
-    y.iter_mut().for_each(|v| *v = 0.0);
-    for (m, &i) in masters.iter().enumerate() {
-        y[d * i..d * i + d].copy_from_slice(&ym[d * m..d * m + d]);
-    }
-}
-
 impl LatticeBlendModel {
     /// The bond operator, `beta`, the regular nodes and the mirrored supports of the scene.
     fn inputs(&self, p: &Problem) -> Result<BlendInputs, ProblemError> {
@@ -288,8 +274,8 @@ impl LatticeBlendModel {
         let (b, zone) = (&self.bond, &self.zone);
         let grid = p.lattice()?;
         let dim = grid.dim();
-        let (mask, _) = p.constrained();
-        let constrained: Vec<bool> = (0..grid.len()).map(|i| (0..dim).any(|a| mask[dim * i + a])).collect();
+        let mut constrained = vec![false; grid.len()];
+        p.for_each_prescribed(&mut |i, _, _| constrained[i] = true);
         let inside = match &zone.regions {
             PdRegions::Given(regions) => {
                 let tol = GEOMETRY_RTOL * grid.spacing();
@@ -388,12 +374,24 @@ impl LatticeBlendModel {
         let grading = local.grading;
         let memory_estimate = Some(g.graded.memory_estimate());
         let d = p.dim();
-        let (mask, ubar) = p.constrained();
         let masters = g.graded.master_nodes();
-        let pick = |v: &[bool]| -> Vec<bool> { masters.iter().flat_map(|&i| v[d * i..d * i + d].to_vec()).collect() };
-        let mask_m = pick(&mask);
-        let ubar_m: Vec<f64> = masters.iter().flat_map(|&i| ubar[d * i..d * i + d].to_vec()).collect();
-        let f = g.graded.restrict(grid, &p.load_vector());
+        // the constraints at the masters' nodes (every constrained node is one: its cells stay
+        // on the lattice) and the loads as P^T f, without lattice-sized vectors
+        let (mut mask_m, mut ubar_m) = (vec![false; d * masters.len()], vec![0.0; d * masters.len()]);
+        p.for_each_prescribed(&mut |i, a, value| {
+            if let Some(m) = g.graded.master_at(grid, i) {
+                mask_m[d * m + a] = true;
+                ubar_m[d * m + a] = value;
+            }
+        });
+        let mut f = vec![0.0; d * masters.len()];
+        for k in 0..p.n_loads() {
+            p.visit_load(k, &mut |i, force| {
+                for (m, w) in g.graded.interpolation(grid, i) {
+                    (0..d).for_each(|a| f[d * m + a] += w * force[a]);
+                }
+            });
+        }
         let z = g.graded.zones();
         let levels: Vec<String> =
             g.graded.mesh().counts().iter().map(|c| format!("{} cells of {}h", c.cells, 1usize << c.level)).collect();
@@ -437,11 +435,15 @@ impl LatticeBlendModel {
 
 /// The solution of the graded blend: on the mesh's nodes (masters and hanging nodes, with
 /// the leaves as VTU cells), or with `output.nodes: "lattice"` on every lattice node, `u = P
-/// u_M` ([`GradedBlend::expand`]). The balance is that of the masters' forces put on their
-/// lattice nodes (the strain energy density is not defined for the unsymmetric blend, as on
-/// the lattice). The strain ([`graded_strain`]) is PD's on the corners of lattice cells and
-/// the elements' elsewhere. A mesh node's volume is its share `sum_i P_im V_i` of the lattice
-/// nodes' volumes (0 for a hanging node), so the volumes still sum to the body's.
+/// u_M` ([`GradedBlend::expand`]). The balance is taken on the masters, the model's own
+/// unknowns: `A_M u_M` against the scene's loads as `P^T f` (the forces the solve balanced;
+/// `P` interpolates affine fields exactly, so `P^T` keeps each load's resultant and moment)
+/// and the supports at the masters' nodes (the strain energy density is not defined for the
+/// unsymmetric blend, as on the lattice). The strain ([`graded_strain`]) is PD's on the
+/// corners of lattice cells and the elements' elsewhere. A mesh node's volume is its share
+/// `sum_i P_im V_i` of the lattice nodes' volumes (0 for a hanging node), so the volumes still
+/// sum to the body's. Nothing of the size of the lattice is held unless the output asks for
+/// every lattice node.
 fn graded_solution(
     p: &Problem,
     g: &GradedSystem,
@@ -452,30 +454,45 @@ fn graded_solution(
     let grid = p.lattice()?;
     let (graded, d) = (&g.graded, p.dim());
     let mesh = graded.mesh();
-    let u_lattice = graded.expand(grid, u_m);
-    let balance = p.balance(&|u, y| apply_on_lattice(graded, d, u, y), &u_lattice);
+    let mut balance = graded_balance(p, graded, grid, u_m);
     let extra = graded.extra_nodes();
     // the sites the solution is drawn on: every lattice node, or the model's nodes (the mesh's,
-    // then the extra nodes), all of them lattice nodes whose u is u_lattice's
+    // then the extra nodes), all of them lattice nodes
     let sites: Vec<[usize; 3]> = if p.lattice_output() {
         (0..grid.len()).map(|i| grid.site_of(i)).collect()
     } else {
         mesh.nodes().iter().copied().chain(extra.iter().map(|&i| grid.site_of(i))).collect()
     };
-    let strain = graded_strain(grid, graded, &u_lattice, &sites);
+    // u at a lattice site: P u_M
+    let u_at = |k: [usize; 3]| -> [f64; 3] {
+        let mut u = [0.0; 3];
+        if let Some(i) = grid.node_at_site(k) {
+            for (m, w) in graded.interpolation(grid, i) {
+                (0..d).for_each(|a| u[a] += w * u_m[d * m + a]);
+            }
+        }
+        u
+    };
+    let strain = graded_strain(grid, graded, &u_at, &sites);
+    // the supports' reactions, from the masters to the sites
+    let reaction_of = |k: [usize; 3]| -> Vec<f64> {
+        let m = grid.node_at_site(k).and_then(|i| graded.master_at(grid, i));
+        m.map_or(vec![0.0; d], |m| balance.nodal_reaction[d * m..d * m + d].to_vec())
+    };
+    let nodal_reaction: Vec<f64> = sites.par_iter().flat_map_iter(|&k| reaction_of(k)).collect();
+    balance.nodal_reaction = nodal_reaction;
     let (u, volumes, cells) = if p.lattice_output() {
         let volumes = (0..grid.len()).map(|i| grid.node_volume(i)).collect();
         let cells = element_cells(mesh, &|k| grid.node_at_site(k).unwrap_or(usize::MAX));
-        (u_lattice, volumes, cells)
+        (graded.expand(grid, u_m), volumes, cells)
     } else {
         // a node's volume is its masters' share P^T V (0 for a hanging node)
-        let v: Vec<f64> = (0..grid.len()).flat_map(|i| vec![grid.node_volume(i); d]).collect();
-        let v_m: Vec<f64> = graded.restrict(grid, &v).into_iter().step_by(d).collect();
+        let v_m = graded.restrict_scalar(grid, &|i| grid.node_volume(i));
         let mut volumes: Vec<f64> =
             (0..mesh.nodes().len()).map(|i| mesh.master_of(i).map_or(0.0, |m| v_m[m])).collect();
         volumes.extend((0..extra.len()).map(|x| v_m[mesh.n_masters() + x]));
         let cells = element_cells(mesh, &|k| mesh.node_at(k).unwrap_or(usize::MAX));
-        let u = sites.iter().flat_map(|&k| at_site(grid, &u_lattice, k)).collect();
+        let u = sites.par_iter().flat_map_iter(|&k| u_at(k)[..d].to_vec()).collect();
         (u, volumes, cells)
     };
     Ok(Solution {
@@ -508,24 +525,50 @@ fn graded_solution(
     })
 }
 
-/// The `d` values of `u` (over the lattice's nodes) at lattice site `k` (zeros off the body).
-fn at_site(grid: &Grid, u: &[f64], k: [usize; 3]) -> Vec<f64> {
-    let d = grid.dim();
-    grid.node_at_site(k).map_or(vec![0.0; d], |i| u[d * i..d * i + d].to_vec())
+/// The force balance of the graded blend's solution `u_m` on its masters (see
+/// [`graded_solution`]): `A_M u_M`, the scene's loads as `P^T f`, its supports at the
+/// masters' nodes.
+fn graded_balance(p: &Problem, graded: &GradedBlend, grid: &Grid, u_m: &[f64]) -> crate::balance::Balance {
+    let mut au = vec![0.0; u_m.len()];
+    linpd_core::Model::apply(graded, u_m, &mut au);
+    let load = |k: usize, visit: &mut dyn FnMut(usize, &[f64])| {
+        p.visit_load(k, &mut |i, force| {
+            for (m, w) in graded.interpolation(grid, i) {
+                let share: Vec<f64> = force.iter().map(|f| w * f).collect();
+                visit(m, &share);
+            }
+        })
+    };
+    let held = |k: usize| -> Vec<(usize, usize)> {
+        p.held_dofs(k).into_iter().filter_map(|(i, a)| graded.master_at(grid, i).map(|m| (m, a))).collect()
+    };
+    let nodes = crate::scene::BalanceNodes {
+        n: graded.master_nodes().len(),
+        position: &|m| grid.position(graded.master_nodes()[m]),
+        load: &load,
+        held: &held,
+    };
+    p.balance_on(&nodes, &au)
 }
 
 /// The small-strain tensor at `sites`: PD's ([`crate::nodal_strain`], least squares over the
 /// family, from the window's bonds) at the corners of the mesh's lattice cells and at the
 /// extra nodes, whose families the window holds whole; elsewhere the symmetric part of the
-/// mean gradient of the leaves around the site, at the site (`u`: `P u_M` on the lattice).
-fn graded_strain(grid: &Grid, g: &GradedBlend, u: &[f64], sites: &[[usize; 3]]) -> NodalStrain {
+/// mean gradient of the leaves around the site, at the site (`u_at(k)`: `P u_M` at site `k`).
+fn graded_strain(
+    grid: &Grid,
+    g: &GradedBlend,
+    u_at: &(dyn Fn([usize; 3]) -> [f64; 3] + Sync),
+    sites: &[[usize; 3]],
+) -> NodalStrain {
     let (mesh, d) = (g.mesh(), grid.dim());
     let (window, op) = g.window();
     let u_window: Vec<f64> = (0..window.len())
         .into_par_iter()
-        .flat_map_iter(|w| match grid.node_at(window.lattice_index(w)) {
-            Some(i) => u[d * i..d * i + d].to_vec(),
-            None => vec![0.0; d],
+        .flat_map_iter(|w| {
+            let l = window.lattice_index(w);
+            let k = grid.node_at(l).map(|i| grid.site_of(i));
+            k.map_or([0.0; 3], u_at)[..d].to_vec()
         })
         .collect();
     let extra = g.extra_nodes();
@@ -540,7 +583,7 @@ fn graded_strain(grid: &Grid, g: &GradedBlend, u: &[f64], sites: &[[usize; 3]]) 
             let lattice_node = node.map(|i| grid.lattice_index(i));
             match (on_lattice_cell, lattice_node.and_then(|l| window.node_at(l))) {
                 (true, Some(w)) => pd.tensor[w],
-                _ => leaf_strain(grid, mesh, u, k),
+                _ => leaf_strain(mesh, u_at, k),
             }
         })
         .collect();
@@ -550,8 +593,8 @@ fn graded_strain(grid: &Grid, g: &GradedBlend, u: &[f64], sites: &[[usize; 3]]) 
 /// The symmetric part of the mean gradient at site `k` of the leaves around it
 /// ([`GradedMesh::leaves_around`]): `grad u = sum_c u_c grad N_c` of each bilinear / trilinear
 /// leaf, `u_c` from `u` (over the lattice's nodes) at its corners.
-fn leaf_strain(grid: &Grid, mesh: &GradedMesh, u: &[f64], k: [usize; 3]) -> [f64; 9] {
-    let d = grid.dim();
+fn leaf_strain(mesh: &GradedMesh, u_at: &dyn Fn([usize; 3]) -> [f64; 3], k: [usize; 3]) -> [f64; 9] {
+    let d = mesh.dim();
     let leaves = mesh.leaves_around(k);
     let h = mesh.lattice().spacing();
     let mut grad = [0.0; 9];
@@ -559,7 +602,7 @@ fn leaf_strain(grid: &Grid, mesh: &GradedMesh, u: &[f64], k: [usize; 3]) -> [f64
         let s = e.side() as f64;
         let t = [0, 1, 2].map(|a| (k[a] as f64 - e.origin[a] as f64) / s);
         for c in 0..1usize << d {
-            let u_c = at_site(grid, u, e.corner(d, c));
+            let u_c = u_at(e.corner(d, c));
             for b in 0..d {
                 // dN_c / dx_b
                 let dn: f64 = (0..d)

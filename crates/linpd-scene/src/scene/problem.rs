@@ -156,6 +156,20 @@ pub struct PartBalance {
     pub held_dofs: Vec<usize>,
 }
 
+/// The nodes a force balance is taken on ([`Problem::balance_on`]) and how the scene's loads
+/// and supports reach them.
+pub(crate) struct BalanceNodes<'a> {
+    /// Number of nodes.
+    pub n: usize,
+    /// Position of node `i`.
+    pub position: &'a dyn Fn(usize) -> linpd_core::Point,
+    /// Load `k`'s nodal forces on these nodes, `visit(node, force)`; returns the scene's nodes
+    /// it loaded.
+    pub load: &'a dyn Fn(usize, &mut dyn FnMut(usize, &[f64])) -> usize,
+    /// Constraint `k`'s held DOFs on these nodes, `(node, component)`, grouped by node.
+    pub held: &'a dyn Fn(usize) -> Vec<(usize, usize)>,
+}
+
 /// What a rank's part of a scene knows beyond its window's nodes ([`crate::part`]).
 #[derive(Debug, Clone)]
 pub struct PartScene {
@@ -302,13 +316,29 @@ impl Problem {
         let n = self.nodes.len();
         let mut mask = vec![false; d * n];
         let mut ubar = vec![0.0; d * n];
+        self.for_each_prescribed(&mut |node, a, g| {
+            mask[d * node + a] = true;
+            ubar[d * node + a] = g;
+        });
+        (mask, ubar)
+    }
+    /// The DOFs constraint `k` holds, `(node, component)`, grouped by node.
+    pub(crate) fn held_dofs(&self, k: usize) -> Vec<(usize, usize)> {
+        self.constraints[k].prescribed(&self.nodes, self.dim()).into_iter().map(|(i, a, _)| (i, a)).collect()
+    }
+    /// The number of loads.
+    pub(crate) fn n_loads(&self) -> usize {
+        self.loads.len()
+    }
+    /// `f(node, component, value)` for every DOF each constraint prescribes, constraint by
+    /// constraint in scene order (a later one's value wins where two hold a DOF): what
+    /// [`Problem::constrained`] stores densely.
+    pub(crate) fn for_each_prescribed(&self, f: &mut dyn FnMut(usize, usize, f64)) {
         for c in &self.constraints {
-            for (node, a, g) in c.prescribed(&self.nodes, d) {
-                mask[d * node + a] = true;
-                ubar[d * node + a] = g;
+            for (node, a, g) in c.prescribed(&self.nodes, self.dim()) {
+                f(node, a, g);
             }
         }
-        (mask, ubar)
     }
     /// External force per full DOF (point forces plus density times node volume).
     pub fn load_vector(&self) -> Vec<f64> {
@@ -328,6 +358,13 @@ impl Problem {
 impl Problem {
     /// Adds the nodal forces of load `k` to `f` (full DOFs); returns the nodes it loaded.
     pub(crate) fn add_load(&self, k: usize, f: &mut [f64]) -> usize {
+        let d = self.dim();
+        self.visit_load(k, &mut |node, force| (0..d).for_each(|a| f[d * node + a] += force[a]))
+    }
+
+    /// `visit(node, force)` for each nodal force of load `k` (`d` components; a node may come
+    /// more than once, the forces add); returns the nodes it loaded.
+    pub(crate) fn visit_load(&self, k: usize, visit: &mut dyn FnMut(usize, &[f64])) -> usize {
         let (d, load) = (self.dim(), &self.loads[k]);
         // f_i = density v_i (body), or force v_i / sum_j v_j (resultant)
         let total = |nodes: &[usize]| match self.part.as_ref().and_then(|p| p.resultant_volumes.as_ref()) {
@@ -336,12 +373,12 @@ impl Problem {
         };
         let (region, vector, resultant) = match load {
             Load::Point { node, force } => {
-                (0..d).for_each(|a| f[d * node + a] += force[a]);
+                visit(*node, &force[..d]);
                 return 1;
             }
             Load::Nodal { forces, .. } => {
                 for (node, force) in forces {
-                    (0..d).for_each(|a| f[d * node + a] += force[a]);
+                    visit(*node, &force[..d]);
                 }
                 return forces.len();
             }
@@ -350,9 +387,11 @@ impl Problem {
         };
         let nodes = self.nodes.select(region);
         let per_volume = if resultant { 1.0 / total(&nodes) } else { 1.0 };
+        let mut force = [0.0; 3];
         for &node in &nodes {
             let v = self.nodes.volume(node) * per_volume;
-            (0..d).for_each(|a| f[d * node + a] += vector[a] * v);
+            (0..d).for_each(|a| force[a] = vector[a] * v);
+            visit(node, &force[..d]);
         }
         nodes.len()
     }
@@ -361,16 +400,33 @@ impl Problem {
     /// moments ([`crate::balance`]).
     pub(crate) fn balance(&self, apply: &dyn Fn(&[f64], &mut [f64]), u: &[f64]) -> Balance {
         let d = self.dim();
-        let n = d * self.nodes.len();
+        let mut au = vec![0.0; d * self.nodes.len()];
+        apply(u, &mut au);
+        let nodes = BalanceNodes {
+            n: self.nodes.len(),
+            position: &|i| self.nodes.position(i),
+            load: &|k, visit| self.visit_load(k, visit),
+            held: &|k| self.held_dofs(k),
+        };
+        self.balance_on(&nodes, &au)
+    }
+
+    /// The balance on `nodes` of the internal forces `au` (`A u`, `d` per node of `nodes`):
+    /// [`Problem::balance`] when `nodes` are the scene's; a model may map the scene's loads
+    /// and supports onto its own unknowns' nodes (a graded mesh's masters: `P^T f`). The
+    /// moments are about the mean position of the scene's nodes.
+    pub(crate) fn balance_on(&self, nodes: &BalanceNodes, au: &[f64]) -> Balance {
+        let d = self.dim();
+        let n = d * nodes.n;
         let frame = self.moment_frame();
-        // the moment about the reference point of the forces `f` (d per node) on `nodes`
-        let moment_of = |nodes: &mut dyn Iterator<Item = usize>, f: &[f64]| {
+        // the moment about the reference point of the forces `f` (d per node) on `loaded`
+        let moment_of = |loaded: &mut dyn Iterator<Item = usize>, f: &[f64]| {
             let mut m = moment(d, &[0.0; 3], &[0.0; 3]);
             if frame.reference.is_empty() {
                 return m;
             }
-            for i in nodes {
-                let x = self.nodes.position(i);
+            for i in loaded {
+                let x = (nodes.position)(i);
                 let r: Vec<f64> = (0..d).map(|a| x[a] - frame.reference[a]).collect();
                 m.iter_mut().zip(moment(d, &r, &f[d * i..d * i + d])).for_each(|(t, v)| *t += v);
             }
@@ -380,9 +436,9 @@ impl Problem {
         let mut loads = Vec::new();
         for (k, l) in self.loads.iter().enumerate() {
             let mut fl = vec![0.0; n];
-            let nodes = self.add_load(k, &mut fl);
+            let loaded_nodes = (nodes.load)(k, &mut |i, force| (0..d).for_each(|a| fl[d * i + a] += force[a]));
             let force: Vec<f64> = (0..d).map(|a| fl.iter().skip(a).step_by(d).sum()).collect();
-            let loaded = &mut (0..self.nodes.len()).filter(|&i| fl[d * i..d * i + d].iter().any(|&x| x != 0.0));
+            let loaded = &mut (0..nodes.n).filter(|&i| fl[d * i..d * i + d].iter().any(|&x| x != 0.0));
             let moment = moment_of(loaded, &fl);
             f.iter_mut().zip(&fl).for_each(|(t, x)| *t += x);
             let kind = match l {
@@ -391,29 +447,27 @@ impl Problem {
                 Load::Body { .. } => "body",
                 Load::Resultant { .. } => "resultant",
             };
-            loads.push(LoadBalance { kind, nodes, force, moment });
+            loads.push(LoadBalance { kind, nodes: loaded_nodes, force, moment });
         }
-        let mut au = vec![0.0; n];
-        apply(u, &mut au);
-        let mut owner = vec![usize::MAX; n];
+        let mut held_by = vec![false; n];
         let mut nodal_reaction = vec![0.0; n];
         let mut constraints = Vec::new();
-        for (k, c) in self.constraints.iter().enumerate() {
-            let prescribed = c.prescribed(&self.nodes, d);
+        for k in 0..self.constraints.len() {
+            let held = (nodes.held)(k);
             let mut reaction = vec![0.0; d];
             let mut dofs = 0;
             // the reactions' moment about O, one held DOF's force at a time
             let mut about_o = moment(d, &[0.0; 3], &[0.0; 3]);
-            for &(node, a, _) in &prescribed {
+            for &(node, a) in &held {
                 let dof = d * node + a;
-                if owner[dof] == usize::MAX {
-                    owner[dof] = k;
+                if !held_by[dof] {
+                    held_by[dof] = true;
                     dofs += 1;
                     let r = au[dof] - f[dof];
                     reaction[a] += r;
                     nodal_reaction[dof] = r;
                     if !frame.reference.is_empty() {
-                        let x = self.nodes.position(node);
+                        let x = (nodes.position)(node);
                         let arm: Vec<f64> = (0..d).map(|b| x[b] - frame.reference[b]).collect();
                         let mut force = [0.0; 3];
                         force[a] = r;
@@ -421,15 +475,17 @@ impl Problem {
                     }
                 }
             }
-            let mut nodes: Vec<usize> = prescribed.iter().map(|e| e.0).collect();
-            nodes.dedup();
+            let mut held_nodes: Vec<usize> = held.iter().map(|e| e.0).collect();
+            held_nodes.dedup();
             let centroid: Vec<f64> = (0..d)
-                .map(|a| nodes.iter().map(|&i| self.nodes.position(i)[a]).sum::<f64>() / nodes.len().max(1) as f64)
+                .map(|a| {
+                    held_nodes.iter().map(|&i| (nodes.position)(i)[a]).sum::<f64>() / held_nodes.len().max(1) as f64
+                })
                 .collect();
             // about the centroid: the moment about O less the resultant's at the centroid
             let r: Vec<f64> = (0..d).map(|a| centroid[a] - frame.reference.get(a).copied().unwrap_or(0.0)).collect();
             let moment = about_o.iter().zip(moment(d, &r, &reaction)).map(|(a, b)| a - b).collect();
-            constraints.push(ConstraintBalance { nodes: nodes.len(), dofs, reaction, centroid, moment });
+            constraints.push(ConstraintBalance { nodes: held_nodes.len(), dofs, reaction, centroid, moment });
         }
         Balance::from_parts(d, loads, constraints, frame, nodal_reaction)
     }
