@@ -116,9 +116,10 @@ impl Defect {
     }
 
     /// The distance from `x` to the defect (the point, the segment, the plane); for a plane
-    /// restricted to an extent, the distance to the whole plane, a lower bound. A bond of `x`
-    /// no longer than `r` can cross the defect only if this is at most `r`: what a caller needs
-    /// to find the nodes whose families a defect may cut without testing every bond.
+    /// restricted to an extent, the larger of the distances to the whole plane and to the
+    /// extent's bounding box ([`Region::bounds`]), a lower bound. A bond of `x` no longer than
+    /// `r` can cross the defect only if this is at most `r`: what a caller needs to find the
+    /// nodes whose families a defect may cut without testing every bond.
     pub fn distance_to(&self, x: &Point) -> f64 {
         match self {
             Defect::Point { x: d, .. } => (x[0] - d).abs(),
@@ -128,10 +129,15 @@ impl Defect {
                 let t = if len2 > 0.0 { ((ax[0] * ab[0] + ax[1] * ab[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
                 (ax[0] - t * ab[0]).hypot(ax[1] - t * ab[1])
             }
-            Defect::Plane { point, normal, .. } => {
+            Defect::Plane { point, normal, extent, .. } => {
                 let e = exponent(max_abs(normal));
                 let n = normal.map(|v| ldexp(v, -e));
-                (0..3).map(|k| (x[k] - point[k]) * n[k]).sum::<f64>().abs() / norm(&n)
+                let plane = (0..3).map(|k| (x[k] - point[k]) * n[k]).sum::<f64>().abs() / norm(&n);
+                // the crossing points lie in the extent, hence in its box
+                let to_box = extent.as_ref().and_then(|r| r.bounds(3)).map_or(0.0, |(lo, hi)| {
+                    (0..3).map(|k| (lo[k] - x[k]).max(x[k] - hi[k]).max(0.0).powi(2)).sum::<f64>().sqrt()
+                });
+                plane.max(to_box)
             }
         }
     }
@@ -359,5 +365,29 @@ mod tests {
         assert!(pl.crosses(&[0.4, 0.2, 0.5], &[0.6, 0.2, 0.5], 1e-12));
         assert!(!pl.crosses(&[0.4, 0.7, 0.5], &[0.6, 0.7, 0.5], 1e-12)); // outside the extent
         assert!(pl.validate(2).is_err());
+    }
+
+    /// `distance_to` of a plane with an extent is a lower bound of the distance to the
+    /// crossing points (the disc of a penny crack, sampled finely) and is the larger of the
+    /// plane's and the extent box's distances.
+    #[test]
+    fn plane_distance_bounds_the_extent() {
+        let disc = Region::Ball { center: vec![0.5, 0.5, 0.5], radius: 0.1 };
+        let pl = Defect::Plane { point: [0.5, 0.5, 0.5], normal: [0.0, 0.0, 2.0], extent: Some(disc), factor: 0.0 };
+        let samples: Vec<Point> = (0..=400)
+            .flat_map(|i| (0..=400).map(move |j| [0.4 + 0.0005 * i as f64, 0.4 + 0.0005 * j as f64, 0.5]))
+            .filter(|p| (p[0] - 0.5).hypot(p[1] - 0.5) <= 0.1)
+            .collect();
+        for x in [[0.5, 0.5, 0.52], [0.9, 0.5, 0.5], [0.7, 0.8, 0.45], [0.55, 0.45, 0.5], [0.0, 0.0, 1.0]] {
+            let exact = samples
+                .iter()
+                .map(|p| ((0..3).map(|k| (p[k] - x[k]).powi(2)).sum::<f64>()).sqrt())
+                .fold(f64::INFINITY, f64::min);
+            let bound = pl.distance_to(&x);
+            assert!(bound <= exact + 1e-12, "{x:?}: {bound} above {exact}");
+        }
+        // beside the disc's box along x: 0.3 from the box, 0.0 from the plane
+        assert!((pl.distance_to(&[0.9, 0.5, 0.5]) - 0.3).abs() < 1e-12);
+        assert!((pl.distance_to(&[0.5, 0.5, 0.52]) - 0.02).abs() < 1e-12);
     }
 }

@@ -190,6 +190,46 @@ impl Region {
         }
     }
 
+    /// A box `(lo, hi)` holding every point of the region in the first `dim` coordinates
+    /// (the others unbounded), `None` when the region is unbounded (all, a half space, an
+    /// endless cylinder, a named set). Not the tightest box for a cylinder (its centre plus
+    /// half its length and its radius along every axis) or a difference (the first region's).
+    pub fn bounds(&self, dim: usize) -> Option<([f64; 3], [f64; 3])> {
+        let mut lo = [f64::NEG_INFINITY; 3];
+        let mut hi = [f64::INFINITY; 3];
+        match self {
+            Region::All | Region::Set(_) | Region::HalfSpace { .. } => return None,
+            Region::Box { min, max } => {
+                (0..dim).for_each(|a| (lo[a], hi[a]) = (min[a], max[a]));
+            }
+            Region::Ball { center, radius } => {
+                (0..dim).for_each(|a| (lo[a], hi[a]) = (center[a] - radius, center[a] + radius));
+            }
+            Region::Cylinder { center, radius, length, .. } => {
+                let r = radius + length.as_ref()? / 2.0;
+                (0..dim).for_each(|a| (lo[a], hi[a]) = (center[a] - r, center[a] + r));
+            }
+            Region::Polygon { vertices, extrude } => {
+                for a in 0..2 {
+                    lo[a] = vertices.iter().map(|v| v[a]).fold(f64::INFINITY, f64::min);
+                    hi[a] = vertices.iter().map(|v| v[a]).fold(f64::NEG_INFINITY, f64::max);
+                }
+                if let (3, Some([z0, z1])) = (dim, extrude) {
+                    (lo[2], hi[2]) = (*z0, *z1);
+                }
+            }
+            Region::Union(parts) => {
+                (lo, hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+                for part in parts {
+                    let (l, h) = part.bounds(dim)?;
+                    (0..3).for_each(|a| (lo[a], hi[a]) = (lo[a].min(l[a]), hi[a].max(h[a])));
+                }
+            }
+            Region::Difference(a, _) => return a.bounds(dim),
+        }
+        Some((lo, hi))
+    }
+
     /// The names of the sets the region refers to.
     pub fn set_names(&self) -> Vec<&str> {
         match self {
@@ -366,6 +406,38 @@ fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
 mod tests {
     use super::*;
     use crate::Placement;
+
+    /// Every point a region contains (sampled on a lattice of `[-1, 1]^3`) is in its bounds;
+    /// the bounds of a box and a ball are exact; unbounded regions have none.
+    #[test]
+    fn bounds_hold_every_point() {
+        let ball = Region::Ball { center: vec![0.1, -0.2, 0.3], radius: 0.4 };
+        let cyl =
+            Region::Cylinder { center: vec![0.0, 0.1, 0.0], axis: vec![1.0, 1.0, 0.0], radius: 0.2, length: Some(0.6) };
+        let poly = Region::Polygon { vertices: vec![[-0.5, -0.1], [0.4, 0.0], [0.0, 0.7]], extrude: Some([-0.3, 0.2]) };
+        let bx = Region::Box { min: vec![-0.3, -0.2, -0.1], max: vec![0.2, 0.5, 0.6] };
+        let union = Region::Union(vec![ball.clone(), bx.clone()]);
+        let diff = Region::Difference(Box::new(cyl.clone()), Box::new(ball.clone()));
+        for r in [&ball, &cyl, &poly, &bx, &union, &diff] {
+            let (lo, hi) = r.bounds(3).expect("bounded");
+            let mut inside = 0;
+            for k in 0..41usize.pow(3) {
+                let x = [k % 41, k / 41 % 41, k / 1681].map(|i| -1.0 + 0.05 * i as f64);
+                if r.contains(&x, 3, 0.0) {
+                    inside += 1;
+                    assert!((0..3).all(|a| lo[a] <= x[a] && x[a] <= hi[a]), "{r:?}: {x:?} outside {lo:?}..{hi:?}");
+                }
+            }
+            assert!(inside > 0, "{r:?} samples no point");
+        }
+        assert_eq!(bx.bounds(3), Some(([-0.3, -0.2, -0.1], [0.2, 0.5, 0.6])));
+        let (lo, hi) = ball.bounds(3).unwrap();
+        assert!((lo[0] + 0.3).abs() < 1e-15 && (hi[2] - 0.7).abs() < 1e-15);
+        let endless = Region::Cylinder { center: vec![0.0; 3], axis: vec![0.0, 0.0, 1.0], radius: 0.1, length: None };
+        for r in [Region::All, Region::Set("a".into()), endless] {
+            assert_eq!(r.bounds(3), None);
+        }
+    }
 
     #[test]
     fn boxes_unions_differences_select_lattice_nodes() {

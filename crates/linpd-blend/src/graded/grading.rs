@@ -2,6 +2,7 @@
 //! parent module's docs for the rules).
 
 use super::Grading;
+use rayon::prelude::*;
 
 /// The level-0 cells of the lattice box: `m[a] = n[a] - 1` per used axis (1 on unused axes),
 /// numbered lexicographically with axis 0 fastest (the lattice's node order).
@@ -44,28 +45,82 @@ impl CellBox {
 }
 
 /// Chebyshev distance, in cells, from every level-0 cell to the nearest fine one (`u32::MAX`
-/// when there is none): the two-pass chamfer transform with the `3^d - 1` touching cells at
-/// distance 1, exact for this metric (Rosenfeld & Pfaltz 1966).
+/// when there is none). The maximum norm is separable, `min_s max_a |c_a - s_a|` taken one
+/// axis at a time: after the passes along axes `0..a` each cell holds the distance to the
+/// nearest fine cell of its `a`-dimensional slice, and the pass along axis `a` is the 1D
+/// transform `f(x) = min_y max(|x - y|, g(y))` of every line ([`line_transform`]), the lines
+/// in parallel. (The two-pass chamfer over the `3^d - 1` touching cells gives the same values,
+/// sequentially: 3.0 s of a 15.8M-cell lattice.)
 pub(super) fn chebyshev_distance(b: &CellBox, fine: &[bool]) -> Vec<u32> {
     let mut dist: Vec<u32> = fine.iter().map(|&f| if f { 0 } else { u32::MAX }).collect();
-    let relax = |dist: &mut Vec<u32>, i: usize, earlier: bool| {
-        let c = b.coords(i);
-        let mut best = dist[i];
-        for j in b.touching(c) {
-            // the forward pass reads the neighbours already swept, the backward pass the others
-            if (j < i) == earlier {
-                best = best.min(dist[j].saturating_add(1));
+    let stride = [1, b.m[0], b.m[0] * b.m[1]];
+    for a in 0..b.d {
+        let len = b.m[a];
+        // the lines along axis a: one per cell with c_a = 0
+        let starts: Vec<usize> = (0..b.len() / len)
+            .map(|k| {
+                let (lo, hi) = (k % stride[a], k / stride[a]);
+                lo + hi * stride[a] * len
+            })
+            .collect();
+        let lines: Vec<Vec<u32>> = starts
+            .par_iter()
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(g, table), &s| {
+                    g.clear();
+                    g.extend((0..len).map(|q| dist[s + q * stride[a]]));
+                    line_transform(g, table)
+                },
+            )
+            .collect();
+        for (&s, line) in starts.iter().zip(&lines) {
+            for (q, &v) in line.iter().enumerate() {
+                dist[s + q * stride[a]] = v;
             }
         }
-        dist[i] = best;
-    };
-    for i in 0..b.len() {
-        relax(&mut dist, i, true);
-    }
-    for i in (0..b.len()).rev() {
-        relax(&mut dist, i, false);
     }
     dist
+}
+
+/// `f(x) = min_y max(|x - y|, g(y))` over a line (`u32::MAX`: no fine cell; all of `f` then
+/// too). `f` is 1-Lipschitz, so `f(x + 1)` is the first of `f(x) - 1, f(x), f(x) + 1` for which
+/// some `g(y) <= r` within `|x + 1 - y| <= r`, a range minimum of a sparse table (`table`:
+/// scratch), O(L log L) a line.
+fn line_transform(g: &[u32], table: &mut Vec<u32>) -> Vec<u32> {
+    let len = g.len();
+    if g.iter().all(|&v| v == u32::MAX) {
+        return vec![u32::MAX; len];
+    }
+    // table[k * len + i] = min g[i .. i + 2^k]
+    let levels = (usize::BITS - len.leading_zeros()) as usize;
+    table.clear();
+    table.extend_from_slice(g);
+    for k in 1..levels {
+        let half = 1usize << (k - 1);
+        for i in 0..len {
+            let right = if i + half < len { table[(k - 1) * len + i + half] } else { u32::MAX };
+            table.push(table[(k - 1) * len + i].min(right));
+        }
+    }
+    let range_min = |lo: usize, hi: usize| {
+        let k = (usize::BITS - (hi - lo + 1).leading_zeros() - 1) as usize;
+        table[k * len + lo].min(table[k * len + hi + 1 - (1 << k)])
+    };
+    let fits = |x: usize, r: u64| {
+        let lo = x.saturating_sub(r.min(len as u64) as usize);
+        let hi = (x as u64 + r).min(len as u64 - 1) as usize;
+        range_min(lo, hi) as u64 <= r
+    };
+    let mut f = Vec::with_capacity(len);
+    let first = (0..len).map(|y| (y as u64).max(g[y] as u64)).min().expect("a line has cells");
+    f.push(first);
+    for x in 1..len {
+        let prev = f[x - 1];
+        let r = [prev.saturating_sub(1), prev, prev + 1].into_iter().find(|&r| fits(x, r)).expect("1-Lipschitz");
+        f.push(r);
+    }
+    f.into_iter().map(|v| v.min(u32::MAX as u64 - 1) as u32).collect()
 }
 
 /// The smallest Chebyshev distance (of [`chebyshev_distance`]) a level-0 cell of a level-`l`
@@ -122,23 +177,52 @@ pub(super) fn graded_levels(b: &CellBox, dist: &[u32], grading: &Grading) -> Vec
 
 /// Refines leaves until every two touching level-0 cells (sharing a point: a face, an edge or
 /// a corner) have leaf levels differing by at most one, i.e. the 2:1 balance across faces,
-/// edges and corners. Splitting only lowers levels, so the sweeps end.
+/// edges and corners. Splitting only lowers levels, so the sweeps end; and each split is forced
+/// (no balanced map at or below the levels keeps the leaf), so the result is the same whatever
+/// the order of the splits. Each sweep finds the violations in parallel, then splits them;
+/// the next sweep looks only at the split leaves' cells and the cells touching them.
 pub(super) fn balance(b: &CellBox, level: &mut [u8]) {
-    loop {
-        let mut changed = false;
-        for i in 0..b.len() {
-            let l = level[i];
-            if l < 2 {
-                continue;
-            }
-            let c = b.coords(i);
-            if b.touching(c).any(|j| level[j] + 1 < l) {
-                split_leaf(b, level, c, l);
-                changed = true;
-            }
+    let violates = |level: &[u8], i: usize| {
+        let l = level[i];
+        l >= 2 && b.touching(b.coords(i)).any(|j| level[j] + 1 < l)
+    };
+    let mut found: Vec<usize> = (0..b.len()).into_par_iter().filter(|&i| violates(level, i)).collect();
+    while !found.is_empty() {
+        // one split per leaf (its origin cell), the leaves' cells and their neighbours next
+        let mut split: Vec<(usize, u8)> = found
+            .iter()
+            .map(|&i| {
+                let l = level[i];
+                let o = b.coords(i).map(|v| v >> l << l);
+                (b.index(o), l)
+            })
+            .collect();
+        split.sort_unstable();
+        split.dedup();
+        let mut next = Vec::new();
+        for &(o, l) in &split {
+            let c = b.coords(o);
+            split_leaf(b, level, c, l);
+            for_each_leaf_cell(b, c, l, &mut |k| {
+                next.push(k);
+                next.extend(b.touching(b.coords(k)));
+            });
         }
-        if !changed {
-            return;
+        next.sort_unstable();
+        next.dedup();
+        found = next.into_par_iter().filter(|&i| violates(level, i)).collect();
+    }
+}
+
+/// `f(cell)` for each level-0 cell of the level-`l` leaf with origin `o`.
+fn for_each_leaf_cell(b: &CellBox, o: [usize; 3], l: u8, f: &mut dyn FnMut(usize)) {
+    let side = 1usize << l;
+    let ext = [0, 1, 2].map(|a| if a < b.d { side } else { 1 });
+    for k2 in 0..ext[2] {
+        for k1 in 0..ext[1] {
+            for k0 in 0..ext[0] {
+                f(b.index([o[0] + k0, o[1] + k1, o[2] + k2]));
+            }
         }
     }
 }
@@ -161,21 +245,67 @@ fn split_leaf(b: &CellBox, level: &mut [u8], c: [usize; 3], l: u8) {
 mod tests {
     use super::*;
 
-    /// The chamfer transform against the brute-force Chebyshev distance, on scattered fine
-    /// cells in 2D and 3D (a missed direction of either pass would overestimate somewhere).
+    /// The separable transform against the brute-force Chebyshev distance, on scattered fine
+    /// cells in 2D and 3D, dense and sparse (a wrong step of the 1D pass would over- or
+    /// underestimate somewhere), and a single fine cell in a long line.
     #[test]
     fn chebyshev_distance_is_exact() {
-        for (d, m) in [(2usize, [23usize, 17, 1]), (3, [11, 9, 13])] {
+        let cases = [(2usize, [23usize, 17, 1], 97), (3, [11, 9, 13], 97), (3, [19, 7, 12], 7), (2, [64, 3, 1], 150)];
+        for (d, m, every) in cases {
             let b = CellBox { d, m };
-            let fine: Vec<bool> = (0..b.len()).map(|i| (i * 7919 + 13) % 97 == 0).collect();
+            let fine: Vec<bool> = (0..b.len()).map(|i| (i * 7919 + 13) % every == 0).collect();
             let seeds: Vec<[usize; 3]> = (0..b.len()).filter(|&i| fine[i]).map(|i| b.coords(i)).collect();
-            assert!(seeds.len() > 2);
+            assert!(!seeds.is_empty());
             let dist = chebyshev_distance(&b, &fine);
             for (i, &v) in dist.iter().enumerate() {
                 let c = b.coords(i);
                 let brute =
                     seeds.iter().map(|s| (0..d).map(|a| c[a].abs_diff(s[a])).max().unwrap()).min().unwrap() as u32;
                 assert_eq!(v, brute, "{d}D cell {c:?}");
+            }
+        }
+    }
+
+    /// The parallel balance equals the plain in-place sweep (the splits are forced, so their
+    /// order does not matter) on graded level maps around scattered fine cells in boxes of odd
+    /// sizes, 2D and 3D (1,024 to 22,464 cells split), and leaves no two touching cells more
+    /// than one level apart.
+    #[test]
+    fn balance_is_the_sequential_sweep() {
+        fn sweep(b: &CellBox, level: &mut [u8]) {
+            loop {
+                let mut changed = false;
+                for i in 0..b.len() {
+                    let l = level[i];
+                    if l >= 2 && b.touching(b.coords(i)).any(|j| level[j] + 1 < l) {
+                        split_leaf(b, level, b.coords(i), l);
+                        changed = true;
+                    }
+                }
+                if !changed {
+                    return;
+                }
+            }
+        }
+        for (d, m, every, per_level) in [
+            (2usize, [97usize, 81, 1], 997, 1),
+            (2, [83, 99, 1], 331, 2),
+            (3, [41, 33, 49], 9973, 1),
+            (3, [37, 45, 35], 4001, 2),
+        ] {
+            let b = CellBox { d, m };
+            let fine: Vec<bool> = (0..b.len()).map(|i| (i * 7919 + 13) % every == 0).collect();
+            let dist = chebyshev_distance(&b, &fine);
+            let graded = graded_levels(&b, &dist, &Grading { cells_per_level: per_level, max_level: 4 });
+            let (mut fast, mut plain) = (graded.clone(), graded.clone());
+            balance(&b, &mut fast);
+            sweep(&b, &mut plain);
+            assert_eq!(fast, plain, "{d}D {m:?}");
+            let splits = fast.iter().zip(&graded).filter(|(x, y)| x != y).count();
+            // (odd box sizes: the far faces keep finer cells than the bulk beside them)
+            assert!(splits > 0, "{d}D {m:?}: the case needs no split");
+            for i in 0..b.len() {
+                assert!(b.touching(b.coords(i)).all(|j| fast[j] + 1 >= fast[i]), "{d}D cell {:?}", b.coords(i));
             }
         }
     }

@@ -9,6 +9,6 @@ mod problem;
 mod solve;
 
 pub use model::{foreign_system, refusal, Built, DynamicsOperator, NodeElastic, Purpose, SceneModel, System};
-pub use problem::{Constraint, Load, PartBalance, PartScene, Problem};
 pub(crate) use problem::BalanceNodes;
+pub use problem::{Constraint, Load, PartBalance, PartScene, Problem};
 pub use solve::solve_system;

@@ -156,6 +156,10 @@ pub struct PartBalance {
     pub held_dofs: Vec<usize>,
 }
 
+/// Load `k`'s nodal forces on a balance's nodes, `visit(node, force)`; returns the scene's
+/// nodes it loaded ([`BalanceNodes::load`]).
+pub(crate) type LoadVisitor<'a> = &'a dyn Fn(usize, &mut dyn FnMut(usize, &[f64])) -> usize;
+
 /// The nodes a force balance is taken on ([`Problem::balance_on`]) and how the scene's loads
 /// and supports reach them.
 pub(crate) struct BalanceNodes<'a> {
@@ -165,7 +169,7 @@ pub(crate) struct BalanceNodes<'a> {
     pub position: &'a dyn Fn(usize) -> linpd_core::Point,
     /// Load `k`'s nodal forces on these nodes, `visit(node, force)`; returns the scene's nodes
     /// it loaded.
-    pub load: &'a dyn Fn(usize, &mut dyn FnMut(usize, &[f64])) -> usize,
+    pub load: LoadVisitor<'a>,
     /// Constraint `k`'s held DOFs on these nodes, `(node, component)`, grouped by node.
     pub held: &'a dyn Fn(usize) -> Vec<(usize, usize)>,
 }
