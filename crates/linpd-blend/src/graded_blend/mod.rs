@@ -323,6 +323,12 @@ impl GradedBlend {
         (&self.window, &self.op)
     }
 
+    /// Bytes of the stored rests of `A` and `M` (columns, row pointers and the distinct
+    /// rows' values; see [`operator`]).
+    pub fn stored_bytes(&self) -> usize {
+        self.rest_a.bytes() + self.rest_m.bytes()
+    }
+
     /// The graded mesh.
     pub fn mesh(&self) -> &GradedMesh {
         &self.mesh
@@ -468,6 +474,8 @@ fn rests(
         rest_a.extend(&a_rows);
         rest_m.extend(&m_rows);
     }
+    rest_a.finish();
+    rest_m.finish();
     Ok((rest_a, rest_m))
 }
 

@@ -24,36 +24,79 @@ use rayon::prelude::*;
 use std::cell::RefCell;
 
 /// `d x d` block rows (CSR over nodes, `u32` columns, each block's `d * d` values row-major),
-/// rows in ascending column order.
+/// rows in ascending column order. Rows whose values are equal block for block share one
+/// copy of them: the `K_M` rows of masters in the same setting (bulk moduli, the same leaves
+/// around) are the same numbers, only their columns differ; on the penny block of
+/// `linpd study penny-sneddon` most rows of the rests are such, and their blocks would
+/// otherwise be most of the model's memory and of each product's traffic.
 #[derive(Debug, Clone)]
 pub(crate) struct BlockCsr {
     d: usize,
     row_ptr: Vec<usize>,
     col: Vec<u32>,
+    /// The first block of each row's values in `val` (a shared copy or its own).
+    val_of: Vec<usize>,
     val: Vec<f64>,
+    /// The rows' values seen so far, by hash: `(first block, blocks)` in `val`.
+    seen: std::collections::HashMap<u64, Vec<(usize, usize)>>,
 }
 
 impl BlockCsr {
     /// No rows yet.
     pub(crate) fn new(d: usize) -> Self {
-        BlockCsr { d, row_ptr: vec![0], col: Vec::new(), val: Vec::new() }
+        BlockCsr { d, row_ptr: vec![0], col: Vec::new(), val_of: Vec::new(), val: Vec::new(), seen: Default::default() }
     }
 
-    /// Appends block rows (each sorted by node, blocks in a 3 x 3 array), in order.
+    /// Appends block rows (each sorted by node, blocks in a 3 x 3 array), in order; a row
+    /// whose values equal an earlier row's (bit for bit) shares them.
     pub(crate) fn extend(&mut self, rows: &[BlockRow]) {
-        let d = self.d;
-        let blocks: usize = rows.iter().map(Vec::len).sum();
-        self.col.reserve(blocks);
-        self.val.reserve(blocks * d * d);
-        for row in rows {
+        use std::hash::{Hash, Hasher};
+        let (d, dd) = (self.d, self.d * self.d);
+        let hashes: Vec<u64> = rows
+            .par_iter()
+            .map(|row| {
+                let mut hasher = std::collections::hash_map::DefaultHasher::new();
+                row.iter().for_each(|(_, b)| {
+                    (0..d).for_each(|a| b[a * 3..a * 3 + d].iter().for_each(|v| v.to_bits().hash(&mut hasher)))
+                });
+                hasher.finish()
+            })
+            .collect();
+        let mut values = Vec::new();
+        for (row, &hash) in rows.iter().zip(&hashes) {
+            values.clear();
             for (j, b) in row {
                 self.col.push(*j as u32);
                 for a in 0..d {
-                    self.val.extend_from_slice(&b[a * 3..a * 3 + d]);
+                    values.extend_from_slice(&b[a * 3..a * 3 + d]);
                 }
             }
             self.row_ptr.push(self.col.len());
+            let same = self.seen.entry(hash).or_default();
+            let blocks = row.len();
+            let found = same.iter().find(|&&(start, n)| {
+                n == blocks
+                    && self.val[start * dd..(start + n) * dd]
+                        .iter()
+                        .zip(&values)
+                        .all(|(x, y)| x.to_bits() == y.to_bits())
+            });
+            match found {
+                Some(&(start, _)) => self.val_of.push(start),
+                None => {
+                    let start = self.val.len() / dd;
+                    self.val.extend_from_slice(&values);
+                    same.push((start, blocks));
+                    self.val_of.push(start);
+                }
+            }
         }
+    }
+
+    /// Drops what only [`BlockCsr::extend`] needs.
+    pub(crate) fn finish(&mut self) {
+        self.seen = Default::default();
+        self.val.shrink_to_fit();
     }
 
     /// Number of rows.
@@ -61,18 +104,26 @@ impl BlockCsr {
         self.row_ptr.len() - 1
     }
 
+    /// Bytes held: the columns, the row pointers and the distinct values.
+    pub(crate) fn bytes(&self) -> usize {
+        4 * self.col.len() + 16 * self.row_ptr.len() + 8 * self.val.len()
+    }
+
     /// Row `i`: `(node, block)`, ascending.
     pub(crate) fn row(&self, i: usize) -> impl Iterator<Item = (usize, &[f64])> + '_ {
         let dd = self.d * self.d;
-        (self.row_ptr[i]..self.row_ptr[i + 1]).map(move |p| (self.col[p] as usize, &self.val[p * dd..p * dd + dd]))
+        let (lo, hi, v) = (self.row_ptr[i], self.row_ptr[i + 1], self.val_of[i]);
+        let values = &self.val[v * dd..(v + hi - lo) * dd];
+        self.col[lo..hi].iter().zip(values.chunks_exact(dd)).map(|(&j, b)| (j as usize, b))
     }
 
     /// Block `(i, j)`, if stored.
     fn block(&self, i: usize, j: usize) -> Option<&[f64]> {
         let dd = self.d * self.d;
         let (lo, hi) = (self.row_ptr[i], self.row_ptr[i + 1]);
-        let p = lo + self.col[lo..hi].binary_search(&(j as u32)).ok()?;
-        Some(&self.val[p * dd..p * dd + dd])
+        let p = self.col[lo..hi].binary_search(&(j as u32)).ok()?;
+        let v = self.val_of[i] + p;
+        Some(&self.val[v * dd..v * dd + dd])
     }
 
     /// `max |L - L^T|` over the blocks (a block missing on one side counts as zero) and
@@ -384,5 +435,42 @@ impl Model for Companion<'_> {
     }
     fn describe_node(&self, i: usize) -> String {
         self.0.describe_node(i)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rows equal value for value share one copy whatever their columns; a row differing in
+    /// one bit or in its length keeps its own; every row reads back its own columns and values.
+    #[test]
+    fn equal_rows_share_their_values() {
+        let block = |x: f64| [x, 2.0 * x, 0.0, -x, x, 0.5, 0.0, 0.0, 0.0];
+        let row = |cols: &[usize], x: f64| -> BlockRow { cols.iter().map(|&j| (j, block(x))).collect() };
+        let rows: Vec<BlockRow> = vec![
+            row(&[0, 1, 2], 1.0),
+            row(&[3, 4, 5], 1.0),
+            row(&[1, 2, 3], f64::from_bits(1.0f64.to_bits() + 1)),
+            row(&[7, 9], 1.0),
+            Vec::new(),
+            row(&[2, 6, 8], 1.0),
+        ];
+        let mut m = BlockCsr::new(2);
+        m.extend(&rows[..3]);
+        m.extend(&rows[3..]);
+        m.finish();
+        // distinct value sets: 1.0 x 3 blocks, 1.0 + ulp x 3, 1.0 x 2, the empty row
+        assert_eq!(m.val.len(), 4 * (3 + 3 + 2));
+        assert_eq!(m.val_of[0], m.val_of[1]);
+        assert_eq!(m.val_of[0], m.val_of[5]);
+        assert_ne!(m.val_of[0], m.val_of[2]);
+        for (i, r) in rows.iter().enumerate() {
+            let got: Vec<(usize, Vec<f64>)> = m.row(i).map(|(j, b)| (j, b.to_vec())).collect();
+            let want: Vec<(usize, Vec<f64>)> = r.iter().map(|(j, b)| (*j, vec![b[0], b[1], b[3], b[4]])).collect();
+            assert_eq!(got, want, "row {i}");
+        }
+        assert_eq!(m.block(5, 6), Some(&[1.0, 2.0, -1.0, 1.0][..]));
+        assert_eq!(m.block(5, 7), None);
     }
 }
