@@ -146,33 +146,44 @@ pub(crate) fn squared_distances_to_removed(grid: &Grid) -> Option<Vec<f64>> {
 }
 
 /// [`squared_lattice_distances`] to the sites for which `seed(site)` holds.
-fn squared_site_distances(grid: &Grid, seed: &dyn Fn([usize; 3]) -> bool) -> Vec<f64> {
+fn squared_site_distances(grid: &Grid, seed: &(dyn Fn([usize; 3]) -> bool + Sync)) -> Vec<f64> {
     let c = grid.counts();
     let sites = c[0] * c[1] * c[2];
     let site_of = |s: usize| [s % c[0], (s / c[0]) % c[1], s / (c[0] * c[1])];
-    let mut f: Vec<f64> = (0..sites).map(|s| if seed(site_of(s)) { 0.0 } else { f64::INFINITY }).collect();
+    let mut f: Vec<f64> =
+        (0..sites).into_par_iter().map(|s| if seed(site_of(s)) { 0.0 } else { f64::INFINITY }).collect();
     let stride = [1, c[0], c[0] * c[1]];
     for a in 0..grid.dim() {
         let len = c[a];
-        let (mut line, mut out) = (vec![0.0; len], vec![0.0; len]);
-        let (mut v, mut z) = (vec![0usize; len], vec![0.0; len + 1]);
-        for s in (0..sites).filter(|&s| site_of(s)[a] == 0) {
-            for q in 0..len {
-                line[q] = f[s + q * stride[a]];
-            }
-            envelope(&line, &mut out, &mut v, &mut z);
-            for q in 0..len {
-                f[s + q * stride[a]] = out[q];
+        // the lines along axis a (one per site with k_a = 0), in parallel, written back after
+        let starts: Vec<usize> = (0..sites / len).map(|k| k % stride[a] + k / stride[a] * stride[a] * len).collect();
+        let lines: Vec<Vec<f64>> = starts
+            .par_iter()
+            .map_init(
+                || (vec![0.0; len], vec![0usize; len], vec![0.0; len + 1]),
+                |(line, v, z), &s| {
+                    for q in 0..len {
+                        line[q] = f[s + q * stride[a]];
+                    }
+                    let mut out = vec![0.0; len];
+                    envelope(line, &mut out, v, z);
+                    out
+                },
+            )
+            .collect();
+        for (&s, out) in starts.iter().zip(&lines) {
+            for (q, &x) in out.iter().enumerate() {
+                f[s + q * stride[a]] = x;
             }
         }
     }
-    let mut d = vec![f64::INFINITY; grid.len()];
-    for s in 0..sites {
-        if let Some(j) = grid.node_at_site(site_of(s)) {
-            d[j] = f[s];
-        }
-    }
-    d
+    (0..grid.len())
+        .into_par_iter()
+        .map(|j| {
+            let k = grid.site_of(j);
+            f[k[0] + c[0] * (k[1] + c[1] * k[2])]
+        })
+        .collect()
 }
 
 /// `out[q] = min_p (q - p)^2 + f[p]` over the finite `f[p]` (infinite when there is none).

@@ -102,10 +102,15 @@ pub const BLEND_ENTRY_BYTES: f64 = 64.0;
 /// and two snapshots, i.e. 43-108 a DOF beyond the bonds).
 pub const DYNAMICS_DOF_BYTES: f64 = 96.0;
 /// Per lattice node of a graded blend (no bonds: those are built near the fine cells only and
-/// checked with the masters, [`linpd_blend::GradedBlend::new`]): the scene's constraint mask,
-/// prescribed values and loads, `beta` and the distance transforms, the per-node flags, the
-/// solution interpolated to the lattice and the balance's vectors.
-pub const GRADED_NODE_BYTES: f64 = 160.0;
+/// checked with the masters, [`linpd_blend::GradedBlend::new`]): `beta` and the distance
+/// transforms, the per-node flags, the mesh's cell levels and distances (the constraints, the
+/// loads and the balance reach the masters without lattice-sized vectors). Measured: 23 bytes
+/// a node at the peak of the build on the 15.8M-node penny block of `linpd study penny-sneddon`.
+pub const GRADED_NODE_BYTES: f64 = 40.0;
+/// Per lattice node, the graded blend's solution drawn on every lattice node
+/// (`output.nodes: "lattice"`): positions, `u`, volumes, strain, reactions and flags, and the
+/// written files' buffers.
+pub const GRADED_LATTICE_OUTPUT_BYTES: f64 = 200.0;
 /// Per DOF, GMRES on top of an assembled solve's vectors: the restart-50 Krylov basis.
 pub const GMRES_DOF_BYTES: f64 = 408.0;
 

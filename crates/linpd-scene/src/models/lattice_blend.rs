@@ -864,6 +864,16 @@ impl SceneModel for LatticeBlendModel {
             _ => Some(crate::memory::check_solver(path, p.lattice()?, self.bond.horizon, multigrid)?),
         };
         if let Some(local) = self.zone.local_mesh {
+            if p.lattice_output() {
+                let n = p.nodes().len() as f64;
+                let bytes = n * (crate::memory::GRADED_NODE_BYTES + crate::memory::GRADED_LATTICE_OUTPUT_BYTES);
+                linpd_core::memory::check(
+                    format!("the graded blend's solution on every one of {} lattice nodes", p.nodes().len()),
+                    bytes,
+                    "remove output.nodes: \"lattice\" (the model's nodes are written: the mesh's and its cells)",
+                )
+                .map_err(|e| ProblemError::invalid("output.nodes", e.to_string()))?;
+            }
             progress.phase(&format!(
                 "building the blended model on a graded local mesh over {} lattice nodes",
                 p.nodes().len()
