@@ -22,7 +22,8 @@
 //!   `1 + c (a/B)^3 = 8 (r - 1) / (8 - r) + 1` (measured 1.0088, the smaller box's 0.8 % on top
 //!   of Sneddon's infinite body). The table gives `w / w_Sneddon` with and without it.
 //!
-//! `--max-nodes N` skips the lattices of more than `N` nodes (the finite-size case has 4.2M).
+//! `--max-nodes N` skips the lattices of more than `N` nodes (the finite-size case has 4.2M,
+//! `n = 250` 15.8M, `n = 500`, the 1/500, 125.8M).
 
 use crate::out::{create_dir, plot, write, Cases};
 use crate::StudyError;
@@ -35,7 +36,7 @@ use std::path::Path;
 use std::time::Instant;
 
 /// Lattice sizes (cells per unit length) on the unit cube.
-const SIZES: [usize; 4] = [40, 80, 120, 160];
+const SIZES: [usize; 6] = [40, 80, 120, 160, 250, 500];
 /// The size of the finite-size case (on a cube of side 2).
 const FINITE_SIZE_N: usize = 80;
 /// Crack radius.

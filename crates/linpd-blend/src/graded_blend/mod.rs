@@ -559,18 +559,21 @@ const WINDOW_NODE_BYTES: f64 = 96.0 + 8.0 + 24.0 + 12.0;
 const MODULI_BYTES: f64 = 648.0;
 /// Bytes per bond of the bond operator (neighbour index and weight).
 const BOND_BYTES: f64 = 12.0;
-/// Bytes per master DOF of the solve: the vectors, GMRES's basis (restart 50) and a
-/// multigrid hierarchy from `M` (the scene's blend estimate, `crates/linpd-scene/src/memory.rs`:
-/// 1500 in 3D, 700 in 2D).
+/// Bytes per master DOF of the solve: the vectors, GMRES's basis (restart 50) and the
+/// multigrid hierarchy of `M` with its finest level matrix-free (measured on the penny block
+/// of `linpd study penny-sneddon` at n = 500: 2968 MiB for 3.53M DOFs, 880 bytes a DOF; the
+/// 2D figure is the assembled hierarchy's less its finest level).
 fn master_dof_bytes(d: usize) -> f64 {
-    128.0 + 408.0 + if d == 3 { 1500.0 } else { 700.0 }
+    128.0 + 408.0 + if d == 3 { 1000.0 } else { 500.0 }
 }
 
 /// The peak bytes of [`GradedBlend::new`] and its solve (`n` lattice nodes, `n_window` of them
 /// with bonds, `stencil` bonds a node at most), the larger of its two phases over what the
 /// whole run holds (the per-node maps and the window's bond operator, `L`):
-/// 1. the rows: `L`, the moduli and the stored rests (`4 + 8 d^2` bytes a block: `3^d` of
-///    `K_M` for a master off `R`, twice that for one of `R`: `A`'s and `M`'s);
+/// 1. the rows: `L`, the moduli and the stored rests: `3^d` blocks of `K_M` for a master off
+///    `R` (a 4-byte column each, the values shared with the rows of the same setting: counted
+///    as a tenth of them own theirs), twice that for one of `R` (`A`'s and `M`'s, `4 + 8 d^2`
+///    bytes a block);
 /// 2. the solve: `L`, the rests, the interaction graph (4 bytes a partner: the family and the
 ///    rests' nodes for a master of `R`), the vectors and the multigrid hierarchy per master
 ///    DOF. The shares are applied from `L`'s bonds, never stored.
@@ -586,9 +589,9 @@ fn peak_bytes(grid: &Grid, n_window: usize, stencil: usize, mesh: &GradedMesh, e
         + extra;
     let masters = (mesh.n_masters() + extra) as f64;
     let rows_a = rows_a as f64;
-    let blocks = masters * local + rows_a * local;
     let partners = masters * local + rows_a * (stencil as f64 + local);
-    let stored = blocks * (4.0 + 8.0 * (d * d) as f64);
+    let (value, column) = (8.0 * (d * d) as f64, 4.0);
+    let stored = masters * (16.0 + local * (column + 0.1 * value)) + 2.0 * rows_a * local * (column + value);
     let build = held + moduli + stored;
     let solve = held + stored + 4.0 * partners + d as f64 * masters * master_dof_bytes(d);
     build.max(solve)
