@@ -23,6 +23,7 @@ impl CellBox {
         [i % self.m[0], (i / self.m[0]) % self.m[1], i / (self.m[0] * self.m[1])]
     }
     /// The cells `c + o`, `o in {-1, 0, 1}^d \ {0}`, inside the box: those sharing a point with `c`.
+    #[cfg(test)]
     pub fn touching(&self, c: [usize; 3]) -> impl Iterator<Item = usize> + '_ {
         let d = self.d;
         (0..3usize.pow(d as u32)).filter_map(move |code| {
@@ -147,27 +148,39 @@ pub(super) fn graded_levels(b: &CellBox, dist: &[u32], grading: &Grading) -> Vec
         }
         let coarse = CellBox { d, m: counts };
         let fine_box = CellBox { d, m: prev };
-        let mut next = vec![u32::MAX; coarse.len()];
-        for (i, &v) in min_d.iter().enumerate() {
-            let c = fine_box.coords(i);
-            let p = coarse.index([c[0] / 2, c[1] / 2, c[2] / 2]);
-            next[p] = next[p].min(v);
-        }
-        min_d = next;
+        // each coarse cell gathers its (up to 2^d) children, in parallel
+        min_d = (0..coarse.len())
+            .into_par_iter()
+            .map(|p| {
+                let o = coarse.coords(p);
+                let mut best = u32::MAX;
+                for bits in 0..1usize << d {
+                    let c = [0, 1, 2].map(|a| 2 * o[a] + (bits >> a & 1));
+                    if (0..3).all(|a| c[a] < fine_box.m[a]) {
+                        best = best.min(min_d[fine_box.index(c)]);
+                    }
+                }
+                best
+            })
+            .collect();
         let side = 1usize << l;
         let threshold = min_distance(grading.cells_per_level, l);
         let allowed = |p: usize| {
             let o = coarse.coords(p);
             (0..d).all(|a| (o[a] + 1) * side <= b.m[a]) && min_d[p] as u64 >= threshold
         };
-        let mut any = false;
-        for (i, lv) in level.iter_mut().enumerate() {
-            let c = b.coords(i);
-            if allowed(coarse.index([c[0] >> l, c[1] >> l, c[2] >> l])) {
-                *lv = l as u8;
-                any = true;
-            }
-        }
+        let any = level
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, lv)| {
+                let c = b.coords(i);
+                let up = allowed(coarse.index([c[0] >> l, c[1] >> l, c[2] >> l]));
+                if up {
+                    *lv = l as u8;
+                }
+                up
+            })
+            .reduce(|| false, |x, y| x || y);
         if !any {
             break;
         }
@@ -179,49 +192,81 @@ pub(super) fn graded_levels(b: &CellBox, dist: &[u32], grading: &Grading) -> Vec
 /// a corner) have leaf levels differing by at most one, i.e. the 2:1 balance across faces,
 /// edges and corners. Splitting only lowers levels, so the sweeps end; and each split is forced
 /// (no balanced map at or below the levels keeps the leaf), so the result is the same whatever
-/// the order of the splits. Each sweep finds the violations in parallel, then splits them;
-/// the next sweep looks only at the split leaves' cells and the cells touching them.
+/// the order of the splits. A leaf is checked as a whole, against the shell of cells around it
+/// (inside a leaf all levels are equal): each sweep finds the violating leaves in parallel,
+/// splits them, and the next sweep checks only the split leaves' children and the leaves that
+/// touch them.
 pub(super) fn balance(b: &CellBox, level: &mut [u8]) {
-    let violates = |level: &[u8], i: usize| {
-        let l = level[i];
-        l >= 2 && b.touching(b.coords(i)).any(|j| level[j] + 1 < l)
-    };
-    let mut found: Vec<usize> = (0..b.len()).into_par_iter().filter(|&i| violates(level, i)).collect();
-    while !found.is_empty() {
-        // one split per leaf (its origin cell), the leaves' cells and their neighbours next
-        let mut split: Vec<(usize, u8)> = found
-            .iter()
-            .map(|&i| {
-                let l = level[i];
-                let o = b.coords(i).map(|v| v >> l << l);
-                (b.index(o), l)
+    // every leaf at level >= 2, by its origin cell
+    let mut candidates: Vec<usize> = (0..b.len())
+        .into_par_iter()
+        .filter(|&i| {
+            let l = level[i];
+            l >= 2 && b.coords(i).iter().all(|&v| v & ((1 << l) - 1) == 0)
+        })
+        .collect();
+    while !candidates.is_empty() {
+        let split: Vec<(usize, u8)> = candidates
+            .into_par_iter()
+            .filter_map(|o| {
+                let l = level[o];
+                // a candidate may have been split already (then its children are candidates)
+                let c = b.coords(o);
+                let origin = c.iter().all(|&v| v & ((1 << l) - 1) == 0);
+                (l >= 2 && origin && leaf_violates(b, level, c, l)).then_some((o, l))
             })
             .collect();
-        split.sort_unstable();
-        split.dedup();
         let mut next = Vec::new();
         for &(o, l) in &split {
             let c = b.coords(o);
             split_leaf(b, level, c, l);
-            for_each_leaf_cell(b, c, l, &mut |k| {
-                next.push(k);
-                next.extend(b.touching(b.coords(k)));
+            // the children, and the leaves touching the split one (their origins)
+            let half = 1usize << (l - 1);
+            for bits in 0..1usize << b.d {
+                let k = [0, 1, 2].map(|a| c[a] + if bits >> a & 1 == 1 { half } else { 0 });
+                next.push(b.index(k));
+            }
+            for_each_shell_cell(b, c, l, &mut |k| {
+                let lk = level[k];
+                let kc = b.coords(k);
+                next.push(b.index(kc.map(|v| v >> lk << lk)));
             });
         }
         next.sort_unstable();
         next.dedup();
-        found = next.into_par_iter().filter(|&i| violates(level, i)).collect();
+        candidates = next;
     }
 }
 
-/// `f(cell)` for each level-0 cell of the level-`l` leaf with origin `o`.
-fn for_each_leaf_cell(b: &CellBox, o: [usize; 3], l: u8, f: &mut dyn FnMut(usize)) {
-    let side = 1usize << l;
-    let ext = [0, 1, 2].map(|a| if a < b.d { side } else { 1 });
-    for k2 in 0..ext[2] {
-        for k1 in 0..ext[1] {
-            for k0 in 0..ext[0] {
-                f(b.index([o[0] + k0, o[1] + k1, o[2] + k2]));
+/// Whether the level-`l` leaf with origin `o` touches a cell more than one level finer.
+fn leaf_violates(b: &CellBox, level: &[u8], o: [usize; 3], l: u8) -> bool {
+    let mut found = false;
+    for_each_shell_cell(b, o, l, &mut |k| found |= level[k] + 1 < l);
+    found
+}
+
+/// `f(cell)` for each cell of the box touching the level-`l` leaf with origin `o` from
+/// outside (the shell one cell thick around it).
+fn for_each_shell_cell(b: &CellBox, o: [usize; 3], l: u8, f: &mut dyn FnMut(usize)) {
+    let side = 1i64 << l;
+    let lo = [0, 1, 2].map(|a| if a < b.d { o[a] as i64 - 1 } else { 0 });
+    let hi = [0, 1, 2].map(|a| if a < b.d { o[a] as i64 + side } else { 0 });
+    let inside = |k: [i64; 3]| (0..b.d).all(|a| k[a] >= o[a] as i64 && k[a] < o[a] as i64 + side);
+    for k2 in lo[2]..=hi[2] {
+        for k1 in lo[1]..=hi[1] {
+            // the whole row when it lies outside the leaf, else its two ends
+            let row_outside = !inside([o[0] as i64, k1, k2]);
+            let mut visit = |k0: i64| {
+                let k = [k0, k1, k2];
+                if (0..b.d).all(|a| k[a] >= 0 && (k[a] as usize) < b.m[a]) {
+                    f(b.index(k.map(|v| v as usize)));
+                }
+            };
+            if row_outside {
+                (lo[0]..=hi[0]).for_each(&mut visit);
+            } else {
+                visit(lo[0]);
+                visit(hi[0]);
             }
         }
     }
