@@ -241,7 +241,14 @@ struct ZoneInputs {
 pub struct GradedSystem {
     /// The model over the masters.
     pub graded: GradedBlend,
+    /// Per load, its forces on the masters and the lattice nodes it loaded: the right-hand
+    /// side's terms, kept for the balance.
+    pub loads: Vec<MasterLoad>,
 }
+
+/// One load on the graded blend's masters: `P^T f`, the nonzero ones as `(master, force)`, and
+/// the number of lattice nodes it loaded.
+pub type MasterLoad = (Vec<(usize, [f64; 3])>, usize);
 
 /// Solved as the graded model over its masters; handed back to the scene model by type (the
 /// solution is drawn on the mesh or the lattice).
@@ -330,7 +337,7 @@ impl LatticeBlendModel {
         let bond = Bond { horizon: b.horizon, micromodulus: &b.micromodulus, material: &b.material };
         let graded = GradedBlend::new(bond, grid, beta, regular.as_deref(), &mirrored, &constrained, local)
             .map_err(blend_error)?;
-        Ok(GradedSystem { graded })
+        Ok(GradedSystem { graded, loads: Vec::new() })
     }
 }
 
@@ -370,7 +377,7 @@ impl LatticeBlendModel {
     /// masters' nodes and its loads as `P^T f`.
     fn graded_system(&self, p: &Problem, local: LocalMesh) -> Result<System, ProblemError> {
         let grid = p.lattice()?;
-        let g = self.build_graded(p, local)?;
+        let mut g = self.build_graded(p, local)?;
         let grading = local.grading;
         let memory_estimate = Some(g.graded.memory_estimate());
         let d = p.dim();
@@ -385,13 +392,24 @@ impl LatticeBlendModel {
             }
         });
         let mut f = vec![0.0; d * masters.len()];
+        let mut loads = Vec::new();
         for k in 0..p.n_loads() {
-            p.visit_load(k, &mut |i, force| {
+            let mut fk = vec![0.0; d * masters.len()];
+            let loaded = p.visit_load(k, &mut |i, force| {
                 for (m, w) in g.graded.interpolation(grid, i) {
-                    (0..d).for_each(|a| f[d * m + a] += w * force[a]);
+                    (0..d).for_each(|a| fk[d * m + a] += w * force[a]);
                 }
             });
+            f.iter_mut().zip(&fk).for_each(|(t, x)| *t += x);
+            let on_masters: Vec<(usize, [f64; 3])> = fk
+                .chunks_exact(d)
+                .enumerate()
+                .filter(|(_, v)| v.iter().any(|&x| x != 0.0))
+                .map(|(m, v)| (m, [0, 1, 2].map(|a| if a < d { v[a] } else { 0.0 })))
+                .collect();
+            loads.push((on_masters, loaded));
         }
+        g.loads = loads;
         let z = g.graded.zones();
         let levels: Vec<String> =
             g.graded.mesh().counts().iter().map(|c| format!("{} cells of {}h", c.cells, 1usize << c.level)).collect();
@@ -456,7 +474,7 @@ fn graded_solution(
     let grid = p.lattice()?;
     let (graded, d) = (&g.graded, p.dim());
     let mesh = graded.mesh();
-    let mut balance = graded_balance(p, graded, grid, u_m);
+    let mut balance = graded_balance(p, g, grid, u_m);
     let extra = graded.extra_nodes();
     // the sites the solution is drawn on: every lattice node, or the model's nodes (the mesh's,
     // then the extra nodes), all of them lattice nodes
@@ -530,16 +548,15 @@ fn graded_solution(
 /// The force balance of the graded blend's solution `u_m` on its masters (see
 /// [`graded_solution`]): `A_M u_M`, the scene's loads as `P^T f`, its supports at the
 /// masters' nodes.
-fn graded_balance(p: &Problem, graded: &GradedBlend, grid: &Grid, u_m: &[f64]) -> crate::balance::Balance {
+fn graded_balance(p: &Problem, g: &GradedSystem, grid: &Grid, u_m: &[f64]) -> crate::balance::Balance {
+    let (graded, d) = (&g.graded, p.dim());
     let mut au = vec![0.0; u_m.len()];
     linpd_core::Model::apply(graded, u_m, &mut au);
+    // the loads' forces on the masters, as the right-hand side had them
     let load = |k: usize, visit: &mut dyn FnMut(usize, &[f64])| {
-        p.visit_load(k, &mut |i, force| {
-            for (m, w) in graded.interpolation(grid, i) {
-                let share: Vec<f64> = force.iter().map(|f| w * f).collect();
-                visit(m, &share);
-            }
-        })
+        let (forces, loaded) = &g.loads[k];
+        forces.iter().for_each(|(m, v)| visit(*m, &v[..d]));
+        *loaded
     };
     let held = |k: usize| -> Vec<(usize, usize)> {
         p.held_dofs(k).into_iter().filter_map(|(i, a)| graded.master_at(grid, i).map(|m| (m, a))).collect()
