@@ -64,6 +64,10 @@
 //!
 //! The SPD companion `M` takes the companion rows of `R` and `K_M`'s rows elsewhere.
 //!
+//! Neither is stored whole: a row is its nonlocal shares, applied from the window's bonds,
+//! plus a stored rest of at most `3^d` blocks (module `operator`); GMRES runs on `A`'s apply and
+//! the multigrid on `M`'s block rows ([`linpd_core::Model::multigrid_companion`]).
+//!
 //! # Element moduli of a coarse cell
 //!
 //! A lattice cell `e` has `C_e vol_e = sum_{corners c} D_c / n_c` ([`crate::lattice`]); a
@@ -145,7 +149,8 @@ impl LocalMesh {
     }
 }
 
-/// The blended model on a lattice with a graded local mesh, assembled over the masters' DOFs
+/// The blended model on a lattice with a graded local mesh over the masters' DOFs, applied
+/// from its bonds and stored rests
 /// (see the module docs).
 #[derive(Debug, Clone)]
 pub struct GradedBlend {
@@ -158,7 +163,7 @@ pub struct GradedBlend {
     /// The masters' positions.
     positions: Vec<Point>,
     /// The nonlocal shares `N` of `A` and `M`, applied from the window's bonds
-    /// ([`operator`]).
+    /// (`graded_blend::operator`).
     shares: Shares,
     /// The rest of `A`'s rows: Algorithm A's without the shares for the masters of `R` and
     /// the extra nodes, `K_M`'s for the others.
@@ -166,7 +171,7 @@ pub struct GradedBlend {
     /// The rest of `M`'s rows for the masters of `R` and the extra nodes (the companion's
     /// elements); empty for the others, whose `M` row is `K_M`'s, in `rest_a`.
     rest_m: BlockCsr,
-    /// `max |A - A^T| / max |A|` over all DOFs (a bound: see [`operator`]).
+    /// `max |A - A^T| / max |A|` over all DOFs (a bound: see `graded_blend::operator`).
     asymmetry: f64,
     /// The nodes whose bonds were built (the window, a sub-grid of the lattice box) and the
     /// bond operator on them.
@@ -324,7 +329,7 @@ impl GradedBlend {
     }
 
     /// Bytes of the stored rests of `A` and `M` (columns, row pointers and the distinct
-    /// rows' values; see [`operator`]).
+    /// rows' values; see `graded_blend::operator`).
     pub fn stored_bytes(&self) -> usize {
         self.rest_a.bytes() + self.rest_m.bytes()
     }
@@ -429,7 +434,7 @@ impl GradedBlend {
     }
 }
 
-/// The stored rests of `A` and `M` over the masters (see [`operator`]): for a master of
+/// The stored rests of `A` and `M` over the masters (see `graded_blend::operator`): for a master of
 /// `R` or an extra node (window node `shares.window_of[m]`) Algorithm A's rows without the
 /// shares, renumbered to masters; for the others its row of `K_M` (`k_rows`, the leaves'
 /// moduli from `moduli`), in `A`'s rest only. Built in chunks of [`ROW_CHUNK`] masters, each

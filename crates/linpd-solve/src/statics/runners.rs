@@ -404,19 +404,30 @@ pub(super) fn matrix_free_cg(
         report.notes.push(format!("the geometric multigrid level failed ({e}): smoothed aggregation ran instead"));
     }
     if let Some(c) = &companion {
-        report.notes.push(format!(
-            "the multigrid hierarchy is built from the model's SPD companion ({}), CG runs on the {} model",
-            c.kind(),
-            model.kind()
-        ));
+        report.notes.push(companion_note(&**c, model, "CG"));
     }
-    report.iterations = Some(info.iterations);
-    report.rel_residual = info.rel_residual;
+    finish_iterative(&mut report, info.iterations, info.rel_residual, t_setup, t);
+    Ok((u, report))
+}
+
+/// The report's note that `krylov` ran on `model` with the multigrid of its `companion`.
+fn companion_note(companion: &dyn Model, model: &dyn Model, krylov: &str) -> String {
+    format!(
+        "the multigrid hierarchy is built from the model's SPD companion ({}), {krylov} runs on the {} model",
+        companion.kind(),
+        model.kind()
+    )
+}
+
+/// Fills a matrix-free iterative solve's iterations, residual, timings (setup `t_setup` of
+/// the total since `start`) and peak memory.
+fn finish_iterative(report: &mut SolveReport, iterations: usize, rel_residual: f64, t_setup: f64, start: Instant) {
+    report.iterations = Some(iterations);
+    report.rel_residual = rel_residual;
     report.timings.setup = t_setup;
-    report.timings.total = t.elapsed().as_secs_f64();
+    report.timings.total = start.elapsed().as_secs_f64();
     report.timings.solve = report.timings.total - t_setup;
     report.peak_rss_bytes = peak_rss_bytes();
-    Ok((u, report))
 }
 
 /// GMRES on the [`ReducedOperator`] of the model's apply, preconditioned by the multigrid
@@ -459,16 +470,7 @@ pub(super) fn matrix_free_gmres(
         .map_err(|source| SolveError::Gmres { preconditioner: preconditioner.name(), source })?;
     let mut report = SolveReport::new(SolverId::GmresMatrixFree(preconditioner), dofs.n_free(), 0);
     report.preconditioner = m_inv.summary();
-    report.notes.push(format!(
-        "the multigrid hierarchy is built from the model's SPD companion ({}), GMRES runs on the {} model",
-        companion.kind(),
-        model.kind()
-    ));
-    report.iterations = Some(info.iterations);
-    report.rel_residual = info.rel_residual;
-    report.timings.setup = t_setup;
-    report.timings.total = t.elapsed().as_secs_f64();
-    report.timings.solve = report.timings.total - t_setup;
-    report.peak_rss_bytes = peak_rss_bytes();
+    report.notes.push(companion_note(&*companion, model, "GMRES"));
+    finish_iterative(&mut report, info.iterations, info.rel_residual, t_setup, t);
     Ok((u, report))
 }
