@@ -373,8 +373,11 @@ impl GradedBlend {
     /// array (e.g. the masters' shares of the nodes' volumes).
     pub fn restrict_scalar(&self, grid: &Grid, value: &(dyn Fn(usize) -> f64 + Sync)) -> Vec<f64> {
         let n = self.master_node.len();
+        // at most a few accumulators of the masters' size per thread
+        let chunk = grid.len().div_ceil(4 * rayon::current_num_threads()).max(1);
         (0..grid.len())
             .into_par_iter()
+            .with_min_len(chunk)
             .fold(
                 || vec![0.0; n],
                 |mut out, i| {
