@@ -213,9 +213,10 @@ impl GradedBlend {
         let (in_r, zones, mesh) = layout(grid, &beta, regular, keep, horizon, local)?;
         // the nodes of no leaf: unknowns of their own (see the module docs)
         let extra: Vec<usize> = (0..n)
+            .into_par_iter()
             .filter(|&i| {
                 let k = grid.site_of(i);
-                mesh.node_at(k).is_none() && mesh.leaf_at(k).is_none()
+                mesh.leaf_at(k).is_none() && mesh.node_at(k).is_none()
             })
             .collect();
         let window: Vec<bool> = if homogeneous { window_nodes(grid, &mesh, &extra, ratio) } else { vec![true; n] };
