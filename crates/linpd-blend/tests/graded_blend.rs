@@ -266,3 +266,47 @@ fn bulk_free_faces_carry_the_bulk_stress() {
         assert!(n_masters[0] < n_masters[1], "{dim}D: masters {n_masters:?}");
     }
 }
+
+/// `P^T v` leaf by leaf (`GradedBlend::restrict_scalar`) equals the sums of the interpolation
+/// rows node by node (`GradedBlend::interpolation`) to round-off (1e-13 of the total), on a
+/// graded 2D plate (cells up to 8h, hanging nodes) and on a 3D box with a hole (void cells,
+/// nodes of the far faces), for a value that is not affine (`1 + x + 3 y^2`).
+#[test]
+fn restriction_leaf_by_leaf_equals_the_rows() {
+    let cases: Vec<(usize, Grid, f64, Vec<f64>)> = vec![
+        {
+            let (g, _, horizon, beta) = setting_in(2, 96, 3.0, 0.06, [1.0, 1.0, 0.5]);
+            (2, g, horizon, beta)
+        },
+        {
+            let h = 1.0 / 40.0;
+            let g = Grid::new(&[0.0; 3], &[1.0, 0.8, 0.6], h, 0.0, Placement::Vertex).unwrap();
+            let hole = |x: &linpd_core::Point| (x[0] - 0.3).powi(2) + (x[1] - 0.4).powi(2) > 0.01;
+            let g = g.with_body(hole).unwrap();
+            let inside: Vec<bool> = (0..g.len()).map(|i| (g.position(i)[0] - 0.75).abs() < 0.05).collect();
+            let beta = beta_from_zone(&g, &inside, 6.0 * h, Profile::Cubic);
+            (3, g, 3.0 * h, beta)
+        },
+    ];
+    for (dim, g, horizon, beta) in cases {
+        let mirrored = vec![false; g.len()];
+        let graded = graded(&g, horizon, beta, &mirrored, 3);
+        assert!(!graded.mesh().hanging().is_empty(), "{dim}D: the case has hanging nodes");
+        let value = |i: usize| {
+            let x = g.position(i);
+            1.0 + x[0] + 3.0 * x[1] * x[1]
+        };
+        let fast = graded.restrict_scalar(&g, &value);
+        let mut rows = vec![0.0; graded.master_nodes().len()];
+        for i in 0..g.len() {
+            for (m, w) in graded.interpolation(&g, i) {
+                rows[m] += w * value(i);
+            }
+        }
+        let total: f64 = rows.iter().sum();
+        let diff = fast.iter().zip(&rows).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        println!("{dim}D: {} masters, max |leaf-wise - rows| / total = {:.1e}", rows.len(), diff / total);
+        assert_eq!(fast.len(), rows.len());
+        assert!(diff <= 1e-13 * total, "{dim}D: {diff:e} of {total}");
+    }
+}

@@ -371,27 +371,12 @@ impl GradedBlend {
     }
 
     /// `P^T v` for one value `value(i)` per lattice node `i` of `grid`, without a lattice-sized
-    /// array (e.g. the masters' shares of the nodes' volumes).
+    /// array (e.g. the masters' shares of the nodes' volumes), leaf by leaf
+    /// ([`GradedMesh::restrict_values`]), the extra nodes their own.
     pub fn restrict_scalar(&self, grid: &Grid, value: &(dyn Fn(usize) -> f64 + Sync)) -> Vec<f64> {
-        let n = self.master_node.len();
-        // at most a few accumulators of the masters' size per thread
-        let chunk = grid.len().div_ceil(4 * rayon::current_num_threads()).max(1);
-        (0..grid.len())
-            .into_par_iter()
-            .with_min_len(chunk)
-            .fold(
-                || vec![0.0; n],
-                |mut out, i| {
-                    let v = value(i);
-                    if v != 0.0 {
-                        for (m, w) in self.p_row(grid, i) {
-                            out[m] += w * v;
-                        }
-                    }
-                    out
-                },
-            )
-            .reduce(|| vec![0.0; n], |a, b| a.into_iter().zip(b).map(|(x, y)| x + y).collect())
+        let mut out = self.mesh.restrict_values(&|k| grid.node_at_site(k).map_or(0.0, value));
+        out.extend(self.extra.iter().map(|&i| value(i)));
+        out
     }
 
     /// Row `i` of `P` for lattice node `i` of `grid`: `(master, weight)`.
