@@ -107,6 +107,26 @@ fn graded_matrix_free_gmres_matches_the_assembled_one() {
     }
 }
 
+/// When the matrix-free GMRES fails (here: `max_iter` 3), `auto` assembles the graded model
+/// and goes on with the assembled plan (in 2D its assembly is affordable), says so in the
+/// notes, and reaches the same solution (1e-7 of max |u|, both to rtol 1e-10).
+#[test]
+fn failed_matrix_free_gmres_falls_back_to_the_assembled_plan() {
+    let h = 0.005;
+    let mut reference = plate(h);
+    reference["model"]["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": 4});
+    reference["solver"] = json!({"type": "auto", "rtol": 1e-10});
+    let mut capped = reference.clone();
+    capped["solver"]["max_iter"] = json!(3);
+    let (r, c) = (solve(&reference), solve(&capped));
+    let notes = c.report.notes.join("; ");
+    assert!(notes.contains("matrix-free GMRES + multigrid failed"), "{notes}");
+    assert_ne!(c.report.solver.to_string(), "gmres-multigrid-matrix-free");
+    let err = max_rel_diff(&c.u, &r.u);
+    println!("fallback {} vs matrix-free: {err:.2e}", c.report.solver);
+    assert!(err <= 1e-7, "{err:e}");
+}
+
 /// `max_cell` equal to the spacing keeps every cell on the lattice: the same model as without
 /// `local_mesh`, to the round-off of sparse LU (1e-12).
 #[test]

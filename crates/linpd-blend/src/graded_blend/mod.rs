@@ -171,7 +171,7 @@ pub struct GradedBlend {
     /// The rest of `M`'s rows for the masters of `R` and the extra nodes (the companion's
     /// elements); empty for the others, whose `M` row is `K_M`'s, in `rest_a`.
     rest_m: BlockCsr,
-    /// `max |A - A^T| / max |A|` over all DOFs (a bound: see `graded_blend::operator`).
+    /// `max |A - A^T| / max |A|` over all DOFs (see `graded_blend::operator`).
     asymmetry: f64,
     /// The nodes whose bonds were built (the window, a sub-grid of the lattice box) and the
     /// bond operator on them.
@@ -311,8 +311,9 @@ impl GradedBlend {
             zones,
             estimate,
         };
-        graded.asymmetry = graded.full_asymmetry();
-        graded.zones.nnz = graded.count_blocks() * d * d;
+        let (blocks, max_a) = graded.count_and_max();
+        graded.asymmetry = graded.full_asymmetry(max_a);
+        graded.zones.nnz = blocks * d * d;
         Ok(graded)
     }
 

@@ -126,16 +126,14 @@ impl BlockCsr {
         Some(&self.val[v * dd..v * dd + dd])
     }
 
-    /// `max |L - L^T|` over the blocks (a block missing on one side counts as zero) and
-    /// `max |L|`.
-    pub(crate) fn asymmetry_and_max(&self) -> (f64, f64) {
+    /// `max |L - L^T|` over the blocks (a block missing on one side counts as zero).
+    pub(crate) fn max_asymmetry(&self) -> f64 {
         let d = self.d;
         (0..self.n_rows())
             .into_par_iter()
             .map(|i| {
-                let (mut diff, mut max) = (0.0f64, 0.0f64);
+                let mut diff = 0.0f64;
                 for (j, b) in self.row(i) {
-                    max = b.iter().fold(max, |m, x| m.max(x.abs()));
                     let t = self.block(j, i);
                     for a in 0..d {
                         for c in 0..d {
@@ -144,9 +142,9 @@ impl BlockCsr {
                         }
                     }
                 }
-                (diff, max)
+                diff
             })
-            .reduce(|| (0.0, 0.0), |x, y| (x.0.max(y.0), x.1.max(y.1)))
+            .reduce(|| 0.0, f64::max)
     }
 }
 
@@ -273,7 +271,9 @@ impl GradedBlend {
             self.rest(which, m).for_each(|(j, b)| f(j, b));
             return;
         }
-        MERGE.with_borrow_mut(|(slot, row)| {
+        // the row is merged in the thread's buffers, which are released before `f` runs (an
+        // `f` that merged a row itself would otherwise find them borrowed)
+        let mut row = MERGE.with_borrow_mut(|(slot, row)| {
             slot.resize(self.master_node.len(), u32::MAX);
             merge_slot(slot, row, m);
             for (j, b) in self.rest(which, m) {
@@ -290,11 +290,14 @@ impl GradedBlend {
                     }
                 }
             });
-            for (j, b) in row.drain(..) {
-                slot[j] = u32::MAX;
-                f(j, &b[..d * d]);
-            }
+            row.iter().for_each(|(j, _)| slot[*j] = u32::MAX);
+            std::mem::take(row)
         });
+        for (j, b) in &row {
+            f(*j, &b[..d * d]);
+        }
+        row.clear();
+        MERGE.with_borrow_mut(|(_, buffer)| *buffer = row);
     }
 
     fn for_each_partner_op(&self, m: usize, f: &mut dyn FnMut(usize)) {
@@ -305,30 +308,32 @@ impl GradedBlend {
         self.shares_of(m, |j, _, _| f(j));
     }
 
-    /// `max |A - A^T| / max |A|` over all DOFs, bounded from above: `N` is symmetric (each
-    /// share's block is the same product from either end), so the difference is the rest's,
-    /// and `max |A|` is taken as the larger of the rest's entries and `A`'s diagonal (an
-    /// entry of `N` is at most the diagonal's).
-    pub(super) fn full_asymmetry(&self) -> f64 {
-        let (diff, max_rest) = self.rest_a.asymmetry_and_max();
-        let max = self.diagonal_op(Which::A).iter().fold(max_rest, |m, x| m.max(x.abs()));
-        if max > 0.0 {
-            diff / max
+    /// `max |A - A^T| / max |A|` over all DOFs, with `max |A|` the largest entry of `A`'s
+    /// merged rows (`max_a`, from [`GradedBlend::count_and_max`]): `N` is symmetric (each
+    /// share's block is the same product from either end) and cancels from `A - A^T`, so the
+    /// difference is the rest's (up to the rounding of `N`'s sums with it).
+    pub(super) fn full_asymmetry(&self, max_a: f64) -> f64 {
+        let diff = self.rest_a.max_asymmetry();
+        if max_a > 0.0 {
+            diff / max_a
         } else {
             0.0
         }
     }
 
-    /// The blocks of `A`'s rows (shares and rest merged per node).
-    pub(super) fn count_blocks(&self) -> usize {
+    /// The blocks of `A`'s rows (shares and rest merged per node) and their largest entry.
+    pub(super) fn count_and_max(&self) -> (usize, f64) {
         (0..self.master_node.len())
             .into_par_iter()
             .map(|m| {
-                let mut count = 0;
-                self.for_each_block_op(Which::A, m, &mut |_, _| count += 1);
-                count
+                let (mut count, mut max) = (0, 0.0f64);
+                self.for_each_block_op(Which::A, m, &mut |_, b| {
+                    count += 1;
+                    max = b.iter().fold(max, |x, v| x.max(v.abs()));
+                });
+                (count, max)
             })
-            .sum()
+            .reduce(|| (0, 0.0), |x, y| (x.0 + y.0, x.1.max(y.1)))
     }
 
     /// `A` over all the masters' DOFs, assembled (for checks and small solves; the solvers

@@ -86,23 +86,58 @@ pub(super) fn solve_system(
             if system.asymmetry > SYMMETRY_RTOL
                 && auto.gmres_matrix_free(model.dim(), dofs.n_free(), || offers_companion_gmres(model)) =>
         {
-            let mut solved =
-                matrix_free_gmres(model, dofs, system.rhs, params, progress).map_err(|e| system.at_dof(e))?;
-            solved.1.auto = Some(format!(
-                "the model is unsymmetric and applies A matrix-free with an SPD companion's block rows \
-                 ({}D, {} >= {} unknowns): GMRES + multigrid from the companion, neither stored whole",
-                model.dim(),
-                dofs.n_free(),
-                auto.gmres_multigrid_2d_min_unknowns
-            ));
-            solved
+            auto_matrix_free_gmres(system, spec, params, progress)?
         }
         _ => assembled_solve(system, spec, progress)?,
     })
 }
 
+/// `auto`'s matrix-free GMRES + multigrid from the companion; when GMRES fails (stagnation,
+/// `max_iter`), the assembled plan (the factor of `M`, GMRES + Jacobi, sparse LU) where its
+/// assembly is affordable: in 2D, or up to [`AutoParams::cholesky_3d_max_unknowns`] in 3D (the
+/// memory was checked for the matrix-free path only; past that the error stands).
+fn auto_matrix_free_gmres(
+    system: &ModelSystem,
+    spec: &SolverSpec,
+    params: &CgParams,
+    progress: &dyn Progress,
+) -> Result<Solved, StaticError> {
+    let (model, dofs) = (system.model, system.dofs);
+    let auto = AutoParams::default();
+    let why = format!(
+        "the model is unsymmetric and applies A matrix-free with an SPD companion's block rows ({}D, {} >= {} \
+         unknowns): GMRES + multigrid from the companion, neither stored whole",
+        model.dim(),
+        dofs.n_free(),
+        auto.gmres_multigrid_2d_min_unknowns
+    );
+    let t = Instant::now();
+    match matrix_free_gmres(model, dofs, system.rhs, params, progress) {
+        Ok((u, mut report)) => {
+            report.auto = Some(why);
+            Ok((u, report))
+        }
+        Err(SolveError::Gmres { source, .. }) if model.dim() == 2 || dofs.n_free() <= auto.cholesky_3d_max_unknowns => {
+            let attempt = t.elapsed().as_secs_f64();
+            let (u, mut report) = assembled_solve(system, spec, progress)?;
+            report.notes.insert(
+                0,
+                format!(
+                    "auto: matrix-free GMRES + multigrid failed ({source}; {attempt:.3} s, counted in the solver's \
+                     total); assembled and chose again"
+                ),
+            );
+            report.timings.total += attempt;
+            Ok((u, report))
+        }
+        Err(e) => Err(system.at_dof(e)),
+    }
+}
+
 /// Whether `model` can run [`matrix_free_gmres`]: it runs matrix-free and offers an SPD
-/// companion with block rows ([`Model::multigrid_companion`], [`Model::for_each_block`]).
+/// companion with block rows ([`Model::multigrid_companion`], [`Model::for_each_block`]); of
+/// linpd's models, the blend on a graded local mesh (the LPS tangent, which offers its pair
+/// part, is symmetric and goes to matrix-free CG).
 fn offers_companion_gmres(model: &dyn Model) -> bool {
     model.matrix_free_unavailable().is_none()
         && model.n_nodes() > 0
