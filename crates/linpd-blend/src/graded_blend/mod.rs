@@ -547,6 +547,9 @@ const ROW_CHUNK: usize = 1 << 16;
 /// nodes, the window's numbering and the per-node flags (R, near, window, mirrored, keep,
 /// regular, the mesh's leaf level).
 const LATTICE_NODE_BYTES: f64 = 8.0 + 8.0 + 4.0 + 12.0;
+/// Bytes per lattice node held through the solve: the mesh's leaf level per lattice cell (the
+/// build's per-node arrays are gone by then).
+const LATTICE_NODE_SOLVE_BYTES: f64 = 2.0;
 /// Bytes per window node: the bond operator's per-node lists, the rows' per-node arrays and
 /// the shares' `beta` and master number.
 const WINDOW_NODE_BYTES: f64 = 96.0 + 8.0 + 24.0 + 12.0;
@@ -563,18 +566,22 @@ fn master_dof_bytes(d: usize) -> f64 {
 }
 
 /// The peak bytes of [`GradedBlend::new`] and its solve (`n` lattice nodes, `n_window` of them
-/// with bonds, `stencil` bonds a node at most), the larger of its two phases over what the
-/// whole run holds (the per-node maps and the window's bond operator, `L`):
-/// 1. the rows: `L`, the moduli and the stored rests: `3^d` blocks of `K_M` for a master off
-///    `R` (a 4-byte column each, the values shared with the rows of the same setting: counted
-///    as a tenth of them own theirs), twice that for one of `R` (`A`'s and `M`'s, `4 + 8 d^2`
-///    bytes a block);
-/// 2. the solve: `L`, the rests, the interaction graph (4 bytes a partner: the family and the
-///    rests' nodes for a master of `R`), the vectors and the multigrid hierarchy per master
-///    DOF. The shares are applied from `L`'s bonds, never stored.
+/// with bonds, `stencil` bonds a node at most), the larger of its two phases, both holding the
+/// window's bond operator `L` (measured on the penny block of `linpd study penny-sneddon` at
+/// 1/500: 7.5 GiB peak against 8.8 GiB estimated; with the lattice's per-node maps counted in
+/// the solve too and `R`'s rests twice, as before, the estimate was 13.3 GiB):
+/// 1. the rows: the per-node maps of the lattice, `L`, the moduli and the stored rests: `3^d`
+///    blocks of `K_M` for a master off `R` (a 4-byte column each, the values shared with the
+///    rows of the same setting: counted as a tenth of them own theirs), and `3^d` more for one
+///    of `R` (`4 + 8 d^2` bytes a block: its rests in `A` and `M`, none in the PD zone, where
+///    the row is all shares);
+/// 2. the solve: the mesh's leaf levels, `L`, the rests, the interaction graph (4 bytes a
+///    partner: the family and the rests' nodes for a master of `R`), the vectors and the
+///    multigrid hierarchy per master DOF. The shares are applied from `L`'s bonds, never
+///    stored.
 fn peak_bytes(grid: &Grid, n_window: usize, stencil: usize, mesh: &GradedMesh, extra: usize, in_r: &[bool]) -> f64 {
     let (d, n) = (grid.dim(), grid.len());
-    let held = n as f64 * LATTICE_NODE_BYTES + n_window as f64 * (WINDOW_NODE_BYTES + stencil as f64 * BOND_BYTES);
+    let window = n_window as f64 * (WINDOW_NODE_BYTES + stencil as f64 * BOND_BYTES);
     let moduli = n_window as f64 * MODULI_BYTES;
     let local = 3f64.powi(d as i32);
     let rows_a = (0..mesh.nodes().len())
@@ -586,9 +593,13 @@ fn peak_bytes(grid: &Grid, n_window: usize, stencil: usize, mesh: &GradedMesh, e
     let rows_a = rows_a as f64;
     let partners = masters * local + rows_a * (stencil as f64 + local);
     let (value, column) = (8.0 * (d * d) as f64, 4.0);
-    let stored = masters * (16.0 + local * (column + 0.1 * value)) + 2.0 * rows_a * local * (column + value);
-    let build = held + moduli + stored;
-    let solve = held + stored + 4.0 * partners + d as f64 * masters * master_dof_bytes(d);
+    let stored = masters * (16.0 + local * (column + 0.1 * value)) + rows_a * local * (column + value);
+    let build = n as f64 * LATTICE_NODE_BYTES + window + moduli + stored;
+    let solve = n as f64 * LATTICE_NODE_SOLVE_BYTES
+        + window
+        + stored
+        + 4.0 * partners
+        + d as f64 * masters * master_dof_bytes(d);
     build.max(solve)
 }
 
