@@ -266,10 +266,28 @@ impl BondOperator {
         if let (Some((k, _)), Some(t)) = (&self.lattice, &self.units) {
             return t.get(&k[i], &k[j]);
         }
-        let mut e = self.bond_vector(i, j);
-        let r = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
-        e.iter_mut().for_each(|v| *v /= r);
-        e
+        normalized(self.bond_vector(i, j))
+    }
+
+    /// The lattice offset `k_j - k_i` of bond `(i, j)` (`None` off a lattice).
+    #[inline]
+    pub fn offset(&self, i: usize, j: usize) -> Option<[i32; 3]> {
+        let (k, _) = self.lattice.as_ref()?;
+        Some([0, 1, 2].map(|a| k[j][a] - k[i][a]))
+    }
+
+    /// The unit vector of lattice offset `o`: [`BondOperator::unit`] of any bond with
+    /// [`BondOperator::offset`] `o`, bit for bit (`None` off a lattice).
+    pub fn unit_of_offset(&self, o: [i32; 3]) -> Option<[f64; 3]> {
+        let (_, h) = self.lattice.as_ref()?;
+        if let Some(t) = &self.units {
+            if o.iter().all(|&x| x.abs() <= t.r) {
+                return Some(t.get(&[0; 3], &o));
+            }
+        }
+        let mut e = [0.0; 3];
+        (0..self.dim).for_each(|a| e[a] = o[a] as f64 * h);
+        Some(normalized(e))
     }
 
     /// `y = A u` over all DOFs, without storing `A` (parallel over nodes).
@@ -383,6 +401,14 @@ pub fn pmb_force(op: &BondOperator, u: &[f64]) -> Vec<f64> {
         }
     });
     f
+}
+
+/// `e / |e|`.
+#[inline]
+fn normalized(mut e: [f64; 3]) -> [f64; 3] {
+    let r = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+    e.iter_mut().for_each(|v| *v /= r);
+    e
 }
 
 /// Unit bond vectors `e = k h / |k h|` of the lattice offsets `k` in `[-r, r]^dim`: a lattice

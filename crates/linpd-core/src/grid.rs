@@ -477,6 +477,27 @@ impl Grid {
         self.node_at([0, 1, 2].map(|a| self.lo[a] + site[a] as i64))
     }
 
+    /// The site ranges per axis (see [`Grid::node_at_site`]) holding every site whose position
+    /// lies in the box `[lo - tol, hi + tol]` (first `dim` coordinates; infinite bounds allowed),
+    /// with a site to spare at each end against rounding.
+    pub fn sites_within(&self, lo: [f64; 3], hi: [f64; 3], tol: f64) -> [std::ops::Range<usize>; 3] {
+        let shift = match self.placement {
+            Placement::Vertex => 0.0,
+            Placement::Cell => 0.5,
+        };
+        std::array::from_fn(|a| {
+            let count = self.counts[a];
+            if a >= self.dim {
+                return 0..count;
+            }
+            // site k sits at min + (lo_a + k + shift) h; `as` saturates infinite bounds
+            let site = |x: f64| (x - self.min[a]) / self.h - shift - self.lo[a] as f64;
+            let first = (site(lo[a] - tol).floor() as i64 - 1).clamp(0, count as i64) as usize;
+            let last = (site(hi[a] + tol).ceil() as i64 + 2).clamp(0, count as i64) as usize;
+            first..last.max(first)
+        })
+    }
+
     /// Position of lattice site `(i, j, k)` (see [`Grid::node_at_site`]), node or not.
     pub fn site_position(&self, site: [usize; 3]) -> Point {
         self.position_of_index([0, 1, 2].map(|a| self.lo[a] + site[a] as i64))

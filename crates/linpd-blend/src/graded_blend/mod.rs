@@ -262,8 +262,18 @@ impl GradedBlend {
             .enumerate()
             .map(|(m, &i)| if in_r[i] || m >= mesh.n_masters() { sub_of[i] } else { u32::MAX })
             .collect();
+        let reach = ratio.ceil() as i32 + 1;
         let shares =
-            Shares { window_of, master_of: master_of_window, beta: full_of.iter().map(|&i| beta[i]).collect() };
+            Shares::new(&op, window_of, master_of_window, full_of.iter().map(|&i| beta[i]).collect(), reach, ROW_CHUNK)
+                .map_err(|(w, j)| {
+                    BlendError::param(
+                        "local_mesh",
+                        format!(
+                            "the row of lattice node {} reads node {}, which the graded mesh does not keep",
+                            full_of[w], full_of[j]
+                        ),
+                    )
+                })?;
         drop(beta);
         let unkept = |w: usize, j: usize| {
             BlendError::param(
@@ -274,9 +284,6 @@ impl GradedBlend {
                 ),
             )
         };
-        (0..master_node.len()).into_par_iter().try_for_each(|m| {
-            shares.for_each(&op, m, |_, _, _| {}).map_err(|j| unkept(shares.window_of[m] as usize, j))
-        })?;
         let regular_w = regular.map(pick);
         let mirrored_w = pick(mirrored);
         let rows = BlendRows {
@@ -334,6 +341,11 @@ impl GradedBlend {
     /// rows' values; see `graded_blend::operator`).
     pub fn stored_bytes(&self) -> usize {
         self.rest_a.bytes() + self.rest_m.bytes()
+    }
+
+    /// Bytes of the lists of the nonlocal shares (16 a share; see `graded_blend::operator`).
+    pub fn share_bytes(&self) -> usize {
+        self.shares.list_bytes()
     }
 
     /// The graded mesh.
@@ -557,6 +569,9 @@ const WINDOW_NODE_BYTES: f64 = 96.0 + 8.0 + 24.0 + 12.0;
 const MODULI_BYTES: f64 = 648.0;
 /// Bytes per bond of the bond operator (neighbour index and weight).
 const BOND_BYTES: f64 = 12.0;
+/// Bytes of one listed share (`graded_blend::operator::Share`).
+const SHARE_BYTES: f64 = 16.0;
+
 /// Bytes per master DOF of the solve: the vectors, GMRES's basis (restart 50) and the
 /// multigrid hierarchy of `M` with its finest level matrix-free (measured on the penny block
 /// of `linpd study penny-sneddon` at n = 500: 2968 MiB for 3.53M DOFs, 880 bytes a DOF; the
@@ -577,8 +592,9 @@ fn master_dof_bytes(d: usize) -> f64 {
 ///    the row is all shares);
 /// 2. the solve: the mesh's leaf levels, `L`, the rests, the interaction graph (4 bytes a
 ///    partner: the family and the rests' nodes for a master of `R`), the vectors and the
-///    multigrid hierarchy per master DOF. The shares are applied from `L`'s bonds, never
-///    stored.
+///    multigrid hierarchy per master DOF.
+///
+/// Both hold the lists of the shares, [`SHARE_BYTES`] a bond of a row of `R`.
 fn peak_bytes(grid: &Grid, n_window: usize, stencil: usize, mesh: &GradedMesh, extra: usize, in_r: &[bool]) -> f64 {
     let (d, n) = (grid.dim(), grid.len());
     let window = n_window as f64 * (WINDOW_NODE_BYTES + stencil as f64 * BOND_BYTES);
@@ -593,7 +609,10 @@ fn peak_bytes(grid: &Grid, n_window: usize, stencil: usize, mesh: &GradedMesh, e
     let rows_a = rows_a as f64;
     let partners = masters * local + rows_a * (stencil as f64 + local);
     let (value, column) = (8.0 * (d * d) as f64, 4.0);
-    let stored = masters * (16.0 + local * (column + 0.1 * value)) + rows_a * local * (column + value);
+    let stored = masters * (16.0 + local * (column + 0.1 * value))
+        + rows_a * local * (column + value)
+        + masters * 8.0
+        + rows_a * stencil as f64 * SHARE_BYTES;
     let build = n as f64 * LATTICE_NODE_BYTES + window + moduli + stored;
     let solve = n as f64 * LATTICE_NODE_SOLVE_BYTES
         + window

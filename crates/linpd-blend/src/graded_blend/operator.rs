@@ -117,6 +117,23 @@ impl BlockCsr {
         self.col[lo..hi].iter().zip(values.chunks_exact(dd)).map(|(&j, b)| (j as usize, b))
     }
 
+    /// `acc += (row i) u` in `D = d` dimensions.
+    #[inline]
+    pub(crate) fn mul_add<const D: usize>(&self, i: usize, u: &[f64], acc: &mut [f64; D]) {
+        let (lo, hi, v) = (self.row_ptr[i], self.row_ptr[i + 1], self.val_of[i]);
+        let values = &self.val[v * D * D..(v + hi - lo) * D * D];
+        for (&j, b) in self.col[lo..hi].iter().zip(values.chunks_exact(D * D)) {
+            let uj: &[f64; D] = u[D * j as usize..D * j as usize + D].try_into().expect("D values");
+            for a in 0..D {
+                let mut s = 0.0;
+                for c in 0..D {
+                    s += b[a * D + c] * uj[c];
+                }
+                acc[a] += s;
+            }
+        }
+    }
+
     /// Block `(i, j)`, if stored.
     fn block(&self, i: usize, j: usize) -> Option<&[f64]> {
         let dd = self.d * self.d;
@@ -148,7 +165,20 @@ impl BlockCsr {
     }
 }
 
-/// `N`'s data: the window's `beta` and the masters of its nodes (see the module docs).
+/// One share of a row of `N`: `c = a_ij w_ij != 0`, the master `j` at the bond's other end
+/// and the unit bond vector, as its index in [`Shares::units`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Share {
+    c: f64,
+    j: u32,
+    e: u32,
+}
+
+/// `N`'s data: the window's `beta` and the masters of its nodes, and each row's shares as a
+/// list (see the module docs). The list (16 bytes a share) is what a product reads: each
+/// share's `a_ij w_ij`, master and unit vector taken from the window's bonds instead cost four
+/// scattered reads and a unit-vector lookup a share, most of a product's time on the penny
+/// block at 1/250 (docs/models.md).
 #[derive(Debug, Clone)]
 pub(crate) struct Shares {
     /// The window node of each master whose row is Algorithm A's (`R` and the extra nodes);
@@ -158,40 +188,110 @@ pub(crate) struct Shares {
     pub(crate) master_of: Vec<u32>,
     /// `beta` per window node.
     pub(crate) beta: Vec<f64>,
+    /// Master `m`'s shares are `list[ptr[m]..ptr[m + 1]]`.
+    ptr: Vec<usize>,
+    list: Vec<Share>,
+    /// The unit vector of each lattice offset `o` with `|o_a| <= reach`, at `sum_a (o_a +
+    /// reach) (2 reach + 1)^a`.
+    units: Vec<[f64; 3]>,
 }
 
 impl Shares {
+    /// The shares of the rows of the masters with a window node (`window_of`), from the
+    /// window's bond operator `op` (on a lattice; bonds reach `reach` lattice steps at most),
+    /// built in chunks of `chunk` masters. `Err((w, j))`: window node `w`'s row has a share
+    /// with window node `j`, which is no master.
+    pub(crate) fn new(
+        op: &BondOperator,
+        window_of: Vec<u32>,
+        master_of: Vec<u32>,
+        beta: Vec<f64>,
+        reach: i32,
+        chunk: usize,
+    ) -> Result<Self, (usize, usize)> {
+        let (d, side) = (op.dim(), 2 * reach + 1);
+        let offset = |idx: i32| -> [i32; 3] {
+            let mut o = [0; 3];
+            (0..d).fold(idx, |q, a| {
+                o[a] = q % side - reach;
+                q / side
+            });
+            o
+        };
+        let units: Vec<[f64; 3]> = (0..side.pow(d as u32))
+            .map(|idx| op.unit_of_offset(offset(idx)).expect("the window is a lattice"))
+            .collect();
+        let index = |o: [i32; 3]| -> u32 { (0..d).rev().fold(0, |q, a| q * side + o[a] + reach) as u32 };
+        let mut shares = Shares { window_of, master_of, beta, ptr: vec![0], list: Vec::new(), units };
+        // (c, j) of window node w's shares, in the family's order
+        let of_window = |sh: &Shares, w: usize, f: &mut dyn FnMut(f64, usize)| {
+            let bi = sh.beta[w];
+            for (&j, &wt) in op.family().neighbors(w).iter().zip(op.weights(w)) {
+                let c = 0.5 * (bi + sh.beta[j as usize]) * wt;
+                if c != 0.0 {
+                    f(c, j as usize);
+                }
+            }
+        };
+        let n = shares.window_of.len();
+        let counts: Vec<usize> = (0..n)
+            .into_par_iter()
+            .map(|m| match shares.window_of[m] {
+                u32::MAX => 0,
+                w => {
+                    let mut k = 0;
+                    of_window(&shares, w as usize, &mut |_, _| k += 1);
+                    k
+                }
+            })
+            .collect();
+        let mut list = Vec::with_capacity(counts.iter().sum());
+        for first in (0..n).step_by(chunk.max(1)) {
+            let rows: Vec<Result<Vec<Share>, (usize, usize)>> = (first..(first + chunk).min(n))
+                .into_par_iter()
+                .map(|m| {
+                    let Some(w) = Some(shares.window_of[m]).filter(|&w| w != u32::MAX) else {
+                        return Ok(Vec::new());
+                    };
+                    let w = w as usize;
+                    let mut row = Vec::with_capacity(counts[m]);
+                    let mut unkept = None;
+                    of_window(&shares, w, &mut |c, j| match shares.master_of[j] {
+                        u32::MAX => unkept = unkept.or(Some((w, j))),
+                        mj => {
+                            let o = op.offset(w, j).expect("the window is a lattice");
+                            row.push(Share { c, j: mj, e: index(o) });
+                        }
+                    });
+                    unkept.map_or(Ok(row), Err)
+                })
+                .collect();
+            for row in rows {
+                list.extend(row?);
+                shares.ptr.push(list.len());
+            }
+        }
+        shares.list = list;
+        Ok(shares)
+    }
+
     /// Whether master `m`'s row is Algorithm A's.
     pub(crate) fn is_row_a(&self, m: usize) -> bool {
         self.window_of[m] != u32::MAX
     }
 
-    /// `f(j, c, e)` for each share of master `m`'s row with `c = a_ij w_ij != 0`: `j` the
-    /// master at the bond's other end, `e` the unit bond vector. `Err(window node)` for a share
-    /// whose other end is no master (checked once when the model is built).
-    pub(crate) fn for_each(
-        &self,
-        op: &BondOperator,
-        m: usize,
-        mut f: impl FnMut(usize, f64, [f64; 3]),
-    ) -> Result<(), usize> {
-        let w = self.window_of[m];
-        if w == u32::MAX {
-            return Ok(());
+    /// Bytes held by the lists of shares.
+    pub(crate) fn list_bytes(&self) -> usize {
+        std::mem::size_of::<Share>() * self.list.len() + 8 * self.ptr.len()
+    }
+
+    /// `f(j, c, e)` for each share of master `m`'s row: `j` the master at the bond's other
+    /// end, `c = a_ij w_ij`, `e` the unit bond vector.
+    #[inline]
+    pub(crate) fn for_each(&self, m: usize, mut f: impl FnMut(usize, f64, &[f64; 3])) {
+        for s in &self.list[self.ptr[m]..self.ptr[m + 1]] {
+            f(s.j as usize, s.c, &self.units[s.e as usize]);
         }
-        let w = w as usize;
-        let bi = self.beta[w];
-        for (&j, &wt) in op.family().neighbors(w).iter().zip(op.weights(w)) {
-            let j = j as usize;
-            let c = 0.5 * (bi + self.beta[j]) * wt;
-            if c != 0.0 {
-                match self.master_of[j] {
-                    u32::MAX => return Err(j),
-                    mj => f(mj as usize, c, op.unit(w, j)),
-                }
-            }
-        }
-        Ok(())
     }
 }
 
@@ -228,27 +328,40 @@ impl GradedBlend {
     }
 
     /// `f(j, c, e)` for the shares of master `m` (see [`Shares::for_each`]).
-    fn shares_of(&self, m: usize, f: impl FnMut(usize, f64, [f64; 3])) {
-        self.shares.for_each(&self.op, m, f).expect("every share's ends are masters (checked when built)");
+    #[inline]
+    fn shares_of(&self, m: usize, f: impl FnMut(usize, f64, &[f64; 3])) {
+        self.shares.for_each(m, f)
     }
 
     fn apply_op(&self, which: Which, u: &[f64], y: &mut [f64]) {
-        let d = self.dim();
-        assert_eq!(u.len(), d * self.master_node.len(), "one value per master DOF");
+        assert_eq!(u.len(), self.dim() * self.master_node.len(), "one value per master DOF");
         assert_eq!(y.len(), u.len(), "one value per master DOF");
-        y.par_chunks_mut(d).enumerate().for_each(|(m, ym)| {
-            ym.iter_mut().for_each(|v| *v = 0.0);
-            for (j, b) in self.rest(which, m) {
-                for a in 0..d {
-                    ym[a] += (0..d).map(|c| b[a * d + c] * u[d * j + c]).sum::<f64>();
-                }
-            }
+        match self.dim() {
+            2 => self.apply_d::<2>(which, u, y),
+            _ => self.apply_d::<3>(which, u, y),
+        }
+    }
+
+    /// [`GradedBlend::apply_op`] in `D` dimensions: each row's rest, then its shares.
+    fn apply_d<const D: usize>(&self, which: Which, u: &[f64], y: &mut [f64]) {
+        let at = |j: usize| -> &[f64; D] { u[D * j..D * j + D].try_into().expect("D values") };
+        y.par_chunks_exact_mut(D).enumerate().for_each(|(m, ym)| {
+            let mut acc = [0.0; D];
+            let rows = if which == Which::M && self.shares.is_row_a(m) { &self.rest_m } else { &self.rest_a };
+            rows.mul_add::<D>(m, u, &mut acc);
+            let um = at(m);
             self.shares_of(m, |j, c, e| {
-                let proj: f64 = (0..d).map(|k| e[k] * (u[d * m + k] - u[d * j + k])).sum();
-                for k in 0..d {
-                    ym[k] += c * proj * e[k];
+                let uj = at(j);
+                let mut proj = 0.0;
+                for k in 0..D {
+                    proj += e[k] * (um[k] - uj[k]);
+                }
+                let cp = c * proj;
+                for k in 0..D {
+                    acc[k] += cp * e[k];
                 }
             });
+            ym.copy_from_slice(&acc);
         });
     }
 

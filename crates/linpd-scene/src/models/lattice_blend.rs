@@ -415,8 +415,8 @@ impl LatticeBlendModel {
             g.graded.mesh().counts().iter().map(|c| format!("{} cells of {}h", c.cells, 1usize << c.level)).collect();
         let describe = format!(
             "blend on a graded local mesh: {} PD, {} transition, {} local lattice nodes; {} unknowns on {} masters \
-             ({:.3}x the lattice's {} DOFs); {} entries ({:.3}x the bond model's {}; the nonlocal shares applied \
-             from the bonds, the rest stored in {:.1} MiB); {}",
+             ({:.3}x the lattice's {} DOFs); {} entries ({:.3}x the bond model's {}; the nonlocal shares listed in \
+             {:.1} MiB, the rest stored in {:.1} MiB); {}",
             z.pd,
             z.transition,
             z.local,
@@ -427,6 +427,7 @@ impl LatticeBlendModel {
             z.nnz,
             z.nnz as f64 / z.nnz_pd as f64,
             z.nnz_pd,
+            g.graded.share_bytes() as f64 / 1048576.0,
             g.graded.stored_bytes() as f64 / 1048576.0,
             levels.join(", ")
         );
