@@ -149,7 +149,13 @@ impl Defect {
                 let (lo, hi) = if x[0] <= y[0] { (x[0], y[0]) } else { (y[0], x[0]) };
                 lo - tol <= *d && *d <= hi + tol
             }
-            Defect::Segment { a, b, .. } => segments_intersect([x[0], x[1]], [y[0], y[1]], *a, *b, tol),
+            Defect::Segment { a, b, .. } => {
+                // boxes farther apart than the tolerance along an axis: no crossing, without
+                // the scale-safe distances (most bonds of a lattice near a crack)
+                let m = 2.0 * tol;
+                let apart = (0..2).any(|k| x[k].max(y[k]) < a[k].min(b[k]) - m || x[k].min(y[k]) > a[k].max(b[k]) + m);
+                !apart && segments_intersect([x[0], x[1]], [y[0], y[1]], *a, *b, tol)
+            }
             Defect::Plane { point, normal, extent, .. } => {
                 // signed distances from the plane, a quarter of them against a quarter of `tol`,
                 // with the normal scaled by a power of two: any finite point and nonzero normal,
@@ -365,6 +371,32 @@ mod tests {
         assert!(pl.crosses(&[0.4, 0.2, 0.5], &[0.6, 0.2, 0.5], 1e-12));
         assert!(!pl.crosses(&[0.4, 0.7, 0.5], &[0.6, 0.7, 0.5], 1e-12)); // outside the extent
         assert!(pl.validate(2).is_err());
+    }
+
+    /// The box test in front of a segment's crossing test rejects no bond the scale-safe test
+    /// accepts: bonds with ends on a lattice around the segment (touching its ends and its line
+    /// exactly), at tolerances below the lattice's distances from the segment (a tolerance as
+    /// wide as them makes the orientation test accept a bond whose end lies on the segment's
+    /// line beyond its end while the segment's end lies within the tolerance of the bond's
+    /// line; the box test then rightly rejects it).
+    #[test]
+    fn segment_box_test_keeps_every_crossing() {
+        let (a, b) = ([0.3, 0.25], [0.7, 0.45]);
+        let s = Defect::Segment { a, b, factor: 0.0 };
+        let pts: Vec<Point> =
+            (0..=40).flat_map(|i| (0..=40).map(move |j| [i as f64 * 0.025, j as f64 * 0.025, 0.0])).collect();
+        for tol in [1e-12, 1e-6] {
+            let (mut tested, mut crossing) = (0, 0);
+            for (k, x) in pts.iter().enumerate() {
+                for y in pts.iter().skip(k + 1).step_by(7) {
+                    let exact = segments_intersect([x[0], x[1]], [y[0], y[1]], a, b, tol);
+                    assert_eq!(s.crosses(x, y, tol), exact, "{x:?} - {y:?}, tol {tol}");
+                    tested += 1;
+                    crossing += exact as usize;
+                }
+            }
+            assert!(crossing > 1000 && tested - crossing > 1000, "{crossing} of {tested} cross at tol {tol}");
+        }
     }
 
     /// `distance_to` of a plane with an extent is a lower bound of the distance to the
