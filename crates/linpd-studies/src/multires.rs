@@ -6,11 +6,11 @@
 //!   `delta = 3h`, a pre-crack from the left face to `x = 0.4`, the bottom layer held, the top
 //!   layer pulled by 0.01) and its plate with a hole (`1 x 0.5`, plane stress, a hole of radius
 //!   0.1, the left layer held, a resultant pulling the right one), `n` = 250, 500, 1000 cells
-//!   per unit length (65k to 1.0M lattice nodes for the plate, half as many with the hole);
+//!   per unit length (65k to 4.0M lattice nodes for the plate, half as many with the hole);
 //!   the 48^3 block with a penny crack of `data/penny-graded-3d.json` (3D, a given ball
 //!   of PD: the auto zones of a block with held faces cover it); and the notched block of
-//!   `linpd study blend-2d` at 48^3 (3D, auto zones of half a horizon: one around the notch,
-//!   the held faces' whole layers).
+//!   `linpd study blend-2d` at the 100^3 (3D, auto zones of half a horizon: one
+//!   around the notch, the held faces' whole layers).
 //! * **Pure PD**: `auto` (the cost model's fastest solver: CG + multigrid on the assembled
 //!   operator here, the crack leaving the stencil path), rtol 1e-10.
 //! * **Graded**: `"pd_regions": "auto"` (2 horizons around the crack and the supports' faces, a
@@ -20,7 +20,10 @@
 //!
 //! Error: `max |u_graded - u_PD| / max |u_PD|` over the lattice nodes; unknowns: the free DOFs
 //! of each solve; time: wall seconds of reading the scene, building and solving it in this
-//! process (each case once; the ratio to pure PD of the same size); memory: the estimate the
+//! process (each case once; the ratio to pure PD of the same size), without the solution's
+//! fields (strain, reactions, volumes: the graded model draws them here on every lattice node
+//! for the error, which its own output, on its mesh's nodes, does not; `seconds_with_fields`
+//! in data.json has them); memory: the estimate the
 //! memory guard checks (within 0.8-1.2 of the measured peaks, docs/robustness.md: a process's
 //! peak is monotone, so per-case peaks in one process would be the largest so far).
 //! `--max-nodes N` skips the lattices of more than `N` nodes.
@@ -37,13 +40,13 @@ use std::path::Path;
 use std::time::Instant;
 
 /// Lattice sizes (cells per unit length).
-const SIZES: [usize; 3] = [250, 500, 1000];
+const SIZES: [usize; 4] = [250, 500, 1000, 2000];
 /// The bodies ([`scene`]).
 const BODIES: [&str; 4] = ["edge-crack", "hole", "penny", "notched-block"];
 /// The penny block's lattice (cells a side) and crack radius.
 const PENNY: (usize, f64) = (48, 0.06);
-/// The notched block's lattice (cells a side).
-const NOTCHED: usize = 48;
+/// The notched block's lattice (cells a side): the issue's.
+const NOTCHED: usize = 100;
 
 /// The lattice sizes of a body.
 fn sizes_of(name: &str) -> &'static [usize] {
@@ -78,15 +81,24 @@ fn scene(name: &str, n: usize) -> Value {
         "output": {"plot": false}
     })
 }
+/// [`scene`] with pure PD's solver: `auto` (its fastest), rtol 1e-10.
+fn pd_scene(name: &str, n: usize) -> Value {
+    let mut s = scene(name, n);
+    s["solver"] = json!({"type": "auto", "rtol": 1e-10});
+    s
+}
+
 /// Cells per level of the graded variants.
 const CELLS_PER_LEVEL: [usize; 3] = [2, 4, 8];
 /// The coarsest cell, in spacings.
 const MAX_CELL: f64 = 64.0;
 
-/// One solve: `u` on the lattice nodes, seconds, free DOFs, the memory estimate and the notes.
+/// One solve: `u` on the lattice nodes, seconds (reading, building and solving; and with the
+/// solution's fields), free DOFs, the memory estimate and the notes.
 struct Solved {
     u: Vec<f64>,
     seconds: f64,
+    with_fields: f64,
     unknowns: usize,
     memory: f64,
     iterations: usize,
@@ -98,12 +110,14 @@ fn solve(scene: &Value) -> Result<Solved, StudyError> {
     let check = |e: linpd_problem::ProblemError| StudyError::Check(format!("{}: {e}", scene["name"]));
     let start = Instant::now();
     let p = Problem::from_json(&scene.to_string()).map_err(check)?;
+    let read = start.elapsed().as_secs_f64();
     let s = p.solve(&NoProgress).map_err(check)?;
-    let seconds = start.elapsed().as_secs_f64();
+    let with_fields = start.elapsed().as_secs_f64();
     let r = s.report;
     Ok(Solved {
         u: s.u,
-        seconds,
+        seconds: read + r.timings.assemble + r.timings.total,
+        with_fields,
         unknowns: r.n,
         memory: r.memory_estimate_bytes.unwrap_or(f64::NAN),
         iterations: r.iterations.unwrap_or(0),
@@ -152,7 +166,7 @@ pub(crate) fn run(
     let mut sizes = Vec::new();
     for name in BODIES {
         for &n in sizes_of(name) {
-            let nodes = Problem::from_json(&scene(name, n).to_string()).map_err(check)?.nodes().len();
+            let nodes = Problem::from_json(&pd_scene(name, n).to_string()).map_err(check)?.nodes().len();
             if max_nodes.is_none_or(|m| nodes <= m) {
                 sizes.push((name, n, nodes));
             }
@@ -170,8 +184,7 @@ pub(crate) fn run(
     let mut rows = Vec::new();
     let (mut err_unknowns, mut err_time) = (Vec::new(), Vec::new());
     for &(name, n, nodes) in &sizes {
-        let mut pd_scene = scene(name, n);
-        pd_scene["solver"] = json!({"type": "auto", "rtol": 1e-10});
+        let pd_scene = pd_scene(name, n);
         cases.next(format_args!("{name}, n = {n}, pure PD"));
         let pd = solve(&pd_scene)?;
         let umax = pd.u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -190,7 +203,8 @@ pub(crate) fn run(
         };
         line(report, "pure PD", &pd, None)?;
         rows.push(json!({"body": name, "n": n, "nodes": nodes, "model": "pd", "solver": pd.solver,
-            "unknowns": pd.unknowns, "seconds": pd.seconds, "memory_estimate_bytes": pd.memory,
+            "unknowns": pd.unknowns, "seconds": pd.seconds, "seconds_with_fields": pd.with_fields,
+            "memory_estimate_bytes": pd.memory,
             "iterations": pd.iterations}));
         let (mut xs, mut ys, mut ts) = (Vec::new(), Vec::new(), Vec::new());
         for m in CELLS_PER_LEVEL {
@@ -208,7 +222,7 @@ pub(crate) fn run(
             let (ru, rt) = (g.unknowns as f64 / pd.unknowns as f64, g.seconds / pd.seconds);
             rows.push(json!({"body": name, "n": n, "nodes": nodes, "model": "graded", "cells_per_level": m,
                 "max_cell": MAX_CELL, "solver": g.solver, "unknowns": g.unknowns, "unknowns_ratio": ru,
-                "max_error": err, "seconds": g.seconds, "time_ratio": rt, "memory_estimate_bytes": g.memory,
+                "max_error": err, "seconds": g.seconds, "seconds_with_fields": g.with_fields, "time_ratio": rt, "memory_estimate_bytes": g.memory,
                 "memory_ratio": g.memory / pd.memory, "iterations": g.iterations, "notes": g.notes}));
             xs.push(ru);
             ys.push(err);

@@ -583,8 +583,7 @@ fn master_dof_bytes(d: usize) -> f64 {
 /// The peak bytes of [`GradedBlend::new`] and its solve (`n` lattice nodes, `n_window` of them
 /// with bonds, `stencil` bonds a node at most), the larger of its two phases, both holding the
 /// window's bond operator `L` (measured on the penny block of `linpd study penny-sneddon` at
-/// 1/500: 7.5 GiB peak against 8.8 GiB estimated; with the lattice's per-node maps counted in
-/// the solve too and `R`'s rests twice, as before, the estimate was 13.3 GiB):
+/// 1/500: 8.3 GiB peak against 9.7 GiB estimated):
 /// 1. the rows: the per-node maps of the lattice, `L`, the moduli and the stored rests: `3^d`
 ///    blocks of `K_M` for a master off `R` (a 4-byte column each, the values shared with the
 ///    rows of the same setting: counted as a tenth of them own theirs), and `3^d` more for one
