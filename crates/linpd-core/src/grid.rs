@@ -490,10 +490,11 @@ impl Grid {
             if a >= self.dim {
                 return 0..count;
             }
-            // site k sits at min + (lo_a + k + shift) h; `as` saturates infinite bounds
+            // site k sits at min + (lo_a + k + shift) h; clamped as floats, so that huge and
+            // infinite bounds give the whole axis
             let site = |x: f64| (x - self.min[a]) / self.h - shift - self.lo[a] as f64;
-            let first = (site(lo[a] - tol).floor() as i64 - 1).clamp(0, count as i64) as usize;
-            let last = (site(hi[a] + tol).ceil() as i64 + 2).clamp(0, count as i64) as usize;
+            let first = (site(lo[a] - tol).floor() - 1.0).clamp(0.0, count as f64) as usize;
+            let last = (site(hi[a] + tol).ceil() + 2.0).clamp(0.0, count as f64) as usize;
             first..last.max(first)
         })
     }

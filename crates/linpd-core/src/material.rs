@@ -150,8 +150,11 @@ impl Defect {
                 lo - tol <= *d && *d <= hi + tol
             }
             Defect::Segment { a, b, .. } => {
-                // boxes farther apart than the tolerance along an axis: no crossing, without
-                // the scale-safe distances (most bonds of a lattice near a crack)
+                // boxes more than twice the tolerance apart along an axis: the bond is farther
+                // than the tolerance from the segment, no crossing, without the scale-safe
+                // distances (most bonds of a lattice near a crack). The orientation test alone
+                // may accept such a bond when its end and the segment's both lie within the
+                // tolerance of the other's line, beyond each other's ends: that is no crossing.
                 let m = 2.0 * tol;
                 let apart = (0..2).any(|k| x[k].max(y[k]) < a[k].min(b[k]) - m || x[k].min(y[k]) > a[k].max(b[k]) + m);
                 !apart && segments_intersect([x[0], x[1]], [y[0], y[1]], *a, *b, tol)

@@ -467,6 +467,10 @@ mod tests {
                 Region::Ball { center: vec![1.0, 1.0, 1.0], radius: 0.25 },
             ]),
             Region::HalfSpace { point: vec![0.5, 0.5, 0.5], normal: vec![1.0, -1.0, 0.3] },
+            // bounds far beyond the lattice's index range
+            Region::Box { min: vec![-1e300, 0.0, -1e300], max: vec![1e300, 0.5, 1e20] },
+            Region::Ball { center: vec![0.5, 0.5, 0.5], radius: 1e300 },
+            Region::Box { min: vec![f64::NEG_INFINITY, 0.2, 0.0], max: vec![0.3, f64::INFINITY, 0.4] },
         ];
         for placement in [Placement::Vertex, Placement::Cell] {
             for dim in [2, 3] {

@@ -23,7 +23,9 @@
 //! process (each case once; the ratio to pure PD of the same size), without the solution's
 //! fields (strain, reactions, volumes: the graded model draws them here on every lattice node
 //! for the error, which its own output, on its mesh's nodes, does not; `seconds_with_fields`
-//! in data.json has them); memory: the estimate the
+//! in data.json has them) and without the checks before the solver's clock (the supports'
+//! connectivity over every partner: more of pure PD's time than of the graded model's);
+//! memory: the estimate the
 //! memory guard checks (within 0.8-1.2 of the measured peaks, docs/robustness.md: a process's
 //! peak is monotone, so per-case peaks in one process would be the largest so far).
 //! `--max-nodes N` skips the lattices of more than `N` nodes.

@@ -64,8 +64,8 @@
 //!
 //! The SPD companion `M` takes the companion rows of `R` and `K_M`'s rows elsewhere.
 //!
-//! Neither is stored whole: a row is its nonlocal shares, applied from the window's bonds,
-//! plus a stored rest of at most `3^d` blocks (module `operator`); GMRES runs on `A`'s apply and
+//! Neither is stored whole: a row is its nonlocal shares, listed once for both, plus a stored
+//! rest of at most `3^d` blocks (module `operator`); GMRES runs on `A`'s apply and
 //! the multigrid on `M`'s block rows ([`linpd_core::Model::multigrid_companion`]).
 //!
 //! # Element moduli of a coarse cell
@@ -162,8 +162,7 @@ pub struct GradedBlend {
     extra: Vec<usize>,
     /// The masters' positions.
     positions: Vec<Point>,
-    /// The nonlocal shares `N` of `A` and `M`, applied from the window's bonds
-    /// (`graded_blend::operator`).
+    /// The nonlocal shares `N` of `A` and `M`, listed per row (`graded_blend::operator`).
     shares: Shares,
     /// The rest of `A`'s rows: Algorithm A's without the shares for the masters of `R` and
     /// the extra nodes, `K_M`'s for the others.
@@ -262,19 +261,10 @@ impl GradedBlend {
             .enumerate()
             .map(|(m, &i)| if in_r[i] || m >= mesh.n_masters() { sub_of[i] } else { u32::MAX })
             .collect();
-        let reach = ratio.ceil() as i32 + 1;
-        let shares =
-            Shares::new(&op, window_of, master_of_window, full_of.iter().map(|&i| beta[i]).collect(), reach, ROW_CHUNK)
-                .map_err(|(w, j)| {
-                    BlendError::param(
-                        "local_mesh",
-                        format!(
-                            "the row of lattice node {} reads node {}, which the graded mesh does not keep",
-                            full_of[w], full_of[j]
-                        ),
-                    )
-                })?;
-        drop(beta);
+        // a bond reaches `ratio` lattice steps, and no farther than across the window (a cap
+        // on the unit vectors' table for a horizon of many spacings on a small window)
+        let across = sub.counts().iter().max().map_or(0.0, |&c| c as f64 - 1.0);
+        let reach = (ratio.ceil() + 1.0).min(across) as i32;
         let unkept = |w: usize, j: usize| {
             BlendError::param(
                 "local_mesh",
@@ -284,6 +274,10 @@ impl GradedBlend {
                 ),
             )
         };
+        let beta_w = full_of.iter().map(|&i| beta[i]).collect();
+        drop(beta);
+        let shares =
+            Shares::new(&op, window_of, master_of_window, beta_w, reach, ROW_CHUNK).map_err(|(w, j)| unkept(w, j))?;
         let regular_w = regular.map(pick);
         let mirrored_w = pick(mirrored);
         let rows = BlendRows {

@@ -5,9 +5,9 @@
 //! A = N + L_A,    M = N + L_M,    N u|_i = sum_j a_ij w_ij e e^T (u_i - u_j),   a_ij = (beta_i + beta_j) / 2,
 //! ```
 //!
-//! `N` from the window's bonds ([`Shares`], never stored: 12 bytes a bond are already in the
-//! bond operator, where a stored block row of Algorithm A's 123 blocks in 3D at `delta = 3h`
-//! took 17.7 KB in `A` and again in `M`), and the rests `L_A`, `L_M` as block rows
+//! `N` as a list of its shares per row ([`Shares`], 16 bytes a share, one list for `A` and
+//! `M`, where a stored block row of Algorithm A's 123 blocks in 3D at `delta = 3h` took
+//! 17.7 KB in `A` and again in `M`), and the rests `L_A`, `L_M` as block rows
 //! ([`BlockCsr`]): for a master of `R` the transition terms and the `1 - beta_i` elements of
 //! `A`, the weighted elements of `M` (at most `3^d` blocks from the cells and the difference
 //! stencils' few more); for any other master its row of `K_M`, the same in `A` and `M` and
@@ -221,7 +221,10 @@ impl Shares {
         let units: Vec<[f64; 3]> = (0..side.pow(d as u32))
             .map(|idx| op.unit_of_offset(offset(idx)).expect("the window is a lattice"))
             .collect();
-        let index = |o: [i32; 3]| -> u32 { (0..d).rev().fold(0, |q, a| q * side + o[a] + reach) as u32 };
+        let index = |o: [i32; 3]| -> u32 {
+            debug_assert!(o.iter().all(|x| x.abs() <= reach), "offset {o:?} beyond the table's {reach}");
+            (0..d).rev().fold(0, |q, a| q * side + o[a] + reach) as u32
+        };
         let mut shares = Shares { window_of, master_of, beta, ptr: vec![0], list: Vec::new(), units };
         // (c, j) of window node w's shares, in the family's order
         let of_window = |sh: &Shares, w: usize, f: &mut dyn FnMut(f64, usize)| {
