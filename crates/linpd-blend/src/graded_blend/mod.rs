@@ -400,13 +400,19 @@ impl GradedBlend {
         let d = self.mesh.dim();
         assert_eq!(u_master.len(), d * self.master_node.len(), "one value per master DOF");
         let mut u = vec![0.0; d * grid.len()];
-        u.par_chunks_mut(d).enumerate().for_each(|(i, ui)| {
-            for (m, w) in self.p_row(grid, i) {
-                for a in 0..d {
-                    ui[a] += w * u_master[d * m + a];
-                }
+        u.par_chunks_mut(d).enumerate().for_each(|(i, ui)| ui.copy_from_slice(&self.u_at(grid, i, u_master)[..d]));
+        u
+    }
+
+    /// `u_i = (P u_M)_i` at lattice node `i` of `grid` (the first `d` values).
+    pub fn u_at(&self, grid: &Grid, i: usize, u_master: &[f64]) -> [f64; 3] {
+        let d = self.mesh.dim();
+        let mut u = [0.0; 3];
+        for (m, w) in self.p_row(grid, i) {
+            for a in 0..d {
+                u[a] += w * u_master[d * m + a];
             }
-        });
+        }
         u
     }
 

@@ -485,15 +485,7 @@ fn graded_solution(
         mesh.nodes().iter().copied().chain(extra.iter().map(|&i| grid.site_of(i))).collect()
     };
     // u at a lattice site: P u_M
-    let u_at = |k: [usize; 3]| -> [f64; 3] {
-        let mut u = [0.0; 3];
-        if let Some(i) = grid.node_at_site(k) {
-            for (m, w) in graded.interpolation(grid, i) {
-                (0..d).for_each(|a| u[a] += w * u_m[d * m + a]);
-            }
-        }
-        u
-    };
+    let u_at = |k: [usize; 3]| -> [f64; 3] { grid.node_at_site(k).map_or([0.0; 3], |i| graded.u_at(grid, i, u_m)) };
     let strain = graded_strain(grid, graded, &u_at, &sites);
     // the supports' reactions, from the masters to the sites
     let reaction_of = |k: [usize; 3]| -> Vec<f64> {
