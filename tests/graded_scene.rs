@@ -57,8 +57,17 @@ fn graded_crack_plate_matches_the_bond_model() {
     assert!(imbalance <= 1e-6, "relative imbalance {imbalance:e}");
 }
 
+/// [`plate`] on a graded local mesh (cells up to `8h`, 4 a level), solved by `auto` to rtol
+/// 1e-10.
+fn graded_plate_auto(h: f64) -> Value {
+    let mut v = plate(h);
+    v["model"]["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": 4});
+    v["solver"] = json!({"type": "auto", "rtol": 1e-10});
+    v
+}
+
 /// `auto` on a graded scene past 20,000 unknowns runs GMRES on `A` applied matrix-free
-/// (shares from the bonds, the rest stored) with the multigrid of the companion's block rows;
+/// (the shares listed, the rest stored) with the multigrid of the companion's block rows;
 /// the assembled GMRES + multigrid (`A_ff`, `M_ff` stored) solves the same system: the two
 /// agree to their tolerance (rtol 1e-10 each; 1e-7 of max |u| allows a condition number of
 /// 1e3 between residual and error), in the same iterations give or take two (the same
@@ -69,9 +78,7 @@ fn graded_crack_plate_matches_the_bond_model() {
 #[test]
 fn graded_matrix_free_gmres_matches_the_assembled_one() {
     let h = 0.005;
-    let mut auto = plate(h);
-    auto["model"]["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": 4});
-    auto["solver"] = json!({"type": "auto", "rtol": 1e-10});
+    let auto = graded_plate_auto(h);
     let mut assembled = auto.clone();
     assembled["solver"] = json!({"type": "gmres", "preconditioner": "multigrid", "rtol": 1e-10});
     let (a, b) = (solve(&auto), solve(&assembled));
@@ -112,10 +119,7 @@ fn graded_matrix_free_gmres_matches_the_assembled_one() {
 /// notes, and reaches the same solution (1e-7 of max |u|, both to rtol 1e-10).
 #[test]
 fn failed_matrix_free_gmres_falls_back_to_the_assembled_plan() {
-    let h = 0.005;
-    let mut reference = plate(h);
-    reference["model"]["local_mesh"] = json!({"max_cell": 8.0 * h, "cells_per_level": 4});
-    reference["solver"] = json!({"type": "auto", "rtol": 1e-10});
+    let reference = graded_plate_auto(0.005);
     let mut capped = reference.clone();
     capped["solver"]["max_iter"] = json!(3);
     let (r, c) = (solve(&reference), solve(&capped));

@@ -99,7 +99,7 @@ fn ungraded_equals_the_lattice_blend() {
         let z = lattice.zones();
         assert!(z.pd > 0 && z.transition > 0 && z.local > 0, "{dim}D: {z:?}");
         let x: Vec<f64> = (0..dim * g.len()).map(|k| ((k * 7919) % 1000) as f64 / 1000.0 - 0.5).collect();
-        // the graded model's A and M as applied (shares from the bonds, the rest stored) and
+        // the graded model's A and M as applied (the shares listed, the rest stored) and
         // as assembled from their block rows
         let companion = graded.multigrid_companion().expect("the graded blend offers its companion");
         let applied = |m: &dyn Model| {

@@ -351,7 +351,7 @@ impl GradedBlend {
         &self.master_node
     }
     /// The zone counts (over the lattice nodes) and the entries of `A` (over the masters,
-    /// whether stored or applied from the bonds) against the bond model's on the whole lattice.
+    /// the stored rests' and the listed shares' merged) against the bond model's on the whole lattice.
     pub fn zones(&self) -> Zones {
         self.zones
     }

@@ -326,8 +326,17 @@ fn merge_slot(slot: &mut [u32], row: &mut Vec<(usize, [f64; 9])>, j: usize) -> u
 impl GradedBlend {
     /// The stored rest of master `m`'s row of `which` (see the module docs).
     fn rest(&self, which: Which, m: usize) -> impl Iterator<Item = (usize, &[f64])> + '_ {
-        let rows = if which == Which::M && self.shares.is_row_a(m) { &self.rest_m } else { &self.rest_a };
-        rows.row(m)
+        self.rests_of(which, m).row(m)
+    }
+
+    /// The rests holding master `m`'s row of `which`: `M`'s own for a row of Algorithm A,
+    /// `A`'s (`K_M`'s row, the same in both) for the others.
+    fn rests_of(&self, which: Which, m: usize) -> &BlockCsr {
+        if which == Which::M && self.shares.is_row_a(m) {
+            &self.rest_m
+        } else {
+            &self.rest_a
+        }
     }
 
     /// `f(j, c, e)` for the shares of master `m` (see [`Shares::for_each`]).
@@ -350,8 +359,7 @@ impl GradedBlend {
         let at = |j: usize| -> &[f64; D] { u[D * j..D * j + D].try_into().expect("D values") };
         y.par_chunks_exact_mut(D).enumerate().for_each(|(m, ym)| {
             let mut acc = [0.0; D];
-            let rows = if which == Which::M && self.shares.is_row_a(m) { &self.rest_m } else { &self.rest_a };
-            rows.mul_add::<D>(m, u, &mut acc);
+            self.rests_of(which, m).mul_add::<D>(m, u, &mut acc);
             let um = at(m);
             self.shares_of(m, |j, c, e| {
                 let uj = at(j);
