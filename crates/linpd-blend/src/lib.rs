@@ -61,6 +61,7 @@ pub mod graded;
 pub mod graded_blend;
 pub mod lattice;
 pub mod material;
+pub mod memory;
 pub mod mesh;
 pub mod model;
 pub mod solve;

@@ -30,6 +30,7 @@
 
 pub mod assemble;
 pub mod corrected;
+pub mod memory;
 pub mod model;
 pub mod operator;
 pub mod quadrature;

@@ -7,9 +7,11 @@
 //! run on a shared machine, and for reproducible tests), `MemAvailable` of `/proc/meminfo`
 //! (Linux), or [`FALLBACK_AVAILABLE_BYTES`] elsewhere.
 //!
-//! The estimates themselves live where the allocations are described: the scene's model and
-//! solver path in linpd-problem (bond families, LPS tangent with its 2-delta reach,
-//! matrix-free CG vectors), the factor fill in linpd-solve (from the symbolic analysis).
+//! The bytes of each structure live in the crate that defines it (`linpd_bond::memory`,
+//! `linpd_lps::memory`, `linpd_solve::memory`, ...; the lattice's nodes and neighbour counts
+//! here, [`NODE_BYTES`], [`neighbours`]); a scene sums those its solver plan names
+//! (`linpd_scene::memory`); the factor fill is checked in linpd-solve after the symbolic
+//! analysis.
 
 use thiserror::Error;
 
@@ -69,6 +71,31 @@ pub fn check(what: impl Into<String>, bytes: f64, hint: impl Into<String>) -> Re
         return Ok(());
     }
     Err(OutOfMemory { what: what.into(), bytes, available, origin, hint: hint.into() })
+}
+
+/// Per node of a scene on a lattice, for the memory guard: positions, lattice index, family
+/// offsets and the per-node lists the family is built from, layer flags.
+pub const NODE_BYTES: f64 = 96.0;
+
+/// The largest stencil enumerated exactly; beyond it the ball's volume in lattice units is
+/// used (enumerating a 3D stencil of ratio 1e4 would itself never end).
+pub const EXACT_STENCIL: f64 = 2000.0;
+
+/// `pi^(d/2) / Gamma(d/2 + 1) r^d`: lattice points per unit ball of radius `r` spacings.
+pub fn ball(dim: usize, r: f64) -> f64 {
+    match dim {
+        1 => 2.0 * r,
+        2 => std::f64::consts::PI * r * r,
+        _ => 4.0 / 3.0 * std::f64::consts::PI * r.powi(3),
+    }
+}
+
+/// Lattice neighbours within `ratio` spacings (self excluded).
+pub fn neighbours(dim: usize, ratio: f64) -> f64 {
+    if ball(dim, ratio) > EXACT_STENCIL {
+        return ball(dim, ratio);
+    }
+    crate::family::lattice_stencil(dim, ratio).len() as f64
 }
 
 #[cfg(test)]

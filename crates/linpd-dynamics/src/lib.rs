@@ -63,6 +63,7 @@ pub mod dispersion;
 pub mod error;
 pub mod initial;
 pub mod mass;
+pub mod memory;
 pub mod stability;
 pub mod verlet;
 

@@ -47,6 +47,7 @@ pub mod error;
 pub mod fd;
 pub mod fields;
 pub mod force;
+pub mod memory;
 pub mod model;
 pub mod pair;
 pub mod static_model;

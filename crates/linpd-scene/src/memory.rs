@@ -1,57 +1,39 @@
-//! The memory estimate of a lattice scene: one estimate per model and solver path, checked
-//! against the machine's available memory ([`linpd_core::memory`]) when the scene is
-//! validated and again before it is solved, i.e. before anything large is allocated.
+//! The memory guard of a scene: the estimated peak of its model and solver path ([`Path`], from
+//! the scene's solver plan), checked against the machine's available memory
+//! ([`linpd_core::memory`]) when the scene is validated and again before it is solved, i.e.
+//! before anything large is allocated.
 //!
-//! Bytes per item, from the allocations of each path (peak resident memory measured against
-//! these numbers in docs/solvers.md, "Memory guard"):
-//!
-//! * every node: positions, lattice index, family offsets and the per-node lists the family
-//!   is built from, layer flags: [`NODE_BYTES`];
-//! * bond building: 4 bytes per neighbour (u32), twice while the per-node lists are
-//!   flattened, plus the bond weights (8 bytes): [`BOND_BYTES`]; LPS keeps `omega nu V` and
-//!   `|xi|` per bond instead (also 16);
-//! * assembled bond stiffness: `n (|F| + 1) d^2` entries of 8 bytes of value and 8 of row
-//!   index, plus a copy of the pattern while the matrix is made ([`ENTRY_BYTES`] = 24);
-//! * LPS tangent: its reach is **2 delta** (`g_k g_k^T` couples the family of a node with
-//!   itself), so a column node has `|O - O|` row nodes, `O` the family offsets with 0: 8.5x
-//!   the bond neighbourhood at delta = 2h in 3D. The full tangent (16 bytes per entry) and its
-//!   restriction to the free DOFs (16 more) coexist, with the 8-byte row lists of the pattern:
-//!   [`TANGENT_ENTRY_BYTES`] per entry plus 8 per `(node, row node)`;
-//! * the blended model (`pd_regions`): its `A` and its SPD companion `M` over all DOFs, their
-//!   restrictions to the free DOFs, and while they are built the block rows of both (80 bytes
-//!   a block of up to 9 entries): [`BLEND_ENTRY_BYTES`] per entry of the bond model's `A` (the
-//!   blend stores at most as many), plus GMRES's Krylov basis (51 vectors):
-//!   [`GMRES_DOF_BYTES`] per DOF;
-//! * solver vectors per DOF: [`ASSEMBLED_DOF_BYTES`] (right-hand side, prescribed values, DOF
-//!   maps, CG's four vectors, preconditioner, solution, outputs), [`MATRIX_FREE_DOF_BYTES`]
-//!   for matrix-free CG (the same plus the full diagonal and the operator's two scratch
-//!   vectors).
+//! The bytes of each structure live in the crate that defines it, with the fit that produced
+//! them (peak resident memory measured against these numbers in docs/solvers.md, "Memory
+//! guard", and docs/robustness.md): the lattice's nodes and neighbour counts in
+//! [`linpd_core::memory`], the bond family and stiffness in [`linpd_bond::memory`], the LPS
+//! tangent in [`linpd_lps::memory`], the blends in [`linpd_blend::memory`], the solvers'
+//! vectors and multigrid hierarchies in [`linpd_solve::memory`], explicit dynamics in
+//! [`linpd_dynamics::memory`]. This module sums those a path names ([`estimate_counts`]) and
+//! keeps what is the scene's own: the written outputs of a stencil solve
+//! ([`stencil_dof_bytes`]) and of a graded solution drawn on the lattice
+//! ([`GRADED_LATTICE_OUTPUT_BYTES`]), and the pair counts of a point cloud ([`count_pairs`]).
 //!
 //! The factors of a sparse Cholesky or LU are not in here: their fill is only known after the
 //! symbolic analysis, where linpd-solve checks it ([`linpd_solve::Cholesky::factor`],
 //! [`linpd_solve::Lu::factor`]).
 
 use crate::ProblemError;
-use linpd_core::family::lattice_stencil;
-use linpd_core::memory::{self, OutOfMemory};
+use linpd_blend::memory::{BLEND_ENTRY_BYTES, GRADED_NODE_BYTES};
+use linpd_bond::memory::{BOND_BYTES, CLOUD_ENTRY_BYTES, ENTRY_BYTES};
+pub use linpd_core::memory::neighbours;
+use linpd_core::memory::{self, OutOfMemory, NODE_BYTES};
 use linpd_core::Grid;
-use std::collections::HashSet;
-
-/// Per node (see the module docs).
-pub const NODE_BYTES: f64 = 96.0;
-/// Per bond while the family and its weights are built (fits of two sizes each, the process
-/// baseline cancelled: 10.6-11.7 in 3D matrix-free runs, 15.4 in 2D; docs/robustness.md).
-pub const BOND_BYTES: f64 = 12.0;
-/// Per stored entry of the assembled bond stiffness (fits: 18.6-19.1 in 3D, 19.8-21.6 in 2D).
-pub const ENTRY_BYTES: f64 = 20.0;
-/// Per stored entry of the LPS tangent (the full tangent and its free-DOF copy).
-pub const TANGENT_ENTRY_BYTES: f64 = 32.0;
-/// Per stored entry of the LPS tangent on a point cloud (fits: 41.7-41.9 against the exact
-/// count of node pairs within 2 delta).
-pub const CLOUD_TANGENT_ENTRY_BYTES: f64 = 42.0;
-/// Per stored entry of the assembled bond stiffness on a point cloud (fit: ~28 with the exact
-/// bond counts; its families are built by a cell list, not a stencil).
-pub const CLOUD_ENTRY_BYTES: f64 = 28.0;
+use linpd_dynamics::memory::DYNAMICS_DOF_BYTES;
+pub use linpd_lps::memory::lps_assembly_terms;
+use linpd_lps::memory::{
+    lps_matrix_free_dof_bytes, lps_multigrid_dof_bytes, tangent_rows, CLOUD_TANGENT_ENTRY_BYTES,
+    LPS_ASSEMBLY_TERMS_LIMIT, LPS_BOND_BYTES, TANGENT_ENTRY_BYTES,
+};
+use linpd_solve::memory::{
+    geometric_multigrid_bytes, multigrid_dof_bytes, stencil_multigrid_dof_bytes, ASSEMBLED_DOF_BYTES, GMRES_DOF_BYTES,
+    GRAPH_BOND_BYTES, MATRIX_FREE_DOF_BYTES,
+};
 
 /// What a point cloud's estimate adds to the lattice formula of [`estimate_counts`] for `path`
 /// (`nb` bonds and `rows` tangent row nodes per node): the dearer entries of its assembly.
@@ -63,90 +45,11 @@ pub fn cloud_extra(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64) -> 
         _ => 0.0,
     }
 }
-/// Per bond of the matrix-free LPS tangent: the family (`u32`), `omega nu V` and `|xi|`.
-pub const LPS_BOND_BYTES: f64 = 20.0;
-/// Per DOF, a matrix-free LPS solve besides its bonds: the CG vectors, the stencils' per-node
-/// data and the outputs. With [`LPS_BOND_BYTES`], fits of `/usr/bin/time` peaks of `linpd
-/// solve` with matrix-free Jacobi-CG at two sizes each (`delta = 3h`): 3D cantilevers 50^3 and
-/// 70^3 (115-117 bonds a node, 2934-2948 bytes a node in all; the estimate is 1.04x the peak,
-/// counting the interior's 122 bonds for every node), 2D plates 401^2 and 801^2 (28 bonds,
-/// 1218-1264 bytes a node).
-pub fn lps_matrix_free_dof_bytes(dim: usize) -> f64 {
-    if dim == 3 {
-        175.0
-    } else {
-        300.0
-    }
-}
 
-/// Per DOF, what the pair part's multigrid adds to [`lps_matrix_free_dof_bytes`] besides its
-/// bond graph ([`GRAPH_BOND_BYTES`] a bond): the same fits with multigrid-CG put the peak
-/// 973-979 bytes a DOF above Jacobi's in 3D (163 of them the graph) and 373-379 in 2D (56).
-pub fn lps_multigrid_dof_bytes(dim: usize) -> f64 {
-    if dim == 3 {
-        820.0
-    } else {
-        320.0
-    }
-}
-
-/// Per DOF, assembled solve.
-pub const ASSEMBLED_DOF_BYTES: f64 = 128.0;
-/// Per DOF, matrix-free CG.
-pub const MATRIX_FREE_DOF_BYTES: f64 = 176.0;
-/// Per stored entry of the bond model's `A`, the blended model (`A`, `M`, their free-DOF
-/// restrictions, 16 bytes each).
-pub const BLEND_ENTRY_BYTES: f64 = 64.0;
-/// Per DOF, explicit dynamics: displacement, velocity, acceleration, force, load, mass and the
-/// operator's scratch (fit of a 1D bar at 1M and 2M nodes: 395-460 bytes a node with 20 bonds
-/// and two snapshots, i.e. 43-108 a DOF beyond the bonds).
-pub const DYNAMICS_DOF_BYTES: f64 = 96.0;
-/// Per lattice node of a graded blend (no bonds: those are built near the fine cells only and
-/// checked with the masters, [`linpd_blend::GradedBlend::new`]): `beta` and the distance
-/// transforms, the per-node flags, the mesh's cell levels and distances (the constraints, the
-/// loads and the balance reach the masters without lattice-sized vectors). Measured: 23 bytes
-/// a node at the peak of the build on the 15.8M-node penny block of `linpd study penny-sneddon`.
-pub const GRADED_NODE_BYTES: f64 = 40.0;
 /// Per lattice node, the graded blend's solution drawn on every lattice node
 /// (`output.nodes: "lattice"`): positions, `u`, volumes, strain, reactions and flags, and the
 /// written files' buffers.
 pub const GRADED_LATTICE_OUTPUT_BYTES: f64 = 200.0;
-/// Per DOF, GMRES on top of an assembled solve's vectors: the restart-50 Krylov basis.
-pub const GMRES_DOF_BYTES: f64 = 408.0;
-
-/// The largest stencil enumerated exactly; beyond it the ball's volume in lattice units is
-/// used (enumerating a 3D stencil of ratio 1e4 would itself never end).
-const EXACT_STENCIL: f64 = 2000.0;
-
-/// `pi^(d/2) / Gamma(d/2 + 1) r^d`: lattice points per unit ball of radius `r` spacings.
-fn ball(dim: usize, r: f64) -> f64 {
-    match dim {
-        1 => 2.0 * r,
-        2 => std::f64::consts::PI * r * r,
-        _ => 4.0 / 3.0 * std::f64::consts::PI * r.powi(3),
-    }
-}
-
-/// Lattice neighbours within `ratio` spacings (self excluded).
-pub fn neighbours(dim: usize, ratio: f64) -> f64 {
-    if ball(dim, ratio) > EXACT_STENCIL {
-        return ball(dim, ratio);
-    }
-    lattice_stencil(dim, ratio).len() as f64
-}
-
-/// Row nodes of a column of the LPS tangent: the distinct offsets `O - O` of the stencil `O`
-/// with 0, i.e. the lattice points within the 2-delta reach that two family members span.
-pub fn tangent_rows(dim: usize, ratio: f64) -> f64 {
-    if ball(dim, ratio) > EXACT_STENCIL {
-        return ball(dim, 2.0 * ratio);
-    }
-    let mut o = lattice_stencil(dim, ratio);
-    o.push([0, 0, 0]);
-    let set: HashSet<[i64; 3]> =
-        o.iter().flat_map(|s| o.iter().map(move |t| [s[0] - t[0], s[1] - t[1], s[2] - t[2]])).collect();
-    set.len() as f64
-}
 
 /// The model and solver path of a lattice scene.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -254,20 +157,6 @@ pub fn blend_zone_bytes(dim: usize, nodes: usize, bonds: usize, blocks: f64, mul
         + blocks * (dim * dim) as f64 * BLEND_ENTRY_BYTES
         + dofs * (ASSEMBLED_DOF_BYTES + GMRES_DOF_BYTES)
         + hierarchy
-}
-
-/// Most column terms the LPS tangent's assembly may cost ([`check_lps_work`]): about 65 s at
-/// the measured 6.5 ns per term (a 2,601-node 2D plate at `delta = 50 h`, every node in every
-/// family: 1.76e10 terms, 114 s of assembly), refused at validation above this instead of
-/// running for minutes.
-pub const LPS_ASSEMBLY_TERMS_LIMIT: f64 = 1e10;
-
-/// The column terms of the LPS tangent's assembly: every column node `p` adds `g_k g_k^T` for
-/// `k in {p} U F_p`, each over `|F_k| + 1` rows (`crates/linpd-lps/src/tangent.rs`): about
-/// `n (|F| + 1)^2` for `n` nodes with `|F|` bonds each (capped at `n - 1`).
-pub fn lps_assembly_terms(nodes: usize, family: f64) -> f64 {
-    let n = nodes as f64;
-    n * (family.min((n - 1.0).max(0.0)) + 1.0).powi(2)
 }
 
 /// Refuses an LPS scene whose tangent assembly would cost more than
@@ -384,20 +273,6 @@ pub fn check_cloud(
     Ok(bytes)
 }
 
-/// Per DOF, the multigrid hierarchy on top of its path: `P`, `R = P^T`, the coarse levels and
-/// the transient `A P` of the setup; on a matrix-free path the finest level is not stored.
-/// Measured as the peak of a multigrid run minus that of the same run with Jacobi, across two
-/// sizes (docs/robustness.md): 3D matrix-free 1165-1276 B, assembled 1491-1516 B; 2D
-/// matrix-free 418-458 B, assembled 499 (blend) to 759-866 (point cloud). 1D: the 2D figures.
-pub fn multigrid_dof_bytes(dim: usize, matrix_free: bool) -> f64 {
-    match (dim == 3, matrix_free) {
-        (true, true) => 1250.0,
-        (true, false) => 1500.0,
-        (false, true) => 460.0,
-        (false, false) => 700.0,
-    }
-}
-
 /// Per DOF, a matrix-free solve on the homogeneous stencil ([`Path::BondStencil`]): no
 /// bonds are stored, so the peak is that of writing the outputs (the nodal strain, stress and
 /// energy fields and result.json / result.vtu / u.csv built in memory). Fits of two sizes
@@ -412,33 +287,6 @@ pub fn stencil_dof_bytes(dim: usize) -> f64 {
     }
 }
 
-/// Per DOF, what smoothed-aggregation multigrid adds to [`stencil_dof_bytes`] besides the bond
-/// graph it aggregates on ([`GRAPH_BOND_BYTES`] a bond): its setup's peak (the graph, the
-/// hierarchy, the filtered level-0 matrix) lies above the outputs'. Fits of the same two sizes
-/// with multigrid-CG: 3D at `delta = 2h` (54^3 / 74^3: 1207 B a DOF in all, 43 B of graph), 2D
-/// at `2h` (35 B above the outputs, 24 B of graph). 3D lattices with `delta >= 3h` take the
-/// geometric level instead ([`geometric_multigrid_bytes`]).
-pub fn stencil_multigrid_dof_bytes(dim: usize) -> f64 {
-    if dim == 3 {
-        470.0
-    } else {
-        20.0
-    }
-}
-
-/// What the geometric multigrid of a 3D stencil with `delta >= 3h` adds to the outputs'
-/// peak ([`stencil_dof_bytes`]) for `nodes` nodes with `ratio = delta / h`
-/// (`linpd_solve::LatticeMultigrid`): the SA hierarchy of the coarse lattice, an eighth of the
-/// nodes with the families of `ratio / 2`, counted like [`stencil_multigrid_dof_bytes`]; the
-/// interpolation (8 bytes an entry, ~3.4 entries a fine DOF, and its transpose) and the
-/// smoother's vectors are freed before the outputs are built. Against `/usr/bin/time` peaks of
-/// `linpd solve` on the 56^3 / 76^3 cantilevers at `delta = 3h`: estimates 1.04x / 1.06x.
-pub fn geometric_multigrid_bytes(nodes: usize, ratio: f64) -> f64 {
-    let coarse_nodes = nodes as f64 / 8.0;
-    let nb = neighbours(3, ratio / 2.0).min(coarse_nodes);
-    coarse_nodes * (3.0 * stencil_multigrid_dof_bytes(3) + nb * GRAPH_BOND_BYTES)
-}
-
 /// The path of the homogeneous stencil of `micromodulus` on `grid`: [`Path::BondStencilGeometric`]
 /// when it offers its coarse lattice, else [`Path::BondStencil`].
 pub fn stencil_path(grid: &Grid, horizon: f64, micromodulus: &linpd_core::Micromodulus) -> Path {
@@ -448,10 +296,6 @@ pub fn stencil_path(grid: &Grid, horizon: f64, micromodulus: &linpd_core::Microm
         Path::BondStencil
     }
 }
-
-/// Per bond (counted from both ends), the interaction graph multigrid aggregates its finest
-/// level on (`linpd_solve::DofGeometry::partners`: one `u32`).
-pub const GRAPH_BOND_BYTES: f64 = 4.0;
 
 /// `Err` (at `model.horizon`) when `path` would not fit in the available memory; `Ok` holds
 /// the estimate in bytes.

@@ -33,13 +33,16 @@ pub struct Context<'a> {
     pub(crate) presences: Presences,
     /// The part's window of a point cloud, once [`cloud_nodes`] cut it.
     pub(crate) cloud: std::cell::RefCell<Option<crate::part::CloudWindow>>,
+    /// The validated `solver` section ([`solver_spec`], validated once, before the model).
+    pub solver: SolverSpec,
 }
 
 impl<'a> Context<'a> {
     /// The context of a whole scene (`part: None`) or of one rank's part.
-    pub(crate) fn new(raw: &'a RawProblem, base_dir: &'a Path, part: Option<Part>) -> Self {
+    pub(crate) fn new(raw: &'a RawProblem, base_dir: &'a Path, part: Option<Part>) -> Result<Self, ProblemError> {
         let presences = Presences::new(part.is_some());
-        Context {
+        Ok(Context {
+            solver: solver_spec(&raw.solver)?,
             raw,
             base_dir,
             part,
@@ -47,7 +50,7 @@ impl<'a> Context<'a> {
             whole: Default::default(),
             presences,
             cloud: Default::default(),
-        }
+        })
     }
 }
 
@@ -907,7 +910,8 @@ pub(crate) fn material_with_tags(
 }
 
 /// The nodes of a scene whose nodes come from a file (`"nodes"` instead of `"grid"`), checked
-/// against the horizon and the memory of `path` (with `ball`, the bonds of a ball quadrature,
+/// against the horizon and the memory of `path` (with a multigrid hierarchy when `multigrid` of
+/// the node count says so; with `ball`, the bonds of a ball quadrature,
 /// which reach `delta + max R`: [`linpd_bond::quadrature`]); and their mean spacing
 /// ([`mean_spacing`]).
 ///
@@ -920,7 +924,7 @@ pub(crate) fn cloud_nodes(
     spec: &RawNodes,
     horizon: f64,
     (reaches, corrected): (Option<usize>, bool),
-    path: crate::memory::Path,
+    (path, multigrid): (crate::memory::Path, &dyn Fn(usize) -> bool),
     ball: bool,
 ) -> Result<(LevelNodes, f64), ProblemError> {
     let raw = cx.raw;
@@ -997,12 +1001,6 @@ pub(crate) fn cloud_nodes(
             format!("{horizon:e} is not shorter than the body, whose nodes span {extent:e}{unit_hint}"),
         ));
     }
-    // `auto` and multigrid build a hierarchy on a bond cloud (an LPS cloud's is negligible
-    // against its tangent: the same peaks with Jacobi and multigrid, docs/robustness.md)
-    let multigrid = path == crate::memory::Path::BondAssembled
-        && dim >= 2
-        && (raw.solver.kind == crate::raw::RawSolverKind::Auto
-            || raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid));
     // a ball quadrature bonds to delta + the largest equivalent radius
     let q = if ball { linpd_bond::quadrature::Quadrature::Ball } else { linpd_bond::quadrature::Quadrature::Full };
     let reach = linpd_bond::quadrature::reach(q, dim, horizon, &[summary.max_volume]);
@@ -1040,7 +1038,7 @@ pub(crate) fn cloud_nodes(
         }
         _ => return Err(ProblemError::invalid("nodes", "a cloud neither read nor streamed")),
     };
-    let _ = crate::memory::check_cloud(path, dim, &nodes.positions, reach, multigrid)?;
+    let _ = crate::memory::check_cloud(path, dim, &nodes.positions, reach, multigrid(nodes.positions.len()))?;
     Ok((nodes, h))
 }
 

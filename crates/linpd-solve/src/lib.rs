@@ -1,7 +1,9 @@
 //! Linear solvers for linpd, and the one static solve of a [`linpd_core::Model`].
 //!
+//! * [`plan`]: what a static solve will run (assembled or matrix-free, the preconditioner's
+//!   hierarchy), decided once from a model's offers and the solver asked for;
 //! * [`statics::solve_model`]: support check, Dirichlet elimination ([`bc`]), assembled or
-//!   matrix-free solve, report: every static solve in linpd goes through it;
+//!   matrix-free solve by the plan, report: every static solve in linpd goes through it;
 //! * [`statics::solve_assembled`]: the solver dispatch on an assembled matrix, by
 //!   [`SolverSpec`] (`auto` resolved by size and dimension; unsymmetric matrices go to LU);
 //! * [`direct`]: sparse Cholesky and sparse LU, each analysed once and factored many times,
@@ -16,7 +18,9 @@ pub mod bc;
 pub mod cost;
 pub mod direct;
 pub mod krylov;
+pub mod memory;
 pub mod modes;
+pub mod plan;
 pub mod precond;
 pub mod report;
 pub mod spec;
@@ -28,6 +32,7 @@ pub use krylov::cg::{pcg, pcg_with_progress, CgError, CgInfo, CgParams};
 pub use krylov::gmres::{gmres, gmres_with_progress, GmresError, GmresInfo, GmresParams};
 pub use linpd_core::sparse::{diagonal, matvec, relative_residual, sym_matvec, GeneralCsc, SymCsc};
 pub use linpd_core::LinearOperator;
+pub use plan::{plan, Apply, Hierarchy, Offers, Route, SolvePlan};
 pub use precond::amg::{rigid_body_modes, Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
 pub use precond::{CoarseSpace, DofGeometry, FactorPreconditioner, Identity, Jacobi, LatticeMultigrid, Preconditioner};
 pub use report::{peak_rss_bytes, SolveReport, Timings};
@@ -36,8 +41,8 @@ pub use spec::{
     SolverSpec,
 };
 pub use statics::{
-    reduced_rhs_checked, reduced_system, solve_assembled, solve_assembled_with_progress, solve_model, MatrixHints,
-    StaticError, StaticSolution,
+    reduced_rhs_checked, reduced_system, solve_assembled, solve_assembled_with_progress, solve_model, solve_planned,
+    MatrixHints, StaticError, StaticSolution,
 };
 
 /// A failed solve.

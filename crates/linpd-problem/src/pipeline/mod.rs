@@ -7,6 +7,7 @@
 //!   loads reach level m by the step's transfer `F^m = S^T F^{m-1}`.
 //! * `run`: the steps, the solves, the report ([`PipelineResult`]).
 //! * `output`: the level files.
+//! * `result`: the report's types.
 
 use crate::models::Capability;
 use crate::scene::Problem;
@@ -17,10 +18,11 @@ use std::path::{Path, PathBuf};
 
 pub mod bvp;
 mod output;
+mod result;
 mod run;
 
 pub use bvp::LevelBvp;
-pub use run::{LevelResult, PipelineResult};
+pub use result::{LevelResult, PipelineResult};
 
 /// The pipeline file (serde mirror; unknown keys are errors).
 #[derive(Debug, Clone, Deserialize)]

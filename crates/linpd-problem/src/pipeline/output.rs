@@ -5,7 +5,7 @@
 
 use super::bvp::LevelBvp;
 use super::inv;
-use super::run::PipelineResult;
+use super::result::PipelineResult;
 use crate::ProblemError;
 use linpd_coarsen::LevelModel;
 use linpd_io::mtx::ModuliFile;

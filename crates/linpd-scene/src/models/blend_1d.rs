@@ -15,7 +15,7 @@
 //! The model has its own solvers ([`linpd_blend::solve_model`]: `auto`, `lu`, `dense`): no CG,
 //! no matrix-free solve, no coarsening, no explicit dynamics, no point clouds.
 
-use super::registry::{struct_fields, ModelType, Validated};
+use super::model_type::{struct_fields, ModelType, Validated};
 use super::{foreign_system, Capability, Purpose, SceneModel, System};
 use crate::balance::Balance;
 use crate::balance::ConstraintBalance;

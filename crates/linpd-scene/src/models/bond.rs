@@ -6,8 +6,9 @@
 //! * on a 2D/3D grid with `pd_regions`: the blended PD / local model, [`super::lattice_blend`].
 
 use super::bond_model::{BondModel, RawBond};
-use super::registry::{struct_fields, ModelType, Validated};
+use super::model_type::{struct_fields, ModelType, Validated};
 use super::{bond_cloud, bond_lattice, lattice_blend, SceneModel};
+use crate::memory::Path;
 use crate::nodes::Nodes;
 use crate::validate::{core, Context};
 use crate::ProblemError;
@@ -31,35 +32,25 @@ impl ModelType for BondType {
             return bond_cloud::validate(cx, spec, &raw);
         }
         let dim = cx.dim();
-        let matrix_free = cx.raw.solver.matrix_free || cx.raw.dynamics.is_some();
-        let dynamics = cx.raw.dynamics.is_some();
-        let uses_multigrid = cx.raw.solver.preconditioner == Some(crate::raw::RawPreconditioner::Multigrid);
-        let auto = cx.raw.solver.kind == crate::raw::RawSolverKind::Auto && cx.raw.dynamics.is_none();
         // the homogeneous stencil alone holds no bonds (bond_lattice::plain_stencil)
         let plain = raw.material.phases.is_empty()
             && raw.material.defects.is_empty()
             && matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
-        // for the memory estimate only: BondModel::validate below reports a bad micromodulus
-        let ramp = crate::models::bond_model::RawPartialVolume::quadrature(raw.partial_volume, false)
-            == linpd_bond::quadrature::Quadrature::Ramp;
-        let mm = crate::validate::bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, ramp).ok();
-        let matrix_free_path = |grid: &linpd_core::Grid| {
-            if plain && grid.is_full() && grid.has_uniform_volumes() {
-                match &mm {
-                    Some(mm) => crate::memory::stencil_path(grid, raw.horizon, mm),
-                    None => crate::memory::Path::BondStencil,
+        let micromodulus = BondModel::lattice_micromodulus(&raw, dim)?;
+        // the memory checked before anything per node is allocated: the plan of the box's
+        // every DOF (the constraints are not known yet)
+        let path_of = |grid: &linpd_core::Grid| {
+            let plan = || linpd_solve::plan(&cx.solver, &self::offers(&raw, grid), &Default::default());
+            match (cx.raw.dynamics.is_some(), &raw.pd_regions) {
+                (_, Some(_)) if raw.local_mesh.is_some() => (Path::GradedBlendLattice, false),
+                (_, Some(_)) => (Path::BlendAssembled, plan().may_build_hierarchy()),
+                (true, None) => (Path::BondDynamics, false),
+                (false, None) => {
+                    let stencil = (plain && grid.is_full() && grid.has_uniform_volumes())
+                        .then(|| crate::memory::stencil_path(grid, raw.horizon, &micromodulus));
+                    bond_lattice::memory_path(&plan(), stencil)
                 }
-            } else {
-                crate::memory::Path::BondMatrixFree
             }
-        };
-        let path_of = |grid: &linpd_core::Grid| match (matrix_free, raw.pd_regions.is_some()) {
-            (_, true) if raw.local_mesh.is_some() => (crate::memory::Path::GradedBlendLattice, false),
-            (_, true) => (crate::memory::Path::BlendAssembled, uses_multigrid || auto),
-            (true, false) if dynamics => (crate::memory::Path::BondDynamics, false),
-            (true, false) => (matrix_free_path(grid), uses_multigrid),
-            (false, false) if auto && bond_lattice::auto_runs_matrix_free(grid, None) => (matrix_free_path(grid), true),
-            (false, false) => (crate::memory::Path::BondAssembled, uses_multigrid || (auto && dim >= 2)),
         };
         // the halo of a rank's part (crate::part): one reach of the bonds; with the energy
         // correction two more, as a bond's factor reads its ends' trace ratios, each made of
@@ -73,7 +64,7 @@ impl ModelType for BondType {
         }
         let reaches = Some(if corrected { 3 } else { 1 });
         let grid = crate::validate::lattice_for(cx, raw.horizon, reaches, &path_of)?;
-        let bond = BondModel::validate(&raw, &grid, dim, &cx.presences)?;
+        let bond = BondModel::validate(&raw, micromodulus, &grid, dim, &cx.presences)?;
         // The amplitude now, not at the first solve: a modulus that overflows it (1e308) is a
         // validation error naming the overflow.
         bond.micromodulus.amplitude(dim, bond.horizon, grid.spacing()).map_err(|e| core("model", e))?;
@@ -82,5 +73,16 @@ impl ModelType for BondType {
             None => Box::new(bond_lattice::BondLatticeModel { bond }),
         };
         Ok(Validated { nodes: Nodes::Lattice(grid), model })
+    }
+}
+
+/// What a bond scene on `grid` offers the solvers before its model is built, with every DOF
+/// unknown: a lattice's ([`bond_lattice::offers`]) or a blend's (an unsymmetric `A`; on a
+/// graded mesh applied matrix-free with its companion's block rows).
+fn offers(raw: &RawBond, grid: &linpd_core::Grid) -> linpd_solve::Offers {
+    let unknowns = grid.len() * grid.dim();
+    match &raw.pd_regions {
+        None => bond_lattice::offers(grid, unknowns),
+        Some(_) => lattice_blend::offers(grid.dim(), unknowns, raw.local_mesh.is_some()),
     }
 }

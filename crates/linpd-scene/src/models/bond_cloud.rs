@@ -2,7 +2,7 @@
 //! bond weights from the nodes' own volumes, always assembled (AMD ordering).
 
 use super::bond_model::{self, BondModel, RawBond};
-use super::registry::Validated;
+use super::model_type::Validated;
 use super::{Capability, Purpose, SceneModel, System};
 use crate::nodes::{LevelNodes, Nodes};
 use crate::scene::Problem;
@@ -32,8 +32,11 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
     // a rank's halo (crate::part): as on a lattice, one reach, three with the energy correction
     let corrected = !matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
     let reaches = Some(if corrected { 3 } else { 1 });
-    let (nodes, h) =
-        cloud_nodes(cx, spec, raw.horizon, (reaches, corrected), crate::memory::Path::BondAssembled, ball)?;
+    // `auto` and multigrid build a hierarchy on a bond cloud: counted as the plan says
+    let multigrid =
+        |n: usize| linpd_solve::plan(&cx.solver, &offers(dim, n * dim), &Default::default()).may_build_hierarchy();
+    let path = (crate::memory::Path::BondAssembled, &multigrid as &dyn Fn(usize) -> bool);
+    let (nodes, h) = cloud_nodes(cx, spec, raw.horizon, (reaches, corrected), path, ball)?;
     let ramp = quadrature == linpd_bond::quadrature::Quadrature::Ramp;
     let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, ramp)?;
     if micromodulus.normalization == linpd_core::Normalization::Discrete && cx.part.is_some() {
@@ -75,19 +78,16 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
     if surface.correction != linpd_lps::SurfaceCorrection::None
         && micromodulus.normalization != linpd_core::Normalization::Continuum
     {
-        return Err(correction_needs_continuum());
+        return Err(bond_model::correction_needs_continuum());
     }
     let bond = BondModel::on_cloud(raw, micromodulus, material, node_moduli, (elastic, moduli), (surface, quadrature));
     Ok(Validated { nodes: Nodes::Cloud(nodes), model: Box::new(BondCloudModel { bond }) })
 }
 
-/// The error of a surface correction on a cloud whose micromodulus is not normalized by the
-/// continuum (the correction's target is the continuum's moment).
-pub(crate) fn correction_needs_continuum() -> ProblemError {
-    ProblemError::invalid(
-        "model.micromodulus.normalize",
-        "the energy correction on a point cloud matches each node to the continuum's moments: use \"continuum\"",
-    )
+/// What a bond model on a point cloud offers the solvers with `unknowns` free DOFs: a
+/// symmetric `A`, assembled (no stencil applies off a lattice).
+fn offers(dim: usize, unknowns: usize) -> linpd_solve::Offers {
+    linpd_solve::Offers { dim, unknowns, symmetric: true, fast_apply: false, companion_gmres: false }
 }
 
 /// The keys that need a lattice: the lattice target of a surface correction and `pd_regions`.
@@ -118,6 +118,9 @@ impl SceneModel for BondCloudModel {
     }
     fn horizon(&self) -> Option<f64> {
         Some(self.bond.horizon)
+    }
+    fn offers(&self, p: &Problem, unknowns: usize) -> Option<linpd_solve::Offers> {
+        Some(offers(p.dim(), unknowns))
     }
     fn lacks(&self, capability: Capability) -> Option<String> {
         match capability {
@@ -153,9 +156,8 @@ impl SceneModel for BondCloudModel {
         let nb = bonds as f64 / n as f64;
         bytes += crate::memory::cloud_extra(crate::memory::Path::BondAssembled, p.dim(), n, nb, 1.0);
         // `auto` and multigrid build a hierarchy on top (see `crate::validate::cloud_nodes`)
-        let multigrid = matches!(p.solver(), linpd_solve::SolverSpec::Auto(_)) || p.solver().uses_multigrid();
-        if multigrid && p.dim() >= 2 {
-            bytes += (n * p.dim()) as f64 * crate::memory::multigrid_dof_bytes(p.dim(), false);
+        if p.planned()?.may_build_hierarchy() {
+            bytes += (n * p.dim()) as f64 * linpd_solve::memory::multigrid_dof_bytes(p.dim(), false);
         }
         Ok(System {
             n_bonds: bonds,

@@ -14,7 +14,7 @@ use linpd_core::surface::CorrectionSummary;
 use linpd_core::DofMap;
 use linpd_dynamics::Chain;
 use linpd_lps::SurfaceCorrection;
-use linpd_solve::{SolveReport, SolverSpec};
+use linpd_solve::{Apply, Offers, SolvePlan, SolveReport};
 use std::any::Any;
 use std::sync::Arc;
 
@@ -52,54 +52,51 @@ pub(crate) fn plain_stencil(b: &BondModel, grid: &linpd_core::Grid) -> bool {
         && grid.has_uniform_volumes()
 }
 
-/// The memory check of a bond model on a lattice before it is built for `purpose` (the
-/// solver may have changed since validation: [`Problem::set_solver`]); `Ok` holds the
-/// estimate in bytes (`None` for rows, which assemble nothing whole).
-/// `stencil`: the path of the homogeneous stencil alone when the model is one
-/// ([`plain_stencil`], [`crate::memory::stencil_path`]), whose matrix-free paths hold no bonds.
+/// What a bond model on `grid` offers the solvers with `unknowns` free DOFs: a symmetric `A`
+/// and, where the lattice's stencil applies ([`linpd_bond::CorrectedStencil::fits`]: the
+/// stencil of a homogeneous full box, or the stencil with the bonds that differ from it:
+/// phases, defects, a surface correction, a body that leaves at least half the box's sites), a
+/// fast apply with block rows: `auto` then solves it matrix-free (multigrid-CG on the stencil),
+/// and the memory estimate follows (the assembled estimate of a 101^3 cube, 33 GiB, refused a
+/// scene that `auto` solves matrix-free in a fraction of it). When matrix-free CG stalls,
+/// `auto` assembles after all; that fallback is not estimated.
+pub(crate) fn offers(grid: &linpd_core::Grid, unknowns: usize) -> Offers {
+    Offers {
+        dim: grid.dim(),
+        unknowns,
+        symmetric: true,
+        fast_apply: linpd_bond::CorrectedStencil::fits(grid),
+        companion_gmres: false,
+    }
+}
+
+/// The memory path of a bond model on a lattice solved by `plan`, and whether the estimate
+/// counts a multigrid hierarchy (one built, or one `auto`'s cost model may build on the
+/// assembled matrix: a cracked 801^2 plate measured 3.0 GiB, 1.8 GiB estimated without it).
+/// `stencil`: the path of the homogeneous stencil alone when the model is one ([`plain_stencil`],
+/// [`crate::memory::stencil_path`]), whose matrix-free paths hold no bonds.
+pub(crate) fn memory_path(plan: &SolvePlan, stencil: Option<Path>) -> (Path, bool) {
+    match plan.apply() {
+        Apply::MatrixFree => (stencil.unwrap_or(Path::BondMatrixFree), plan.may_build_hierarchy()),
+        Apply::Assembled => (Path::BondAssembled, plan.may_build_hierarchy()),
+    }
+}
+
+/// The memory check of a bond model on a lattice before it is built for `purpose`, on the
+/// scene's plan ([`Problem::plan`]); `Ok` holds the estimate in bytes (`None` for rows, which
+/// assemble nothing whole).
 pub(crate) fn check_memory(
     p: &Problem,
     horizon: f64,
     purpose: Purpose,
     stencil: Option<Path>,
 ) -> Result<Option<f64>, ProblemError> {
-    let matrix_free = stencil.unwrap_or(Path::BondMatrixFree);
-    let (path, multigrid) = match (purpose, p.solver()) {
-        (Purpose::Rows, _) => return Ok(None),
-        (Purpose::Assembled, _) => (Path::BondAssembled, false),
-        (Purpose::Solve, s @ SolverSpec::Cg { matrix_free: true, .. }) => (matrix_free, s.uses_multigrid()),
-        (Purpose::Solve, SolverSpec::Auto(_)) if auto_runs_matrix_free(p.lattice()?, Some(n_free(p))) => {
-            (matrix_free, true)
-        }
-        // auto's cost model may pick multigrid-CG on the assembled matrix (a cracked 801^2 plate:
-        // 3.0 GiB measured, 1.8 GiB estimated without the hierarchy)
-        (Purpose::Solve, s @ SolverSpec::Auto(_)) => (Path::BondAssembled, p.dim() >= 2 || s.uses_multigrid()),
-        (Purpose::Solve, s) => (Path::BondAssembled, s.uses_multigrid()),
+    let (path, multigrid) = match purpose {
+        Purpose::Rows => return Ok(None),
+        Purpose::Assembled => (Path::BondAssembled, false),
+        Purpose::Solve => memory_path(p.planned()?, stencil),
     };
     crate::memory::check_solver(path, p.lattice()?, horizon, multigrid).map(Some)
-}
-
-/// Whether `auto` will solve a bond model on `grid` matrix-free (multigrid-CG on the lattice
-/// stencil, [`linpd_solve::statics::AutoParams::matrix_free`]): every bond model on a lattice
-/// has a fast apply, the stencil of a homogeneous full box or the stencil with the bonds
-/// that differ from it ([`linpd_bond::CorrectedStencil`]: phases, defects, a surface
-/// correction, a body), when a body leaves at least half the box's sites. The memory
-/// estimate follows the path `auto` takes: the assembled estimate of a 101^3 cube (33 GiB)
-/// refused a scene that `auto` solves matrix-free in a fraction of it.
-///
-/// `n_free`: the free DOFs, which `auto` compares with its threshold (`None` at validation,
-/// before the constraints are evaluated: all DOFs, which may predict matrix-free for a scene
-/// just above the threshold that then assembles, a small system either way). When matrix-free
-/// CG stalls, `auto` assembles after all; that fallback is not estimated.
-pub(crate) fn auto_runs_matrix_free(grid: &linpd_core::Grid, n_free: Option<usize>) -> bool {
-    let n = n_free.unwrap_or(grid.len() * grid.dim());
-    linpd_solve::statics::AutoParams::default()
-        .matrix_free(grid.dim(), n, true, || linpd_bond::CorrectedStencil::fits(grid))
-}
-
-/// The free DOFs of the scene.
-fn n_free(p: &Problem) -> usize {
-    p.constrained().0.iter().filter(|&&m| !m).count()
 }
 
 impl SceneModel for BondLatticeModel {
@@ -118,6 +115,9 @@ impl SceneModel for BondLatticeModel {
     }
     fn lacks(&self, _: Capability) -> Option<String> {
         None
+    }
+    fn offers(&self, p: &Problem, unknowns: usize) -> Option<Offers> {
+        Some(offers(p.lattice().ok()?, unknowns))
     }
     fn system(&self, p: &Problem, purpose: Purpose, progress: &dyn Progress) -> Result<System, ProblemError> {
         let grid = p.lattice()?;

@@ -168,11 +168,24 @@ impl BondModel {
     /// Validates the keys of a bond model on `grid` (every defect must cut a bond of it).
     pub(crate) fn validate(
         raw: &RawBond,
+        micromodulus: Micromodulus,
         grid: &Grid,
         dim: usize,
         presences: &crate::part::Presences,
     ) -> Result<Self, ProblemError> {
         let horizon = raw.horizon;
+        let elastic = bond_elastic(dim, &micromodulus);
+        let material = material(&raw.material, dim, elastic)?;
+        crate::validate::require_defects_cut(&material, grid, horizon, presences)?;
+        let surface = surface_of(false, raw.surface_correction, raw.surface_target)?;
+        let phase_moduli = phase_moduli(&raw.material, elastic)?;
+        let quadrature = Quadrature::Full;
+        Ok(BondModel { horizon, micromodulus, material, node_moduli: None, surface, elastic, phase_moduli, quadrature })
+    }
+
+    /// The micromodulus of a bond model on a lattice ([`BondModel::validate`] takes it), from
+    /// its keys (`micromodulus`, `plane`, `partial_volume`).
+    pub(crate) fn lattice_micromodulus(raw: &RawBond, dim: usize) -> Result<Micromodulus, ProblemError> {
         if raw.partial_volume == Some(RawPartialVolume::Named(RawPartialVolumeName::Ball)) {
             return Err(ProblemError::invalid(
                 "model.partial_volume",
@@ -181,14 +194,7 @@ impl BondModel {
             ));
         }
         let ramp = RawPartialVolume::quadrature(raw.partial_volume, false) == Quadrature::Ramp;
-        let micromodulus = bond_micromodulus(dim, horizon, raw.micromodulus.as_ref(), raw.plane, ramp)?;
-        let elastic = bond_elastic(dim, &micromodulus);
-        let material = material(&raw.material, dim, elastic)?;
-        crate::validate::require_defects_cut(&material, grid, horizon, presences)?;
-        let surface = surface_of(false, raw.surface_correction, raw.surface_target)?;
-        let phase_moduli = phase_moduli(&raw.material, elastic)?;
-        let quadrature = Quadrature::Full;
-        Ok(BondModel { horizon, micromodulus, material, node_moduli: None, surface, elastic, phase_moduli, quadrature })
+        bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, ramp)
     }
 
     /// The parameters of a bond model on a point cloud (its material may name phase numbers,
@@ -286,7 +292,7 @@ impl BondModel {
                 let m = &self.micromodulus;
                 match op.with_cloud_energy_correction(&c.volumes, &c.layer, self.horizon, m, self.quadrature) {
                     Some((op, summary)) => (op, Some(summary)),
-                    None => return Err(super::bond_cloud::correction_needs_continuum()),
+                    None => return Err(correction_needs_continuum()),
                 }
             }
             _ => (op, None),
@@ -365,4 +371,13 @@ pub(crate) fn solution(p: &Problem, model: &dyn Model, n_bonds: usize, u: Vec<f6
 /// The phase line of a bond model being built.
 pub(crate) fn building(p: &Problem, horizon: f64) -> String {
     format!("building bonds: {} nodes, horizon/spacing = {:.3}", p.nodes().len(), horizon / p.nodes().spacing())
+}
+
+/// The error of a surface correction on a cloud whose micromodulus is not normalized by the
+/// continuum (the correction's target is the continuum's moment).
+pub(crate) fn correction_needs_continuum() -> ProblemError {
+    ProblemError::invalid(
+        "model.micromodulus.normalize",
+        "the energy correction on a point cloud matches each node to the continuum's moments: use \"continuum\"",
+    )
 }

@@ -18,7 +18,7 @@
 //! `C(x, q) = C(q, x)^T`; then the solve is a sparse Cholesky (or the scene's solver), otherwise
 //! a sparse LU, and the report's `solver` says why.
 
-use super::registry::{struct_fields, ModelType, Validated};
+use super::model_type::{struct_fields, ModelType, Validated};
 use super::{Capability, Purpose, SceneModel, System};
 use crate::nodes::{LevelNodes, Nodes};
 use crate::scene::Problem;

@@ -744,6 +744,13 @@ fn zone_bytes(inputs: &BlendInputs, multigrid: bool) -> f64 {
     crate::memory::blend_zone_bytes(d, op.n_nodes(), op.family().n_bonds(), blocks, multigrid)
 }
 
+/// What a blended model offers the solvers with `unknowns` free DOFs: an unsymmetric `A`; on a
+/// graded local mesh (`graded`) applied matrix-free with an SPD companion that has block rows
+/// (`auto`'s matrix-free GMRES), on the lattice assembled whole.
+pub(crate) fn offers(dim: usize, unknowns: usize, graded: bool) -> linpd_solve::Offers {
+    linpd_solve::Offers { dim, unknowns, symmetric: false, fast_apply: false, companion_gmres: graded }
+}
+
 /// A blend error as the scene's: the key it names (`model.pd_regions`), not
 /// `model: model.pd_regions: ...`.
 fn blend_error(e: linpd_blend::BlendError) -> ProblemError {
@@ -838,6 +845,14 @@ impl SceneModel for LatticeBlendModel {
     fn horizon(&self) -> Option<f64> {
         Some(self.bond.horizon)
     }
+    /// The lattice blend's (its unknowns are the lattice's); a graded mesh's unknowns are its
+    /// masters, known once it is built, so its solve plans from the built model.
+    fn offers(&self, p: &Problem, unknowns: usize) -> Option<linpd_solve::Offers> {
+        match self.zone.local_mesh {
+            None => Some(offers(p.dim(), unknowns, false)),
+            Some(_) => None,
+        }
+    }
     fn lacks(&self, capability: Capability) -> Option<String> {
         match capability {
             Capability::MatrixFree => {
@@ -866,9 +881,10 @@ impl SceneModel for LatticeBlendModel {
         };
         // the graded model checks its masters' hierarchy itself (GradedBlend::new); the lattice
         // blend's auto runs GMRES + multigrid first from 20k unknowns
-        let multigrid = self.zone.local_mesh.is_none()
-            && purpose == Purpose::Solve
-            && (p.solver().uses_multigrid() || matches!(p.solver(), linpd_solve::SolverSpec::Auto(_)));
+        let multigrid = match (&self.zone.local_mesh, purpose) {
+            (None, Purpose::Solve) => p.planned()?.may_build_hierarchy(),
+            _ => false,
+        };
         let memory_estimate = match purpose {
             Purpose::Rows => None,
             _ => Some(crate::memory::check_solver(path, p.lattice()?, self.bond.horizon, multigrid)?),
@@ -876,7 +892,7 @@ impl SceneModel for LatticeBlendModel {
         if let Some(local) = self.zone.local_mesh {
             if p.lattice_output() {
                 let n = p.nodes().len() as f64;
-                let bytes = n * (crate::memory::GRADED_NODE_BYTES + crate::memory::GRADED_LATTICE_OUTPUT_BYTES);
+                let bytes = n * (linpd_blend::memory::GRADED_NODE_BYTES + crate::memory::GRADED_LATTICE_OUTPUT_BYTES);
                 linpd_core::memory::check(
                     format!("the graded blend's solution on every one of {} lattice nodes", p.nodes().len()),
                     bytes,

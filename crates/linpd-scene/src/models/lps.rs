@@ -5,7 +5,7 @@
 //! support graph are documented in linpd-lps.
 
 use super::bond_model::{surface_of, Surface};
-use super::registry::{struct_fields, ModelType, Validated};
+use super::model_type::{struct_fields, ModelType, Validated};
 use super::{foreign_system, solve_system, Capability, Purpose, SceneModel, System};
 use crate::nodes::{NodeSet, Nodes};
 use crate::raw::{RawInfluence, RawMaterial, RawPlane, RawSurfaceCorrection, RawSurfaceTarget};
@@ -17,7 +17,7 @@ use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
 use linpd_core::{Defect, PlaneModel};
 use linpd_lps::{LpsModel, LpsParams, SurfaceCorrection};
-use linpd_solve::{SolveReport, SolverSpec};
+use linpd_solve::{Apply, Hierarchy, Offers, SolvePlan, SolveReport};
 use serde::Deserialize;
 use std::any::Any;
 use std::sync::Arc;
@@ -95,7 +95,9 @@ impl ModelType for LpsType {
             let reaches = Some(2 + usize::from(mean_of_ends));
             let corrected = surface.correction != SurfaceCorrection::None;
             let path = crate::memory::Path::LpsAssembled;
-            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, (reaches, corrected), path, false)?;
+            // an LPS cloud's hierarchy is negligible against its tangent (the same peaks with
+            // Jacobi and multigrid, docs/robustness.md)
+            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, (reaches, corrected), (path, &|_| false), false)?;
             let ratio = raw.horizon / crate::nodes::NodeSet::spacing(&nodes);
             let n = crate::nodes::NodeSet::count(&nodes);
             crate::memory::check_lps_work(n, crate::memory::neighbours(dim, ratio), ratio)?;
@@ -113,7 +115,6 @@ impl ModelType for LpsType {
             && raw.material.phases.is_empty()
             && raw.material.defects.is_empty()
             && surface_of(true, raw.surface_correction, raw.surface_target)?.correction == SurfaceCorrection::None;
-        let spec = crate::validate::solver_spec(&cx.raw.solver)?;
         // the halo of a rank's part (crate::part): two reaches (the dilatation of a common
         // partner); one more with the energy correction, whose bond factors in a partner's
         // dilatation are the mean of two nodes' fits over their families (position_aware's are
@@ -121,11 +122,15 @@ impl ModelType for LpsType {
         let mean_of_ends =
             surface_of(true, raw.surface_correction, raw.surface_target)?.correction == SurfaceCorrection::Energy;
         let reaches = Some(2 + usize::from(mean_of_ends));
-        let grid =
-            crate::validate::lattice_for(cx, raw.horizon, reaches, &|grid| memory_path(grid, plain, &spec, None))?;
+        // the plan of the box's every DOF (the constraints are not known yet)
+        let plan = |grid: &linpd_core::Grid| {
+            let offers = lattice_offers(grid, plain, grid.len() * dim);
+            linpd_solve::plan(&cx.solver, &offers, &Default::default())
+        };
+        let grid = crate::validate::lattice_for(cx, raw.horizon, reaches, &|grid| memory_path(&plan(grid)))?;
         let ratio = raw.horizon / grid.spacing();
         // the tangent's assembly work, where the solve assembles it
-        if memory_path(&grid, plain, &spec, None).0 == crate::memory::Path::LpsAssembled {
+        if memory_path(&plan(&grid)).0 == crate::memory::Path::LpsAssembled {
             crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(dim, ratio), ratio)?;
         }
         let params = params(dim, &raw)?;
@@ -258,31 +263,30 @@ fn phases(
     Ok((out, Some((bulk, shear))))
 }
 
-/// The memory path of an lps lattice scene solved by `spec` and whether it builds a multigrid
-/// hierarchy: matrix-free CG when asked, or when `auto` will run it ([`auto_runs_matrix_free`];
-/// `n_free`: `None` at validation), the assembled tangent otherwise.
-fn memory_path(
-    grid: &linpd_core::Grid,
-    plain: bool,
-    spec: &SolverSpec,
-    n_free: Option<usize>,
-) -> (crate::memory::Path, bool) {
-    match spec {
-        SolverSpec::Cg { matrix_free: true, .. } => (crate::memory::Path::LpsMatrixFree, spec.uses_multigrid()),
-        SolverSpec::Auto(_) if auto_runs_matrix_free(grid, plain, n_free) => (crate::memory::Path::LpsMatrixFree, true),
-        _ => (crate::memory::Path::LpsAssembled, spec.uses_multigrid()),
+/// The memory path of an lps lattice scene solved by `plan` and whether the estimate counts a
+/// multigrid hierarchy: the matrix-free tangent (with the pair part's hierarchy when one is
+/// built), or the assembled tangent (with a hierarchy only when asked for: the one `auto`'s
+/// cost model may build is negligible against the tangent, the same peaks measured with Jacobi
+/// and multigrid, docs/robustness.md).
+fn memory_path(plan: &SolvePlan) -> (crate::memory::Path, bool) {
+    match plan.apply() {
+        Apply::MatrixFree => (crate::memory::Path::LpsMatrixFree, plan.may_build_hierarchy()),
+        Apply::Assembled => (crate::memory::Path::LpsAssembled, plan.hierarchy == Hierarchy::Built),
     }
 }
 
-/// Whether `auto` solves an lps lattice matrix-free (multigrid-CG with the stencils of
-/// `linpd_lps::stencil` and the pair part's hierarchy): a homogeneous material (`plain`: no
-/// phases, defects or surface correction) on the full box, from
-/// [`linpd_solve::statics::AutoParams::matrix_free`]'s size (`n_free`: `None` at validation,
-/// all DOFs).
-fn auto_runs_matrix_free(grid: &linpd_core::Grid, plain: bool, n_free: Option<usize>) -> bool {
-    let n = n_free.unwrap_or(grid.len() * grid.dim());
-    linpd_solve::statics::AutoParams::default()
-        .matrix_free(grid.dim(), n, true, || plain && grid.is_full() && grid.has_uniform_volumes())
+/// What an lps model on `grid` offers the solvers with `unknowns` free DOFs: a symmetric
+/// tangent and, for a homogeneous material (`plain`: no phases, defects or surface correction)
+/// on the full box, the stencils of `linpd_lps::stencil` with the pair part's block rows:
+/// `auto` then solves it matrix-free (multigrid-CG on the pair part's hierarchy).
+fn lattice_offers(grid: &linpd_core::Grid, plain: bool, unknowns: usize) -> Offers {
+    Offers {
+        dim: grid.dim(),
+        unknowns,
+        symmetric: true,
+        fast_apply: plain && grid.is_full() && grid.has_uniform_volumes(),
+        companion_gmres: false,
+    }
 }
 
 impl LpsSceneModel {
@@ -375,6 +379,13 @@ impl SceneModel for LpsSceneModel {
     fn horizon(&self) -> Option<f64> {
         Some(self.params.horizon)
     }
+    /// A point cloud's tangent is assembled; a lattice's as [`lattice_offers`].
+    fn offers(&self, p: &Problem, unknowns: usize) -> Option<Offers> {
+        Some(match p.grid() {
+            Some(grid) => lattice_offers(grid, self.plain(), unknowns),
+            None => Offers { dim: p.dim(), unknowns, symmetric: true, fast_apply: false, companion_gmres: false },
+        })
+    }
     fn lacks(&self, capability: Capability) -> Option<String> {
         match capability {
             Capability::Dynamics => {
@@ -392,8 +403,7 @@ impl SceneModel for LpsSceneModel {
                 Some(crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, self.params.horizon, false)?)
             }
             (Some(grid), Purpose::Solve) => {
-                let n_free = p.constrained().0.iter().filter(|&&m| !m).count();
-                let (path, multigrid) = memory_path(grid, self.plain(), p.solver(), Some(n_free));
+                let (path, multigrid) = memory_path(p.planned()?);
                 if path == crate::memory::Path::LpsAssembled {
                     let ratio = self.params.horizon / grid.spacing();
                     crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(p.dim(), ratio), ratio)?;

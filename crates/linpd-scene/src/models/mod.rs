@@ -26,8 +26,10 @@ pub mod bond_model;
 pub mod coarsened;
 pub mod lattice_blend;
 pub mod lps;
+pub mod model_type;
 pub mod registry;
 
 pub use crate::capability::Capability;
 pub use crate::scene::{foreign_system, refusal, solve_system, Built, DynamicsOperator, Purpose, SceneModel, System};
-pub use registry::{ModelType, Registry};
+pub use model_type::ModelType;
+pub use registry::Registry;

@@ -8,7 +8,8 @@ mod model;
 mod problem;
 mod solve;
 
-pub use model::{foreign_system, refusal, Built, DynamicsOperator, NodeElastic, Purpose, SceneModel, System};
+pub use model::{
+    foreign_system, refusal, solve_system, Built, DynamicsOperator, NodeElastic, Purpose, SceneModel, System,
+};
 pub(crate) use problem::BalanceNodes;
 pub use problem::{Constraint, Load, PartBalance, PartScene, Problem};
-pub use solve::solve_system;

@@ -9,11 +9,12 @@ use linpd_bond::BondOperator;
 use linpd_core::progress::Progress;
 use linpd_core::surface::CorrectionSummary;
 use linpd_core::Model;
-use linpd_solve::{Dirichlet, SolveReport};
+use linpd_solve::{Dirichlet, SolveReport, StaticError};
 use std::any::Any;
 use std::fmt::Debug;
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::time::Instant;
 
 /// The static system a model builds for a command: the operator `A` over all DOFs, the
 /// prescribed displacements and the nodal forces, `A u = f` with `u = u_bar` on the held DOFs.
@@ -107,6 +108,17 @@ pub trait SceneModel: Debug + Send + Sync {
     }
     /// `None` when the model has `capability`, else why not (a sentence for the user).
     fn lacks(&self, capability: Capability) -> Option<String>;
+    /// What the model offers the solvers on the scene's nodes (`p`'s constraints and loads may
+    /// not be evaluated yet) when the solve has `unknowns` free DOFs: the scene's solver plan is
+    /// made from it once ([`Problem::plan`], [`linpd_solve::plan()`]) and the memory guard and the
+    /// solve read that plan. `None` (the default): the model's unknowns are known only once it
+    /// is built (the masters of a graded mesh) or it has its own solvers (the 1D blend), or it
+    /// offers nothing beyond an assembled `A` (a coarsened level); its solve plans from the built
+    /// model ([`linpd_solve::solve_model`]).
+    fn offers(&self, p: &Problem, unknowns: usize) -> Option<linpd_solve::Offers> {
+        let _ = (p, unknowns);
+        None
+    }
     /// The line `linpd validate` prints after `valid; `.
     fn summary(&self, p: &Problem) -> String {
         let head = format!("{} model, dimension {}, {} nodes", self.name(), p.dim(), p.nodes().len());
@@ -138,7 +150,7 @@ pub trait SceneModel: Debug + Send + Sync {
     ) -> Result<Solution, ProblemError>;
     /// A failed static solve of its system as a scene error.
     fn static_error(&self, e: linpd_solve::StaticError) -> ProblemError {
-        super::solve::static_error(e)
+        static_error(e)
     }
     /// `E, nu, K, G` of its materials (`result.json`'s `material`, [`crate::elastic`]); none
     /// for a model whose moduli are not isotropic constants (a coarsened level).
@@ -153,7 +165,7 @@ pub trait SceneModel: Debug + Send + Sync {
     }
     /// Solves the scene ([`super::solve_system`] unless the model has its own solvers).
     fn solve(&self, p: &Problem, progress: &dyn Progress) -> Result<Solution, ProblemError> {
-        super::solve::solve_system(self, p, progress)
+        solve_system(self, p, progress)
     }
     /// The assembled stiffness over all DOFs that level 0 of a coarsening pipeline starts
     /// from ([`Capability::Coarsen`]).
@@ -216,5 +228,37 @@ impl dyn SceneModel + '_ {
     /// The model as `T`, if it is one.
     pub fn downcast<T: 'static>(&self) -> Option<&T> {
         self.as_any().downcast_ref()
+    }
+}
+
+/// The static solve every model shares: build the system, solve it with the scene's solver
+/// ([`linpd_solve::solve_model`]: support check, Dirichlet elimination, report), count the
+/// building time as assembly, add the model's notes, and make the solution.
+pub fn solve_system(
+    model: &(impl SceneModel + ?Sized),
+    p: &Problem,
+    progress: &dyn Progress,
+) -> Result<Solution, ProblemError> {
+    let t0 = Instant::now();
+    let system = model.system(p, Purpose::Solve, progress)?;
+    for note in &system.notes {
+        progress.phase(note);
+    }
+    let (u, mut report) = p.timed_solve(system.model(), &system.bc, &system.f, t0, progress)?;
+    report.timings.assemble += system.built_before;
+    report.memory_estimate_bytes = system.memory_estimate.map(|e| e + report.factor_bytes.unwrap_or(0.0));
+    for note in &system.notes {
+        report.notes.push(note.clone());
+    }
+    model.solution(p, &system, u, report)
+}
+
+/// A failed static solve as a scene error.
+pub(crate) fn static_error(e: StaticError) -> ProblemError {
+    match e {
+        StaticError::NothingFree => ProblemError::invalid("constraints", "every DOF is constrained: nothing to solve"),
+        e @ StaticError::Unsupported { .. } => ProblemError::Unsupported(e),
+        e @ StaticError::MatrixFreeUnavailable { .. } => ProblemError::invalid("solver.matrix_free", e.to_string()),
+        other => ProblemError::Static(other),
     }
 }

@@ -136,6 +136,8 @@ pub struct Problem {
     pub(crate) deformed_scale: Option<f64>,
     /// A rank's part of a distributed scene: the nodes are its window.
     pub(crate) part: Option<PartScene>,
+    /// The solver plan, made once from the model's offers and the solver ([`Problem::plan`]).
+    pub(crate) plan: Option<linpd_solve::SolvePlan>,
 }
 
 /// A rank's share of a distributed solution's force balance ([`Problem::part_balance`]): the
@@ -274,6 +276,32 @@ impl Problem {
     /// run, e.g. matrix-free LPS, fails at solve time with a typed error).
     pub fn set_solver(&mut self, solver: SolverSpec) {
         self.solver = solver;
+        self.make_plan();
+    }
+    /// What the static solve will run ([`linpd_solve::plan()`]): made once, when the scene is
+    /// validated (and again when [`Problem::set_solver`] changes the solver), from what the model
+    /// offers ([`crate::SceneModel::offers`]) with the scene's free DOFs; the memory guard counts
+    /// it and the solve runs it. `None` for a model that plans from its built operator.
+    pub fn plan(&self) -> Option<&linpd_solve::SolvePlan> {
+        self.plan.as_ref()
+    }
+    /// [`Problem::plan`] where a model's memory estimate needs it (its model declares offers).
+    pub(crate) fn planned(&self) -> Result<&linpd_solve::SolvePlan, ProblemError> {
+        self.plan.as_ref().ok_or_else(|| {
+            ProblemError::invalid("solver", format!("the {} model made no solver plan", self.model.describe()))
+        })
+    }
+    /// Makes [`Problem::plan`] from the model's offers with the scene's free DOFs.
+    pub(crate) fn make_plan(&mut self) {
+        let d = self.dim();
+        let mut held = vec![false; d * self.nodes.len()];
+        self.for_each_prescribed(&mut |node, a, _| held[d * node + a] = true);
+        let unknowns = held.iter().filter(|&&h| !h).count();
+        drop(held);
+        self.plan = self
+            .model
+            .offers(self, unknowns)
+            .map(|offers| linpd_solve::plan(&self.solver, &offers, &linpd_solve::statics::AutoParams::default()));
     }
     /// Output directory (`output.dir`, else `out/<name>`).
     pub fn output_dir(&self) -> &str {

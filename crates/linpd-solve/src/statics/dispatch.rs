@@ -1,7 +1,7 @@
-//! A model's reduced system to a runner: matrix-free CG when asked, matrix-free multigrid-CG
-//! when `auto`'s plan picks it ([`AutoParams::matrix_free`]; assembled and chosen again if CG
-//! stalls), else assembled ([`assemble_checked`]) and solved by [`solve_assembled_with_progress`]
-//! with the hints the model provides.
+//! A model's reduced system to the runner its plan names ([`crate::plan`]): matrix-free CG,
+//! `auto`'s matrix-free multigrid-CG (assembled and chosen again if CG stalls) or GMRES, else
+//! assembled ([`assemble_checked`]) and solved by [`solve_assembled_with_progress`] with the
+//! hints the model provides.
 
 use super::assembled::{solve_assembled_with_progress, MatrixHints};
 use super::auto::AutoParams;
@@ -10,6 +10,7 @@ use super::guards::{finite_matrix, finite_vector, REDUCED_LOAD};
 use super::runners::{matrix_free_cg, matrix_free_gmres, Solved};
 use crate::cost;
 use crate::krylov::cg::{CgError, CgParams};
+use crate::plan::{Offers, Route, SolvePlan};
 use crate::precond::DofGeometry;
 use crate::spec::{PreconditionerKind, SolverSpec};
 use crate::SolveError;
@@ -55,40 +56,43 @@ pub(super) fn at_free_dof(model: &dyn Model, dofs: &DofMap, e: SolveError) -> St
     }
 }
 
-/// Solves `system` with `spec`: matrix-free CG when asked (refused for a model that cannot
-/// run matrix-free or an unsymmetric operator), `auto`'s matrix-free multigrid-CG when its
-/// plan picks it, else assembled.
+/// Solves `system` by `plan` ([`crate::plan`]): the user's matrix-free CG (refused for a model
+/// that cannot run matrix-free or an unsymmetric operator), `auto`'s matrix-free multigrid-CG or
+/// GMRES, else assembled. A matrix-free route of `auto` that the built model does not offer
+/// (its plan was made from what its scene declared) runs assembled, with a note.
 pub(super) fn solve_system(
     system: &ModelSystem,
-    spec: &SolverSpec,
+    plan: &SolvePlan,
     progress: &dyn Progress,
 ) -> Result<Solved, StaticError> {
     let (model, dofs) = (system.model, system.dofs);
-    let auto = AutoParams::default();
-    Ok(match spec {
-        SolverSpec::Cg { params, preconditioner, matrix_free: true } => {
+    let spec = &plan.spec;
+    let offered = || Offers::of_model(model, dofs, system.asymmetry);
+    Ok(match (plan.route, spec) {
+        (Route::MatrixFreeCg(preconditioner), SolverSpec::Cg { params, .. }) => {
             if let Some(why) = model.matrix_free_unavailable() {
                 return Err(StaticError::MatrixFreeUnavailable { kind: model.kind(), why });
             }
             if system.asymmetry > SYMMETRY_RTOL {
                 return Err(StaticError::UnsymmetricForCg { kind: model.kind(), asymmetry: system.asymmetry });
             }
-            matrix_free_cg(model, dofs, system.rhs, params, *preconditioner, progress).map_err(|e| system.at_dof(e))?
+            matrix_free_cg(model, dofs, system.rhs, params, preconditioner, progress).map_err(|e| system.at_dof(e))?
         }
-        SolverSpec::Auto(params)
-            if auto.matrix_free(model.dim(), dofs.n_free(), system.asymmetry <= SYMMETRY_RTOL, || {
-                offers_matrix_free(model)
-            }) =>
-        {
+        (Route::AutoMatrixFreeCg, SolverSpec::Auto(params)) if offered().fast_apply && offered().symmetric => {
             auto_matrix_free(system, spec, params, progress)?
         }
-        SolverSpec::Auto(params)
-            if system.asymmetry > SYMMETRY_RTOL
-                && auto.gmres_matrix_free(model.dim(), dofs.n_free(), || offers_companion_gmres(model)) =>
-        {
+        (Route::AutoMatrixFreeGmres, SolverSpec::Auto(params)) if offered().companion_gmres => {
             auto_matrix_free_gmres(system, spec, params, progress)?
         }
-        _ => assembled_solve(system, spec, progress)?,
+        (Route::Assembled, _) => assembled_solve(system, spec, progress)?,
+        (route, _) => {
+            let (u, mut report) = assembled_solve(system, spec, progress)?;
+            report.notes.insert(
+                0,
+                format!("planned {route:?}, which the built {} model does not offer: assembled", model.kind()),
+            );
+            (u, report)
+        }
     })
 }
 
@@ -132,28 +136,6 @@ fn auto_matrix_free_gmres(
         }
         Err(e) => Err(system.at_dof(e)),
     }
-}
-
-/// Whether `model` can run [`matrix_free_gmres`]: it runs matrix-free and offers an SPD
-/// companion with block rows ([`Model::multigrid_companion`], [`Model::for_each_block`]); of
-/// linpd's models, the blend on a graded local mesh (the LPS tangent, which offers its pair
-/// part, is symmetric and goes to matrix-free CG).
-fn offers_companion_gmres(model: &dyn Model) -> bool {
-    model.matrix_free_unavailable().is_none()
-        && model.n_nodes() > 0
-        && model.multigrid_companion().is_some_and(|c| c.for_each_block(0, &mut |_, _| {}))
-}
-
-/// Whether `model` can run `auto`'s matrix-free multigrid-CG: it runs matrix-free, has a fast
-/// apply (a lattice stencil) and block rows ([`Model::for_each_block`], which the multigrid
-/// setup reads instead of a stored matrix), its own or its companion's
-/// ([`Model::multigrid_companion`]).
-fn offers_matrix_free(model: &dyn Model) -> bool {
-    let has_blocks = |m: &dyn Model| m.for_each_block(0, &mut |_, _| {});
-    model.matrix_free_unavailable().is_none()
-        && model.n_nodes() > 0
-        && model.fast_apply().is_some()
-        && model.multigrid_companion().map_or_else(|| has_blocks(model), |c| has_blocks(&*c))
 }
 
 /// `auto`'s matrix-free multigrid-CG; when CG stalls above `rtol`, the assembled choice.

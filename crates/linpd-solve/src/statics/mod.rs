@@ -45,4 +45,4 @@ pub use assembled::{solve_assembled, solve_assembled_with_progress, MatrixHints}
 pub use auto::AutoParams;
 pub use error::StaticError;
 pub use guards::{finite_matrix, finite_vector};
-pub use model::{reduced_rhs_checked, reduced_rhs_of_rows, reduced_system, solve_model, StaticSolution};
+pub use model::{reduced_rhs_checked, reduced_rhs_of_rows, reduced_system, solve_model, solve_planned, StaticSolution};

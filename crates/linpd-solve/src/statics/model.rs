@@ -2,11 +2,13 @@
 //! reduced system it hands a solver, for callers that solve it themselves ([`reduced_system`],
 //! [`reduced_rhs_checked`]).
 
+use super::auto::AutoParams;
 use super::dispatch::at_free_dof;
 use super::dispatch::{assemble_checked, solve_system, ModelSystem};
 use super::error::StaticError;
 use super::guards::{check_static, finite_vector, nonzero_diagonal, REDUCED_LOAD};
 use crate::bc::Dirichlet;
+use crate::plan::{Offers, SolvePlan};
 use crate::report::SolveReport;
 use crate::spec::SolverSpec;
 use linpd_core::progress::Progress;
@@ -34,13 +36,51 @@ pub fn solve_model(
     spec: &SolverSpec,
     progress: &dyn Progress,
 ) -> Result<StaticSolution, StaticError> {
+    solve_with(model, bc, f, Plan::FromModel(spec), progress)
+}
+
+/// [`solve_model`] by a plan made before the model was built ([`crate::plan::plan`], from the
+/// offers a scene's model declared): the solve runs what the plan names and what the memory
+/// guard counted.
+pub fn solve_planned(
+    model: &dyn Model,
+    bc: &Dirichlet,
+    f: &[f64],
+    plan: &SolvePlan,
+    progress: &dyn Progress,
+) -> Result<StaticSolution, StaticError> {
+    solve_with(model, bc, f, Plan::Given(plan), progress)
+}
+
+/// A given plan, or one to make from the built model.
+enum Plan<'a> {
+    Given(&'a SolvePlan),
+    FromModel(&'a SolverSpec),
+}
+
+fn solve_with(
+    model: &dyn Model,
+    bc: &Dirichlet,
+    f: &[f64],
+    plan: Plan,
+    progress: &dyn Progress,
+) -> Result<StaticSolution, StaticError> {
     let dofs = bc.dofs();
     check_static(model, bc, f)?;
     let t0 = Instant::now();
     // Checked once the operator is known to be finite (an infinite A makes it NaN too).
     let rhs = bc.reduced_rhs(&ModelOperator(model), f);
     let system = ModelSystem { model, dofs, rhs: &rhs, asymmetry: model.asymmetry(dofs) };
-    let (u_free, mut report) = solve_system(&system, spec, progress)?;
+    let made;
+    let plan = match plan {
+        Plan::Given(p) => p,
+        Plan::FromModel(spec) => {
+            let offers = Offers::of_model(model, dofs, system.asymmetry);
+            made = crate::plan::plan(spec, &offers, &AutoParams::default());
+            &made
+        }
+    };
+    let (u_free, mut report) = solve_system(&system, plan, progress)?;
     // Everything outside the solver proper: the right-hand side, the assembly, the diagonal.
     report.timings.assemble = t0.elapsed().as_secs_f64() - report.timings.total;
     let u = bc.expand(&u_free);
