@@ -1,10 +1,14 @@
 //! linpd: linear peridynamics — sparse operators, solvers and studies.
 //!
 //! This facade re-exports the workspace crates:
-//! [`core`] (grids, families, kernels, materials), [`bond`] (bond-based operator),
-//! [`solve`] (solvers), [`problem`] (JSON scenes), [`blend`] (1D blended PD/CE),
-//! [`lps`] (linearized LPS), [`coarsen`] (Silling 2010 coarsening) and [`dynamics`]
-//! (velocity Verlet, dispersion, stability); with the features of the same names (all on by
+//! [`core`] (grids, families, kernels, materials, the `Model` trait, nodal strain, memory
+//! guards), [`io`] (every file format), [`bond`] (bond-based operator), [`lps`] (linearized
+//! LPS), [`blend`] (blended PD / local models in 1D, 2D and 3D, the graded mesh and the graded
+//! blend), [`coarsen`] (Silling 2010 coarsening), [`dynamics`] (velocity Verlet, dispersion,
+//! stability), [`solve`] (the solver plan, direct and Krylov solvers, preconditioners, the one
+//! static solve), [`scene`] (JSON scenes: schema, validation, one module per model type, the
+//! solve and its result) and [`problem`] (the commands on a scene: export, rows, pipelines,
+//! dynamics runs, atomic outputs; it re-exports [`scene`]); with the features of the same names (all on by
 //! default, through `cli`) also `plot` (figures), `studies` (`linpd study`, the paper studies)
 //! and `bench` (`linpd bench`). Without default features the library needs neither clap nor
 //! plotters.

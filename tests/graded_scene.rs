@@ -194,7 +194,7 @@ fn bad_local_meshes_are_named() {
     v["model"]["local_mesh"] = json!({"max_cell": 0.16});
     let p = Problem::from_json(&v.to_string()).unwrap();
     let e = linpd::problem::export::reduced_system(&p, &NoProgress).map(|_| ()).unwrap_err().to_string();
-    assert!(e.contains("model.local_mesh") && e.contains("linpd solve"), "{e}");
+    assert!(e.starts_with("model.type: ") && e.contains("local_mesh") && e.contains("linpd solve"), "{e}");
 }
 
 /// result.vtu of a graded scene holds the mesh's nodes and its leaves as quads, read

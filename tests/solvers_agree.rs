@@ -21,7 +21,7 @@ fn every_solver_gives_the_same_displacements() {
     let mut solutions = Vec::new();
     let cg = CgParams { rtol: 1e-12, max_iter: 50_000 };
     let cg_spec =
-        |matrix_free| SolverSpec::Cg { params: cg.clone(), preconditioner: PreconditionerKind::Jacobi, matrix_free };
+        |matrix_free| SolverSpec::Cg { params: cg.clone(), preconditioner: PreconditionerKind::JACOBI, matrix_free };
     for spec in [SolverSpec::Cholesky, SolverSpec::Lu, SolverSpec::Dense, cg_spec(false), cg_spec(true)] {
         let mut p = base.clone();
         p.set_solver(spec);
@@ -239,12 +239,12 @@ fn multigrid_cg_agrees_with_cholesky_on_bond_lps_and_heterogeneous_scenes() {
         };
         let chol = if base.dim() == 3 {
             let params = CgParams { rtol: 1e-13, max_iter: 20_000 };
-            solve(SolverSpec::Cg { params, preconditioner: PreconditionerKind::Jacobi, matrix_free: false })
+            solve(SolverSpec::Cg { params, preconditioner: PreconditionerKind::JACOBI, matrix_free: false })
         } else {
             solve(SolverSpec::Cholesky)
         };
         let params = CgParams { rtol: 1e-12, max_iter: 200 };
-        let mg = solve(SolverSpec::Cg { params, preconditioner: PreconditionerKind::Multigrid, matrix_free: false });
+        let mg = solve(SolverSpec::Cg { params, preconditioner: PreconditionerKind::MULTIGRID, matrix_free: false });
         assert_eq!(mg.report.solver.to_string(), "cg-multigrid", "{name}");
         let it = mg.report.iterations.unwrap();
         assert!(it <= cap, "{name}: {it} iterations (cap {cap})");
@@ -263,7 +263,7 @@ fn multigrid_cg_agrees_with_cholesky_on_bond_lps_and_heterogeneous_scenes() {
             continue;
         }
         let params = CgParams { rtol: 1e-12, max_iter: 200 };
-        let mf = solve(SolverSpec::Cg { params, preconditioner: PreconditionerKind::Multigrid, matrix_free: true });
+        let mf = solve(SolverSpec::Cg { params, preconditioner: PreconditionerKind::MULTIGRID, matrix_free: true });
         // the cracked plate and the two-material bar leave the plain stencil: the stencil with
         // their cut and interface bonds applies them (linpd_bond::CorrectedStencil)
         let fast = if name.starts_with("plate-crack") || name.starts_with("composite") {
@@ -295,7 +295,7 @@ fn multigrid_cg_agrees_with_cholesky_on_bond_lps_and_heterogeneous_scenes() {
 /// Multigrid-CG to rtol 1e-12, on the assembled matrix or matrix-free.
 fn multigrid_cg(matrix_free: bool) -> SolverSpec {
     let params = CgParams { rtol: 1e-12, max_iter: 500 };
-    SolverSpec::Cg { params, preconditioner: PreconditionerKind::Multigrid, matrix_free }
+    SolverSpec::Cg { params, preconditioner: PreconditionerKind::MULTIGRID, matrix_free }
 }
 
 /// `max |a - b| / max |b|`.

@@ -133,7 +133,7 @@ fn multigrid_solver(params: &CgParams, matrix_free: bool) -> Option<(&'static st
     // Matrix-free: the finest level's blocks are computed on demand, never stored.
     let spec = linpd_solve::SolverSpec::Cg {
         params: params.clone(),
-        preconditioner: linpd_solve::PreconditionerKind::Multigrid,
+        preconditioner: linpd_solve::PreconditionerKind::MULTIGRID,
         matrix_free,
     };
     Some(("cg-multigrid", spec))

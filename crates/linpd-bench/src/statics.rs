@@ -120,14 +120,14 @@ fn solvers(dim: usize, n: usize, direct_max_3d: usize) -> Vec<(&'static str, Sol
     let mf = n >= MATRIX_FREE_FROM;
     let mut v = vec![(
         "cg-jacobi",
-        SolverSpec::Cg { params: params.clone(), preconditioner: PreconditionerKind::Jacobi, matrix_free: mf },
+        SolverSpec::Cg { params: params.clone(), preconditioner: PreconditionerKind::JACOBI, matrix_free: mf },
     )];
     v.extend(crate::multigrid_solver(&params, mf));
     if !mf {
         // The matrix-free finest level beside the assembled one: same iterations, the memory
         // and time of not storing A (what `auto` runs on these lattices).
         let spec =
-            SolverSpec::Cg { params: params.clone(), preconditioner: PreconditionerKind::Multigrid, matrix_free: true };
+            SolverSpec::Cg { params: params.clone(), preconditioner: PreconditionerKind::MULTIGRID, matrix_free: true };
         v.push(("cg-multigrid-mf", spec));
     }
     if dim == 2 || n <= direct_max_3d {

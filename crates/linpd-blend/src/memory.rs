@@ -8,7 +8,7 @@
 pub const BLEND_ENTRY_BYTES: f64 = 64.0;
 
 /// Per lattice node of a graded blend (no bonds: those are built near the fine cells only and
-/// checked with the masters, [`linpd_blend::GradedBlend::new`]): `beta` and the distance
+/// checked with the masters, [`crate::GradedBlend::new`]): `beta` and the distance
 /// transforms, the per-node flags, the mesh's cell levels and distances (the constraints, the
 /// loads and the balance reach the masters without lattice-sized vectors). Measured: 23 bytes
 /// a node at the peak of the build on the 15.8M-node penny block of `linpd study penny-sneddon`.

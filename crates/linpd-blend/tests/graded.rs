@@ -1,4 +1,4 @@
-//! The graded local mesh (`linpd_blend::graded`, issue #31): the ungraded mesh is the lattice's
+//! The graded local mesh (`linpd_blend::graded_mesh`, issue #31): the ungraded mesh is the lattice's
 //! element assembly, the tree is a tiling that keeps the grading and 2:1 balance rules, the
 //! hanging-node constraints pass the patch test in 2D and 3D, affine energies are exact, and
 //! the unknowns fall against the uniform mesh.
@@ -6,7 +6,7 @@
 use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, Side};
-use linpd_blend::graded::{Cell, GradedMesh, Grading, LatticeBox};
+use linpd_blend::graded_mesh::{Cell, GradedMesh, Grading, GradingError, LatticeBox};
 use linpd_blend::LatticeBlend;
 use linpd_bond::BondOperator;
 use linpd_core::sparse::Csc;
@@ -83,7 +83,7 @@ fn no_grading_is_the_lattice_element_assembly() {
         let blend = LatticeBlend::new(&op, &g, 3.0 * h, vec![0.0; g.len()], None, &vec![false; g.len()]).unwrap();
         let counts = g.counts();
         let lattice = LatticeBox::new(&vec![0.5 * h; dim], h, &counts[..dim]).unwrap();
-        let mesh = GradedMesh::new(&lattice, &|_| true, Grading { cells_per_level: 1, max_level: 4 }).unwrap();
+        let mesh = GradedMesh::new(&lattice, &|_| true, Grading::new(1, 4).unwrap()).unwrap();
         assert!(mesh.hanging().is_empty() && mesh.cells().iter().all(|e| e.level == 0));
         assert_eq!(mesh.n_masters(), g.len());
         let d_i: Vec<[f64; 81]> = (0..g.len()).map(|i| node_moduli(&op, dim, i)).collect();
@@ -182,7 +182,7 @@ fn tiling_grading_and_balance_on_irregular_regions() {
     for (n, fine) in cases {
         for m in [1, 2, 3] {
             let lattice = LatticeBox::new(&vec![0.0; n.len()], 0.1, n).unwrap();
-            let mesh = GradedMesh::new(&lattice, fine, Grading { cells_per_level: m, max_level: 5 }).unwrap();
+            let mesh = GradedMesh::new(&lattice, fine, Grading::new(m, 5).unwrap()).unwrap();
             let top = mesh.cells().iter().map(|e| e.level).max().unwrap();
             println!(
                 "{n:?}, m = {m}: {} leaves up to level {top}, {} hanging",
@@ -250,7 +250,7 @@ fn patch_test_across_hanging_nodes() {
         let d = n.len();
         let lattice = LatticeBox::new(&[-0.3, 0.2, 0.1][..d], 0.05, n).unwrap();
         let fine = disc([17.0, 23.0, 11.0], r);
-        let mesh = GradedMesh::new(&lattice, &fine, Grading { cells_per_level: 1, max_level: 4 }).unwrap();
+        let mesh = GradedMesh::new(&lattice, &fine, Grading::new(1, 4).unwrap()).unwrap();
         let hanging = mesh.hanging();
         let faces = hanging.iter().filter(|h| h.masters.len() == 4).count();
         assert!(hanging.len() > 10 && (d == 2 || faces > 0), "edge and face constraints exercised");
@@ -297,8 +297,7 @@ fn affine_energy_is_exact() {
         let d = n.len();
         let h = 0.1;
         let lattice = LatticeBox::new(&vec![0.0; d], h, n).unwrap();
-        let mesh =
-            GradedMesh::new(&lattice, &disc([9.0, 8.0, 7.0], r), Grading { cells_per_level: 2, max_level: 3 }).unwrap();
+        let mesh = GradedMesh::new(&lattice, &disc([9.0, 8.0, 7.0], r), Grading::new(2, 3).unwrap()).unwrap();
         assert!(!mesh.hanging().is_empty());
         // moduli varying per cell
         let c_of = |e: &Cell| isotropic(d, 1.0 + 0.3 * e.level as f64, 0.5 + 0.01 * (e.origin[0] % 7) as f64);
@@ -346,8 +345,9 @@ fn affine_energy_is_exact() {
 #[test]
 fn bad_grading_is_a_named_error() {
     let lattice = LatticeBox::new(&[0.0, 0.0], 0.1, &[9, 9]).unwrap();
-    let err = GradedMesh::new(&lattice, &|_| false, Grading { cells_per_level: 0, max_level: 3 }).unwrap_err();
-    assert!(err.to_string().contains("cells_per_level"), "{err}");
+    assert_eq!(Grading::new(0, 3), Err(GradingError::NoCellsPerLevel));
+    assert_eq!(Grading::new(1, Grading::MAX_LEVEL + 1), Err(GradingError::LevelTooHigh(Grading::MAX_LEVEL + 1)));
+    assert!(GradedMesh::new(&lattice, &|_| false, Grading::new(1, Grading::MAX_LEVEL).unwrap()).is_ok());
     assert!(LatticeBox::new(&[0.0], 0.1, &[9]).is_err());
     assert!(LatticeBox::new(&[0.0, 0.0], 0.0, &[9, 9]).is_err());
     assert!(LatticeBox::new(&[0.0, 0.0], 0.1, &[9, 1]).is_err());
@@ -365,8 +365,7 @@ fn unknowns_per_level_against_the_uniform_mesh() {
         let uniform: usize = n.iter().product();
         for m in [1, 2, 4] {
             let t0 = std::time::Instant::now();
-            let mesh =
-                GradedMesh::new(&lattice, &disc(centre, r), Grading { cells_per_level: m, max_level: 6 }).unwrap();
+            let mesh = GradedMesh::new(&lattice, &disc(centre, r), Grading::new(m, 6).unwrap()).unwrap();
             let built = t0.elapsed().as_secs_f64();
             println!("{n:?}, fine disc r = {r} h, cells_per_level = {m}: {} masters vs {uniform} uniform nodes ({:.4}x), built in {built:.3} s", mesh.n_masters(), mesh.n_masters() as f64 / uniform as f64);
             for c in mesh.counts() {
@@ -390,8 +389,7 @@ fn rows_one_at_a_time_are_the_assembled_rows() {
     for (n, r) in cases {
         let d = n.len();
         let lattice = LatticeBox::new(&vec![0.0; d], 0.05, n).unwrap();
-        let mesh = GradedMesh::new(&lattice, &disc([11.0, 9.0, 8.0], r), Grading { cells_per_level: 1, max_level: 3 })
-            .unwrap();
+        let mesh = GradedMesh::new(&lattice, &disc([11.0, 9.0, 8.0], r), Grading::new(1, 3).unwrap()).unwrap();
         assert!(!mesh.hanging().is_empty());
         let moduli = |e: &Cell| isotropic(d, 1.3 + e.level as f64, 0.7 + 0.1 * e.level as f64);
         let k = dense(&mesh.stiffness(&moduli));

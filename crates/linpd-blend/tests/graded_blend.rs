@@ -3,8 +3,8 @@
 //! and its solution of affine boundary data is the affine field; `P` interpolates affine fields
 //! exactly and `P^T` conserves force.
 
-use linpd_blend::graded::Grading;
 use linpd_blend::graded_blend::{Bond, FreeFaces, LocalMesh};
+use linpd_blend::graded_mesh::Grading;
 use linpd_blend::{beta_from_zone, GradedBlend, LatticeBlend, Profile};
 use linpd_bond::BondOperator;
 use linpd_core::sparse::Csc;
@@ -14,7 +14,7 @@ use linpd_solve::{solve_model, Dirichlet, SolverSpec};
 /// The graded blend on `g` (homogeneous, nothing kept) with one cell per level up to
 /// `max_level`.
 fn graded(g: &Grid, horizon: f64, beta: Vec<f64>, mirrored: &[bool], max_level: usize) -> GradedBlend {
-    let local = LocalMesh { grading: Grading { cells_per_level: 1, max_level }, free_faces: FreeFaces::Lattice };
+    let local = LocalMesh { grading: Grading::new(1, max_level).unwrap(), free_faces: FreeFaces::Lattice };
     GradedBlend::new(bond(horizon), g, beta, None, mirrored, &vec![false; g.len()], local).unwrap()
 }
 
@@ -237,7 +237,7 @@ fn bulk_free_faces_carry_the_bulk_stress() {
         let mut face_force = Vec::new();
         let mut n_masters = Vec::new();
         for free_faces in [FreeFaces::Bulk, FreeFaces::Lattice] {
-            let local = LocalMesh { grading: Grading { cells_per_level: 1, max_level: 2 }, free_faces };
+            let local = LocalMesh { grading: Grading::new(1, 2).unwrap(), free_faces };
             let graded =
                 GradedBlend::new(bond(horizon), &g, beta.clone(), None, &mirrored, &vec![false; g.len()], local)
                     .unwrap();

@@ -40,6 +40,7 @@ pub mod polygon_index;
 pub mod progress;
 pub mod region;
 pub mod sparse;
+pub mod strain;
 pub mod support;
 pub mod surface;
 

@@ -1,8 +1,9 @@
-//! Every file format of linpd, once: point clouds from CSV ([`cloud`], on the csv crate) and VTK
-//! ([`vtk`]: reading through vtkio, and the VTU/PVD writer of results and snapshots), Matrix
-//! Market and the level files of a coarsened model ([`mtx`]), nodal forces and prescribed
-//! displacements by node ([`nodal`]), PETSc's binary matrices and
-//! vectors ([`petsc`]). Errors are [`IoError`]: the file, and for text
+//! Every file format of linpd, once: point clouds from CSV ([`cloud`], on the csv crate), VTK
+//! ([`vtk`]: reading through vtkio, and the VTU/PVD writer of results and snapshots), Gmsh MSH
+//! 4.1 meshes and Peridigm's text discretization ([`mesh`], mshio) and Exodus II meshes
+//! ([`exodus`], netcdf3), a mesh as a node per element with its named sets, Matrix Market and the
+//! level files of a coarsened model ([`mtx`]), nodal forces and prescribed displacements by node
+//! ([`nodal`]), PETSc's binary matrices and vectors ([`petsc`]). Errors are [`IoError`]: the file, and for text
 //! formats the line (or the point) and what is wrong there.
 #![deny(missing_docs)]
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]

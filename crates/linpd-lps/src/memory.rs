@@ -33,17 +33,6 @@ pub fn lps_matrix_free_dof_bytes(dim: usize) -> f64 {
     }
 }
 
-/// Per DOF, what the pair part's multigrid adds to [`lps_matrix_free_dof_bytes`] besides its
-/// bond graph ([`GRAPH_BOND_BYTES`] a bond): the same fits with multigrid-CG put the peak
-/// 973-979 bytes a DOF above Jacobi's in 3D (163 of them the graph) and 373-379 in 2D (56).
-pub fn lps_multigrid_dof_bytes(dim: usize) -> f64 {
-    if dim == 3 {
-        820.0
-    } else {
-        320.0
-    }
-}
-
 /// Row nodes of a column of the LPS tangent: the distinct offsets `O - O` of the stencil `O`
 /// with 0, i.e. the lattice points within the 2-delta reach that two family members span.
 pub fn tangent_rows(dim: usize, ratio: f64) -> f64 {
@@ -57,7 +46,7 @@ pub fn tangent_rows(dim: usize, ratio: f64) -> f64 {
     set.len() as f64
 }
 
-/// Most column terms the LPS tangent's assembly may cost ([`check_lps_work`]): about 65 s at
+/// Most column terms the LPS tangent's assembly may cost (`linpd_scene::memory::check_lps_work`): about 65 s at
 /// the measured 6.5 ns per term (a 2,601-node 2D plate at `delta = 50 h`, every node in every
 /// family: 1.76e10 terms, 114 s of assembly), refused at validation above this instead of
 /// running for minutes.

@@ -17,7 +17,6 @@
 // scene's parts; the scene and its model's interface; the models; the static solve.
 pub mod capability;
 pub mod error;
-pub mod fields;
 pub mod json;
 pub mod memory;
 pub mod modes;
@@ -45,9 +44,11 @@ pub use balance::{Balance, ConstraintBalance, LoadBalance};
 pub use capability::Capability;
 pub use dynamics::{Dynamics, Initial, TimeStep};
 pub use error::ProblemError;
-pub use fields::{nodal_strain, NodalStrain};
 pub use json::MAX_JSON_BYTES;
 pub use linpd_core::sparse::restrict_to_free as reduce_to_free;
+/// The nodal strain of a solution (least squares over each node's partners), from linpd-core.
+pub use linpd_core::strain as fields;
+pub use linpd_core::strain::{nodal_strain, NodalStrain};
 pub use models::bond_model::{BondModel, Surface};
 pub use models::coarsened::{CoarsenedModel, ModuliFile};
 pub use models::lattice_blend::{PdRegions, PdZone};

@@ -27,13 +27,12 @@ use linpd_core::Grid;
 use linpd_dynamics::memory::DYNAMICS_DOF_BYTES;
 pub use linpd_lps::memory::lps_assembly_terms;
 use linpd_lps::memory::{
-    lps_matrix_free_dof_bytes, lps_multigrid_dof_bytes, tangent_rows, CLOUD_TANGENT_ENTRY_BYTES,
-    LPS_ASSEMBLY_TERMS_LIMIT, LPS_BOND_BYTES, TANGENT_ENTRY_BYTES,
+    lps_matrix_free_dof_bytes, tangent_rows, CLOUD_TANGENT_ENTRY_BYTES, LPS_ASSEMBLY_TERMS_LIMIT, LPS_BOND_BYTES,
+    TANGENT_ENTRY_BYTES,
 };
-use linpd_solve::memory::{
-    geometric_multigrid_bytes, multigrid_dof_bytes, stencil_multigrid_dof_bytes, ASSEMBLED_DOF_BYTES, GMRES_DOF_BYTES,
-    GRAPH_BOND_BYTES, MATRIX_FREE_DOF_BYTES,
-};
+use linpd_solve::memory::{ASSEMBLED_DOF_BYTES, GMRES_DOF_BYTES, MATRIX_FREE_DOF_BYTES};
+use linpd_solve::precond::kind::{Operator, SetupOn};
+use linpd_solve::PreconditionerKind;
 
 /// What a point cloud's estimate adds to the lattice formula of [`estimate_counts`] for `path`
 /// (`nb` bonds and `rows` tangent row nodes per node): the dearer entries of its assembly.
@@ -146,12 +145,13 @@ pub fn estimate_counts(path: Path, dim: usize, nodes: usize, nb: f64, rows: f64)
 /// The bytes of a lattice blend whose zones are known: `blocks` block rows' blocks over its
 /// `nodes` (Algorithm A's `|F| + 1` for a node with a nonlocal share, the `3^d` of the element
 /// stencil for a local one; the blend's `A` and `M` have about as many), with the bond
-/// operator's `bonds` and the solve's vectors (and `multigrid` hierarchy) per DOF. The
+/// operator's `bonds` and the solve's vectors per DOF, and the setup of the preconditioners `setup`. The
 /// estimate before the zones ([`Path::BlendAssembled`]) counts the bond model's entries, an
 /// upper bound: `"auto"` zones on a cracked plate keep 0.36x of them.
-pub fn blend_zone_bytes(dim: usize, nodes: usize, bonds: usize, blocks: f64, multigrid: bool) -> f64 {
+pub fn blend_zone_bytes(dim: usize, nodes: usize, bonds: usize, blocks: f64, setup: &[PreconditionerKind]) -> f64 {
     let (n, dofs) = (nodes as f64, (nodes * dim) as f64);
-    let hierarchy = if multigrid { dofs * multigrid_dof_bytes(dim, false) } else { 0.0 };
+    let on = SetupOn { dim, nodes, dofs: nodes * dim, operator: Operator::Assembled };
+    let (hierarchy, _) = setup_bytes(setup, &on);
     n * NODE_BYTES
         + bonds as f64 * BOND_BYTES
         + blocks * (dim * dim) as f64 * BLEND_ENTRY_BYTES
@@ -224,14 +224,14 @@ pub fn count_pairs(points: &[linpd_core::Point], dim: usize, radius: f64, stop: 
 /// (and, for the LPS tangent, the node pairs within its 2-delta reach) counted by
 /// [`count_pairs`] before any family is allocated. The mean spacing says nothing about a
 /// cloud's families: 3,000 nodes within one horizon hold 9e6 bonds (1.2 GB assembled) however
-/// large their volumes. `multigrid`: the solver builds a multigrid hierarchy (`auto` on a bond
-/// cloud does). `Ok` holds the estimate in bytes.
+/// large their volumes. `setup`: the preconditioners the solver plan sets up (`auto` on a bond
+/// cloud may build a multigrid hierarchy). `Ok` holds the estimate in bytes.
 pub fn check_cloud(
     path: Path,
     dim: usize,
     points: &[linpd_core::Point],
     horizon: f64,
-    multigrid: bool,
+    setup: &[PreconditionerKind],
 ) -> Result<f64, ProblemError> {
     let n = points.len();
     let nf = (n as f64).max(1.0);
@@ -259,10 +259,9 @@ pub fn check_cloud(
     let rows = rows.max(nb + 1.0);
     let (mut what, mut bytes) = estimate_counts(path, dim, n, nb, rows);
     bytes += cloud_extra(path, dim, n, nb, rows);
-    if multigrid {
-        bytes += (n * dim) as f64 * multigrid_dof_bytes(dim, false);
-        what += " and its multigrid hierarchy";
-    }
+    let (extra, said) = setup_bytes(setup, &SetupOn { dim, nodes: n, dofs: n * dim, operator: Operator::Assembled });
+    bytes += extra;
+    what += &said;
     let how = if partial || p { "extrapolated from the families counted" } else { "counted within the horizon" };
     memory::check(
         format!("{what} ({how})"),
@@ -300,28 +299,43 @@ pub fn stencil_path(grid: &Grid, horizon: f64, micromodulus: &linpd_core::Microm
 /// `Err` (at `model.horizon`) when `path` would not fit in the available memory; `Ok` holds
 /// the estimate in bytes.
 pub fn check(path: Path, grid: &Grid, horizon: f64) -> Result<f64, ProblemError> {
-    check_solver(path, grid, horizon, false)
+    check_solver(path, grid, horizon, &[])
 }
 
-/// [`check`] with the multigrid hierarchy counted when `multigrid` (the solver is known).
-pub fn check_solver(path: Path, grid: &Grid, horizon: f64, multigrid: bool) -> Result<f64, ProblemError> {
-    let (mut what, mut bytes) = estimate(path, grid, horizon);
-    if multigrid {
-        let dofs = (grid.len() * grid.dim()) as f64;
-        bytes += match path {
-            Path::BondStencilGeometric => geometric_multigrid_bytes(grid.len(), horizon / grid.spacing()),
-            Path::BondStencil | Path::LpsMatrixFree => {
-                let nb = neighbours(grid.dim(), horizon / grid.spacing()).min(grid.len() as f64);
-                let per_dof = match path {
-                    Path::LpsMatrixFree => lps_multigrid_dof_bytes(grid.dim()),
-                    _ => stencil_multigrid_dof_bytes(grid.dim()),
-                };
-                dofs * per_dof + grid.len() as f64 * nb * GRAPH_BOND_BYTES
-            }
-            _ => dofs * multigrid_dof_bytes(grid.dim(), path == Path::BondMatrixFree),
-        };
-        what += " and its multigrid hierarchy";
+/// The operator the preconditioner of `path` on `grid` is set up on ([`SetupOn`]): the
+/// assembled matrix, the per-bond matrix-free operator, the stencil's bond graph, the
+/// geometric lattice or the LPS pair part.
+pub fn setup_on(path: Path, grid: &Grid, horizon: f64) -> SetupOn {
+    let (dim, nodes) = (grid.dim(), grid.len());
+    let ratio = horizon / grid.spacing();
+    let bonds = || neighbours(dim, ratio).min(nodes as f64);
+    let operator = match path {
+        Path::BondStencilGeometric => Operator::GeometricStencil { ratio },
+        Path::BondStencil => Operator::Stencil { bonds: bonds() },
+        Path::LpsMatrixFree => Operator::Companion { bonds: bonds() },
+        Path::BondMatrixFree => Operator::MatrixFree,
+        _ => Operator::Assembled,
+    };
+    SetupOn { dim, nodes, dofs: nodes * dim, operator }
+}
+
+/// The largest setup of the preconditioners `setup` (a solver plan's,
+/// [`linpd_solve::SolvePlan::preconditioners`]) on `on`, and what it adds to a description.
+fn setup_bytes(setup: &[PreconditionerKind], on: &SetupOn) -> (f64, String) {
+    let largest = setup.iter().map(|k| (k.hierarchy_bytes(on), *k)).max_by(|x, y| x.0.total_cmp(&y.0));
+    match largest {
+        Some((bytes, k)) if bytes > 0.0 && k.multilevel() => (bytes, " and its multigrid hierarchy".into()),
+        Some((bytes, k)) if bytes > 0.0 => (bytes, format!(" and its {} preconditioner", k.name())),
+        _ => (0.0, String::new()),
     }
+}
+
+/// [`check`] with the setup of the preconditioners `setup` counted (the solver plan's).
+pub fn check_solver(path: Path, grid: &Grid, horizon: f64, setup: &[PreconditionerKind]) -> Result<f64, ProblemError> {
+    let (mut what, mut bytes) = estimate(path, grid, horizon);
+    let (extra, said) = setup_bytes(setup, &setup_on(path, grid, horizon));
+    bytes += extra;
+    what += &said;
     let hint = match path {
         Path::BondAssembled => "use a coarser spacing, a smaller horizon or the matrix-free cg solver",
         Path::BlendAssembled | Path::GradedBlendLattice => {

@@ -750,17 +750,7 @@ pub struct RawSolver {
     pub matrix_free: bool,
     /// CG preconditioner (default `jacobi`).
     #[serde(default)]
-    pub preconditioner: Option<RawPreconditioner>,
-}
-
-/// `solver.preconditioner`: one name per [`linpd_solve::PreconditionerKind`].
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum RawPreconditioner {
-    /// `M = diag(A)`.
-    Jacobi,
-    /// Smoothed-aggregation AMG (one V-cycle).
-    Multigrid,
+    pub preconditioner: Option<String>,
 }
 
 /// `solver.type`.

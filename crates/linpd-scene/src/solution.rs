@@ -64,7 +64,7 @@ pub struct GradedMeshSummary {
     /// The lattice's nodes (pure PD's).
     pub lattice_nodes: usize,
     /// Leaves, masters and hanging nodes per level (cells of side `h 2^level`).
-    pub levels: Vec<linpd_blend::graded::LevelCounts>,
+    pub levels: Vec<linpd_blend::graded_mesh::LevelCounts>,
     /// The mesh's masters (its regular nodes, unknowns).
     pub masters: usize,
     /// Nodes of no leaf (all their cells outside the body): unknowns of their own.

@@ -13,6 +13,7 @@ use linpd_core::{
     BondFamily, BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement,
     PlaneModel, Point, Region,
 };
+use linpd_solve::precond::kind::PRECONDITIONERS;
 use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
 use std::path::{Path, PathBuf};
 
@@ -33,7 +34,7 @@ pub struct Context<'a> {
     pub(crate) presences: Presences,
     /// The part's window of a point cloud, once [`cloud_nodes`] cut it.
     pub(crate) cloud: std::cell::RefCell<Option<crate::part::CloudWindow>>,
-    /// The validated `solver` section ([`solver_spec`], validated once, before the model).
+    /// The validated `solver` section (validated once, before the model).
     pub solver: SolverSpec,
 }
 
@@ -159,7 +160,7 @@ pub fn output_dir(dir: Option<&str>, name: &str) -> Result<String, ProblemError>
 /// The lattice of a scene with a `grid` (and optionally a `body`), checked against the
 /// horizon and the memory of `path` before anything per node is allocated.
 pub(crate) fn lattice(cx: &Context, horizon: f64, path: crate::memory::Path) -> Result<Grid, ProblemError> {
-    lattice_for(cx, horizon, None, &|_| (path, false))
+    lattice_for(cx, horizon, None, &|_| (path, Vec::new()))
 }
 
 /// [`lattice`] with the memory path and whether it builds a multigrid hierarchy decided on the
@@ -172,7 +173,7 @@ pub(crate) fn lattice_for(
     cx: &Context,
     horizon: f64,
     reaches: Option<usize>,
-    path_of: &dyn Fn(&Grid) -> (crate::memory::Path, bool),
+    path_of: &dyn Fn(&Grid) -> (crate::memory::Path, Vec<linpd_solve::PreconditionerKind>),
 ) -> Result<Grid, ProblemError> {
     let (raw, dim) = (cx.raw, cx.dim());
     let Some(raw_grid) = &raw.grid else {
@@ -201,8 +202,8 @@ pub(crate) fn lattice_for(
     };
     // Refuse scenes that cannot fit before anything per node is allocated (the regions below
     // already walk every node).
-    let (path, multigrid) = path_of(&grid);
-    let _ = crate::memory::check_solver(path, &grid, horizon, multigrid)?;
+    let (path, setup) = path_of(&grid);
+    let _ = crate::memory::check_solver(path, &grid, horizon, &setup)?;
     Ok(match &body {
         None if cut => {
             return Err(ProblemError::invalid("boundary_volumes", "\"cut\" needs a \"body\" whose boundary cuts cells"))
@@ -667,9 +668,16 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
     if (raw.rtol.is_some() || raw.max_iter.is_some()) && !(krylov || raw.kind == RawSolverKind::Auto) {
         return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg and gmres solvers only"));
     }
-    let preconditioner = match raw.preconditioner {
-        None | Some(RawPreconditioner::Jacobi) => PreconditionerKind::Jacobi,
-        Some(RawPreconditioner::Multigrid) => PreconditionerKind::Multigrid,
+    // one of the registry's names (linpd_solve::precond::kind::PRECONDITIONERS)
+    let preconditioner = match raw.preconditioner.as_deref() {
+        None => PreconditionerKind::default(),
+        Some(name) => PreconditionerKind::named(name).ok_or_else(|| {
+            let names: Vec<String> = PRECONDITIONERS.iter().map(|k| format!("`{}`", k.name())).collect();
+            ProblemError::invalid(
+                "solver.preconditioner",
+                format!("unknown variant `{name}`, expected one of {}", names.join(", ")),
+            )
+        })?,
     };
     if raw.preconditioner.is_some() && !krylov {
         return Err(ProblemError::invalid(
@@ -910,8 +918,8 @@ pub(crate) fn material_with_tags(
 }
 
 /// The nodes of a scene whose nodes come from a file (`"nodes"` instead of `"grid"`), checked
-/// against the horizon and the memory of `path` (with a multigrid hierarchy when `multigrid` of
-/// the node count says so; with `ball`, the bonds of a ball quadrature,
+/// against the horizon and the memory of `path` (with the setup of the preconditioners
+/// `setup` of the node count names; with `ball`, the bonds of a ball quadrature,
 /// which reach `delta + max R`: [`linpd_bond::quadrature`]); and their mean spacing
 /// ([`mean_spacing`]).
 ///
@@ -924,7 +932,7 @@ pub(crate) fn cloud_nodes(
     spec: &RawNodes,
     horizon: f64,
     (reaches, corrected): (Option<usize>, bool),
-    (path, multigrid): (crate::memory::Path, &dyn Fn(usize) -> bool),
+    (path, setup): (crate::memory::Path, &dyn Fn(usize) -> Vec<linpd_solve::PreconditionerKind>),
     ball: bool,
 ) -> Result<(LevelNodes, f64), ProblemError> {
     let raw = cx.raw;
@@ -1038,7 +1046,7 @@ pub(crate) fn cloud_nodes(
         }
         _ => return Err(ProblemError::invalid("nodes", "a cloud neither read nor streamed")),
     };
-    let _ = crate::memory::check_cloud(path, dim, &nodes.positions, reach, multigrid(nodes.positions.len()))?;
+    let _ = crate::memory::check_cloud(path, dim, &nodes.positions, reach, &setup(nodes.positions.len()))?;
     Ok((nodes, h))
 }
 

@@ -53,7 +53,7 @@ fn kept_plan_is_the_built_models() {
         routes.extend(check(&p, &name));
         if p.model().lacks(linpd_scene::Capability::MatrixFree).is_none() {
             let params = CgParams::default();
-            p.set_solver(SolverSpec::Cg { params, preconditioner: PreconditionerKind::Multigrid, matrix_free: true });
+            p.set_solver(SolverSpec::Cg { params, preconditioner: PreconditionerKind::MULTIGRID, matrix_free: true });
             routes.extend(check(&p, &name));
         }
     }

@@ -1,6 +1,6 @@
 //! Linear solvers for linpd, and the one static solve of a [`linpd_core::Model`].
 //!
-//! * [`plan`]: what a static solve will run (assembled or matrix-free, the preconditioner's
+//! * [`mod@plan`]: what a static solve will run (assembled or matrix-free, the preconditioner's
 //!   hierarchy), decided once from a model's offers and the solver asked for;
 //! * [`statics::solve_model`]: support check, Dirichlet elimination ([`bc`]), assembled or
 //!   matrix-free solve by the plan, report: every static solve in linpd goes through it;
@@ -34,12 +34,10 @@ pub use linpd_core::sparse::{diagonal, matvec, relative_residual, sym_matvec, Ge
 pub use linpd_core::LinearOperator;
 pub use plan::{plan, Apply, Hierarchy, Offers, Route, SolvePlan};
 pub use precond::amg::{rigid_body_modes, Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats};
+pub use precond::kind::{ModelInput, PreconditionerInput};
 pub use precond::{CoarseSpace, DofGeometry, FactorPreconditioner, Identity, Jacobi, LatticeMultigrid, Preconditioner};
 pub use report::{peak_rss_bytes, SolveReport, Timings};
-pub use spec::{
-    CholeskyOrdering, GmresPreconditioner, MatrixFree, ModelInput, PreconditionerInput, PreconditionerKind, SolverId,
-    SolverSpec,
-};
+pub use spec::{CholeskyOrdering, GmresPreconditioner, MatrixFree, PreconditionerKind, SolverId, SolverSpec};
 pub use statics::{
     reduced_rhs_checked, reduced_system, solve_assembled, solve_assembled_with_progress, solve_model, solve_planned,
     MatrixHints, StaticError, StaticSolution,

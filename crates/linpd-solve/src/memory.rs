@@ -1,5 +1,5 @@
 //! The bytes of the solvers' structures per DOF, for the memory guard of a scene (which sums
-//! what its solver plan names, [`crate::plan`]): the vectors of an assembled solve and of
+//! what its solver plan names, [`mod@crate::plan`]): the vectors of an assembled solve and of
 //! matrix-free CG, GMRES's Krylov basis, and the multigrid hierarchies (smoothed aggregation on
 //! an assembled matrix, on a matrix-free operator's block rows, on a lattice stencil's bond
 //! graph). Fits of measured peaks against the same runs with Jacobi; docs/robustness.md.
@@ -34,7 +34,7 @@ pub fn multigrid_dof_bytes(dim: usize, matrix_free: bool) -> f64 {
     }
 }
 
-/// Per DOF, what smoothed-aggregation multigrid adds to [`stencil_dof_bytes`] besides the bond
+/// Per DOF, what smoothed-aggregation multigrid adds to `linpd_scene::memory::stencil_dof_bytes` besides the bond
 /// graph it aggregates on ([`GRAPH_BOND_BYTES`] a bond): its setup's peak (the graph, the
 /// hierarchy, the filtered level-0 matrix) lies above the outputs'. Fits of the same two sizes
 /// with multigrid-CG: 3D at `delta = 2h` (54^3 / 74^3: 1207 B a DOF in all, 43 B of graph), 2D
@@ -59,4 +59,16 @@ pub fn geometric_multigrid_bytes(nodes: usize, ratio: f64) -> f64 {
     let coarse_nodes = nodes as f64 / 8.0;
     let nb = linpd_core::memory::neighbours(3, ratio / 2.0).min(coarse_nodes);
     coarse_nodes * (3.0 * stencil_multigrid_dof_bytes(3) + nb * GRAPH_BOND_BYTES)
+}
+
+/// Per DOF, what multigrid on an SPD companion's block rows adds to a matrix-free solve besides
+/// its bond graph ([`GRAPH_BOND_BYTES`] a bond), measured on the LPS tangent's pair part against
+/// `linpd_lps::memory::lps_matrix_free_dof_bytes`: the same fits with multigrid-CG put the peak
+/// 973-979 bytes a DOF above Jacobi's in 3D (163 of them the graph) and 373-379 in 2D (56).
+pub fn companion_multigrid_dof_bytes(dim: usize) -> f64 {
+    if dim == 3 {
+        820.0
+    } else {
+        320.0
+    }
 }

@@ -12,6 +12,7 @@
 //! Cholesky and PCG by the cost model of [`crate::cost`], which needs the matrix's symbolic
 //! analysis ([`crate::statics::auto`]), and the fallbacks when a choice fails at run time.
 
+use crate::precond::kind::SetupOn;
 use crate::spec::{PreconditionerKind, SolverSpec};
 use crate::statics::AutoParams;
 use linpd_core::sparse::SYMMETRY_RTOL;
@@ -118,6 +119,11 @@ pub struct SolvePlan {
     pub route: Route,
     /// The multigrid hierarchy it builds.
     pub hierarchy: Hierarchy,
+    /// The preconditioners it sets up: the one asked for, `auto`'s matrix-free multigrid, or
+    /// (`auto` on an assembled matrix, [`Hierarchy::Possible`]) each `auto` may choose; empty
+    /// for a direct solve. The memory guard counts the largest setup
+    /// ([`SolvePlan::setup_bytes`]).
+    pub preconditioners: Vec<PreconditionerKind>,
     /// The offers it was planned from.
     pub offers: Offers,
 }
@@ -136,6 +142,12 @@ impl SolvePlan {
     pub fn may_build_hierarchy(&self) -> bool {
         self.hierarchy != Hierarchy::None
     }
+
+    /// The bytes the preconditioner's setup adds on `on`: the largest of
+    /// [`SolvePlan::preconditioners`]' ([`PreconditionerKind::hierarchy_bytes`]), 0 for none.
+    pub fn setup_bytes(&self, on: &SetupOn) -> f64 {
+        self.preconditioners.iter().map(|k| k.hierarchy_bytes(on)).fold(0.0, f64::max)
+    }
 }
 
 /// The plan of a solve of a model offering `offers` with `spec` (see the module docs):
@@ -149,20 +161,35 @@ impl SolvePlan {
 ///   hierarchy in 2D and 3D ([`Hierarchy::Possible`]).
 pub fn plan(spec: &SolverSpec, offers: &Offers, auto: &AutoParams) -> SolvePlan {
     let (dim, n) = (offers.dim, offers.unknowns);
-    let (route, hierarchy) = match spec {
+    let multigrid = vec![PreconditionerKind::MULTIGRID];
+    let (route, hierarchy, preconditioners) = match spec {
         SolverSpec::Cg { preconditioner, matrix_free: true, .. } => {
-            (Route::MatrixFreeCg(*preconditioner), built_if(*preconditioner == PreconditionerKind::Multigrid))
+            (Route::MatrixFreeCg(*preconditioner), built_if(preconditioner.multilevel()), vec![*preconditioner])
         }
         SolverSpec::Auto(_) if auto.matrix_free(dim, n, offers.symmetric, || offers.fast_apply) => {
-            (Route::AutoMatrixFreeCg, Hierarchy::Built)
+            (Route::AutoMatrixFreeCg, Hierarchy::Built, multigrid)
         }
         SolverSpec::Auto(_) if !offers.symmetric && auto.gmres_matrix_free(dim, n, || offers.companion_gmres) => {
-            (Route::AutoMatrixFreeGmres, Hierarchy::Built)
+            (Route::AutoMatrixFreeGmres, Hierarchy::Built, multigrid)
         }
-        SolverSpec::Auto(_) if dim >= 2 => (Route::Assembled, Hierarchy::Possible),
-        s => (Route::Assembled, built_if(s.uses_multigrid())),
+        SolverSpec::Auto(_) if dim >= 2 => (Route::Assembled, Hierarchy::Possible, possible(offers, auto)),
+        SolverSpec::Cg { preconditioner, .. } | SolverSpec::Gmres { preconditioner, .. } => {
+            (Route::Assembled, built_if(preconditioner.multilevel()), vec![*preconditioner])
+        }
+        _ => (Route::Assembled, Hierarchy::None, Vec::new()),
     };
-    SolvePlan { spec: spec.clone(), route, hierarchy, offers: *offers }
+    SolvePlan { spec: spec.clone(), route, hierarchy, preconditioners, offers: *offers }
+}
+
+/// The preconditioners `auto` may set up on an assembled `A`: its candidates for a symmetric
+/// one ([`AutoParams::preconditioners`]), multigrid and Jacobi for GMRES on an unsymmetric one
+/// ([`AutoParams::plan_unsymmetric`]).
+fn possible(offers: &Offers, auto: &AutoParams) -> Vec<PreconditionerKind> {
+    if offers.symmetric {
+        auto.preconditioners.clone()
+    } else {
+        vec![PreconditionerKind::MULTIGRID, PreconditionerKind::JACOBI]
+    }
 }
 
 fn built_if(multigrid: bool) -> Hierarchy {
@@ -204,9 +231,9 @@ mod tests {
         // the user's solvers
         let cg =
             |preconditioner, matrix_free| SolverSpec::Cg { params: CgParams::default(), preconditioner, matrix_free };
-        let p = plan(&cg(PreconditionerKind::Multigrid, true), &offers(2, 10, true, false, false), &auto);
-        assert_eq!((p.route, p.hierarchy), (Route::MatrixFreeCg(PreconditionerKind::Multigrid), Hierarchy::Built));
-        let p = plan(&cg(PreconditionerKind::Jacobi, false), &offers(3, 10 * n, true, true, false), &auto);
+        let p = plan(&cg(PreconditionerKind::MULTIGRID, true), &offers(2, 10, true, false, false), &auto);
+        assert_eq!((p.route, p.hierarchy), (Route::MatrixFreeCg(PreconditionerKind::MULTIGRID), Hierarchy::Built));
+        let p = plan(&cg(PreconditionerKind::JACOBI, false), &offers(3, 10 * n, true, true, false), &auto);
         assert_eq!((p.route, p.hierarchy), (Route::Assembled, Hierarchy::None));
         let p = plan(&SolverSpec::Cholesky, &offers(3, 10 * n, true, true, false), &auto);
         assert_eq!((p.route, p.hierarchy), (Route::Assembled, Hierarchy::None));

@@ -2,91 +2,9 @@
 //! ran ([`SolverId`], in every [`crate::SolveReport`]).
 
 use crate::krylov::cg::CgParams;
-use crate::precond::{Amg, AmgError, AmgParams, DofGeometry, Jacobi, Preconditioner};
-use crate::SolveError;
-use linpd_core::sparse::Csc;
-use linpd_core::{DofMap, Model};
+pub use crate::precond::kind::PreconditionerKind;
 use serde::{Serialize, Serializer};
 use std::fmt;
-
-/// A preconditioner for the Krylov solvers (the scene's `solver.preconditioner`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum PreconditionerKind {
-    /// `M = diag(A)` ([`Jacobi`]).
-    #[default]
-    Jacobi,
-    /// One V-cycle of smoothed-aggregation AMG with the rigid-body modes as near-null space
-    /// ([`Amg`]); needs the assembled `A_ff`.
-    Multigrid,
-}
-
-impl PreconditionerKind {
-    /// The scene-file name (`"jacobi"`).
-    pub fn name(self) -> &'static str {
-        match self {
-            PreconditionerKind::Jacobi => "jacobi",
-            PreconditionerKind::Multigrid => "multigrid",
-        }
-    }
-
-    /// Builds the preconditioner from what the reduced operator offers.
-    pub fn build<'a>(self, input: &PreconditionerInput<'a>) -> Result<Box<dyn Preconditioner + 'a>, SolveError> {
-        match self {
-            PreconditionerKind::Jacobi => Ok(Box::new(Jacobi::new(input.diagonal)?)),
-            PreconditionerKind::Multigrid => {
-                let Some(a) = input.matrix else {
-                    let m = input.model.ok_or_else(|| {
-                        AmgError::Input("multigrid needs the assembled matrix or the model's blocks".into())
-                    })?;
-                    let known = input.geometry.map(|g| (g, input.diagonal));
-                    return Ok(Box::new(Amg::matrix_free_with(m.model, m.dofs, m.full, known, &AmgParams::default())?));
-                };
-                let amg = match input.geometry {
-                    Some(g) => Amg::from_geometry(a, g, &AmgParams::default())?,
-                    // A bare matrix: one unknown per node, constants as near-null space.
-                    None => {
-                        let rows: Vec<usize> = (0..a.nrows()).collect();
-                        Amg::with_near_null_space(a, &rows, &[vec![1.0; a.nrows()]], &AmgParams::default())?
-                    }
-                };
-                Ok(Box::new(amg))
-            }
-        }
-    }
-}
-
-/// What a preconditioner may be built from: the reduced operator `A_ff`'s diagonal, its
-/// assembled matrix when the solve assembled it, and where its unknowns sit.
-#[derive(Debug, Clone, Copy)]
-pub struct PreconditionerInput<'a> {
-    /// `diag(A_ff)`.
-    pub diagonal: &'a [f64],
-    /// `A_ff` (both triangles), `None` when the solve runs matrix-free.
-    pub matrix: Option<&'a Csc>,
-    /// Node and component of every unknown and the node positions (`None`: a bare matrix).
-    pub geometry: Option<&'a DofGeometry>,
-    /// The model itself, for a preconditioner that reads it on demand instead of the
-    /// assembled matrix (matrix-free multigrid).
-    pub model: Option<ModelInput<'a>>,
-}
-
-/// A model's `A_ff` without assembling it: the model, its free DOFs and its apply over all DOFs
-/// (e.g. the fast stencil).
-#[derive(Clone, Copy)]
-pub struct ModelInput<'a> {
-    /// The model.
-    pub model: &'a dyn Model,
-    /// Its free DOFs.
-    pub dofs: &'a DofMap,
-    /// `y = A x` over all DOFs.
-    pub full: &'a dyn linpd_core::LinearOperator,
-}
-
-impl fmt::Debug for ModelInput<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "ModelInput({} model, {} free DOFs)", self.model.kind(), self.dofs.n_free())
-    }
-}
 
 /// Which solver a static solve uses. Validated: a combination that cannot run (matrix-free
 /// with a direct solver) is not representable.
@@ -129,17 +47,18 @@ impl Default for SolverSpec {
 impl SolverSpec {
     /// Assembled Jacobi-PCG with these parameters.
     pub fn cg(params: CgParams) -> Self {
-        SolverSpec::Cg { params, preconditioner: PreconditionerKind::Jacobi, matrix_free: false }
+        SolverSpec::Cg { params, preconditioner: PreconditionerKind::JACOBI, matrix_free: false }
     }
 
     /// Whether the solve asked for the multigrid preconditioner (`auto` may pick it too; its
     /// cost model decides after the assembly).
     pub fn uses_multigrid(&self) -> bool {
-        matches!(
-            self,
-            SolverSpec::Cg { preconditioner: PreconditionerKind::Multigrid, .. }
-                | SolverSpec::Gmres { preconditioner: PreconditionerKind::Multigrid, .. }
-        )
+        match self {
+            SolverSpec::Cg { preconditioner, .. } | SolverSpec::Gmres { preconditioner, .. } => {
+                preconditioner.multilevel()
+            }
+            _ => false,
+        }
     }
 
     /// The solver `auto` stands for before looking at the matrix (other specs are returned

@@ -86,9 +86,10 @@
 //! Forces given on lattice nodes reach the masters as `P^T f` and the solution is drawn on
 //! every lattice node as `P u_M` ([`GradedMesh::interpolation_row`]).
 
+mod fields;
 mod operator;
 
-use crate::graded::{Cell, GradedMesh, Grading, LatticeBox};
+use crate::graded_mesh::{Cell, GradedMesh, Grading, LatticeBox};
 use crate::lattice::{
     cells_at, element_moduli, node_moduli, squared_lattice_distances, BlendRows, BlockRow, RowBuilder,
 };
@@ -139,11 +140,7 @@ impl LocalMesh {
     /// `FreeFaces::Bulk` needs a material without phases.
     fn check(&self, homogeneous: bool) -> Result<(), BlendError> {
         if self.free_faces == FreeFaces::Bulk && !homogeneous {
-            return Err(BlendError::param(
-                "local_mesh.free_faces",
-                "\"bulk\" needs a material without phases (a coarse cell over several phases averages its lattice \
-                 cells' moduli, the faces' softened ones too)",
-            ));
+            return Err(BlendError::BulkFacesWithPhases);
         }
         Ok(())
     }
@@ -202,7 +199,7 @@ impl GradedBlend {
         let (d, n, h, horizon) = (grid.dim(), grid.len(), grid.spacing(), bond.horizon);
         crate::lattice::check_inputs(d, n, &beta, mirrored)?;
         if keep.len() != n || regular.is_some_and(|r| r.len() != n) {
-            return Err(BlendError::param("local_mesh", format!("keep or regular flags not one per node of {n}")));
+            return Err(BlendError::Inputs(format!("keep or regular flags not one per node of {n}")));
         }
         let ratio = horizon / h;
         // with phases a coarse cell sums its lattice cells' moduli, which needs every node's
@@ -229,12 +226,11 @@ impl GradedBlend {
             ),
             estimate,
             "use a larger max_cell or fewer cells_per_level, or a coarser spacing",
-        )
-        .map_err(|e| BlendError::param("model.local_mesh", e.to_string()))?;
+        )?;
 
-        let sub = if homogeneous { grid.with_nodes(&window).map_err(core_error)? } else { grid.clone() };
+        let sub = if homogeneous { grid.with_nodes(&window)? } else { grid.clone() };
         drop(window);
-        let op = BondOperator::on_grid(&sub, horizon, bond.micromodulus, bond.material).map_err(core_error)?;
+        let op = BondOperator::on_grid(&sub, horizon, bond.micromodulus, bond.material)?;
         // node of the lattice of every node of the window, and the other way round
         let full_of: Vec<usize> = (0..sub.len())
             .map(|w| grid.node_at(sub.lattice_index(w)).expect("the window is a sub-grid of the lattice"))
@@ -266,13 +262,10 @@ impl GradedBlend {
         let across = sub.counts().iter().max().map_or(0.0, |&c| c as f64 - 1.0);
         let reach = (ratio.ceil() + 1.0).min(across) as i32;
         let unkept = |w: usize, j: usize| {
-            BlendError::param(
-                "local_mesh",
-                format!(
-                    "the row of lattice node {} reads node {}, which the graded mesh does not keep",
-                    full_of[w], full_of[j]
-                ),
-            )
+            BlendError::Invalid(format!(
+                "the row of lattice node {} reads node {}, which the graded mesh does not keep",
+                full_of[w], full_of[j]
+            ))
         };
         let beta_w = full_of.iter().map(|&i| beta[i]).collect();
         drop(beta);
@@ -446,7 +439,7 @@ fn rests(
     d: usize,
     rows: &BlendRows,
     shares: &Shares,
-    k_rows: &crate::graded::RowAssembler,
+    k_rows: &crate::graded_mesh::RowAssembler,
     moduli: &(dyn Fn(&Cell) -> [f64; 81] + Sync),
     unkept: &(dyn Fn(usize, usize) -> BlendError + Sync),
 ) -> Result<(BlockCsr, BlockCsr), BlendError> {
@@ -675,15 +668,10 @@ fn bulk_moduli(bond: Bond<'_>, grid: &Grid) -> Result<[f64; 81], BlendError> {
     let (d, h) = (grid.dim(), grid.spacing());
     let r = (bond.horizon / h * (1.0 + GEOMETRY_RTOL)).ceil() as usize + 1;
     let side = vec![2.0 * r as f64 * h; d];
-    let small = Grid::new(&vec![0.0; d], &side, h, 0.0, grid.placement()).map_err(core_error)?;
-    let op =
-        BondOperator::on_grid(&small, bond.horizon, bond.micromodulus, &Material::default()).map_err(core_error)?;
+    let small = Grid::new(&vec![0.0; d], &side, h, 0.0, grid.placement())?;
+    let op = BondOperator::on_grid(&small, bond.horizon, bond.micromodulus, &Material::default())?;
     let centre = small.node_at_site([0, 1, 2].map(|a| if a < d { r } else { 0 })).expect("the box has its centre");
     Ok(node_moduli(&op, &small, centre, false))
-}
-
-fn core_error(e: linpd_core::CoreError) -> BlendError {
-    BlendError::param("model", e.to_string())
 }
 
 /// Whether node `i` is within `r` sites of a face of the lattice box.

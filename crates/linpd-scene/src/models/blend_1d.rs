@@ -7,7 +7,7 @@
 //! (discrete normalization, the paper's `eps^2 -> N(N+1) dx^2`); constraints must fix exactly the
 //! end nodes `x = 0` and `x = L`; loads are point loads on nodes (`b_i = delta_ip / dx` is a
 //! unit force) or body-force densities on boxes; `model.material` (phases, bond rule, defects)
-//! is the bond model's, entering the blended rows as [`linpd_blend::material`] derives.
+//! is the bond model's, entering the blended rows as [`linpd_blend::one_d::material`] derives.
 //! Solutions carry the force balance: per load its nodes and force, per constraint its
 //! reaction ([`linpd_blend::BlendSolution::reactions`]).
 

@@ -42,9 +42,9 @@ impl ModelType for BondType {
         let path_of = |grid: &linpd_core::Grid| {
             let plan = || linpd_solve::plan(&cx.solver, &self::offers(&raw, grid), &Default::default());
             match (cx.raw.dynamics.is_some(), &raw.pd_regions) {
-                (_, Some(_)) if raw.local_mesh.is_some() => (Path::GradedBlendLattice, false),
-                (_, Some(_)) => (Path::BlendAssembled, plan().may_build_hierarchy()),
-                (true, None) => (Path::BondDynamics, false),
+                (_, Some(_)) if raw.local_mesh.is_some() => (Path::GradedBlendLattice, Vec::new()),
+                (_, Some(_)) => (Path::BlendAssembled, plan().preconditioners),
+                (true, None) => (Path::BondDynamics, Vec::new()),
                 (false, None) => {
                     let stencil = (plain && grid.is_full() && grid.has_uniform_volumes())
                         .then(|| crate::memory::stencil_path(grid, raw.horizon, &micromodulus));

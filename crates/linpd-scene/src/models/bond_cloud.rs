@@ -33,9 +33,8 @@ pub(crate) fn validate(cx: &Context, spec: &crate::raw::RawNodes, raw: &RawBond)
     let corrected = !matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
     let reaches = Some(if corrected { 3 } else { 1 });
     // `auto` and multigrid build a hierarchy on a bond cloud: counted as the plan says
-    let multigrid =
-        |n: usize| linpd_solve::plan(&cx.solver, &offers(dim, n * dim), &Default::default()).may_build_hierarchy();
-    let path = (crate::memory::Path::BondAssembled, &multigrid as &dyn Fn(usize) -> bool);
+    let setup = |n: usize| linpd_solve::plan(&cx.solver, &offers(dim, n * dim), &Default::default()).preconditioners;
+    let path = (crate::memory::Path::BondAssembled, &setup as &dyn Fn(usize) -> Vec<linpd_solve::PreconditionerKind>);
     let (nodes, h) = cloud_nodes(cx, spec, raw.horizon, (reaches, corrected), path, ball)?;
     let ramp = quadrature == linpd_bond::quadrature::Quadrature::Ramp;
     let micromodulus = bond_micromodulus(dim, raw.horizon, raw.micromodulus.as_ref(), raw.plane, ramp)?;
@@ -156,9 +155,9 @@ impl SceneModel for BondCloudModel {
         let nb = bonds as f64 / n as f64;
         bytes += crate::memory::cloud_extra(crate::memory::Path::BondAssembled, p.dim(), n, nb, 1.0);
         // `auto` and multigrid build a hierarchy on top (see `crate::validate::cloud_nodes`)
-        if p.planned()?.may_build_hierarchy() {
-            bytes += (n * p.dim()) as f64 * linpd_solve::memory::multigrid_dof_bytes(p.dim(), false);
-        }
+        let operator = linpd_solve::precond::kind::Operator::Assembled;
+        let on = linpd_solve::precond::kind::SetupOn { dim: p.dim(), nodes: n, dofs: n * p.dim(), operator };
+        bytes += p.planned()?.setup_bytes(&on);
         Ok(System {
             n_bonds: bonds,
             model: Arc::new(op),

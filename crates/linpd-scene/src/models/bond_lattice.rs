@@ -14,7 +14,7 @@ use linpd_core::surface::CorrectionSummary;
 use linpd_core::DofMap;
 use linpd_dynamics::Chain;
 use linpd_lps::SurfaceCorrection;
-use linpd_solve::{Apply, Offers, SolvePlan, SolveReport};
+use linpd_solve::{Apply, Offers, PreconditionerKind, SolvePlan, SolveReport};
 use std::any::Any;
 use std::sync::Arc;
 
@@ -70,15 +70,16 @@ pub(crate) fn offers(grid: &linpd_core::Grid, unknowns: usize) -> Offers {
     }
 }
 
-/// The memory path of a bond model on a lattice solved by `plan`, and whether the estimate
-/// counts a multigrid hierarchy (one built, or one `auto`'s cost model may build on the
-/// assembled matrix: a cracked 801^2 plate measured 3.0 GiB, 1.8 GiB estimated without it).
+/// The memory path of a bond model on a lattice solved by `plan`, and the preconditioners whose
+/// setup the estimate counts: the plan's, `auto`'s possible ones on the assembled matrix
+/// included (a cracked 801^2 plate measured 3.0 GiB, 1.8 GiB estimated without its multigrid).
 /// `stencil`: the path of the homogeneous stencil alone when the model is one ([`plain_stencil`],
 /// [`crate::memory::stencil_path`]), whose matrix-free paths hold no bonds.
-pub(crate) fn memory_path(plan: &SolvePlan, stencil: Option<Path>) -> (Path, bool) {
+pub(crate) fn memory_path(plan: &SolvePlan, stencil: Option<Path>) -> (Path, Vec<PreconditionerKind>) {
+    let setup = plan.preconditioners.clone();
     match plan.apply() {
-        Apply::MatrixFree => (stencil.unwrap_or(Path::BondMatrixFree), plan.may_build_hierarchy()),
-        Apply::Assembled => (Path::BondAssembled, plan.may_build_hierarchy()),
+        Apply::MatrixFree => (stencil.unwrap_or(Path::BondMatrixFree), setup),
+        Apply::Assembled => (Path::BondAssembled, setup),
     }
 }
 
@@ -91,12 +92,12 @@ pub(crate) fn check_memory(
     purpose: Purpose,
     stencil: Option<Path>,
 ) -> Result<Option<f64>, ProblemError> {
-    let (path, multigrid) = match purpose {
+    let (path, setup) = match purpose {
         Purpose::Rows => return Ok(None),
-        Purpose::Assembled => (Path::BondAssembled, false),
+        Purpose::Assembled => (Path::BondAssembled, Vec::new()),
         Purpose::Solve => memory_path(p.planned()?, stencil),
     };
-    crate::memory::check_solver(path, p.lattice()?, horizon, multigrid).map(Some)
+    crate::memory::check_solver(path, p.lattice()?, horizon, &setup).map(Some)
 }
 
 impl SceneModel for BondLatticeModel {

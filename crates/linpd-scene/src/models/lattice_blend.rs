@@ -12,17 +12,17 @@
 
 use super::bond_model::{self as bond, BondModel, RawBond, RawFreeFaces, Surface};
 use super::{Capability, Purpose, SceneModel, System};
-use crate::fields::NodalStrain;
 use crate::scene::Problem;
 use crate::solution::{GradedMeshSummary, Solution};
 use crate::validate::region;
 use crate::ProblemError;
-use linpd_blend::graded::{GradedMesh, Grading};
 use linpd_blend::graded_blend::{Bond, FreeFaces, LocalMesh};
-use linpd_blend::{beta_from_zone, GradedBlend, LatticeBlend};
+use linpd_blend::graded_mesh::{GradedMesh, Grading, GradingError};
+use linpd_blend::lattice::{regular_near_defects, regular_nodes};
+use linpd_blend::{beta_from_zone, BlendError, GradedBlend, LatticeBlend};
 use linpd_bond::BondOperator;
 use linpd_core::progress::Progress;
-use linpd_core::{Grid, Material, Region, GEOMETRY_RTOL};
+use linpd_core::{Grid, Region, GEOMETRY_RTOL};
 use linpd_lps::SurfaceCorrection;
 use linpd_solve::SolveReport;
 use rayon::prelude::*;
@@ -73,16 +73,19 @@ fn local_mesh(
             ),
         ));
     }
-    let max_level = ((ratio * (1.0 + linpd_core::GEOMETRY_RTOL)).log2().floor() as usize).min(30);
+    let max_level = ((ratio * (1.0 + linpd_core::GEOMETRY_RTOL)).log2().floor() as usize).min(Grading::MAX_LEVEL);
     let cells_per_level = raw.cells_per_level.unwrap_or(CELLS_PER_LEVEL);
-    if cells_per_level == 0 {
-        return Err(ProblemError::invalid("model.local_mesh.cells_per_level", "must be at least 1"));
-    }
+    let grading = Grading::new(cells_per_level, max_level).map_err(|e| match e {
+        GradingError::NoCellsPerLevel => {
+            ProblemError::invalid("model.local_mesh.cells_per_level", "must be at least 1")
+        }
+        e => ProblemError::invalid("model.local_mesh.max_cell", e.to_string()),
+    })?;
     let free_faces = match raw.free_faces {
         None | Some(RawFreeFaces::Lattice) => FreeFaces::Lattice,
         Some(RawFreeFaces::Bulk) => FreeFaces::Bulk,
     };
-    Ok(Some(LocalMesh { grading: Grading { cells_per_level, max_level }, free_faces }))
+    Ok(Some(LocalMesh { grading, free_faces }))
 }
 
 /// The PD regions of a blended scene.
@@ -269,7 +272,11 @@ impl LatticeBlendModel {
         let (op, _) = b.operator(p.nodes())?;
         // with phases or defects, a node is regular when its bonds carry the homogeneous weights
         // times one factor (no defect and no interface within its horizon)
-        let regular = if b.material.is_homogeneous() { None } else { Some(regular_nodes(grid, b, &op)?) };
+        let regular = if b.material.is_homogeneous() {
+            None
+        } else {
+            Some(regular_nodes(grid, b.horizon, &b.micromodulus, &op).map_err(blend_error)?)
+        };
         let ZoneInputs { beta, mirrored, .. } = self.zones_of(p, regular.as_deref())?;
         Ok(BlendInputs { op, beta, regular, mirrored })
     }
@@ -320,17 +327,17 @@ impl LatticeBlendModel {
 
     /// The scene's blended model with its local zone on the graded mesh of `grading`. Only the
     /// nodes near the fine cells get bonds ([`GradedBlend::new`]): the regular nodes come from
-    /// the bonds near the defects (`defect_regular`); with phases, from the whole lattice's.
+    /// the bonds near the defects ([`regular_near_defects`]); with phases, from the whole lattice's.
     pub fn build_graded(&self, p: &Problem, local: LocalMesh) -> Result<GradedSystem, ProblemError> {
         let b = &self.bond;
         let grid = p.lattice()?;
         let regular = if b.material.is_homogeneous() {
             None
         } else if b.material.phases.is_empty() {
-            Some(defect_regular(grid, b)?)
+            Some(regular_near_defects(grid, b.horizon, &b.micromodulus, &b.material).map_err(blend_error)?)
         } else {
             let (op, _) = b.operator(p.nodes())?;
-            Some(regular_nodes(grid, b, &op)?)
+            Some(regular_nodes(grid, b.horizon, &b.micromodulus, &op).map_err(blend_error)?)
         };
         // every constrained node stays an unknown (its cells on the lattice)
         let ZoneInputs { beta, mirrored, constrained } = self.zones_of(p, regular.as_deref())?;
@@ -339,37 +346,6 @@ impl LatticeBlendModel {
             .map_err(blend_error)?;
         Ok(GradedSystem { graded, loads: Vec::new() })
     }
-}
-
-/// [`regular_nodes`] for a material without phases, from the bonds near its defects only: a
-/// bond no longer than the horizon can cross a defect only if its end is within a horizon of
-/// it ([`linpd_core::Defect::distance_to`]), so the nodes farther than a horizon and a spacing
-/// are regular, and the others are judged on the operator of the sub-grid they form (each of
-/// them sees there every bond a defect may cut, and the homogeneous operator it is compared
-/// with is truncated alike).
-fn defect_regular(grid: &Grid, b: &BondModel) -> Result<Vec<bool>, ProblemError> {
-    let invalid = |e: linpd_core::CoreError| ProblemError::invalid("model", e.to_string());
-    let reach = b.horizon + grid.spacing();
-    let near: Vec<bool> = (0..grid.len())
-        .into_par_iter()
-        .map(|i| {
-            let x = grid.position(i);
-            b.material.defects.iter().any(|d| d.distance_to(&x) <= reach)
-        })
-        .collect();
-    let mut regular = vec![true; grid.len()];
-    if !near.iter().any(|&x| x) {
-        return Ok(regular);
-    }
-    let window = grid.with_nodes(&near).map_err(invalid)?;
-    let op = BondOperator::on_grid(&window, b.horizon, &b.micromodulus, &b.material).map_err(invalid)?;
-    let on_window = regular_nodes(&window, b, &op)?;
-    for (w, _) in on_window.iter().enumerate().filter(|(_, r)| !**r) {
-        if let Some(i) = grid.node_at(window.lattice_index(w)) {
-            regular[i] = false;
-        }
-    }
-    Ok(regular)
 }
 
 impl LatticeBlendModel {
@@ -395,11 +371,7 @@ impl LatticeBlendModel {
         let mut loads = Vec::new();
         for k in 0..p.n_loads() {
             let mut fk = vec![0.0; d * masters.len()];
-            let loaded = p.visit_load(k, &mut |i, force| {
-                for (m, w) in g.graded.interpolation(grid, i) {
-                    (0..d).for_each(|a| fk[d * m + a] += w * force[a]);
-                }
-            });
+            let loaded = p.visit_load(k, &mut |i, force| g.graded.add_force(grid, i, force, &mut fk));
             f.iter_mut().zip(&fk).for_each(|(t, x)| *t += x);
             let on_masters: Vec<(usize, [f64; 3])> = fk
                 .chunks_exact(d)
@@ -434,11 +406,11 @@ impl LatticeBlendModel {
         let mut notes = vec![describe];
         // the largest cells the grading allowed, when max_cell asked for larger ones
         let top = g.graded.mesh().counts().len() - 1;
-        if top < grading.max_level {
+        if top < grading.max_level() {
             notes.push(format!(
                 "local_mesh: no cell of {}h (max_cell) fits: the coarsest are {}h (the box, the fine region and \
                  cells_per_level leave no room for larger ones)",
-                1usize << grading.max_level,
+                1usize << grading.max_level(),
                 1usize << top
             ));
         }
@@ -486,7 +458,7 @@ fn graded_solution(
     };
     // u at a lattice site: P u_M
     let u_at = |k: [usize; 3]| -> [f64; 3] { grid.node_at_site(k).map_or([0.0; 3], |i| graded.u_at(grid, i, u_m)) };
-    let strain = graded_strain(grid, graded, &u_at, &sites);
+    let strain = graded.strain_at(grid, &u_at, &sites);
     // the supports' reactions, from the masters to the sites
     let reaction_of = |k: [usize; 3]| -> Vec<f64> {
         let m = grid.node_at_site(k).and_then(|i| graded.master_at(grid, i));
@@ -563,185 +535,23 @@ fn graded_balance(p: &Problem, g: &GradedSystem, grid: &Grid, u_m: &[f64]) -> cr
     p.balance_on(&nodes, &au)
 }
 
-/// The small-strain tensor at `sites`: PD's ([`crate::nodal_strain`], least squares over the
-/// family, from the window's bonds) at the corners of the mesh's lattice cells and at the
-/// extra nodes, whose families the window holds whole; elsewhere the symmetric part of the
-/// mean gradient of the leaves around the site, at the site (`u_at(k)`: `P u_M` at site `k`).
-fn graded_strain(
-    grid: &Grid,
-    g: &GradedBlend,
-    u_at: &(dyn Fn([usize; 3]) -> [f64; 3] + Sync),
-    sites: &[[usize; 3]],
-) -> NodalStrain {
-    let (mesh, d) = (g.mesh(), grid.dim());
-    let (window, op) = g.window();
-    let u_window: Vec<f64> = (0..window.len())
-        .into_par_iter()
-        .flat_map_iter(|w| {
-            let l = window.lattice_index(w);
-            let k = grid.node_at(l).map(|i| grid.site_of(i));
-            k.map_or([0.0; 3], u_at)[..d].to_vec()
-        })
-        .collect();
-    let extra = g.extra_nodes();
-    let volumes: Vec<f64> = (0..window.len()).map(|w| window.node_volume(w)).collect();
-    let pd = crate::nodal_strain(op, &volumes, &u_window);
-    let tensor: Vec<[f64; 9]> = sites
-        .par_iter()
-        .map(|&k| {
-            let node = grid.node_at_site(k);
-            let on_lattice_cell = mesh.node_at(k).is_some_and(|i| mesh.node_level(i) == 0)
-                || node.is_some_and(|i| extra.binary_search(&i).is_ok());
-            let lattice_node = node.map(|i| grid.lattice_index(i));
-            match (on_lattice_cell, lattice_node.and_then(|l| window.node_at(l))) {
-                (true, Some(w)) => pd.tensor[w],
-                _ => leaf_strain(mesh, u_at, k),
-            }
-        })
-        .collect();
-    NodalStrain { dim: d, tensor, singular: Vec::new() }
-}
-
-/// The symmetric part of the mean gradient at site `k` of the leaves around it
-/// ([`GradedMesh::leaves_around`]): `grad u = sum_c u_c grad N_c` of each bilinear / trilinear
-/// leaf, `u_c` from `u` (over the lattice's nodes) at its corners.
-fn leaf_strain(mesh: &GradedMesh, u_at: &dyn Fn([usize; 3]) -> [f64; 3], k: [usize; 3]) -> [f64; 9] {
-    let d = mesh.dim();
-    let leaves = mesh.leaves_around(k);
-    let h = mesh.lattice().spacing();
-    let mut grad = [0.0; 9];
-    for e in &leaves {
-        let s = e.side() as f64;
-        let t = [0, 1, 2].map(|a| (k[a] as f64 - e.origin[a] as f64) / s);
-        for c in 0..1usize << d {
-            let u_c = u_at(e.corner(d, c));
-            for b in 0..d {
-                // dN_c / dx_b
-                let dn: f64 = (0..d)
-                    .map(|a| {
-                        let on = c >> a & 1 == 1;
-                        if a == b {
-                            if on {
-                                1.0
-                            } else {
-                                -1.0
-                            }
-                        } else if on {
-                            t[a]
-                        } else {
-                            1.0 - t[a]
-                        }
-                    })
-                    .product::<f64>()
-                    / (s * h);
-                for a in 0..d {
-                    grad[3 * a + b] += u_c[a] * dn / leaves.len() as f64;
-                }
-            }
-        }
-    }
-    let mut eps = [0.0; 9];
-    for a in 0..d {
-        for b in 0..d {
-            eps[3 * a + b] = 0.5 * (grad[3 * a + b] + grad[3 * b + a]);
-        }
-    }
-    eps
-}
-
-/// The graded mesh's leaves as VTK cells (`VTK_QUAD` / `VTK_HEXAHEDRON`, corners
-/// counter-clockwise on the lower face, then the upper) over the output's points, `point(k)`
-/// the point of lattice site `k`: a reader draws `u` over them continuously (a hanging node
-/// lies on an edge or face of a coarser leaf, where `P` gives it the leaf's own interpolant).
+/// The graded mesh's leaves as VTK cells (`VTK_QUAD` / `VTK_HEXAHEDRON`) over the output's
+/// points, `point(k)` the point of lattice site `k` ([`GradedMesh::cell_corners`]).
 fn element_cells(mesh: &GradedMesh, point: &dyn Fn([usize; 3]) -> usize) -> linpd_io::vtk::Cells {
     let d = mesh.dim();
-    // corner numbers (bit a: +side along axis a) in VTK's order
-    let order: &[usize] = if d == 2 { &[0, 1, 3, 2] } else { &[0, 1, 3, 2, 4, 5, 7, 6] };
-    let connectivity = mesh.cells().iter().flat_map(|e| order.iter().map(move |&c| point(e.corner(d, c)))).collect();
-    linpd_io::vtk::Cells { vtk_type: if d == 2 { 9 } else { 12 }, per_cell: order.len(), connectivity }
-}
-
-/// Whether each node's bonds carry the homogeneous weights times one factor (no defect and no
-/// interface within its horizon). On a full lattice with uniform volumes a homogeneous weight
-/// depends on the bond's lattice offset only, so the weights of one interior node of a small
-/// grid (`2 ceil(delta/h) + 2` cells a side) serve every node; a constant amplitude (the
-/// discrete normalization of a grid narrower than its horizon) cancels in the ratio. Other grids
-/// compare with a homogeneous operator on the whole grid.
-fn regular_nodes(grid: &Grid, b: &BondModel, op: &BondOperator) -> Result<Vec<bool>, ProblemError> {
-    let invalid = |e: linpd_core::CoreError| ProblemError::invalid("model", e.to_string());
-    let same = |w: &[f64], w0: &mut dyn Iterator<Item = Option<f64>>| {
-        let mut f = None;
-        w.iter().all(|&a| match w0.next().flatten() {
-            None => false,
-            Some(b) => {
-                let f = *f.get_or_insert(a / b);
-                (a - f * b).abs() <= 1e-12 * a.abs().max(f * b.abs())
-            }
-        })
-    };
-    let d = grid.dim();
-    if !(grid.is_full() && grid.has_uniform_volumes()) {
-        let hom = BondOperator::on_grid(grid, b.horizon, &b.micromodulus, &Material::default()).map_err(invalid)?;
-        return Ok((0..grid.len())
-            .into_par_iter()
-            .map(|i| {
-                op.weights(i).len() == hom.weights(i).len()
-                    && same(op.weights(i), &mut hom.weights(i).iter().map(|&x| Some(x)))
-            })
-            .collect());
+    linpd_io::vtk::Cells {
+        vtk_type: if d == 2 { 9 } else { 12 },
+        per_cell: 1 << d,
+        connectivity: mesh.cell_corners(point),
     }
-    let h = grid.spacing();
-    let r = (b.horizon / h).ceil() as i64 + 1;
-    let side = vec![2.0 * r as f64 * h; d];
-    let small = Grid::new(&vec![0.0; d], &side, h, 0.0, grid.placement()).map_err(invalid)?;
-    let hom = BondOperator::on_grid(&small, b.horizon, &b.micromodulus, &Material::default()).map_err(invalid)?;
-    let centre = [0, 1, 2].map(|a| if a < d { small.lattice_index(0)[a] + r } else { 0 });
-    let c = small
-        .node_at(centre)
-        .ok_or_else(|| ProblemError::invalid("model", "the reference grid of the bond weights has no centre node"))?;
-    let kc = small.lattice_index(c);
-    let w0: std::collections::HashMap<[i64; 3], f64> = hom
-        .family()
-        .neighbors(c)
-        .iter()
-        .zip(hom.weights(c))
-        .map(|(&j, &w)| {
-            let kj = small.lattice_index(j as usize);
-            ([0, 1, 2].map(|a| kj[a] - kc[a]), w)
-        })
-        .collect();
-    Ok((0..grid.len())
-        .into_par_iter()
-        .map(|i| {
-            let ki = grid.lattice_index(i);
-            let mut w0s = op.family().neighbors(i).iter().map(|&j| {
-                let kj = grid.lattice_index(j as usize);
-                w0.get(&[0, 1, 2].map(|a| kj[a] - ki[a])).copied()
-            });
-            same(op.weights(i), &mut w0s)
-        })
-        .collect())
 }
 
-/// [`crate::memory::blend_zone_bytes`] of the blend of `inputs`: a node with a nonlocal share
-/// (`beta > 0` on it or a family member) has Algorithm A's `|F| + 1` blocks, a local one the
-/// element stencil's `3^d`.
-fn zone_bytes(inputs: &BlendInputs, multigrid: bool) -> f64 {
+/// [`crate::memory::blend_zone_bytes`] of the blend of `inputs`, from its rows' blocks
+/// ([`linpd_blend::lattice::row_blocks`]).
+fn zone_bytes(inputs: &BlendInputs, setup: &[linpd_solve::PreconditionerKind]) -> f64 {
     let (op, beta) = (&inputs.op, &inputs.beta);
-    let d = op.dim();
-    let local = 3f64.powi(d as i32);
-    let blocks: f64 = (0..op.n_nodes())
-        .into_par_iter()
-        .map(|i| {
-            let family = op.family().neighbors(i);
-            if beta[i] > 0.0 || family.iter().any(|&j| beta[j as usize] > 0.0) {
-                family.len() as f64 + 1.0
-            } else {
-                local
-            }
-        })
-        .sum();
-    crate::memory::blend_zone_bytes(d, op.n_nodes(), op.family().n_bonds(), blocks, multigrid)
+    let blocks = linpd_blend::lattice::row_blocks(op, beta);
+    crate::memory::blend_zone_bytes(op.dim(), op.n_nodes(), op.family().n_bonds(), blocks, setup)
 }
 
 /// What a blended model offers the solvers with `unknowns` free DOFs: an unsymmetric `A`; on a
@@ -751,11 +561,18 @@ pub(crate) fn offers(dim: usize, unknowns: usize, graded: bool) -> linpd_solve::
     linpd_solve::Offers { dim, unknowns, symmetric: false, fast_apply: false, companion_gmres: graded }
 }
 
-/// A blend error as the scene's: the key it names (`model.pd_regions`), not
-/// `model: model.pd_regions: ...`.
-fn blend_error(e: linpd_blend::BlendError) -> ProblemError {
+/// A blend error as the scene's, at the key that decides it: a node the local model cannot
+/// take at `model.pd_regions`, the graded mesh's memory and faces at `model.local_mesh`, the
+/// rest (inputs the scene built, a lattice that could not be built) at `model`.
+fn blend_error(e: BlendError) -> ProblemError {
     match e {
-        linpd_blend::BlendError::Parameter { name, reason } => ProblemError::invalid(name, reason),
+        BlendError::NotLocal { node, reason } => ProblemError::invalid(
+            "model.pd_regions",
+            format!("{node}: {}", reason.replace("the nonlocal region", "pd_regions")),
+        ),
+        BlendError::Dimension(_) => ProblemError::invalid("model.pd_regions", e.to_string()),
+        BlendError::Memory(e) => ProblemError::invalid("model.local_mesh", e.to_string()),
+        e @ BlendError::BulkFacesWithPhases => ProblemError::invalid("model.local_mesh.free_faces", e.to_string()),
         e => ProblemError::invalid("model", e.to_string()),
     }
 }
@@ -854,7 +671,12 @@ impl SceneModel for LatticeBlendModel {
         }
     }
     fn lacks(&self, capability: Capability) -> Option<String> {
+        // a graded mesh's unknowns are its masters, not the lattice's nodes, which export and
+        // the row-block paths number
+        const GRADED: &str = "a graded local mesh is solved by `linpd solve` only (its unknowns are not the lattice's \
+                              nodes); remove local_mesh for the lattice blend";
         match capability {
+            Capability::Export | Capability::BlockRows if self.zone.local_mesh.is_some() => Some(GRADED.into()),
             Capability::MatrixFree => {
                 Some("the blended model is unsymmetric and assembled whole: use \"gmres\" or \"auto\"".into())
             }
@@ -881,13 +703,13 @@ impl SceneModel for LatticeBlendModel {
         };
         // the graded model checks its masters' hierarchy itself (GradedBlend::new); the lattice
         // blend's auto runs GMRES + multigrid first from 20k unknowns
-        let multigrid = match (&self.zone.local_mesh, purpose) {
-            (None, Purpose::Solve) => p.planned()?.may_build_hierarchy(),
-            _ => false,
+        let setup = match (&self.zone.local_mesh, purpose) {
+            (None, Purpose::Solve) => p.planned()?.preconditioners.clone(),
+            _ => Vec::new(),
         };
         let memory_estimate = match purpose {
             Purpose::Rows => None,
-            _ => Some(crate::memory::check_solver(path, p.lattice()?, self.bond.horizon, multigrid)?),
+            _ => Some(crate::memory::check_solver(path, p.lattice()?, self.bond.horizon, &setup)?),
         };
         if let Some(local) = self.zone.local_mesh {
             if p.lattice_output() {
@@ -905,11 +727,8 @@ impl SceneModel for LatticeBlendModel {
                 p.nodes().len()
             ));
             if purpose != Purpose::Solve {
-                return Err(ProblemError::invalid(
-                    "model.local_mesh",
-                    "a graded local mesh is solved by `linpd solve` only (its unknowns are not the lattice's nodes, \
-                     which export and the row-block paths number); remove local_mesh to export the lattice blend",
-                ));
+                // modes and export build the assembled system over the lattice's nodes
+                return Err(super::refusal(self, Capability::Export));
             }
             return self.graded_system(p, local);
         }
@@ -918,7 +737,7 @@ impl SceneModel for LatticeBlendModel {
         let inputs = self.inputs(p)?;
         // the zones are known: the estimate from the blend's own rows, checked before they are
         // built (the one above counted the bond model's entries, an upper bound)
-        let refined = zone_bytes(&inputs, multigrid);
+        let refined = zone_bytes(&inputs, &setup);
         linpd_core::memory::check(
             format!("the blended model and its SPD companion on {} nodes (from its zones)", p.nodes().len()),
             refined,
@@ -997,8 +816,8 @@ mod tests {
             let b = &p.model_as::<crate::models::bond_lattice::BondLatticeModel>("a bond model").unwrap().bond;
             let grid = p.lattice().unwrap();
             let (op, _) = b.operator(p.nodes()).unwrap();
-            let whole = regular_nodes(grid, b, &op).unwrap();
-            let near = defect_regular(grid, b).unwrap();
+            let whole = regular_nodes(grid, b.horizon, &b.micromodulus, &op).unwrap();
+            let near = regular_near_defects(grid, b.horizon, &b.micromodulus, &b.material).unwrap();
             let irregular = whole.iter().filter(|r| !**r).count();
             assert!(irregular > 0 && irregular < grid.len() / 2, "{irregular} irregular nodes");
             assert_eq!(near, whole);

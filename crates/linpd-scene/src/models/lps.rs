@@ -97,7 +97,7 @@ impl ModelType for LpsType {
             let path = crate::memory::Path::LpsAssembled;
             // an LPS cloud's hierarchy is negligible against its tangent (the same peaks with
             // Jacobi and multigrid, docs/robustness.md)
-            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, (reaches, corrected), (path, &|_| false), false)?;
+            let (nodes, _) = cloud_nodes(cx, spec, raw.horizon, (reaches, corrected), (path, &|_| Vec::new()), false)?;
             let ratio = raw.horizon / crate::nodes::NodeSet::spacing(&nodes);
             let n = crate::nodes::NodeSet::count(&nodes);
             crate::memory::check_lps_work(n, crate::memory::neighbours(dim, ratio), ratio)?;
@@ -263,15 +263,18 @@ fn phases(
     Ok((out, Some((bulk, shear))))
 }
 
-/// The memory path of an lps lattice scene solved by `plan` and whether the estimate counts a
-/// multigrid hierarchy: the matrix-free tangent (with the pair part's hierarchy when one is
+/// The memory path of an lps lattice scene solved by `plan` and the preconditioners whose setup
+/// the estimate counts: the matrix-free tangent (with the pair part's hierarchy when one is
 /// built), or the assembled tangent (with a hierarchy only when asked for: the one `auto`'s
 /// cost model may build is negligible against the tangent, the same peaks measured with Jacobi
 /// and multigrid, docs/robustness.md).
-fn memory_path(plan: &SolvePlan) -> (crate::memory::Path, bool) {
+fn memory_path(plan: &SolvePlan) -> (crate::memory::Path, Vec<linpd_solve::PreconditionerKind>) {
     match plan.apply() {
-        Apply::MatrixFree => (crate::memory::Path::LpsMatrixFree, plan.may_build_hierarchy()),
-        Apply::Assembled => (crate::memory::Path::LpsAssembled, plan.hierarchy == Hierarchy::Built),
+        Apply::MatrixFree => (crate::memory::Path::LpsMatrixFree, plan.preconditioners.clone()),
+        Apply::Assembled if plan.hierarchy == Hierarchy::Built => {
+            (crate::memory::Path::LpsAssembled, plan.preconditioners.clone())
+        }
+        Apply::Assembled => (crate::memory::Path::LpsAssembled, Vec::new()),
     }
 }
 
@@ -379,7 +382,7 @@ impl SceneModel for LpsSceneModel {
     fn horizon(&self) -> Option<f64> {
         Some(self.params.horizon)
     }
-    /// A point cloud's tangent is assembled; a lattice's as [`lattice_offers`].
+    /// A point cloud's tangent is assembled; a lattice's has the stencils where it is homogeneous.
     fn offers(&self, p: &Problem, unknowns: usize) -> Option<Offers> {
         Some(match p.grid() {
             Some(grid) => lattice_offers(grid, self.plain(), unknowns),
@@ -400,22 +403,22 @@ impl SceneModel for LpsSceneModel {
         // nothing whole
         let memory_estimate = match (p.grid(), purpose) {
             (Some(grid), Purpose::Assembled) => {
-                Some(crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, self.params.horizon, false)?)
+                Some(crate::memory::check_solver(crate::memory::Path::LpsAssembled, grid, self.params.horizon, &[])?)
             }
             (Some(grid), Purpose::Solve) => {
-                let (path, multigrid) = memory_path(p.planned()?);
+                let (path, setup) = memory_path(p.planned()?);
                 if path == crate::memory::Path::LpsAssembled {
                     let ratio = self.params.horizon / grid.spacing();
                     crate::memory::check_lps_work(grid.len(), crate::memory::neighbours(p.dim(), ratio), ratio)?;
                 }
-                Some(crate::memory::check_solver(path, grid, self.params.horizon, multigrid)?)
+                Some(crate::memory::check_solver(path, grid, self.params.horizon, &setup)?)
             }
             (None, Purpose::Solve | Purpose::Assembled) => Some(crate::memory::check_cloud(
                 crate::memory::Path::LpsAssembled,
                 p.dim(),
                 &p.nodes().positions(),
                 self.params.horizon,
-                false,
+                &[],
             )?),
             _ => None,
         };

@@ -25,7 +25,8 @@ pub struct Registry {
     types: Vec<&'static dyn ModelType>,
 }
 
-static BUILTIN: [&dyn ModelType; 5] = [&bond::BOND, &blend_1d::BLEND, &blend_1d::CE, &lps::LPS, &coarsened::COARSENED];
+/// linpd's model types, one line each: a new built-in type is its module and a line here.
+static BUILTIN: &[&dyn ModelType] = &[&bond::BOND, &blend_1d::BLEND, &blend_1d::CE, &lps::LPS, &coarsened::COARSENED];
 
 impl Default for Registry {
     /// linpd's model types.

@@ -2,10 +2,10 @@
 //!
 //! A Krylov method takes any [`Preconditioner`] (the trait is defined with the Krylov methods,
 //! [`crate::krylov::preconditioner`], and re-exported here); a new one is one file here
-//! implementing the trait plus one [`crate::PreconditionerKind`] variant (the scene's
-//! `solver.preconditioner` key) and one arm in [`crate::PreconditionerKind::build`]; no caller
-//! changes. What a multilevel preconditioner needs to know about the unknowns besides the
-//! matrix is a [`DofGeometry`].
+//! implementing the trait and its [`kind::PreconditionerType`] (its name, its build, `auto`'s
+//! estimate, its setup's bytes), plus one line in [`kind::PRECONDITIONERS`]; no caller changes.
+//! What a multilevel preconditioner needs to know about the unknowns besides the matrix is a
+//! [`DofGeometry`].
 //!
 //! * [`Identity`]: `M = I`;
 //! * [`Jacobi`]: `M = diag(A)`;
@@ -17,6 +17,7 @@ pub mod amg;
 mod factor;
 mod geometry;
 mod jacobi;
+pub mod kind;
 
 pub use crate::krylov::preconditioner::{Identity, Preconditioner};
 pub use amg::{Amg, AmgError, AmgOperator, AmgParams, AmgSmoother, AmgStats, CoarseSpace, LatticeMultigrid};

@@ -11,6 +11,7 @@ use super::runners::{
 };
 use crate::cost;
 use crate::krylov::cg::{CgError, CgParams};
+use crate::precond::kind::AutoInput;
 use crate::precond::DofGeometry;
 use crate::report::{peak_rss_bytes, SolveReport};
 use crate::spec::{PreconditionerKind, SolverId, SolverSpec};
@@ -74,16 +75,28 @@ pub fn solve_assembled_with_progress(
     hints: &MatrixHints,
     progress: &dyn Progress,
 ) -> Result<(Vec<f64>, SolveReport), SolveError> {
+    solve_assembled_with_auto(a, f, spec, hints, &AutoParams::default(), progress)
+}
+
+/// [`solve_assembled_with_progress`] with `auto`'s thresholds and candidate preconditioners
+/// `auto` (e.g. the registry's and one more).
+pub fn solve_assembled_with_auto(
+    a: &Csc,
+    f: &[f64],
+    spec: &SolverSpec,
+    hints: &MatrixHints,
+    auto: &AutoParams,
+    progress: &dyn Progress,
+) -> Result<(Vec<f64>, SolveReport), SolveError> {
     finite_matrix(a)?;
     finite_vector("the load vector", f)?;
     let symmetric = hints.asymmetry <= SYMMETRY_RTOL;
     let resolved = spec.resolve(hints.dim, a.nrows());
-    let auto = AutoParams::default();
     let t0 = Instant::now();
     let ((u, mut report), notes) = if symmetric {
-        (symmetric_solve(a, f, &resolved, hints, &auto, progress)?, Vec::new())
+        (symmetric_solve(a, f, &resolved, hints, auto, progress)?, Vec::new())
     } else {
-        unsymmetric_solve(a, f, spec, &resolved, hints, &auto, progress)?
+        unsymmetric_solve(a, f, spec, &resolved, hints, auto, progress)?
     };
     finite_vector("the solution", &u)?;
     // a note of the solver path (auto's fallback) comes first
@@ -176,7 +189,6 @@ fn auto_symmetric(
 ) -> Result<Solved, SolveError> {
     let (n, dim) = (a.nrows(), hints.dim);
     let n_side = hints.n_side.unwrap_or_else(|| (n as f64 / dim as f64).powf(1.0 / dim as f64));
-    let jacobi = cost::jacobi_cg(dim, a.val().len(), n_side, params);
     let mut analyzed = None;
     let chol = match auto.factor_excluded(dim, n) {
         Some(why) => cost::Estimate { solver: "cholesky".into(), seconds: None, why },
@@ -189,9 +201,11 @@ fn auto_symmetric(
             e
         }
     };
-    // Multigrid needs the DOF geometry for its rigid-body modes: offered only with it.
-    let multigrid = hints.geometry.as_ref().map(|_| cost::multigrid_cg(a.val().len(), params));
-    let plan = plan_symmetric(&chol, &jacobi, multigrid.as_ref());
+    // each registered preconditioner's estimate (multigrid's only with the DOF geometry, its
+    // rigid-body modes)
+    let input = AutoInput { dim, nnz: a.val().len(), n_side, params, geometry: hints.geometry.is_some() };
+    let pcg: Vec<_> = auto.preconditioners.iter().filter_map(|k| k.auto_estimate(&input).map(|e| (*k, e))).collect();
+    let plan = plan_symmetric(&chol, &pcg);
     let (u, mut report) = match (plan.choice, analyzed) {
         (AutoChoice::Cholesky, Some(analysis)) => cholesky(a, f, analysis, progress)?,
         (choice, analyzed) => {
@@ -265,7 +279,7 @@ fn auto_unsymmetric(
     };
     let mut notes = Vec::new();
     if let Some(why) = &plan.multigrid_first {
-        match iterative(PreconditionerKind::Multigrid) {
+        match iterative(PreconditionerKind::MULTIGRID) {
             Ok(solved) => {
                 let note = format!("auto: gmres + multigrid from the SPD approximation {:?} ({why})", spd.kind);
                 return Ok((solved, vec![note]));
@@ -284,10 +298,10 @@ fn auto_unsymmetric(
     }
     let mut kinds = Vec::new();
     if plan.multigrid_first.is_none() && plan.multigrid_fallback {
-        kinds.push(PreconditionerKind::Multigrid);
+        kinds.push(PreconditionerKind::MULTIGRID);
     }
     if plan.jacobi_before_lu {
-        kinds.push(PreconditionerKind::Jacobi);
+        kinds.push(PreconditionerKind::JACOBI);
     }
     for kind in kinds {
         match iterative(kind) {

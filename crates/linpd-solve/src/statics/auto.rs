@@ -47,6 +47,10 @@ pub struct AutoParams {
     /// transition terms `M` leaves out are then `O(1)` of a row; `"pd_regions": "auto"` takes 2
     /// horizons in 3D for that, docs/models.md.) Default 20,000.
     pub gmres_multigrid_2d_min_unknowns: usize,
+    /// The preconditioners whose PCG `auto` weighs against the sparse Cholesky on a symmetric
+    /// assembled `A` ([`plan_symmetric`], each by its [`PreconditionerKind::auto_estimate`]).
+    /// Default: the registry, [`crate::precond::kind::PRECONDITIONERS`].
+    pub preconditioners: Vec<PreconditionerKind>,
 }
 
 impl Default for AutoParams {
@@ -55,6 +59,7 @@ impl Default for AutoParams {
             matrix_free_min_unknowns: 20_000,
             cholesky_3d_max_unknowns: 100_000,
             gmres_multigrid_2d_min_unknowns: 20_000,
+            preconditioners: crate::precond::kind::PRECONDITIONERS.to_vec(),
         }
     }
 }
@@ -153,17 +158,18 @@ impl AutoParams {
 }
 
 /// The plan for a symmetric `A` in 2D/3D from the estimates of [`crate::cost`]: the cheapest
-/// of the sparse Cholesky, Jacobi-PCG and (when offered: it needs the DOF geometry)
-/// multigrid-PCG; the first of equal estimates; Jacobi-PCG when all are excluded.
-pub fn plan_symmetric(cholesky: &Estimate, jacobi: &Estimate, multigrid: Option<&Estimate>) -> SymmetricPlan {
-    let mut candidates = vec![(cholesky, AutoChoice::Cholesky), (jacobi, AutoChoice::Cg(PreconditionerKind::Jacobi))];
-    candidates.extend(multigrid.map(|e| (e, AutoChoice::Cg(PreconditionerKind::Multigrid))));
+/// of the sparse Cholesky and PCG with each preconditioner offered (`pcg`: those of
+/// [`AutoParams::preconditioners`] with an estimate, [`PreconditionerKind::auto_estimate`]);
+/// the first of equal estimates; Jacobi-PCG when all are excluded.
+pub fn plan_symmetric(cholesky: &Estimate, pcg: &[(PreconditionerKind, Estimate)]) -> SymmetricPlan {
+    let mut candidates = vec![(cholesky, AutoChoice::Cholesky)];
+    candidates.extend(pcg.iter().map(|(k, e)| (e, AutoChoice::Cg(*k))));
     let estimates = candidates.iter().map(|(e, _)| e.to_string()).collect::<Vec<_>>().join("; ");
     let choice = candidates
         .iter()
         .filter_map(|(e, choice)| e.seconds.map(|s| (s, *choice)))
         .min_by(|x, y| x.0.total_cmp(&y.0))
-        .map_or(AutoChoice::Cg(PreconditionerKind::Jacobi), |(_, choice)| choice);
+        .map_or(AutoChoice::Cg(PreconditionerKind::JACOBI), |(_, choice)| choice);
     SymmetricPlan { choice, estimates, cholesky_fallback: cholesky.seconds.is_some() }
 }
 
@@ -182,15 +188,16 @@ mod tests {
         let chol = estimate("cholesky-nd", Some(2.0));
         let jacobi = estimate("cg-jacobi", Some(3.0));
         let mg = estimate("cg-multigrid", Some(1.0));
-        let plan = plan_symmetric(&chol, &jacobi, Some(&mg));
-        assert_eq!(plan.choice, AutoChoice::Cg(PreconditionerKind::Multigrid));
+        let (j, m) = (PreconditionerKind::JACOBI, PreconditionerKind::MULTIGRID);
+        let plan = plan_symmetric(&chol, &[(j, jacobi.clone()), (m, mg.clone())]);
+        assert_eq!(plan.choice, AutoChoice::Cg(PreconditionerKind::MULTIGRID));
         assert!(plan.cholesky_fallback);
         assert_eq!(plan.estimates, format!("{chol}; {jacobi}; {mg}"));
-        assert_eq!(plan_symmetric(&chol, &jacobi, None).choice, AutoChoice::Cholesky);
-        assert_eq!(plan_symmetric(&chol, &estimate("cg-jacobi", Some(2.0)), None).choice, AutoChoice::Cholesky);
+        assert_eq!(plan_symmetric(&chol, &[(j, jacobi)]).choice, AutoChoice::Cholesky);
+        assert_eq!(plan_symmetric(&chol, &[(j, estimate("cg-jacobi", Some(2.0)))]).choice, AutoChoice::Cholesky);
         let excluded = estimate("cholesky", None);
-        let plan = plan_symmetric(&excluded, &estimate("cg-jacobi", None), None);
-        assert_eq!(plan.choice, AutoChoice::Cg(PreconditionerKind::Jacobi));
+        let plan = plan_symmetric(&excluded, &[(j, estimate("cg-jacobi", None))]);
+        assert_eq!(plan.choice, AutoChoice::Cg(PreconditionerKind::JACOBI));
         assert!(!plan.cholesky_fallback);
     }
 

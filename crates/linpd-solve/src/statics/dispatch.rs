@@ -149,7 +149,7 @@ fn auto_matrix_free(
                matrix-free multigrid-CG, no assembly (the fastest solver at every size of \
                docs/solvers.md's bench)";
     let t = Instant::now();
-    match matrix_free_cg(system.model, system.dofs, system.rhs, params, PreconditionerKind::Multigrid, progress) {
+    match matrix_free_cg(system.model, system.dofs, system.rhs, params, PreconditionerKind::MULTIGRID, progress) {
         Ok((u, mut report)) => {
             report.auto = Some(why.into());
             Ok((u, report))
@@ -219,7 +219,7 @@ fn assembled_solve(system: &ModelSystem, spec: &SolverSpec, progress: &dyn Progr
     // Only multilevel preconditioners read the geometry: build it when one may run.
     let geometry = match spec {
         SolverSpec::Cg { preconditioner, .. } | SolverSpec::Gmres { preconditioner, .. }
-            if *preconditioner != PreconditionerKind::Jacobi =>
+            if *preconditioner != PreconditionerKind::JACOBI =>
         {
             Some(DofGeometry::of(model, dofs))
         }

@@ -41,7 +41,7 @@ mod model;
 mod runners;
 
 pub use crate::direct::DIRECT_RESIDUAL_LIMIT;
-pub use assembled::{solve_assembled, solve_assembled_with_progress, MatrixHints};
+pub use assembled::{solve_assembled, solve_assembled_with_auto, solve_assembled_with_progress, MatrixHints};
 pub use auto::AutoParams;
 pub use error::StaticError;
 pub use guards::{finite_matrix, finite_vector};

@@ -11,11 +11,10 @@ use crate::bc::ReducedOperator;
 use crate::direct::{dense_lu_solve, dense_solve, Cholesky, Lu, LuOrdering};
 use crate::krylov::cg::{pcg_with_progress, CgError, CgParams};
 use crate::krylov::gmres::{gmres_with_progress, GmresParams};
+use crate::precond::kind::{ModelInput, PreconditionerInput};
 use crate::precond::{AmgParams, CoarseSpace, DofGeometry, FactorPreconditioner, LatticeMultigrid, Preconditioner};
 use crate::report::{peak_rss_bytes, SolveReport};
-use crate::spec::{
-    CholeskyOrdering, MatrixFree, ModelInput, PreconditionerInput, PreconditionerKind, SolverId, SolverSpec,
-};
+use crate::spec::{CholeskyOrdering, MatrixFree, PreconditionerKind, SolverId, SolverSpec};
 use crate::SolveError;
 use linpd_core::progress::{Progress, Task};
 use linpd_core::sparse::{diagonal, Csc, GeneralCsc, SymCsc};
@@ -223,7 +222,7 @@ pub(super) fn assembled_gmres_with(
     let mut report = SolveReport::new(SolverId::GmresIterative(preconditioner), a.nrows(), a.val().len());
     let t = Instant::now();
     let diag = diagonal(m);
-    if preconditioner == PreconditionerKind::Jacobi {
+    if preconditioner == PreconditionerKind::JACOBI {
         // Jacobi divides by the diagonal: a zero one is GMRES's singular matrix, not CG's breakdown
         nonzero_diagonal(&format!("gmres ({})", preconditioner.name()), &diag, true)?;
     }
@@ -332,10 +331,7 @@ pub(super) fn matrix_free_cg(
     ));
     // The multigrid's hierarchy (and the diagonal its smoothers read) come from the model's
     // companion when it offers one (`Model::multigrid_companion`); CG runs on the model.
-    let companion = match preconditioner {
-        PreconditionerKind::Multigrid => model.multigrid_companion(),
-        PreconditionerKind::Jacobi => None,
-    };
+    let companion = if preconditioner.multilevel() { model.multigrid_companion() } else { None };
     let source: &dyn Model = companion.as_deref().unwrap_or(model);
     let full_diag = source.diagonal();
     let diag = dofs.gather(&full_diag);
@@ -357,8 +353,8 @@ pub(super) fn matrix_free_cg(
     };
     // A lattice model with a coarse lattice gets the geometric top level
     // (`LatticeMultigrid`); the others the SA hierarchy of the model (or its companion).
-    let space = match (preconditioner, &companion) {
-        (PreconditionerKind::Multigrid, None) => CoarseSpace::new(model, dofs, &full_diag),
+    let space = match &companion {
+        None if preconditioner == PreconditionerKind::MULTIGRID => CoarseSpace::new(model, dofs, &full_diag),
         _ => None,
     };
     let coarse_fast = space.as_ref().map(|s| (s.model().fast_apply(), ModelOperator(s.model())));
@@ -378,8 +374,7 @@ pub(super) fn matrix_free_cg(
         }
         _ => None,
     };
-    let geometry =
-        (preconditioner != PreconditionerKind::Jacobi && geometric.is_none()).then(|| DofGeometry::of(source, dofs));
+    let geometry = (preconditioner.multilevel() && geometric.is_none()).then(|| DofGeometry::of(source, dofs));
     let m_inv: Box<dyn Preconditioner> = match geometric {
         Some(m) => Box::new(m),
         None => {
@@ -440,7 +435,7 @@ pub(super) fn matrix_free_gmres(
     params: &CgParams,
     progress: &dyn Progress,
 ) -> Result<Solved, SolveError> {
-    let preconditioner = PreconditionerKind::Multigrid;
+    let preconditioner = PreconditionerKind::MULTIGRID;
     progress.phase(&format!(
         "solving matrix-free with GMRES + multigrid from the model's SPD companion: {} unknowns",
         dofs.n_free()

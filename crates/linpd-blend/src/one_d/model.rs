@@ -1,6 +1,6 @@
 //! Assembly of the blended, pure CE (28) and pure PD (29) operators in force form.
 
-use crate::material::{check_defects, check_interfaces, BarMaterial};
+use crate::one_d::material::{check_defects, check_interfaces, BarMaterial};
 use crate::{BlendError, Blending, Mesh, Regions};
 use linpd_core::{Kernel, Material, Micromodulus, Normalization};
 use rayon::prelude::*;
@@ -40,7 +40,7 @@ pub struct BlendParams {
     pub hog: bool,
     /// Phases (moduli `K(x)`; `modulus` is the reference `K_ref` outside them), bond rule and
     /// point defects, as in the bond model; how each enters the blended rows is in
-    /// [`crate::material`]. Empty: homogeneous, Algorithm A as printed.
+    /// [`crate::one_d::material`]. Empty: homogeneous, Algorithm A as printed.
     pub material: Material,
 }
 
@@ -141,7 +141,7 @@ impl BlendParams {
     }
 
     /// Checks where the material's defects and phase interfaces lie for the model `kind`
-    /// ([`crate::material::check_defects`], [`crate::material::check_interfaces`]): defects
+    /// ([`crate::one_d::material::check_defects`], [`crate::one_d::material::check_interfaces`]): defects
     /// only inside the pure PD zone of a blended model (anywhere in the pure PD model, nowhere
     /// in the pure CE model), interfaces nowhere within a horizon of a transition row.
     pub fn check_material(&self, kind: ModelKind) -> Result<(), BlendError> {
@@ -476,7 +476,7 @@ impl<'a> Rows<'a> {
     }
 
     /// Nonlocal shares `a_j = (beta_i + beta_q) / 2` for `j = -N..N` (0 where the neighbour is
-    /// missing) and the bonds' material factors `mu_j` (crate::material; 1 for a homogeneous
+    /// missing) and the bonds' material factors `mu_j` (crate::one_d::material; 1 for a homogeneous
     /// bar) of node `i` at fine-lattice index `k`; and whether any share is positive.
     fn shares(&self, i: usize, k: Option<i64>) -> (Vec<f64>, Vec<f64>, bool) {
         let (mesh, mat, n_side) = (self.mesh, &self.mat, self.n_side);
@@ -506,7 +506,7 @@ impl<'a> Rows<'a> {
     /// End nodes carry the Dirichlet conditions, so the solve never uses their rows. They hold
     /// the force on the end node's half cell in the local model,
     /// `k_{1/2} (u_0 - u_1) / (x_1 - x_0)` (and mirrored), so that `(A u - f)` there is the
-    /// support's reaction (crate::solve, BlendSolution::reactions).
+    /// support's reaction (crate::one_d::solve, BlendSolution::reactions).
     fn end_row(&self, i: usize) -> Row {
         let (x, n) = (&self.mesh.x, self.mesh.len());
         let q = if i == 0 { 1 } else { n - 2 };
@@ -519,7 +519,7 @@ impl<'a> Rows<'a> {
     }
 
     /// Non-uniform CE row (section 5.2.4) with the series face moduli of `K(x)`
-    /// (crate::material), force form: symmetric.
+    /// (crate::one_d::material), force form: symmetric.
     fn ce_row(&self, i: usize) -> Row {
         let x = &self.mesh.x;
         let (dl, dr) = (x[i] - x[i - 1], x[i + 1] - x[i]);

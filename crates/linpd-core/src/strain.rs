@@ -45,7 +45,7 @@
 //! [`NodalStrain::voigt`] gives the tensor components (not engineering shears):
 //! `[xx, yy, zz, yz, xz, xy]` in 3D, `[xx, yy, xy]` in 2D, `[xx]` in 1D.
 
-use linpd_core::Model;
+use crate::Model;
 use rayon::prelude::*;
 
 /// A pivot of the shape tensor's `L D L^T` factorization at most this times its trace marks it
@@ -83,16 +83,6 @@ impl NodalStrain {
     /// The Voigt components of node `n` (1, 3 or 6; see the module docs).
     pub fn voigt(&self, n: usize) -> Vec<f64> {
         voigt_of(self.dim, &self.tensor[n])
-    }
-
-    /// Per node its Voigt components as JSON: a plain number in 1D, an array otherwise (the
-    /// shape of `x` and `u` in `result.json`).
-    pub fn to_json(&self) -> serde_json::Value {
-        (0..self.tensor.len())
-            .map(
-                |n| if self.dim == 1 { serde_json::json!(self.tensor[n][0]) } else { serde_json::json!(self.voigt(n)) },
-            )
-            .collect()
     }
 }
 
@@ -164,7 +154,7 @@ pub fn nodal_strain(model: &dyn Model, volumes: &[f64], u: &[f64]) -> NodalStrai
     // positions read once (see `stress::energy_and_force_flux`); a lattice stencil gives the
     // bonds' `xi = h k_s` itself
     let stencil = model.lattice_stencil();
-    let x: Vec<linpd_core::Point> = match stencil {
+    let x: Vec<crate::Point> = match stencil {
         Some(_) => Vec::new(),
         None => (0..n).into_par_iter().map(|i| model.position(i)).collect(),
     };

@@ -1,6 +1,6 @@
 //! Loads and Dirichlet conditions of the 1D models; the solve is linpd-solve's one static solve
 //! ([`linpd_solve::solve_model`]) on the operator as a [`linpd_core::Model`]
-//! (`crate::static_model`).
+//! (`crate::one_d::static_model`).
 //!
 //! The blended matrix is not symmetric, but its skew part sits only in the local terms of the
 //! transition rows and is small: for a linear `beta` the local part `D1 u' + D2 u''` is in
@@ -11,7 +11,7 @@
 //! cost is one Cholesky of the band, like pure PD. If `P` is not positive definite or GMRES
 //! stalls, it falls back to sparse LU with partial pivoting in the band order.
 
-use crate::model::{BlendOperator, BlendParams, ModelKind};
+use crate::one_d::model::{BlendOperator, BlendParams, ModelKind};
 use crate::BlendError;
 use linpd_solve::{Dirichlet, SolveReport, SolverSpec};
 use std::time::Instant;

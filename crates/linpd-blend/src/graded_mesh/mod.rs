@@ -91,6 +91,7 @@
 //! lattice cell; the mesh itself holds its leaves and nodes only.
 
 pub(crate) mod element;
+mod fields;
 mod grading;
 mod interpolate;
 mod stiffness;
@@ -114,16 +115,17 @@ impl LatticeBox {
     pub fn new(x0: &[f64], h: f64, n: &[usize]) -> Result<Self, BlendError> {
         let dim = n.len();
         if !(2..=3).contains(&dim) || x0.len() != dim {
-            return Err(BlendError::param(
-                "local_mesh",
-                format!("2D or 3D only: {} node counts, {} origin coordinates", dim, x0.len()),
-            ));
+            return Err(BlendError::Inputs(format!(
+                "a lattice box is 2D or 3D: {} node counts, {} origin coordinates",
+                dim,
+                x0.len()
+            )));
         }
         if !(h.is_finite() && h > 0.0) {
-            return Err(BlendError::param("local_mesh", format!("spacing h = {h} is not positive")));
+            return Err(BlendError::Inputs(format!("a lattice box's spacing h = {h} is not positive")));
         }
         if let Some(a) = (0..dim).find(|&a| n[a] < 2) {
-            return Err(BlendError::param("local_mesh", format!("{} nodes along axis {a}: a cell needs 2", n[a])));
+            return Err(BlendError::Inputs(format!("{} nodes along axis {a}: a cell needs 2", n[a])));
         }
         let mut b = LatticeBox { dim, x0: [0.0; 3], h, n: [1; 3] };
         b.x0[..dim].copy_from_slice(x0);
@@ -151,13 +153,50 @@ impl LatticeBox {
     }
 }
 
-/// How the mesh coarsens away from the fine region (see the module docs).
+/// How the mesh coarsens away from the fine region (see the module docs); valid by
+/// construction ([`Grading::new`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Grading {
-    /// Layers of cells of each level before the next level (at least 1).
-    pub cells_per_level: usize,
-    /// Coarsest level: cells of side at most `h 2^max_level` (at most 30).
-    pub max_level: usize,
+    cells_per_level: usize,
+    max_level: usize,
+}
+
+/// Why a [`Grading`] is invalid.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum GradingError {
+    /// `cells_per_level` is 0.
+    #[error("cells_per_level must be at least 1")]
+    NoCellsPerLevel,
+    /// `max_level` is above [`Grading::MAX_LEVEL`].
+    #[error("the coarsest level {0} is above {max} (cells of 2^{max} spacings)", max = Grading::MAX_LEVEL)]
+    LevelTooHigh(usize),
+}
+
+impl Grading {
+    /// The coarsest level a mesh may have (lattice indices of `2^l` fit a `usize` with room).
+    pub const MAX_LEVEL: usize = 30;
+
+    /// `cells_per_level` layers of cells of each level before the next (at least 1), and
+    /// cells of side at most `h 2^max_level` (`max_level` at most [`Grading::MAX_LEVEL`]).
+    pub fn new(cells_per_level: usize, max_level: usize) -> Result<Self, GradingError> {
+        if cells_per_level == 0 {
+            return Err(GradingError::NoCellsPerLevel);
+        }
+        if max_level > Self::MAX_LEVEL {
+            return Err(GradingError::LevelTooHigh(max_level));
+        }
+        Ok(Grading { cells_per_level, max_level })
+    }
+
+    /// Layers of cells of each level before the next level.
+    pub fn cells_per_level(&self) -> usize {
+        self.cells_per_level
+    }
+
+    /// The coarsest level: cells of side at most `h 2^max_level`.
+    pub fn max_level(&self) -> usize {
+        self.max_level
+    }
 }
 
 /// A leaf: the box of side `h 2^level` from lattice node `origin` (a multiple of `2^level`).
@@ -242,12 +281,6 @@ impl GradedMesh {
         void: &dyn Fn(&[usize]) -> bool,
         grading: Grading,
     ) -> Result<Self, BlendError> {
-        if grading.cells_per_level == 0 {
-            return Err(BlendError::param("local_mesh.grading", "cells_per_level must be at least 1"));
-        }
-        if grading.max_level > 30 {
-            return Err(BlendError::param("local_mesh.max_level", format!("{} is above 30", grading.max_level)));
-        }
         let b = lattice.cells();
         let d = lattice.dim;
         let voids: Vec<bool> = (0..b.len()).map(|i| void(&b.coords(i)[..d])).collect();

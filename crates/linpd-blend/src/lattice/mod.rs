@@ -70,7 +70,10 @@
 //!   weights times one number), and the cells they use must have such corners; anything else is
 //!   a named error telling to cover the feature with `pd_regions`.
 
-use crate::graded::element::{add_element_row, ElementBlocks};
+mod regular;
+pub use regular::{regular_near_defects, regular_nodes, row_blocks};
+
+use crate::graded_mesh::element::{add_element_row, ElementBlocks};
 use crate::BlendError;
 use linpd_bond::BondOperator;
 use linpd_core::family::grid_stencil;
@@ -352,16 +355,16 @@ impl LatticeBlend {
 /// node.
 pub(crate) fn check_inputs(d: usize, n: usize, beta: &[f64], mirrored: &[bool]) -> Result<(), BlendError> {
     if d < 2 {
-        return Err(BlendError::param("model.pd_regions", "2D and 3D only (1D blends are `\"type\": \"blend\"`)"));
+        return Err(BlendError::Dimension(d));
     }
     if beta.len() != n {
-        return Err(BlendError::param("beta", format!("{} values for {n} nodes", beta.len())));
+        return Err(BlendError::Inputs(format!("beta: {} values for {n} nodes", beta.len())));
     }
     if mirrored.len() != n {
-        return Err(BlendError::param("mirrored", format!("{} values for {n} nodes", mirrored.len())));
+        return Err(BlendError::Inputs(format!("mirrored: {} values for {n} nodes", mirrored.len())));
     }
     if let Some(i) = beta.iter().position(|b| !(0.0..=1.0).contains(b)) {
-        return Err(BlendError::param("beta", format!("beta = {} at node {i} is not in [0, 1]", beta[i])));
+        return Err(BlendError::Inputs(format!("beta = {} at node {i} is not in [0, 1]", beta[i])));
     }
     Ok(())
 }
@@ -499,19 +502,17 @@ impl BlendRows<'_> {
         let s = self.nonlocal_shares(i, shares, rb, mb);
         let local = bi < 1.0;
         if (local || !s.is_empty()) && !self.is_regular(i) {
-            return Err(BlendError::param(
-                "model.pd_regions",
-                format!(
-                    "{}: its row has a local share but a defect or a material interface is within its \
-                     horizon, which local elasticity cannot represent; extend pd_regions (with the transition) \
-                     to keep every defect and interface more than a horizon from beta < 1",
-                    self.describe(i)
-                ),
-            ));
+            return Err(BlendError::NotLocal {
+                node: self.describe(i),
+                reason: "its row has a local share but a defect or a material interface is within its horizon, \
+                         which local elasticity cannot represent; extend the nonlocal region (with the transition) to \
+                         keep every defect and interface more than a horizon from beta < 1"
+                    .into(),
+            });
         }
         if !s.is_empty() {
             transition_terms(self.op, self.grid, i, &s, rb)
-                .map_err(|why| BlendError::param("model.pd_regions", format!("{}: {why}", self.describe(i))))?;
+                .map_err(|reason| BlendError::NotLocal { node: self.describe(i), reason })?;
         }
         if local {
             self.local_elements(i, rb)?;
@@ -554,27 +555,24 @@ impl BlendRows<'_> {
     /// cell at the node, whose corners must all be regular.
     fn local_elements(&self, i: usize, rb: &mut RowBuilder) -> Result<(), BlendError> {
         if self.n_cells[i] == 0 {
-            return Err(BlendError::param(
-                "model.pd_regions",
-                format!(
-                    "{}: has a local share but is the corner of no complete lattice cell (a body \
-                     thinner than two nodes there): extend pd_regions to cover it",
-                    self.describe(i)
-                ),
-            ));
+            return Err(BlendError::NotLocal {
+                node: self.describe(i),
+                reason: "has a local share but is the corner of no complete lattice cell (a body thinner than two \
+                         nodes there): extend the nonlocal region to cover it"
+                    .into(),
+            });
         }
         let (d, h) = (self.op.dim(), self.grid.spacing());
         for cell in cells_at(self.grid, i) {
             if let Some(c) = cell.iter().find(|&&c| !self.is_regular(c)) {
-                return Err(BlendError::param(
-                    "model.pd_regions",
-                    format!(
-                        "{}: its local elements reach {} near a defect or a material interface; \
-                         extend pd_regions to cover it",
-                        self.describe(i),
+                return Err(BlendError::NotLocal {
+                    node: self.describe(i),
+                    reason: format!(
+                        "its local elements reach {} near a defect or a material interface; extend the nonlocal \
+                         region to cover it",
                         self.describe(*c)
                     ),
-                ));
+                });
             }
             element_row(d, h, i, &cell, &self.d_tensor, &self.n_cells, 1.0 - self.beta[i], rb);
         }

@@ -341,7 +341,7 @@ mod tests {
             let b = CellBox { d, m };
             let fine: Vec<bool> = (0..b.len()).map(|i| (i * 7919 + 13) % every == 0).collect();
             let dist = chebyshev_distance(&b, &fine);
-            let graded = graded_levels(&b, &dist, &Grading { cells_per_level: per_level, max_level: 4 });
+            let graded = graded_levels(&b, &dist, &Grading::new(per_level, 4).unwrap());
             let (mut fast, mut plain) = (graded.clone(), graded.clone());
             balance(&b, &mut fast);
             sweep(&b, &mut plain);
@@ -360,7 +360,7 @@ mod tests {
     fn no_fine_cell_is_as_coarse_as_fits() {
         let b = CellBox { d: 2, m: [12, 9, 1] };
         let dist = chebyshev_distance(&b, &vec![false; b.len()]);
-        let level = graded_levels(&b, &dist, &Grading { cells_per_level: 1, max_level: 2 });
+        let level = graded_levels(&b, &dist, &Grading::new(1, 2).unwrap());
         // 12 = 3 cells of 4, 9 = 2 cells of 4 + one row of level 0 (a level-1 cell would not fit)
         assert_eq!(level[b.index([11, 7, 0])], 2);
         assert_eq!(level[b.index([5, 8, 0])], 0);

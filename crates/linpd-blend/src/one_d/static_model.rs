@@ -8,7 +8,7 @@
 //! HOG rows), so `auto` runs GMRES preconditioned by its Cholesky factor (a handful of
 //! iterations, one band factorization) and falls back to sparse LU if that fails.
 
-use crate::model::{BlendOperator, ModelKind};
+use crate::one_d::model::{BlendOperator, ModelKind};
 use linpd_core::sparse::{csr_to_csc, symmetric_part, Csc};
 use linpd_core::{DofMap, Model, Ordering, Point, SpdApproximation, SpdApproximationKind};
 
