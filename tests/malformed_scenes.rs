@@ -740,11 +740,34 @@ fn cases() -> Vec<Case> {
             "solver.preconditioner",
             "only the cg and gmres solvers take a preconditioner",
         ),
+        Case {
+            name: "unknown preconditioner",
+            text: e1(set("", "solver", json!({"type": "cg", "preconditioner": "amg"}))),
+            stage: Stage::Parse,
+            path: "solver.preconditioner",
+            needle: "unknown variant `amg`, expected `jacobi` or `multigrid`",
+            // a read error at the value, like every enumerated key (issue #51: the names come
+            // from the preconditioner registry, checked while the scene is read)
+            check: Some(|e, text| match e {
+                ProblemError::Parse { line, .. } if text.lines().nth(line - 1).is_some_and(|l| l.contains("amg")) => {
+                    Ok(())
+                }
+                other => Err(format!("expected a read error on the line of \"amg\", got {other:?}")),
+            }),
+        },
         parse(
-            "unknown preconditioner",
-            e1(set("", "solver", json!({"type": "cg", "preconditioner": "amg"}))),
-            "solver.preconditioner",
-            "unknown variant `amg`",
+            // the model's refusal comes before the solver section's own error (issue #51: the
+            // section is validated before the model, its error reported after the model's)
+            "matrix_free on a 1D blend with lu",
+            e1(|v| {
+                v["model"] = json!({"type": "blend", "horizon": 0.2, "regions": [0.2, 0.4, 0.6, 0.8],
+                                    "blending": "linear",
+                                    "micromodulus": {"kernel": "inverse_distance", "modulus": 1.0}});
+                v["grid"] = json!({"min": [0.0], "max": [1.0], "spacing": 0.05});
+                v["solver"] = json!({"type": "lu", "matrix_free": true});
+            }),
+            "solver.matrix_free",
+            "blend",
         ),
         // --- each model type owns its keys (models/registry.rs): a key of another model type is an error ---
         parse(

@@ -750,7 +750,32 @@ pub struct RawSolver {
     pub matrix_free: bool,
     /// CG preconditioner (default `jacobi`).
     #[serde(default)]
-    pub preconditioner: Option<String>,
+    pub preconditioner: Option<RawPreconditioner>,
+}
+
+/// `solver.preconditioner`: the name of a registered preconditioner
+/// ([`linpd_solve::precond::kind::PRECONDITIONERS`]), checked while the scene is read, so that an
+/// unknown name is a read error with its line and column, like any other enumerated key.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RawPreconditioner(pub linpd_solve::PreconditionerKind);
+
+impl<'de> Deserialize<'de> for RawPreconditioner {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        // serde wants a 'static list: the registry's names, made once
+        static NAMES: std::sync::OnceLock<&'static [&'static str]> = std::sync::OnceLock::new();
+        let name = String::deserialize(d)?;
+        match linpd_solve::PreconditionerKind::named(&name) {
+            Some(kind) => Ok(RawPreconditioner(kind)),
+            None => {
+                let names = NAMES.get_or_init(|| {
+                    let names: Vec<&'static str> =
+                        linpd_solve::precond::kind::PRECONDITIONERS.iter().map(|k| k.name()).collect();
+                    Box::leak(names.into_boxed_slice())
+                });
+                Err(serde::de::Error::unknown_variant(&name, names))
+            }
+        }
+    }
 }
 
 /// `solver.type`.

@@ -13,7 +13,6 @@ use linpd_core::{
     BondFamily, BondRule, CoreError, Defect, Grid, Kernel, Material, Micromodulus, Normalization, Placement,
     PlaneModel, Point, Region,
 };
-use linpd_solve::precond::kind::PRECONDITIONERS;
 use linpd_solve::{CgParams, PreconditionerKind, SolverSpec};
 use std::path::{Path, PathBuf};
 
@@ -34,16 +33,21 @@ pub struct Context<'a> {
     pub(crate) presences: Presences,
     /// The part's window of a point cloud, once [`cloud_nodes`] cut it.
     pub(crate) cloud: std::cell::RefCell<Option<crate::part::CloudWindow>>,
-    /// The validated `solver` section (validated once, before the model).
+    /// The `solver` section, validated once before the model: the scene's spec, or `auto`'s
+    /// default where the section is invalid (for the estimates made while the model is
+    /// validated; the section's error is reported after the model's).
     pub solver: SolverSpec,
+    solver_checked: Option<Result<SolverSpec, ProblemError>>,
 }
 
 impl<'a> Context<'a> {
     /// The context of a whole scene (`part: None`) or of one rank's part.
-    pub(crate) fn new(raw: &'a RawProblem, base_dir: &'a Path, part: Option<Part>) -> Result<Self, ProblemError> {
+    pub(crate) fn new(raw: &'a RawProblem, base_dir: &'a Path, part: Option<Part>) -> Self {
         let presences = Presences::new(part.is_some());
-        Ok(Context {
-            solver: solver_spec(&raw.solver)?,
+        let checked = solver_spec(&raw.solver);
+        Context {
+            solver: checked.as_ref().map_or_else(|_| SolverSpec::default(), Clone::clone),
+            solver_checked: Some(checked),
             raw,
             base_dir,
             part,
@@ -51,7 +55,12 @@ impl<'a> Context<'a> {
             whole: Default::default(),
             presences,
             cloud: Default::default(),
-        })
+        }
+    }
+
+    /// The validated `solver` section, or its error (once).
+    pub(crate) fn take_solver(&mut self) -> Result<SolverSpec, ProblemError> {
+        self.solver_checked.take().unwrap_or_else(|| Ok(self.solver.clone()))
     }
 }
 
@@ -668,17 +677,7 @@ pub(crate) fn solver_spec(raw: &RawSolver) -> Result<SolverSpec, ProblemError> {
     if (raw.rtol.is_some() || raw.max_iter.is_some()) && !(krylov || raw.kind == RawSolverKind::Auto) {
         return Err(ProblemError::invalid("solver", "rtol and max_iter apply to the cg and gmres solvers only"));
     }
-    // one of the registry's names (linpd_solve::precond::kind::PRECONDITIONERS)
-    let preconditioner = match raw.preconditioner.as_deref() {
-        None => PreconditionerKind::default(),
-        Some(name) => PreconditionerKind::named(name).ok_or_else(|| {
-            let names: Vec<String> = PRECONDITIONERS.iter().map(|k| format!("`{}`", k.name())).collect();
-            ProblemError::invalid(
-                "solver.preconditioner",
-                format!("unknown variant `{name}`, expected one of {}", names.join(", ")),
-            )
-        })?,
-    };
+    let preconditioner = raw.preconditioner.map_or_else(PreconditionerKind::default, |p| p.0);
     if raw.preconditioner.is_some() && !krylov {
         return Err(ProblemError::invalid(
             "solver.preconditioner",

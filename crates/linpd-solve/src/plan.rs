@@ -99,6 +99,17 @@ pub enum Route {
     Assembled,
 }
 
+impl std::fmt::Display for Route {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Route::MatrixFreeCg(k) => write!(f, "matrix-free {}-CG", k.name()),
+            Route::AutoMatrixFreeCg => write!(f, "auto's matrix-free multigrid-CG"),
+            Route::AutoMatrixFreeGmres => write!(f, "auto's matrix-free GMRES + multigrid"),
+            Route::Assembled => write!(f, "the assembled solve"),
+        }
+    }
+}
+
 /// Whether the solve builds a multigrid hierarchy.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Hierarchy {

@@ -50,17 +50,6 @@ impl SolverSpec {
         SolverSpec::Cg { params, preconditioner: PreconditionerKind::JACOBI, matrix_free: false }
     }
 
-    /// Whether the solve asked for the multigrid preconditioner (`auto` may pick it too; its
-    /// cost model decides after the assembly).
-    pub fn uses_multigrid(&self) -> bool {
-        match self {
-            SolverSpec::Cg { preconditioner, .. } | SolverSpec::Gmres { preconditioner, .. } => {
-                preconditioner.multilevel()
-            }
-            _ => false,
-        }
-    }
-
     /// The solver `auto` stands for before looking at the matrix (other specs are returned
     /// unchanged): in 1D always sparse Cholesky (banded operators, badly conditioned:
     /// kappa ~ (N/m)^2); in 2D and 3D `auto` itself, decided on the assembled matrix by the

@@ -36,7 +36,8 @@ impl ModelType for BondType {
         let plain = raw.material.phases.is_empty()
             && raw.material.defects.is_empty()
             && matches!(raw.surface_correction, None | Some(crate::raw::RawSurfaceCorrection::None));
-        let micromodulus = BondModel::lattice_micromodulus(&raw, dim)?;
+        // built once; its error is reported after the lattice's, as the model's other keys
+        let micromodulus = BondModel::lattice_micromodulus(&raw, dim);
         // the memory checked before anything per node is allocated: the plan of the box's
         // every DOF (the constraints are not known yet)
         let path_of = |grid: &linpd_core::Grid| {
@@ -46,8 +47,13 @@ impl ModelType for BondType {
                 (_, Some(_)) => (Path::BlendAssembled, plan().preconditioners),
                 (true, None) => (Path::BondDynamics, Vec::new()),
                 (false, None) => {
-                    let stencil = (plain && grid.is_full() && grid.has_uniform_volumes())
-                        .then(|| crate::memory::stencil_path(grid, raw.horizon, &micromodulus));
+                    let stencil = match &micromodulus {
+                        Ok(mm) if plain && grid.is_full() && grid.has_uniform_volumes() => {
+                            Some(crate::memory::stencil_path(grid, raw.horizon, mm))
+                        }
+                        Err(_) if plain && grid.is_full() && grid.has_uniform_volumes() => Some(Path::BondStencil),
+                        _ => None,
+                    };
                     bond_lattice::memory_path(&plan(), stencil)
                 }
             }
@@ -64,7 +70,7 @@ impl ModelType for BondType {
         }
         let reaches = Some(if corrected { 3 } else { 1 });
         let grid = crate::validate::lattice_for(cx, raw.horizon, reaches, &path_of)?;
-        let bond = BondModel::validate(&raw, micromodulus, &grid, dim, &cx.presences)?;
+        let bond = BondModel::validate(&raw, micromodulus?, &grid, dim, &cx.presences)?;
         // The amplitude now, not at the first solve: a modulus that overflows it (1e308) is a
         // validation error naming the overflow.
         bond.micromodulus.amplitude(dim, bond.horizon, grid.spacing()).map_err(|e| core("model", e))?;

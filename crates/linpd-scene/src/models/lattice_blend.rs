@@ -727,8 +727,13 @@ impl SceneModel for LatticeBlendModel {
                 p.nodes().len()
             ));
             if purpose != Purpose::Solve {
-                // modes and export build the assembled system over the lattice's nodes
-                return Err(super::refusal(self, Capability::Export));
+                // export and rows are refused by capability before they get here; modes builds
+                // the assembled system over the lattice's nodes too
+                return Err(ProblemError::invalid(
+                    "model.local_mesh",
+                    "a graded local mesh is solved by `linpd solve` only (its unknowns are not the lattice's nodes, \
+                     which modes, export and the row-block paths number); remove local_mesh for the lattice blend",
+                ));
             }
             return self.graded_system(p, local);
         }

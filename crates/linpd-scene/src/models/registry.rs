@@ -173,10 +173,10 @@ impl Problem {
             return Err(ProblemError::invalid("name", "must not be empty"));
         }
         let model_type = registry.resolve(&raw.model)?;
-        let cx = Context::new(&raw, base_dir, part)?;
+        let mut cx = Context::new(&raw, base_dir, part);
         let v = model_type.validate(&cx)?;
         let mut model = v.model;
-        if matches!(cx.solver, linpd_solve::SolverSpec::Cg { matrix_free: true, .. }) {
+        if raw.solver.matrix_free {
             model.require(Capability::MatrixFree)?;
         }
         if raw.dynamics.is_some() {
@@ -206,7 +206,7 @@ impl Problem {
         };
         model.bind(&raw, &v.nodes, &constraints, &loads)?;
         let model: Arc<dyn SceneModel> = Arc::from(model);
-        let solver = cx.solver.clone();
+        let solver = cx.take_solver()?;
         let dynamics = match &raw.dynamics {
             None => None,
             Some(d) => {

@@ -126,7 +126,10 @@ pub trait PreconditionerType: Sync + Send {
     fn hierarchy_bytes(&self, on: &SetupOn) -> f64;
 }
 
-/// A handle to a registered preconditioner: what a solver spec holds.
+/// A handle to a registered preconditioner: what a solver spec holds. Two handles are the same
+/// preconditioner when their names are ([`PartialEq`]): a name is unique among the
+/// preconditioners a solve may see, and the solvers' multigrid-specific paths (the lattice's
+/// geometric level, a companion's hierarchy) key on [`PreconditionerKind::MULTIGRID`].
 #[derive(Clone, Copy)]
 pub struct PreconditionerKind(&'static dyn PreconditionerType);
 
@@ -137,7 +140,8 @@ impl PreconditionerKind {
     /// ([`Amg`]), or of the lattice hierarchy / a companion's on the matrix-free paths.
     pub const MULTIGRID: PreconditionerKind = PreconditionerKind(&MultigridType);
 
-    /// The handle of `t` (a preconditioner defined outside linpd).
+    /// The handle of `t` (a preconditioner defined outside linpd; its name must not be one of
+    /// [`PRECONDITIONERS`]'s, which would make it that one).
     pub const fn new(t: &'static dyn PreconditionerType) -> Self {
         PreconditionerKind(t)
     }

@@ -89,7 +89,7 @@ pub(super) fn solve_system(
             let (u, mut report) = assembled_solve(system, spec, progress)?;
             report.notes.insert(
                 0,
-                format!("planned {route:?}, which the built {} model does not offer: assembled", model.kind()),
+                format!("planned {route}, which the built {} model does not offer: assembled", model.kind()),
             );
             (u, report)
         }
@@ -219,7 +219,7 @@ fn assembled_solve(system: &ModelSystem, spec: &SolverSpec, progress: &dyn Progr
     // Only multilevel preconditioners read the geometry: build it when one may run.
     let geometry = match spec {
         SolverSpec::Cg { preconditioner, .. } | SolverSpec::Gmres { preconditioner, .. }
-            if *preconditioner != PreconditionerKind::JACOBI =>
+            if preconditioner.multilevel() =>
         {
             Some(DofGeometry::of(model, dofs))
         }

@@ -52,6 +52,25 @@ pub fn solve_planned(
     solve_with(model, bc, f, Plan::Given(plan), progress)
 }
 
+/// What the built `model` offers, read off it only where `spec` may use it: `auto` at a size
+/// where a matrix-free route can be taken (building a fast apply, an LPS stencil say, costs a
+/// pass over the model); otherwise an assembled-only model of the same size and symmetry, which
+/// plans the same.
+fn offers_for(
+    spec: &SolverSpec,
+    auto: &AutoParams,
+    model: &dyn Model,
+    dofs: &linpd_core::DofMap,
+    asymmetry: f64,
+) -> Offers {
+    let threshold = auto.matrix_free_min_unknowns.min(auto.gmres_multigrid_2d_min_unknowns);
+    if matches!(spec, SolverSpec::Auto(_)) && model.dim() >= 2 && dofs.n_free() >= threshold {
+        return Offers::of_model(model, dofs, asymmetry);
+    }
+    let symmetric = asymmetry <= linpd_core::sparse::SYMMETRY_RTOL;
+    Offers { dim: model.dim(), unknowns: dofs.n_free(), symmetric, fast_apply: false, companion_gmres: false }
+}
+
 /// A given plan, or one to make from the built model.
 enum Plan<'a> {
     Given(&'a SolvePlan),
@@ -75,8 +94,8 @@ fn solve_with(
     let plan = match plan {
         Plan::Given(p) => p,
         Plan::FromModel(spec) => {
-            let offers = Offers::of_model(model, dofs, system.asymmetry);
-            made = crate::plan::plan(spec, &offers, &AutoParams::default());
+            let auto = AutoParams::default();
+            made = crate::plan::plan(spec, &offers_for(spec, &auto, model, dofs, system.asymmetry), &auto);
             &made
         }
     };
