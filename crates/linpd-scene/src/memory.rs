@@ -322,8 +322,7 @@ pub fn setup_on(path: Path, grid: &Grid, horizon: f64) -> SetupOn {
 /// The largest setup of the preconditioners `setup` (a solver plan's,
 /// [`linpd_solve::SolvePlan::preconditioners`]) on `on`, and what it adds to a description.
 fn setup_bytes(setup: &[PreconditionerKind], on: &SetupOn) -> (f64, String) {
-    let largest = setup.iter().map(|k| (k.hierarchy_bytes(on), *k)).max_by(|x, y| x.0.total_cmp(&y.0));
-    match largest {
+    match linpd_solve::precond::kind::largest_setup(setup, on) {
         Some((bytes, k)) if bytes > 0.0 && k.multilevel() => (bytes, " and its multigrid hierarchy".into()),
         Some((bytes, k)) if bytes > 0.0 => (bytes, format!(" and its {} preconditioner", k.name())),
         _ => (0.0, String::new()),

@@ -12,7 +12,7 @@
 //! Cholesky and PCG by the cost model of [`crate::cost`], which needs the matrix's symbolic
 //! analysis ([`crate::statics::auto`]), and the fallbacks when a choice fails at run time.
 
-use crate::precond::kind::SetupOn;
+use crate::precond::kind::{largest_setup, SetupOn};
 use crate::spec::{PreconditionerKind, SolverSpec};
 use crate::statics::AutoParams;
 use linpd_core::sparse::SYMMETRY_RTOL;
@@ -58,7 +58,7 @@ impl Offers {
 /// apply (a lattice stencil) and block rows ([`Model::for_each_block`], which the multigrid
 /// setup reads instead of a stored matrix), its own or its companion's
 /// ([`Model::multigrid_companion`]).
-fn offers_matrix_free_cg(model: &dyn Model) -> bool {
+pub(crate) fn offers_matrix_free_cg(model: &dyn Model) -> bool {
     let has_blocks = |m: &dyn Model| m.for_each_block(0, &mut |_, _| {});
     model.matrix_free_unavailable().is_none()
         && model.n_nodes() > 0
@@ -69,7 +69,7 @@ fn offers_matrix_free_cg(model: &dyn Model) -> bool {
 /// Whether `model` can run `auto`'s matrix-free GMRES: it runs matrix-free and offers an SPD
 /// companion with block rows ([`Model::multigrid_companion`], [`Model::for_each_block`]); of
 /// linpd's models, the blend on a graded local mesh.
-fn offers_companion_gmres(model: &dyn Model) -> bool {
+pub(crate) fn offers_companion_gmres(model: &dyn Model) -> bool {
     model.matrix_free_unavailable().is_none()
         && model.n_nodes() > 0
         && model.multigrid_companion().is_some_and(|c| c.for_each_block(0, &mut |_, _| {}))
@@ -148,16 +148,10 @@ impl SolvePlan {
         }
     }
 
-    /// Whether a multigrid hierarchy is or may be built (what a memory estimate that counts
-    /// `auto`'s possible hierarchy adds).
-    pub fn may_build_hierarchy(&self) -> bool {
-        self.hierarchy != Hierarchy::None
-    }
-
     /// The bytes the preconditioner's setup adds on `on`: the largest of
     /// [`SolvePlan::preconditioners`]' ([`PreconditionerKind::hierarchy_bytes`]), 0 for none.
     pub fn setup_bytes(&self, on: &SetupOn) -> f64 {
-        self.preconditioners.iter().map(|k| k.hierarchy_bytes(on)).fold(0.0, f64::max)
+        largest_setup(&self.preconditioners, on).map_or(0.0, |(bytes, _)| bytes)
     }
 }
 

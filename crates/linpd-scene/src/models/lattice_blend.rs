@@ -566,10 +566,7 @@ pub(crate) fn offers(dim: usize, unknowns: usize, graded: bool) -> linpd_solve::
 /// rest (inputs the scene built, a lattice that could not be built) at `model`.
 fn blend_error(e: BlendError) -> ProblemError {
     match e {
-        BlendError::NotLocal { node, reason } => ProblemError::invalid(
-            "model.pd_regions",
-            format!("{node}: {}", reason.replace("the nonlocal region", "pd_regions")),
-        ),
+        BlendError::NotLocal { node, reason } => ProblemError::invalid("model.pd_regions", format!("{node}: {reason}")),
         BlendError::Dimension(_) => ProblemError::invalid("model.pd_regions", e.to_string()),
         BlendError::Memory(e) => ProblemError::invalid("model.local_mesh", e.to_string()),
         e @ BlendError::BulkFacesWithPhases => ProblemError::invalid("model.local_mesh.free_faces", e.to_string()),

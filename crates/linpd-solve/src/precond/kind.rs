@@ -197,6 +197,11 @@ impl fmt::Debug for PreconditionerKind {
     }
 }
 
+/// The largest setup of the preconditioners `kinds` on `on` (bytes, and whose); `None` for none.
+pub fn largest_setup(kinds: &[PreconditionerKind], on: &SetupOn) -> Option<(f64, PreconditionerKind)> {
+    kinds.iter().map(|k| (k.hierarchy_bytes(on), *k)).max_by(|x, y| x.0.total_cmp(&y.0))
+}
+
 /// linpd's preconditioners, in the order `auto` lists their estimates.
 pub static PRECONDITIONERS: &[PreconditionerKind] = &[PreconditionerKind::JACOBI, PreconditionerKind::MULTIGRID];
 

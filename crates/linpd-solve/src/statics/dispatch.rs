@@ -10,7 +10,7 @@ use super::guards::{finite_matrix, finite_vector, REDUCED_LOAD};
 use super::runners::{matrix_free_cg, matrix_free_gmres, Solved};
 use crate::cost;
 use crate::krylov::cg::{CgError, CgParams};
-use crate::plan::{Offers, Route, SolvePlan};
+use crate::plan::{offers_companion_gmres, offers_matrix_free_cg, Route, SolvePlan};
 use crate::precond::DofGeometry;
 use crate::spec::{PreconditionerKind, SolverSpec};
 use crate::SolveError;
@@ -67,7 +67,6 @@ pub(super) fn solve_system(
 ) -> Result<Solved, StaticError> {
     let (model, dofs) = (system.model, system.dofs);
     let spec = &plan.spec;
-    let offered = || Offers::of_model(model, dofs, system.asymmetry);
     Ok(match (plan.route, spec) {
         (Route::MatrixFreeCg(preconditioner), SolverSpec::Cg { params, .. }) => {
             if let Some(why) = model.matrix_free_unavailable() {
@@ -78,10 +77,13 @@ pub(super) fn solve_system(
             }
             matrix_free_cg(model, dofs, system.rhs, params, preconditioner, progress).map_err(|e| system.at_dof(e))?
         }
-        (Route::AutoMatrixFreeCg, SolverSpec::Auto(params)) if offered().fast_apply && offered().symmetric => {
+        // what the scene declared, checked on the built model once
+        (Route::AutoMatrixFreeCg, SolverSpec::Auto(params))
+            if system.asymmetry <= SYMMETRY_RTOL && offers_matrix_free_cg(model) =>
+        {
             auto_matrix_free(system, spec, params, progress)?
         }
-        (Route::AutoMatrixFreeGmres, SolverSpec::Auto(params)) if offered().companion_gmres => {
+        (Route::AutoMatrixFreeGmres, SolverSpec::Auto(params)) if offers_companion_gmres(model) => {
             auto_matrix_free_gmres(system, spec, params, progress)?
         }
         (Route::Assembled, _) => assembled_solve(system, spec, progress)?,
